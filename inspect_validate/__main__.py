@@ -1,0 +1,3 @@
+from inspect_validate.cli import main
+
+main()

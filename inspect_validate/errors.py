@@ -1,0 +1,50 @@
+"""Errors that reach the user, and the process exit codes they map to.
+
+Every error the CLI reports names the thing at fault (a file, a field, a class, a
+shape or a device) and says what to do about it. The exit codes are part of the
+documented interface (README, "Exit codes").
+"""
+
+from __future__ import annotations
+
+EXIT_OK = 0
+"""Success."""
+EXIT_CHECK_FAILED = 1
+"""The job ran, but a limit or an acceptance criterion was not met."""
+EXIT_INPUT = 2
+"""Bad input: usage, a malformed file, an ROI outside the frame, an unreadable image."""
+EXIT_DEVICE = 3
+"""A camera or light controller failed (timeout, error reply, port vanished)."""
+EXIT_INTERNAL = 70
+"""A bug in inspect-validate (EX_SOFTWARE); the traceback is printed."""
+
+
+class InspectValidateError(Exception):
+    """Base class of the errors reported to the user without a traceback."""
+
+    exit_code = EXIT_INTERNAL
+
+
+class InputError(InspectValidateError, ValueError):
+    """Invalid input data: a file, a field, an ROI or an image.
+
+    Parameters
+    ----------
+    message : str
+        What is wrong and what to do about it.
+    source : str, optional
+        The file (and, where known, the field or line) the problem is in; it is
+        prefixed to the message.
+    """
+
+    exit_code = EXIT_INPUT
+
+    def __init__(self, message: str, *, source: str | None = None):
+        self.source = source
+        super().__init__(f"{source}: {message}" if source else message)
+
+
+class DeviceError(InspectValidateError, RuntimeError):
+    """A camera or light controller did not do what it was asked."""
+
+    exit_code = EXIT_DEVICE

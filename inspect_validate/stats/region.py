@@ -1,0 +1,194 @@
+"""Grey-value statistics of one image region over a stack of frames.
+
+One pass over the frames under a mask gives everything the measurement needs:
+
+* the pooled sample of all pixel values of all frames (what a classifier sees on
+  single frames; μ (38) and σ² (39) of the class come from it), kept as an exact
+  lattice histogram for integer frames;
+* EMVA 1288-style noise components for a stack of N ≥ 2 frames: the temporal
+  variance (mean over the region of each pixel's variance across frames) and the
+  spatial variance (variance over the region of the per-pixel mean, less the
+  temporal part that is left in a mean of N frames);
+* the number of saturated and zero pixel values.
+
+Dark frames are subtracted as their per-pixel mean. For integer frames the
+result stays on the lattice ``1/n_dark`` DN, so every number remains exact.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from fractions import Fraction
+
+import numpy as np
+
+from inspect_validate.errors import InputError
+from inspect_validate.stats.sample import LatticeSample
+
+__all__ = ["RegionStatistics", "region_statistics"]
+
+
+@dataclass(frozen=True, eq=False)
+class RegionStatistics:
+    """Statistics of one region over a stack of frames.
+
+    Attributes
+    ----------
+    sample : LatticeSample or ndarray
+        Pooled grey values of the region over all frames, in DN (dark-subtracted).
+    n_pixels : int
+        Pixels in the region.
+    n_frames : int
+        Frames in the stack.
+    temporal_variance : float or None
+        Mean over the region of the per-pixel unbiased variance across frames,
+        DN²; None for a single frame.
+    spatial_variance : float or None
+        Variance over the region of the per-pixel temporal mean, less
+        ``temporal_variance / n_frames`` (EMVA 1288 s²_y.spatial), DN²; for a
+        single frame the plain spatial variance, which then still contains the
+        temporal noise.
+    saturated : int
+        Raw pixel values at or above the saturation level, over all frames.
+    zero : int
+        Raw pixel values at or below zero, over all frames.
+    """
+
+    sample: LatticeSample | np.ndarray
+    n_pixels: int
+    n_frames: int
+    temporal_variance: float | None
+    spatial_variance: float | None
+    saturated: int
+    zero: int
+
+    @property
+    def saturated_fraction(self) -> float:
+        return self.saturated / (self.n_pixels * self.n_frames)
+
+    @property
+    def zero_fraction(self) -> float:
+        return self.zero / (self.n_pixels * self.n_frames)
+
+
+def region_statistics(
+    frames: np.ndarray,
+    mask: np.ndarray,
+    *,
+    dark: np.ndarray | None = None,
+    saturation_level: float | None = None,
+) -> RegionStatistics:
+    """Measure one region of a frame stack.
+
+    Parameters
+    ----------
+    frames : ndarray, shape (N, H, W) or (H, W)
+        Frames in DN: unsigned or signed integers, or floats.
+    mask : ndarray of bool, shape (H, W)
+        The region.
+    dark : ndarray, shape (M, H, W) or (H, W), keyword-only, optional
+        Dark frames at the same exposure and gain; their per-pixel mean is
+        subtracted.
+    saturation_level : float, keyword-only, optional
+        Raw value counted as saturated; default the dtype's maximum for integer
+        frames, none for float frames.
+
+    Returns
+    -------
+    RegionStatistics
+    """
+    frames = _as_stack(frames)
+    mask = np.ascontiguousarray(mask, dtype=np.bool_)
+    if mask.shape != frames.shape[1:]:
+        raise InputError(f"mask shape {mask.shape} does not match frame shape {frames.shape[1:]}")
+    n_pixels = int(np.count_nonzero(mask))
+    if n_pixels == 0:
+        raise InputError("the region is empty")
+    if dark is not None:
+        dark = _as_stack(dark)
+        if dark.shape[1:] != frames.shape[1:]:
+            raise InputError(
+                f"dark frame shape {dark.shape[1:]} does not match frame shape {frames.shape[1:]}"
+            )
+    if saturation_level is None and frames.dtype.kind in "ui":
+        saturation_level = np.iinfo(frames.dtype).max
+    integer = frames.dtype.kind in "ui" and (dark is None or dark.dtype.kind in "ui")
+    if integer:
+        return _integer_region(frames, mask, dark, saturation_level, n_pixels)
+    return _float_region(frames, mask, dark, saturation_level, n_pixels)
+
+
+def _as_stack(frames) -> np.ndarray:
+    a = np.asarray(frames)
+    if a.ndim == 2:
+        a = a[np.newaxis]
+    if a.ndim != 3:
+        raise InputError(f"expected a frame (H, W) or a stack (N, H, W), got shape {a.shape}")
+    if a.dtype.kind not in "uif":
+        raise InputError(f"frames must be numeric, got dtype {a.dtype}")
+    return np.ascontiguousarray(a)
+
+
+def _integer_region(frames, mask, dark, saturation_level, n_pixels) -> RegionStatistics:
+    from inspect_validate.stats import _region_kernels as kern
+
+    n_frames = frames.shape[0]
+    sat = (
+        np.int64(min(saturation_level, 2**62)) if saturation_level is not None else np.int64(2**62)
+    )
+    if dark is None:
+        scale, dark_sum = 1, np.zeros((1, 1), np.int64)
+        if frames.dtype.itemsize <= 2 and frames.dtype.kind == "u":
+            lo, hi = 0, int(np.iinfo(frames.dtype).max)
+        else:
+            lo, hi = kern.masked_code_range(frames, mask, dark_sum, 1)
+    else:
+        scale = dark.shape[0]
+        dark_sum = dark.sum(axis=0, dtype=np.int64)
+        lo, hi = kern.masked_code_range(frames, mask, dark_sum, scale)
+    nbins = hi - lo + 1
+    if nbins > 2**24:
+        # A histogram this wide would not fit the cache; such data are better
+        # treated as continuous.
+        return _float_region(frames, mask, dark, saturation_level, n_pixels)
+    ref = (lo + hi) // 2
+    # Per-row int64 partial sums stay exact while a row's Σ s² fits in 63 bits.
+    span = max(hi - ref, ref - lo) * n_frames
+    if float(span) ** 2 * frames.shape[2] * 2 >= 2.0**63:
+        return _float_region(frames, mask, dark, saturation_level, n_pixels)
+    hist, rows, n_sat, n_zero = kern.accumulate(frames, mask, dark_sum, scale, lo, nbins, ref, sat)
+    sample = LatticeSample(hist, lo, scale)
+    temporal = spatial = None
+    # Exact sums over the region of s_p = Σ_f c and of F·Σ_f c² − s_p², with
+    # c = code − ref; summed over rows as Python ints.
+    sum_s, sum_s2, sum_t = (sum(int(v) for v in rows[:, j].tolist()) for j in range(3))
+    n, f, d2 = n_pixels, n_frames, scale * scale
+    mean_image_var = (
+        Fraction(n * sum_s2 - sum_s * sum_s, n * (n - 1) * f * f * d2) if n > 1 else None
+    )
+    if f > 1:
+        t = Fraction(sum_t, n * f * (f - 1) * d2)
+        temporal = float(t)
+        spatial = float(mean_image_var - t / f) if mean_image_var is not None else None
+    elif mean_image_var is not None:
+        spatial = float(mean_image_var)
+    return RegionStatistics(sample, n_pixels, n_frames, temporal, spatial, int(n_sat), int(n_zero))
+
+
+def _float_region(frames, mask, dark, saturation_level, n_pixels) -> RegionStatistics:
+    raw = frames[:, mask]
+    if not np.all(np.isfinite(raw)):
+        raise InputError("the region contains NaN or infinite pixel values")
+    values = raw.astype(np.float64)
+    if dark is not None:
+        values -= dark[:, mask].astype(np.float64).mean(axis=0)
+    n_frames = frames.shape[0]
+    n_sat = int(np.count_nonzero(raw >= saturation_level)) if saturation_level is not None else 0
+    n_zero = int(np.count_nonzero(raw <= 0))
+    temporal = spatial = None
+    pixel_mean = values.mean(axis=0)
+    if n_frames > 1:
+        temporal = float(values.var(axis=0, ddof=1).mean())
+    if n_pixels > 1:
+        spatial = float(pixel_mean.var(ddof=1)) - (temporal / n_frames if temporal else 0.0)
+    return RegionStatistics(values.ravel(), n_pixels, n_frames, temporal, spatial, n_sat, n_zero)
