@@ -1,0 +1,149 @@
+"""The ``inspect-validate`` command line.
+
+Only click and the error types are imported at start-up; numpy, numba, OpenCV
+and the rest load inside the command that needs them, so ``--help`` is instant.
+Exit codes: see :mod:`inspect_validate.errors` and README, "Exit codes".
+"""
+
+from __future__ import annotations
+
+import sys
+import traceback
+from pathlib import Path
+
+import click
+
+from inspect_validate import __version__
+from inspect_validate.errors import (
+    EXIT_CHECK_FAILED,
+    EXIT_INPUT,
+    EXIT_INTERNAL,
+    InspectValidateError,
+)
+
+_PATH = click.Path(path_type=Path)
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="inspect-validate")
+def cli():
+    """Design and verify machine-vision inspection stations from spectra and images."""
+
+
+@cli.command()
+@click.argument("frames", nargs=-1, required=True, type=_PATH)
+@click.option(
+    "--rois", required=True, type=_PATH, help="ROI file: YAML, ImageJ .roi or RoiSet.zip."
+)
+@click.option(
+    "--dark",
+    multiple=True,
+    type=_PATH,
+    help="Dark frame(s) at the same exposure and gain; repeat for several.",
+)
+@click.option(
+    "--json", "json_path", type=_PATH, help="Also write the results as JSON to this file."
+)
+@click.option(
+    "--saturation-level",
+    type=float,
+    help="Raw value counted as saturated [DN]; default the data type's maximum.",
+)
+@click.option(
+    "--max-saturated",
+    type=click.FloatRange(0, 1),
+    default=0.001,
+    show_default=True,
+    help="Largest acceptable fraction of saturated pixels per class.",
+)
+@click.option(
+    "--max-zero",
+    type=click.FloatRange(0, 1),
+    default=0.001,
+    show_default=True,
+    help="Largest acceptable fraction of zero (underexposed) pixels per class.",
+)
+@click.option("--no-kde", is_flag=True, help="Skip the nonparametric (kernel density) error.")
+def measure(frames, rois, dark, json_path, saturation_level, max_saturated, max_zero, no_kde):
+    """Measure object classes in FRAMES (one setting; several files make a stack).
+
+    Prints per-class μ and σ² (chapter Table 4) and, for every pair of classes
+    and every class against the rest, SNR_dB (36), CNR, Fisher ratio and the
+    classification error ε_tot (37), parametric and kernel-density (Table 3).
+    Exits 1 when a class has more saturated or zero pixels than allowed.
+    """
+    from inspect_validate.images import read_frames
+    from inspect_validate.measure import Measurement, compare, measure_classes
+    from inspect_validate.report import format_measurement, measurement_document, write_json
+    from inspect_validate.roi import class_masks, read_rois
+
+    stack = read_frames(frames)
+    dark_stack = read_frames(dark) if dark else None
+    if dark_stack is not None and dark_stack.shape[1:] != stack.shape[1:]:
+        from inspect_validate.errors import InputError
+
+        raise InputError(
+            f"dark frames are {dark_stack.shape[2]}×{dark_stack.shape[1]}, frames are "
+            f"{stack.shape[2]}×{stack.shape[1]}: take darks with the same camera region",
+            source=str(dark[0]),
+        )
+    roi_set = read_rois(rois)
+    masks = class_masks(roi_set, stack.shape[1:])
+    classes = measure_classes(stack, masks, dark=dark_stack, saturation_level=saturation_level)
+    result = Measurement(classes, compare(classes, kde=not no_kde))
+    violations = [
+        f"class {c.name}: {100 * frac:.3g} % {what} pixels (limit {100 * limit:.3g} %)"
+        for c in classes
+        for what, frac, limit in (
+            ("saturated", c.saturated_fraction, max_saturated),
+            ("zero", c.zero_fraction, max_zero),
+        )
+        if frac > limit
+    ]
+    click.echo(format_measurement(result, saturation_limit=max_saturated))
+    if json_path:
+        inputs = {
+            "frames": [str(p) for p in frames],
+            "dark": [str(p) for p in dark],
+            "rois": str(rois),
+            "frame_shape": list(stack.shape[1:]),
+            "n_frames": stack.shape[0],
+            "dtype": str(stack.dtype),
+        }
+        limits = {
+            "max_saturated_fraction": max_saturated,
+            "max_zero_fraction": max_zero,
+            "violations": violations,
+        }
+        write_json(measurement_document(result, inputs=inputs, limits=limits), json_path)
+        click.echo(f"\nwrote {json_path}")
+    if violations:
+        for v in violations:
+            click.echo(f"limit exceeded: {v}", err=True)
+        sys.exit(EXIT_CHECK_FAILED)
+
+
+def main(argv=None):
+    """Console entry point: run the CLI and map errors to documented exit codes."""
+    try:
+        cli.main(args=argv, prog_name="inspect-validate", standalone_mode=False)
+    except click.exceptions.Abort:
+        click.echo("aborted", err=True)
+        sys.exit(130)
+    except click.ClickException as exc:
+        exc.show()
+        sys.exit(EXIT_INPUT)
+    except InspectValidateError as exc:
+        click.echo(f"error: {exc}", err=True)
+        sys.exit(exc.exit_code)
+    except MemoryError:
+        click.echo("error: out of memory; measure fewer or smaller frames at a time", err=True)
+        sys.exit(EXIT_INTERNAL)
+    except Exception:
+        traceback.print_exc()
+        click.echo(
+            "internal error in inspect-validate: please report it with the traceback above",
+            err=True,
+        )
+        sys.exit(EXIT_INTERNAL)
+    sys.exit(0)

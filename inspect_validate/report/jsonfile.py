@@ -1,0 +1,88 @@
+"""The measurement as a versioned JSON document (schema in README, "JSON output").
+
+JSON has no infinities: ±inf (e.g. SNR_dB of classes with equal means) are
+written as the strings ``"inf"`` and ``"-inf"``; missing values as ``null``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import tempfile
+from pathlib import Path
+
+from inspect_validate import __version__
+from inspect_validate.measure import Measurement
+
+__all__ = ["SCHEMA_VERSION", "measurement_document", "write_json"]
+
+SCHEMA_VERSION = 1
+
+
+def _num(x):
+    if x is None:
+        return None
+    x = float(x)
+    return x if math.isfinite(x) else ("inf" if x > 0 else "-inf")
+
+
+def measurement_document(m: Measurement, *, inputs: dict, limits: dict) -> dict:
+    """The JSON-ready document of a measurement."""
+    classes = []
+    for c in m.classes:
+        classes.append(
+            {
+                "name": c.name,
+                "mean": _num(c.mean),
+                "variance": _num(c.variance),
+                "n_pixels": c.n_pixels,
+                "n_frames": c.n_frames,
+                "saturated_fraction": _num(c.saturated_fraction),
+                "zero_fraction": _num(c.zero_fraction),
+                "temporal_variance": _num(c.temporal_variance),
+                "spatial_variance": _num(c.spatial_variance),
+            }
+        )
+    comparisons = []
+    for c in m.comparisons:
+        comparisons.append(
+            {
+                "first": list(c.first),
+                "second": list(c.second),
+                "snr_db": _num(c.snr_db),
+                "cnr_db": _num(c.cnr_db),
+                "fisher_db": _num(c.fisher_db),
+                "error_gaussian": _num(c.error_gaussian),
+                "log_error_gaussian": _num(c.log_error_gaussian),
+                "error_kde": _num(c.error_kde),
+                "kde_bandwidth": [_num(h) for h in c.kde_bandwidth] if c.kde_bandwidth else None,
+                "kde_bandwidth_at_floor": list(c.kde_bandwidth_at_floor)
+                if c.kde_bandwidth_at_floor
+                else None,
+            }
+        )
+    return {
+        "schema": "inspect-validate/measurement",
+        "schema_version": SCHEMA_VERSION,
+        "tool_version": __version__,
+        "inputs": inputs,
+        "limits": limits,
+        "classes": classes,
+        "comparisons": comparisons,
+    }
+
+
+def write_json(doc: dict, path: str | Path) -> None:
+    """Write atomically: a reader never sees a half-written file."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w") as f:
+            json.dump(doc, f, indent=2, allow_nan=False)
+            f.write("\n")
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise

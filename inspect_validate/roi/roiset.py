@@ -1,0 +1,230 @@
+"""ROI sets: class names mapped to shapes, read from YAML or ImageJ files.
+
+YAML (see README, "ROI files")::
+
+    erode: 2                      # optional, pixels, all classes
+    classes:
+      A:                          # a list of shapes ...
+        - rect: [40, 30, 200, 120]
+      B:                          # ... or shapes with per-class options
+        erode: 4
+        shapes:
+          - polygon: [[300, 30], [500, 30], [500, 150]]
+          - ellipse: [400, 300, 60, 40]
+      C:
+        - mask: c_mask.png        # relative to the ROI file
+        - imagej: RoiSet.zip      # every ROI in an ImageJ file
+
+An ImageJ ``.roi`` file or ``RoiSet.zip`` can also be given directly: each ROI's
+name gives its class, up to the first ``:`` (``A:1``, ``A:2`` → class ``A``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Annotated, Any
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+
+from inspect_validate.errors import InputError
+from inspect_validate.roi.shapes import Ellipse, MaskImage, Polygon, Rect, Shape, rasterise
+
+__all__ = ["ClassRoi", "RoiSet", "class_masks", "read_rois"]
+
+NonNegativeInt = Annotated[int, Field(ge=0)]
+
+
+@dataclass(frozen=True)
+class ClassRoi:
+    """The region of one class: a union of shapes, eroded by ``erode`` pixels."""
+
+    name: str
+    shapes: tuple[tuple[Shape, str], ...]  # (shape, where it was defined)
+    erode: int = 0
+
+
+@dataclass(frozen=True)
+class RoiSet:
+    """Classes in file order, with the file they came from."""
+
+    classes: tuple[ClassRoi, ...]
+    source: str
+
+
+class _ShapeModel(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    rect: tuple[int, int, Annotated[int, Field(gt=0)], Annotated[int, Field(gt=0)]] | None = None
+    polygon: list[tuple[float, float]] | None = None
+    ellipse: (
+        tuple[float, float, Annotated[float, Field(gt=0)], Annotated[float, Field(gt=0)]] | None
+    ) = None
+    mask: str | None = None
+    imagej: str | None = None
+
+    @field_validator("polygon")
+    @classmethod
+    def _three_vertices(cls, v):
+        if v is not None and len(v) < 3:
+            raise ValueError("a polygon needs at least 3 vertices [[x, y], ...]")
+        return v
+
+
+class _ClassModel(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    shapes: list[dict[str, Any]] = Field(min_length=1)
+    erode: NonNegativeInt | None = None
+
+
+class _FileModel(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    version: int = 1
+    erode: NonNegativeInt = 0
+    classes: dict[str, _ClassModel | list[dict[str, Any]]] = Field(min_length=1)
+
+
+_SHAPE_KEYS = ("rect", "polygon", "ellipse", "mask", "imagej")
+
+
+def read_rois(path: str | Path) -> RoiSet:
+    """Read an ROI set from YAML (``.yaml``/``.yml``) or ImageJ (``.roi``/``.zip``)."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError("ROI file not found", source=str(path))
+    if path.suffix.lower() in (".roi", ".zip"):
+        by_class: dict[str, list] = {}
+        for shape, name, where in _imagej_shapes(path):
+            by_class.setdefault(name.split(":")[0].strip() or name, []).append((shape, where))
+        return RoiSet(tuple(ClassRoi(n, tuple(s)) for n, s in by_class.items()), str(path))
+    import yaml
+
+    try:
+        doc = yaml.safe_load(path.read_text())
+    except (yaml.YAMLError, UnicodeDecodeError) as exc:
+        raise InputError(f"not valid YAML: {exc}", source=str(path)) from None
+    try:
+        model = _FileModel.model_validate(doc)
+    except ValidationError as exc:
+        raise InputError(_explain(exc), source=str(path)) from None
+    if model.version != 1:
+        raise InputError(f"ROI file version {model.version} is not supported (1 is)", str(path))
+    classes = []
+    for name, spec in model.classes.items():
+        spec = spec if isinstance(spec, _ClassModel) else _ClassModel(shapes=spec)
+        shapes = []
+        for i, raw in enumerate(spec.shapes):
+            where = f"{path}: classes.{name}[{i}]"
+            shapes.extend(_parse_shape(raw, path.parent, where))
+        erode = spec.erode if spec.erode is not None else model.erode
+        classes.append(ClassRoi(str(name), tuple(shapes), erode))
+    return RoiSet(tuple(classes), str(path))
+
+
+def _explain(exc: ValidationError) -> str:
+    parts = []
+    for err in exc.errors():
+        loc = ".".join(
+            str(p) for p in err["loc"] if p not in ("_ClassModel", "list[dict[str,any]]")
+        )
+        parts.append(f"{loc}: {err['msg']}")
+    return "; ".join(parts)
+
+
+def _parse_shape(raw, base: Path, where: str) -> list[tuple[Shape, str]]:
+    if not isinstance(raw, dict) or len(raw) != 1 or next(iter(raw)) not in _SHAPE_KEYS:
+        raise InputError(
+            f"unknown shape {raw!r}: a shape is one of "
+            + ", ".join(f"'{k}:'" for k in _SHAPE_KEYS),
+            source=where,
+        )
+    kind = next(iter(raw))
+    try:
+        m = _ShapeModel.model_validate(raw)
+    except ValidationError as exc:
+        raise InputError(f"{kind}: {_explain(exc)}", source=where) from None
+    where = f"{where} ({kind})"
+    if kind == "rect":
+        return [(Rect(*m.rect), where)]
+    if kind == "polygon":
+        return [(Polygon(tuple(map(tuple, m.polygon))), where)]
+    if kind == "ellipse":
+        return [(Ellipse(*m.ellipse), where)]
+    target = base / getattr(m, kind)
+    if kind == "mask":
+        return [(MaskImage(target), where)]
+    return [(shape, f"{where} {w}") for shape, _, w in _imagej_shapes(target)]
+
+
+def _imagej_shapes(path: Path):
+    import roifile
+
+    if not path.is_file():
+        raise InputError("ImageJ ROI file not found", source=str(path))
+    try:
+        rois = roifile.roiread(path)
+    except Exception as exc:  # roifile raises several types for corrupt files
+        raise InputError(f"not a readable ImageJ ROI file: {exc}", source=str(path)) from None
+    rois = rois if isinstance(rois, list) else [rois]
+    for i, roi in enumerate(rois):
+        name = roi.name or f"roi{i}"
+        where = f"{path}: ROI {i} '{name}'"
+        kind = roifile.ROI_TYPE(roi.roitype)
+        if roi.composite or roi.subtype not in (0, roifile.ROI_SUBTYPE.UNDEFINED):
+            raise InputError("composite and text ROIs are not supported", source=where)
+        if kind == roifile.ROI_TYPE.RECT:
+            shape = Rect(roi.left, roi.top, roi.right - roi.left, roi.bottom - roi.top)
+        elif kind == roifile.ROI_TYPE.OVAL:
+            rx, ry = (roi.right - roi.left) / 2, (roi.bottom - roi.top) / 2
+            shape = Ellipse(roi.left + rx, roi.top + ry, rx, ry)
+        elif kind in (roifile.ROI_TYPE.POLYGON, roifile.ROI_TYPE.FREEHAND, roifile.ROI_TYPE.TRACED):
+            shape = Polygon(tuple(map(tuple, np.asarray(roi.coordinates(), float))))
+        else:
+            raise InputError(
+                f"{kind.name.lower()} ROIs have no area; use rectangles, ovals or polygons",
+                source=where,
+            )
+        yield shape, name, where
+
+
+def class_masks(rois: RoiSet, frame_shape: tuple[int, int]) -> dict[str, np.ndarray]:
+    """Rasterise every class to a boolean mask of ``frame_shape`` (height, width).
+
+    Raises
+    ------
+    InputError
+        A shape outside the frame, a class empty after erosion, or two classes
+        sharing pixels (each message names the file, class and shape).
+    """
+    masks: dict[str, np.ndarray] = {}
+    for cls in rois.classes:
+        union = np.zeros(frame_shape, dtype=bool)
+        for shape, where in cls.shapes:
+            union |= rasterise(shape, frame_shape, where=where)
+        if cls.erode:
+            union = _erode(union, cls.erode)
+            if not union.any():
+                raise InputError(
+                    f"class {cls.name!r} has no pixel left after eroding {cls.erode} px; "
+                    "enlarge its shapes or reduce 'erode'",
+                    source=rois.source,
+                )
+        for other, mask in masks.items():
+            overlap = int(np.count_nonzero(union & mask))
+            if overlap:
+                raise InputError(
+                    f"classes {other!r} and {cls.name!r} share {overlap} pixels; "
+                    "a pixel can belong to one class only",
+                    source=rois.source,
+                )
+        masks[cls.name] = union
+    return masks
+
+
+def _erode(mask: np.ndarray, radius: int) -> np.ndarray:
+    """Keep the pixels farther than ``radius`` px (Euclidean) from outside the region."""
+    import cv2
+
+    padded = np.pad(mask, 1).astype(np.uint8)
+    dist = cv2.distanceTransform(padded, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)[1:-1, 1:-1]
+    return dist > radius
