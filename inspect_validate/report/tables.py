@@ -22,9 +22,13 @@ def format_error(value: float | None, log_value: float | None = None) -> str:
 
 def _table(header: list[str], rows: list[list[str]]) -> str:
     widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
-    line = lambda r: "  ".join(
-        c.rjust(w) if i else c.ljust(w) for i, (c, w) in enumerate(zip(r, widths, strict=True))
-    )  # noqa: E731
+
+    def line(r):
+        cells = (
+            c.rjust(w) if i else c.ljust(w) for i, (c, w) in enumerate(zip(r, widths, strict=True))
+        )
+        return "  ".join(cells)
+
     return "\n".join([line(header), line(["-" * w for w in widths]), *map(line, rows)])
 
 
