@@ -187,7 +187,7 @@ def _sums(pairs: PairCounts, h, *, derivative: bool):
     return out
 
 
-def lscv_bandwidth(sample, *, quantum: float | None = None) -> Bandwidth:
+def lscv_bandwidth(sample, *, quantum: float | None = None, method: str = "auto") -> Bandwidth:
     """LSCV bandwidth h_LSCV = argmin LSCV(h) (43), with a quantisation floor.
 
     Parameters
@@ -198,6 +198,9 @@ def lscv_bandwidth(sample, *, quantum: float | None = None) -> Bandwidth:
         Quantisation step of the grey values, DN: the smallest bandwidth allowed.
         Default 1 DN for a lattice sample (integer frames, also after dark
         subtraction), none for float data.
+    method : {"auto", "exact", "binned"}, keyword-only
+        For continuous data: all pairs (exact, O(n²)), linear binning, or
+        "auto" (exact up to 2000 values). Lattice samples are always exact.
 
     Returns
     -------
@@ -223,7 +226,9 @@ def lscv_bandwidth(sample, *, quantum: float | None = None) -> Bandwidth:
     h_os = 1.144 * sigma * n ** (-0.2)
     h_lo = floor if floor > 0 else 1e-3 * h_os
     h_hi = max(3.0 * h_os, 4.0 * h_lo)
-    if lattice or n <= 2000:
+    if method not in ("auto", "exact", "binned"):
+        raise ValueError(f"unknown method {method!r}")
+    if lattice or method == "exact" or (method == "auto" and n <= 2000):
         return _minimise(pair_counts(sample, exact=not lattice), h_lo, h_hi, floor)
     # Binning ties values within a bin, which collapses LSCV below ~ the bin width
     # just as integer ties do; so every search stays ≥ 20 bins above its lower

@@ -29,9 +29,10 @@ __all__ = ["cnr_db", "fisher_db", "snr", "snr_db"]
 
 def _ratio(mean1, var1, mean2, var2, *, power: float) -> np.ndarray:
     diff = np.abs(np.asarray(mean1, float) - np.asarray(mean2, float))
-    total = np.asarray(var1, float) + np.asarray(var2, float)
-    if np.any(total < 0):
+    var1, var2 = np.asarray(var1, float), np.asarray(var2, float)
+    if np.any(var1 < 0) or np.any(var2 < 0):
         raise ValueError("variances must be non-negative")
+    total = var1 + var2
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = diff / total**power
     return np.where(diff == 0, 0.0, ratio)

@@ -1,0 +1,108 @@
+"""Two-Gaussian ε_tot (37) against mpmath (60 digits). Stated tolerance: 1e-13 relative for ε ≥ 1e-300."""
+
+import mpmath as mp
+import numpy as np
+import pytest
+from scipy import special
+
+from inspect_validate.stats import gaussian_error, log_gaussian_error
+
+
+def reference(m1, v1, m2, v2):
+    """ε_tot from the crossings, all in 60-digit arithmetic, tails taken on the far side."""
+    with mp.workdps(60):
+        m1, v1, m2, v2 = map(mp.mpf, (m1, v1, m2, v2))
+        if v1 > v2:
+            m1, v1, m2, v2 = m2, v2, m1, v1
+        s1, s2 = mp.sqrt(v1), mp.sqrt(v2)
+        q = lambda z: mp.ncdf(-z)  # noqa: E731
+        a = 1 / (2 * v2) - 1 / (2 * v1)
+        b = m1 / v1 - m2 / v2
+        c = m2**2 / (2 * v2) - m1**2 / (2 * v1) + mp.log(s2 / s1)
+        if a == 0:
+            x = -c / b
+            lo, hi = (-mp.inf, x) if m1 < x else (x, mp.inf)
+        else:
+            root = mp.sqrt(b * b - 4 * a * c)
+            lo, hi = sorted([(-b - root) / (2 * a), (-b + root) / (2 * a)])
+        below = 0 if lo == -mp.inf else q((m1 - lo) / s1)
+        above = 0 if hi == mp.inf else q((hi - m1) / s1)
+        zl = -mp.inf if lo == -mp.inf else (lo - m2) / s2
+        zh = mp.inf if hi == mp.inf else (hi - m2) / s2
+        if zl >= 0:
+            inside = q(zl) - q(zh)
+        elif zh <= 0:
+            inside = q(-zh) - q(-zl)
+        else:
+            inside = 1 - q(zh) - q(-zl)
+        return (below + above + inside) / 2
+
+
+def cases():
+    rng = np.random.default_rng(0)
+    out = []
+    for _ in range(300):
+        m1 = rng.normal(0, 100)
+        s1 = 10 ** rng.uniform(-3, 2)
+        ratio = rng.choice([1.0, 10 ** rng.uniform(-8, 8), 1 + rng.uniform(-1e-6, 1e-6)])
+        s2 = s1 * ratio
+        gap = 10 ** rng.uniform(-3, 2.5) * max(s1, s2)
+        out.append((m1, s1 * s1, m1 + gap, s2 * s2))
+    # Equal and nearly equal variances, huge gaps, tiny gaps, ε near 1e-300.
+    out += [(0, 1, 1e-9, 1), (0, 1, 74, 1), (0, 1, 73.9, 1.0000001), (0, 1, 0, 4)]
+    out += [
+        (0, 1, 1, 1 + 1e-15),
+        (100, 4, 100, 4.000001),
+        (0, 1e-12, 1, 1),
+        (-40, 0.1, 9.5e6, 6.6e10),
+    ]
+    return out
+
+
+def test_relative_error_against_mpmath():
+    worst = 0.0
+    for case in cases():
+        ref = reference(*case)
+        if ref < mp.mpf("1e-300"):
+            continue
+        got = float(gaussian_error(*case))
+        worst = max(worst, abs(got - float(ref)) / float(ref))
+    assert worst <= 1e-13
+
+
+def test_log_error_beyond_underflow():
+    for case in [(0, 1, 80, 1), (0, 1, 1000, 4), (51.3, 57.1, 583.0, 4.4e-5)]:
+        ref = mp.log(reference(*case))
+        got = float(log_gaussian_error(*case))
+        assert got == pytest.approx(float(ref), rel=1e-14)
+    assert float(gaussian_error(0, 1, 80, 1)) == 0.0  # underflows; the log does not
+    assert np.isfinite(log_gaussian_error(0, 1, 1e6, 1))
+
+
+def test_equal_variance_closed_form():
+    d = np.linspace(0, 30, 31)
+    got = gaussian_error(0.0, 4.0, d, 4.0)
+    expected = special.ndtr(-d / 4)  # Φc(|Δμ| / 2σ), σ = 2
+    assert np.allclose(got, expected, rtol=1e-13, atol=0)
+
+
+def test_symmetric_and_vectorised():
+    a = gaussian_error([0, 5], [1, 2], [3, 1], [2, 9])
+    b = gaussian_error([3, 1], [2, 9], [0, 5], [1, 2])
+    assert np.array_equal(a, b) and a.shape == (2,)
+
+
+def test_degenerate_cases():
+    assert gaussian_error(3, 2, 3, 2) == 0.5  # identical classes
+    assert gaussian_error(3, 0, 4, 1) == 0.0  # a constant class vs a spread one
+    assert gaussian_error(3, 0, 4, 0) == 0.0
+    assert gaussian_error(3, 0, 3, 0) == 0.5
+    assert log_gaussian_error(3, 0, 4, 1) == -np.inf
+    # Equal means, unequal variances: two crossings around the common mean.
+    assert float(gaussian_error(0, 1, 0, 4)) == pytest.approx(
+        float(reference(0, 1, 0, 4)), rel=1e-13
+    )
+    with pytest.raises(ValueError, match="non-negative"):
+        gaussian_error(0, -1, 1, 1)
+    with pytest.raises(ValueError, match="finite"):
+        gaussian_error(np.nan, 1, 1, 1)

@@ -1,0 +1,81 @@
+"""Region statistics over frame stacks, against Fraction arithmetic (exact) and numpy float64."""
+
+from fractions import Fraction
+
+import numpy as np
+import pytest
+
+from inspect_validate.errors import InputError
+from inspect_validate.stats import region_statistics, sample_moments
+
+
+def test_single_uint16_frame_matches_fraction():
+    rng = np.random.default_rng(4)
+    frame = np.rint(rng.normal(60_000, 1, (120, 90))).astype(np.uint16)
+    mask = np.zeros(frame.shape, bool)
+    mask[10:100, 5:80] = True
+    mask[50, :] = True
+    r = region_statistics(frame, mask)
+    xs = [Fraction(int(v)) for v in frame[mask]]
+    mean = sum(xs) / len(xs)
+    var = sum((x - mean) ** 2 for x in xs) / (len(xs) - 1)
+    m = sample_moments(r.sample)
+    assert (m.mean, m.variance) == (float(mean), float(var))
+    assert r.spatial_variance == float(var)
+    assert r.temporal_variance is None
+    assert r.n_pixels == mask.sum() and r.n_frames == 1
+
+
+def test_stack_with_dark_is_exact_emva_decomposition():
+    rng = np.random.default_rng(5)
+    frames = rng.integers(0, 4096, (4, 30, 40)).astype(np.uint16)
+    dark = rng.integers(0, 60, (3, 30, 40)).astype(np.uint16)
+    mask = np.zeros((30, 40), bool)
+    mask[3:25, 4:33] = True
+    r = region_statistics(frames, mask, dark=dark)
+    # Exact reference: y = x - mean(dark) per pixel, as fractions.
+    dk = [Fraction(int(s), 3) for s in dark[:, mask].sum(axis=0)]
+    y = [[Fraction(int(v)) - d for v, d in zip(f[mask], dk, strict=True)] for f in frames]
+    pooled = [v for f in y for v in f]
+    n, nf = len(dk), len(y)
+    mean = sum(pooled) / len(pooled)
+    var = sum((v - mean) ** 2 for v in pooled) / (len(pooled) - 1)
+    pix_mean = [sum(f[p] for f in y) / nf for p in range(n)]
+    temporal = sum(sum((f[p] - pix_mean[p]) ** 2 for f in y) / (nf - 1) for p in range(n)) / n
+    mm = sum(pix_mean) / n
+    spatial = sum((m - mm) ** 2 for m in pix_mean) / (n - 1) - temporal / nf
+    m = sample_moments(r.sample)
+    assert (m.mean, m.variance) == (float(mean), float(var))
+    assert r.temporal_variance == float(temporal)
+    assert r.spatial_variance == float(spatial)
+
+
+def test_float_frames_match_numpy():
+    rng = np.random.default_rng(6)
+    frames = rng.normal(100, 3, (3, 20, 20))
+    mask = np.ones((20, 20), bool)
+    r = region_statistics(frames, mask)
+    v = frames.reshape(3, -1)
+    assert sample_moments(r.sample).variance == pytest.approx(v.var(ddof=1), rel=1e-12)
+    assert r.temporal_variance == pytest.approx(v.var(axis=0, ddof=1).mean(), rel=1e-12)
+    expected = v.mean(axis=0).var(ddof=1) - r.temporal_variance / 3
+    assert r.spatial_variance == pytest.approx(expected, rel=1e-12)
+
+
+def test_saturated_and_zero_counts():
+    frame = np.array([[0, 5, 255], [255, 7, 9]], np.uint8)
+    r = region_statistics(frame, np.ones(frame.shape, bool))
+    assert (r.saturated, r.zero) == (2, 1)
+    assert r.saturated_fraction == pytest.approx(2 / 6)
+    r = region_statistics(frame, np.ones(frame.shape, bool), saturation_level=9)
+    assert r.saturated == 3
+
+
+def test_errors():
+    frame = np.zeros((4, 4), np.uint8)
+    with pytest.raises(InputError, match="empty"):
+        region_statistics(frame, np.zeros((4, 4), bool))
+    with pytest.raises(InputError, match="does not match"):
+        region_statistics(frame, np.ones((4, 5), bool))
+    with pytest.raises(InputError, match="dark frame shape"):
+        region_statistics(frame, np.ones((4, 4), bool), dark=np.zeros((5, 4), np.uint8))

@@ -1,0 +1,119 @@
+"""ROI files: shapes, ImageJ sets, erosion, and the errors that name file, class and shape."""
+
+import numpy as np
+import pytest
+
+from inspect_validate.errors import InputError
+from inspect_validate.roi import Ellipse, Polygon, Rect, class_masks, rasterise, read_rois
+
+
+def write(tmp_path, text, name="rois.yaml"):
+    p = tmp_path / name
+    p.write_text(text)
+    return p
+
+
+def test_rect_and_polygon_give_the_same_pixels():
+    rect = rasterise(Rect(3, 2, 5, 4), (10, 12), where="t")
+    poly = rasterise(Polygon(((3, 2), (8, 2), (8, 6), (3, 6))), (10, 12), where="t")
+    assert rect.sum() == 20 and np.array_equal(rect, poly)
+    assert rect[2, 3] and rect[5, 7] and not rect[6, 7] and not rect[5, 8]
+
+
+def test_ellipse_uses_pixel_centres():
+    m = rasterise(Ellipse(5, 5, 2, 1), (10, 10), where="t")
+    ys, xs = np.nonzero(m)
+    assert np.all(((xs + 0.5 - 5) / 2) ** 2 + ((ys + 0.5 - 5) / 1) ** 2 <= 1)
+    assert m.sum() == 4 * 2
+
+
+def test_yaml_with_all_shapes(tmp_path):
+    import cv2
+
+    mask = np.zeros((40, 50), np.uint8)
+    mask[30:35, 40:45] = 255
+    cv2.imwrite(str(tmp_path / "m.png"), mask)
+    p = write(
+        tmp_path,
+        """
+erode: 0
+classes:
+  A:
+    - rect: [0, 0, 10, 10]
+    - ellipse: [25, 5, 4, 3]
+  B:
+    erode: 1
+    shapes:
+      - polygon: [[0, 20], [20, 20], [20, 30], [0, 30]]
+  C:
+    - mask: m.png
+""",
+    )
+    masks = class_masks(read_rois(p), (40, 50))
+    assert list(masks) == ["A", "B", "C"]
+    assert masks["B"].sum() == 18 * 8  # 20×10 eroded by one pixel all round
+    assert masks["C"].sum() == 25
+
+
+def test_imagej_roiset(tmp_path):
+    import roifile
+
+    rect = roifile.ImagejRoi.frompoints(np.array([[2, 3], [12, 3], [12, 9], [2, 9]], float))
+    rect.roitype = roifile.ROI_TYPE.RECT
+    rect.name = "A:1"
+    poly = roifile.ImagejRoi.frompoints(np.array([[20, 20], [30, 20], [30, 28]], float))
+    poly.name = "B"
+    path = tmp_path / "RoiSet.zip"
+    roifile.roiwrite(path, [rect, poly])
+    rois = read_rois(path)
+    assert [c.name for c in rois.classes] == ["A", "B"]
+    masks = class_masks(rois, (40, 40))
+    assert masks["A"].any() and masks["B"].any()
+    # Referenced from YAML as well.
+    y = write(tmp_path, "classes:\n  X:\n    - imagej: RoiSet.zip\n")
+    assert class_masks(read_rois(y), (40, 40))["X"].sum() == masks["A"].sum() + masks["B"].sum()
+
+
+@pytest.mark.parametrize(
+    ("text", "frame", "message"),
+    [
+        (
+            "classes:\n  A:\n    - rect: [30, 0, 30, 5]\n",
+            (20, 50),
+            r"classes\.A\[0\] \(rect\).*outside the 50×20 frame",
+        ),
+        ("classes:\n  A:\n    - circle: [1, 2, 3]\n", (20, 20), r"classes\.A\[0\].*unknown shape"),
+        (
+            "classes:\n  A:\n    erode: 3\n    shapes:\n      - rect: [0, 0, 5, 5]\n",
+            (20, 20),
+            "class 'A' has no pixel left after eroding 3",
+        ),
+        (
+            "classes:\n  A:\n    - rect: [0, 0, 5, 5]\n  B:\n    - rect: [4, 4, 5, 5]\n",
+            (20, 20),
+            "'A' and 'B' share 1 pixels",
+        ),
+        ("classes:\n  A:\n    - rect: [0, 0, -5, 5]\n", (20, 20), r"classes\.A\[0\].*rect"),
+        ("classes: [unclosed\n", (20, 20), "not valid YAML"),
+        ("clases:\n  A: []\n", (20, 20), "classes"),
+        ("classes:\n  A:\n    - polygon: [[0, 0], [1, 1]]\n", (20, 20), "at least 3 vertices"),
+        ("classes:\n  A:\n    - mask: missing.png\n", (20, 20), "missing.png.*not found"),
+    ],
+)
+def test_errors_name_file_class_and_shape(tmp_path, text, frame, message):
+    p = write(tmp_path, text)
+    with pytest.raises(InputError, match=message) as info:
+        class_masks(read_rois(p), frame)
+    assert str(p) in str(info.value) or "missing.png" in str(info.value)
+
+
+def test_missing_file_and_line_roi(tmp_path):
+    import roifile
+
+    with pytest.raises(InputError, match="not found"):
+        read_rois(tmp_path / "nope.yaml")
+    line = roifile.ImagejRoi.frompoints(np.array([[0, 0], [5, 5]], float))
+    line.roitype = roifile.ROI_TYPE.LINE
+    line.tofile(tmp_path / "line.roi")
+    with pytest.raises(InputError, match="no area"):
+        read_rois(tmp_path / "line.roi")

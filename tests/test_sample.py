@@ -1,0 +1,74 @@
+"""Exact moments (38)-(39): compared with fractions.Fraction arithmetic, tolerance 0 (equality)."""
+
+from fractions import Fraction
+
+import numpy as np
+import pytest
+
+from inspect_validate.errors import InputError
+from inspect_validate.stats import LatticeSample, as_sample, merge_samples, sample_moments
+
+
+def fraction_moments(values, denominator=1):
+    xs = [Fraction(int(v), denominator) for v in values]
+    n = len(xs)
+    mean = sum(xs) / n
+    return float(mean), float(sum((x - mean) ** 2 for x in xs) / (n - 1))
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.int16, np.int32])
+def test_integer_moments_are_exact(dtype):
+    rng = np.random.default_rng(1)
+    hi = min(np.iinfo(dtype).max, 60_000)
+    x = rng.integers(max(np.iinfo(dtype).min, -500), hi, 3000).astype(dtype)
+    m = sample_moments(as_sample(x))
+    assert (m.mean, m.variance) == fraction_moments(x)
+
+
+def test_high_mean_unit_sigma_is_exact():
+    # cv2.meanStdDev is 0.59 DN² off on such a region (issue #2); naive float32 worse.
+    rng = np.random.default_rng(2)
+    x = np.rint(rng.normal(60_000, 1, 20_000)).astype(np.uint16)
+    m = sample_moments(x)
+    assert (m.mean, m.variance) == fraction_moments(x)
+
+
+def test_lattice_with_denominator():
+    codes = np.array([7, 9, 9, 12, -3])
+    m = sample_moments(as_sample(codes, denominator=4))
+    assert (m.mean, m.variance) == fraction_moments(codes, 4)
+
+
+def test_float_moments_two_pass():
+    rng = np.random.default_rng(3)
+    x = 1e9 + rng.normal(0, 1e-3, 10_000)
+    m = sample_moments(x)
+    exact = [Fraction(v) for v in x]
+    mean = sum(exact) / len(exact)
+    var = sum((v - mean) ** 2 for v in exact) / (len(exact) - 1)
+    assert m.mean == pytest.approx(float(mean), rel=1e-15)
+    assert m.variance == pytest.approx(float(var), rel=1e-6)
+
+
+def test_integral_floats_go_on_the_lattice():
+    assert isinstance(as_sample(np.array([1.0, 2.0, 2.0])), LatticeSample)
+    assert isinstance(as_sample(np.array([1.5, 2.0])), np.ndarray)
+
+
+@pytest.mark.parametrize("values", [[5], np.array([3.5])])
+def test_fewer_than_two_values_is_an_error(values):
+    with pytest.raises(InputError, match="at least 2 pixels"):
+        sample_moments(values)
+
+
+def test_nan_is_an_error():
+    with pytest.raises(InputError, match="NaN"):
+        as_sample(np.array([1.0, np.nan]))
+
+
+def test_merge_is_the_union():
+    a, b = np.array([1, 2, 2, 10]), np.array([0, 2, 30])
+    merged = merge_samples([as_sample(a), as_sample(b)])
+    assert sorted(merged.values()) == sorted(np.concatenate([a, b]))
+    mixed = merge_samples([as_sample(a), as_sample(np.array([0.5, 1.5]))])
+    assert sorted(mixed) == sorted([1, 2, 2, 10, 0.5, 1.5])
