@@ -12,6 +12,7 @@ lattice bandwidths, and the exact O(n²) objective for continuous bandwidths.
 
 from __future__ import annotations
 
+import itertools
 import time
 from fractions import Fraction
 
@@ -57,7 +58,17 @@ def region_moments_row(rows):
     n = int(maskb.sum())
     err_ref = abs(float(sd[0, 0]) ** 2 * n / (n - 1) - float(exact))
     err_ours = abs(ours().variance - float(exact))
-    rows.append(("region σ², 20 MP uint16, μ=60000 σ=1", "cv2.meanStdDev", t_ours, t_ref, err_ours, err_ref, "abs DN²"))
+    rows.append(
+        (
+            "region σ², 20 MP uint16, μ=60000 σ=1",
+            "cv2.meanStdDev",
+            t_ours,
+            t_ref,
+            err_ours,
+            err_ref,
+            "abs DN²",
+        )
+    )
 
 
 def lattice_bandwidth_row(rows):
@@ -67,7 +78,17 @@ def lattice_bandwidth_row(rows):
     values = np.rint(rng.normal(30_000, 400, 20_000_000)).astype(np.uint16)
     sample = as_sample(values)
     t_ours = best_time(lambda: lscv_bandwidth(sample), repeat=3)
-    rows.append(("LSCV h, 20 MP uint16 region (lattice)", "—", t_ours, float("nan"), 0.0, float("nan"), "see tests"))
+    rows.append(
+        (
+            "LSCV h, 20 MP uint16 region (lattice)",
+            "—",
+            t_ours,
+            float("nan"),
+            0.0,
+            float("nan"),
+            "see tests",
+        )
+    )
 
 
 def statsmodels_row(rows, n=2000):
@@ -84,10 +105,30 @@ def statsmodels_row(rows, n=2000):
     t_ref = time.perf_counter() - t0
     exact = lscv_bandwidth(x, method="exact").h  # the O(n²) optimum, by root finding
     ours = abs(ours - exact) / exact
-    rows.append((f"LSCV h, n={n} continuous", "statsmodels cv_ls", t_ours, t_ref, ours, abs(theirs - exact) / exact, "rel h"))
+    rows.append(
+        (
+            f"LSCV h, n={n} continuous",
+            "statsmodels cv_ls",
+            t_ours,
+            t_ref,
+            ours,
+            abs(theirs - exact) / exact,
+            "rel h",
+        )
+    )
     tied = np.rint(rng.normal(100, 0.7, 2000)).astype(np.uint8).astype(float)
     h_tied = KDEMultivariate(tied, "c", bw="cv_ls").bw[0]
-    rows.append(("LSCV h, tied uint8 data", "statsmodels cv_ls", float("nan"), float("nan"), lscv_bandwidth(tied.astype(np.uint8)).h, h_tied, "h [DN]"))
+    rows.append(
+        (
+            "LSCV h, tied uint8 data",
+            "statsmodels cv_ls",
+            float("nan"),
+            float("nan"),
+            lscv_bandwidth(tied.astype(np.uint8)).h,
+            h_tied,
+            "h [DN]",
+        )
+    )
 
 
 def binned_bandwidth_row(rows):
@@ -97,9 +138,29 @@ def binned_bandwidth_row(rows):
     x = rng.normal(0, 1, 5000)
     exact = lscv_bandwidth(x, method="exact").h
     binned = lscv_bandwidth(x, method="binned").h
-    rows.append(("LSCV h, n=5000 binned vs exact", "exact O(n²)", best_time(lambda: lscv_bandwidth(x, method="binned"), 3), best_time(lambda: lscv_bandwidth(x, method="exact"), 1), abs(binned - exact) / exact, 0.0, "rel h"))
+    rows.append(
+        (
+            "LSCV h, n=5000 binned vs exact",
+            "exact O(n²)",
+            best_time(lambda: lscv_bandwidth(x, method="binned"), 3),
+            best_time(lambda: lscv_bandwidth(x, method="exact"), 1),
+            abs(binned - exact) / exact,
+            0.0,
+            "rel h",
+        )
+    )
     big = rng.normal(0, 1, 1_000_000)
-    rows.append(("LSCV h, n=10⁶ continuous (binned)", "—", best_time(lambda: lscv_bandwidth(big), 3), float("nan"), float("nan"), float("nan"), ""))
+    rows.append(
+        (
+            "LSCV h, n=10⁶ continuous (binned)",
+            "—",
+            best_time(lambda: lscv_bandwidth(big), 3),
+            float("nan"),
+            float("nan"),
+            float("nan"),
+            "",
+        )
+    )
 
 
 def gaussian_error_row(rows):
@@ -116,7 +177,17 @@ def gaussian_error_row(rows):
     big = np.random.default_rng(4).uniform(0, 30, 1_000_000)
     t_ours = best_time(lambda: gaussian_error(0.0, 1.0, big, 2.0), 3)
     t_ref = best_time(lambda: 1.0 - stats.norm.cdf(big / 2), 3)
-    rows.append(("ε Gauss, 10⁶ pairs; error at Δ/σ ≤ 74", "1 − Φ (textbook)", t_ours, t_ref, rel(ours), rel(textbook), "max rel"))
+    rows.append(
+        (
+            "ε Gauss, 10⁶ pairs; error at Δ/σ ≤ 74",
+            "1 − Φ (textbook)",
+            t_ours,
+            t_ref,
+            rel(ours),
+            rel(textbook),
+            "max rel",
+        )
+    )
 
 
 def kde_error_row(rows):
@@ -136,16 +207,40 @@ def kde_error_row(rows):
     edges = np.linspace(20, 220, 400)
     t0 = time.perf_counter()
     ref = 0.5 * sum(
-        integrate.quad(lambda x: min(p(x, c1, w1, r.bandwidth1.h), p(x, c2, w2, r.bandwidth2.h)), u, v, epsabs=0, epsrel=1e-12, limit=200)[0]
-        for u, v in zip(edges[:-1], edges[1:], strict=True)
+        integrate.quad(
+            lambda x: min(p(x, c1, w1, r.bandwidth1.h), p(x, c2, w2, r.bandwidth2.h)),
+            u,
+            v,
+            epsabs=0,
+            epsrel=1e-12,
+            limit=200,
+        )[0]
+        for u, v in itertools.pairwise(edges)
     )
     t_ref = time.perf_counter() - t0
-    rows.append(("ε KDE, 2×200k integer pixels", "adaptive quadrature", t_ours, t_ref, abs(r.error - ref) / ref, 0.0, "rel ε"))
+    rows.append(
+        (
+            "ε KDE, 2×200k integer pixels",
+            "adaptive quadrature",
+            t_ours,
+            t_ref,
+            abs(r.error - ref) / ref,
+            0.0,
+            "rel ε",
+        )
+    )
 
 
 def main():
     rows = []
-    for step in (region_moments_row, lattice_bandwidth_row, statsmodels_row, binned_bandwidth_row, gaussian_error_row, kde_error_row):
+    for step in (
+        region_moments_row,
+        lattice_bandwidth_row,
+        statsmodels_row,
+        binned_bandwidth_row,
+        gaussian_error_row,
+        kde_error_row,
+    ):
         step(rows)
     header = f"{'task':42} {'reference':20} {'t ours':>9} {'t ref':>9} {'t ratio':>8} {'err ours':>10} {'err ref':>10}  unit"
     print(header)
@@ -154,7 +249,9 @@ def main():
         ratio = t1 / t2 if np.isfinite(t1) and np.isfinite(t2) and t2 > 0 else float("nan")
         fmt_t = lambda t: "—" if not np.isfinite(t) else f"{t * 1e3:.1f} ms"  # noqa: E731
         fmt_e = lambda e: "—" if not np.isfinite(e) else f"{e:.2e}"  # noqa: E731
-        print(f"{task:42} {ref:20} {fmt_t(t1):>9} {fmt_t(t2):>9} {ratio:>8.2f} {fmt_e(e1):>10} {fmt_e(e2):>10}  {unit}")
+        print(
+            f"{task:42} {ref:20} {fmt_t(t1):>9} {fmt_t(t2):>9} {ratio:>8.2f} {fmt_e(e1):>10} {fmt_e(e2):>10}  {unit}"
+        )
 
 
 if __name__ == "__main__":

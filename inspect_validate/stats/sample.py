@@ -183,6 +183,11 @@ def sample_moments(sample) -> Moments:
     """
     if not isinstance(sample, LatticeSample):
         sample = as_sample(sample)
+    return _converted_moments(sample)
+
+
+def _converted_moments(sample: LatticeSample | np.ndarray) -> Moments:
+    """:func:`sample_moments` of a sample already made by :func:`as_sample`."""
     if isinstance(sample, LatticeSample):
         n, s1, s2 = lattice_power_sums(sample)
         if n < 2:
