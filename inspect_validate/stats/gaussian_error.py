@@ -90,9 +90,16 @@ def _two_prod(a, b):
     return p, ((ah * bh - p) + ah * bl + al * bh) + al * bl
 
 
+def _two_square(a):
+    """a² = p + e exactly (one split instead of two)."""
+    p = a * a
+    ah, al = _split(a)
+    return p, ((ah * ah - p) + 2.0 * ah * al) + al * al
+
+
 def _dd_sqrt(v):
     hi = np.sqrt(v)
-    p, e = _two_prod(hi, hi)
+    p, e = _two_square(hi)
     return hi, ((v - p) - e) / (2.0 * hi)
 
 
@@ -102,27 +109,45 @@ def _dd_div(nh, nl, dh, dl):
     return q, (((nh - p) - e) + nl - q * dl) / dh
 
 
+def _branches(cases, *args):
+    """Evaluate ``fn(*args[mask])`` only where each mask holds; assemble (value, log).
+
+    ``cases`` is a sequence of (mask, fn) with disjoint masks covering every
+    element; each branch's cost is paid only by its own elements.
+    """
+    value = np.empty(args[0].shape)
+    log_value = np.empty(args[0].shape)
+    for mask, fn in cases:
+        if mask.any():
+            value[mask], log_value[mask] = fn(*(a[mask] for a in args))
+    return value, log_value
+
+
 def _upper_tail(zh, zl):
-    """Q(z) = P(Z > z) and log Q(z) for z = zh + zl.
+    """Q(z) = P(Z > z) and log Q(z) for z = zh + zl (1-d arrays).
 
     For z > 0, Q = ½·erfcx(z/√2)·exp(−z²/2) with z² formed exactly: scipy's
     ``ndtr`` is only good to ≈2e-13 relative near its underflow, erfcx to 5e-16.
+    The low part zl enters to first order through the hazard φ/Q.
     """
+
+    def positive(z, lo):
+        p, e = _two_square(z)
+        e = np.where(np.isfinite(e), e, 0.0)
+        scaled = 0.5 * special.erfcx(z / np.sqrt(2.0))
+        shift = np.where(lo == 0.0, 0.0, lo * 0.5 / (np.sqrt(2.0 * np.pi) * scaled))
+        log_q = np.log(scaled) - 0.5 * p - 0.5 * e - shift
+        return scaled * np.exp(-0.5 * p) * (1.0 - 0.5 * e) * np.exp(-shift), log_q
+
+    def negative(z, lo):
+        log_q = special.log_ndtr(-z)
+        hazard = np.exp(-0.5 * z * z - _LOG_SQRT_2PI - log_q)
+        shift = np.where(lo == 0.0, 0.0, hazard * lo)
+        return special.ndtr(-z) * np.exp(-shift), log_q - shift
+
     with np.errstate(all="ignore"):
         pos = zh > 0.0
-        zp = np.where(pos, zh, 0.0)
-        p, e = _two_prod(zp, zp)
-        e = np.where(np.isfinite(e), e, 0.0)
-        scaled = 0.5 * special.erfcx(zp / np.sqrt(2.0))
-        log_q = np.where(pos, np.log(scaled) - 0.5 * p - 0.5 * e, special.log_ndtr(-zh))
-        q = np.where(pos, scaled * np.exp(-0.5 * p) * (1.0 - 0.5 * e), special.ndtr(-zh))
-        hazard = np.where(
-            pos,
-            0.5 / (np.sqrt(2.0 * np.pi) * scaled),
-            np.exp(-0.5 * zh * zh - _LOG_SQRT_2PI - log_q),
-        )
-        shift = np.where(zl == 0.0, 0.0, hazard * zl)
-        return q * np.exp(-shift), log_q - shift
+        return _branches(((pos, positive), (~pos, negative)), zh, zl)
 
 
 def _log_tail_ratio(ah, al, bh, bl):
@@ -133,8 +158,8 @@ def _log_tail_ratio(ah, al, bh, bl):
     """
     with np.errstate(all="ignore"):
         ea_, eb_ = special.erfcx(ah / np.sqrt(2.0)), special.erfcx(bh / np.sqrt(2.0))
-        pa, ea = _two_prod(ah, ah)
-        pb, eb = _two_prod(bh, bh)
+        pa, ea = _two_square(ah)
+        pb, eb = _two_square(bh)
         sq, se = _two_sum(pb, -pa)
         diff_sq = sq + (se + (eb - ea))
         lam = np.sqrt(2.0 / np.pi)
@@ -145,44 +170,46 @@ def _log_tail_ratio(ah, al, bh, bl):
 
 def _interval(ah, al, bh, bl):
     """Φ(b) − Φ(a) and its log for a < b given as double-doubles (a may be −inf, b +inf)."""
-    with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
-        width = (bh - ah) + (bl - al)
-        reach = np.maximum(1.0, np.maximum(np.abs(ah), np.abs(bh)))
-        narrow = np.isfinite(width) & (width * reach < 1.0)
 
-        # Narrow: φ(a)·∫₀ʷ exp(−a s − s²/2) ds, the integrand varies by < e^1.5.
-        w = np.where(narrow, width, 0.0)[..., np.newaxis]
-        a = np.where(narrow, ah, 0.0)[..., np.newaxis]
+    def narrow(ah, al, bh, bl):
+        # φ(a)·∫₀ʷ exp(−a s − s²/2) ds; the integrand varies by less than e^1.5.
+        w = ((bh - ah) + (bl - al))[:, np.newaxis]
         s = 0.5 * w * (1.0 + _GL_NODES)
-        j = 0.5 * w[..., 0] * np.sum(_GL_WEIGHTS * np.exp(-a * s - 0.5 * s * s), axis=-1)
-        p, e = _two_prod(np.where(narrow, ah, 0.0), np.where(narrow, ah, 0.0))
+        j = 0.5 * w[:, 0] * np.sum(_GL_WEIGHTS * np.exp(-ah[:, None] * s - 0.5 * s * s), axis=1)
+        p, e = _two_square(ah)
         low = 0.5 * e + ah * al
-        narrow_value = np.exp(-0.5 * p) * np.exp(-low) * j / np.sqrt(2.0 * np.pi)
-        log_narrow = -0.5 * p - low - _LOG_SQRT_2PI + np.log(j)
+        value = np.exp(-0.5 * p) * np.exp(-low) * j / np.sqrt(2.0 * np.pi)
+        return value, -0.5 * p - low - _LOG_SQRT_2PI + np.log(j)
 
+    def tails(ah, al, bh, bl):
         # Both in the upper tail: Q(a) − Q(b); both in the lower: Q(−b) − Q(−a).
         upper = ah >= 0.0
         near_h, near_l = np.where(upper, ah, -bh), np.where(upper, al, -bl)
         far_h, far_l = np.where(upper, bh, -ah), np.where(upper, bl, -al)
         q_near, log_q_near = _upper_tail(near_h, near_l)
-        tail_ratio = -np.expm1(_log_tail_ratio(near_h, near_l, far_h, far_l))
-        log_tails = log_q_near + np.log(tail_ratio)
-        tails = q_near * tail_ratio
+        ratio = -np.expm1(_log_tail_ratio(near_h, near_l, far_h, far_l))
+        return q_near * ratio, log_q_near + np.log(ratio)
 
-        # Straddling zero and not narrow: the mass is ≥ 0.19, no cancellation.
-        q_hi, _ = _upper_tail(bh, bl)
-        q_lo, _ = _upper_tail(-ah, -al)
-        middle = 1.0 - q_hi - q_lo
+    def straddle(ah, al, bh, bl):
+        # Across zero and not narrow: the mass is ≥ 0.19, no cancellation.
+        middle = 1.0 - _upper_tail(bh, bl)[0] - _upper_tail(-ah, -al)[0]
+        return middle, np.log(middle)
 
-        straddle = (ah < 0.0) & (bh > 0.0)
-        value = np.where(narrow, narrow_value, np.where(straddle, middle, tails))
-        log_value = np.where(narrow, log_narrow, np.where(straddle, np.log(middle), log_tails))
-    return value, log_value
+    with np.errstate(all="ignore"):
+        width = (bh - ah) + (bl - al)
+        reach = np.maximum(1.0, np.maximum(np.abs(ah), np.abs(bh)))
+        is_narrow = np.isfinite(width) & (width * reach < 1.0)
+        is_straddle = ~is_narrow & (ah < 0.0) & (bh > 0.0)
+        is_tails = ~is_narrow & ~is_straddle
+        cases = ((is_narrow, narrow), (is_straddle, straddle), (is_tails, tails))
+        return _branches(cases, ah, al, bh, bl)
 
 
 def _error(mean1, var1, mean2, var2):
     arrays = (np.asarray(a, dtype=float) for a in (mean1, var1, mean2, var2))
     m1, v1, m2, v2 = np.broadcast_arrays(*arrays)
+    shape = m1.shape
+    m1, v1, m2, v2 = (a.ravel() for a in (m1, v1, m2, v2))
     if not all(np.all(np.isfinite(a)) for a in (m1, v1, m2, v2)):
         raise ValueError("means and variances must be finite")
     if np.any(v1 < 0) or np.any(v2 < 0):
@@ -233,4 +260,4 @@ def _error(mean1, var1, mean2, var2):
         fixed = np.where(identical, 0.5, 0.0)
         eps = np.where(degenerate, fixed, eps)
         log_eps = np.where(degenerate, np.log(fixed), log_eps)
-    return eps, log_eps
+    return eps.reshape(shape), log_eps.reshape(shape)
