@@ -89,6 +89,27 @@ def _accumulate(frames, mask, dark_sum, scale, lo, nbins, ref, sat, n_chunks):
     return hist.sum(axis=0), rows, counts[:, 0].sum(), counts[:, 1].sum()
 
 
+@nb.njit(parallel=True, cache=True)
+def _histogram(frames, mask, lo, nbins, n_chunks):
+    n_frames, height, width = frames.shape
+    hist = np.zeros((n_chunks, nbins), np.int64)
+    chunk = (height + n_chunks - 1) // n_chunks
+    for t in nb.prange(n_chunks):
+        h = hist[t]
+        for i in range(t * chunk, min(height, (t + 1) * chunk)):
+            for j in range(width):
+                if mask[i, j]:
+                    for f in range(n_frames):
+                        h[np.int64(frames[f, i, j]) - lo] += 1
+    return hist.sum(axis=0)
+
+
+def histogram(frames, mask, lo, nbins):
+    """Pooled histogram of raw values ``lo .. lo + nbins - 1`` under the mask, all frames."""
+    n_chunks = max(1, min(nb.get_num_threads(), frames.shape[1]))
+    return _histogram(frames, mask, np.int64(lo), nbins, n_chunks)
+
+
 def accumulate(frames, mask, dark_sum, scale, lo, nbins, ref, sat):
     """Pooled histogram, per-row exact moment sums and saturation counts in one pass.
 

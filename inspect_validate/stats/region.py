@@ -23,7 +23,7 @@ from fractions import Fraction
 import numpy as np
 
 from inspect_validate.errors import InputError
-from inspect_validate.stats.sample import LatticeSample
+from inspect_validate.stats.sample import LatticeSample, _converted_moments
 
 __all__ = ["RegionStatistics", "region_statistics"]
 
@@ -151,6 +151,15 @@ def _integer_region(frames, mask, dark, saturation_level, n_pixels) -> RegionSta
         # A histogram this wide would not fit the cache; such data are better
         # treated as continuous.
         return _float_region(frames, mask, dark, saturation_level, n_pixels)
+    if n_frames == 1 and dark is None:
+        # One raw frame: the histogram holds everything — σ² is the spatial
+        # variance, and saturated/zero pixels are its end bins.
+        hist = kern.histogram(frames, mask, lo, nbins)
+        sample = LatticeSample(hist, lo, 1)
+        n_sat = int(hist[max(0, int(sat) - lo) :].sum()) if sat - lo < nbins else 0
+        n_zero = int(hist[: max(0, 1 - lo)].sum())
+        spatial = float(_converted_moments(sample).variance) if n_pixels > 1 else None
+        return RegionStatistics(sample, n_pixels, 1, None, spatial, n_sat, n_zero)
     ref = (lo + hi) // 2
     # Per-row int64 partial sums stay exact while a row's Σ s² fits in 63 bits.
     span = max(hi - ref, ref - lo) * n_frames
