@@ -123,6 +123,68 @@ def measure(frames, rois, dark, json_path, saturation_level, max_saturated, max_
         sys.exit(EXIT_CHECK_FAILED)
 
 
+@cli.command()
+@click.argument("scene", type=_PATH)
+@click.option(
+    "--json", "json_path", type=_PATH, help="Also write the ranking as JSON to this file."
+)
+@click.option(
+    "--top",
+    type=click.IntRange(1),
+    default=10,
+    show_default=True,
+    help="Rows to print and to write.",
+)
+@click.option(
+    "--rank-by",
+    type=click.Choice(["error", "snr_db", "cnr_db"]),
+    help="Ranking measure (default: the scene's, else error).",
+)
+@click.option(
+    "--comparison", help='Rank by one comparison, e.g. "A vs B,C" (default: the worst pair).'
+)
+@click.option("--no-kde", is_flag=True, help="Skip the nonparametric error of the listed rows.")
+def predict(scene, json_path, top, rank_by, comparison, no_kde):
+    """Predict class separation for every light × optics × camera of SCENE and rank them.
+
+    Per combination: μ and σ² of every class in DN (reflectance spread plus
+    shot, dark and quantisation noise, clipped at saturation), SNR_dB (36),
+    CNR, ε Gauss and ε KDE (37).
+    """
+    from inspect_validate.model import predict as run_prediction
+    from inspect_validate.report import write_json
+    from inspect_validate.report.prediction import (
+        format_prediction,
+        prediction_document,
+        prediction_rows,
+    )
+    from inspect_validate.scene import read_scene
+
+    sc = read_scene(scene)
+    by = rank_by or sc.rank_by
+    comparison = comparison or sc.rank_comparison
+    result = run_prediction(
+        list(sc.lights),
+        list(sc.optics),
+        list(sc.cameras),
+        list(sc.classes),
+        exposure=sc.exposure,
+        grid=sc.grid,
+    )
+    rows = prediction_rows(result, by=by, comparison=comparison, top=top, kde=not no_kde)
+    n = int(result.mean[..., 0].size)
+    click.echo(
+        f"{sc.name}: {n} combinations, {sc.grid[0]:g}–{sc.grid[-1]:g} nm in {sc.grid[1] - sc.grid[0]:g} nm steps"
+    )
+    click.echo(format_prediction(result, rows, by=by, comparison=comparison))
+    if json_path:
+        write_json(
+            prediction_document(result, rows, scene=str(scene), by=by, comparison=comparison),
+            json_path,
+        )
+        click.echo(f"\nwrote {json_path}")
+
+
 def main(argv=None):
     """Console entry point: run the CLI and map errors to documented exit codes."""
     try:

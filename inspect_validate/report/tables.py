@@ -6,7 +6,7 @@ import math
 
 from inspect_validate.measure import Measurement
 
-__all__ = ["format_error", "format_measurement"]
+__all__ = ["format_error", "format_measurement", "render_table"]
 
 
 def format_error(value: float | None, log_value: float | None = None) -> str:
@@ -20,7 +20,7 @@ def format_error(value: float | None, log_value: float | None = None) -> str:
     return f"{value:.2e}"
 
 
-def _table(header: list[str], rows: list[list[str]]) -> str:
+def render_table(header: list[str], rows: list[list[str]]) -> str:
     widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
 
     def line(r):
@@ -53,7 +53,7 @@ def format_measurement(m: Measurement, *, saturation_limit: float | None = None)
         if stack:
             row += [f"{c.temporal_variance:.2f}", f"{c.spatial_variance:.2f}"]
         rows.append(row)
-    out = ["Classes (chapter Table 4: μ (38), σ² (39))", _table(header, rows), ""]
+    out = ["Classes (chapter Table 4: μ (38), σ² (39))", render_table(header, rows), ""]
     header = ["classes", "SNR_dB (36)", "CNR_dB", "Fisher_dB", "ε Gauss", "ε KDE", "KDE h [DN]"]
     rows = []
     for c in m.comparisons:
@@ -72,7 +72,10 @@ def format_measurement(m: Measurement, *, saturation_limit: float | None = None)
                 h,
             ]
         )
-    out += ["Separation (chapter Table 3; ε_tot (37) with equal priors)", _table(header, rows)]
+    out += [
+        "Separation (chapter Table 3; ε_tot (37) with equal priors)",
+        render_table(header, rows),
+    ]
     if any(any(c.kde_bandwidth_at_floor or ()) for c in m.comparisons):
         out.append(
             "* KDE bandwidth at its floor of one quantisation step: LSCV wants a narrower "

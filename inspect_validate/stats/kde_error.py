@@ -25,7 +25,7 @@ from inspect_validate.stats.bandwidth import Bandwidth, lscv_bandwidth
 from inspect_validate.stats.gaussian_error import _interval
 from inspect_validate.stats.sample import LatticeSample, as_sample
 
-__all__ = ["KdeError", "kde_error", "kernel_mixture"]
+__all__ = ["KdeError", "kde_error", "kernel_mixture", "mixture_error"]
 
 _EXACT_POINTS_MAX = 2**14
 _BIN_FRACTION = 2000
@@ -63,22 +63,22 @@ def kernel_mixture(sample, h: float) -> tuple[np.ndarray, np.ndarray]:
     return lo + np.flatnonzero(keep) * step, w[keep] / x.size
 
 
-def _log_density(x, centres, weights, h):
-    """log p̂(x) for an array of x, chunked to bound memory."""
+def _log_density(x, centres, weights, sigma):
+    """log p(x) of a Gaussian mixture for an array of x, chunked to bound memory."""
     out = np.empty(np.shape(x))
     flat = np.ravel(x)
-    log_w = np.log(weights)
+    log_w = np.log(weights) - np.log(sigma)
     chunk = max(1, 2**22 // max(1, centres.size))
     for i in range(0, flat.size, chunk):
-        z = (flat[i : i + chunk, None] - centres[None, :]) / h
+        z = (flat[i : i + chunk, None] - centres[None, :]) / sigma
         out.flat[i : i + chunk] = special.logsumexp(log_w - 0.5 * z * z, axis=1)
-    return out - np.log(h * np.sqrt(2.0 * np.pi))
+    return out - 0.5 * np.log(2.0 * np.pi)
 
 
-def _mass(a, b, centres, weights, h):
-    """∫_a^b p̂ for a < b (either may be infinite), summed per kernel without cancellation."""
-    za = np.full(centres.shape, -np.inf) if a == -np.inf else (a - centres) / h
-    zb = np.full(centres.shape, np.inf) if b == np.inf else (b - centres) / h
+def _mass(a, b, centres, weights, sigma):
+    """∫_a^b p for a < b (either may be infinite), summed per component without cancellation."""
+    za = np.full(centres.shape, -np.inf) if a == -np.inf else (a - centres) / sigma
+    zb = np.full(centres.shape, np.inf) if b == np.inf else (b - centres) / sigma
     zero = np.zeros_like(za)
     value, _ = _interval(za, zero, zb, zero)
     return float(np.sum(weights * value))
@@ -103,15 +103,32 @@ def kde_error(sample1, sample2, *, quantum: float | None = None) -> KdeError:
     bw2 = lscv_bandwidth(sample2, quantum=quantum)
     c1, w1 = kernel_mixture(sample1, bw1.h)
     c2, w2 = kernel_mixture(sample2, bw2.h)
-    h1, h2 = bw1.h, bw2.h
-    crossings = _crossings(c1, w1, h1, c2, w2, h2)
+    return KdeError(mixture_error(c1, w1, bw1.h, c2, w2, bw2.h), bw1, bw2)
+
+
+def mixture_error(centres1, weights1, sigma1, centres2, weights2, sigma2) -> float:
+    """ε_tot (37) = ½∫min(p1, p2) of two Gaussian mixtures, equal priors.
+
+    Parameters
+    ----------
+    centres1, centres2 : ndarray
+        Component means, DN.
+    weights1, weights2 : ndarray
+        Component weights, each set summing to 1.
+    sigma1, sigma2 : float or ndarray
+        Component standard deviations, DN (one for all, or one per component).
+    """
+    c1, w1, c2, w2 = (np.asarray(a, float) for a in (centres1, weights1, centres2, weights2))
+    s1 = np.broadcast_to(np.asarray(sigma1, float), c1.shape)
+    s2 = np.broadcast_to(np.asarray(sigma2, float), c2.shape)
+    crossings = _crossings(c1, w1, s1, c2, w2, s2)
     edges = np.concatenate([[-np.inf], crossings, [np.inf]])
     total = 0.0
     for a, b in itertools.pairwise(edges):
-        probe = _probe(a, b, c1, c2, h1, h2)
-        lower_is_1 = _log_density(probe, c1, w1, h1) <= _log_density(probe, c2, w2, h2)
-        total += _mass(a, b, c1, w1, h1) if lower_is_1 else _mass(a, b, c2, w2, h2)
-    return KdeError(0.5 * total, bw1, bw2)
+        probe = _probe(a, b, c1, c2, s1.max(), s2.max())
+        lower_is_1 = _log_density(probe, c1, w1, s1) <= _log_density(probe, c2, w2, s2)
+        total += _mass(a, b, c1, w1, s1) if lower_is_1 else _mass(a, b, c2, w2, s2)
+    return 0.5 * total
 
 
 def _probe(a, b, c1, c2, h1, h2):
@@ -126,16 +143,16 @@ def _probe(a, b, c1, c2, h1, h2):
     return np.array([0.5 * (np.median(c1) + np.median(c2))])
 
 
-def _crossings(c1, w1, h1, c2, w2, h2) -> np.ndarray:
-    step = _GRID_STEP * min(h1, h2)
-    hmax = max(h1, h2)
+def _crossings(c1, w1, s1, c2, w2, s2) -> np.ndarray:
+    step = _GRID_STEP * min(s1.min(), s2.min())
+    hmax = max(s1.max(), s2.max())
     lo = min(c1.min(), c2.min()) - _TAIL_REACH * hmax
     hi = max(c1.max(), c2.max()) + _TAIL_REACH * hmax
     count = int(min(np.ceil((hi - lo) / step), 2**18)) + 1
     grid = np.linspace(lo, hi, count)
 
     def diff(x):
-        return _log_density(x, c1, w1, h1) - _log_density(x, c2, w2, h2)
+        return _log_density(x, c1, w1, s1) - _log_density(x, c2, w2, s2)
 
     d = diff(grid)
     sign = np.sign(d)

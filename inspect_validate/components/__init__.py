@@ -1,0 +1,43 @@
+"""Components of an inspection station: lights, optics and cameras."""
+
+from inspect_validate.components.cameras import (
+    BUILT_IN_CAMERAS,
+    Camera,
+    builtin_camera,
+    energy_efficiency,
+)
+from inspect_validate.components.lights import (
+    Light,
+    blackbody,
+    cie_daylight,
+    cie_illuminant,
+    led,
+    phosphor_white_led,
+    planck,
+)
+from inspect_validate.components.optics import (
+    MATERIALS,
+    Optics,
+    ideal_lens,
+    lens,
+    material_transmission,
+)
+
+__all__ = [
+    "BUILT_IN_CAMERAS",
+    "MATERIALS",
+    "Camera",
+    "Light",
+    "Optics",
+    "blackbody",
+    "builtin_camera",
+    "cie_daylight",
+    "cie_illuminant",
+    "energy_efficiency",
+    "ideal_lens",
+    "led",
+    "lens",
+    "material_transmission",
+    "phosphor_white_led",
+    "planck",
+]

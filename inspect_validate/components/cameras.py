@@ -1,0 +1,142 @@
+"""Cameras (chapter §2.4): quantum efficiency and the EMVA 1288 linear camera model.
+
+QE(λ) = n_e / n_ph (23); the energy efficiency EE(λ) = QE(λ)·λ/(hc) (24)–(25) is
+what multiplies the irradiance in (32). With the EMVA 1288 parameters a camera
+turns a mean number of photo-electrons μ_e into grey values:
+
+    μ_y = μ_y.dark + K·μ_e,   σ_y² = K²(σ_d² + μ_e) + σ_q²,  σ_q² = 1/12 DN².
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from inspect_validate.errors import InputError
+from inspect_validate.spectra import Spectrum, SpectrumKind
+
+__all__ = ["BUILT_IN_CAMERAS", "Camera", "builtin_camera", "energy_efficiency", "qe_model"]
+
+H = 6.62607015e-34
+C = 2.99792458e8
+
+
+@dataclass(frozen=True)
+class Camera:
+    """A monochrome camera.
+
+    Attributes
+    ----------
+    name : str
+    qe : Spectrum
+        Quantum efficiency, 0..1.
+    gain : float
+        System gain K, DN/e⁻.
+    dark_noise : float
+        Temporal dark noise σ_d, e⁻.
+    saturation : float
+        Saturation capacity μ_e.sat, e⁻.
+    bit_depth : int
+    dark_offset : float
+        Mean dark value μ_y.dark, DN.
+    pixel_pitch : float
+        Pixel pitch, µm (the pixel area A = pitch²).
+    """
+
+    name: str
+    qe: Spectrum
+    gain: float
+    dark_noise: float
+    saturation: float
+    bit_depth: int = 12
+    dark_offset: float = 0.0
+    pixel_pitch: float = 3.45
+
+    def __post_init__(self):
+        for field in ("gain", "saturation", "pixel_pitch"):
+            if not getattr(self, field) > 0:
+                raise InputError(f"camera {self.name!r}: {field} must be positive")
+        if self.dark_noise < 0 or self.dark_offset < 0 or not 1 <= self.bit_depth <= 32:
+            raise InputError(
+                f"camera {self.name!r}: dark_noise, dark_offset ≥ 0 and bit_depth 1..32"
+            )
+
+    @property
+    def max_dn(self) -> float:
+        """Largest grey value: full scale or the saturation capacity, whichever is lower, DN."""
+        return min(2.0**self.bit_depth - 1.0, self.dark_offset + self.gain * self.saturation)
+
+
+def energy_efficiency(qe, wavelength) -> np.ndarray:
+    """EE(λ) = QE(λ)·λ/(hc) (24)–(25), electrons per joule; ``wavelength`` in nm."""
+    return np.asarray(qe, float) * np.asarray(wavelength, float) * 1e-9 / (H * C)
+
+
+def qe_model(
+    grid, *, peak: float, peak_qe: float, left: float, right: float, lo: float, hi: float
+) -> np.ndarray:
+    """A smooth single-peaked QE curve: a Gaussian with separate widths left and right of
+    the peak, cut off smoothly at the sensor material's limits ``lo``/``hi`` (nm)."""
+    g = np.asarray(grid, float)
+    width = np.where(g < peak, left, right)
+    edges = 1.0 / (1.0 + np.exp(-(g - lo) / 8.0)) / (1.0 + np.exp((g - hi) / 8.0))
+    return peak_qe * np.exp(-0.5 * ((g - peak) / width) ** 2) * edges
+
+
+_GRID = np.arange(300.0, 1801.0, 1.0)
+BUILT_IN_CAMERAS = {
+    # name: QE model parameters, EMVA parameters
+    "cmos-visible": (
+        dict(peak=530, peak_qe=0.68, left=85, right=170, lo=350, hi=1050),
+        dict(
+            gain=0.39,
+            dark_noise=2.3,
+            saturation=10500,
+            bit_depth=12,
+            dark_offset=0.0,
+            pixel_pitch=3.45,
+        ),
+    ),
+    "cmos-nir-enhanced": (
+        dict(peak=650, peak_qe=0.62, left=130, right=260, lo=350, hi=1100),
+        dict(
+            gain=0.38,
+            dark_noise=6.0,
+            saturation=10800,
+            bit_depth=12,
+            dark_offset=0.0,
+            pixel_pitch=5.5,
+        ),
+    ),
+    "ingaas-swir": (
+        dict(peak=1350, peak_qe=0.8, left=600, right=900, lo=920, hi=1690),
+        dict(
+            gain=0.065,
+            dark_noise=180.0,
+            saturation=250000,
+            bit_depth=14,
+            dark_offset=0.0,
+            pixel_pitch=15.0,
+        ),
+    ),
+}
+
+
+def builtin_camera(name: str) -> Camera:
+    """One of :data:`BUILT_IN_CAMERAS`: typical sensors with modelled QE curves."""
+    try:
+        qe_args, emva = BUILT_IN_CAMERAS[name]
+    except KeyError:
+        raise InputError(
+            f"unknown camera {name!r}; built-in cameras: {', '.join(BUILT_IN_CAMERAS)}"
+        ) from None
+    label = f"{name} (model)"
+    qe = Spectrum(
+        _GRID,
+        qe_model(_GRID, **qe_args),
+        SpectrumKind.QE,
+        label,
+        f"model: QE peak {qe_args['peak']} nm",
+    )
+    return Camera(label, qe, **emva)

@@ -1,0 +1,193 @@
+"""Light sources (chapter §2.1): blackbody, CIE illuminants, LEDs, measured SPDs.
+
+A :class:`Light` is a spectral power distribution plus, optionally, its absolute
+irradiance at the object. Relative SPDs suffice when the exposure is set
+automatically (the scale cancels); a fixed exposure time needs the irradiance.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from inspect_validate.errors import InputError
+from inspect_validate.spectra import Spectrum, SpectrumKind
+
+__all__ = [
+    "Light",
+    "blackbody",
+    "cie_daylight",
+    "cie_illuminant",
+    "led",
+    "ohno_led_spd",
+    "phosphor_white_led",
+    "planck",
+]
+
+H = 6.62607015e-34  # J·s
+C = 2.99792458e8  # m/s
+K_B = 1.380649e-23  # J/K
+DEFAULT_GRID = np.arange(300.0, 1801.0, 1.0)  # nm, for model spectra
+
+
+@dataclass(frozen=True)
+class Light:
+    """A light source.
+
+    Attributes
+    ----------
+    name : str
+    spd : Spectrum
+        Spectral power distribution, one sample.
+    irradiance : float or None
+        Total irradiance at the object over the SPD's range, W/m²; None when
+        only the relative SPD is known.
+    """
+
+    name: str
+    spd: Spectrum
+    irradiance: float | None = None
+
+
+def planck(wavelength, temperature) -> np.ndarray:
+    """Blackbody spectral radiance u(λ, T) (2), W·sr⁻¹·m⁻²·nm⁻¹.
+
+    Written as 2hc²/λ⁵ · e^{−x} / (1 − e^{−x}) with x = hc/(λkT), which neither
+    overflows nor divides 0 by 0 for short wavelengths or low temperatures:
+    it underflows gracefully to 0.
+
+    Parameters
+    ----------
+    wavelength : array_like
+        nm, > 0.
+    temperature : array_like
+        K, > 0.
+    """
+    lam = np.asarray(wavelength, dtype=float) * 1e-9
+    t = np.asarray(temperature, dtype=float)
+    if np.any(lam <= 0) or np.any(t <= 0):
+        raise ValueError("wavelength and temperature must be positive")
+    x = H * C / (lam * K_B * t)
+    with np.errstate(over="ignore", under="ignore"):
+        return 2.0 * H * C**2 / lam**5 * np.exp(-x) / -np.expm1(-x) * 1e-9
+
+
+def blackbody(temperature: float, *, grid=DEFAULT_GRID, irradiance: float | None = None) -> Light:
+    """An incandescent/thermal source at ``temperature`` K (Planck (2))."""
+    spd = Spectrum(
+        grid,
+        planck(grid, temperature),
+        SpectrumKind.SPD,
+        f"blackbody {temperature:g} K",
+        "model: Planck (2)",
+    )
+    return Light(spd.name, spd, irradiance)
+
+
+_G_HALF = None
+
+
+def ohno_led_spd(wavelength, peak: float, fwhm: float) -> np.ndarray:
+    """Ohno (2005) single-LED model, S = (g + 2g⁵)/3 with g = exp(−((λ−λ₀)/Δ)²), peak 1.
+
+    Δ is chosen so that the full width at half maximum equals ``fwhm`` (nm):
+    S = ½ where g + 2g⁵ = 3/2.
+    """
+    global _G_HALF
+    if _G_HALF is None:
+        from scipy.optimize import brentq
+
+        _G_HALF = brentq(lambda g: g + 2 * g**5 - 1.5, 0.5, 1.0, xtol=1e-15)
+    if fwhm <= 0:
+        raise ValueError("FWHM must be positive")
+    delta = fwhm / (2.0 * np.sqrt(-np.log(_G_HALF)))
+    g = np.exp(-(((np.asarray(wavelength, float) - peak) / delta) ** 2))
+    return (g + 2.0 * g**5) / 3.0
+
+
+def led(
+    peak: float,
+    fwhm: float,
+    *,
+    grid=DEFAULT_GRID,
+    irradiance: float | None = None,
+    name: str | None = None,
+) -> Light:
+    """A single-colour LED from its peak wavelength and FWHM, nm (Ohno 2005 model)."""
+    name = name or f"LED {peak:g} nm"
+    spd = Spectrum(
+        grid,
+        ohno_led_spd(grid, peak, fwhm),
+        SpectrumKind.SPD,
+        name,
+        f"model: Ohno 2005, peak {peak:g} nm, FWHM {fwhm:g} nm",
+    )
+    return Light(name, spd, irradiance)
+
+
+def phosphor_white_led(
+    *,
+    blue_peak: float = 450.0,
+    blue_fwhm: float = 20.0,
+    phosphor_peak: float = 560.0,
+    phosphor_fwhm: float = 120.0,
+    phosphor_ratio: float = 2.2,
+    grid=DEFAULT_GRID,
+    irradiance: float | None = None,
+) -> Light:
+    """Phosphor-converted white LED (chapter Fig. 8): blue die plus a broad phosphor peak.
+
+    A model: two Ohno (2005) peaks, the phosphor's integral ``phosphor_ratio``
+    times the die's. For tabulated white LEDs use the CIE LED-B1…B5
+    illuminants (:func:`cie_illuminant`).
+    """
+    blue = ohno_led_spd(grid, blue_peak, blue_fwhm)
+    yellow = ohno_led_spd(grid, phosphor_peak, phosphor_fwhm)
+    values = blue + yellow * phosphor_ratio * np.trapezoid(blue, grid) / np.trapezoid(yellow, grid)
+    name = "white LED (model)"
+    spd = Spectrum(
+        grid,
+        values,
+        SpectrumKind.SPD,
+        name,
+        f"model: Ohno 2005 die {blue_peak:g} nm + phosphor {phosphor_peak:g} nm",
+    )
+    return Light(name, spd, irradiance)
+
+
+def cie_illuminant(name: str, *, irradiance: float | None = None) -> Light:
+    """A tabulated CIE illuminant from colour-science: D50, D65, FL1–FL12, HP1–HP5, LED-B1… .
+
+    HP1 is a standard high-pressure sodium lamp; FL* are fluorescent lamps;
+    LED-B* phosphor-converted white LEDs.
+    """
+    import colour
+
+    try:
+        sd = colour.SDS_ILLUMINANTS[name]
+    except KeyError:
+        known = ", ".join(k for k in colour.SDS_ILLUMINANTS if not k.startswith("ISO"))
+        raise InputError(f"unknown CIE illuminant {name!r}; known: {known}") from None
+    spd = Spectrum(
+        sd.wavelengths, sd.values, SpectrumKind.SPD, f"CIE {name}", f"CIE {name} (colour-science)"
+    )
+    return Light(spd.name, spd, irradiance)
+
+
+def cie_daylight(cct: float, *, irradiance: float | None = None) -> Light:
+    """CIE D-series daylight at correlated colour temperature ``cct`` K (4000–25000 K)."""
+    import colour
+
+    if not 4000 <= cct <= 25000:
+        raise InputError(f"CIE daylight is defined for 4000–25000 K, not {cct:g} K")
+    xy = colour.temperature.CCT_to_xy_CIE_D(cct * 1.4388 / 1.4380)
+    sd = colour.sd_CIE_illuminant_D_series(xy)
+    spd = Spectrum(
+        sd.wavelengths,
+        sd.values,
+        SpectrumKind.SPD,
+        f"CIE daylight {cct:g} K",
+        "CIE D-series (colour-science)",
+    )
+    return Light(spd.name, spd, irradiance)
