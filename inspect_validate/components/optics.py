@@ -102,7 +102,7 @@ def material_transmission(material: str, *, thickness_mm: float = 10.0, grid=Non
     m = _material(material)
     lo, hi = m.range_nm
     grid = (
-        np.arange(max(lo * 0.8, 150.0), min(hi * 1.2, 20000.0) + 1, 1.0)
+        np.arange(max(lo * 0.8, 100.0), min(hi * 1.2, 20000.0) + 1, 1.0)
         if grid is None
         else np.asarray(grid, float)
     )

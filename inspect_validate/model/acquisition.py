@@ -41,6 +41,7 @@ __all__ = ["Exposure", "ObjectClass", "Prediction", "predict"]
 H = 6.62607015e-34
 C = 2.99792458e8
 QUANTISATION_VARIANCE = 1.0 / 12.0  # DN²
+_PRESENT = 1e-6  # a component is present where it exceeds this fraction of its peak
 
 
 @dataclass(frozen=True)
@@ -287,8 +288,18 @@ def _clipped_moments(mean, var, ceiling):
 
 
 def _check_overlap(lights, optics, cameras, classes, e, t, q, invalid, sample_class, grid):
-    """Every combination must integrate over some wavelength; no invalid reflectance where it counts."""
-    chain = (e[:, None, None, :] > 0) & (t[None, :, None, :] > 0) & (q[None, None, :, :] > 0)
+    """Every combination must integrate over some wavelength; no invalid reflectance where it counts.
+
+    Model curves (Gaussian tails, logistic edges) are never exactly zero, so a
+    component counts as present where it exceeds 1e-6 of its own peak.
+    """
+
+    def present(a):
+        return a > _PRESENT * a.max(axis=-1, keepdims=True)
+
+    chain = (
+        present(e)[:, None, None, :] & present(t)[None, :, None, :] & present(q)[None, None, :, :]
+    )
     sensitive = chain.any(axis=-1)
     if not sensitive.all():
         li, oi, ci = (int(x[0]) for x in np.nonzero(~sensitive))

@@ -108,7 +108,9 @@ def read_rois(path: str | Path) -> RoiSet:
     except ValidationError as exc:
         raise InputError(_explain(exc), source=str(path)) from None
     if model.version != 1:
-        raise InputError(f"ROI file version {model.version} is not supported (1 is)", str(path))
+        raise InputError(
+            f"ROI file version {model.version} is not supported (1 is)", source=str(path)
+        )
     classes = []
     for name, spec in model.classes.items():
         spec = spec if isinstance(spec, _ClassModel) else _ClassModel(shapes=spec)

@@ -66,7 +66,9 @@ class Spectrum:
                 f"{values.shape[-1]} values for {wl.size} wavelengths", source=self.source
             )
         if not np.all(np.isfinite(wl)) or np.any(np.diff(wl) <= 0):
-            raise InputError("wavelengths must be finite and strictly increasing", self.source)
+            raise InputError(
+                "wavelengths must be finite and strictly increasing", source=self.source
+            )
         for a in (wl, values):
             a.flags.writeable = False
         object.__setattr__(self, "wavelengths", wl)

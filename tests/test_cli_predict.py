@@ -1,0 +1,90 @@
+"""`inspect-validate predict` end to end on the shipped scenes, JSON, and scene errors."""
+
+import json
+
+import pytest
+
+from inspect_validate.cli import main
+
+
+def run(argv):
+    with pytest.raises(SystemExit) as info:
+        main([str(a) for a in argv])
+    return info.value.code
+
+
+def test_predict_paperboard_json(tmp_path, capsys):
+    from conftest import ROOT
+
+    out = tmp_path / "p.json"
+    assert run(["predict", ROOT / "sample_images/scenes/paperboard/scene.yaml", "--json", out]) == 0
+    doc = json.loads(out.read_text())
+    assert doc["schema"] == "inspect-validate/prediction" and doc["schema_version"] == 1
+    best = doc["ranking"][0]
+    assert best["light"] == "amber LED" and doc["rank_comparison"] == "A vs B,C"
+    comp = best["comparisons"][0]
+    assert comp["first"] == ["A"] and comp["second"] == ["B", "C"]
+    assert 0 < comp["error_gaussian"] < 0.5 and 0 < comp["error_kde"] < 0.5
+    assert {"mean", "variance", "spectral_variance", "electrons", "saturated_fraction"} <= set(
+        best["classes"][0]
+    )
+    assert "amber LED" in capsys.readouterr().out
+
+
+def test_predict_table2_top_and_rank_by(capsys):
+    from conftest import ROOT
+
+    assert (
+        run(
+            [
+                "predict",
+                ROOT / "sample_images/scenes/chapter_table2/scene.yaml",
+                "--top",
+                "3",
+                "--rank-by",
+                "snr_db",
+                "--no-kde",
+            ]
+        )
+        == 0
+    )
+    out = capsys.readouterr().out
+    assert "8 combinations" in out and out.count("LED") >= 3
+
+
+@pytest.mark.parametrize(
+    ("scene", "message"),
+    [
+        (
+            "classes: {A: {file: a.csv}}\nlights: [{led: {peak: 500, fwhm: 20}}]\noptics: [ideal]\ncameras: [cmos-visible]\n",
+            "classes: .*at least 2",
+        ),
+        (
+            "classes: {A: {file: a.csv}, B: {file: a.csv}}\nlights: [{led: {peak: 500}}]\noptics: [ideal]\ncameras: [cmos-visible]\n",
+            r"lights\[0\]: led: missing or invalid parameter",
+        ),
+        (
+            "classes: {A: {file: a.csv}, B: {file: a.csv}}\nlights: [{laser: 1}]\noptics: [ideal]\ncameras: [cmos-visible]\n",
+            r"lights\[0\]: give exactly one of",
+        ),
+        (
+            "classes: {A: {file: missing.csv}, B: {file: a.csv}}\nlights: [{cie: D65}]\noptics: [ideal]\ncameras: [cmos-visible]\n",
+            "missing.csv: cannot read",
+        ),
+        (
+            "classes: {A: {file: a.csv}, B: {file: a.csv}}\nlights: [{cie: D65}]\noptics: [ideal]\ncameras: [{file: a.csv}]\n",
+            r"cameras\[0\]: a camera from a QE file needs its EMVA 1288 parameters: gain, dark_noise, saturation",
+        ),
+        (
+            "classes: {A: {file: a.csv}, B: {file: a.csv}}\nlights: [{cie: D65}]\noptics: [ideal]\ncameras: [cmos-visible]\nexposure: {mode: fixed, time: 0.01}\n",
+            "relative SPD",
+        ),
+    ],
+)
+def test_bad_scenes_exit_2(tmp_path, capsys, scene, message):
+    import re
+
+    (tmp_path / "a.csv").write_text("400,0.5,0.52\n700,0.5,0.52\n")
+    (tmp_path / "scene.yaml").write_text(scene)
+    assert run(["predict", tmp_path / "scene.yaml"]) == 2
+    assert re.search(message, capsys.readouterr().err)
