@@ -158,7 +158,7 @@ def test_paperboard_amber_beats_red():
 def test_errors_name_the_component():
     cam = builtin_camera("cmos-visible")
     classes = [flat_class("A", 0.2), flat_class("B", 0.8)]
-    with pytest.raises(InputError, match="relative SPD.*irradiance"):
+    with pytest.raises(InputError, match=r"relative SPD.*irradiance"):
         predict(
             [led(520, 30)],
             [ideal_lens()],
