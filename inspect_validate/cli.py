@@ -144,7 +144,13 @@ def measure(frames, rois, dark, json_path, saturation_level, max_saturated, max_
     "--comparison", help='Rank by one comparison, e.g. "A vs B,C" (default: the worst pair).'
 )
 @click.option("--no-kde", is_flag=True, help="Skip the nonparametric error of the listed rows.")
-def predict(scene, json_path, top, rank_by, comparison, no_kde):
+@click.option(
+    "--plot",
+    "plot_dir",
+    type=_PATH,
+    help="Write PNG plots (spectra, per-wavelength error, ranking) to this folder.",
+)
+def predict(scene, json_path, top, rank_by, comparison, no_kde, plot_dir):
     """Predict class separation for every light × optics × camera of SCENE and rank them.
 
     Per combination: μ and σ² of every class in DN (reflectance spread plus
@@ -183,6 +189,102 @@ def predict(scene, json_path, top, rank_by, comparison, no_kde):
             json_path,
         )
         click.echo(f"\nwrote {json_path}")
+    if plot_dir:
+        from inspect_validate.model import analyse_spectra
+        from inspect_validate.report.plots import (
+            plot_component_spectra,
+            plot_ranked_separation,
+            plot_spectral_errors,
+        )
+
+        plot_dir.mkdir(parents=True, exist_ok=True)
+        written = [
+            plot_component_spectra(sc, plot_dir / "spectra.png"),
+            plot_spectral_errors(
+                analyse_spectra(list(sc.classes), kde=not no_kde), plot_dir / "spectral_error.png"
+            ),
+            plot_ranked_separation(rows, plot_dir / "ranking.png"),
+        ]
+        click.echo("wrote " + ", ".join(str(p) for p in written))
+
+
+@cli.command("analyze-spectra")
+@click.argument("scene", type=_PATH)
+@click.option(
+    "--json", "json_path", type=_PATH, help="Also write the per-wavelength errors as JSON."
+)
+@click.option(
+    "--plot",
+    "plot_path",
+    type=_PATH,
+    help="Write the error curves as a PNG (the chapter's Fig. 22).",
+)
+@click.option(
+    "--best",
+    type=click.IntRange(1),
+    default=5,
+    show_default=True,
+    help="Bands to list per comparison.",
+)
+@click.option("--no-kde", is_flag=True, help="Parametric error only.")
+def analyze_spectra(scene, json_path, plot_path, best, no_kde):
+    """Classification error per wavelength between the classes of SCENE, from reflectances alone.
+
+    Shows which bands separate the classes before any hardware is chosen
+    (chapter §4.2.1): parametric (Gaussian) and kernel-density ε_tot (37).
+    """
+    import numpy as np
+
+    from inspect_validate.model import analyse_spectra
+    from inspect_validate.report import render_table, write_json
+    from inspect_validate.report.jsonfile import _num
+    from inspect_validate.report.tables import format_error
+    from inspect_validate.scene import read_scene
+
+    sc = read_scene(scene)
+    sep = analyse_spectra(list(sc.classes), kde=not no_kde)
+    rows = []
+    for j, (a, b) in enumerate(sep.comparisons):
+        eps = sep.error_gaussian[j]
+        for i in np.argsort(np.where(np.isnan(eps), np.inf, eps))[:best]:
+            kde = format_error(sep.error_kde[j][i]) if sep.error_kde is not None else "-"
+            rows.append(
+                [
+                    f"{','.join(a)} vs {','.join(b)}",
+                    f"{sep.wavelengths[i]:g}",
+                    format_error(eps[i]),
+                    kde,
+                ]
+            )
+    click.echo(f"{sc.name}: best bands per comparison (ε_tot (37) from the reflectance samples)")
+    click.echo(render_table(["comparison", "λ [nm]", "ε Gauss", "ε KDE"], rows))
+
+    def curve(values):
+        return [_num(v) if np.isfinite(v) else None for v in values]
+
+    if json_path:
+        doc = {
+            "schema": "inspect-validate/spectral-analysis",
+            "schema_version": 1,
+            "scene": str(scene),
+            "wavelength_nm": curve(sep.wavelengths),
+            "comparisons": [
+                {
+                    "first": list(a),
+                    "second": list(b),
+                    "error_gaussian": curve(sep.error_gaussian[j]),
+                    "error_kde": None if sep.error_kde is None else curve(sep.error_kde[j]),
+                }
+                for j, (a, b) in enumerate(sep.comparisons)
+            ],
+        }
+        write_json(doc, json_path)
+        click.echo(f"\nwrote {json_path}")
+    if plot_path:
+        from inspect_validate.report.plots import plot_spectral_errors
+
+        plot_path.parent.mkdir(parents=True, exist_ok=True)
+        click.echo(f"wrote {plot_spectral_errors(sep, plot_path)}")
 
 
 def main(argv=None):
