@@ -150,7 +150,13 @@ def measure(frames, rois, dark, json_path, saturation_level, max_saturated, max_
     type=_PATH,
     help="Write PNG plots (spectra, per-wavelength error, ranking) to this folder.",
 )
-def predict(scene, json_path, top, rank_by, comparison, no_kde, plot_dir):
+@click.option(
+    "--render",
+    "render_dir",
+    type=_PATH,
+    help="Write simulated 16-bit frames of the best and worst combination (Fig. 19) with ROI files.",
+)
+def predict(scene, json_path, top, rank_by, comparison, no_kde, plot_dir, render_dir):
     """Predict class separation for every light × optics × camera of SCENE and rank them.
 
     Per combination: μ and σ² of every class in DN (reflectance spread plus
@@ -206,6 +212,16 @@ def predict(scene, json_path, top, rank_by, comparison, no_kde, plot_dir):
             plot_ranked_separation(rows, plot_dir / "ranking.png"),
         ]
         click.echo("wrote " + ", ".join(str(p) for p in written))
+    if render_dir:
+        from inspect_validate.model import rank
+        from inspect_validate.model.render import write_rendered
+
+        order, _, _ = rank(result, by=by, comparison=comparison)
+        for stem, idx in (("best", order[0]), ("worst", order[-1])):
+            tif, rois = write_rendered(
+                result, tuple(idx), render_dir, cameras=list(sc.cameras), stem=stem
+            )
+            click.echo(f"wrote {tif} and {rois}")
 
 
 @cli.command("analyze-spectra")

@@ -1,0 +1,122 @@
+"""Per-wavelength errors, plots, and the render → measure loop against the prediction."""
+
+import json
+
+import numpy as np
+import pytest
+
+from inspect_validate.cli import main
+from inspect_validate.errors import InputError
+from inspect_validate.model import ObjectClass, analyse_spectra
+from inspect_validate.spectra import Spectrum
+from inspect_validate.stats import gaussian_error
+
+
+def run(argv):
+    with pytest.raises(SystemExit) as info:
+        main([str(a) for a in argv])
+    return info.value.code
+
+
+def test_per_wavelength_gaussian_error_is_the_closed_form():
+    g = np.array([500.0, 550.0, 600.0])
+    a = np.array([[0.50, 0.60, 0.4], [0.52, 0.62, 0.41], [0.51, 0.58, 0.42]])
+    b = np.array([[0.50, 0.40, 0.4], [0.49, 0.43, 0.45], [0.52, 0.41, 0.43]])
+    sep = analyse_spectra(
+        [
+            ObjectClass("A", Spectrum(g, a, "reflectance", "A", "a")),
+            ObjectClass("B", Spectrum(g, b, "reflectance", "B", "b")),
+        ],
+        kde=False,
+    )
+    expected = gaussian_error(a.mean(0), a.var(0, ddof=1), b.mean(0), b.var(0, ddof=1))
+    assert np.allclose(sep.error_gaussian[0], expected, rtol=1e-14)
+    assert np.argmin(sep.error_gaussian[0]) == 1
+    with pytest.raises(InputError, match="one spectrum"):
+        analyse_spectra(
+            [
+                ObjectClass("A", Spectrum(g, a[0], "reflectance", "A", "a")),
+                ObjectClass("B", Spectrum(g, b, "reflectance", "B", "b")),
+            ]
+        )
+
+
+def test_analyze_spectra_cli_finds_the_amber_band(tmp_path, capsys):
+    from conftest import ROOT
+
+    out, png = tmp_path / "s.json", tmp_path / "err.png"
+    assert (
+        run(
+            [
+                "analyze-spectra",
+                ROOT / "sample_images/scenes/paperboard/scene.yaml",
+                "--json",
+                out,
+                "--plot",
+                png,
+            ]
+        )
+        == 0
+    )
+    doc = json.loads(out.read_text())
+    comp = next(c for c in doc["comparisons"] if c["first"] == ["A"] and c["second"] == ["B", "C"])
+    eps = np.array(comp["error_gaussian"], dtype=float)
+    best = doc["wavelength_nm"][int(np.nanargmin(eps))]
+    assert 560 <= best <= 590  # the amber band, not the red one
+    assert eps[doc["wavelength_nm"].index(630)] > 0.3
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert "A vs B,C" in capsys.readouterr().out
+
+
+def test_predict_plots_and_render_round_trip(tmp_path):
+    """Frames rendered from a prediction, measured with `measure`, give back the predicted μ and σ²."""
+    from conftest import ROOT
+
+    scene = ROOT / "sample_images/scenes/chapter_table2/scene.yaml"
+    pred = tmp_path / "p.json"
+    assert (
+        run(
+            [
+                "predict",
+                scene,
+                "--no-kde",
+                "--plot",
+                tmp_path / "plots",
+                "--render",
+                tmp_path / "frames",
+                "--json",
+                pred,
+            ]
+        )
+        == 0
+    )
+    for name in ("spectra.png", "spectral_error.png", "ranking.png"):
+        assert (tmp_path / "plots" / name).stat().st_size > 10_000
+    import tifffile
+
+    for stem in ("best", "worst"):
+        tif = tmp_path / "frames" / f"{stem}.tif"
+        predicted = json.loads(tifffile.TiffFile(tif).pages[0].description)["predicted"]
+        assert tifffile.imread(tif).dtype == np.uint16
+        out = tmp_path / f"{stem}.json"
+        assert (
+            run(
+                [
+                    "measure",
+                    tif,
+                    "--rois",
+                    tmp_path / "frames" / f"{stem}_rois.yaml",
+                    "--no-kde",
+                    "--json",
+                    out,
+                ]
+            )
+            == 0
+        )
+        for c in json.loads(out.read_text())["classes"]:
+            p = predicted[c["name"]]
+            n = c["n_pixels"]
+            # 5 standard errors of a sample mean and variance of n pixels (plus
+            # the spread of which reflectance sample each pixel drew).
+            assert c["mean"] == pytest.approx(p["mean"], abs=5 * np.sqrt(p["variance"] / n) + 0.05)
+            assert c["variance"] == pytest.approx(p["variance"], rel=0.03)
