@@ -60,9 +60,17 @@ class _Rank(BaseModel):
     comparison: str | None = None
 
 
+class _Geometry(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    light: tuple[float, float, float]
+    view: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    normal: tuple[float, float, float] = (0.0, 0.0, 1.0)
+
+
 class _Scene(BaseModel):
     model_config = ConfigDict(extra="forbid")
     name: str | None = None
+    geometry: _Geometry | None = None
     wavelength: _Wavelength = _Wavelength()
     classes: dict[str, dict[str, Any]] = Field(min_length=2)
     lights: list[Any] = Field(min_length=1)
@@ -107,8 +115,11 @@ def read_scene(path: str | Path) -> Scene:
         msg = "; ".join(f"{'.'.join(map(str, e['loc']))}: {e['msg']}" for e in exc.errors())
         raise InputError(msg, source=str(path)) from None
     base = path.parent
+    from inspect_validate.components.geometry import Geometry
+
+    geometry = Geometry(**model.geometry.model_dump()) if model.geometry else None
     classes = tuple(
-        _object_class(name, spec, base, f"{path}: classes.{name}")
+        _object_class(name, spec, base, f"{path}: classes.{name}", geometry)
         for name, spec in model.classes.items()
     )
     lights = tuple(_light(s, base, f"{path}: lights[{i}]") for i, s in enumerate(model.lights))
@@ -185,6 +196,7 @@ def _one_key(spec, where, allowed):
             "dark_offset",
             "pixel_pitch",
             "thickness_mm",
+            "gloss",
         }
     )
     if extra:
@@ -192,24 +204,53 @@ def _one_key(spec, where, allowed):
     return keys[0], spec
 
 
-def _object_class(name, spec, base, where):
+def _object_class(name, spec, base, where, geometry):
+    from inspect_validate.components.geometry import reflectance_factor
     from inspect_validate.model import ObjectClass
     from inspect_validate.spectra import SpectrumKind, read_spectrometer, read_spectrum_csv
 
     kind, spec = _one_key(spec, where, ("file", "spectrometer"))
     if kind == "file":
-        return ObjectClass(
-            name, read_spectrum_csv(base / spec["file"], kind=SpectrumKind.REFLECTANCE, name=name)
+        reflectance = read_spectrum_csv(
+            base / spec["file"], kind=SpectrumKind.REFLECTANCE, name=name
         )
-    s = spec["spectrometer"]
-    if not isinstance(s, dict) or set(s) != {"readings", "black", "white"}:
-        raise InputError("spectrometer needs readings, black and white (CSV files)", source=where)
-    return ObjectClass(
-        name,
-        read_spectrometer(
+    else:
+        s = spec["spectrometer"]
+        if not isinstance(s, dict) or set(s) != {"readings", "black", "white"}:
+            raise InputError(
+                "spectrometer needs readings, black and white (CSV files)", source=where
+            )
+        reflectance = read_spectrometer(
             base / s["readings"], black=base / s["black"], white=base / s["white"], name=name
-        ),
+        )
+    gloss = _gloss(spec.get("gloss"), where)
+    if geometry is None and gloss is None:
+        return ObjectClass(name, reflectance)  # the chapter's diffuse model: nothing to apply
+    try:
+        diffuse, specular = reflectance_factor(geometry, gloss)
+    except InputError as exc:
+        raise InputError(str(exc), source=where) from None
+    note = f"geometry: diffuse × {diffuse:.4g}, specular + {specular:.4g}"
+    return ObjectClass(
+        name, reflectance.with_values(reflectance.values * diffuse + specular, notes=[note])
     )
+
+
+def _gloss(spec, where):
+    from inspect_validate.components.geometry import BlinnPhong, CookTorrance
+
+    if spec is None:
+        return None
+    models = {"blinn_phong": BlinnPhong, "cook_torrance": CookTorrance}
+    if not isinstance(spec, dict) or len(spec) != 1 or next(iter(spec)) not in models:
+        raise InputError(
+            "gloss is {blinn_phong: {ks, n}} or {cook_torrance: {roughness, f0}}", source=where
+        )
+    kind, params = next(iter(spec.items()))
+    try:
+        return models[kind](**params)
+    except TypeError as exc:
+        raise InputError(f"gloss {kind}: {exc}", source=where) from None
 
 
 def _light(spec, base, where):
