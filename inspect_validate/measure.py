@@ -17,9 +17,8 @@ from inspect_validate.stats import (
     RegionStatistics,
     cnr_db,
     fisher_db,
-    gaussian_error,
+    gaussian_error_and_log,
     kde_error,
-    log_gaussian_error,
     merge_samples,
     region_statistics,
     sample_moments,
@@ -132,7 +131,7 @@ def _compare(classes, first, second, *, kde, quantum) -> Comparison:
         for s, g in zip(samples, (first, second), strict=True)
     )
     args = (m1.mean, m1.variance, m2.mean, m2.variance)
-    err = gaussian_error(*args)
+    err, log_err = gaussian_error_and_log(*args)
     kde_result = kde_error(*samples, quantum=quantum) if kde else None
     return Comparison(
         first=tuple(classes[i].name for i in first),
@@ -141,7 +140,7 @@ def _compare(classes, first, second, *, kde, quantum) -> Comparison:
         cnr_db=float(cnr_db(*args)),
         fisher_db=float(fisher_db(*args)),
         error_gaussian=float(err),
-        log_error_gaussian=float(log_gaussian_error(*args)),
+        log_error_gaussian=float(log_err),
         error_kde=kde_result.error if kde_result else None,
         kde_bandwidth=(kde_result.bandwidth1.h, kde_result.bandwidth2.h) if kde_result else None,
         kde_bandwidth_at_floor=(

@@ -34,7 +34,7 @@ from inspect_validate.components.lights import Light
 from inspect_validate.components.optics import Optics
 from inspect_validate.errors import InputError
 from inspect_validate.spectra import Spectrum
-from inspect_validate.stats import cnr_db, fisher_db, gaussian_error, log_gaussian_error, snr_db
+from inspect_validate.stats import cnr_db, fisher_db, gaussian_error_and_log, snr_db
 
 __all__ = ["Exposure", "ObjectClass", "Prediction", "predict"]
 
@@ -237,6 +237,7 @@ def predict(
         np.stack(x, axis=-1)
         for x in zip(*(_group_moments(mean, variance, g1, g2) for g1, g2 in groups), strict=True)
     )
+    eps, log_eps = gaussian_error_and_log(m1, v1, m2, v2)
     return Prediction(
         lights=tuple(lt.name for lt in lights),
         optics=tuple(o.name for o in optics),
@@ -255,8 +256,8 @@ def predict(
         snr_db=snr_db(m1, v1, m2, v2),
         cnr_db=cnr_db(m1, v1, m2, v2),
         fisher_db=fisher_db(m1, v1, m2, v2),
-        error_gaussian=gaussian_error(m1, v1, m2, v2),
-        log_error_gaussian=log_gaussian_error(m1, v1, m2, v2),
+        error_gaussian=eps,
+        log_error_gaussian=log_eps,
         sample_mean=clip_mean,
         sample_variance=clip_var,
         sample_class=sample_class,
@@ -276,15 +277,28 @@ def _group_moments(mean, variance, g1, g2):
 
 
 def _clipped_moments(mean, var, ceiling):
-    """Mean, variance and exceedance of min(X, ceiling) for X ~ N(mean, var), elementwise."""
+    """Mean, variance and exceedance of min(X, ceiling) for X ~ N(mean, var), elementwise.
+
+    Only values within 8σ of the ceiling are touched: below that the clipping
+    changes nothing a double can hold (Φc(8) ≈ 6e-16), and the closed forms
+    would only add rounding.
+    """
+    ceiling = np.broadcast_to(ceiling, mean.shape)
     sd = np.sqrt(var)
     a = (ceiling - mean) / sd
-    cdf, tail, pdf = special.ndtr(a), special.ndtr(-a), np.exp(-0.5 * a * a) / np.sqrt(2 * np.pi)
-    m = mean * cdf - sd * pdf + ceiling * tail
-    second = (mean**2 + var) * cdf - sd * pdf * (mean + ceiling) + ceiling**2 * tail
-    # Far below the ceiling the textbook forms only add rounding: keep the input.
-    far = a > 8.0
-    return np.where(far, mean, m), np.where(far, var, np.maximum(second - m * m, 0.0)), tail
+    m, v, tail = mean.copy(), var.copy(), np.zeros_like(mean)
+    near = a <= 8.0
+    if near.any():
+        mu, s, c, z = mean[near], sd[near], ceiling[near], a[near]
+        cdf, upper, pdf = (
+            special.ndtr(z),
+            special.ndtr(-z),
+            np.exp(-0.5 * z * z) / np.sqrt(2 * np.pi),
+        )
+        first = mu * cdf - s * pdf + c * upper
+        second = (mu**2 + s**2) * cdf - s * pdf * (mu + c) + c**2 * upper
+        m[near], v[near], tail[near] = first, np.maximum(second - first**2, 0.0), upper
+    return m, v, tail
 
 
 def _check_overlap(lights, optics, cameras, classes, e, t, q, invalid, sample_class, grid):

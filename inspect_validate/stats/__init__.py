@@ -13,7 +13,11 @@ Shared by measurement (from images) and prediction (from spectra).
 """
 
 from inspect_validate.stats.bandwidth import Bandwidth, lscv_bandwidth, lscv_objective, pair_counts
-from inspect_validate.stats.gaussian_error import gaussian_error, log_gaussian_error
+from inspect_validate.stats.gaussian_error import (
+    gaussian_error,
+    gaussian_error_and_log,
+    log_gaussian_error,
+)
 from inspect_validate.stats.kde_error import KdeError, kde_error
 from inspect_validate.stats.region import RegionStatistics, region_statistics
 from inspect_validate.stats.sample import (
@@ -35,6 +39,7 @@ __all__ = [
     "cnr_db",
     "fisher_db",
     "gaussian_error",
+    "gaussian_error_and_log",
     "kde_error",
     "log_gaussian_error",
     "lscv_bandwidth",

@@ -32,7 +32,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import special
 
-__all__ = ["gaussian_error", "log_gaussian_error"]
+__all__ = ["gaussian_error", "gaussian_error_and_log", "log_gaussian_error"]
 
 _LOG_SQRT_2PI = 0.5 * np.log(2.0 * np.pi)
 _GL_NODES, _GL_WEIGHTS = np.polynomial.legendre.leggauss(20)
@@ -59,6 +59,14 @@ def gaussian_error(mean1, var1, mean2, var2) -> np.ndarray:
     """
     eps, log_eps = _error(mean1, var1, mean2, var2)
     return np.where(eps >= _LINEAR_FLOOR, eps, np.exp(log_eps))[()]
+
+
+def gaussian_error_and_log(mean1, var1, mean2, var2) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`gaussian_error` and :func:`log_gaussian_error` from one evaluation."""
+    eps, log_eps = _error(mean1, var1, mean2, var2)
+    with np.errstate(divide="ignore"):
+        log_out = np.where(eps >= _LINEAR_FLOOR, np.log(eps), log_eps)[()]
+    return np.where(eps >= _LINEAR_FLOOR, eps, np.exp(log_eps))[()], log_out
 
 
 def log_gaussian_error(mean1, var1, mean2, var2) -> np.ndarray:
