@@ -173,6 +173,8 @@ def predict(scene, json_path, top, rank_by, comparison, no_kde, plot_dir, render
     from inspect_validate.scene import read_scene
 
     sc = read_scene(scene)
+    for note in sc.notes():
+        click.echo(f"note: {note}", err=True)
     by = rank_by or sc.rank_by
     comparison = comparison or sc.rank_comparison
     result = run_prediction(
@@ -258,6 +260,8 @@ def analyze_spectra(scene, json_path, plot_path, best, no_kde):
     from inspect_validate.scene import read_scene
 
     sc = read_scene(scene)
+    for note in sc.notes():
+        click.echo(f"note: {note}", err=True)
     sep = analyse_spectra(list(sc.classes), kde=not no_kde)
     rows = []
     for j, (a, b) in enumerate(sep.comparisons):

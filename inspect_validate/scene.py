@@ -95,6 +95,19 @@ class Scene:
     rank_by: str
     rank_comparison: str | None
 
+    def notes(self) -> list[str]:
+        """What was noticed while reading the spectra: masked wavelengths, clipped noise."""
+        spectra = [(c.name, c.reflectance) for c in self.classes]
+        spectra += [(x.name, x.spd) for x in self.lights]
+        spectra += [(x.name, x.transmission) for x in self.optics]
+        spectra += [(x.name, x.qe) for x in self.cameras]
+        return [
+            f"{name} ({s.source}): {note}"
+            for name, s in spectra
+            for note in s.notes
+            if not note.startswith("columns:")
+        ]
+
 
 def read_scene(path: str | Path) -> Scene:
     """Read and validate a scene file; every error names the file and field."""

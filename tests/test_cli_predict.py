@@ -88,3 +88,22 @@ def test_bad_scenes_exit_2(tmp_path, capsys, scene, message):
     (tmp_path / "scene.yaml").write_text(scene)
     assert run(["predict", tmp_path / "scene.yaml"]) == 2
     assert re.search(message, capsys.readouterr().err)
+
+
+def test_masked_wavelengths_are_reported(tmp_path, capsys):
+    d = tmp_path
+    (d / "r.csv").write_text("400,50,60\n500,60,70\n600,40,45\n700,30,35\n")
+    (d / "black.csv").write_text("400,5\n500,5\n600,5\n700,5\n")
+    (d / "white.csv").write_text("400,100\n500,100\n600,100\n700,4\n")
+    (d / "b.csv").write_text("400,0.3,0.31\n700,0.3,0.31\n")
+    (d / "s.yaml").write_text(
+        "wavelength: {start: 400, stop: 600}\n"
+        "classes:\n  A: {spectrometer: {readings: r.csv, black: black.csv, white: white.csv}}\n  B: {file: b.csv}\n"
+        "lights: [{led: {peak: 500, fwhm: 20}}]\noptics: [ideal]\ncameras: [cmos-visible]\n"
+    )
+    assert run(["predict", d / "s.yaml", "--no-kde"]) == 0
+    err = capsys.readouterr().err
+    assert (
+        "note: A (" in err
+        and "1 wavelengths invalid (white reference ≤ black) between 700 and 700 nm" in err
+    )

@@ -115,7 +115,7 @@ def led(
     name: str | None = None,
 ) -> Light:
     """A single-colour LED from its peak wavelength and FWHM, nm (Ohno 2005 model)."""
-    name = name or f"LED {peak:g} nm"
+    name = name or f"LED {peak:g} nm (model)"
     spd = Spectrum(
         grid,
         ohno_led_spd(grid, peak, fwhm),
