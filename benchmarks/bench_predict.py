@@ -124,12 +124,11 @@ def rows_grid_step():
 
     for name in ("paperboard", "chapter_table2"):
         sc = read_scene(ROOT / "sample_images/scenes" / name / "scene.yaml")
-        args = (list(sc.lights), list(sc.optics), list(sc.cameras), list(sc.classes))
-        ref = predict(*args, exposure=sc.exposure, grid=np.arange(380.0, 780.0 + 1e-9, 0.1))
+        ref = sc.predict(grid=np.arange(380.0, 780.0 + 1e-9, 0.1))
         for step in (1.0, 2.0, 5.0, 10.0):
             grid = np.arange(380.0, 780.0 + 1e-9, step)
             t0 = time.perf_counter()
-            got = predict(*args, exposure=sc.exposure, grid=grid)
+            got = sc.predict(grid=grid)
             elapsed = time.perf_counter() - t0
             d_snr = np.abs(got.snr_db - ref.snr_db)
             d_mu = np.max(np.abs(got.mean - ref.mean) / ref.mean)

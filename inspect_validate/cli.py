@@ -163,7 +163,6 @@ def predict(scene, json_path, top, rank_by, comparison, no_kde, plot_dir, render
     shot, dark and quantisation noise, clipped at saturation), SNR_dB (36),
     CNR, ε Gauss and ε KDE (37).
     """
-    from inspect_validate.model import predict as run_prediction
     from inspect_validate.report import write_json
     from inspect_validate.report.prediction import (
         format_prediction,
@@ -177,14 +176,7 @@ def predict(scene, json_path, top, rank_by, comparison, no_kde, plot_dir, render
         click.echo(f"note: {note}", err=True)
     by = rank_by or sc.rank_by
     comparison = comparison or sc.rank_comparison
-    result = run_prediction(
-        list(sc.lights),
-        list(sc.optics),
-        list(sc.cameras),
-        list(sc.classes),
-        exposure=sc.exposure,
-        grid=sc.grid,
-    )
+    result = sc.predict()
     rows = prediction_rows(result, by=by, comparison=comparison, top=top, kde=not no_kde)
     n = int(result.mean[..., 0].size)
     click.echo(

@@ -32,8 +32,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field
 
+from inspect_validate.config import load_yaml
 from inspect_validate.errors import InputError
 
 __all__ = ["Scene", "read_scene"]
@@ -95,6 +96,19 @@ class Scene:
     rank_by: str
     rank_comparison: str | None
 
+    def predict(self, *, grid: np.ndarray | None = None):
+        """:func:`inspect_validate.model.predict` for every combination of this scene."""
+        from inspect_validate.model import predict
+
+        return predict(
+            list(self.lights),
+            list(self.optics),
+            list(self.cameras),
+            list(self.classes),
+            exposure=self.exposure,
+            grid=self.grid if grid is None else grid,
+        )
+
     def notes(self) -> list[str]:
         """What was noticed while reading the spectra: masked wavelengths, clipped noise."""
         spectra = [(c.name, c.reflectance) for c in self.classes]
@@ -111,22 +125,10 @@ class Scene:
 
 def read_scene(path: str | Path) -> Scene:
     """Read and validate a scene file; every error names the file and field."""
-    import yaml
-
     from inspect_validate.model import Exposure
 
     path = Path(path)
-    if not path.is_file():
-        raise InputError("scene file not found", source=str(path))
-    try:
-        doc = yaml.safe_load(path.read_text())
-    except (yaml.YAMLError, UnicodeDecodeError) as exc:
-        raise InputError(f"not valid YAML: {exc}", source=str(path)) from None
-    try:
-        model = _Scene.model_validate(doc)
-    except ValidationError as exc:
-        msg = "; ".join(f"{'.'.join(map(str, e['loc']))}: {e['msg']}" for e in exc.errors())
-        raise InputError(msg, source=str(path)) from None
+    model = load_yaml(path, _Scene, what="scene file")
     base = path.parent
     from inspect_validate.components.geometry import Geometry
 

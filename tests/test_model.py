@@ -120,14 +120,7 @@ def test_ranking_and_table2_pattern():
     from inspect_validate.scene import read_scene
 
     sc = read_scene(ROOT / "sample_images/scenes/chapter_table2/scene.yaml")
-    p = predict(
-        list(sc.lights),
-        list(sc.optics),
-        list(sc.cameras),
-        list(sc.classes),
-        exposure=sc.exposure,
-        grid=sc.grid,
-    )
+    p = sc.predict()
     err = p.error_gaussian[..., 0]
     led_errors, daylight = err[1].ravel(), err[0].ravel()
     # Table 2: LED errors small and nearly constant, daylight errors spread widely.
@@ -143,14 +136,7 @@ def test_paperboard_amber_beats_red():
     from inspect_validate.scene import read_scene
 
     sc = read_scene(ROOT / "sample_images/scenes/paperboard/scene.yaml")
-    p = predict(
-        list(sc.lights),
-        list(sc.optics),
-        list(sc.cameras),
-        list(sc.classes),
-        exposure=sc.exposure,
-        grid=sc.grid,
-    )
+    p = sc.predict()
     order, key, _ = rank(p, comparison="A vs B,C")
     assert p.lights[order[0][0]] == "amber LED" and key[0] * 5 < key[1]
 

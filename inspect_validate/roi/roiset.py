@@ -28,6 +28,7 @@ from typing import Annotated, Any
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
+from inspect_validate.config import explain, load_yaml
 from inspect_validate.errors import InputError
 from inspect_validate.roi.shapes import Ellipse, MaskImage, Polygon, Rect, Shape, rasterise
 
@@ -97,16 +98,7 @@ def read_rois(path: str | Path) -> RoiSet:
         for shape, name, where in _imagej_shapes(path):
             by_class.setdefault(name.split(":")[0].strip() or name, []).append((shape, where))
         return RoiSet(tuple(ClassRoi(n, tuple(s)) for n, s in by_class.items()), str(path))
-    import yaml
-
-    try:
-        doc = yaml.safe_load(path.read_text())
-    except (yaml.YAMLError, UnicodeDecodeError) as exc:
-        raise InputError(f"not valid YAML: {exc}", source=str(path)) from None
-    try:
-        model = _FileModel.model_validate(doc)
-    except ValidationError as exc:
-        raise InputError(_explain(exc), source=str(path)) from None
+    model = load_yaml(path, _FileModel, what="ROI file")
     if model.version != 1:
         raise InputError(
             f"ROI file version {model.version} is not supported (1 is)", source=str(path)
@@ -123,16 +115,6 @@ def read_rois(path: str | Path) -> RoiSet:
     return RoiSet(tuple(classes), str(path))
 
 
-def _explain(exc: ValidationError) -> str:
-    parts = []
-    for err in exc.errors():
-        loc = ".".join(
-            str(p) for p in err["loc"] if p not in ("_ClassModel", "list[dict[str,any]]")
-        )
-        parts.append(f"{loc}: {err['msg']}")
-    return "; ".join(parts)
-
-
 def _parse_shape(raw, base: Path, where: str) -> list[tuple[Shape, str]]:
     if not isinstance(raw, dict) or len(raw) != 1 or next(iter(raw)) not in _SHAPE_KEYS:
         raise InputError(
@@ -144,7 +126,7 @@ def _parse_shape(raw, base: Path, where: str) -> list[tuple[Shape, str]]:
     try:
         m = _ShapeModel.model_validate(raw)
     except ValidationError as exc:
-        raise InputError(f"{kind}: {_explain(exc)}", source=where) from None
+        raise InputError(f"{kind}: {explain(exc)}", source=where) from None
     where = f"{where} ({kind})"
     if kind == "rect":
         return [(Rect(*m.rect), where)]
