@@ -1,0 +1,50 @@
+"""The LED controller interface: channels with an intensity in percent."""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+
+__all__ = ["LedController"]
+
+
+class LedController(ABC):
+    """A light controller with numbered output channels (1-based).
+
+    Implementations raise :class:`~inspect_validate.errors.DeviceError` with the
+    device, the command and what to check whenever the controller does not
+    confirm a command. Usable as a context manager (closes and, if asked,
+    switches all channels off).
+    """
+
+    name: str = "controller"
+    channels: int = 1
+
+    @abstractmethod
+    def set_intensity(self, channel: int, percent: float) -> None:
+        """Continuous output at ``percent`` (0–100) on ``channel``; 0 is off."""
+
+    def pulse(self, channel: int, *, width_us: float, delay_us: float, percent: float) -> None:
+        """Strobe ``channel`` on each trigger: ``width_us`` long after ``delay_us``."""
+        raise NotImplementedError(f"{self.name} has no pulse mode")
+
+    def status(self) -> str:
+        """The controller's own status text."""
+        return ""
+
+    def all_off(self) -> None:
+        for ch in range(1, self.channels + 1):
+            self.set_intensity(ch, 0.0)
+
+    def apply(self, setting: dict[int, float]) -> None:
+        """Set the given channels and switch every other channel off."""
+        for ch in range(1, self.channels + 1):
+            self.set_intensity(ch, float(setting.get(ch, 0.0)))
+
+    def close(self) -> None:  # noqa: B027 - optional for controllers without a connection
+        """Release the connection."""
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()

@@ -1,0 +1,147 @@
+"""A simulated Gardasoft RT controller: a separate process on a pseudo-terminal.
+
+Code under test opens the printed device path with pyserial exactly as it would
+open ``/dev/ttyUSB0``; this process answers in the RT protocol
+(:mod:`camera.lights.gardasoft`) and writes the channel state to a JSON file
+(atomically, on every change) that the simulated camera reads to know which
+light is on.
+
+Run: ``python -m camera.lights.simulator --state STATE.json [--channels 4]``;
+the first line on stdout is the device path. Faults for tests:
+
+* ``--error CMD:CODE``: answer ``Err CODE`` to commands starting with CMD
+  (e.g. ``RS3:3``), repeatable;
+* ``--slow SECONDS``: answer late;
+* ``--mute-after N``: stop answering after N command lines;
+* ``--garbage-after N``: answer with non-ASCII bytes and no prompt after N;
+* ``--vanish-after N``: exit (the port disappears) after N command lines.
+
+Its own error codes: 1 unknown command, 2 malformed parameters, 3 value out of range.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+import tty
+from pathlib import Path
+
+UNKNOWN, MALFORMED, RANGE = 1, 2, 3
+
+
+class Controller:
+    def __init__(self, channels: int, state_path: Path, errors: dict[str, int]):
+        self.channels = channels
+        self.state_path = state_path
+        self.errors = errors
+        self.level = dict.fromkeys(range(1, channels + 1), 0.0)
+        self.mode = dict.fromkeys(range(1, channels + 1), "continuous")
+        self.sequence = 0
+        self.save()
+
+    def save(self) -> None:
+        self.sequence += 1
+        doc = {
+            "channels": {str(c): v for c, v in self.level.items()},
+            "mode": {str(c): m for c, m in self.mode.items()},
+            "sequence": self.sequence,
+            "time_ns": time.time_ns(),
+        }
+        tmp = self.state_path.with_suffix(".tmp")
+        tmp.write_text(json.dumps(doc))
+        os.replace(tmp, self.state_path)
+
+    def command(self, text: str) -> str:
+        cmd = text.strip().upper()
+        for prefix, code in self.errors.items():
+            if cmd.startswith(prefix):
+                return f"Err {code}"
+        head, args = cmd[:2], cmd[2:]
+        try:
+            values = [float(a) for a in args.split(",")] if args else []
+        except ValueError:
+            return f"Err {MALFORMED}"
+        if head in ("RS", "RW"):
+            if len(values) != 2:
+                return f"Err {MALFORMED}"
+            ch, pct = int(values[0]), values[1]
+            if ch not in self.level or not 0 <= pct <= 100:
+                return f"Err {RANGE}"
+            self.level[ch], self.mode[ch] = pct, "continuous"
+            self.save()
+            return ""
+        if head == "RT":
+            if len(values) != 4:
+                return f"Err {MALFORMED}"
+            ch = int(values[0])
+            if ch not in self.level or not 0 <= values[3] <= 100:
+                return f"Err {RANGE}"
+            self.level[ch], self.mode[ch] = values[3], "pulse"
+            self.save()
+            return ""
+        if head == "TR":
+            return "" if values and int(values[0]) in self.level else f"Err {RANGE}"
+        if cmd == "ST" or head == "ST":
+            return "\r\n".join(f"CH{c} {self.mode[c]} {self.level[c]:g}%" for c in self.level)
+        if cmd == "VR":
+            return "RT-simulated (inspect-validate) 1.0"
+        return f"Err {UNKNOWN}"
+
+
+def serve(master: int, controller: Controller, args) -> None:
+    pending = b""
+    lines = 0
+    while True:
+        try:
+            data = os.read(master, 4096)
+        except OSError:
+            return
+        if not data:
+            return
+        pending += data
+        while b"\r" in pending:
+            raw, pending = pending.split(b"\r", 1)
+            raw = raw.strip(b"\n")
+            if not raw:
+                continue
+            lines += 1
+            if args.vanish_after is not None and lines > args.vanish_after:
+                os._exit(0)
+            if args.mute_after is not None and lines > args.mute_after:
+                continue
+            if args.garbage_after is not None and lines > args.garbage_after:
+                os.write(master, b"\xff\xfe\x00\x80garbage")
+                continue
+            if args.slow:
+                time.sleep(args.slow)
+            replies = [controller.command(c) for c in raw.decode("ascii", "replace").split(";")]
+            text = "\r\n".join(r for r in replies if r)
+            os.write(master, (text + "\r\n" if text else "").encode() + b">")
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--state", type=Path, required=True)
+    parser.add_argument("--channels", type=int, default=4)
+    parser.add_argument("--error", action="append", default=[], metavar="CMD:CODE")
+    parser.add_argument("--slow", type=float, default=0.0)
+    parser.add_argument("--mute-after", type=int)
+    parser.add_argument("--garbage-after", type=int)
+    parser.add_argument("--vanish-after", type=int)
+    args = parser.parse_args(argv)
+    errors = {}
+    for item in args.error:
+        prefix, code = item.rsplit(":", 1)
+        errors[prefix.upper()] = int(code)
+    master, slave = os.openpty()
+    tty.setraw(slave)  # no echo, no line editing: bytes pass as a serial line would
+    controller = Controller(args.channels, args.state, errors)
+    print(os.ttyname(slave), flush=True)
+    serve(master, controller, args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
