@@ -65,7 +65,7 @@ def cli():
 )
 @click.option("--no-kde", is_flag=True, help="Skip the nonparametric (kernel density) error.")
 def measure(frames, rois, dark, json_path, saturation_level, max_saturated, max_zero, no_kde):
-    """Measure object classes in FRAMES (one setting; several files make a stack).
+    """Measure object classes in FRAMES (one setting; several files, a folder or a quoted glob make a stack).
 
     Prints per-class μ and σ² (chapter Table 4) and, for every pair of classes
     and every class against the rest, SNR_dB (36), CNR, Fisher ratio and the
@@ -299,12 +299,57 @@ def analyze_spectra(scene, json_path, plot_path, best, no_kde):
         click.echo(f"wrote {plot_spectral_errors(sep, plot_path)}")
 
 
+@cli.command()
+@click.argument("station", type=_PATH)
+@click.option(
+    "--out",
+    "out",
+    type=_PATH,
+    required=True,
+    help="Folder for the frames (TIFF + JSON sidecars) and the manifest.",
+)
+@click.option(
+    "--resume",
+    is_flag=True,
+    help="Continue an interrupted capture in --out, skipping finished steps.",
+)
+def capture(station, out, resume):
+    """Capture every illumination of STATION (and dark frames), verified and saved as they come.
+
+    Switches each illumination, waits for the controller, discards frames
+    exposed before the switch, checks brightness is stable, and writes 16-bit
+    TIFFs with JSON sidecars atomically. Exits 3 on a camera or controller
+    failure, keeping every frame saved; rerun with --resume to continue.
+    """
+    from camera.capture import capture as run_capture
+    from camera.station import read_station
+
+    st = read_station(station)
+    total = sum(st.frames for _ in st.illuminations) + st.dark_frames
+    with click.progressbar(length=total, label="capturing", file=sys.stderr) as bar:
+        last = [0]
+
+        def progress(step, done, _total):
+            bar.label = f"capturing {step}"
+            bar.update(done - last[0])
+            last[0] = done
+
+        result = run_capture(st, out, resume=resume, progress=progress)
+    for step, n in result.steps.items():
+        click.echo(f"{step}: {n} frames in {out / step}")
+    for step in result.skipped:
+        click.echo(f"{step}: already complete, skipped")
+    click.echo(f"manifest: {out / 'manifest.json'}")
+
+
 def main(argv=None):
     """Console entry point: run the CLI and map errors to documented exit codes."""
     try:
         cli.main(args=argv, prog_name="inspect-validate", standalone_mode=False)
-    except click.exceptions.Abort:
-        click.echo("aborted", err=True)
+    except (click.exceptions.Abort, KeyboardInterrupt):
+        click.echo(
+            "interrupted; frames saved so far are kept (capture: rerun with --resume)", err=True
+        )
         sys.exit(130)
     except click.ClickException as exc:
         exc.show()

@@ -7,13 +7,15 @@ monochrome inspection must not silently measure a colour conversion.
 
 from __future__ import annotations
 
+import glob
+import json
 from pathlib import Path
 
 import numpy as np
 
 from inspect_validate.errors import InputError
 
-__all__ = ["read_frames", "read_image"]
+__all__ = ["expand_paths", "read_frames", "read_image"]
 
 _TIFF = (".tif", ".tiff")
 _OPENCV = (".png", ".pgm", ".pnm", ".bmp", ".jpg", ".jpeg")
@@ -58,6 +60,17 @@ def read_image(path: str | Path) -> np.ndarray:
     return _monochrome(image, path)
 
 
+def _capture_step(path: Path) -> str | None:
+    """The capture step recorded in a frame's JSON sidecar, if it has one."""
+    sidecar = path.with_suffix(".json")
+    if path.suffix.lower() not in _TIFF or not sidecar.is_file():
+        return None
+    try:
+        return json.loads(sidecar.read_text()).get("step")
+    except (OSError, ValueError):
+        return None
+
+
 def _monochrome(image: np.ndarray, path: Path) -> np.ndarray:
     # Trailing axis of 3 or 4 is colour (RGB[A]) in every reader used here.
     if image.ndim >= 3 and image.shape[-1] in (3, 4):
@@ -74,14 +87,55 @@ def _monochrome(image: np.ndarray, path: Path) -> np.ndarray:
     return image
 
 
+_IMAGE_SUFFIXES = _TIFF + _OPENCV + (".npy",)
+
+
+def expand_paths(paths) -> list[Path]:
+    """Image paths from files, folders (their images, sorted) and quoted glob patterns.
+
+    A folder is what ``inspect-validate capture`` writes per step, so
+    ``measure out/amber --dark out/dark`` reads exactly one step's frames.
+    """
+    out = []
+    for raw in paths:
+        path = Path(raw)
+        if path.is_dir():
+            found = sorted(p for p in path.iterdir() if p.suffix.lower() in _IMAGE_SUFFIXES)
+            if not found:
+                raise InputError(
+                    "folder holds no images (TIFF, PNG, PGM, BMP, NPY)", source=str(path)
+                )
+            out += found
+        elif not path.exists() and any(c in str(raw) for c in "*?["):
+            found = sorted(Path(p) for p in glob.glob(str(raw)))
+            if not found:
+                raise InputError("pattern matches no file", source=str(raw))
+            out += found
+        else:
+            out.append(path)
+    return out
+
+
 def read_frames(paths) -> np.ndarray:
     """Read frames taken at one setting into one stack (N, H, W).
 
-    Each path may hold one frame or a stack; all frames must have the same size
-    and data type.
+    Paths may be files (one frame or a stack each), folders or glob patterns
+    (:func:`expand_paths`). All frames must have the same size and data type,
+    and frames written by a capture must all come from the same step.
     """
     stack, first = [], None
-    for path in paths:
+    steps: dict[str, Path] = {}
+    for path in expand_paths(paths):
+        step = _capture_step(path)
+        if step is not None:
+            steps.setdefault(step, path)
+            if len(steps) > 1:
+                (a, pa), (b, pb) = list(steps.items())[:2]
+                raise InputError(
+                    f"frames of capture step {b!r} mixed with step {a!r} ({pa}): one stack is one illumination; "
+                    "give dark frames with --dark",
+                    source=str(pb),
+                )
         image = read_image(path)
         frames = image if image.ndim == 3 else image[np.newaxis]
         if first is None:

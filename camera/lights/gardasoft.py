@@ -30,6 +30,13 @@ __all__ = ["GardasoftController", "SerialAscii"]
 
 _ERR = re.compile(rb"Err\s*(\d+)")
 
+try:  # a vanished pseudo-terminal or USB adapter raises termios.error, not OSError
+    import termios
+
+    _PORT_ERRORS: tuple[type[BaseException], ...] = (OSError, termios.error)
+except ImportError:  # Windows
+    _PORT_ERRORS = (OSError,)
+
 
 class SerialAscii:
     """A line-oriented ASCII link: send a command, read until the prompt or an error.
@@ -65,7 +72,7 @@ class SerialAscii:
             self._serial = serial.Serial(
                 port, baudrate=baudrate, timeout=0.05, write_timeout=timeout
             )
-        except (serial.SerialException, OSError) as exc:
+        except (serial.SerialException, *_PORT_ERRORS) as exc:
             raise DeviceError(
                 f"{port}: cannot open the controller's serial port ({exc}); check the port name and that no other program holds it"
             ) from None
@@ -93,7 +100,7 @@ class SerialAscii:
                 raise DeviceError(
                     f"{self.port}: no answer to {command!r} within {self.timeout:g} s; check the cable, the port and that the controller is powered"
                 )
-        except (serial.SerialException, OSError) as exc:
+        except (serial.SerialException, *_PORT_ERRORS) as exc:
             raise DeviceError(
                 f"{self.port}: the connection failed while sending {command!r} ({exc}); the device may have been unplugged"
             ) from None
@@ -115,7 +122,7 @@ class SerialAscii:
     def close(self) -> None:
         try:
             self._serial.close()
-        except OSError:
+        except _PORT_ERRORS:
             pass
 
 

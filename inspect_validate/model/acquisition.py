@@ -101,6 +101,9 @@ class Prediction:
     fisher_db: np.ndarray
     error_gaussian: np.ndarray
     log_error_gaussian: np.ndarray
+    sample_electrons: (
+        np.ndarray
+    )  # mean μ_e per reflectance sample, before clipping, (L, O, C, S_total)
     sample_mean: np.ndarray  # DN per reflectance sample, (L, O, C, S_total)
     sample_variance: np.ndarray  # temporal DN² per sample, (L, O, C, S_total)
     sample_class: np.ndarray  # class index of each sample, (S_total,)
@@ -258,6 +261,7 @@ def predict(
         fisher_db=fisher_db(m1, v1, m2, v2),
         error_gaussian=eps,
         log_error_gaussian=log_eps,
+        sample_electrons=mu_e,
         sample_mean=clip_mean,
         sample_variance=clip_var,
         sample_class=sample_class,

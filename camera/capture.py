@@ -1,0 +1,151 @@
+"""Capture sequencing: every illumination of a station, verified, saved before any analysis.
+
+For each illumination (and finally the dark frames, all lights off):
+
+1. switch the controller and wait for its acknowledgement;
+2. discard frames exposed before the switch: frames whose exposure timestamp
+   (host clock) precedes the acknowledgement, and — for cameras on their own
+   clock — the pipeline's worth of frames;
+3. verify the kept frames are stable: their means agree within
+   ``brightness_tolerance`` (relative); a frame at the start that disagrees
+   with the next (the light still settling) is dropped and replaced, a jump
+   after two agreeing frames is an error;
+4. save each kept frame (16-bit TIFF + JSON sidecar, atomically) at once.
+
+Up to ``discard_max`` frames are dropped per step; beyond that the capture fails
+loudly rather than record a frame exposed under the wrong light. A failure or
+interruption keeps every frame saved so far, and ``resume`` continues with the
+first unfinished step.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from camera.station import Station, station_hash
+from camera.storage import CaptureStore
+from inspect_validate.errors import DeviceError
+
+__all__ = ["CaptureResult", "capture", "verified_frames"]
+
+
+@dataclass(frozen=True)
+class CaptureResult:
+    folder: Path
+    steps: dict[str, int]  # step → frames saved in this run
+    skipped: tuple[str, ...]  # steps already complete (resume)
+
+
+def verified_frames(
+    camera, n: int, *, switched_ns: int, discard_max: int, tolerance: float, timeout_s: float
+):
+    """Grab ``n`` frames exposed after ``switched_ns`` with stable brightness.
+
+    Kept frames must agree with each other (mean within ``tolerance``, relative).
+    While only one frame is kept, a disagreeing frame means the light is still
+    settling: the kept frame is dropped. Once two frames agree the level is
+    locked, and a disagreeing frame is a jump — an error, never recorded.
+
+    Returns the frames and how many were discarded.
+    """
+    discarded = 0
+    kept: list = []
+    while len(kept) < n:
+        frame = camera.grab(1, timeout_s=timeout_s)[0]
+        if frame.clock == "host" and frame.timestamp_ns < switched_ns:
+            discarded += 1  # exposed before the switch (camera pipeline)
+        elif not kept or _agrees(frame, kept, tolerance):
+            kept.append(frame)
+        elif len(kept) == 1:
+            discarded += 1  # still settling: start again from this frame
+            kept = [frame]
+        else:
+            means = [round(float(f.data.mean()), 1) for f in kept] + [
+                round(float(frame.data.mean()), 1)
+            ]
+            raise DeviceError(
+                f"{camera.name}: brightness jumps within a step (frame means {means}); "
+                "the light or exposure is unstable — check the controller and the ambient light"
+            )
+        if discarded > discard_max:
+            raise DeviceError(
+                f"{camera.name}: {discarded} frames were exposed before the light switch or while it settled; "
+                "nothing stable arrived — check that the controller really switches this light and the camera's frame rate"
+            )
+    return kept, discarded
+
+
+def _agrees(frame, kept, tolerance) -> bool:
+    ref = float(np.mean([f.data.mean() for f in kept]))
+    return abs(float(frame.data.mean()) - ref) <= tolerance * max(abs(ref), 1.0)
+
+
+def capture(station: Station, out: Path, *, resume: bool = False, progress=None) -> CaptureResult:
+    """Run the station's capture sequence into ``out``.
+
+    ``progress(step, done, total)`` is called after every saved frame.
+    """
+    from camera.devices import open_devices
+
+    store = CaptureStore(
+        out, station_path=station.path, station_sha256=station_hash(station.path), resume=resume
+    )
+    steps = [(i.name, dict(i.channels), station.frames) for i in station.illuminations]
+    if station.dark_frames:
+        steps.append(("dark", {}, station.dark_frames))
+    saved, skipped = {}, []
+    total = sum(n for _, _, n in steps)
+    done = 0
+    with open_devices(station) as (controller, camera):
+        cam = station.camera
+        camera.configure(
+            exposure_us=cam.exposure_us, gain_db=cam.gain_db, pixel_format=cam.pixel_format
+        )
+        try:
+            for name, setting, n in steps:
+                if store.is_complete(name):
+                    skipped.append(name)
+                    done += n
+                    continue
+                store.begin(name, {"channels": {str(k): v for k, v in setting.items()}})
+                try:
+                    controller.apply(setting)
+                    switched = time.monotonic_ns()
+                    frames, discarded = verified_frames(
+                        camera,
+                        n,
+                        switched_ns=switched,
+                        discard_max=station.discard_max,
+                        tolerance=station.brightness_tolerance,
+                        timeout_s=cam.timeout_s,
+                    )
+                except DeviceError as exc:
+                    store.fail(name, str(exc))
+                    raise
+                for i, frame in enumerate(frames, start=1):
+                    store.save(
+                        name,
+                        i,
+                        frame,
+                        {
+                            "step": name,
+                            "light_setting": {str(k): v for k, v in setting.items()},
+                            "discarded_before": discarded,
+                            "controller": controller.name,
+                        },
+                    )
+                    done += 1
+                    if progress:
+                        progress(name, done, total)
+                store.finish(name)
+                saved[name] = len(frames)
+        finally:
+            try:
+                controller.all_off()
+            except DeviceError:
+                pass  # the original error matters more; the frames are saved
+    return CaptureResult(Path(out), saved, tuple(skipped))

@@ -1,0 +1,111 @@
+"""Opening the camera and light controller a station file describes."""
+
+from __future__ import annotations
+
+import contextlib
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+from camera.station import Station
+from inspect_validate.errors import DeviceError, InputError
+
+__all__ = ["open_devices"]
+
+
+@contextlib.contextmanager
+def _simulated_controller(station: Station):
+    """Start the simulated Gardasoft process on a pseudo-terminal and talk to it over pyserial."""
+    from camera.lights import GardasoftController
+
+    with tempfile.TemporaryDirectory(prefix="iv-sim-") as tmp:
+        state = Path(tmp) / "state.json"
+        proc = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "camera.lights.simulator",
+                "--state",
+                str(state),
+                "--channels",
+                str(station.controller.channels),
+                *station.controller.simulator_args,
+            ],
+            stdout=subprocess.PIPE,
+            text=True,
+        )
+        try:
+            port = proc.stdout.readline().strip()
+            if not port:
+                raise DeviceError("the simulated controller did not start")
+            with GardasoftController(
+                port, channels=station.controller.channels, timeout=station.controller.timeout_s
+            ) as ctl:
+                yield ctl, state
+        finally:
+            proc.kill()
+            proc.wait()
+
+
+@contextlib.contextmanager
+def open_devices(station: Station):
+    """Yield (controller, camera) for the station, closing both afterwards."""
+    spec = station.controller
+    with contextlib.ExitStack() as stack:
+        state_path = None
+        if spec.backend == "simulated":
+            controller, state_path = stack.enter_context(_simulated_controller(station))
+        elif spec.backend == "gardasoft":
+            if not spec.port:
+                raise InputError(
+                    "controller.port is required for a Gardasoft controller",
+                    source=str(station.path),
+                )
+            from camera.lights import GardasoftController
+
+            controller = stack.enter_context(
+                GardasoftController(
+                    spec.port,
+                    channels=spec.channels,
+                    timeout=spec.timeout_s,
+                    error_codes=spec.error_codes,
+                )
+            )
+        else:
+            from camera.lights.manual import ManualController
+
+            controller = stack.enter_context(ManualController(channels=spec.channels))
+        camera = stack.enter_context(_open_camera(station, state_path))
+        yield controller, camera
+
+
+def _open_camera(station: Station, state_path: Path | None):
+    spec = station.camera
+    if spec.backend == "simulated":
+        if state_path is None:
+            raise InputError(
+                "the simulated camera needs the simulated controller (controller.backend: simulated)",
+                source=str(station.path),
+            )
+        if not spec.scene:
+            raise InputError(
+                "camera.scene is required for the simulated camera", source=str(station.path)
+            )
+        from camera.grabbers.simulated import SimulatedCamera
+        from inspect_validate.scene import read_scene
+
+        scene = read_scene(station.resolve(spec.scene))
+        return SimulatedCamera(
+            scene,
+            spec.channels,
+            state_path,
+            irradiance=spec.channel_irradiance,
+            width=spec.width,
+            height=spec.height,
+            latency=spec.latency,
+        )
+    raise InputError(
+        f"camera backend {spec.backend!r} is not available in this build yet",
+        source=str(station.path),
+    )

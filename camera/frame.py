@@ -1,0 +1,49 @@
+"""A grabbed frame and its metadata."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+__all__ = ["Frame"]
+
+
+@dataclass(frozen=True, eq=False)
+class Frame:
+    """One monochrome frame, owning its pixels.
+
+    Attributes
+    ----------
+    data : ndarray of uint8 or uint16, shape (H, W)
+    frame_id : int
+        The camera's frame counter (or block id).
+    timestamp_ns : int
+        When the exposure started, ns, on the host's monotonic clock where the
+        camera's own clock cannot be related to it (see ``clock``).
+    exposure_us, gain_db : float or None
+        The settings read back from the camera; None where it has no such node.
+    pixel_format : str
+    bit_depth : int
+    device : str
+    clock : str
+        ``"host"`` (time.monotonic_ns on arrival) or ``"device"``.
+    """
+
+    data: np.ndarray
+    frame_id: int
+    timestamp_ns: int
+    exposure_us: float | None
+    gain_db: float | None
+    pixel_format: str
+    bit_depth: int
+    device: str
+    clock: str = "host"
+    extra: dict = field(default_factory=dict)
+
+    def metadata(self) -> dict:
+        d = asdict(self)
+        d.pop("data")
+        d["shape"] = list(self.data.shape)
+        d["dtype"] = str(self.data.dtype)
+        return d

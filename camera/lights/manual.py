@@ -1,0 +1,37 @@
+"""Manual light switching: the operator is asked to set each illumination."""
+
+from __future__ import annotations
+
+import sys
+
+from camera.lights.base import LedController
+
+__all__ = ["ManualController"]
+
+
+class ManualController(LedController):
+    """For stations without a controller: prompts on the terminal and waits for Enter."""
+
+    def __init__(self, *, channels: int = 4, prompt=None):
+        self.name = "manual switching"
+        self.channels = channels
+        self._prompt = prompt or (lambda text: input(text))
+        self._last: dict[int, float] | None = None
+
+    def set_intensity(self, channel: int, percent: float) -> None:
+        self.apply({channel: percent})
+
+    def apply(self, setting: dict[int, float]) -> None:
+        setting = {c: v for c, v in setting.items() if v}
+        if setting == self._last:
+            return
+        what = (
+            ", ".join(f"channel {c} at {v:g} %" for c, v in sorted(setting.items()))
+            or "all lights OFF"
+        )
+        print(f"\nSet the lights: {what}", file=sys.stderr)
+        self._prompt("Press Enter when done… ")
+        self._last = setting
+
+    def all_off(self) -> None:
+        self.apply({})

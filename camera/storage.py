@@ -1,0 +1,128 @@
+"""Capture storage: 16-bit TIFF frames with JSON sidecars, written atomically, resumable.
+
+Layout of ``--out DIR``::
+
+    manifest.json               station, its hash, tool version, steps done
+    <step>/frame_0001.tif       the frame (uint8/uint16, as grabbed)
+    <step>/frame_0001.json      its metadata: camera settings, light state, times
+    <step>/partial-<time>/      frames of an interrupted step, kept, never deleted
+
+Each file is written to a temporary name and renamed, so a file that exists is
+complete; a frame counts once its sidecar exists.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import tempfile
+import time
+from pathlib import Path
+
+from camera.frame import Frame
+from inspect_validate import __version__
+from inspect_validate.errors import InputError
+
+__all__ = ["CaptureStore"]
+
+
+def _atomic_write(path: Path, write) -> None:
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            write(f)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+class CaptureStore:
+    """The output folder of one capture of one station file."""
+
+    def __init__(self, folder: Path, *, station_path: Path, station_sha256: str, resume: bool):
+        self.folder = Path(folder)
+        self.manifest_path = self.folder / "manifest.json"
+        if self.manifest_path.exists():
+            manifest = json.loads(self.manifest_path.read_text())
+            if manifest.get("station_sha256") != station_sha256:
+                raise InputError(
+                    "this folder holds a capture of a different station file; use a new --out folder or the original station file",
+                    source=str(self.folder),
+                )
+            if not resume:
+                raise InputError(
+                    "a capture is already here; add --resume to continue it, or choose a new --out folder",
+                    source=str(self.folder),
+                )
+            self.manifest = manifest
+        else:
+            self.folder.mkdir(parents=True, exist_ok=True)
+            self.manifest = {
+                "schema": "inspect-validate/capture",
+                "schema_version": 1,
+                "station": str(station_path),
+                "station_sha256": station_sha256,
+                "tool_version": __version__,
+                "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+                "steps": {},
+            }
+            self._save_manifest()
+
+    def _save_manifest(self) -> None:
+        _atomic_write(
+            self.manifest_path, lambda f: f.write(json.dumps(self.manifest, indent=2).encode())
+        )
+
+    def is_complete(self, step: str) -> bool:
+        return bool(self.manifest["steps"].get(step, {}).get("complete"))
+
+    def begin(self, step: str, info: dict) -> Path:
+        """Start (or restart) a step; frames of an earlier, unfinished attempt are moved aside."""
+        folder = self.folder / step
+        old = sorted(folder.glob("frame_*")) if folder.exists() else []
+        if old:
+            aside = folder / f"partial-{time.strftime('%Y%m%dT%H%M%S')}"
+            aside.mkdir()
+            for p in old:
+                p.rename(aside / p.name)
+        folder.mkdir(parents=True, exist_ok=True)
+        self.manifest["steps"][step] = {"complete": False, "frames": 0, **info}
+        self._save_manifest()
+        return folder
+
+    def save(self, step: str, index: int, frame: Frame, info: dict) -> Path:
+        import tifffile
+
+        folder = self.folder / step
+        tif = folder / f"frame_{index:04d}.tif"
+        meta = {
+            **frame.metadata(),
+            **info,
+            "file": tif.name,
+            "station_sha256": self.manifest["station_sha256"],
+            "tool_version": __version__,
+            "saved": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+        }
+        encoded = io.BytesIO()  # tifffile needs a named file or a buffer, not a raw fd
+        tifffile.imwrite(
+            encoded, frame.data, photometric="minisblack", description=json.dumps(meta)
+        )
+        _atomic_write(tif, lambda f: f.write(encoded.getvalue()))
+        _atomic_write(
+            tif.with_suffix(".json"), lambda f: f.write(json.dumps(meta, indent=2).encode())
+        )
+        self.manifest["steps"][step]["frames"] = index
+        self._save_manifest()
+        return tif
+
+    def finish(self, step: str) -> None:
+        self.manifest["steps"][step]["complete"] = True
+        self._save_manifest()
+
+    def fail(self, step: str, message: str) -> None:
+        self.manifest["steps"].setdefault(step, {})["error"] = message
+        self._save_manifest()

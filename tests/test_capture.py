@@ -1,0 +1,161 @@
+"""Capture on the simulated station (simulated Gardasoft process on a pty + model-rendered camera)."""
+
+import json
+import re
+import shutil
+
+import numpy as np
+import pytest
+from conftest import ROOT
+
+from camera.capture import verified_frames
+from camera.frame import Frame
+from inspect_validate.cli import main
+from inspect_validate.errors import DeviceError
+
+STATION = ROOT / "sample_images" / "station"
+
+
+def run(argv):
+    with pytest.raises(SystemExit) as info:
+        main([str(a) for a in argv])
+    return info.value.code
+
+
+def station_copy(tmp_path, **controller_extra):
+    """The shipped station, copied with its scene reference made absolute, plus controller options."""
+    text = (
+        (STATION / "station.yaml")
+        .read_text()
+        .replace("../scenes/", f"{ROOT / 'sample_images' / 'scenes'}/")
+    )
+    if controller_extra:
+        extra = "".join(f"  {k}: {json.dumps(v)}\n" for k, v in controller_extra.items())
+        text = text.replace(
+            "controller:\n  backend: simulated\n", "controller:\n  backend: simulated\n" + extra
+        )
+    path = tmp_path / "station.yaml"
+    path.write_text(text)
+    shutil.copy(STATION / "rois.yaml", tmp_path / "rois.yaml")
+    return path
+
+
+def test_capture_then_measure_on_the_simulated_station(tmp_path, capsys):
+    out = tmp_path / "cap"
+    assert run(["capture", STATION / "station.yaml", "--out", out]) == 0
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert all(manifest["steps"][s]["complete"] for s in ("amber", "red", "dark"))
+    for step, lights in (
+        ("amber", {"1": 100.0, "2": 0.0}),
+        ("red", {"1": 0.0, "2": 100.0}),
+        ("dark", {"1": 0.0, "2": 0.0}),
+    ):
+        sidecars = sorted((out / step).glob("frame_*.json"))
+        assert len(sidecars) == 4 and len(list((out / step).glob("frame_*.tif"))) == 4
+        for sc in sidecars:
+            meta = json.loads(sc.read_text())
+            # Every kept frame was exposed under this step's light, after the switch.
+            assert (
+                meta["extra"]["lights"] == lights
+                and meta["station_sha256"] == manifest["station_sha256"]
+            )
+        assert json.loads(sidecars[0].read_text())["discarded_before"] >= (
+            2 if step != "amber" else 0
+        )
+    # The camera's pipeline holds 2 frames: a capture that did not discard would have recorded them.
+    doc = tmp_path / "m.json"
+    assert (
+        run(
+            [
+                "measure",
+                out / "amber",
+                "--dark",
+                out / "dark",
+                "--rois",
+                STATION / "rois.yaml",
+                "--json",
+                doc,
+            ]
+        )
+        == 0
+    )
+    classes = {c["name"]: c for c in json.loads(doc.read_text())["classes"]}
+    assert classes["A"]["mean"] > classes["C"]["mean"] > classes["B"]["mean"]  # amber separates A
+    assert classes["A"]["temporal_variance"] > 0 and classes["A"]["n_frames"] == 4
+
+
+def test_controller_vanishing_keeps_frames_and_resume_finishes(tmp_path, capsys):
+    station = station_copy(tmp_path, simulator_args=["--vanish-after", "3"])
+    out = tmp_path / "cap"
+    assert run(["capture", station, "--out", out]) == 3
+    err = capsys.readouterr().err
+    assert re.search(r"error: /dev/pts/\d+: ", err)
+    amber = sorted((out / "amber").glob("frame_*.tif"))
+    assert len(amber) == 4
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["steps"]["amber"]["complete"] and "error" in manifest["steps"]["red"]
+    before = [p.read_bytes() for p in amber]
+    # Each run's simulator vanishes after 3 commands again; resuming makes progress every time.
+    codes = [run(["capture", station, "--out", out, "--resume"]) for _ in range(2)]
+    assert codes[-1] == 0 and [p.read_bytes() for p in amber] == before
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert all(manifest["steps"][s]["complete"] for s in ("amber", "red", "dark"))
+
+
+def test_err_reply_names_the_command_and_keeps_frames(tmp_path, capsys):
+    station = station_copy(tmp_path, simulator_args=["--error", "RS2,100:3"])
+    out = tmp_path / "cap"
+    assert run(["capture", station, "--out", out]) == 3
+    assert "answered 'Err 3' to 'RS2,100'" in capsys.readouterr().err
+    assert len(list((out / "amber").glob("frame_*.tif"))) == 4
+
+
+def test_existing_capture_needs_resume_and_the_same_station(tmp_path, capsys):
+    station = station_copy(tmp_path)
+    out = tmp_path / "cap"
+    assert run(["capture", station, "--out", out]) == 0
+    assert run(["capture", station, "--out", out]) == 2
+    assert "add --resume" in capsys.readouterr().err
+    station.write_text(station.read_text().replace("frames: 4", "frames: 5"))
+    assert run(["capture", station, "--out", out, "--resume"]) == 2
+    assert "different station file" in capsys.readouterr().err
+
+
+def test_bad_station_file_names_the_field(tmp_path, capsys):
+    bad = tmp_path / "s.yaml"
+    bad.write_text(
+        "camera: {backend: simulated}\ncontroller: {backend: telepathy}\nilluminations: []\n"
+    )
+    assert run(["capture", bad, "--out", tmp_path / "o"]) == 2
+    err = capsys.readouterr().err
+    assert "controller.backend" in err and "illuminations" in err
+
+
+class FakeCamera:
+    """Frames with given (timestamp, mean) — the verification logic only; real devices are tested above."""
+
+    name = "fake"
+
+    def __init__(self, frames):
+        self.frames = list(frames)
+
+    def grab(self, n, *, timeout_s=1.0):
+        stamp, mean = self.frames.pop(0)
+        return [Frame(np.full((4, 4), mean, np.uint16), 0, stamp, None, None, "Mono16", 16, "fake")]
+
+
+def test_verification_discards_stale_and_settling_frames():
+    cam = FakeCamera([(5, 10), (6, 10), (20, 50), (21, 100), (22, 100), (23, 100)])
+    frames, discarded = verified_frames(
+        cam, 3, switched_ns=10, discard_max=5, tolerance=0.02, timeout_s=1
+    )
+    assert [f.data.mean() for f in frames] == [100, 100, 100] and discarded == 3
+
+
+def test_verification_fails_loudly():
+    stale = FakeCamera([(1, 10)] * 10)
+    with pytest.raises(DeviceError, match="exposed before the light switch"):
+        verified_frames(stale, 2, switched_ns=10, discard_max=3, tolerance=0.02, timeout_s=1)
+    jumpy = FakeCamera([(20, 100), (21, 100), (22, 160), (23, 100), (24, 100)])
+    with pytest.raises(DeviceError, match="brightness jumps within a step"):
+        verified_frames(jumpy, 5, switched_ns=10, discard_max=3, tolerance=0.02, timeout_s=1)
