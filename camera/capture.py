@@ -4,8 +4,8 @@ For each illumination (and finally the dark frames, all lights off):
 
 1. switch the controller and wait for its acknowledgement;
 2. discard frames exposed before the switch: frames whose exposure timestamp
-   (host clock) precedes the acknowledgement, and — for cameras on their own
-   clock — the pipeline's worth of frames;
+   (host clock) precedes the acknowledgement or, for cameras whose timestamps
+   cannot show that, the station's ``flush_frames`` after the switch;
 3. verify the kept frames are stable: their means agree within
    ``brightness_tolerance`` (relative); a frame at the start that disagrees
    with the next (the light still settling) is dropped and replaced, a jump
@@ -41,10 +41,20 @@ class CaptureResult:
 
 
 def verified_frames(
-    camera, n: int, *, switched_ns: int, discard_max: int, tolerance: float, timeout_s: float
+    camera,
+    n: int,
+    *,
+    switched_ns: int,
+    discard_max: int,
+    tolerance: float,
+    timeout_s: float,
+    flush: int = 4,
 ):
     """Grab ``n`` frames exposed after ``switched_ns`` with stable brightness.
 
+    Frames whose timestamp is the exposure start on the host clock are kept
+    only if exposed after ``switched_ns``; frames on other clocks cannot prove
+    that, so the first ``flush`` frames after the switch are dropped.
     Kept frames must agree with each other (mean within ``tolerance``, relative).
     While only one frame is kept, a disagreeing frame means the light is still
     settling: the kept frame is dropped. Once two frames agree the level is
@@ -54,10 +64,14 @@ def verified_frames(
     """
     discarded = 0
     kept: list = []
+    flushed = 0
     while len(kept) < n:
         frame = camera.grab(1, timeout_s=timeout_s)[0]
-        if frame.clock == "host" and frame.timestamp_ns < switched_ns:
+        if frame.clock == "exposure" and frame.timestamp_ns < switched_ns:
             discarded += 1  # exposed before the switch (camera pipeline)
+        elif frame.clock != "exposure" and flushed < flush:
+            flushed += 1
+            discarded += 1  # may still be in the pipeline from before the switch
         elif not kept or _agrees(frame, kept, tolerance):
             kept.append(frame)
         elif len(kept) == 1:
@@ -122,6 +136,7 @@ def capture(station: Station, out: Path, *, resume: bool = False, progress=None)
                         discard_max=station.discard_max,
                         tolerance=station.brightness_tolerance,
                         timeout_s=cam.timeout_s,
+                        flush=cam.flush_frames,
                     )
                 except DeviceError as exc:
                     store.fail(name, str(exc))

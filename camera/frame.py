@@ -27,7 +27,11 @@ class Frame:
     bit_depth : int
     device : str
     clock : str
-        ``"host"`` (time.monotonic_ns on arrival) or ``"device"``.
+        What ``timestamp_ns`` is: ``"exposure"`` (host monotonic clock at the
+        start of the exposure — comparable with the time of a light switch),
+        ``"arrival"`` (host monotonic clock when the frame arrived) or
+        ``"device"`` (the camera's own clock). Only ``"exposure"`` proves a frame
+        was exposed after a switch; for the others the capture flushes frames.
     """
 
     data: np.ndarray
@@ -38,7 +42,7 @@ class Frame:
     pixel_format: str
     bit_depth: int
     device: str
-    clock: str = "host"
+    clock: str = "arrival"
     extra: dict = field(default_factory=dict)
 
     def metadata(self) -> dict:

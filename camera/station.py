@@ -40,6 +40,9 @@ class CameraSpec(BaseModel):
     gain_db: float | None = None
     pixel_format: str | None = None
     timeout_s: float = Field(default=2.0, gt=0)
+    flush_frames: int = Field(
+        default=4, ge=0
+    )  # dropped after a switch when timestamps cannot prove the exposure time
     # genicam / pylon
     cti: str | None = None
     serial: str | None = None

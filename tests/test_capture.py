@@ -136,12 +136,25 @@ class FakeCamera:
 
     name = "fake"
 
-    def __init__(self, frames):
+    def __init__(self, frames, clock="exposure"):
         self.frames = list(frames)
+        self.clock = clock
 
     def grab(self, n, *, timeout_s=1.0):
         stamp, mean = self.frames.pop(0)
-        return [Frame(np.full((4, 4), mean, np.uint16), 0, stamp, None, None, "Mono16", 16, "fake")]
+        return [
+            Frame(
+                np.full((4, 4), mean, np.uint16),
+                0,
+                stamp,
+                None,
+                None,
+                "Mono16",
+                16,
+                "fake",
+                self.clock,
+            )
+        ]
 
 
 def test_verification_discards_stale_and_settling_frames():
@@ -159,3 +172,12 @@ def test_verification_fails_loudly():
     jumpy = FakeCamera([(20, 100), (21, 100), (22, 160), (23, 100), (24, 100)])
     with pytest.raises(DeviceError, match="brightness jumps within a step"):
         verified_frames(jumpy, 5, switched_ns=10, discard_max=3, tolerance=0.02, timeout_s=1)
+
+
+def test_frames_without_exposure_timestamps_are_flushed():
+    # Four old frames but a flush of three: the settling rule drops the fourth.
+    cam = FakeCamera([(0, 10)] * 4 + [(0, 100)] * 3, clock="arrival")
+    frames, discarded = verified_frames(
+        cam, 2, switched_ns=10, discard_max=5, tolerance=0.02, timeout_s=1, flush=3
+    )
+    assert [f.data.mean() for f in frames] == [100, 100] and discarded == 4

@@ -178,6 +178,6 @@ class SimulatedCamera(Grabber):
             "Mono16",
             cam.bit_depth,
             self.name,
-            "host",
+            "exposure",
             {"lights": state},
         )
