@@ -98,10 +98,14 @@ def _agrees(frame, kept, tolerance) -> bool:
     return abs(float(frame.data.mean()) - ref) <= tolerance * max(abs(ref), 1.0)
 
 
-def capture(station: Station, out: Path, *, resume: bool = False, progress=None) -> CaptureResult:
+def capture(
+    station: Station, out: Path, *, resume: bool = False, progress=None, devices=None
+) -> CaptureResult:
     """Run the station's capture sequence into ``out``.
 
     ``progress(step, done, total)`` is called after every saved frame.
+    ``devices`` replaces the station's camera and controller with a context
+    manager yielding ``(controller, camera)`` (other setups, tests).
     """
     from camera.devices import open_devices
 
@@ -114,7 +118,7 @@ def capture(station: Station, out: Path, *, resume: bool = False, progress=None)
     saved, skipped = {}, []
     total = sum(n for _, _, n in steps)
     done = 0
-    with open_devices(station) as (controller, camera):
+    with devices if devices is not None else open_devices(station) as (controller, camera):
         cam = station.camera
         camera.configure(
             exposure_us=cam.exposure_us, gain_db=cam.gain_db, pixel_format=cam.pixel_format

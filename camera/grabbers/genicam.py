@@ -1,0 +1,199 @@
+"""GenICam cameras through harvesters (GenTL consumer).
+
+* The producer (``.cti``) comes from the station file, else from
+  ``GENICAM_GENTL64_PATH`` (every ``.cti`` in its folders).
+* Every fetch has a timeout; a frame's pixels are copied (packed formats
+  unpacked by :mod:`camera.pixelformats`) before the buffer is re-queued.
+* Width, Height, PixelFormat and the region are locked while acquiring:
+  acquisition is stopped to change them.
+* Nodes a device lacks (e.g. no ExposureTime) are listed in ``missing`` and the
+  frame records None for them; the capture goes on.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from pathlib import Path
+
+from camera.frame import Frame
+from camera.grabbers.base import Grabber
+from camera.pixelformats import BIT_DEPTH, packed_size, unpack
+from inspect_validate.errors import DeviceError
+
+__all__ = ["GenICamCamera", "find_producers"]
+
+_EXPOSURE_NODES = ("ExposureTime", "ExposureTimeAbs")
+_GAIN_NODES = ("Gain", "GainAbs")
+
+
+def find_producers(cti: str | None = None) -> list[Path]:
+    """The GenTL producer files to load."""
+    if cti:
+        path = Path(cti)
+        if not path.is_file():
+            raise DeviceError(
+                f"GenTL producer {path} not found; check camera.cti in the station file"
+            )
+        return [path]
+    found = []
+    for folder in filter(None, os.environ.get("GENICAM_GENTL64_PATH", "").split(os.pathsep)):
+        found += sorted(Path(folder).glob("*.cti"))
+    if not found:
+        raise DeviceError(
+            "no GenTL producer: give camera.cti in the station file or set GENICAM_GENTL64_PATH to the folder of your camera vendor's .cti"
+        )
+    return found
+
+
+def _node(node_map, names):
+    for name in names:
+        if hasattr(node_map, name):
+            return name, getattr(node_map, name)
+    return None, None
+
+
+class GenICamCamera(Grabber):
+    """A GenICam camera chosen by serial number or index."""
+
+    def __init__(self, cti: str | None = None, *, serial: str | None = None, index: int = 0):
+        from harvesters.core import Harvester
+
+        self._harvester = Harvester()
+        for producer in find_producers(cti):
+            self._harvester.add_file(str(producer))
+        self._harvester.update()
+        devices = self._harvester.device_info_list
+        if not devices:
+            self._harvester.reset()
+            raise DeviceError(
+                "no GenICam camera found; check power, cable or network, and access rights"
+            )
+        serials = [d.serial_number for d in devices]
+        if serial is not None:
+            if str(serial) not in serials:
+                self._harvester.reset()
+                raise DeviceError(f"no camera with serial {serial}; found: {', '.join(serials)}")
+            self._ia = self._harvester.create({"serial_number": str(serial)})
+            info = devices[serials.index(str(serial))]
+        else:
+            if index >= len(devices):
+                self._harvester.reset()
+                raise DeviceError(
+                    f"camera index {index} does not exist; {len(devices)} found (serials {', '.join(serials)})"
+                )
+            self._ia = self._harvester.create(index)
+            info = devices[index]
+        self.name = f"{info.vendor} {info.model} (serial {info.serial_number})"
+        self._nodes = self._ia.remote_device.node_map
+        self.missing = {
+            label
+            for label, names in (
+                ("exposure", _EXPOSURE_NODES),
+                ("gain", _GAIN_NODES),
+                ("pixel_format", ("PixelFormat",)),
+            )
+            if _node(self._nodes, names)[0] is None
+        }
+        self._acquiring = False
+
+    def _set(self, names, value, label):
+        name, node = _node(self._nodes, names)
+        if node is None:
+            self.missing.add(label)
+            return None
+        try:
+            node.value = value
+            return node.value
+        except Exception as exc:  # GenICam raises several types for out-of-range and access errors
+            raise DeviceError(f"{self.name}: cannot set {name} to {value!r} ({exc})") from None
+
+    def _stop(self):
+        if self._acquiring:
+            self._ia.stop()
+            self._acquiring = False
+
+    def configure(self, *, exposure_us=None, gain_db=None, pixel_format=None, region=None) -> None:
+        self._stop()  # Width/Height/PixelFormat are locked while acquiring
+        if pixel_format is not None:
+            if pixel_format not in BIT_DEPTH:
+                raise DeviceError(
+                    f"{self.name}: {pixel_format!r} is not a monochrome format this tool unpacks"
+                )
+            symbolics = getattr(self._nodes.PixelFormat, "symbolics", ())
+            if symbolics and pixel_format not in symbolics:
+                raise DeviceError(
+                    f"{self.name}: pixel format {pixel_format} not offered; it has {', '.join(symbolics)}"
+                )
+            self._set(("PixelFormat",), pixel_format, "pixel_format")
+        if region is not None:
+            x, y, w, h = region
+            self._set(("OffsetX",), 0, "region")
+            self._set(("OffsetY",), 0, "region")
+            self._set(("Width",), int(w), "region")
+            self._set(("Height",), int(h), "region")
+            self._set(("OffsetX",), int(x), "region")
+            self._set(("OffsetY",), int(y), "region")
+        if exposure_us is not None:
+            self._set(_EXPOSURE_NODES, float(exposure_us), "exposure")
+        if gain_db is not None:
+            self._set(_GAIN_NODES, float(gain_db), "gain")
+
+    def _read(self, names):
+        _, node = _node(self._nodes, names)
+        try:
+            return float(node.value) if node is not None else None
+        except Exception:
+            return None
+
+    def grab(self, n: int, *, timeout_s: float = 2.0) -> list[Frame]:
+        from genicam.gentl import TimeoutException
+
+        if not self._acquiring:
+            self._ia.start()
+            self._acquiring = True
+        exposure, gain = self._read(_EXPOSURE_NODES), self._read(_GAIN_NODES)
+        fmt = str(self._nodes.PixelFormat.value)
+        frames = []
+        for k in range(n):
+            try:
+                with self._ia.fetch(timeout=timeout_s) as buf:
+                    arrived = time.monotonic_ns()
+                    comp = buf.payload.components[0]
+                    w, h = int(comp.width), int(comp.height)
+                    if fmt in ("Mono8", "Mono10", "Mono12", "Mono14", "Mono16"):
+                        data = comp.data.reshape(h, w).copy()  # copy before the buffer is re-queued
+                    else:
+                        raw = comp._buffer.raw_buffer
+                        start = int(comp.data_offset)
+                        data = unpack(raw[start : start + packed_size(fmt, w * h)], fmt, w, h)
+                    try:
+                        stamp, clock = int(buf.timestamp_ns), "device"
+                    except Exception:  # producers without timestamps raise NotAvailableException
+                        stamp, clock = arrived, "arrival"
+                    frames.append(
+                        Frame(
+                            data,
+                            int(buf.frame_id),
+                            stamp,
+                            exposure,
+                            gain,
+                            fmt,
+                            BIT_DEPTH.get(fmt, 8),
+                            self.name,
+                            clock,
+                        )
+                    )
+            except TimeoutException:
+                raise DeviceError(
+                    f"{self.name}: no frame within {timeout_s:g} s (frame {k + 1} of {n}); "
+                    "check trigger mode, frame rate, exposure time and the cable"
+                ) from None
+        return frames
+
+    def close(self) -> None:
+        try:
+            self._stop()
+            self._ia.destroy()
+        finally:
+            self._harvester.reset()

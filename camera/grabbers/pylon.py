@@ -1,0 +1,136 @@
+"""Basler cameras through pypylon (optional extra ``inspect-validate[pylon]``).
+
+Also drives pylon's camera emulator (``PYLON_CAMEMU=1``, device class
+``BaslerCamEmu``), which serves image files pixel-exactly with ``ImageFileMode``
+— used in the tests to run a capture through the vendor SDK.
+"""
+
+from __future__ import annotations
+
+import time
+
+from camera.frame import Frame
+from camera.grabbers.base import Grabber
+from camera.pixelformats import BIT_DEPTH
+from inspect_validate.errors import DeviceError
+
+__all__ = ["PylonCamera"]
+
+
+class PylonCamera(Grabber):
+    """A pylon camera chosen by serial number or index."""
+
+    def __init__(self, *, serial: str | None = None, index: int = 0):
+        try:
+            from pypylon import genicam, pylon
+        except ImportError:
+            raise DeviceError(
+                "pypylon is not installed: pip install 'inspect-validate[pylon]'"
+            ) from None
+        self._pylon, self._genicam = pylon, genicam
+        factory = pylon.TlFactory.GetInstance()
+        devices = factory.EnumerateDevices()
+        if not devices:
+            raise DeviceError(
+                "no pylon camera found; check power, cable, network and that no other program holds it"
+            )
+        serials = [d.GetSerialNumber() for d in devices]
+        if serial is not None:
+            if str(serial) not in serials:
+                raise DeviceError(
+                    f"no pylon camera with serial {serial}; found: {', '.join(serials)}"
+                )
+            device = devices[serials.index(str(serial))]
+        elif index < len(devices):
+            device = devices[index]
+        else:
+            raise DeviceError(f"pylon camera index {index} does not exist; {len(devices)} found")
+        self._cam = pylon.InstantCamera(factory.CreateDevice(device))
+        self._cam.Open()
+        self.name = f"Basler {device.GetModelName()} (serial {device.GetSerialNumber()})"
+        self.missing = {
+            label
+            for label, node in (("exposure", "ExposureTime"), ("gain", "Gain"))
+            if not hasattr(self._cam, node)
+        }
+
+    @property
+    def nodes(self):
+        """The camera's node map (for settings this interface does not cover)."""
+        return self._cam
+
+    def _set(self, node: str, value, label: str):
+        if not hasattr(self._cam, node):
+            self.missing.add(label)
+            return
+        try:
+            getattr(self._cam, node).Value = value
+        except self._genicam.GenericException as exc:
+            raise DeviceError(
+                f"{self.name}: cannot set {node} to {value!r} ({exc.GetDescription()})"
+            ) from None
+
+    def configure(self, *, exposure_us=None, gain_db=None, pixel_format=None, region=None) -> None:
+        if self._cam.IsGrabbing():
+            self._cam.StopGrabbing()  # Width/Height/PixelFormat are locked while grabbing
+        if pixel_format is not None:
+            if pixel_format not in BIT_DEPTH or pixel_format not in self._cam.PixelFormat.Symbolics:
+                raise DeviceError(
+                    f"{self.name}: pixel format {pixel_format} not offered as monochrome; it has {', '.join(self._cam.PixelFormat.Symbolics)}"
+                )
+            self._set("PixelFormat", pixel_format, "pixel_format")
+        if region is not None:
+            x, y, w, h = region
+            self._set("OffsetX", 0, "region")
+            self._set("OffsetY", 0, "region")
+            self._set("Width", int(w), "region")
+            self._set("Height", int(h), "region")
+            self._set("OffsetX", int(x), "region")
+            self._set("OffsetY", int(y), "region")
+        if exposure_us is not None:
+            self._set("ExposureTime", float(exposure_us), "exposure")
+        if gain_db is not None:
+            self._set("Gain", float(gain_db), "gain")
+
+    def grab(self, n: int, *, timeout_s: float = 2.0) -> list[Frame]:
+        pylon = self._pylon
+        if not self._cam.IsGrabbing():
+            self._cam.StartGrabbing(pylon.GrabStrategy_OneByOne)
+        fmt = self._cam.PixelFormat.Value
+        exposure = float(self._cam.ExposureTime.Value) if "exposure" not in self.missing else None
+        gain = float(self._cam.Gain.Value) if "gain" not in self.missing else None
+        frames = []
+        for k in range(n):
+            try:
+                result = self._cam.RetrieveResult(
+                    int(timeout_s * 1000), pylon.TimeoutHandling_ThrowException
+                )
+            except self._genicam.TimeoutException:
+                raise DeviceError(
+                    f"{self.name}: no frame within {timeout_s:g} s (frame {k + 1} of {n}); check trigger mode and exposure"
+                ) from None
+            try:
+                if not result.GrabSucceeded():
+                    raise DeviceError(f"{self.name}: grab failed ({result.GetErrorDescription()})")
+                data = result.Array.copy()  # copy before the buffer returns to pylon
+                frames.append(
+                    Frame(
+                        data,
+                        int(result.ID),
+                        int(result.TimeStamp) or time.monotonic_ns(),
+                        exposure,
+                        gain,
+                        fmt,
+                        BIT_DEPTH.get(fmt, 8),
+                        self.name,
+                        "device" if result.TimeStamp else "arrival",
+                    )
+                )
+            finally:
+                result.Release()
+        return frames
+
+    def close(self) -> None:
+        if self._cam.IsGrabbing():
+            self._cam.StopGrabbing()
+        self._cam.Close()
