@@ -105,7 +105,17 @@ def _open_camera(station: Station, state_path: Path | None):
             height=spec.height,
             latency=spec.latency,
         )
+    if spec.backend == "genicam":
+        from camera.grabbers.genicam import GenICamCamera
+
+        cti = str(station.resolve(spec.cti)) if spec.cti else None
+        return GenICamCamera(cti, serial=spec.serial, index=spec.index)
+    if spec.backend == "pylon":
+        from camera.grabbers.pylon import PylonCamera
+
+        return PylonCamera(serial=spec.serial, index=spec.index)
     raise InputError(
-        f"camera backend {spec.backend!r} is not available in this build yet",
+        f"camera backend {spec.backend!r} is not implemented yet (issue #4: v4l2, replay); "
+        "use simulated, genicam or pylon",
         source=str(station.path),
     )
