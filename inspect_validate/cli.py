@@ -247,7 +247,7 @@ def analyze_spectra(scene, json_path, plot_path, best, no_kde):
 
     from inspect_validate.model import analyse_spectra
     from inspect_validate.report import render_table, write_json
-    from inspect_validate.report.jsonfile import _num
+    from inspect_validate.report.jsonfile import json_number
     from inspect_validate.report.tables import format_error
     from inspect_validate.scene import read_scene
 
@@ -271,21 +271,20 @@ def analyze_spectra(scene, json_path, plot_path, best, no_kde):
     click.echo(f"{sc.name}: best bands per comparison (ε_tot (37) from the reflectance samples)")
     click.echo(render_table(["comparison", "λ [nm]", "ε Gauss", "ε KDE"], rows))
 
-    def curve(values):
-        return [_num(v) if np.isfinite(v) else None for v in values]
-
     if json_path:
         doc = {
             "schema": "inspect-validate/spectral-analysis",
             "schema_version": 1,
             "scene": str(scene),
-            "wavelength_nm": curve(sep.wavelengths),
+            "wavelength_nm": [json_number(v) for v in sep.wavelengths],
             "comparisons": [
                 {
                     "first": list(a),
                     "second": list(b),
-                    "error_gaussian": curve(sep.error_gaussian[j]),
-                    "error_kde": None if sep.error_kde is None else curve(sep.error_kde[j]),
+                    "error_gaussian": [json_number(v) for v in sep.error_gaussian[j]],
+                    "error_kde": None
+                    if sep.error_kde is None
+                    else [json_number(v) for v in sep.error_kde[j]],
                 }
                 for j, (a, b) in enumerate(sep.comparisons)
             ],

@@ -177,4 +177,9 @@ def test_vectorised_shapes():
     )
     assert p.mean.shape == (3, 2, 2, 3) and p.snr_db.shape == (3, 2, 2, 6)
     assert p.comparisons[-1] == (("C",), ("A", "B"))
-    assert isinstance(Optics("x", lens("uv").transmission), Optics)
+    # The UV lens passes 300 nm, the visible lens hardly does.
+    uv, vis = (
+        Optics(k, lens(k).transmission).transmission.resample(np.array([300.0]))[0, 0]
+        for k in ("uv", "visible")
+    )
+    assert uv > 2 * vis

@@ -13,13 +13,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from inspect_validate.constants import C, H
 from inspect_validate.errors import InputError
 from inspect_validate.spectra import Spectrum, SpectrumKind
 
 __all__ = ["BUILT_IN_CAMERAS", "Camera", "builtin_camera", "energy_efficiency", "qe_model"]
-
-H = 6.62607015e-34
-C = 2.99792458e8
 
 
 @dataclass(frozen=True)

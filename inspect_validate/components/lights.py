@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from inspect_validate.constants import K_B, C, H
 from inspect_validate.errors import InputError
 from inspect_validate.spectra import Spectrum, SpectrumKind
 
@@ -25,9 +26,6 @@ __all__ = [
     "planck",
 ]
 
-H = 6.62607015e-34  # J·s
-C = 2.99792458e8  # m/s
-K_B = 1.380649e-23  # J/K
 DEFAULT_GRID = np.arange(300.0, 1801.0, 1.0)  # nm, for model spectra
 
 

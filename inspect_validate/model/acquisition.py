@@ -32,14 +32,13 @@ from scipy import special
 from inspect_validate.components.cameras import Camera
 from inspect_validate.components.lights import Light
 from inspect_validate.components.optics import Optics
+from inspect_validate.constants import C, H
 from inspect_validate.errors import InputError
 from inspect_validate.spectra import Spectrum
 from inspect_validate.stats import cnr_db, fisher_db, gaussian_error_and_log, snr_db
 
 __all__ = ["Exposure", "ObjectClass", "Prediction", "predict"]
 
-H = 6.62607015e-34
-C = 2.99792458e8
 QUANTISATION_VARIANCE = 1.0 / 12.0  # DN²
 _PRESENT = 1e-6  # a component is present where it exceeds this fraction of its peak
 
@@ -315,10 +314,15 @@ def _check_overlap(lights, optics, cameras, classes, e, t, q, invalid, sample_cl
     def present(a):
         return a > _PRESENT * a.max(axis=-1, keepdims=True)
 
-    chain = (
-        present(e)[:, None, None, :] & present(t)[None, :, None, :] & present(q)[None, None, :, :]
+    # Wavelengths where light, optics and camera are all present, counted per
+    # combination by one product of indicator matrices: no (L, O, C, W) array,
+    # which at 10⁶ combinations would take ~0.6 GB.
+    pe, pt, pq = present(e), present(t), present(q)
+    light_optics = (pe[:, None, :] & pt[None, :, :]).reshape(-1, grid.size).astype(np.float32)
+    shared = (light_optics @ pq.T.astype(np.float32)).reshape(
+        len(lights), len(optics), len(cameras)
     )
-    sensitive = chain.any(axis=-1)
+    sensitive = shared > 0
     if not sensitive.all():
         li, oi, ci = (int(x[0]) for x in np.nonzero(~sensitive))
         parts = [lights[li].spd, optics[oi].transmission, cameras[ci].qe]
@@ -326,7 +330,7 @@ def _check_overlap(lights, optics, cameras, classes, e, t, q, invalid, sample_cl
             "no wavelength where light, optics and camera all transmit: "
             + "; ".join(f"{p.name} {p.range[0]:g}–{p.range[1]:g} nm ({p.source})" for p in parts)
         )
-    anywhere = chain.any(axis=(0, 1, 2))
+    anywhere = pe.any(axis=0) & pt.any(axis=0) & pq.any(axis=0)
     bad = invalid & anywhere[None, :]
     if bad.any():
         s, _j = (int(x[0]) for x in np.nonzero(bad))

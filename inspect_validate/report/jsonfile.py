@@ -1,7 +1,8 @@
 """The measurement as a versioned JSON document (schema in README, "JSON output").
 
 JSON has no infinities: ±inf (e.g. SNR_dB of classes with equal means) are
-written as the strings ``"inf"`` and ``"-inf"``; missing values as ``null``.
+written as the strings ``"inf"`` and ``"-inf"``; missing and undefined (NaN)
+values as ``null``.
 """
 
 from __future__ import annotations
@@ -15,15 +16,18 @@ from pathlib import Path
 from inspect_validate import __version__
 from inspect_validate.measure import Measurement
 
-__all__ = ["SCHEMA_VERSION", "measurement_document", "write_json"]
+__all__ = ["SCHEMA_VERSION", "json_number", "measurement_document", "write_json"]
 
 SCHEMA_VERSION = 1
 
 
-def _num(x):
+def json_number(x):
+    """A number for JSON: ±inf as "inf"/"-inf", NaN and None as null."""
     if x is None:
         return None
     x = float(x)
+    if math.isnan(x):
+        return None
     return x if math.isfinite(x) else ("inf" if x > 0 else "-inf")
 
 
@@ -34,14 +38,14 @@ def measurement_document(m: Measurement, *, inputs: dict, limits: dict) -> dict:
         classes.append(
             {
                 "name": c.name,
-                "mean": _num(c.mean),
-                "variance": _num(c.variance),
+                "mean": json_number(c.mean),
+                "variance": json_number(c.variance),
                 "n_pixels": c.n_pixels,
                 "n_frames": c.n_frames,
-                "saturated_fraction": _num(c.saturated_fraction),
-                "zero_fraction": _num(c.zero_fraction),
-                "temporal_variance": _num(c.temporal_variance),
-                "spatial_variance": _num(c.spatial_variance),
+                "saturated_fraction": json_number(c.saturated_fraction),
+                "zero_fraction": json_number(c.zero_fraction),
+                "temporal_variance": json_number(c.temporal_variance),
+                "spatial_variance": json_number(c.spatial_variance),
             }
         )
     comparisons = []
@@ -50,13 +54,15 @@ def measurement_document(m: Measurement, *, inputs: dict, limits: dict) -> dict:
             {
                 "first": list(c.first),
                 "second": list(c.second),
-                "snr_db": _num(c.snr_db),
-                "cnr_db": _num(c.cnr_db),
-                "fisher_db": _num(c.fisher_db),
-                "error_gaussian": _num(c.error_gaussian),
-                "log_error_gaussian": _num(c.log_error_gaussian),
-                "error_kde": _num(c.error_kde),
-                "kde_bandwidth": [_num(h) for h in c.kde_bandwidth] if c.kde_bandwidth else None,
+                "snr_db": json_number(c.snr_db),
+                "cnr_db": json_number(c.cnr_db),
+                "fisher_db": json_number(c.fisher_db),
+                "error_gaussian": json_number(c.error_gaussian),
+                "log_error_gaussian": json_number(c.log_error_gaussian),
+                "error_kde": json_number(c.error_kde),
+                "kde_bandwidth": [json_number(h) for h in c.kde_bandwidth]
+                if c.kde_bandwidth
+                else None,
                 "kde_bandwidth_at_floor": list(c.kde_bandwidth_at_floor)
                 if c.kde_bandwidth_at_floor
                 else None,

@@ -6,7 +6,7 @@ import numpy as np
 
 from inspect_validate import __version__
 from inspect_validate.model import Prediction, predicted_kde_error, rank
-from inspect_validate.report.jsonfile import _num
+from inspect_validate.report.jsonfile import json_number
 from inspect_validate.report.tables import format_error, render_table
 
 __all__ = [
@@ -35,16 +35,16 @@ def prediction_rows(
                 "light": p.lights[li],
                 "optics": p.optics[oi],
                 "camera": p.cameras[ci],
-                "exposure_time_s": _num(p.exposure_time[idx]),
-                "key": _num(key[r]),
+                "exposure_time_s": json_number(p.exposure_time[idx]),
+                "key": json_number(key[r]),
                 "classes": [
                     {
                         "name": name,
-                        "mean": _num(p.mean[idx][k]),
-                        "variance": _num(p.variance[idx][k]),
-                        "spectral_variance": _num(p.spectral_variance[idx][k]),
-                        "electrons": _num(p.electrons[idx][k]),
-                        "saturated_fraction": _num(p.saturated_fraction[idx][k]),
+                        "mean": json_number(p.mean[idx][k]),
+                        "variance": json_number(p.variance[idx][k]),
+                        "spectral_variance": json_number(p.spectral_variance[idx][k]),
+                        "electrons": json_number(p.electrons[idx][k]),
+                        "saturated_fraction": json_number(p.saturated_fraction[idx][k]),
                     }
                     for k, name in enumerate(p.classes)
                 ],
@@ -52,12 +52,12 @@ def prediction_rows(
                     {
                         "first": list(p.comparisons[j][0]),
                         "second": list(p.comparisons[j][1]),
-                        "snr_db": _num(p.snr_db[idx][j]),
-                        "cnr_db": _num(p.cnr_db[idx][j]),
-                        "fisher_db": _num(p.fisher_db[idx][j]),
-                        "error_gaussian": _num(p.error_gaussian[idx][j]),
-                        "log_error_gaussian": _num(p.log_error_gaussian[idx][j]),
-                        "error_kde": _num(predicted_kde_error(p, idx, j))
+                        "snr_db": json_number(p.snr_db[idx][j]),
+                        "cnr_db": json_number(p.cnr_db[idx][j]),
+                        "fisher_db": json_number(p.fisher_db[idx][j]),
+                        "error_gaussian": json_number(p.error_gaussian[idx][j]),
+                        "log_error_gaussian": json_number(p.log_error_gaussian[idx][j]),
+                        "error_kde": json_number(predicted_kde_error(p, idx, j))
                         if kde and (j == worst or column is not None)
                         else None,
                     }
@@ -111,9 +111,9 @@ def prediction_document(
         "tool_version": __version__,
         "scene": scene,
         "wavelength_nm": {
-            "start": _num(p.grid[0]),
-            "stop": _num(p.grid[-1]),
-            "step": _num(p.grid[1] - p.grid[0]),
+            "start": json_number(p.grid[0]),
+            "stop": json_number(p.grid[-1]),
+            "step": json_number(p.grid[1] - p.grid[0]),
         },
         "lights": list(p.lights),
         "optics": list(p.optics),

@@ -57,8 +57,7 @@ def gaussian_error(mean1, var1, mean2, var2) -> np.ndarray:
         variance and the other does not, or both are constant and differ.
         Underflows below ≈1e-308: use :func:`log_gaussian_error` there.
     """
-    eps, log_eps = _error(mean1, var1, mean2, var2)
-    return np.where(eps >= _LINEAR_FLOOR, eps, np.exp(log_eps))[()]
+    return gaussian_error_and_log(mean1, var1, mean2, var2)[0]
 
 
 def gaussian_error_and_log(mean1, var1, mean2, var2) -> tuple[np.ndarray, np.ndarray]:
@@ -71,9 +70,7 @@ def gaussian_error_and_log(mean1, var1, mean2, var2) -> tuple[np.ndarray, np.nda
 
 def log_gaussian_error(mean1, var1, mean2, var2) -> np.ndarray:
     """Natural logarithm of :func:`gaussian_error`, accurate where ε underflows."""
-    eps, log_eps = _error(mean1, var1, mean2, var2)
-    with np.errstate(divide="ignore"):
-        return np.where(eps >= _LINEAR_FLOOR, np.log(eps), log_eps)[()]
+    return gaussian_error_and_log(mean1, var1, mean2, var2)[1]
 
 
 # --- double-double helpers (error-free transformations, vectorised) ---------

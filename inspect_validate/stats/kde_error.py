@@ -52,13 +52,11 @@ def kernel_mixture(sample, h: float) -> tuple[np.ndarray, np.ndarray]:
     x = np.asarray(sample, dtype=np.float64)
     if x.size <= _EXACT_POINTS_MAX:
         return x, np.full(x.size, 1.0 / x.size)
+    from inspect_validate.stats._binning_kernels import linear_bin
+
     step = h / _BIN_FRACTION
     lo = x.min()
-    pos = (x - lo) / step
-    left = np.floor(pos).astype(np.int64)
-    frac = pos - left
-    m = int(left.max()) + 2
-    w = np.bincount(left, 1.0 - frac, m) + np.bincount(left + 1, frac, m)
+    w, _, _ = linear_bin(x, lo, step, int(np.ceil((x.max() - lo) / step)) + 2)
     keep = w > 0
     return lo + np.flatnonzero(keep) * step, w[keep] / x.size
 
