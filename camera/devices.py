@@ -39,9 +39,13 @@ def _simulated_controller(station: Station):
             port = proc.stdout.readline().strip()
             if not port:
                 raise DeviceError("the simulated controller did not start")
-            with GardasoftController(
-                port, channels=station.controller.channels, timeout=station.controller.timeout_s
-            ) as ctl:
+            if station.controller.protocol is not None:  # the generic driver, e.g. --dialect line
+                ctl = _generic_controller(station, port)
+            else:
+                ctl = GardasoftController(
+                    port, channels=station.controller.channels, timeout=station.controller.timeout_s
+                )
+            with ctl:
                 yield ctl, state
         finally:
             proc.kill()
@@ -72,12 +76,40 @@ def open_devices(station: Station):
                     error_codes=spec.error_codes,
                 )
             )
+        elif spec.backend == "generic":
+            controller = stack.enter_context(_generic_controller(station, spec.port))
         else:
             from camera.lights.manual import ManualController
 
             controller = stack.enter_context(ManualController(channels=spec.channels))
         camera = stack.enter_context(_open_camera(station, state_path))
         yield controller, camera
+
+
+def _generic_controller(station: Station, port: str | None):
+    spec = station.controller
+    if not port or spec.protocol is None:
+        raise InputError(
+            "controller.port and controller.protocol are required for a generic controller "
+            "(see README, 'Station files')",
+            source=str(station.path),
+        )
+    from camera.lights.generic import GenericAsciiController
+
+    proto = spec.protocol
+    return GenericAsciiController(
+        port,
+        commands=proto.commands,
+        channels=spec.channels,
+        max_value=proto.max_value,
+        baudrate=proto.baudrate,
+        terminator=proto.terminator.encode(),
+        reply_end=proto.reply_end.encode(),
+        ok=proto.ok.encode() if proto.ok is not None else None,
+        error=proto.error.encode(),
+        timeout=spec.timeout_s,
+        error_codes=spec.error_codes,
+    )
 
 
 def _open_camera(station: Station, state_path: Path | None):

@@ -10,7 +10,7 @@ Example (README, "Station files")::
       exposure_us: 20000
       gain_db: 0
     controller:
-      backend: simulated            # simulated | gardasoft | manual
+      backend: simulated            # simulated | gardasoft | generic | manual
       channels: 2
     illuminations:
       - {name: amber, channels: {1: 100}}
@@ -60,13 +60,67 @@ class CameraSpec(BaseModel):
     latency: int = Field(default=2, ge=0)
 
 
+_TEMPLATE_FIELDS = {
+    "channel": 1,
+    "percent": 50.0,
+    "value": 50.0,
+    "width_us": 100.0,
+    "delay_us": 0.0,
+}
+
+
+class AsciiProtocol(BaseModel):
+    """A generic ASCII controller's protocol (:mod:`camera.lights.generic`)."""
+
+    model_config = ConfigDict(extra="forbid")
+    commands: dict[Literal["set", "off", "pulse", "status", "init"], str | list[str]]
+    baudrate: int = Field(default=115200, gt=0)
+    terminator: str = Field(default="\r", min_length=1)
+    reply_end: str = Field(default="\r\n", min_length=1)
+    ok: str | None = None
+    error: str = r"(?i)err\w*\s*(\d+)"
+    max_value: float = Field(default=100.0, gt=0)
+
+    @field_validator("commands")
+    @classmethod
+    def _templates(cls, v):
+        if "set" not in v:
+            raise ValueError("a 'set' template is required, e.g. 'SET {channel} {value:.0f}'")
+        for key, template in v.items():
+            lines = [template] if isinstance(template, str) else template
+            if key != "init" and not isinstance(template, str):
+                raise ValueError(f"{key}: one command template, not a list")
+            for line in lines:
+                try:
+                    line.format(**_TEMPLATE_FIELDS)
+                except (KeyError, IndexError, ValueError) as exc:
+                    raise ValueError(
+                        f"{key}: template {line!r} does not format ({exc!r}); "
+                        f"fields are {{{'}, {'.join(_TEMPLATE_FIELDS)}}}"
+                    ) from None
+        return v
+
+    @field_validator("ok", "error")
+    @classmethod
+    def _regex(cls, v):
+        import re
+
+        if v is not None:
+            try:
+                re.compile(v)
+            except re.error as exc:
+                raise ValueError(f"not a regular expression: {exc}") from None
+        return v
+
+
 class ControllerSpec(BaseModel):
     model_config = ConfigDict(extra="forbid")
-    backend: Literal["simulated", "gardasoft", "manual"]
+    backend: Literal["simulated", "gardasoft", "generic", "manual"]
     port: str | None = None
     channels: int = Field(default=4, ge=1, le=64)
     timeout_s: float = Field(default=1.0, gt=0)
     error_codes: dict[int, str] = {}
+    protocol: AsciiProtocol | None = None  # generic backend
     simulator_args: list[
         str
     ] = []  # faults for the simulated controller (tests): e.g. ["--vanish-after", "5"]

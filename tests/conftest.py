@@ -1,3 +1,5 @@
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -9,3 +11,24 @@ PAPERBOARD = ROOT / "sample_images" / "paperboard"
 @pytest.fixture
 def paperboard():
     return PAPERBOARD
+
+
+@pytest.fixture
+def simulator(tmp_path):
+    """Start simulated controller processes: ``start(*args) -> (port, state_path, process)``."""
+    procs = []
+
+    def start(*args):
+        state = tmp_path / f"state{len(procs)}.json"
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "camera.lights.simulator", "--state", str(state), *args],
+            stdout=subprocess.PIPE,
+            text=True,
+        )
+        procs.append(proc)
+        return proc.stdout.readline().strip(), state, proc
+
+    yield start
+    for p in procs:
+        p.kill()
+        p.wait()

@@ -131,6 +131,53 @@ def test_bad_station_file_names_the_field(tmp_path, capsys):
     assert "controller.backend" in err and "illuminations" in err
 
 
+LINE_PROTOCOL = {
+    "terminator": "\n",
+    "reply_end": "\r\n",
+    "ok": "^OK",
+    "error": "ERROR (?P<code>\\d+)",
+    "max_value": 255,
+    "commands": {"set": "SET {channel} {value:.0f}", "off": "OFF {channel}"},
+}
+
+
+def test_capture_through_the_generic_ascii_controller(tmp_path, capsys):
+    station = station_copy(tmp_path, simulator_args=["--dialect", "line"], protocol=LINE_PROTOCOL)
+    out = tmp_path / "cap"
+    assert run(["capture", station, "--out", out]) == 0
+    meta = json.loads((out / "red" / "frame_0001.json").read_text())
+    assert meta["controller"].startswith("ASCII controller on /dev/pts/")
+    assert meta["extra"]["lights"] == {"1": 0.0, "2": 100.0}
+
+
+def test_generic_controller_faults_keep_frames(tmp_path, capsys):
+    station = station_copy(
+        tmp_path,
+        simulator_args=["--dialect", "line", "--error", "SET 2:4"],
+        protocol=LINE_PROTOCOL,
+        error_codes={4: "channel disabled"},
+    )
+    out = tmp_path / "cap"
+    assert run(["capture", station, "--out", out]) == 3
+    assert "answered 'ERROR 4' (channel disabled) to 'SET 2 255'" in capsys.readouterr().err
+    assert len(list((out / "amber").glob("frame_*.tif"))) == 4
+
+
+@pytest.mark.parametrize(
+    "protocol, field",
+    [
+        ({"commands": {"set": "SET {chan} {value}"}}, "controller.protocol.commands"),
+        ({"commands": {"off": "OFF {channel}"}}, "a 'set' template is required"),
+        ({"commands": {"set": "S{channel}"}, "ok": "(unclosed"}, "controller.protocol.ok"),
+    ],
+)
+def test_generic_protocol_is_validated(tmp_path, capsys, protocol, field):
+    station = station_copy(tmp_path, protocol=protocol)
+    assert run(["capture", station, "--out", tmp_path / "o"]) == 2
+    err = capsys.readouterr().err
+    assert str(station) in err and field in err
+
+
 class FakeCamera:
     """Frames with given (timestamp, mean) — the verification logic only; real devices are tested above."""
 

@@ -1,33 +1,11 @@
-"""The Gardasoft driver against the simulated controller process on a pseudo-terminal."""
+"""LED controller drivers against the simulated controller process on a pseudo-terminal."""
 
 import json
-import subprocess
-import sys
 
 import pytest
 
-from camera.lights import GardasoftController
+from camera.lights import GardasoftController, GenericAsciiController
 from inspect_validate.errors import DeviceError
-
-
-@pytest.fixture
-def simulator(tmp_path):
-    procs = []
-
-    def start(*faults):
-        state = tmp_path / f"state{len(procs)}.json"
-        proc = subprocess.Popen(
-            [sys.executable, "-m", "camera.lights.simulator", "--state", str(state), *faults],
-            stdout=subprocess.PIPE,
-            text=True,
-        )
-        procs.append(proc)
-        return proc.stdout.readline().strip(), state, proc
-
-    yield start
-    for p in procs:
-        p.kill()
-        p.wait()
 
 
 def test_sequence_sets_state(simulator):
@@ -103,3 +81,64 @@ def test_bad_arguments_and_missing_port(simulator, tmp_path):
             c.set_intensity(1, 120)
     with pytest.raises(DeviceError, match="cannot open the controller's serial port"):
         GardasoftController(str(tmp_path / "ttyNONE"))
+
+
+LINE_PROTOCOL = dict(
+    terminator=b"\n", reply_end=b"\r\n", ok=rb"^OK", error=rb"ERROR (?P<code>\d+)", max_value=255
+)
+LINE_COMMANDS = {"set": "SET {channel} {value:.0f}", "off": "OFF {channel}", "status": "STATUS?"}
+
+
+def test_generic_controller_speaks_a_line_protocol(simulator):
+    port, state, _ = simulator("--dialect", "line")
+    with GenericAsciiController(port, commands=LINE_COMMANDS, channels=4, **LINE_PROTOCOL) as c:
+        c.apply({1: 100, 2: 50})
+        # 50 % of 255 is sent as level 128 (rounded), read back as 128/255.
+        levels = json.loads(state.read_text())["channels"]
+        assert levels == {"1": 100.0, "2": round(128 / 255 * 100, 6), "3": 0.0, "4": 0.0}
+        assert c.status().startswith("OK 1=100 2=50.1961")
+        c.all_off()
+        assert set(json.loads(state.read_text())["channels"].values()) == {0.0}
+        with pytest.raises(DeviceError, match="channel 5 does not exist"):
+            c.set_intensity(5, 10)
+        with pytest.raises(DeviceError, match="no 'pulse' command template"):
+            c.pulse(1, width_us=10, delay_us=0, percent=50)
+
+
+def test_generic_controller_errors(simulator):
+    port, _, _ = simulator("--dialect", "line", "--error", "SET 2:9")
+    with GenericAsciiController(
+        port, commands=LINE_COMMANDS, error_codes={9: "interlock open"}, **LINE_PROTOCOL
+    ) as c:
+        with pytest.raises(
+            DeviceError, match=r"answered 'ERROR 9' \(interlock open\) to 'SET 2 255'"
+        ):
+            c.set_intensity(2, 100)
+    # A reply that matches neither pattern: the protocol in the station file is wrong.
+    port, _, _ = simulator("--dialect", "line")
+    strict = {**LINE_PROTOCOL, "ok": rb"^ACK"}
+    with GenericAsciiController(port, commands=LINE_COMMANDS, **strict) as c:
+        with pytest.raises(DeviceError, match=r"reply b'OK' to 'SET 1 26' is neither success"):
+            c.set_intensity(1, 10)
+    # A Gardasoft-style prompt protocol against a line-protocol device: no prompt ever comes.
+    port, _, _ = simulator("--dialect", "line")
+    with GenericAsciiController(
+        port, commands=LINE_COMMANDS, terminator=b"\n", reply_end=b">", timeout=0.3
+    ) as c:
+        with pytest.raises(DeviceError, match=r"unexpected reply b'OK\\r\\n' to 'SET 1 10'"):
+            c.set_intensity(1, 10)
+
+
+def test_generic_controller_with_gardasoft_templates(simulator):
+    """The generic driver configured for the RT protocol drives the RT simulator."""
+    port, state, _ = simulator()
+    commands = {"set": "RS{channel},{percent:g}", "status": "ST", "init": ["VR"]}
+    with GenericAsciiController(
+        port, commands=commands, reply_end=b">", error=rb"Err\s*(\d+)"
+    ) as c:
+        c.apply({3: 12.5})
+        assert json.loads(state.read_text())["channels"]["3"] == 12.5
+        assert "CH3 continuous 12.5%" in c.status()
+        # The RT simulator's range error (channel 5 of 4) comes back through the generic patterns.
+        with pytest.raises(DeviceError, match=r"answered 'Err 3' to 'RS5,10'"):
+            c.link.query("RS5,10")

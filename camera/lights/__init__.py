@@ -2,5 +2,6 @@
 
 from camera.lights.base import LedController
 from camera.lights.gardasoft import GardasoftController, SerialAscii
+from camera.lights.generic import GenericAsciiController
 
-__all__ = ["GardasoftController", "LedController", "SerialAscii"]
+__all__ = ["GardasoftController", "GenericAsciiController", "LedController", "SerialAscii"]

@@ -39,18 +39,28 @@ except ImportError:  # Windows
 
 
 class SerialAscii:
-    """A line-oriented ASCII link: send a command, read until the prompt or an error.
+    """A line-oriented ASCII link: send a command, read until the reply is complete.
 
     Parameters
     ----------
     port : str
         Serial device (``/dev/ttyUSB0``, ``COM3``, a pseudo-terminal path).
+    baudrate : int
     terminator : bytes
         Appended to every command.
-    prompt : bytes
-        Ends a complete reply.
+    reply_end : bytes
+        Ends a complete reply: a prompt such as ``b">"`` (trailing whitespace
+        ignored) or a line ending such as ``b"\\r\\n"``.
+    ok : bytes, optional
+        Regular expression a successful reply must match; without it any reply
+        that does not match ``error`` is success.
+    error : bytes
+        Regular expression of an error reply; its group ``code`` (or first
+        group) is the error number looked up in ``error_codes``.
     timeout : float
-        Seconds to wait for the prompt.
+        Seconds to wait for a complete reply.
+    error_codes : dict, optional
+        Error number → meaning, shown in messages.
     """
 
     def __init__(
@@ -59,14 +69,18 @@ class SerialAscii:
         *,
         baudrate: int = 115200,
         terminator: bytes = b"\r",
-        prompt: bytes = b">",
+        reply_end: bytes = b">",
+        ok: bytes | None = None,
+        error: bytes = rb"Err\s*(\d+)",
         timeout: float = 1.0,
         error_codes: dict[int, str] | None = None,
     ):
         import serial
 
         self.port = port
-        self.terminator, self.prompt, self.timeout = terminator, prompt, timeout
+        self.terminator, self.reply_end, self.timeout = terminator, reply_end, timeout
+        self.ok = re.compile(ok) if ok is not None else None
+        self.error = re.compile(error)
         self.error_codes = error_codes or {}
         try:
             self._serial = serial.Serial(
@@ -78,8 +92,14 @@ class SerialAscii:
             ) from None
         self._serial.reset_input_buffer()
 
+    def _complete(self, reply: bytes) -> bool:
+        end = self.reply_end
+        if end.strip():  # a prompt character
+            return reply.rstrip().endswith(end.strip())
+        return bool(reply.strip()) and reply.endswith(end)  # a line ending; skip blank lines
+
     def query(self, command: str) -> str:
-        """Send ``command`` and return the reply text before the prompt."""
+        """Send ``command`` and return the reply text (without the prompt)."""
         import serial
 
         try:
@@ -89,12 +109,12 @@ class SerialAscii:
             deadline = time.monotonic() + self.timeout
             while time.monotonic() < deadline:
                 reply += self._serial.read(256)
-                if reply.rstrip().endswith(self.prompt):
+                if self._complete(reply):
                     break
             else:
                 if reply:
                     raise DeviceError(
-                        f"{self.port}: unexpected reply {bytes(reply[:60])!r} to {command!r} (no {self.prompt.decode()!r} within "
+                        f"{self.port}: unexpected reply {bytes(reply[:60])!r} to {command!r} (no {self.reply_end.decode()!r} within "
                         f"{self.timeout:g} s); check the baud rate and that this is the right device"
                     )
                 raise DeviceError(
@@ -104,13 +124,26 @@ class SerialAscii:
             raise DeviceError(
                 f"{self.port}: the connection failed while sending {command!r} ({exc}); the device may have been unplugged"
             ) from None
-        text = bytes(reply).rstrip()[: -len(self.prompt)]
-        m = _ERR.search(text)
+        text = bytes(reply).strip()
+        if self.reply_end.strip():
+            text = text[: -len(self.reply_end.strip())].rstrip()
+        m = self.error.search(text)
         if m:
-            code = int(m.group(1))
-            meaning = f" ({self.error_codes[code]})" if code in self.error_codes else ""
+            code = m.groupdict().get("code") or (m.group(1) if self.error.groups else None)
+            if code is not None and code.isdigit():
+                meaning = (
+                    f" ({self.error_codes[int(code)]})" if int(code) in self.error_codes else ""
+                )
+                what = f"'{m.group(0).decode('ascii', 'replace').strip()}'{meaning}"
+            else:
+                what = f"{m.group(0).decode('ascii', 'replace').strip()!r}"
             raise DeviceError(
-                f"{self.port}: controller answered 'Err {code}'{meaning} to {command!r}; check the channel number and the value's range for this model"
+                f"{self.port}: controller answered {what} to {command!r}; check the channel number and the value's range for this model"
+            )
+        if self.ok is not None and not self.ok.search(text):
+            raise DeviceError(
+                f"{self.port}: reply {bytes(text[:60])!r} to {command!r} is neither success ({self.ok.pattern.decode()!r}) nor an error; "
+                "check the station file's controller.protocol patterns against the controller's manual"
             )
         try:
             return text.decode("ascii").strip()

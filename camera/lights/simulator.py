@@ -17,6 +17,11 @@ the first line on stdout is the device path. Faults for tests:
 * ``--vanish-after N``: exit (the port disappears) after N command lines.
 
 Its own error codes: 1 unknown command, 2 malformed parameters, 3 value out of range.
+
+``--dialect line`` speaks a second, line-based protocol instead (for the generic
+ASCII controller, :mod:`camera.lights.generic`): ``SET c v`` with v in 0–255,
+``OFF c``, ``STATUS?``; lines end with LF, replies are ``OK`` or
+``ERROR n: text`` ended by CR LF.
 """
 
 from __future__ import annotations
@@ -90,6 +95,32 @@ class Controller:
             return "RT-simulated (inspect-validate) 1.0"
         return f"Err {UNKNOWN}"
 
+    def line_command(self, text: str) -> str:
+        """The ``line`` dialect: 8-bit levels, explicit OK, errors with a text."""
+        words = text.strip().upper().split()
+        for prefix, code in self.errors.items():
+            if text.strip().upper().startswith(prefix):
+                return f"ERROR {code}: refused"
+        try:
+            if words[:1] == ["SET"] and len(words) == 3:
+                ch, level = int(words[1]), int(words[2])
+                if ch not in self.level or not 0 <= level <= 255:
+                    return f"ERROR {RANGE}: out of range"
+                self.level[ch] = round(level / 255 * 100, 6)
+            elif words[:1] == ["OFF"] and len(words) == 2:
+                ch = int(words[1])
+                if ch not in self.level:
+                    return f"ERROR {RANGE}: out of range"
+                self.level[ch] = 0.0
+            elif words == ["STATUS?"]:
+                return "OK " + " ".join(f"{c}={v:g}" for c, v in self.level.items())
+            else:
+                return f"ERROR {UNKNOWN}: unknown command"
+        except ValueError:
+            return f"ERROR {MALFORMED}: malformed"
+        self.save()
+        return "OK"
+
 
 def serve(master: int, controller: Controller, args) -> None:
     pending = b""
@@ -102,9 +133,10 @@ def serve(master: int, controller: Controller, args) -> None:
         if not data:
             return
         pending += data
-        while b"\r" in pending:
-            raw, pending = pending.split(b"\r", 1)
-            raw = raw.strip(b"\n")
+        sep = b"\n" if args.dialect == "line" else b"\r"
+        while sep in pending:
+            raw, pending = pending.split(sep, 1)
+            raw = raw.strip(b"\r\n")
             if not raw:
                 continue
             lines += 1
@@ -117,6 +149,10 @@ def serve(master: int, controller: Controller, args) -> None:
                 continue
             if args.slow:
                 time.sleep(args.slow)
+            if args.dialect == "line":
+                reply = controller.line_command(raw.decode("ascii", "replace"))
+                os.write(master, reply.encode() + b"\r\n")
+                continue
             replies = [controller.command(c) for c in raw.decode("ascii", "replace").split(";")]
             text = "\r\n".join(r for r in replies if r)
             os.write(master, (text + "\r\n" if text else "").encode() + b">")
@@ -131,6 +167,7 @@ def main(argv=None) -> None:
     parser.add_argument("--mute-after", type=int)
     parser.add_argument("--garbage-after", type=int)
     parser.add_argument("--vanish-after", type=int)
+    parser.add_argument("--dialect", choices=("gardasoft", "line"), default="gardasoft")
     args = parser.parse_args(argv)
     errors = {}
     for item in args.error:

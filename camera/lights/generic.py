@@ -1,0 +1,118 @@
+"""LED controllers of any vendor that speak short ASCII commands over serial.
+
+The station file gives the protocol (``controller.protocol``): command templates,
+the terminator appended to commands, what ends a reply, and regular expressions
+for success and error replies. Templates are Python format strings with the
+fields ``{channel}``, ``{percent}`` (0–100) and ``{value}`` (the intensity in the
+controller's own units: ``percent / 100 * max_value``), plus ``{width_us}`` and
+``{delay_us}`` for pulses. Example, for a controller taking 8-bit levels::
+
+    controller:
+      backend: generic
+      port: /dev/ttyUSB0
+      channels: 4
+      protocol:
+        baudrate: 9600
+        terminator: "\\n"
+        reply_end: "\\r\\n"
+        ok: "^OK"
+        error: "ERROR (?P<code>\\\\d+)"
+        max_value: 255
+        commands:
+          set: "SET {channel} {value:.0f}"
+          off: "OFF {channel}"
+          status: "STATUS?"
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+from camera.lights.base import LedController
+from camera.lights.gardasoft import SerialAscii
+from inspect_validate.errors import DeviceError
+
+__all__ = ["GenericAsciiController"]
+
+
+class GenericAsciiController(LedController):
+    """A controller driven by command templates from the station file.
+
+    Parameters
+    ----------
+    port : str
+        Serial device.
+    commands : mapping
+        ``set`` (required), and optionally ``off`` (used for 0 %), ``pulse``,
+        ``status`` and ``init`` (a list sent once after opening, e.g. to enter
+        remote mode).
+    channels : int
+        Output channels, numbered from 1.
+    max_value : float
+        The controller's value for 100 %.
+    baudrate, terminator, reply_end, ok, error, timeout, error_codes
+        As for :class:`~camera.lights.gardasoft.SerialAscii`.
+    """
+
+    def __init__(
+        self,
+        port: str,
+        *,
+        commands: Mapping[str, str | Sequence[str]],
+        channels: int = 4,
+        max_value: float = 100.0,
+        baudrate: int = 115200,
+        terminator: bytes = b"\r",
+        reply_end: bytes = b"\r\n",
+        ok: bytes | None = None,
+        error: bytes = rb"(?i)err\w*\s*(\d+)",
+        timeout: float = 1.0,
+        error_codes: dict[int, str] | None = None,
+    ):
+        if "set" not in commands:
+            raise DeviceError(f"controller on {port}: the protocol needs a 'set' command template")
+        self.name = f"ASCII controller on {port}"
+        self.channels = channels
+        self.commands = dict(commands)
+        self.max_value = float(max_value)
+        self.link = SerialAscii(
+            port,
+            baudrate=baudrate,
+            terminator=terminator,
+            reply_end=reply_end,
+            ok=ok,
+            error=error,
+            timeout=timeout,
+            error_codes=error_codes,
+        )
+        try:
+            for line in self.commands.get("init", ()):
+                self.link.query(line)
+        except DeviceError:
+            self.link.close()
+            raise
+
+    def _send(self, template: str, channel: int, percent: float, **extra) -> str:
+        if not 1 <= channel <= self.channels:
+            raise DeviceError(f"{self.name}: channel {channel} does not exist (1–{self.channels})")
+        if not 0 <= percent <= 100:
+            raise DeviceError(f"{self.name}: intensity {percent:g} % is outside 0–100 %")
+        command = template.format(
+            channel=channel, percent=percent, value=percent / 100 * self.max_value, **extra
+        )
+        return self.link.query(command)
+
+    def set_intensity(self, channel: int, percent: float) -> None:
+        template = self.commands["off"] if percent == 0 and "off" in self.commands else None
+        self._send(template or self.commands["set"], channel, percent)
+
+    def pulse(self, channel: int, *, width_us: float, delay_us: float, percent: float) -> None:
+        if "pulse" not in self.commands:
+            raise DeviceError(f"{self.name}: the station file gives no 'pulse' command template")
+        self._send(self.commands["pulse"], channel, percent, width_us=width_us, delay_us=delay_us)
+
+    def status(self) -> str:
+        return self.link.query(self.commands["status"]) if "status" in self.commands else ""
+
+    def close(self) -> None:
+        self.link.close()
