@@ -38,6 +38,7 @@ class CaptureResult:
     folder: Path
     steps: dict[str, int]  # step → frames saved in this run
     skipped: tuple[str, ...]  # steps already complete (resume)
+    not_applied: tuple[str, ...] = ()  # station settings the camera has no node for
 
 
 def verified_frames(
@@ -123,6 +124,12 @@ def capture(
         camera.configure(
             exposure_us=cam.exposure_us, gain_db=cam.gain_db, pixel_format=cam.pixel_format
         )
+        asked = {"exposure": cam.exposure_us, "gain": cam.gain_db, "pixel_format": cam.pixel_format}
+        not_applied = tuple(sorted(m for m in camera.missing if asked.get(m) is not None))
+        store.record(
+            "camera",
+            {"name": camera.name, "missing": sorted(camera.missing), "not_applied": not_applied},
+        )
         try:
             for name, setting, n in steps:
                 if store.is_complete(name):
@@ -140,7 +147,7 @@ def capture(
                         discard_max=station.discard_max,
                         tolerance=station.brightness_tolerance,
                         timeout_s=cam.timeout_s,
-                        flush=cam.flush_frames,
+                        flush=max(cam.flush_frames, getattr(camera, "pipeline_frames", 0)),
                     )
                 except DeviceError as exc:
                     store.fail(name, str(exc))
@@ -167,4 +174,4 @@ def capture(
                 controller.all_off()
             except DeviceError:
                 pass  # the original error matters more; the frames are saved
-    return CaptureResult(Path(out), saved, tuple(skipped))
+    return CaptureResult(Path(out), saved, tuple(skipped), not_applied)

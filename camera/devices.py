@@ -82,7 +82,7 @@ def open_devices(station: Station):
             from camera.lights.manual import ManualController
 
             controller = stack.enter_context(ManualController(channels=spec.channels))
-        camera = stack.enter_context(_open_camera(station, state_path))
+        camera = stack.enter_context(_open_camera(station, state_path, controller))
         yield controller, camera
 
 
@@ -112,7 +112,7 @@ def _generic_controller(station: Station, port: str | None):
     )
 
 
-def _open_camera(station: Station, state_path: Path | None):
+def _open_camera(station: Station, state_path: Path | None, controller):
     spec = station.camera
     if spec.backend == "simulated":
         if state_path is None:
@@ -146,8 +146,14 @@ def _open_camera(station: Station, state_path: Path | None):
         from camera.grabbers.pylon import PylonCamera
 
         return PylonCamera(serial=spec.serial, index=spec.index)
-    raise InputError(
-        f"camera backend {spec.backend!r} is not implemented yet (issue #4: v4l2, replay); "
-        "use simulated, genicam or pylon",
-        source=str(station.path),
-    )
+    if spec.backend == "replay":
+        if not spec.folder:
+            raise InputError(
+                "camera.folder is required for the replay camera", source=str(station.path)
+            )
+        from camera.grabbers.replay import ReplayCamera
+
+        return ReplayCamera(station.resolve(spec.folder), lights=lambda: controller.applied)
+    from camera.grabbers.v4l2 import V4l2Camera
+
+    return V4l2Camera(spec.device if spec.device is not None else spec.index)

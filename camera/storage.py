@@ -77,6 +77,11 @@ class CaptureStore:
             self.manifest_path, lambda f: f.write(json.dumps(self.manifest, indent=2).encode())
         )
 
+    def record(self, key: str, value) -> None:
+        """Add ``key`` to the manifest (e.g. the camera and the settings it lacks)."""
+        self.manifest[key] = value
+        self._save_manifest()
+
     def is_complete(self, step: str) -> bool:
         return bool(self.manifest["steps"].get(step, {}).get("complete"))
 

@@ -334,6 +334,12 @@ def capture(station, out, resume):
             last[0] = done
 
         result = run_capture(st, out, resume=resume, progress=progress)
+    if result.not_applied:
+        click.echo(
+            f"warning: the camera has no {', '.join(result.not_applied)} setting; the station's value "
+            "was not applied (recorded in the manifest)",
+            err=True,
+        )
     for step, n in result.steps.items():
         click.echo(f"{step}: {n} frames in {out / step}")
     for step in result.skipped:

@@ -21,6 +21,7 @@ class Grabber(ABC):
 
     name: str = "camera"
     missing: set[str]
+    pipeline_frames: int = 0  # frames that can predate a change (driver queue); flushed at least
 
     @abstractmethod
     def configure(

@@ -18,6 +18,7 @@ class LedController(ABC):
 
     name: str = "controller"
     channels: int = 1
+    applied: dict[int, float] | None = None  # the last setting apply() confirmed (channels on)
 
     @abstractmethod
     def set_intensity(self, channel: int, percent: float) -> None:
@@ -32,13 +33,13 @@ class LedController(ABC):
         return ""
 
     def all_off(self) -> None:
-        for ch in range(1, self.channels + 1):
-            self.set_intensity(ch, 0.0)
+        self.apply({})
 
     def apply(self, setting: dict[int, float]) -> None:
         """Set the given channels and switch every other channel off."""
         for ch in range(1, self.channels + 1):
             self.set_intensity(ch, float(setting.get(ch, 0.0)))
+        self.applied = {c: float(v) for c, v in setting.items() if v}
 
     def close(self) -> None:  # noqa: B027 - optional for controllers without a connection
         """Release the connection."""

@@ -5,6 +5,7 @@ from __future__ import annotations
 import sys
 
 from camera.lights.base import LedController
+from inspect_validate.errors import DeviceError
 
 __all__ = ["ManualController"]
 
@@ -16,22 +17,27 @@ class ManualController(LedController):
         self.name = "manual switching"
         self.channels = channels
         self._prompt = prompt or (lambda text: input(text))
-        self._last: dict[int, float] | None = None
 
     def set_intensity(self, channel: int, percent: float) -> None:
         self.apply({channel: percent})
 
     def apply(self, setting: dict[int, float]) -> None:
         setting = {c: v for c, v in setting.items() if v}
-        if setting == self._last:
+        if setting == self.applied:
             return
         what = (
             ", ".join(f"channel {c} at {v:g} %" for c, v in sorted(setting.items()))
             or "all lights OFF"
         )
         print(f"\nSet the lights: {what}", file=sys.stderr)
-        self._prompt("Press Enter when done… ")
-        self._last = setting
+        try:
+            self._prompt("Press Enter when done… ")
+        except EOFError:
+            raise DeviceError(
+                f"{self.name}: no operator to switch the lights (standard input is closed); "
+                "run the capture in a terminal, or use a controller backend"
+            ) from None
+        self.applied = setting
 
     def all_off(self) -> None:
         self.apply({})
