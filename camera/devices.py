@@ -112,31 +112,36 @@ def _generic_controller(station: Station, port: str | None):
     )
 
 
+def _scene_renderer(station: Station, state_path: Path | None):
+    """The simulated camera of ``camera.scene``, lit by the simulated controller's state."""
+    spec = station.camera
+    if state_path is None:
+        raise InputError(
+            f"a camera with a scene ({spec.backend}) needs the simulated controller (controller.backend: simulated)",
+            source=str(station.path),
+        )
+    if not spec.scene:
+        raise InputError(
+            "camera.scene is required for the simulated camera", source=str(station.path)
+        )
+    from camera.grabbers.simulated import SimulatedCamera
+    from inspect_validate.scene import read_scene
+
+    return SimulatedCamera(
+        read_scene(station.resolve(spec.scene)),
+        spec.channels,
+        state_path,
+        irradiance=spec.channel_irradiance,
+        width=spec.width,
+        height=spec.height,
+        latency=spec.latency,
+    )
+
+
 def _open_camera(station: Station, state_path: Path | None, controller):
     spec = station.camera
     if spec.backend == "simulated":
-        if state_path is None:
-            raise InputError(
-                "the simulated camera needs the simulated controller (controller.backend: simulated)",
-                source=str(station.path),
-            )
-        if not spec.scene:
-            raise InputError(
-                "camera.scene is required for the simulated camera", source=str(station.path)
-            )
-        from camera.grabbers.simulated import SimulatedCamera
-        from inspect_validate.scene import read_scene
-
-        scene = read_scene(station.resolve(spec.scene))
-        return SimulatedCamera(
-            scene,
-            spec.channels,
-            state_path,
-            irradiance=spec.channel_irradiance,
-            width=spec.width,
-            height=spec.height,
-            latency=spec.latency,
-        )
+        return _scene_renderer(station, state_path)
     if spec.backend == "genicam":
         from camera.grabbers.genicam import GenICamCamera
 
@@ -145,6 +150,11 @@ def _open_camera(station: Station, state_path: Path | None, controller):
     if spec.backend == "pylon":
         from camera.grabbers.pylon import PylonCamera
 
+        if spec.scene:  # the simulated station through pylon's camera emulator
+            from camera.grabbers.emulator_feed import EmulatorFeed
+
+            renderer = _scene_renderer(station, state_path)
+            return EmulatorFeed(PylonCamera(serial=spec.serial, index=spec.index), renderer)
         return PylonCamera(serial=spec.serial, index=spec.index)
     if spec.backend == "replay":
         if not spec.folder:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
@@ -46,8 +46,9 @@ class Frame:
     extra: dict = field(default_factory=dict)
 
     def metadata(self) -> dict:
-        d = asdict(self)
-        d.pop("data")
+        # Not dataclasses.asdict: it would deep-copy the pixels only to drop them.
+        d = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "data"}
+        d["extra"] = dict(self.extra)
         d["shape"] = list(self.data.shape)
         d["dtype"] = str(self.data.dtype)
         return d

@@ -73,3 +73,38 @@ def test_selection_and_producer_errors(tmp_path, monkeypatch):
     monkeypatch.setenv("GENICAM_GENTL64_PATH", str(tmp_path))
     with pytest.raises(DeviceError, match="set GENICAM_GENTL64_PATH"):
         find_producers()
+
+
+def test_full_capture_through_harvesters(tmp_path, capsys):
+    """A station on viky through ``inspect-validate capture``: switch, flush, verify, save, darks."""
+    import json
+
+    from inspect_validate.cli import main
+
+    station = tmp_path / "viky.yaml"
+    station.write_text(
+        f"camera: {{backend: genicam, cti: '{CTI}', serial: '0', pixel_format: Mono8,"
+        " exposure_us: 5000, gain_db: 0}\n"
+        "controller: {backend: simulated, channels: 2}\n"
+        "illuminations:\n  - {name: one, channels: {1: 100}}\n  - {name: two, channels: {2: 50}}\n"
+        "frames: 3\ndark_frames: 2\nbrightness_tolerance: 0.05\n"
+    )
+    out = tmp_path / "cap"
+    with pytest.raises(SystemExit) as info:
+        main(["capture", str(station), "--out", str(out)])
+    err = capsys.readouterr().err
+    assert info.value.code == 0, err
+    # viky has no ExposureTime/Gain: the capture says so and records it.
+    assert "warning: the camera has no exposure, gain setting" in err
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["camera"]["not_applied"] == ["exposure", "gain"]
+    assert "Viky" in manifest["camera"]["name"]
+    for step, n in (("one", 3), ("two", 3), ("dark", 2)):
+        assert manifest["steps"][step]["complete"]
+        metas = [json.loads(p.read_text()) for p in sorted((out / step).glob("frame_*.json"))]
+        assert len(metas) == n
+        assert all(m["pixel_format"] == "Mono8" and m["exposure_us"] is None for m in metas)
+        ids = [m["frame_id"] for m in metas]
+        assert ids == sorted(ids) and len(set(ids)) == n
+        # No exposure timestamps on the host clock: the first frames after a switch are flushed.
+        assert metas[0]["discarded_before"] >= 4

@@ -4,6 +4,7 @@ pylon reads PYLON_CAMEMU when its transport layers start, so each check runs
 in a fresh interpreter with the variable set.
 """
 
+import json
 import os
 import subprocess
 import sys
@@ -73,3 +74,75 @@ def test_emulator_errors(tmp_path):
     assert "serial: no pylon camera with serial nope; found: 0815-0000" in out
     assert "format: " in out and "RGB8Packed not offered as monochrome" in out
     assert "timeout: " in out and "no frame within 0.2 s" in out
+
+
+def test_full_capture_through_the_emulator_matches_the_simulated_station(tmp_path):
+    """The simulated station's capture, every frame through pylon's grab engine."""
+    from conftest import ROOT
+
+    from inspect_validate.cli import main
+
+    station = ROOT / "sample_images" / "station"
+    text = (station / "station.yaml").read_text()
+    text = text.replace(
+        "backend: simulated\n  scene:", "backend: pylon\n  pixel_format: Mono16\n  scene:"
+    )
+    text = text.replace("../scenes/", f"{ROOT / 'sample_images' / 'scenes'}/")
+    pylon_station = tmp_path / "pylon.yaml"
+    pylon_station.write_text(text)
+    out = tmp_path / "emu"
+    env = {**os.environ, "PYLON_CAMEMU": "1"}
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "inspect_validate",
+            "capture",
+            str(pylon_station),
+            "--out",
+            str(out),
+        ],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
+    meta = json.loads((out / "red" / "frame_0001.json").read_text())
+    # The emulator stamps no time (TimeStamp 0): arrival clock, so the station's flush applies.
+    assert meta["device"].startswith("Basler Emulation") and meta["clock"] == "arrival"
+    assert meta["pixel_format"] == "Mono16" and meta["exposure_us"] == 8000
+    assert meta["discarded_before"] >= 4
+
+    # The same station on the simulated camera: class means agree within noise.
+    sim = tmp_path / "sim"
+    means = {}
+    for name, folder, station_file in (
+        ("emu", out, None),
+        ("sim", sim, station / "station.yaml"),
+    ):
+        if station_file is not None:
+            with pytest.raises(SystemExit) as info:
+                main(["capture", str(station_file), "--out", str(folder)])
+            assert info.value.code == 0
+        doc = tmp_path / f"{name}.json"
+        with pytest.raises(SystemExit) as info:
+            main(
+                [
+                    "measure",
+                    str(folder / "amber"),
+                    "--dark",
+                    str(folder / "dark"),
+                    "--rois",
+                    str(station / "rois.yaml"),
+                    "--json",
+                    str(doc),
+                ]
+            )
+        assert info.value.code == 0
+        means[name] = {c["name"]: c for c in json.loads(doc.read_text())["classes"]}
+    for cls, m in means["sim"].items():
+        e = means["emu"][cls]
+        # Different noise realisations of the same model: the spatial spread dominates.
+        assert abs(e["mean"] - m["mean"]) < 4 * (m["variance"] / m["n_pixels"]) ** 0.5 + 0.5, cls
+        assert abs(e["variance"] / m["variance"] - 1) < 0.1, cls

@@ -92,6 +92,23 @@ class PylonCamera(Grabber):
         if gain_db is not None:
             self._set("Gain", float(gain_db), "gain")
 
+    def serve_files(self, folder) -> None:
+        """Make pylon's camera emulator serve the images in ``folder``, cycling through them.
+
+        The emulator reads the files when acquisition starts, so a grab in
+        progress is stopped; the next :meth:`grab` starts it again.
+        """
+        if not hasattr(self._cam, "ImageFileMode"):
+            raise DeviceError(
+                f"{self.name}: only pylon's camera emulator serves image files (PYLON_CAMEMU=1)"
+            )
+        if self._cam.IsGrabbing():
+            self._cam.StopGrabbing()
+        if hasattr(self._cam, "TestImageSelector"):
+            self._cam.TestImageSelector.Value = "Off"  # a test image would take precedence
+        self._cam.ImageFileMode.Value = "On"
+        self._cam.ImageFilename.Value = str(folder)
+
     def grab(self, n: int, *, timeout_s: float = 2.0) -> list[Frame]:
         pylon = self._pylon
         if not self._cam.IsGrabbing():

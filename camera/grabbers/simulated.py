@@ -132,7 +132,8 @@ class SimulatedCamera(Grabber):
             )
         self.pipeline.clear()  # a settings change restarts the pipeline, as on real cameras
 
-    def _light_state(self) -> dict[int, float]:
+    def light_state(self) -> dict[int, float]:
+        """The channels the controller has on now (channel → %), from its state file."""
         try:
             doc = json.loads(self.state_path.read_text())
         except (OSError, ValueError):
@@ -141,7 +142,7 @@ class SimulatedCamera(Grabber):
 
     def _expose(self) -> tuple[dict[int, float], int]:
         time.sleep(self.interval)
-        return self._light_state(), time.monotonic_ns()
+        return self.light_state(), time.monotonic_ns()
 
     def grab(self, n: int, *, timeout_s: float = 2.0) -> list[Frame]:
         frames = []
@@ -153,7 +154,8 @@ class SimulatedCamera(Grabber):
             frames.append(self._render(state, stamp))
         return frames
 
-    def _render(self, state: dict[int, float], stamp: int) -> Frame:
+    def render(self, state: dict[int, float]) -> np.ndarray:
+        """One noisy frame (uint16 DN) under ``state`` (channel → %), EMVA 1288 model."""
         cam = self.camera
         t = self.exposure_us * 1e-6
         gain = cam.gain * 10 ** (self.gain_db / 20)
@@ -167,8 +169,12 @@ class SimulatedCamera(Grabber):
             electrons = self.rng.poisson(rate[pick] * t)
             frame[where] += gain * electrons
         top = min(cam.max_dn, 2**16 - 1)
+        return np.clip(np.floor(frame + 0.5), 0, top).astype(np.uint16)
+
+    def _render(self, state: dict[int, float], stamp: int) -> Frame:
+        data = self.render(state)
         self.frame_id += 1
-        data = np.clip(np.floor(frame + 0.5), 0, top).astype(np.uint16)
+        cam = self.camera
         return Frame(
             data,
             self.frame_id,

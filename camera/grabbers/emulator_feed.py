@@ -1,0 +1,87 @@
+"""The simulated station through a vendor SDK: pylon's camera emulator fed with rendered frames.
+
+A station with ``camera.backend: pylon`` *and* a ``camera.scene`` runs on pylon's
+camera emulator (``PYLON_CAMEMU=1``): whenever the simulated controller's lights
+change, frames of the scene under the new lights are rendered with the EMVA 1288
+model (:class:`~camera.grabbers.simulated.SimulatedCamera`), written as 16-bit
+PNG and served by the emulator in ``ImageFileMode``, pixel-exactly in Mono16.
+Every frame the capture keeps has passed through pylon's grab engine, buffers
+and timestamps — the same path as a real Basler camera.
+"""
+
+from __future__ import annotations
+
+import tempfile
+from pathlib import Path
+
+from camera.frame import Frame
+from camera.grabbers.base import Grabber
+from inspect_validate.errors import DeviceError
+
+__all__ = ["EmulatorFeed"]
+
+
+class EmulatorFeed(Grabber):
+    """Serve ``renderer``'s frames through the pylon emulator ``camera``.
+
+    Parameters
+    ----------
+    camera : PylonCamera
+        Opened on the emulator.
+    renderer : SimulatedCamera
+        Renders the scene under the controller's current lights.
+    frames_per_light : int
+        Noise realisations rendered per light setting; the emulator cycles
+        through them, so a step should keep fewer frames than this.
+    """
+
+    def __init__(self, camera, renderer, *, frames_per_light: int = 16):
+        self.camera, self.renderer = camera, renderer
+        self.frames_per_light = frames_per_light
+        self.name = f"{camera.name} fed by the {renderer.name}"
+        self.missing = camera.missing
+        self._folder = tempfile.TemporaryDirectory(prefix="iv-emulator-")
+        self._served: dict[int, float] | None = None
+        self._sets = 0
+
+    def configure(self, *, exposure_us=None, gain_db=None, pixel_format=None, region=None) -> None:
+        if pixel_format not in (None, "Mono16"):
+            raise DeviceError(
+                f"{self.name}: the emulator serves 16-bit files pixel-exactly only in Mono16, not {pixel_format}"
+            )
+        if region is not None:
+            raise DeviceError(f"{self.name}: the rendered frame size is set by camera.width/height")
+        self.renderer.configure(exposure_us=exposure_us, gain_db=gain_db)
+        self.camera.configure(
+            exposure_us=exposure_us,
+            gain_db=gain_db,
+            pixel_format="Mono16",
+            region=(0, 0, self.renderer.width, self.renderer.height),
+        )
+        self._served = None
+
+    def _serve(self, state: dict[int, float]) -> None:
+        import cv2
+
+        self._sets += 1
+        folder = Path(self._folder.name) / f"setting_{self._sets:04d}"
+        folder.mkdir()
+        for i in range(self.frames_per_light):
+            cv2.imwrite(str(folder / f"frame_{i:03d}.png"), self.renderer.render(state))
+        self.camera.serve_files(folder)
+        self._served = state
+
+    def grab(self, n: int, *, timeout_s: float = 2.0) -> list[Frame]:
+        frames = []
+        for _ in range(n):
+            state = self.renderer.light_state()
+            if state != self._served:
+                self._serve(state)
+            frames += self.camera.grab(1, timeout_s=timeout_s)
+        return frames
+
+    def close(self) -> None:
+        try:
+            self.camera.close()
+        finally:
+            self._folder.cleanup()
