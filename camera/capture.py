@@ -12,6 +12,9 @@ For each illumination (and finally the dark frames, all lights off):
    after two agreeing frames is an error;
 4. save each kept frame (16-bit TIFF + JSON sidecar, atomically) at once.
 
+After the dark frames, a step no brighter than dark is reported as a warning
+(manifest ``warnings``): its light never reached the camera.
+
 Up to ``discard_max`` frames are dropped per step; beyond that the capture fails
 loudly rather than record a frame exposed under the wrong light. A failure or
 interruption keeps every frame saved so far, and ``resume`` continues with the
@@ -39,6 +42,7 @@ class CaptureResult:
     steps: dict[str, int]  # step → frames saved in this run
     skipped: tuple[str, ...]  # steps already complete (resume)
     not_applied: tuple[str, ...] = ()  # station settings the camera has no node for
+    warnings: tuple[str, ...] = ()  # e.g. a step no brighter than dark
 
 
 def verified_frames(
@@ -117,6 +121,7 @@ def capture(
     if station.dark_frames:
         steps.append(("dark", {}, station.dark_frames))
     saved, skipped = {}, []
+    levels: dict[str, float] = {}  # mean grey value of each step captured in this run
     total = sum(n for _, _, n in steps)
     done = 0
     with devices if devices is not None else open_devices(station) as (controller, camera):
@@ -169,9 +174,31 @@ def capture(
                         progress(name, done, total)
                 store.finish(name)
                 saved[name] = len(frames)
+                levels[name] = float(np.mean([f.data.mean() for f in frames]))
         finally:
             try:
                 controller.all_off()
             except DeviceError:
                 pass  # the original error matters more; the frames are saved
-    return CaptureResult(Path(out), saved, tuple(skipped), not_applied)
+    warnings = _unlit_steps(levels, station.brightness_tolerance)
+    if warnings:
+        store.record("warnings", list(warnings))
+    return CaptureResult(Path(out), saved, tuple(skipped), not_applied, warnings)
+
+
+def _unlit_steps(levels: dict[str, float], tolerance: float) -> tuple[str, ...]:
+    """Steps whose frames are no brighter than the dark frames: the light never showed.
+
+    A warning, not an error: a light the lens or sensor cannot see (UV behind
+    glass) is a legitimate finding, but a wrong channel or a loose cable looks
+    the same and should not pass unnoticed.
+    """
+    if "dark" not in levels:
+        return ()
+    dark = levels["dark"]
+    return tuple(
+        f"step {name!r}: mean {level:.1f} DN is no brighter than the dark frames ({dark:.1f} DN); "
+        "check that this illumination's channel drives a light the camera sees"
+        for name, level in levels.items()
+        if name != "dark" and level - dark <= tolerance * max(abs(dark), 1.0)
+    )

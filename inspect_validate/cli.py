@@ -340,6 +340,8 @@ def capture(station, out, resume):
             "was not applied (recorded in the manifest)",
             err=True,
         )
+    for warning in result.warnings:
+        click.echo(f"warning: {warning}", err=True)
     for step, n in result.steps.items():
         click.echo(f"{step}: {n} frames in {out / step}")
     for step in result.skipped:

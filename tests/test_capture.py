@@ -131,6 +131,24 @@ def test_bad_station_file_names_the_field(tmp_path, capsys):
     assert "controller.backend" in err and "illuminations" in err
 
 
+def test_a_step_no_brighter_than_dark_is_reported(tmp_path, capsys):
+    station = station_copy(tmp_path)
+    text = station.read_text().replace("channels: 2\n", "channels: 3\n")
+    # Channel 3 drives no light the camera sees (a wrong channel in the station file).
+    text = text.replace(
+        "  - {name: red, channels: {2: 100}}\n",
+        "  - {name: red, channels: {2: 100}}\n  - {name: unplugged, channels: {3: 100}}\n",
+    )
+    station.write_text(text)
+    out = tmp_path / "cap"
+    assert run(["capture", station, "--out", out]) == 0
+    err = capsys.readouterr().err
+    assert "warning: step 'unplugged': mean" in err and "no brighter than the dark frames" in err
+    assert "'amber'" not in err and "'red'" not in err
+    warnings = json.loads((out / "manifest.json").read_text())["warnings"]
+    assert len(warnings) == 1 and warnings[0].startswith("step 'unplugged'")
+
+
 LINE_PROTOCOL = {
     "terminator": "\n",
     "reply_end": "\r\n",

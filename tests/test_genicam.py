@@ -96,6 +96,8 @@ def test_full_capture_through_harvesters(tmp_path, capsys):
     assert info.value.code == 0, err
     # viky has no ExposureTime/Gain: the capture says so and records it.
     assert "warning: the camera has no exposure, gain setting" in err
+    # viky's picture ignores the lights: every lit step is reported as no brighter than dark.
+    assert "warning: step 'one'" in err and "warning: step 'two'" in err
     manifest = json.loads((out / "manifest.json").read_text())
     assert manifest["camera"]["not_applied"] == ["exposure", "gain"]
     assert "Viky" in manifest["camera"]["name"]
