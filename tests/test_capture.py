@@ -110,6 +110,28 @@ def test_err_reply_names_the_command_and_keeps_frames(tmp_path, capsys):
     assert len(list((out / "amber").glob("frame_*.tif"))) == 4
 
 
+@pytest.mark.parametrize(
+    "fault, message",
+    [
+        (["--mute-after", "3"], r"no answer to 'RS\d,\d+' within 0.5 s; check the cable"),
+        (["--garbage-after", "3"], r"unexpected reply b'\\xff\\xfe\\x00\\x80garbage' to 'RS"),
+        (["--slow", "0.8"], r"no answer to 'RS1,100' within 0.5 s"),
+    ],
+)
+def test_silent_or_garbled_controller_keeps_frames(tmp_path, capsys, fault, message):
+    station = station_copy(tmp_path, simulator_args=fault, timeout_s=0.5)
+    out = tmp_path / "cap"
+    assert run(["capture", station, "--out", out]) == 3
+    err = capsys.readouterr().err
+    assert re.search(r"error: /dev/pts/\d+: " + message, err), err
+    manifest = json.loads((out / "manifest.json").read_text())
+    failed = [s for s, v in manifest["steps"].items() if "error" in v]
+    assert len(failed) == 1
+    if fault[0] != "--slow":  # two commands (amber) answered before the fault: amber is kept
+        assert manifest["steps"]["amber"]["complete"]
+        assert len(list((out / "amber").glob("frame_*.tif"))) == 4
+
+
 def test_existing_capture_needs_resume_and_the_same_station(tmp_path, capsys):
     station = station_copy(tmp_path)
     out = tmp_path / "cap"

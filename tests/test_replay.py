@@ -65,7 +65,10 @@ def test_replayed_capture_serves_the_recorded_frames_per_light(tmp_path, recordi
         ),
         ({"frames": 5}, "no more frames under channel 1 at 100 % (4 in all)"),
         (
-            {"illuminations": "  - {name: both, channels: {1: 50, 2: 50}}\n"},
+            {
+                "illuminations": "  - {name: amber, channels: {1: 100}}\n"
+                "  - {name: both, channels: {1: 50, 2: 50}}\n"
+            },
             "nothing was recorded under channel 1 at 50 %, channel 2 at 50 % (recorded: channel 1 at 100 %;",
         ),
     ],
@@ -74,7 +77,10 @@ def test_replay_refuses_what_was_not_recorded(tmp_path, recording, capsys, kwarg
     out = tmp_path / "again"
     assert run(["capture", replay_station(tmp_path, recording, **kwargs), "--out", out]) == 3
     assert message in capsys.readouterr().err
-    assert (out / "manifest.json").is_file()
+    manifest = json.loads((out / "manifest.json").read_text())
+    if "illuminations" in kwargs:  # the camera failed mid-run: the finished step is kept
+        assert manifest["steps"]["amber"]["complete"] and "error" in manifest["steps"]["both"]
+        assert len(list((out / "amber").glob("frame_*.tif"))) == 4
 
 
 def manual_station(tmp_path, n_images=6):
