@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 
+from inspect_validate.errors import DeviceError
+
 __all__ = ["LedController"]
 
 
@@ -19,6 +21,13 @@ class LedController(ABC):
     name: str = "controller"
     channels: int = 1
     applied: dict[int, float] | None = None  # the last setting apply() confirmed (channels on)
+
+    def check(self, channel: int, percent: float | None = None) -> None:
+        """Refuse a channel the controller lacks or an intensity outside 0–100 % before sending."""
+        if not 1 <= channel <= self.channels:
+            raise DeviceError(f"{self.name}: channel {channel} does not exist (1–{self.channels})")
+        if percent is not None and not 0 <= percent <= 100:
+            raise DeviceError(f"{self.name}: intensity {percent:g} % is outside 0–100 %")
 
     @abstractmethod
     def set_intensity(self, channel: int, percent: float) -> None:

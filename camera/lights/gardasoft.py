@@ -174,22 +174,16 @@ class GardasoftController(LedController):
         self.channels = channels
         self.link = SerialAscii(port, timeout=timeout, error_codes=error_codes)
 
-    def _check(self, channel: int, percent: float | None = None):
-        if not 1 <= channel <= self.channels:
-            raise DeviceError(f"{self.name}: channel {channel} does not exist (1–{self.channels})")
-        if percent is not None and not 0 <= percent <= 100:
-            raise DeviceError(f"{self.name}: intensity {percent:g} % is outside 0–100 %")
-
     def set_intensity(self, channel: int, percent: float) -> None:
-        self._check(channel, percent)
+        self.check(channel, percent)
         self.link.query(f"RS{channel},{percent:g}")
 
     def pulse(self, channel: int, *, width_us: float, delay_us: float, percent: float) -> None:
-        self._check(channel, percent)
+        self.check(channel, percent)
         self.link.query(f"RT{channel},{width_us:g},{delay_us:g},{percent:g}")
 
     def trigger(self, channel: int) -> None:
-        self._check(channel)
+        self.check(channel)
         self.link.query(f"TR{channel}")
 
     def status(self) -> str:

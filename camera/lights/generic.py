@@ -93,10 +93,7 @@ class GenericAsciiController(LedController):
             raise
 
     def _send(self, template: str, channel: int, percent: float, **extra) -> str:
-        if not 1 <= channel <= self.channels:
-            raise DeviceError(f"{self.name}: channel {channel} does not exist (1–{self.channels})")
-        if not 0 <= percent <= 100:
-            raise DeviceError(f"{self.name}: intensity {percent:g} % is outside 0–100 %")
+        self.check(channel, percent)
         command = template.format(
             channel=channel, percent=percent, value=percent / 100 * self.max_value, **extra
         )
