@@ -154,7 +154,15 @@ def _open_camera(station: Station, state_path: Path | None, controller):
             from camera.grabbers.emulator_feed import EmulatorFeed
 
             renderer = _scene_renderer(station, state_path)
-            return EmulatorFeed(PylonCamera(serial=spec.serial, index=spec.index), renderer)
+            # Enough noise realisations that no step's frames repeat, even after discards.
+            per_light = (
+                max(station.frames, station.dark_frames) + station.discard_max + spec.flush_frames
+            )
+            return EmulatorFeed(
+                PylonCamera(serial=spec.serial, index=spec.index),
+                renderer,
+                frames_per_light=per_light,
+            )
         return PylonCamera(serial=spec.serial, index=spec.index)
     if spec.backend == "replay":
         if not spec.folder:

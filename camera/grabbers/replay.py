@@ -98,8 +98,7 @@ class ReplayCamera(Grabber):
         if region is not None:
             raise DeviceError(f"{self.name}: a replay cannot change the region")
         if self.recorded is None:
-            self.requested = {"exposure_us": exposure_us, "gain_db": gain_db}
-            return
+            return  # a plain folder knows no settings: exposure and gain are reported missing
         metas = [m for frames in self.recorded.values() for _, m in frames]
         for key, want in (
             ("exposure_us", exposure_us),
