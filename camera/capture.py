@@ -83,9 +83,7 @@ def verified_frames(
             discarded += 1  # still settling: start again from this frame
             kept = [frame]
         else:
-            means = [round(float(f.data.mean()), 1) for f in kept] + [
-                round(float(frame.data.mean()), 1)
-            ]
+            means = [round(f.mean, 1) for f in (*kept, frame)]
             raise DeviceError(
                 f"{camera.name}: brightness jumps within a step (frame means {means}); "
                 "the light or exposure is unstable — check the controller and the ambient light"
@@ -99,8 +97,8 @@ def verified_frames(
 
 
 def _agrees(frame, kept, tolerance) -> bool:
-    ref = float(np.mean([f.data.mean() for f in kept]))
-    return abs(float(frame.data.mean()) - ref) <= tolerance * max(abs(ref), 1.0)
+    ref = float(np.mean([f.mean for f in kept]))
+    return abs(frame.mean - ref) <= tolerance * max(abs(ref), 1.0)
 
 
 def capture(
@@ -141,7 +139,8 @@ def capture(
                     skipped.append(name)
                     done += n
                     continue
-                store.begin(name, {"channels": {str(k): v for k, v in setting.items()}})
+                as_json = {str(k): v for k, v in setting.items()}  # JSON keys are strings
+                store.begin(name, {"channels": as_json})
                 try:
                     controller.apply(setting)
                     switched = time.monotonic_ns()
@@ -152,7 +151,7 @@ def capture(
                         discard_max=station.discard_max,
                         tolerance=station.brightness_tolerance,
                         timeout_s=cam.timeout_s,
-                        flush=max(cam.flush_frames, getattr(camera, "pipeline_frames", 0)),
+                        flush=max(cam.flush_frames, camera.pipeline_frames),
                     )
                 except DeviceError as exc:
                     store.fail(name, str(exc))
@@ -164,7 +163,7 @@ def capture(
                         frame,
                         {
                             "step": name,
-                            "light_setting": {str(k): v for k, v in setting.items()},
+                            "light_setting": as_json,
                             "discarded_before": discarded,
                             "controller": controller.name,
                         },
@@ -174,7 +173,7 @@ def capture(
                         progress(name, done, total)
                 store.finish(name)
                 saved[name] = len(frames)
-                levels[name] = float(np.mean([f.data.mean() for f in frames]))
+                levels[name] = float(np.mean([f.mean for f in frames]))
         finally:
             try:
                 controller.all_off()

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field, fields
+from functools import cached_property
 
 import numpy as np
 
@@ -44,6 +45,11 @@ class Frame:
     device: str
     clock: str = "arrival"
     extra: dict = field(default_factory=dict)
+
+    @cached_property
+    def mean(self) -> float:
+        """Mean grey value, DN; computed once (the capture's checks ask for it repeatedly)."""
+        return float(self.data.mean())
 
     def metadata(self) -> dict:
         # Not dataclasses.asdict: it would deep-copy the pixels only to drop them.

@@ -120,8 +120,9 @@ class CaptureStore:
         _atomic_write(
             tif.with_suffix(".json"), lambda f: f.write(json.dumps(meta, indent=2).encode())
         )
+        # The sidecar is the record of a saved frame; the manifest's count is
+        # written with the step's end, not rewritten (and fsynced) per frame.
         self.manifest["steps"][step]["frames"] = index
-        self._save_manifest()
         return tif
 
     def finish(self, step: str) -> None:

@@ -24,6 +24,7 @@ import numpy as np
 
 from camera.frame import Frame
 from camera.grabbers.base import Grabber
+from camera.lights.base import describe_setting
 from inspect_validate.errors import DeviceError, InputError
 
 __all__ = ["ReplayCamera"]
@@ -34,10 +35,6 @@ Setting = tuple[tuple[int, float], ...]
 def _setting(channels: dict) -> Setting:
     """A light setting as a hashable key: the channels that are on, sorted."""
     return tuple(sorted((int(c), float(v)) for c, v in channels.items() if float(v)))
-
-
-def _describe(setting: Setting) -> str:
-    return ", ".join(f"channel {c} at {v:g} %" for c, v in setting) or "all lights off"
 
 
 class ReplayCamera(Grabber):
@@ -133,9 +130,9 @@ class ReplayCamera(Grabber):
             if self.recorded is not None:
                 setting = _setting(self.lights() or {})
                 if setting not in self.recorded:
-                    have = "; ".join(_describe(s) for s in self.recorded)
+                    have = "; ".join(describe_setting(dict(s)) for s in self.recorded)
                     raise DeviceError(
-                        f"{self.name}: nothing was recorded under {_describe(setting)} (recorded: {have}); "
+                        f"{self.name}: nothing was recorded under {describe_setting(dict(setting))} (recorded: {have}); "
                         "replay with the station file of the recording"
                     )
             if self._current is None or self._current[0] != setting:
@@ -144,7 +141,7 @@ class ReplayCamera(Grabber):
                 data, meta, path = next(self._current[1])
             except StopIteration:
                 count = len(self.paths) if setting is None else len(self.recorded[setting])
-                what = "" if setting is None else f" under {_describe(setting)}"
+                what = "" if setting is None else f" under {describe_setting(dict(setting))}"
                 raise DeviceError(
                     f"{self.name}: the recording has no more frames{what} ({count} in all); "
                     "ask for fewer frames in the station file or record more"

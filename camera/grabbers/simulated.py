@@ -22,6 +22,7 @@ import numpy as np
 from camera.frame import Frame
 from camera.grabbers.base import Grabber
 from inspect_validate.errors import DeviceError, InputError
+from inspect_validate.model.render import class_bands, expose
 
 __all__ = ["SimulatedCamera"]
 
@@ -97,22 +98,16 @@ class SimulatedCamera(Grabber):
         self.rates = p.sample_electrons[:, 0, 0]  # (channels, samples), e⁻/s at 100 %, unclipped
         self.sample_class = p.sample_class
         self.classes = p.classes
-        k = len(self.classes)
-        gap = 6
-        band = (height - gap * (k + 1)) // k
-        self.bands = {
-            name: (0, gap + i * (band + gap), width, band) for i, name in enumerate(self.classes)
-        }
-        self.class_map = np.full((height, width), -1)
-        for i, (_, y, _, h) in enumerate(self.bands.values()):
-            self.class_map[y : y + h] = i
+        # 6-pixel gaps: the shipped station's rois.yaml is drawn for this layout.
+        self.bands = class_bands(self.classes, height=height, width=width, gap=6)
         # Each object pixel shows one of its class's reflectance samples, fixed
         # over time: the spectral spread is spatial, as on a real object.
         self._objects = []
-        for k in range(len(self.classes)):
-            where = self.class_map == k
+        for k, (x, y, w, h) in enumerate(self.bands.values()):
             samples = np.flatnonzero(self.sample_class == k)
-            self._objects.append((where, self.rng.choice(samples, size=int(where.sum()))))
+            self._objects.append(
+                ((slice(y, y + h), slice(x, x + w)), self.rng.choice(samples, size=(h, w)))
+            )
         self.pipeline: deque = deque()
 
     def configure(self, *, exposure_us=None, gain_db=None, pixel_format=None, region=None) -> None:
@@ -156,20 +151,14 @@ class SimulatedCamera(Grabber):
 
     def render(self, state: dict[int, float]) -> np.ndarray:
         """One noisy frame (uint16 DN) under ``state`` (channel → %), EMVA 1288 model."""
-        cam = self.camera
-        t = self.exposure_us * 1e-6
-        gain = cam.gain * 10 ** (self.gain_db / 20)
-        rate = np.zeros(self.rates.shape[1])
-        for i, ch in enumerate(self.channels):
-            rate += self.rates[i] * state.get(ch, 0.0) / 100.0
-        frame = cam.dark_offset + gain * self.rng.normal(
-            0.0, cam.dark_noise, (self.height, self.width)
-        )
+        percent = np.array([state.get(ch, 0.0) for ch in self.channels])
+        rate = percent / 100.0 @ self.rates  # e⁻/s per reflectance sample
+        electrons = np.zeros((self.height, self.width))
         for where, pick in self._objects:
-            electrons = self.rng.poisson(rate[pick] * t)
-            frame[where] += gain * electrons
-        top = min(cam.max_dn, 2**16 - 1)
-        return np.clip(np.floor(frame + 0.5), 0, top).astype(np.uint16)
+            electrons[where] = rate[pick] * (self.exposure_us * 1e-6)
+        return expose(
+            electrons, self.camera, rng=self.rng, gain=self.camera.gain * 10 ** (self.gain_db / 20)
+        )
 
     def _render(self, state: dict[int, float], stamp: int) -> Frame:
         data = self.render(state)

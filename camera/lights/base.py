@@ -6,7 +6,13 @@ from abc import ABC, abstractmethod
 
 from inspect_validate.errors import DeviceError
 
-__all__ = ["LedController"]
+__all__ = ["LedController", "describe_setting"]
+
+
+def describe_setting(setting: dict[int, float]) -> str:
+    """``channel 1 at 100 %, channel 3 at 40 %`` for the channels that are on."""
+    on = sorted((int(c), float(v)) for c, v in setting.items() if v)
+    return ", ".join(f"channel {c} at {v:g} %" for c, v in on) or "all lights off"
 
 
 class LedController(ABC):

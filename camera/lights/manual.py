@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import sys
 
-from camera.lights.base import LedController
+from camera.lights.base import LedController, describe_setting
 from inspect_validate.errors import DeviceError
 
 __all__ = ["ManualController"]
@@ -25,10 +25,7 @@ class ManualController(LedController):
         setting = {c: v for c, v in setting.items() if v}
         if setting == self.applied:
             return
-        what = (
-            ", ".join(f"channel {c} at {v:g} %" for c, v in sorted(setting.items()))
-            or "all lights OFF"
-        )
+        what = describe_setting(setting) if setting else "all lights OFF"  # loud for the operator
         print(f"\nSet the lights: {what}", file=sys.stderr)
         try:
             self._prompt("Press Enter when done… ")

@@ -19,9 +19,30 @@ import numpy as np
 from inspect_validate import __version__
 from inspect_validate.model.acquisition import Prediction
 
-__all__ = ["render_frame", "write_rendered"]
+__all__ = ["class_bands", "expose", "render_frame", "write_rendered"]
 
 BAND_GAP = 8  # pixels of dark background between class bands
+
+
+def class_bands(classes, *, height: int, width: int, gap: int = BAND_GAP) -> dict:
+    """Class name → (x, y, width, height) of its horizontal band, ``gap`` pixels apart."""
+    k = len(classes)
+    band_h = (height - gap * (k + 1)) // k
+    return {name: (0, gap + c * (band_h + gap), width, band_h) for c, name in enumerate(classes)}
+
+
+def expose(electrons: np.ndarray, camera, *, rng, gain: float | None = None) -> np.ndarray:
+    """Grey values of pixels with mean photo-electrons ``electrons``, EMVA 1288 noise model.
+
+    DN = offset + K (Poisson(μ_e) + N(0, σ_d)), rounded and clipped to
+    [0, max DN] (uint16); K is ``gain`` (DN/e⁻), by default the camera's.
+    """
+    k = camera.gain if gain is None else gain
+    e = rng.poisson(np.maximum(electrons, 0.0)) + rng.normal(
+        0.0, camera.dark_noise, electrons.shape
+    )
+    top = min(camera.max_dn, 2**16 - 1)
+    return np.clip(np.floor(camera.dark_offset + k * e + 0.5), 0, top).astype(np.uint16)
 
 
 def render_frame(
@@ -39,29 +60,17 @@ def render_frame(
     _, _, ci = index
     cam = cameras[ci]
     t = p.exposure_time[index]
-    k = len(p.classes)
-    band_h = (height - BAND_GAP * (k + 1)) // k
-    frame = np.full((height, width), cam.dark_offset, dtype=float)
-    frame += cam.gain * rng.normal(0.0, cam.dark_noise, frame.shape)
-    bands = {}
-    rate = (
-        (p.sample_mean[index] - cam.dark_offset) / cam.gain / t
-    )  # e⁻/s per sample, unclipped below max
-    for c, name in enumerate(p.classes):
-        samples = np.flatnonzero(p.sample_class == c)
-        y0 = BAND_GAP + c * (band_h + BAND_GAP)
+    bands = class_bands(p.classes, height=height, width=width)
+    electrons = np.zeros((height, width))
+    rate = (p.sample_mean[index] - cam.dark_offset) / cam.gain / t  # e⁻/s per sample, unclipped
+    for c, (x, y, w, h) in enumerate(bands.values()):
         # The model's spectral variance is the unbiased (39) spread of the S
         # samples: widen their deviations by sqrt(S/(S−1)) so the frame has it.
-        r = rate[samples]
+        r = rate[p.sample_class == c]
         if r.size > 1:
             r = r.mean() + (r - r.mean()) * np.sqrt(r.size / (r.size - 1))
-        pick = rng.integers(0, r.size, size=(band_h, width))
-        electrons = rng.poisson(np.maximum(r[pick] * t, 0.0))
-        frame[y0 : y0 + band_h] = cam.dark_offset + cam.gain * (
-            electrons + rng.normal(0.0, cam.dark_noise, electrons.shape)
-        )
-        bands[name] = (0, y0, width, band_h)
-    frame = np.clip(np.floor(frame + 0.5), 0, cam.max_dn).astype(np.uint16)
+        electrons[y : y + h, x : x + w] = r[rng.integers(0, r.size, size=(h, w))] * t
+    frame = expose(electrons, cam, rng=rng)
     return frame, bands
 
 
