@@ -28,9 +28,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from inspect_validate.camera.station import Station, station_hash
+from inspect_validate.camera.storage import CaptureStore
 
-from camera.station import Station, station_hash
-from camera.storage import CaptureStore
 from inspect_validate.errors import DeviceError
 
 __all__ = ["CaptureResult", "capture", "verified_frames"]
@@ -110,7 +110,7 @@ def capture(
     ``devices`` replaces the station's camera and controller with a context
     manager yielding ``(controller, camera)`` (other setups, tests).
     """
-    from camera.devices import open_devices
+    from inspect_validate.camera.devices import open_devices
 
     store = CaptureStore(
         out, station_path=station.path, station_sha256=station_hash(station.path), resume=resume

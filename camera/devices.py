@@ -8,7 +8,8 @@ import sys
 import tempfile
 from pathlib import Path
 
-from camera.station import Station
+from inspect_validate.camera.station import Station
+
 from inspect_validate.errors import DeviceError, InputError
 
 __all__ = ["open_devices"]
@@ -17,7 +18,7 @@ __all__ = ["open_devices"]
 @contextlib.contextmanager
 def _simulated_controller(station: Station):
     """Start the simulated Gardasoft process on a pseudo-terminal and talk to it over pyserial."""
-    from camera.lights import GardasoftController
+    from inspect_validate.camera.lights import GardasoftController
 
     with tempfile.TemporaryDirectory(prefix="iv-sim-") as tmp:
         state = Path(tmp) / "state.json"
@@ -25,7 +26,7 @@ def _simulated_controller(station: Station):
             [
                 sys.executable,
                 "-m",
-                "camera.lights.simulator",
+                "inspect_validate.camera.lights.simulator",
                 "--state",
                 str(state),
                 "--channels",
@@ -50,6 +51,7 @@ def _simulated_controller(station: Station):
         finally:
             proc.kill()
             proc.wait()
+            proc.stdout.close()  # else a ResourceWarning reaches the terminal
 
 
 @contextlib.contextmanager
@@ -66,7 +68,7 @@ def open_devices(station: Station):
                     "controller.port is required for a Gardasoft controller",
                     source=str(station.path),
                 )
-            from camera.lights import GardasoftController
+            from inspect_validate.camera.lights import GardasoftController
 
             controller = stack.enter_context(
                 GardasoftController(
@@ -79,7 +81,7 @@ def open_devices(station: Station):
         elif spec.backend == "generic":
             controller = stack.enter_context(_generic_controller(station, spec.port))
         else:
-            from camera.lights.manual import ManualController
+            from inspect_validate.camera.lights.manual import ManualController
 
             controller = stack.enter_context(ManualController(channels=spec.channels))
         camera = stack.enter_context(_open_camera(station, state_path, controller))
@@ -94,7 +96,7 @@ def _generic_controller(station: Station, port: str | None):
             "(see README, 'Station files')",
             source=str(station.path),
         )
-    from camera.lights.generic import GenericAsciiController
+    from inspect_validate.camera.lights.generic import GenericAsciiController
 
     proto = spec.protocol
     return GenericAsciiController(
@@ -124,7 +126,8 @@ def _scene_renderer(station: Station, state_path: Path | None):
         raise InputError(
             "camera.scene is required for the simulated camera", source=str(station.path)
         )
-    from camera.grabbers.simulated import SimulatedCamera
+    from inspect_validate.camera.grabbers.simulated import SimulatedCamera
+
     from inspect_validate.scene import read_scene
 
     return SimulatedCamera(
@@ -143,15 +146,15 @@ def _open_camera(station: Station, state_path: Path | None, controller):
     if spec.backend == "simulated":
         return _scene_renderer(station, state_path)
     if spec.backend == "genicam":
-        from camera.grabbers.genicam import GenICamCamera
+        from inspect_validate.camera.grabbers.genicam import GenICamCamera
 
         cti = str(station.resolve(spec.cti)) if spec.cti else None
         return GenICamCamera(cti, serial=spec.serial, index=spec.index)
     if spec.backend == "pylon":
-        from camera.grabbers.pylon import PylonCamera
+        from inspect_validate.camera.grabbers.pylon import PylonCamera
 
         if spec.scene:  # the simulated station through pylon's camera emulator
-            from camera.grabbers.emulator_feed import EmulatorFeed
+            from inspect_validate.camera.grabbers.emulator_feed import EmulatorFeed
 
             renderer = _scene_renderer(station, state_path)
             # Enough noise realisations that no step's frames repeat, even after discards.
@@ -169,9 +172,9 @@ def _open_camera(station: Station, state_path: Path | None, controller):
             raise InputError(
                 "camera.folder is required for the replay camera", source=str(station.path)
             )
-        from camera.grabbers.replay import ReplayCamera
+        from inspect_validate.camera.grabbers.replay import ReplayCamera
 
         return ReplayCamera(station.resolve(spec.folder), lights=lambda: controller.applied)
-    from camera.grabbers.v4l2 import V4l2Camera
+    from inspect_validate.camera.grabbers.v4l2 import V4l2Camera
 
     return V4l2Camera(spec.device if spec.device is not None else spec.index)

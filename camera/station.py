@@ -70,7 +70,7 @@ _TEMPLATE_FIELDS = {
 
 
 class AsciiProtocol(BaseModel):
-    """A generic ASCII controller's protocol (:mod:`camera.lights.generic`)."""
+    """A generic ASCII controller's protocol (:mod:`inspect_validate.camera.lights.generic`)."""
 
     model_config = ConfigDict(extra="forbid")
     commands: dict[Literal["set", "off", "pulse", "status", "init"], str | list[str]]

@@ -15,29 +15,16 @@ from __future__ import annotations
 
 import io
 import json
-import os
-import tempfile
 import time
 from pathlib import Path
 
-from camera.frame import Frame
+from inspect_validate.camera.frame import Frame
+
 from inspect_validate import __version__
 from inspect_validate.errors import InputError
+from inspect_validate.files import atomic_write
 
 __all__ = ["CaptureStore"]
-
-
-def _atomic_write(path: Path, write) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            write(f)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 class CaptureStore:
@@ -73,9 +60,7 @@ class CaptureStore:
             self._save_manifest()
 
     def _save_manifest(self) -> None:
-        _atomic_write(
-            self.manifest_path, lambda f: f.write(json.dumps(self.manifest, indent=2).encode())
-        )
+        atomic_write(self.manifest_path, json.dumps(self.manifest, indent=2).encode())
 
     def record(self, key: str, value) -> None:
         """Add ``key`` to the manifest (e.g. the camera and the settings it lacks)."""
@@ -116,10 +101,8 @@ class CaptureStore:
         tifffile.imwrite(
             encoded, frame.data, photometric="minisblack", description=json.dumps(meta)
         )
-        _atomic_write(tif, lambda f: f.write(encoded.getvalue()))
-        _atomic_write(
-            tif.with_suffix(".json"), lambda f: f.write(json.dumps(meta, indent=2).encode())
-        )
+        atomic_write(tif, encoded.getvalue())
+        atomic_write(tif.with_suffix(".json"), json.dumps(meta, indent=2).encode())
         # The sidecar is the record of a saved frame; the manifest's count is
         # written with the step's end, not rewritten (and fsynced) per frame.
         self.manifest["steps"][step]["frames"] = index

@@ -320,8 +320,8 @@ def capture(station, out, resume):
     TIFFs with JSON sidecars atomically. Exits 3 on a camera or controller
     failure, keeping every frame saved; rerun with --resume to continue.
     """
-    from camera.capture import capture as run_capture
-    from camera.station import read_station
+    from inspect_validate.camera.capture import capture as run_capture
+    from inspect_validate.camera.station import read_station
 
     st = read_station(station)
     total = sum(st.frames for _ in st.illuminations) + st.dark_frames

@@ -21,7 +21,14 @@ def simulator(tmp_path):
     def start(*args):
         state = tmp_path / f"state{len(procs)}.json"
         proc = subprocess.Popen(
-            [sys.executable, "-m", "camera.lights.simulator", "--state", str(state), *args],
+            [
+                sys.executable,
+                "-m",
+                "inspect_validate.camera.lights.simulator",
+                "--state",
+                str(state),
+                *args,
+            ],
             stdout=subprocess.PIPE,
             text=True,
         )
@@ -32,3 +39,4 @@ def simulator(tmp_path):
     for p in procs:
         p.kill()
         p.wait()
+        p.stdout.close()

@@ -7,9 +7,9 @@ import shutil
 import numpy as np
 import pytest
 from conftest import ROOT
+from inspect_validate.camera.capture import verified_frames
+from inspect_validate.camera.frame import Frame
 
-from camera.capture import verified_frames
-from camera.frame import Frame
 from inspect_validate.cli import main
 from inspect_validate.errors import DeviceError
 

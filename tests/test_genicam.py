@@ -4,8 +4,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from inspect_validate.camera.grabbers.genicam import GenICamCamera, find_producers
 
-from camera.grabbers.genicam import GenICamCamera, find_producers
 from inspect_validate.errors import DeviceError
 
 genicam = pytest.importorskip("genicam")

@@ -30,7 +30,7 @@ def test_emulator_serves_files_pixel_exactly(tmp_path):
     out = run_with_emulator(
         f"""
         import numpy as np, cv2
-        from camera.grabbers.pylon import PylonCamera
+        from inspect_validate.camera.grabbers.pylon import PylonCamera
         img = (np.arange(48 * 64).reshape(48, 64) * 7 % 256).astype(np.uint8)
         cv2.imwrite("{tmp_path}/a.png", img)
         with PylonCamera(index=0) as cam:
@@ -52,7 +52,7 @@ def test_emulator_serves_files_pixel_exactly(tmp_path):
 def test_emulator_errors(tmp_path):
     out = run_with_emulator(
         """
-        from camera.grabbers.pylon import PylonCamera
+        from inspect_validate.camera.grabbers.pylon import PylonCamera
         from inspect_validate.errors import DeviceError
         try:
             PylonCamera(serial="nope")

@@ -1,5 +1,5 @@
-"""Camera backends behind one interface (:class:`camera.grabbers.base.Grabber`)."""
+"""Camera backends behind one interface (:class:`inspect_validate.camera.grabbers.base.Grabber`)."""
 
-from camera.grabbers.base import Grabber
+from inspect_validate.camera.grabbers.base import Grabber
 
 __all__ = ["Grabber"]

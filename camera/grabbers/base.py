@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 
-from camera.frame import Frame
+from inspect_validate.camera.frame import Frame
 
 __all__ = ["Grabber"]
 

@@ -14,8 +14,9 @@ from __future__ import annotations
 import tempfile
 from pathlib import Path
 
-from camera.frame import Frame
-from camera.grabbers.base import Grabber
+from inspect_validate.camera.frame import Frame
+from inspect_validate.camera.grabbers.base import Grabber
+
 from inspect_validate.errors import DeviceError
 
 __all__ = ["EmulatorFeed"]

@@ -3,7 +3,7 @@
 * The producer (``.cti``) comes from the station file, else from
   ``GENICAM_GENTL64_PATH`` (every ``.cti`` in its folders).
 * Every fetch has a timeout; a frame's pixels are copied (packed formats
-  unpacked by :mod:`camera.pixelformats`) before the buffer is re-queued.
+  unpacked by :mod:`inspect_validate.camera.pixelformats`) before the buffer is re-queued.
 * Width, Height, PixelFormat and the region are locked while acquiring:
   acquisition is stopped to change them.
 * Nodes a device lacks (e.g. no ExposureTime) are listed in ``missing`` and the
@@ -16,9 +16,10 @@ import os
 import time
 from pathlib import Path
 
-from camera.frame import Frame
-from camera.grabbers.base import Grabber
-from camera.pixelformats import BIT_DEPTH, packed_size, unpack
+from inspect_validate.camera.frame import Frame
+from inspect_validate.camera.grabbers.base import Grabber
+from inspect_validate.camera.pixelformats import BIT_DEPTH, packed_size, unpack
+
 from inspect_validate.errors import DeviceError
 
 __all__ = ["GenICamCamera", "find_producers"]

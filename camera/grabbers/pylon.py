@@ -9,9 +9,10 @@ from __future__ import annotations
 
 import time
 
-from camera.frame import Frame
-from camera.grabbers.base import Grabber
-from camera.pixelformats import BIT_DEPTH
+from inspect_validate.camera.frame import Frame
+from inspect_validate.camera.grabbers.base import Grabber
+from inspect_validate.camera.pixelformats import BIT_DEPTH
+
 from inspect_validate.errors import DeviceError
 
 __all__ = ["PylonCamera"]

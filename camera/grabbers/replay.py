@@ -21,10 +21,10 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import numpy as np
+from inspect_validate.camera.frame import Frame
+from inspect_validate.camera.grabbers.base import Grabber
+from inspect_validate.camera.lights.base import describe_setting
 
-from camera.frame import Frame
-from camera.grabbers.base import Grabber
-from camera.lights.base import describe_setting
 from inspect_validate.errors import DeviceError, InputError
 
 __all__ = ["ReplayCamera"]

@@ -18,9 +18,9 @@ from collections import deque
 from pathlib import Path
 
 import numpy as np
+from inspect_validate.camera.frame import Frame
+from inspect_validate.camera.grabbers.base import Grabber
 
-from camera.frame import Frame
-from camera.grabbers.base import Grabber
 from inspect_validate.errors import DeviceError, InputError
 from inspect_validate.model.render import class_bands, expose
 

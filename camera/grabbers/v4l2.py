@@ -22,9 +22,9 @@ from __future__ import annotations
 import time
 
 import numpy as np
+from inspect_validate.camera.frame import Frame
+from inspect_validate.camera.grabbers.base import Grabber
 
-from camera.frame import Frame
-from camera.grabbers.base import Grabber
 from inspect_validate.errors import DeviceError
 
 __all__ = ["V4l2Camera"]

@@ -23,7 +23,8 @@ from __future__ import annotations
 import re
 import time
 
-from camera.lights.base import LedController
+from inspect_validate.camera.lights.base import LedController
+
 from inspect_validate.errors import DeviceError
 
 __all__ = ["GardasoftController", "SerialAscii"]

@@ -28,8 +28,9 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 
-from camera.lights.base import LedController
-from camera.lights.gardasoft import SerialAscii
+from inspect_validate.camera.lights.base import LedController
+from inspect_validate.camera.lights.gardasoft import SerialAscii
+
 from inspect_validate.errors import DeviceError
 
 __all__ = ["GenericAsciiController"]

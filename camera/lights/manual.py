@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import sys
 
-from camera.lights.base import LedController, describe_setting
+from inspect_validate.camera.lights.base import LedController, describe_setting
+
 from inspect_validate.errors import DeviceError
 
 __all__ = ["ManualController"]

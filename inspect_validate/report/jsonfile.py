@@ -9,8 +9,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import tempfile
 from pathlib import Path
 
 from inspect_validate import __version__
@@ -79,16 +77,8 @@ def measurement_document(m: Measurement, *, inputs: dict, limits: dict) -> dict:
     }
 
 
-def write_json(doc: dict, path: str | Path) -> None:
-    """Write atomically: a reader never sees a half-written file."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as f:
-            json.dump(doc, f, indent=2, allow_nan=False)
-            f.write("\n")
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+def write_json(doc: dict, path: str | Path) -> Path:
+    """Write atomically (:func:`~inspect_validate.files.atomic_write`): a reader never sees a half-written file."""
+    from inspect_validate.files import atomic_write
+
+    return atomic_write(path, (json.dumps(doc, indent=2, allow_nan=False) + "\n").encode())

@@ -1,0 +1,83 @@
+"""Writing output files: atomically, with the user's permissions, with clear errors.
+
+Every file the tool writes (JSON reports, captured frames, sidecars, manifests)
+goes through :func:`atomic_write`: a reader never sees half a file, and a crash
+leaves the previous version in place. Output paths given on the command line are
+checked up front (:func:`output_file`, :func:`output_folder`) so that a typo
+fails before a capture or a long sweep, not after it.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+from inspect_validate.errors import InputError
+
+__all__ = ["atomic_write", "output_file", "output_folder"]
+
+
+def _umask() -> int:
+    # os.umask can only be read by setting it; done once, restored at once.
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+_FILE_MODE = 0o666 & ~_umask()
+
+
+def output_folder(path: str | Path) -> Path:
+    """Create ``path`` (and parents) as a folder, or raise an error naming what is in the way."""
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise InputError("is a file, not a folder; give a folder for the output", source=str(path))
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except (FileExistsError, NotADirectoryError):
+        raise InputError(
+            "cannot create this folder: part of the path is a file", source=str(path)
+        ) from None
+    except OSError as exc:
+        raise InputError(f"cannot create this folder ({exc.strerror})", source=str(path)) from None
+    return path
+
+
+def output_file(path: str | Path) -> Path:
+    """Check that ``path`` can be written as a file (creating its folder)."""
+    path = Path(path)
+    if path.is_dir():
+        raise InputError("is a folder; give a file name for the output", source=str(path))
+    output_folder(path.parent)
+    return path
+
+
+def atomic_write(path: str | Path, data: bytes) -> Path:
+    """Write ``data`` to ``path`` through a temporary file and a rename.
+
+    The file gets the permissions a plain ``open()`` would give (0666 less the
+    umask), not the 0600 of a temporary file, and is flushed to disk before the
+    rename.
+
+    Raises
+    ------
+    InputError
+        The path is a folder, lies under a file, or cannot be written.
+    """
+    path = output_file(path)
+    try:
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    except OSError as exc:
+        raise InputError(f"cannot write here ({exc.strerror})", source=str(path)) from None
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fchmod(f.fileno(), _FILE_MODE)
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
