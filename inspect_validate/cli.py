@@ -175,12 +175,31 @@ def predict(scene, json_path, top, rank_by, comparison, no_kde, plot_dir, render
     for note in sc.notes():
         click.echo(f"note: {note}", err=True)
     by = rank_by or sc.rank_by
-    comparison = comparison or sc.rank_comparison
+    rank_comparison, comparison = comparison, comparison or sc.rank_comparison
+    if comparison is not None:
+        from inspect_validate.comparisons import default_groups, find_comparison
+        from inspect_validate.errors import InputError
+
+        names = [c.name for c in sc.classes]
+        groups = [
+            (tuple(names[i] for i in a), tuple(names[i] for i in b))
+            for a, b in default_groups(len(names))
+        ]
+        try:  # an unknown comparison fails before the sweep, naming where it came from
+            find_comparison(groups, comparison)
+        except InputError as exc:
+            where = "--comparison" if rank_comparison else f"{scene}: rank.comparison"
+            raise InputError(str(exc), source=where) from None
+    _outputs(files=[json_path], folders=[plot_dir, render_dir])
     result = sc.predict()
+    for reason in result.skipped:
+        click.echo(f"skipped: {reason}", err=True)
     rows = prediction_rows(result, by=by, comparison=comparison, top=top, kde=not no_kde)
-    n = int(result.mean[..., 0].size)
+    n = int(result.valid.size)
+    n_skipped = n - int(result.valid.sum())
     click.echo(
-        f"{sc.name}: {n} combinations, {sc.grid[0]:g}–{sc.grid[-1]:g} nm in {sc.grid[1] - sc.grid[0]:g} nm steps"
+        f"{sc.name}: {n} combinations{f' ({n_skipped} skipped)' if n_skipped else ''}, "
+        f"{sc.grid[0]:g}–{sc.grid[-1]:g} nm in {sc.grid[1] - sc.grid[0]:g} nm steps"
     )
     click.echo(format_prediction(result, rows, by=by, comparison=comparison))
     if json_path:
@@ -210,7 +229,7 @@ def predict(scene, json_path, top, rank_by, comparison, no_kde, plot_dir, render
         from inspect_validate.model import rank
         from inspect_validate.model.render import write_rendered
 
-        order, _, _ = rank(result, by=by, comparison=comparison)
+        order = rank(result, by=by, comparison=comparison)[0]
         for stem, idx in (("best", order[0]), ("worst", order[-1])):
             tif, rois = write_rendered(
                 result, tuple(idx), render_dir, cameras=list(sc.cameras), stem=stem
@@ -347,6 +366,18 @@ def capture(station, out, resume):
     for step in result.skipped:
         click.echo(f"{step}: already complete, skipped")
     click.echo(f"manifest: {out / 'manifest.json'}")
+
+
+def _outputs(*, files=(), folders=()):
+    """Check output paths before the work starts, so a typo does not cost a sweep or a capture."""
+    from inspect_validate.files import output_file, output_folder
+
+    for f in files:
+        if f is not None:
+            output_file(f)
+    for d in folders:
+        if d is not None:
+            output_folder(d)
 
 
 def main(argv=None):

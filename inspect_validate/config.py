@@ -3,6 +3,14 @@
 One place turns YAML syntax errors and pydantic validation errors into
 :class:`~inspect_validate.errors.InputError` messages that name the file and
 the field (``classes.A.shapes.0: ...``).
+
+The YAML dialect is strict where YAML 1.1 is treacherous for configuration:
+
+* only ``true``/``false`` are booleans (YAML 1.2): ``off:``, ``on:``, ``yes``,
+  ``no`` stay strings, so a protocol's ``off:`` command is not read as ``False``;
+* a key given twice in one mapping is an error naming both lines, not a silent
+  "last one wins";
+* a document nested beyond reason is refused rather than exhausting the stack.
 """
 
 from __future__ import annotations
@@ -14,7 +22,7 @@ from pydantic import BaseModel, ValidationError
 
 from inspect_validate.errors import InputError
 
-__all__ = ["explain", "load_yaml"]
+__all__ = ["explain", "load_yaml", "parse_yaml"]
 
 M = TypeVar("M", bound=BaseModel)
 
@@ -29,9 +37,100 @@ def explain(exc: ValidationError) -> str:
     def field(part) -> bool:
         return isinstance(part, int) or not (str(part).startswith("_") or "[" in str(part))
 
+    def path(loc) -> str:
+        out = ""
+        for p in filter(field, loc):
+            out += f"[{p}]" if isinstance(p, int) else (f".{p}" if out else str(p))
+        return out
+
+    def message(e) -> str:
+        return e["msg"].removeprefix("Value error, ")
+
     return "; ".join(
-        f"{'.'.join(str(p) for p in e['loc'] if field(p))}: {e['msg']}" for e in exc.errors()
+        f"{path(e['loc'])}: {message(e)}" if e["loc"] else message(e) for e in exc.errors()
     )
+
+
+_MAX_DEPTH = 64
+
+
+def _loader():
+    import re
+
+    import yaml
+
+    class StrictLoader(yaml.SafeLoader):
+        def construct_mapping(self, node, deep=False):
+            seen = {}
+            for key_node, _ in node.value:
+                try:
+                    key = self.construct_object(key_node, deep=True)
+                    hash(key)
+                except TypeError:
+                    continue  # yaml reports unhashable keys itself
+                if key in seen:
+                    raise yaml.constructor.ConstructorError(
+                        f"key {key!r} first given on line {seen[key] + 1}",
+                        node.start_mark,
+                        f"given again on line {key_node.start_mark.line + 1}",
+                        key_node.start_mark,
+                    )
+                seen[key] = key_node.start_mark.line
+            return super().construct_mapping(node, deep=deep)
+
+    # YAML 1.2 booleans: drop 1.1's yes/no/on/off resolver, keep true/false.
+    StrictLoader.yaml_implicit_resolvers = {
+        first: [(tag, rx) for tag, rx in resolvers if tag != "tag:yaml.org,2002:bool"]
+        for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
+    }
+    StrictLoader.add_implicit_resolver(
+        "tag:yaml.org,2002:bool",
+        re.compile(r"^(?:true|True|TRUE|false|False|FALSE)$"),
+        list("tTfF"),
+    )
+    return StrictLoader
+
+
+def _depth(node, limit: int) -> int:
+    """Nesting depth of a composed YAML node, iteratively (no recursion to exhaust)."""
+    stack, deepest = [(node, 1)], 0
+    while stack:
+        n, d = stack.pop()
+        deepest = max(deepest, d)
+        if deepest > limit:
+            return deepest
+        if isinstance(n.value, list):
+            for item in n.value:
+                stack += [(x, d + 1) for x in (item if isinstance(item, tuple) else (item,))]
+    return deepest
+
+
+def parse_yaml(text: str, *, source: str):
+    """Parse YAML text with the strict dialect above; errors name ``source`` and the line."""
+    import yaml
+
+    loader = _loader()(text)
+    try:
+        node = loader.get_single_node()
+        if node is None:
+            return None
+        if _depth(node, _MAX_DEPTH) > _MAX_DEPTH:
+            raise InputError(
+                f"nested more than {_MAX_DEPTH} levels deep; this is not a configuration file",
+                source=source,
+            )
+        return loader.construct_document(node)
+    except yaml.MarkedYAMLError as exc:
+        where = exc.problem_mark or exc.context_mark
+        line = f"line {where.line + 1}: " if where else ""
+        what = "; ".join(x for x in (exc.context, exc.problem) if x)
+        raise InputError(f"{line}not valid YAML: {what}", source=source) from None
+    except yaml.YAMLError as exc:
+        raise InputError(f"not valid YAML: {exc}", source=source) from None
+    except RecursionError:
+        raise InputError("nested too deeply to read", source=source) from None
+    finally:
+        loader.dispose()
 
 
 def load_yaml(path: str | Path, model: type[M], *, what: str) -> M:
@@ -43,15 +142,22 @@ def load_yaml(path: str | Path, model: type[M], *, what: str) -> M:
         Missing file, YAML syntax error or a field that fails validation, with
         the file (and field) named.
     """
-    import yaml
-
     path = Path(path)
     if not path.is_file():
         raise InputError(f"{what} not found", source=str(path))
     try:
-        doc = yaml.safe_load(path.read_text())
-    except (yaml.YAMLError, UnicodeDecodeError) as exc:
-        raise InputError(f"not valid YAML: {exc}", source=str(path)) from None
+        text = path.read_text()
+    except UnicodeDecodeError:
+        raise InputError(f"not a text file; a {what} is YAML", source=str(path)) from None
+    except OSError as exc:
+        raise InputError(f"cannot read the {what} ({exc.strerror})", source=str(path)) from None
+    doc = parse_yaml(text, source=str(path))
+    if not isinstance(doc, dict):
+        found = "empty" if doc is None else f"a {type(doc).__name__}"
+        raise InputError(
+            f"the {what} is {found}; it must be a mapping of fields (see the README)",
+            source=str(path),
+        )
     try:
         return model.model_validate(doc)
     except ValidationError as exc:

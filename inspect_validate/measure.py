@@ -8,10 +8,10 @@ and the classification error ε_tot (37), parametric and nonparametric.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from itertools import combinations
 
 import numpy as np
 
+from inspect_validate.comparisons import default_groups, label
 from inspect_validate.stats import (
     Moments,
     RegionStatistics,
@@ -66,7 +66,7 @@ class Comparison:
 
     @property
     def label(self) -> str:
-        return f"{','.join(self.first)} vs {','.join(self.second)}"
+        return label(self.first, self.second)
 
 
 @dataclass(frozen=True)
@@ -117,10 +117,7 @@ def compare(
     quantum : float, keyword-only, optional
         Quantisation step of the grey values (the KDE bandwidth floor), DN.
     """
-    groups = [((a,), (b,)) for a, b in combinations(range(len(classes)), 2)]
-    if len(classes) >= 3:
-        everyone = range(len(classes))
-        groups += [((i,), tuple(j for j in everyone if j != i)) for i in everyone]
+    groups = default_groups(len(classes))
     return tuple(_compare(classes, a, b, kde=kde, quantum=quantum) for a, b in groups)
 
 

@@ -12,7 +12,7 @@ YAML, paths relative to the scene file (README, "Scene files")::
       - {cie: D65}                                    # also FL1…, HP1 (sodium), LED-B1…
       - {daylight: 5500}
       - {white_led: {}}
-      - {file: spd.csv, irradiance: 20}               # W/m² at the object
+      - {file: spd.csv, irradiance: 20}               # W/m² at the object, 380–780 nm
     optics:
       - {lens: visible}                               # visible | uv | swir
       - ideal
@@ -20,65 +20,315 @@ YAML, paths relative to the scene file (README, "Scene files")::
       - {file: transmission.csv, f_number: 2.8}
     cameras:
       - cmos-visible                                  # built-in sensors
+      - {builtin: cmos-visible, gain: 0.2}            # ... with EMVA parameters changed
       - {file: qe.csv, gain: 0.4, dark_noise: 2.5, saturation: 10000, bit_depth: 12}
     exposure: {mode: auto, target: 0.7}               # or {mode: fixed, time: 0.002}
     rank: {by: error}                                 # error | snr_db | cnr_db; comparison: "A vs B,C"
+
+Every component kind is its own validated model (a discriminated union on the
+key that names the kind): an unknown or misplaced key, a number out of its
+physical range or a wrong type is an error naming the file and the field.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import (
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Discriminator,
+    Field,
+    Tag,
+    field_validator,
+    model_validator,
+)
 
 from inspect_validate.config import load_yaml
 from inspect_validate.errors import InputError
 
-__all__ = ["Scene", "read_scene"]
+__all__ = ["IRRADIANCE_BAND", "MAX_GRID_POINTS", "Scene", "read_scene"]
+
+IRRADIANCE_BAND = (380.0, 780.0)
+"""nm: the band a light's ``irradiance`` (W/m²) is stated over unless ``irradiance_band`` says otherwise."""
+MAX_GRID_POINTS = 200_001
+"""Integration wavelengths at most (a 1 nm grid is accurate to 2e-5 in μ)."""
+
+Finite = Annotated[float, Field(allow_inf_nan=False)]
+Positive = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+NonNegative = Annotated[float, Field(ge=0, allow_inf_nan=False)]
+Nanometre = Annotated[float, Field(gt=1, le=100_000, allow_inf_nan=False)]
+Name = Annotated[str, Field(min_length=1, max_length=200)]
 
 
-class _Wavelength(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-    start: float | None = Field(default=None, gt=0)
-    stop: float | None = Field(default=None, gt=0)
-    step: float = Field(default=1.0, gt=0)
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
 
 
-class _Exposure(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-    mode: str = "auto"
-    time: float | None = Field(default=None, gt=0)
-    target: float = Field(default=0.7, gt=0, le=1)
-    max_time: float | None = Field(default=None, gt=0)
+def _kind(kinds: tuple[str, ...]):
+    """Discriminator: the one key of ``kinds`` a mapping has (tags start with '_',
+    so field paths in messages show the user's key only once)."""
+
+    def tag(value: Any) -> str | None:
+        if isinstance(value, dict):
+            found = [k for k in kinds if k in value]
+            return f"_{found[0]}" if len(found) == 1 else None
+        return getattr(value, "_tag", None)
+
+    return tag
 
 
-class _Rank(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-    by: str = "error"
-    comparison: str | None = None
+def _union(kinds: tuple[str, ...], models: tuple[type, ...], what: str, shorthand=None):
+    from typing import Union
+
+    members = tuple(Annotated[m, Tag(f"_{k}")] for k, m in zip(kinds, models, strict=True))
+    union = Annotated[
+        Union[members],  # noqa: UP007 - a runtime-built union
+        Discriminator(
+            _kind(kinds),
+            custom_error_type="component_kind",
+            custom_error_message=f"{what}: give exactly one of {', '.join(kinds)}",
+        ),
+    ]
+    return Annotated[union, BeforeValidator(shorthand)] if shorthand else union
 
 
-class _Geometry(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-    light: tuple[float, float, float]
-    view: tuple[float, float, float] = (0.0, 0.0, 1.0)
-    normal: tuple[float, float, float] = (0.0, 0.0, 1.0)
+# --- lights ----------------------------------------------------------------------
 
 
-class _Scene(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-    name: str | None = None
+class _LightCommon(_Strict):
+    name: Name | None = None
+    irradiance: Positive | None = None  # W/m² at the object over irradiance_band
+    irradiance_band: tuple[Nanometre, Nanometre] | None = None
+
+    @field_validator("irradiance_band")
+    @classmethod
+    def _ordered(cls, v):
+        if v is not None and not v[0] < v[1]:
+            raise ValueError("give [shortest, longest] wavelength in nm")
+        return v
+
+
+class _LedParams(_Strict):
+    peak: Nanometre
+    fwhm: Annotated[float, Field(gt=0, le=2000, allow_inf_nan=False)]
+
+
+class _WhiteLedParams(_Strict):
+    blue_peak: Nanometre = 450.0
+    blue_fwhm: Annotated[float, Field(gt=0, le=2000)] = 20.0
+    phosphor_peak: Nanometre = 560.0
+    phosphor_fwhm: Annotated[float, Field(gt=0, le=2000)] = 120.0
+    phosphor_ratio: NonNegative = 2.2
+
+
+class _Led(_LightCommon):
+    led: _LedParams
+
+
+class _Blackbody(_LightCommon):
+    blackbody: Annotated[float, Field(gt=0, le=100_000, allow_inf_nan=False)]  # K
+
+
+class _Cie(_LightCommon):
+    cie: Name
+
+
+class _Daylight(_LightCommon):
+    daylight: Annotated[float, Field(ge=4000, le=25000)]  # K
+
+
+class _WhiteLed(_LightCommon):
+    white_led: _WhiteLedParams | None = None
+
+
+class _LightFile(_LightCommon):
+    file: Name
+
+
+_LIGHT_KINDS = ("led", "blackbody", "cie", "daylight", "white_led", "file")
+LightSpec = _union(
+    _LIGHT_KINDS, (_Led, _Blackbody, _Cie, _Daylight, _WhiteLed, _LightFile), "a light"
+)
+
+# --- optics ----------------------------------------------------------------------
+
+FNumber = Annotated[float, Field(ge=0.5, le=1000, allow_inf_nan=False)]
+
+
+class _OpticsCommon(_Strict):
+    name: Name | None = None
+    f_number: FNumber | None = None
+
+
+class _Lens(_OpticsCommon):
+    lens: Literal["visible", "uv", "swir"]
+
+
+class _Ideal(_OpticsCommon):
+    ideal: None = None
+
+
+class _Material(_OpticsCommon):
+    material: Literal["BK7", "fused_silica", "CaF2", "MgF2", "ZnSe"]
+    thickness_mm: Annotated[float, Field(gt=0, le=1000, allow_inf_nan=False)] = 10.0
+
+
+class _OpticsFile(_OpticsCommon):
+    file: Name
+
+
+def _optics_shorthand(v):
+    if v == "ideal":
+        return {"ideal": None}
+    if isinstance(v, str):
+        return {"lens": v}
+    return v
+
+
+_OPTICS_KINDS = ("lens", "ideal", "material", "file")
+OpticsSpec = _union(
+    _OPTICS_KINDS, (_Lens, _Ideal, _Material, _OpticsFile), "optics", _optics_shorthand
+)
+
+# --- cameras ---------------------------------------------------------------------
+
+
+class _EmvaOverrides(_Strict):
+    name: Name | None = None
+    gain: Annotated[float, Field(gt=0, le=1000, allow_inf_nan=False)] | None = None  # DN/e⁻
+    dark_noise: Annotated[float, Field(ge=0, le=1e6, allow_inf_nan=False)] | None = None  # e⁻
+    saturation: Annotated[float, Field(gt=0, le=1e9, allow_inf_nan=False)] | None = None  # e⁻
+    bit_depth: Annotated[int, Field(ge=1, le=32)] | None = None
+    dark_offset: NonNegative | None = None  # DN
+    pixel_pitch: Annotated[float, Field(gt=0, le=1000, allow_inf_nan=False)] | None = None  # µm
+
+
+class _Builtin(_EmvaOverrides):
+    builtin: Name
+
+
+class _CameraFile(_EmvaOverrides):
+    file: Name
+
+    @model_validator(mode="after")
+    def _emva(self):
+        missing = [f for f in ("gain", "dark_noise", "saturation") if getattr(self, f) is None]
+        if missing:
+            raise ValueError(
+                f"a camera from a QE file needs its EMVA 1288 parameters: {', '.join(missing)}"
+            )
+        return self
+
+
+def _camera_shorthand(v):
+    return {"builtin": v} if isinstance(v, str) else v
+
+
+CameraSpec = _union(("builtin", "file"), (_Builtin, _CameraFile), "a camera", _camera_shorthand)
+
+# --- classes ---------------------------------------------------------------------
+
+
+class _BlinnPhongParams(_Strict):
+    ks: NonNegative
+    n: Positive
+
+
+class _CookTorranceParams(_Strict):
+    roughness: Annotated[float, Field(gt=0, le=1)]
+    f0: Annotated[float, Field(ge=0, le=1)] = 0.04
+
+
+class _BlinnPhong(_Strict):
+    blinn_phong: _BlinnPhongParams
+
+
+class _CookTorrance(_Strict):
+    cook_torrance: _CookTorranceParams
+
+
+GlossSpec = _union(("blinn_phong", "cook_torrance"), (_BlinnPhong, _CookTorrance), "gloss")
+
+
+class _ClassCommon(_Strict):
+    gloss: GlossSpec | None = None
+
+
+class _Spectrometer(_Strict):
+    readings: Name
+    black: Name
+    white: Name
+
+
+class _ClassFile(_ClassCommon):
+    file: Name
+
+
+class _ClassSpectrometer(_ClassCommon):
+    spectrometer: _Spectrometer
+
+
+ClassSpec = _union(("file", "spectrometer"), (_ClassFile, _ClassSpectrometer), "a class")
+
+# --- the file --------------------------------------------------------------------
+
+
+class _Wavelength(_Strict):
+    start: Nanometre | None = None
+    stop: Nanometre | None = None
+    step: Annotated[float, Field(gt=0, allow_inf_nan=False)] = 1.0
+
+
+class _Exposure(_Strict):
+    mode: Literal["auto", "fixed"] = "auto"
+    time: Positive | None = None  # s
+    target: Annotated[float, Field(gt=0, le=1)] = 0.7
+    max_time: Positive | None = None  # s
+
+    @model_validator(mode="after")
+    def _fixed_time(self):
+        if self.mode == "fixed" and self.time is None:
+            raise ValueError("a fixed exposure needs 'time' in seconds")
+        return self
+
+
+class _Rank(_Strict):
+    by: Literal["error", "snr_db", "cnr_db"] = "error"
+    comparison: Name | None = None
+
+
+class _Geometry(_Strict):
+    light: tuple[Finite, Finite, Finite]
+    view: tuple[Finite, Finite, Finite] = (0.0, 0.0, 1.0)
+    normal: tuple[Finite, Finite, Finite] = (0.0, 0.0, 1.0)
+
+
+ClassName = Annotated[str, Field(min_length=1, max_length=100, pattern=r"^[^,]+$")]
+
+
+class _Scene(_Strict):
+    name: Name | None = None
     geometry: _Geometry | None = None
     wavelength: _Wavelength = _Wavelength()
-    classes: dict[str, dict[str, Any]] = Field(min_length=2)
-    lights: list[Any] = Field(min_length=1)
-    optics: list[Any] = Field(min_length=1)
-    cameras: list[Any] = Field(min_length=1)
+    classes: dict[ClassName, ClassSpec] = Field(min_length=2)
+    lights: list[LightSpec] = Field(min_length=1)
+    optics: list[OpticsSpec] = Field(min_length=1)
+    cameras: list[CameraSpec] = Field(min_length=1)
     exposure: _Exposure = _Exposure()
     rank: _Rank = _Rank()
+
+    @field_validator("classes")
+    @classmethod
+    def _names(cls, v):
+        for name in v:
+            if " vs " in f" {name} ":
+                raise ValueError(f"class name {name!r}: 'vs' separates groups in comparisons")
+        return v
 
 
 @dataclass(frozen=True)
@@ -125,21 +375,30 @@ class Scene:
 
 def read_scene(path: str | Path) -> Scene:
     """Read and validate a scene file; every error names the file and field."""
+    from inspect_validate.components.geometry import Geometry
     from inspect_validate.model import Exposure
 
     path = Path(path)
     model = load_yaml(path, _Scene, what="scene file")
     base = path.parent
-    from inspect_validate.components.geometry import Geometry
-
     geometry = Geometry(**model.geometry.model_dump()) if model.geometry else None
+
+    def build(make, spec, where):
+        try:
+            return make(spec, base)
+        except InputError as exc:
+            # Errors from a component's own file already name it; add the field.
+            raise InputError(str(exc), source=None if exc.source else where) from None
+
     classes = tuple(
-        _object_class(name, spec, base, f"{path}: classes.{name}", geometry)
+        build(
+            lambda s, b, n=name: _object_class(n, s, b, geometry), spec, f"{path}: classes.{name}"
+        )
         for name, spec in model.classes.items()
     )
-    lights = tuple(_light(s, base, f"{path}: lights[{i}]") for i, s in enumerate(model.lights))
-    optics = tuple(_optics(s, base, f"{path}: optics[{i}]") for i, s in enumerate(model.optics))
-    cameras = tuple(_camera(s, base, f"{path}: cameras[{i}]") for i, s in enumerate(model.cameras))
+    lights = tuple(build(_light, s, f"{path}: lights[{i}]") for i, s in enumerate(model.lights))
+    optics = tuple(build(_optics, s, f"{path}: optics[{i}]") for i, s in enumerate(model.optics))
+    cameras = tuple(build(_camera, s, f"{path}: cameras[{i}]") for i, s in enumerate(model.cameras))
     for kind, items in (("lights", lights), ("optics", optics), ("cameras", cameras)):
         names = [x.name for x in items]
         dup = {n for n in names if names.count(n) > 1}
@@ -147,14 +406,7 @@ def read_scene(path: str | Path) -> Scene:
             raise InputError(
                 f"{kind}: duplicate name(s) {sorted(dup)}; give each a 'name'", source=str(path)
             )
-    try:
-        exposure = Exposure(**model.exposure.model_dump())
-    except InputError as exc:
-        raise InputError(f"exposure: {exc}", source=str(path)) from None
-    if model.rank.by not in ("error", "snr_db", "cnr_db"):
-        raise InputError(
-            f"rank.by must be error, snr_db or cnr_db, not {model.rank.by!r}", source=str(path)
-        )
+    exposure = Exposure(**model.exposure.model_dump())
     grid = _grid(model.wavelength, classes, lights, optics, cameras, path)
     return Scene(
         model.name or path.stem,
@@ -183,92 +435,44 @@ def _grid(wl, classes, lights, optics, cameras, path) -> np.ndarray:
         raise InputError(
             f"wavelength: stop {stop:g} nm is not above start {start:g} nm", source=str(path)
         )
+    count = (stop - start) / wl.step + 1
+    if count > MAX_GRID_POINTS:
+        raise InputError(
+            f"wavelength: {start:g}–{stop:g} nm in {wl.step:g} nm steps is {count:.3g} points "
+            f"(at most {MAX_GRID_POINTS - 1:,} + 1); use a coarser step (1 nm is accurate to 2e-5 in μ) "
+            "or a narrower range",
+            source=str(path),
+        )
     return np.arange(start, stop + wl.step / 2, wl.step)
 
 
-def _one_key(spec, where, allowed):
-    if isinstance(spec, str):
-        return spec, {}
-    if not isinstance(spec, dict):
-        raise InputError(f"expected a mapping or a name, got {spec!r}", source=where)
-    keys = [k for k in spec if k in allowed]
-    if len(keys) != 1:
-        raise InputError(
-            f"give exactly one of {', '.join(allowed)} (got {', '.join(map(str, spec)) or 'nothing'})",
-            source=where,
-        )
-    extra = (
-        set(spec)
-        - set(allowed)
-        - {
-            "name",
-            "irradiance",
-            "f_number",
-            "gain",
-            "dark_noise",
-            "saturation",
-            "bit_depth",
-            "dark_offset",
-            "pixel_pitch",
-            "thickness_mm",
-            "gloss",
-        }
-    )
-    if extra:
-        raise InputError(f"unknown field(s) {sorted(extra)}", source=where)
-    return keys[0], spec
-
-
-def _object_class(name, spec, base, where, geometry):
-    from inspect_validate.components.geometry import reflectance_factor
+def _object_class(name, spec, base, geometry):
+    from inspect_validate.components.geometry import BlinnPhong, CookTorrance, reflectance_factor
     from inspect_validate.model import ObjectClass
     from inspect_validate.spectra import SpectrumKind, read_spectrometer, read_spectrum_csv
 
-    kind, spec = _one_key(spec, where, ("file", "spectrometer"))
-    if kind == "file":
-        reflectance = read_spectrum_csv(
-            base / spec["file"], kind=SpectrumKind.REFLECTANCE, name=name
-        )
+    if isinstance(spec, _ClassFile):
+        reflectance = read_spectrum_csv(base / spec.file, kind=SpectrumKind.REFLECTANCE, name=name)
     else:
-        s = spec["spectrometer"]
-        if not isinstance(s, dict) or set(s) != {"readings", "black", "white"}:
-            raise InputError(
-                "spectrometer needs readings, black and white (CSV files)", source=where
-            )
+        s = spec.spectrometer
         reflectance = read_spectrometer(
-            base / s["readings"], black=base / s["black"], white=base / s["white"], name=name
+            base / s.readings, black=base / s.black, white=base / s.white, name=name
         )
-    gloss = _gloss(spec.get("gloss"), where)
+    gloss = None
+    if isinstance(spec.gloss, _BlinnPhong):
+        gloss = BlinnPhong(**spec.gloss.blinn_phong.model_dump())
+    elif isinstance(spec.gloss, _CookTorrance):
+        gloss = CookTorrance(**spec.gloss.cook_torrance.model_dump())
     if geometry is None and gloss is None:
         return ObjectClass(name, reflectance)  # the chapter's diffuse model: nothing to apply
-    try:
-        diffuse, specular = reflectance_factor(geometry, gloss)
-    except InputError as exc:
-        raise InputError(str(exc), source=where) from None
+    diffuse, specular = reflectance_factor(geometry, gloss)
     note = f"geometry: diffuse × {diffuse:.4g}, specular + {specular:.4g}"
     return ObjectClass(
         name, reflectance.with_values(reflectance.values * diffuse + specular, notes=[note])
     )
 
 
-def _gloss(spec, where):
-    from inspect_validate.components.geometry import BlinnPhong, CookTorrance
-
-    if spec is None:
-        return None
-    models = {"blinn_phong": BlinnPhong, "cook_torrance": CookTorrance}
-    if not isinstance(spec, dict) or len(spec) != 1 or next(iter(spec)) not in models:
-        raise InputError(
-            "gloss is {blinn_phong: {ks, n}} or {cook_torrance: {roughness, f0}}", source=where
-        )
-    kind, params = next(iter(spec.items()))
-    try:
-        return models[kind](**params)
-    except TypeError as exc:
-        raise InputError(f"gloss {kind}: {exc}", source=where) from None
-
-
-def _light(spec, base, where):
+def _light(spec, base):
     from dataclasses import replace
 
     from inspect_validate.components import (
@@ -281,84 +485,60 @@ def _light(spec, base, where):
     from inspect_validate.components.lights import Light
     from inspect_validate.spectra import SpectrumKind, read_spectrum_csv
 
-    kind, spec = _one_key(spec, where, ("led", "blackbody", "cie", "daylight", "white_led", "file"))
-    irradiance = spec.get("irradiance")
-    try:
-        if kind == "led":
-            light = led(float(spec["led"]["peak"]), float(spec["led"]["fwhm"]))
-        elif kind == "blackbody":
-            light = blackbody(float(spec["blackbody"]))
-        elif kind == "cie":
-            light = cie_illuminant(str(spec["cie"]))
-        elif kind == "daylight":
-            light = cie_daylight(float(spec["daylight"]))
-        elif kind == "white_led":
-            light = phosphor_white_led(**(spec["white_led"] or {}))
-        else:
-            spd = read_spectrum_csv(base / spec["file"], kind=SpectrumKind.SPD)
-            light = Light(spd.name, spd)
-    except (KeyError, TypeError, ValueError) as exc:
-        if isinstance(exc, InputError):
-            raise InputError(str(exc), source=where) from None
-        raise InputError(f"{kind}: missing or invalid parameter ({exc})", source=where) from None
-    return replace(light, name=spec.get("name", light.name), irradiance=irradiance)
+    if isinstance(spec, _Led):
+        light = led(spec.led.peak, spec.led.fwhm)
+    elif isinstance(spec, _Blackbody):
+        light = blackbody(spec.blackbody)
+    elif isinstance(spec, _Cie):
+        light = cie_illuminant(spec.cie)
+    elif isinstance(spec, _Daylight):
+        light = cie_daylight(spec.daylight)
+    elif isinstance(spec, _WhiteLed):
+        light = phosphor_white_led(**(spec.white_led or _WhiteLedParams()).model_dump())
+    else:
+        spd = read_spectrum_csv(base / spec.file, kind=SpectrumKind.SPD)
+        light = Light(spd.name, spd)
+    return replace(
+        light,
+        name=spec.name or light.name,
+        irradiance=spec.irradiance,
+        band=spec.irradiance_band or IRRADIANCE_BAND,
+    )
 
 
-def _optics(spec, base, where):
+def _optics(spec, base):
     from inspect_validate.components import ideal_lens, lens, material_transmission
     from inspect_validate.components.optics import Optics
     from inspect_validate.spectra import SpectrumKind, read_spectrum_csv
 
-    kind, spec = _one_key(spec, where, ("lens", "ideal", "material", "file"))
-    f_number = float(spec.get("f_number", 4.0))
-    if kind == "ideal":
-        o = ideal_lens(f_number=f_number)
-    elif kind == "lens":
-        o = lens(str(spec["lens"]), f_number=spec.get("f_number"))
-    elif kind == "material":
-        t = material_transmission(
-            str(spec["material"]), thickness_mm=float(spec.get("thickness_mm", 10.0))
-        )
-        o = Optics(t.name, t, f_number)
+    f_number = spec.f_number
+    if isinstance(spec, _Ideal):
+        o = ideal_lens(f_number=f_number or 4.0)
+    elif isinstance(spec, _Lens):
+        o = lens(spec.lens, f_number=f_number)
+    elif isinstance(spec, _Material):
+        t = material_transmission(spec.material, thickness_mm=spec.thickness_mm)
+        o = Optics(t.name, t, f_number or 4.0)
     else:
-        t = read_spectrum_csv(base / spec["file"], kind=SpectrumKind.TRANSMISSION)
-        o = Optics(t.name, t, f_number)
-    return Optics(spec.get("name", o.name), o.transmission, o.f_number)
+        t = read_spectrum_csv(base / spec.file, kind=SpectrumKind.TRANSMISSION)
+        o = Optics(t.name, t, f_number or 4.0)
+    return Optics(spec.name or o.name, o.transmission, o.f_number)
 
 
-def _camera(spec, base, where):
+def _camera(spec, base):
+    from dataclasses import replace
+
     from inspect_validate.components import Camera, builtin_camera
     from inspect_validate.spectra import SpectrumKind, read_spectrum_csv
 
-    if isinstance(spec, str):
-        return builtin_camera(spec)
-    kind, spec = _one_key(spec, where, ("builtin", "file"))
-    if kind == "builtin":
-        cam = builtin_camera(str(spec["builtin"]))
-        return Camera(
-            spec.get("name", cam.name),
-            cam.qe,
-            cam.gain,
-            cam.dark_noise,
-            cam.saturation,
-            cam.bit_depth,
-            cam.dark_offset,
-            cam.pixel_pitch,
-        )
-    qe = read_spectrum_csv(base / spec["file"], kind=SpectrumKind.QE)
-    missing = [f for f in ("gain", "dark_noise", "saturation") if f not in spec]
-    if missing:
-        raise InputError(
-            f"a camera from a QE file needs its EMVA 1288 parameters: {', '.join(missing)}",
-            source=where,
-        )
-    return Camera(
-        spec.get("name", qe.name),
-        qe,
-        float(spec["gain"]),
-        float(spec["dark_noise"]),
-        float(spec["saturation"]),
-        int(spec.get("bit_depth", 12)),
-        float(spec.get("dark_offset", 0.0)),
-        float(spec.get("pixel_pitch", 3.45)),
-    )
+    given = {
+        k: v
+        for k, v in spec.model_dump(exclude={"builtin", "file", "name"}).items()
+        if v is not None
+    }
+    if isinstance(spec, _Builtin):
+        cam = builtin_camera(spec.builtin)
+        changed = f"{cam.name}, {', '.join(f'{k} {v:g}' for k, v in given.items())}"
+        return replace(cam, name=spec.name or (changed if given else cam.name), **given)
+    qe = read_spectrum_csv(base / spec.file, kind=SpectrumKind.QE)
+    return Camera(spec.name or qe.name, qe, **given)

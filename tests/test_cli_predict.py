@@ -19,11 +19,16 @@ def test_predict_paperboard_json(tmp_path, capsys):
     out = tmp_path / "p.json"
     assert run(["predict", ROOT / "sample_images/scenes/paperboard/scene.yaml", "--json", out]) == 0
     doc = json.loads(out.read_text())
-    assert doc["schema"] == "inspect-validate/prediction" and doc["schema_version"] == 1
+    assert doc["schema"] == "inspect-validate/prediction" and doc["schema_version"] == 2
     best = doc["ranking"][0]
     assert best["light"] == "amber LED" and doc["rank_comparison"] == "A vs B,C"
-    comp = best["comparisons"][0]
+    comp = best["comparisons"][best["key_comparison"]]
     assert comp["first"] == ["A"] and comp["second"] == ["B", "C"]
+    # Every comparison is listed; ε KDE only for the ranking comparison.
+    assert len(best["comparisons"]) == 6
+    assert [c["error_kde"] is None for c in best["comparisons"]].count(False) == 1
+    # The paperboard lights are relative SPDs: no exposure time in seconds.
+    assert best["exposure"] == "relative" and best["exposure_time_s"] is None
     assert 0 < comp["error_gaussian"] < 0.5 and 0 < comp["error_kde"] < 0.5
     assert {"mean", "variance", "spectral_variance", "electrons", "saturated_fraction"} <= set(
         best["classes"][0]
@@ -61,11 +66,11 @@ def test_predict_table2_top_and_rank_by(capsys):
         ),
         (
             "classes: {A: {file: a.csv}, B: {file: a.csv}}\nlights: [{led: {peak: 500}}]\noptics: [ideal]\ncameras: [cmos-visible]\n",
-            r"lights\[0\]: led: missing or invalid parameter",
+            r"lights\[0\]\.led\.fwhm: Field required",
         ),
         (
             "classes: {A: {file: a.csv}, B: {file: a.csv}}\nlights: [{laser: 1}]\noptics: [ideal]\ncameras: [cmos-visible]\n",
-            r"lights\[0\]: give exactly one of",
+            r"lights\[0\]: a light: give exactly one of",
         ),
         (
             "classes: {A: {file: missing.csv}, B: {file: a.csv}}\nlights: [{cie: D65}]\noptics: [ideal]\ncameras: [cmos-visible]\n",

@@ -84,5 +84,7 @@ def test_glossy_class_under_declared_geometry(tmp_path):
     assert np.allclose(b, np.array([[0.3, 0.3], [0.31, 0.31]]) * cos)
     with pytest.raises(InputError, match=r"classes\.A: a glossy class needs the scene's geometry"):
         _scene(tmp_path, ", gloss: {cook_torrance: {roughness: 0.3}}")
-    with pytest.raises(InputError, match="gloss is"):
+    with pytest.raises(
+        InputError, match=r"classes\.A\.gloss: gloss: give exactly one of blinn_phong"
+    ):
         _scene(tmp_path, ", gloss: {phong: {}}", geometry)

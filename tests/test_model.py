@@ -126,7 +126,7 @@ def test_ranking_and_table2_pattern():
     # Table 2: LED errors small and nearly constant, daylight errors spread widely.
     assert led_errors.max() < 1e-3 and led_errors.max() / led_errors.min() < 2
     assert daylight.max() > 0.2 and daylight.min() < 0.05 and daylight.min() > led_errors.max()
-    order, _, _ = rank(p)
+    order = rank(p)[0]
     assert all(p.lights[i] == "LED" for i in order[:4, 0])
 
 
@@ -137,7 +137,7 @@ def test_paperboard_amber_beats_red():
 
     sc = read_scene(ROOT / "sample_images/scenes/paperboard/scene.yaml")
     p = sc.predict()
-    order, key, _ = rank(p, comparison="A vs B,C")
+    order, key = rank(p, comparison="A vs B,C")[:2]
     assert p.lights[order[0][0]] == "amber LED" and key[0] * 5 < key[1]
 
 
@@ -155,7 +155,7 @@ def test_errors_name_the_component():
         )
     swir = builtin_camera("ingaas-swir")
     with pytest.raises(
-        InputError, match="no wavelength where light, optics and camera all transmit"
+        InputError, match="no wavelength where light, optics and camera all respond"
     ):
         predict([led(520, 20)], [ideal_lens()], [swir], classes, grid=np.arange(400.0, 1800.0))
     masked = Spectrum([400, 550, 700], [[0.3, np.nan, 0.3]] * 2, "reflectance", "M", "m.csv")

@@ -52,6 +52,9 @@ class Camera:
     pixel_pitch: float = 3.45
 
     def __post_init__(self):
+        for field in ("gain", "saturation", "pixel_pitch", "dark_noise", "dark_offset"):
+            if not np.isfinite(getattr(self, field)):
+                raise InputError(f"camera {self.name!r}: {field} must be a finite number")
         for field in ("gain", "saturation", "pixel_pitch"):
             if not getattr(self, field) > 0:
                 raise InputError(f"camera {self.name!r}: {field} must be positive")

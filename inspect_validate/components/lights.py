@@ -1,8 +1,10 @@
 """Light sources (chapter §2.1): blackbody, CIE illuminants, LEDs, measured SPDs.
 
 A :class:`Light` is a spectral power distribution plus, optionally, its absolute
-irradiance at the object. Relative SPDs suffice when the exposure is set
-automatically (the scale cancels); a fixed exposure time needs the irradiance.
+irradiance at the object, stated over a band (380–780 nm unless given): what a
+radiometer with a flat response over that band reads. Relative SPDs suffice when
+the exposure is set automatically (the scale cancels, and exposure times are then
+relative too); a fixed exposure time needs the irradiance.
 """
 
 from __future__ import annotations
@@ -39,13 +41,38 @@ class Light:
     spd : Spectrum
         Spectral power distribution, one sample.
     irradiance : float or None
-        Total irradiance at the object over the SPD's range, W/m²; None when
-        only the relative SPD is known.
+        Irradiance at the object integrated over ``band``, W/m²; None when only
+        the relative SPD is known.
+    band : (float, float)
+        The wavelengths ``irradiance`` is stated over, nm (default 380–780 nm).
     """
 
     name: str
     spd: Spectrum
     irradiance: float | None = None
+    band: tuple[float, float] = (380.0, 780.0)
+
+    def __post_init__(self):
+        if self.irradiance is not None and not (
+            np.isfinite(self.irradiance) and self.irradiance > 0
+        ):
+            raise InputError(
+                f"light {self.name!r}: irradiance must be a positive number of W/m², "
+                f"not {self.irradiance!r}"
+            )
+        lo, hi = self.band
+        if not (np.isfinite(lo) and np.isfinite(hi) and 0 < lo < hi):
+            raise InputError(f"light {self.name!r}: irradiance band {self.band} is not [lo, hi] nm")
+
+    def band_power(self) -> float:
+        """∫ SPD dλ over ``band`` (trapezoidal, in the SPD's own units × nm)."""
+        wl, v = self.spd.wavelengths, np.nan_to_num(self.spd.values[0])
+        lo, hi = max(self.band[0], wl[0]), min(self.band[1], wl[-1])
+        if lo >= hi:
+            return 0.0
+        inside = (wl > lo) & (wl < hi)
+        x = np.concatenate([[lo], wl[inside], [hi]])
+        return float(np.trapezoid(np.interp(x, wl, v), x))
 
 
 def planck(wavelength, temperature) -> np.ndarray:

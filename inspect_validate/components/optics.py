@@ -81,6 +81,12 @@ class Optics:
     transmission: Spectrum
     f_number: float = 4.0
 
+    def __post_init__(self):
+        if not (np.isfinite(self.f_number) and self.f_number >= 0.5):
+            raise InputError(
+                f"optics {self.name!r}: f-number must be at least 0.5, not {self.f_number!r}"
+            )
+
 
 def refractive_index(material: str, wavelength) -> np.ndarray:
     """n(λ) from the Sellmeier equation; ``wavelength`` in nm."""

@@ -17,18 +17,23 @@ every μ_e — no Python loop over spectra or combinations.
 
 Integration runs over the wavelengths where every component of a combination
 is defined (outside its measured range a component is taken as absent, never
-extrapolated); a combination with no such wavelength, or a reflectance marked
-invalid where the rest of the chain is sensitive, is an error naming the file.
+extrapolated). A combination that cannot be predicted — no wavelength where
+light, optics and camera all respond, a class whose reflectance covers less than
+99 % of that response (a file in µm, a class measured over 380–475 nm under a
+590 nm LED), or no class reflecting anything the camera sees — is skipped with
+its reason (:attr:`Prediction.skipped`); the rest of the sweep is kept. A
+reflectance marked invalid (34) where the chain is sensitive is an error naming
+the file: that is a measurement to repeat, not a candidate to skip.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from itertools import combinations
 
 import numpy as np
 from scipy import special
 
+from inspect_validate.comparisons import default_groups
 from inspect_validate.components.cameras import Camera
 from inspect_validate.components.lights import Light
 from inspect_validate.components.optics import Optics
@@ -41,6 +46,9 @@ __all__ = ["Exposure", "ObjectClass", "Prediction", "predict"]
 
 QUANTISATION_VARIANCE = 1.0 / 12.0  # DN²
 _PRESENT = 1e-6  # a component is present where it exceeds this fraction of its peak
+COVERAGE = 0.99
+"""A class's reflectance must span this fraction of a combination's spectral response."""
+_MAX_REASONS = 20  # skipped combinations listed by name; the rest are counted
 
 
 @dataclass(frozen=True)
@@ -106,6 +114,9 @@ class Prediction:
     sample_mean: np.ndarray  # DN per reflectance sample, (L, O, C, S_total)
     sample_variance: np.ndarray  # temporal DN² per sample, (L, O, C, S_total)
     sample_class: np.ndarray  # class index of each sample, (S_total,)
+    valid: np.ndarray  # (L, O, C) bool: False where the combination was skipped (values NaN)
+    skipped: tuple[str, ...] = ()  # why combinations were skipped (at most 20 named, then a count)
+    absolute: np.ndarray | None = None  # (L,) bool: the light's irradiance is known (times in s)
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -152,26 +163,19 @@ def predict(
     grid = np.asarray(grid, float)
     weights = _trapezoid_weights(grid)
 
-    e, _e_def = _on_grid([light.spd for light in lights], grid)
-    relative = [light.irradiance is None for light in lights]
-    if exposure.mode == "fixed" and any(relative):
-        bad = lights[relative.index(True)]
+    e, _ = _on_grid([light.spd for light in lights], grid)
+    absolute = np.array([light.irradiance is not None for light in lights])
+    if exposure.mode == "fixed" and not absolute.all():
+        bad = lights[int(np.argmin(absolute))]
         raise InputError(
             f"light {bad.name!r} ({bad.spd.source}) has only a relative SPD; give its irradiance "
             "(W/m²) or use 'exposure: auto'"
         )
-    # Absolute lights: scale to the stated irradiance; relative ones to 1 W/m².
-    totals = np.array(
-        [np.trapezoid(np.nan_to_num(lt.spd.values[0]), lt.spd.wavelengths) for lt in lights]
-    )
-    if np.any(totals <= 0):
-        bad = lights[int(np.argmin(totals))]
-        raise InputError("the light's SPD is zero everywhere", source=bad.spd.source)
-    e *= (np.array([lt.irradiance or 1.0 for lt in lights]) / totals)[:, None]
+    e *= _irradiance_scale(lights)[:, None]
 
-    t, _t_def = _on_grid([o.transmission for o in optics], grid)
+    t, _ = _on_grid([o.transmission for o in optics], grid)
     t /= (4.0 * np.array([o.f_number for o in optics]) ** 2)[:, None]
-    qe, _q_def = _on_grid([c.qe for c in cameras], grid)
+    qe, _ = _on_grid([c.qe for c in cameras], grid)
     area = (np.array([c.pixel_pitch for c in cameras]) * 1e-6) ** 2
     q = qe * (area[:, None] * grid[None, :] * 1e-9 / (H * C)) * weights[None, :]
 
@@ -180,21 +184,15 @@ def predict(
     r_all = np.concatenate(refl)
     # Outside its measured range a reflectance does not integrate, like every
     # component; NaN *inside* the range is a masked value (34) and must not count.
-    inside = np.concatenate(
-        [
-            np.broadcast_to(
-                (grid >= cl.reflectance.range[0]) & (grid <= cl.reflectance.range[1]), r.shape
-            )
-            for cl, r in zip(classes, refl, strict=True)
-        ]
+    inside = np.stack(
+        [(grid >= c.reflectance.range[0]) & (grid <= c.reflectance.range[1]) for c in classes]
     )
-    invalid = ~np.isfinite(r_all) & inside
+    invalid = ~np.isfinite(r_all) & inside[sample_class]
     r_all = np.where(np.isfinite(r_all), r_all, 0.0)
-
-    _check_overlap(lights, optics, cameras, classes, e, t, q, invalid, sample_class, grid)
 
     n_l, n_o, n_c, n_s = len(lights), len(optics), len(cameras), r_all.shape[0]
     lo_rows = (e[:, None, :] * t[None, :, :]).reshape(n_l * n_o, grid.size)
+    _check_masked(lights, optics, cameras, classes, e, t, q, invalid, sample_class, grid)
     cs_rows = (q[:, None, :] * r_all[None, :, :]).reshape(n_c * n_s, grid.size)
     rate = (lo_rows @ cs_rows.T).reshape(n_l, n_o, n_c, n_s)  # e⁻/s per sample
 
@@ -204,6 +202,14 @@ def predict(
     per_class = onehot.sum(axis=0)
     class_rate = rate @ onehot / per_class  # mean e⁻/s per class
 
+    valid, skipped = _feasible(
+        lights, optics, cameras, classes, e, t, q, lo_rows, inside, class_rate
+    )
+    # Skipped combinations are computed on a stand-in rate (kept finite so no
+    # warning or NaN travels through the arithmetic) and blanked at the end.
+    rate = np.where(valid[..., None], rate, 1.0)
+    class_rate = np.where(valid[..., None], class_rate, 1.0)
+
     cam = {
         f: np.array([getattr(c, f) for c in cameras])
         for f in ("gain", "dark_noise", "saturation", "dark_offset")
@@ -211,8 +217,7 @@ def predict(
     max_dn = np.array([c.max_dn for c in cameras])
     if exposure.mode == "auto":
         brightest = class_rate.max(axis=-1)
-        with np.errstate(divide="ignore"):
-            t_exp = exposure.target * cam["saturation"][None, None, :] / brightest
+        t_exp = exposure.target * cam["saturation"][None, None, :] / brightest
         if exposure.max_time:
             t_exp = np.minimum(t_exp, exposure.max_time)
     else:
@@ -232,14 +237,17 @@ def predict(
     saturated = above @ onehot / per_class
 
     names = tuple(c.name for c in classes)
-    groups = [((a,), (b,)) for a, b in combinations(range(k_count), 2)]
-    if k_count >= 3:
-        groups += [((i,), tuple(j for j in range(k_count) if j != i)) for i in range(k_count)]
+    groups = default_groups(k_count)
     m1, v1, m2, v2 = (
         np.stack(x, axis=-1)
         for x in zip(*(_group_moments(mean, variance, g1, g2) for g1, g2 in groups), strict=True)
     )
     eps, log_eps = gaussian_error_and_log(m1, v1, m2, v2)
+
+    def blank(a):
+        """NaN where the combination was skipped."""
+        return np.where(valid.reshape(valid.shape + (1,) * (a.ndim - 3)), a, np.nan)
+
     return Prediction(
         lights=tuple(lt.name for lt in lights),
         optics=tuple(o.name for o in optics),
@@ -249,22 +257,55 @@ def predict(
             (tuple(names[i] for i in g1), tuple(names[i] for i in g2)) for g1, g2 in groups
         ),
         grid=grid,
-        exposure_time=t_exp,
-        electrons=class_rate * t_exp[..., None],
-        mean=mean,
-        variance=variance,
-        spectral_variance=spectral,
-        saturated_fraction=saturated,
-        snr_db=snr_db(m1, v1, m2, v2),
-        cnr_db=cnr_db(m1, v1, m2, v2),
-        fisher_db=fisher_db(m1, v1, m2, v2),
-        error_gaussian=eps,
-        log_error_gaussian=log_eps,
-        sample_electrons=mu_e,
-        sample_mean=clip_mean,
-        sample_variance=clip_var,
+        exposure_time=blank(t_exp),
+        electrons=blank(class_rate * t_exp[..., None]),
+        mean=blank(mean),
+        variance=blank(variance),
+        spectral_variance=blank(spectral),
+        saturated_fraction=blank(saturated),
+        snr_db=blank(snr_db(m1, v1, m2, v2)),
+        cnr_db=blank(cnr_db(m1, v1, m2, v2)),
+        fisher_db=blank(fisher_db(m1, v1, m2, v2)),
+        error_gaussian=blank(eps),
+        log_error_gaussian=blank(log_eps),
+        sample_electrons=blank(mu_e),
+        sample_mean=blank(clip_mean),
+        sample_variance=blank(clip_var),
         sample_class=sample_class,
+        valid=valid,
+        skipped=skipped,
+        absolute=absolute,
     )
+
+
+def _irradiance_scale(lights) -> np.ndarray:
+    """Factor turning each SPD into W·m⁻²·nm⁻¹ at the object.
+
+    An absolute light integrates to its ``irradiance`` over its ``band``; a
+    relative one to 1 over its whole range (an arbitrary scale that auto
+    exposure cancels; its exposure times are relative).
+    """
+    scale = np.empty(len(lights))
+    for i, light in enumerate(lights):
+        total = float(np.trapezoid(np.nan_to_num(light.spd.values[0]), light.spd.wavelengths))
+        if not (np.isfinite(total) and total > 0):
+            raise InputError(
+                f"light {light.name!r}: the SPD is zero everywhere (or not finite)",
+                source=light.spd.source,
+            )
+        if light.irradiance is None:
+            scale[i] = 1.0 / total
+            continue
+        in_band = light.band_power()
+        if not in_band > 0:
+            raise InputError(
+                f"light {light.name!r} emits nothing in its irradiance band "
+                f"{light.band[0]:g}–{light.band[1]:g} nm (it spans {light.spd.range[0]:g}–"
+                f"{light.spd.range[1]:g} nm); give irradiance_band: [lo, hi] where it emits",
+                source=light.spd.source,
+            )
+        scale[i] = light.irradiance / in_band
+    return scale
 
 
 def _group_moments(mean, variance, g1, g2):
@@ -304,33 +345,70 @@ def _clipped_moments(mean, var, ceiling):
     return m, v, tail
 
 
-def _check_overlap(lights, optics, cameras, classes, e, t, q, invalid, sample_class, grid):
-    """Every combination must integrate over some wavelength; no invalid reflectance where it counts.
+def _present(a):
+    return a > _PRESENT * a.max(axis=-1, keepdims=True)
+
+
+def _feasible(lights, optics, cameras, classes, e, t, q, lo_rows, inside, class_rate):
+    """Which combinations can be predicted, and why the others cannot.
 
     Model curves (Gaussian tails, logistic edges) are never exactly zero, so a
     component counts as present where it exceeds 1e-6 of its own peak.
+
+    Returns
+    -------
+    valid : ndarray of bool, shape (L, O, C)
+    reasons : tuple of str
     """
-
-    def present(a):
-        return a > _PRESENT * a.max(axis=-1, keepdims=True)
-
+    n_l, n_o, n_c, n_w = len(lights), len(optics), len(cameras), e.shape[-1]
     # Wavelengths where light, optics and camera are all present, counted per
     # combination by one product of indicator matrices: no (L, O, C, W) array,
     # which at 10⁶ combinations would take ~0.6 GB.
-    pe, pt, pq = present(e), present(t), present(q)
-    light_optics = (pe[:, None, :] & pt[None, :, :]).reshape(-1, grid.size).astype(np.float32)
-    shared = (light_optics @ pq.T.astype(np.float32)).reshape(
-        len(lights), len(optics), len(cameras)
+    pe, pt, pq = _present(e), _present(t), _present(q)
+    light_optics = (pe[:, None, :] & pt[None, :, :]).reshape(-1, n_w).astype(np.float32)
+    shared = (light_optics @ pq.T.astype(np.float32)).reshape(n_l, n_o, n_c) > 0
+    # The chain's response e·t·q, in all and inside each class's measured range.
+    total = (lo_rows @ q.T).reshape(n_l, n_o, n_c)
+    covered = (lo_rows @ (q[:, None, :] * inside[None, :, :]).reshape(-1, n_w).T).reshape(
+        n_l, n_o, n_c, len(classes)
     )
-    sensitive = shared > 0
-    if not sensitive.all():
-        li, oi, ci = (int(x[0]) for x in np.nonzero(~sensitive))
-        parts = [lights[li].spd, optics[oi].transmission, cameras[ci].qe]
-        raise InputError(
-            "no wavelength where light, optics and camera all transmit: "
-            + "; ".join(f"{p.name} {p.range[0]:g}–{p.range[1]:g} nm ({p.source})" for p in parts)
-        )
-    anywhere = pe.any(axis=0) & pt.any(axis=0) & pq.any(axis=0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        coverage = np.where(total[..., None] > 0, covered / total[..., None], 0.0)
+    uncovered = coverage < COVERAGE
+    dark = ~(class_rate.max(axis=-1) > 0)
+    valid = shared & ~uncovered.any(axis=-1) & ~dark
+    reasons = []
+    for li, oi, ci in np.argwhere(~valid)[:_MAX_REASONS]:
+        combo = f"{lights[li].name} × {optics[oi].name} × {cameras[ci].name}"
+        if not shared[li, oi, ci]:
+            parts = [lights[li].spd, optics[oi].transmission, cameras[ci].qe]
+            why = (
+                "no wavelength where light, optics and camera all respond ("
+                + "; ".join(f"{p.name} {p.range[0]:g}–{p.range[1]:g} nm" for p in parts)
+                + ")"
+            )
+        elif uncovered[li, oi, ci].any():
+            k = int(np.argmax(uncovered[li, oi, ci]))
+            r = classes[k].reflectance
+            why = (
+                f"class {classes[k].name!r} is measured over {r.range[0]:g}–{r.range[1]:g} nm "
+                f"({r.source}), {100 * coverage[li, oi, ci, k]:.3g} % of where this chain responds "
+                f"(at least {100 * COVERAGE:g} % needed)"
+            )
+        else:
+            why = "no class reflects anything the camera sees"
+        reasons.append(f"{combo}: {why}")
+    n_bad = int((~valid).sum())
+    if n_bad > _MAX_REASONS:
+        reasons.append(f"... and {n_bad - _MAX_REASONS} more combinations")
+    if not valid.any():
+        raise InputError("no combination of the scene can be predicted:\n  " + "\n  ".join(reasons))
+    return valid, tuple(reasons)
+
+
+def _check_masked(lights, optics, cameras, classes, e, t, q, invalid, sample_class, grid):
+    """No reflectance marked invalid (34) where some light, optics and camera all respond."""
+    anywhere = _present(e).any(axis=0) & _present(t).any(axis=0) & _present(q).any(axis=0)
     bad = invalid & anywhere[None, :]
     if bad.any():
         s, _j = (int(x[0]) for x in np.nonzero(bad))

@@ -4,13 +4,19 @@ The key is one comparison's measure (e.g. ``"A vs B,C"``, the chapter's
 objective in §4.2) or, by default, the worst pair: the largest ε of all class
 pairs, or the smallest SNR_dB/CNR_dB — a station is only as good as its
 hardest pair.
+
+Clipping at saturation shrinks a class's variance and so flatters every
+separation measure; a combination in which any class has more than
+:data:`SATURATION_LIMIT` of its pixels saturated therefore ranks after every
+combination that does not, whatever its key. Skipped combinations
+(:attr:`~inspect_validate.model.Prediction.valid`) are not ranked.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from inspect_validate.errors import InputError
+from inspect_validate.comparisons import find_comparison
 from inspect_validate.model.acquisition import Prediction
 from inspect_validate.stats import as_sample, lscv_bandwidth
 from inspect_validate.stats.kde_error import mixture_error
@@ -18,50 +24,57 @@ from inspect_validate.stats.kde_error import mixture_error
 __all__ = ["comparison_index", "predicted_kde_error", "rank"]
 
 _MIN_SAMPLES_FOR_LSCV = 5
+SATURATION_LIMIT = 1e-3
+"""Fraction of a class's pixels at saturation above which a combination counts as saturated."""
 
 
 def comparison_index(prediction: Prediction, label: str) -> int:
     """Index of a comparison given as ``"A vs B"`` or ``"A vs B,C"``."""
-    for i, (a, b) in enumerate(prediction.comparisons):
-        if label.replace(" ", "") == f"{','.join(a)}vs{','.join(b)}".replace(" ", ""):
-            return i
-    known = ", ".join(f"{','.join(a)} vs {','.join(b)}" for a, b in prediction.comparisons)
-    raise InputError(f"no comparison {label!r}; the scene has: {known}")
+    return find_comparison(prediction.comparisons, label)
 
 
 def rank(prediction: Prediction, *, by: str = "error", comparison: str | None = None):
-    """Combinations best first.
+    """Combinations best first: unsaturated before saturated, then by the key.
 
     Returns
     -------
-    order : ndarray of int, shape (L·O·C, 3)
-        (light, optics, camera) indices, best first.
-    key : ndarray
+    order : ndarray of int, shape (N, 3)
+        (light, optics, camera) indices of the N predicted (not skipped)
+        combinations, best first.
+    key : ndarray, shape (N,)
         The ranking value of each row (ε, or dB).
-    column : int or None
-        The comparison index used, or None for the worst pair.
+    column : ndarray of int, shape (N,)
+        Each row's key comparison: the named one, or that row's worst pair.
+    saturated : ndarray of bool, shape (N,)
+        Some class of the row has more than :data:`SATURATION_LIMIT` saturated.
     """
     values = {
         "error": prediction.error_gaussian,
         "snr_db": prediction.snr_db,
         "cnr_db": prediction.cnr_db,
     }[by]
-    pairs = [i for i, (a, b) in enumerate(prediction.comparisons) if len(a) == 1 and len(b) == 1]
+    flat_values = values.reshape(-1, values.shape[-1])
+    flat_log = prediction.log_error_gaussian.reshape(flat_values.shape)
     if comparison is not None:
-        column = comparison_index(prediction, comparison)
-        key = values[..., column]
+        column = np.full(flat_values.shape[0], comparison_index(prediction, comparison))
     else:
-        column = None
-        key = values[..., pairs].max(axis=-1) if by == "error" else values[..., pairs].min(axis=-1)
-    flat = key.ravel()
-    # Ties (e.g. ε underflowing to 0) are broken by the log-error, smaller first.
-    tiebreak = (
-        prediction.log_error_gaussian[..., column if column is not None else pairs]
-        .reshape(flat.size, -1)
-        .max(axis=-1)
-    )
-    order = np.lexsort((tiebreak, flat if by == "error" else -flat))
-    return np.stack(np.unravel_index(order, key.shape), axis=1), flat[order], column
+        pairs = np.array(
+            [i for i, (a, b) in enumerate(prediction.comparisons) if len(a) == 1 and len(b) == 1]
+        )
+        # The worst pair: largest ε (ties, e.g. ε underflowing to 0, by log ε), or lowest dB.
+        sub = flat_log[:, pairs] if by == "error" else -flat_values[:, pairs]
+        column = pairs[np.argmax(np.nan_to_num(sub, nan=-np.inf), axis=1)]
+    rows = np.arange(flat_values.shape[0])
+    key = flat_values[rows, column]
+    tiebreak = flat_log[rows, column]
+    saturated = (prediction.saturated_fraction.max(axis=-1) > SATURATION_LIMIT).ravel()
+    keep = prediction.valid.ravel()
+    idx = rows[keep]
+    order = idx[
+        np.lexsort((tiebreak[keep], key[keep] if by == "error" else -key[keep], saturated[keep]))
+    ]
+    combos = np.stack(np.unravel_index(order, prediction.valid.shape), axis=1)
+    return combos, key[order], column[order], saturated[order]
 
 
 def predicted_kde_error(prediction: Prediction, index, column: int) -> float:

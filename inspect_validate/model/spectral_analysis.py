@@ -11,10 +11,10 @@ bandwidth (42)–(43), one wavelength at a time.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from itertools import combinations
 
 import numpy as np
 
+from inspect_validate.comparisons import default_groups
 from inspect_validate.errors import InputError
 from inspect_validate.model.acquisition import ObjectClass
 from inspect_validate.stats import gaussian_error, kde_error
@@ -72,10 +72,7 @@ def analyse_spectra(
     if grid.size == 0 or grid[0] < lo or grid[-1] > hi:
         raise InputError(f"the classes' reflectances share only {lo:g}–{hi:g} nm")
     values = [c.reflectance.resample(grid) for c in classes]  # (S_k, W)
-    k = len(classes)
-    groups = [((a,), (b,)) for a, b in combinations(range(k), 2)]
-    if k >= 3:
-        groups += [((i,), tuple(j for j in range(k) if j != i)) for i in range(k)]
+    groups = default_groups(len(classes))
     gauss, kde_err = [], []
     for g1, g2 in groups:
         s1 = np.concatenate([values[i] for i in g1])
@@ -89,8 +86,8 @@ def analyse_spectra(
         if kde:
             e = np.full(grid.size, np.nan)
             for j in np.flatnonzero(valid):
-                if np.ptp(s1[:, j]) > 0 and np.ptp(s2[:, j]) > 0:
-                    e[j] = kde_error(s1[:, j], s2[:, j], quantum=resolution).error
+                # Identical samples are a kernel of the resolution's width, not undefined.
+                e[j] = kde_error(s1[:, j], s2[:, j], quantum=resolution).error
             kde_err.append(e)
     names = [c.name for c in classes]
     return SpectralSeparation(

@@ -11,10 +11,18 @@ import json
 import math
 from pathlib import Path
 
+import numpy as np
+
 from inspect_validate import __version__
 from inspect_validate.measure import Measurement
 
-__all__ = ["SCHEMA_VERSION", "json_number", "measurement_document", "write_json"]
+__all__ = [
+    "SCHEMA_VERSION",
+    "json_number",
+    "json_ready",
+    "measurement_document",
+    "write_json",
+]
 
 SCHEMA_VERSION = 1
 
@@ -77,8 +85,24 @@ def measurement_document(m: Measurement, *, inputs: dict, limits: dict) -> dict:
     }
 
 
+def json_ready(obj):
+    """``obj`` with every float (also numpy scalars) passed through :func:`json_number`."""
+    if isinstance(obj, dict):
+        return {k: json_ready(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [json_ready(v) for v in obj]
+    if isinstance(obj, (float, np.floating)):
+        return json_number(obj)
+    if isinstance(obj, np.integer):
+        return int(obj)
+    if isinstance(obj, np.bool_):
+        return bool(obj)
+    return obj
+
+
 def write_json(doc: dict, path: str | Path) -> Path:
-    """Write atomically (:func:`~inspect_validate.files.atomic_write`): a reader never sees a half-written file."""
+    """Write ``doc`` (made :func:`json_ready`) atomically: a reader never sees half a file."""
     from inspect_validate.files import atomic_write
 
-    return atomic_write(path, (json.dumps(doc, indent=2, allow_nan=False) + "\n").encode())
+    text = json.dumps(json_ready(doc), indent=2, allow_nan=False) + "\n"
+    return atomic_write(path, text.encode())

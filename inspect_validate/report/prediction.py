@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from inspect_validate import __version__
 from inspect_validate.model import Prediction, predicted_kde_error, rank
-from inspect_validate.report.jsonfile import json_number
+from inspect_validate.model.ranking import SATURATION_LIMIT
 from inspect_validate.report.tables import format_error, render_table
 
 __all__ = [
@@ -16,57 +18,70 @@ __all__ = [
     "prediction_rows",
 ]
 
-PREDICTION_SCHEMA_VERSION = 1
+PREDICTION_SCHEMA_VERSION = 2
+"""2: ``key_comparison`` (the row's ranking comparison, an index into its complete
+``comparisons``) replaces ``worst_comparison``; ``saturated``, ``exposure``
+(``"absolute"``/``"relative"``) and the top-level ``skipped`` were added."""
 
 
 def prediction_rows(
     p: Prediction, *, by: str, comparison: str | None, top: int, kde: bool = True
 ) -> list[dict]:
-    """The ``top`` best combinations as dictionaries (the JSON ``ranking`` entries)."""
-    order, key, column = rank(p, by=by, comparison=comparison)
+    """The ``top`` best combinations as dictionaries of plain numbers (the JSON ``ranking``).
+
+    Every row lists every comparison; ``key_comparison`` indexes the one the row
+    is ranked by. ε KDE is computed for that comparison only: it is the costly
+    one, and the one the ranking is about.
+    """
+    order, key, column, saturated = rank(p, by=by, comparison=comparison)
     rows = []
     for r, (li, oi, ci) in enumerate(order[:top]):
         idx = (li, oi, ci)
-        cols = range(len(p.comparisons)) if column is None else [column]
-        worst = column if column is not None else int(np.argmax(p.error_gaussian[idx]))
+        absolute = bool(p.absolute[li]) if p.absolute is not None else True
         rows.append(
             {
                 "rank": r + 1,
                 "light": p.lights[li],
                 "optics": p.optics[oi],
                 "camera": p.cameras[ci],
-                "exposure_time_s": json_number(p.exposure_time[idx]),
-                "key": json_number(key[r]),
+                "exposure": "absolute" if absolute else "relative",
+                "exposure_time_s": float(p.exposure_time[idx]) if absolute else None,
+                "key": float(key[r]),
+                "key_comparison": int(column[r]),
+                "saturated": bool(saturated[r]),
                 "classes": [
                     {
                         "name": name,
-                        "mean": json_number(p.mean[idx][k]),
-                        "variance": json_number(p.variance[idx][k]),
-                        "spectral_variance": json_number(p.spectral_variance[idx][k]),
-                        "electrons": json_number(p.electrons[idx][k]),
-                        "saturated_fraction": json_number(p.saturated_fraction[idx][k]),
+                        "mean": float(p.mean[idx][k]),
+                        "variance": float(p.variance[idx][k]),
+                        "spectral_variance": float(p.spectral_variance[idx][k]),
+                        "electrons": float(p.electrons[idx][k]),
+                        "saturated_fraction": float(p.saturated_fraction[idx][k]),
                     }
                     for k, name in enumerate(p.classes)
                 ],
                 "comparisons": [
                     {
-                        "first": list(p.comparisons[j][0]),
-                        "second": list(p.comparisons[j][1]),
-                        "snr_db": json_number(p.snr_db[idx][j]),
-                        "cnr_db": json_number(p.cnr_db[idx][j]),
-                        "fisher_db": json_number(p.fisher_db[idx][j]),
-                        "error_gaussian": json_number(p.error_gaussian[idx][j]),
-                        "log_error_gaussian": json_number(p.log_error_gaussian[idx][j]),
-                        "error_kde": json_number(predicted_kde_error(p, idx, j))
-                        if kde and (j == worst or column is not None)
+                        "first": list(first),
+                        "second": list(second),
+                        "snr_db": float(p.snr_db[idx][j]),
+                        "cnr_db": float(p.cnr_db[idx][j]),
+                        "fisher_db": float(p.fisher_db[idx][j]),
+                        "error_gaussian": float(p.error_gaussian[idx][j]),
+                        "log_error_gaussian": float(p.log_error_gaussian[idx][j]),
+                        "error_kde": predicted_kde_error(p, idx, j)
+                        if kde and j == column[r]
                         else None,
                     }
-                    for j in cols
+                    for j, (first, second) in enumerate(p.comparisons)
                 ],
-                "worst_comparison": worst,
             }
         )
     return rows
+
+
+def _db(x: float) -> str:
+    return f"{x:.2f}" if math.isfinite(x) else ("inf" if x > 0 else "-inf")
 
 
 def format_prediction(p: Prediction, rows: list[dict], *, by: str, comparison: str | None) -> str:
@@ -75,31 +90,45 @@ def format_prediction(p: Prediction, rows: list[dict], *, by: str, comparison: s
     header += ["comparison", "SNR_dB (36)", "CNR_dB", "ε Gauss", "ε KDE", "sat"]
     table = []
     for row in rows:
-        # With a chosen comparison the row holds only that one; else the worst pair.
-        comp = row["comparisons"][0 if comparison else row["worst_comparison"]]
+        comp = row["comparisons"][row["key_comparison"]]
         sat = max(c["saturated_fraction"] for c in row["classes"])
+        t_exp = row["exposure_time_s"]
         table.append(
             [
                 str(row["rank"]),
                 row["light"],
                 row["optics"],
                 row["camera"],
-                f"{1e3 * row['exposure_time_s']:.3g} ms",
+                f"{1e3 * t_exp:.3g} ms" if t_exp is not None else "rel.",
             ]
             + [f"{c['mean']:.1f}" for c in row["classes"]]
             + [f"{c['variance']:.1f}" for c in row["classes"]]
             + [
                 f"{','.join(comp['first'])} vs {','.join(comp['second'])}",
-                f"{comp['snr_db']:.2f}" if isinstance(comp["snr_db"], float) else comp["snr_db"],
-                f"{comp['cnr_db']:.2f}" if isinstance(comp["cnr_db"], float) else comp["cnr_db"],
+                _db(comp["snr_db"]),
+                _db(comp["cnr_db"]),
                 format_error(comp["error_gaussian"], comp["log_error_gaussian"]),
                 format_error(comp["error_kde"]),
-                f"{100 * sat:.2g} %" if sat > 1e-6 else "-",
+                (f"{100 * sat:.2g} %" + (" !" if row["saturated"] else "")) if sat > 1e-6 else "-",
             ]
         )
     what = f"{comparison}" if comparison else "worst pair of classes"
-    title = f"Ranked by {'ε Gauss' if by == 'error' else by} of the {what}; μ in DN, σ² in DN², ε_tot (37) with equal priors"
-    return title + "\n" + render_table(header, table)
+    lines = [
+        f"Ranked by {'ε Gauss' if by == 'error' else by} of the {what}; μ in DN, σ² in DN², "
+        "ε_tot (37) with equal priors",
+        render_table(header, table),
+    ]
+    if any(r["saturated"] for r in rows):
+        lines.append(
+            f"! more than {100 * SATURATION_LIMIT:g} % of a class saturated: ranked after every "
+            "unsaturated combination (clipping shrinks the variance and flatters the separation)"
+        )
+    if any(r["exposure_time_s"] is None for r in rows):
+        lines.append(
+            "rel. = the light's SPD is relative (no irradiance): auto exposure puts the brightest "
+            "class at the target, but the time in seconds is unknown"
+        )
+    return "\n".join(lines)
 
 
 def prediction_document(
@@ -111,9 +140,9 @@ def prediction_document(
         "tool_version": __version__,
         "scene": scene,
         "wavelength_nm": {
-            "start": json_number(p.grid[0]),
-            "stop": json_number(p.grid[-1]),
-            "step": json_number(p.grid[1] - p.grid[0]),
+            "start": float(p.grid[0]),
+            "stop": float(p.grid[-1]),
+            "step": float(p.grid[1] - p.grid[0]),
         },
         "lights": list(p.lights),
         "optics": list(p.optics),
@@ -122,5 +151,6 @@ def prediction_document(
         "rank_by": by,
         "rank_comparison": comparison,
         "combinations": int(np.prod(p.shape)),
+        "skipped": list(p.skipped),
         "ranking": rows,
     }

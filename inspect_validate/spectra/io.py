@@ -22,6 +22,15 @@ __all__ = ["normalise_reflectance", "read_spectrometer", "read_spectrum_csv"]
 NEGATIVE_NOISE = 0.02
 """Reflectance, transmission or QE down to −0.02 is measurement noise (clipped to 0, noted);
 below that the file is refused."""
+UPPER = {
+    SpectrumKind.REFLECTANCE: 2.0,  # fluorescent or glossy samples exceed a white standard
+    SpectrumKind.TRANSMISSION: 1.0 + NEGATIVE_NOISE,
+    SpectrumKind.QE: 1.0 + NEGATIVE_NOISE,
+    SpectrumKind.SPD: 1e12,  # W·m⁻²·nm⁻¹ or relative units: beyond this it is not a light
+}
+"""Largest accepted value per kind; above it the file is refused (values in percent, wrong column)."""
+WAVELENGTH_RANGE = (1.0, 100_000.0)
+"""nm: the first column must lie within (1 nm, 100 µm]."""
 
 
 def read_spectrum_csv(
@@ -95,7 +104,9 @@ def read_spectrum_csv(
             raise InputError(
                 f"line {ln}: {what} wavelength {wl[rows.index((ln, _))]:g} nm", source=str(path)
             )
+    _check_wavelengths(wl, path)
     values = data[:, 1:].T
+    _check_upper(values, wl, rows, kind, path, raw)
     notes = []
     if header:
         notes.append(f"columns: {', '.join(header[1:])}")
@@ -108,6 +119,39 @@ def read_spectrum_csv(
         j = int(np.argwhere(values < 0)[0][1])
         raise InputError(f"line {rows[j][0]}: negative power", source=str(path))
     return Spectrum(wl, values, kind, name or path.stem, str(path), tuple(notes))
+
+
+def _check_wavelengths(wl, path):
+    lo, hi = WAVELENGTH_RANGE
+    if wl[-1] < 50.0 and wl[0] > 0:
+        raise InputError(
+            f"wavelengths {wl[0]:g}–{wl[-1]:g} look like µm; the first column must be in nm "
+            "(multiply by 1000)",
+            source=str(path),
+        )
+    if wl[0] <= lo or wl[-1] > hi:
+        raise InputError(
+            f"wavelengths {wl[0]:g}–{wl[-1]:g} nm are outside {lo:g} nm – {hi / 1000:g} µm; "
+            "the first column must be the wavelength in nm",
+            source=str(path),
+        )
+
+
+def _check_upper(values, wl, rows, kind, path, raw):
+    limit = UPPER[kind] if not raw else UPPER[SpectrumKind.SPD]
+    over = values > limit
+    if not over.any():
+        return
+    s, j = np.argwhere(over)[0]
+    hint = (
+        "values in percent? divide by 100"
+        if kind is not SpectrumKind.SPD and values.max() <= 100 * limit
+        else "check the column order and units"
+    )
+    raise InputError(
+        f"line {rows[j][0]}: {kind.value} {values[s, j]:g} at {wl[j]:g} nm is above {limit:g}; {hint}",
+        source=str(path),
+    )
 
 
 def _dialect(line: str):

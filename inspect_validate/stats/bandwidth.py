@@ -32,8 +32,12 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import optimize
 
-from inspect_validate.errors import InputError
-from inspect_validate.stats.sample import LatticeSample, _converted_moments, as_sample
+from inspect_validate.stats.sample import (
+    LatticeSample,
+    _converted_moments,
+    as_sample,
+    quantisation_step,
+)
 
 __all__ = [
     "Bandwidth",
@@ -215,8 +219,11 @@ def lscv_bandwidth(sample, *, quantum: float | None = None, method: str = "auto"
         Grey values, DN.
     quantum : float, keyword-only, optional
         Quantisation step of the grey values, DN: the smallest bandwidth allowed.
-        Default 1 DN for a lattice sample (integer frames, also after dark
-        subtraction), none for float data.
+        Default: for integer (lattice) samples the larger of 1 DN and the codes'
+        common step (16 DN for 12-bit data in the upper bits of 16; dark
+        subtraction adds no resolution), for float data the recovered step of
+        quantised values (:func:`~inspect_validate.stats.sample.quantisation_step`),
+        none for continuous data.
     method : {"auto", "exact", "binned"}, keyword-only
         For continuous data: all pairs (exact, O(n²)), linear binning, or
         "auto" (exact up to 500 values). Lattice samples are always exact.
@@ -236,10 +243,14 @@ def lscv_bandwidth(sample, *, quantum: float | None = None, method: str = "auto"
     moments = _converted_moments(sample)
     n = moments.n
     sigma = np.sqrt(moments.variance)
-    floor = float(quantum) if quantum is not None else (1.0 if lattice else 0.0)
+    if quantum is None:
+        step = quantisation_step(sample)
+        # Integer frames resolve 1 DN at best, also when a mean dark puts them on a finer lattice.
+        quantum = max(step or 1.0, 1.0) if lattice else (step or 0.0)
+    floor = float(quantum)
     if sigma == 0.0:
-        if floor == 0.0:
-            raise InputError("all values are equal: no bandwidth can be selected")
+        # One repeated value: a kernel as narrow as the resolution allows, or
+        # for continuous data a point mass (h = 0; the error handles it).
         return Bandwidth(floor, floor, True, "lattice" if lattice else "binned")
     # Oversmoothed bandwidth (Terrell 1990) bounds the MISE-optimal one from above.
     h_os = 1.144 * sigma * n ** (-0.2)

@@ -50,6 +50,9 @@ def kernel_mixture(sample, h: float) -> tuple[np.ndarray, np.ndarray]:
         keep = sample.counts > 0
         return sample.points[keep], sample.counts[keep] / sample.n
     x = np.asarray(sample, dtype=np.float64)
+    if h == 0.0:  # a point mass per distinct value (a constant class of float data)
+        values, counts = np.unique(x, return_counts=True)
+        return values, counts / x.size
     if x.size <= _EXACT_POINTS_MAX:
         return x, np.full(x.size, 1.0 / x.size)
     from inspect_validate.stats._binning_kernels import linear_bin
@@ -107,6 +110,11 @@ def kde_error(sample1, sample2, *, quantum: float | None = None) -> KdeError:
 def mixture_error(centres1, weights1, sigma1, centres2, weights2, sigma2) -> float:
     """ε_tot (37) = ½∫min(p1, p2) of two Gaussian mixtures, equal priors.
 
+    Components of zero width are point masses (a class clipped to one grey
+    value): ½∫min(p1, p2) then adds, at every value where *both* have a point
+    mass, the smaller of the two; a point mass against a density contributes
+    nothing (the density gives a single value zero probability).
+
     Parameters
     ----------
     centres1, centres2 : ndarray
@@ -114,19 +122,34 @@ def mixture_error(centres1, weights1, sigma1, centres2, weights2, sigma2) -> flo
     weights1, weights2 : ndarray
         Component weights, each set summing to 1.
     sigma1, sigma2 : float or ndarray
-        Component standard deviations, DN (one for all, or one per component).
+        Component standard deviations, DN (one for all, or one per component; ≥ 0).
     """
     c1, w1, c2, w2 = (np.asarray(a, float) for a in (centres1, weights1, centres2, weights2))
     s1 = np.broadcast_to(np.asarray(sigma1, float), c1.shape)
     s2 = np.broadcast_to(np.asarray(sigma2, float), c2.shape)
-    crossings = _crossings(c1, w1, s1, c2, w2, s2)
-    edges = np.concatenate([[-np.inf], crossings, [np.inf]])
+    atom1, atom2 = s1 == 0, s2 == 0
     total = 0.0
-    for a, b in itertools.pairwise(edges):
-        probe = _probe(a, b, c1, c2, s1.max(), s2.max())
-        lower_is_1 = _log_density(probe, c1, w1, s1) <= _log_density(probe, c2, w2, s2)
-        total += _mass(a, b, c1, w1, s1) if lower_is_1 else _mass(a, b, c2, w2, s2)
+    if atom1.any() and atom2.any():
+        a1 = _point_masses(c1[atom1], w1[atom1])
+        a2 = _point_masses(c2[atom2], w2[atom2])
+        total += sum(min(w, a2[x]) for x, w in a1.items() if x in a2)
+    c1, w1, s1 = c1[~atom1], w1[~atom1], s1[~atom1]
+    c2, w2, s2 = c2[~atom2], w2[~atom2], s2[~atom2]
+    if c1.size and c2.size:
+        crossings = _crossings(c1, w1, s1, c2, w2, s2)
+        edges = np.concatenate([[-np.inf], crossings, [np.inf]])
+        for a, b in itertools.pairwise(edges):
+            probe = _probe(a, b, c1, c2, s1.max(), s2.max())
+            lower_is_1 = _log_density(probe, c1, w1, s1) <= _log_density(probe, c2, w2, s2)
+            total += _mass(a, b, c1, w1, s1) if lower_is_1 else _mass(a, b, c2, w2, s2)
     return 0.5 * total
+
+
+def _point_masses(centres, weights) -> dict[float, float]:
+    masses: dict[float, float] = {}
+    for x, w in zip(centres.tolist(), weights.tolist(), strict=True):
+        masses[x] = masses.get(x, 0.0) + w
+    return masses
 
 
 def _probe(a, b, c1, c2, h1, h2):

@@ -22,6 +22,7 @@ __all__ = [
     "Moments",
     "as_sample",
     "merge_samples",
+    "quantisation_step",
     "sample_moments",
 ]
 
@@ -205,3 +206,38 @@ def _converted_moments(sample: LatticeSample | np.ndarray) -> Moments:
     # The second term removes the rounding error left in `mean` (Chan, Golub & LeVeque).
     variance = (float(np.dot(dev, dev)) - float(dev.sum()) ** 2 / n) / (n - 1)
     return Moments(n, mean + float(dev.sum()) / n, max(variance, 0.0))
+
+
+def quantisation_step(sample) -> float | None:
+    """The grey-value resolution of a sample, DN: the step all its values are multiples of.
+
+    A lattice sample's step is the greatest common divisor of its occupied codes'
+    distances (1 DN for raw integer frames, 16 DN for 12-bit data stored in the
+    upper bits of 16, 1/n after subtracting the mean of n dark frames). For float
+    values (e.g. 12-bit frames scaled to 0..1) the step is recovered when every
+    distance is a small rational multiple (denominator ≤ 64) of the smallest one,
+    to 1e-6 of the step; otherwise the data are continuous and the result is None.
+    A sample with a single distinct value has no step (None).
+    """
+    from fractions import Fraction
+    from math import lcm
+
+    if isinstance(sample, LatticeSample):
+        offsets = np.flatnonzero(sample.counts)
+        if offsets.size < 2:
+            return None
+        return int(np.gcd.reduce(offsets[1:])) / sample.denominator
+    u = np.unique(np.asarray(sample, dtype=np.float64))
+    if u.size < 2:
+        return None
+    gaps = np.diff(u)
+    smallest = float(gaps.min())
+    ratios = (u[1:] - u[0]) / smallest
+    if not np.all(np.isfinite(ratios)) or ratios.max() > 2**40:
+        return None
+    denominators = {Fraction(float(r)).limit_denominator(64).denominator for r in ratios[:4096]}
+    step = smallest / lcm(*denominators)
+    k = (u - u[0]) / step
+    if np.all(np.abs(k - np.round(k)) <= 1e-6):
+        return step
+    return None
