@@ -10,7 +10,12 @@ For each illumination (and finally the dark frames, all lights off):
    ``brightness_tolerance`` (relative); a frame at the start that disagrees
    with the next (the light still settling) is dropped and replaced, a jump
    after two agreeing frames is an error;
-4. save each kept frame (16-bit TIFF + JSON sidecar, atomically) at once.
+4. save each frame (16-bit TIFF + JSON sidecar, atomically) as soon as it is
+   verified, so a failure later in the step loses none of them.
+
+A camera that can restart its stream (GenICam: stop and start the acquisition,
+which discards every queued buffer) does so after the switch; then no frame
+from before the switch can arrive, however many buffers the driver queues.
 
 After the dark frames, a step no brighter than dark is reported as a warning
 (manifest ``warnings``): its light never reached the camera.
@@ -55,7 +60,7 @@ def verified_frames(
     timeout_s: float,
     flush: int = 4,
 ):
-    """Grab ``n`` frames exposed after ``switched_ns`` with stable brightness.
+    """Yield ``n`` frames exposed after ``switched_ns`` with stable brightness, each once verified.
 
     Frames whose timestamp is the exposure start on the host clock are kept
     only if exposed after ``switched_ns``; frames on other clocks cannot prove
@@ -63,14 +68,16 @@ def verified_frames(
     Kept frames must agree with each other (mean within ``tolerance``, relative).
     While only one frame is kept, a disagreeing frame means the light is still
     settling: the kept frame is dropped. Once two frames agree the level is
-    locked, and a disagreeing frame is a jump — an error, never recorded.
+    locked — both are yielded — and every later frame is yielded as it agrees;
+    a disagreeing frame is then a jump: an error, never recorded.
 
-    Returns the frames and how many were discarded.
+    Yields ``(frame, discarded)``: the frame and the frames dropped so far.
     """
     discarded = 0
     kept: list = []
     flushed = 0
-    while len(kept) < n:
+    done = 0
+    while done < n:
         frame = camera.grab(1, timeout_s=timeout_s)[0]
         if frame.clock == "exposure" and frame.timestamp_ns < switched_ns:
             discarded += 1  # exposed before the switch (camera pipeline)
@@ -79,11 +86,16 @@ def verified_frames(
             discarded += 1  # may still be in the pipeline from before the switch
         elif not kept or _agrees(frame, kept, tolerance):
             kept.append(frame)
+            # One frame alone is verified only when one is all that was asked for.
+            ready = kept[done:] if len(kept) >= 2 or n == 1 else []
+            for f in ready[: n - done]:
+                yield f, discarded
+                done += 1
         elif len(kept) == 1:
             discarded += 1  # still settling: start again from this frame
             kept = [frame]
         else:
-            means = [round(f.mean, 1) for f in (*kept, frame)]
+            means = [round(f.mean, 1) for f in (*kept[-3:], frame)]
             raise DeviceError(
                 f"{camera.name}: brightness jumps within a step (frame means {means}); "
                 "the light or exposure is unstable — check the controller and the ambient light"
@@ -93,7 +105,6 @@ def verified_frames(
                 f"{camera.name}: {discarded} frames were exposed before the light switch or while it settled; "
                 "nothing stable arrived — check that the controller really switches this light and the camera's frame rate"
             )
-    return kept, discarded
 
 
 def _agrees(frame, kept, tolerance) -> bool:
@@ -129,6 +140,8 @@ def capture(
         )
         asked = {"exposure": cam.exposure_us, "gain": cam.gain_db, "pixel_format": cam.pixel_format}
         not_applied = tuple(sorted(m for m in camera.missing if asked.get(m) is not None))
+        # The manifest is written only now: a camera that fails to open leaves
+        # nothing that would block a plain rerun.
         store.record(
             "camera",
             {"name": camera.name, "missing": sorted(camera.missing), "not_applied": not_applied},
@@ -144,36 +157,41 @@ def capture(
                 try:
                     controller.apply(setting)
                     switched = time.monotonic_ns()
-                    frames, discarded = verified_frames(
+                    # A camera that can restart its stream drops every queued buffer:
+                    # nothing exposed before the switch can arrive after it.
+                    fresh = camera.restart_stream()
+                    status = controller.status()
+                    if status:
+                        store.note(name, "controller_status", status)
+                    info = {
+                        "step": name,
+                        "light_setting": as_json,
+                        "light_switched_ns": switched,
+                        "stream_restarted": fresh,
+                        "controller": controller.name,
+                    }
+                    frames = verified_frames(
                         camera,
                         n,
                         switched_ns=switched,
                         discard_max=station.discard_max,
                         tolerance=station.brightness_tolerance,
                         timeout_s=cam.timeout_s,
-                        flush=max(cam.flush_frames, camera.pipeline_frames),
+                        flush=0 if fresh else max(cam.flush_frames, camera.pipeline_frames),
                     )
+                    total_mean = 0.0
+                    for i, (frame, discarded) in enumerate(frames, start=1):
+                        store.save(name, i, frame, {**info, "discarded_before": discarded})
+                        total_mean += frame.mean
+                        done += 1
+                        if progress:
+                            progress(name, done, total)
                 except DeviceError as exc:
                     store.fail(name, str(exc))
                     raise
-                for i, frame in enumerate(frames, start=1):
-                    store.save(
-                        name,
-                        i,
-                        frame,
-                        {
-                            "step": name,
-                            "light_setting": as_json,
-                            "discarded_before": discarded,
-                            "controller": controller.name,
-                        },
-                    )
-                    done += 1
-                    if progress:
-                        progress(name, done, total)
                 store.finish(name)
-                saved[name] = len(frames)
-                levels[name] = float(np.mean([f.mean for f in frames]))
+                saved[name] = n
+                levels[name] = total_mean / n
         finally:
             try:
                 controller.all_off()

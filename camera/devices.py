@@ -149,7 +149,9 @@ def _open_camera(station: Station, state_path: Path | None, controller):
         from inspect_validate.camera.grabbers.genicam import GenICamCamera
 
         cti = str(station.resolve(spec.cti)) if spec.cti else None
-        return GenICamCamera(cti, serial=spec.serial, index=spec.index)
+        return GenICamCamera(
+            cti, serial=spec.serial, index=spec.index, num_buffers=spec.num_buffers
+        )
     if spec.backend == "pylon":
         from inspect_validate.camera.grabbers.pylon import PylonCamera
 

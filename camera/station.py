@@ -24,40 +24,93 @@ from __future__ import annotations
 
 import hashlib
 from pathlib import Path
-from typing import Literal
+from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
-from inspect_validate.config import load_yaml
+from inspect_validate.config import load_yaml, one_of
 
 __all__ = ["Station", "read_station", "station_hash"]
 
 
-class CameraSpec(BaseModel):
+class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid")
-    backend: Literal["simulated", "genicam", "pylon", "v4l2", "replay"]
-    exposure_us: float | None = Field(default=None, gt=0)
-    gain_db: float | None = None
+
+
+Seconds = Annotated[float, Field(gt=0, le=3600, allow_inf_nan=False)]
+Channel = Annotated[int, Field(ge=1, le=64)]
+
+
+class _CameraCommon(_Strict):
+    exposure_us: Annotated[float, Field(gt=0, le=1e8, allow_inf_nan=False)] | None = None
+    gain_db: Annotated[float, Field(ge=-60, le=100, allow_inf_nan=False)] | None = None
     pixel_format: str | None = None
-    timeout_s: float = Field(default=2.0, gt=0)
-    flush_frames: int = Field(
-        default=4, ge=0
-    )  # dropped after a switch when timestamps cannot prove the exposure time
-    # genicam / pylon
+    timeout_s: Seconds = 2.0
+    # dropped after a switch when timestamps cannot prove the exposure time
+    flush_frames: Annotated[int, Field(ge=0, le=1000)] = 4
+
+    @field_validator("pixel_format")
+    @classmethod
+    def _mono(cls, v):
+        from inspect_validate.camera.pixelformats import BIT_DEPTH
+
+        if v is not None and v not in BIT_DEPTH:
+            raise ValueError(f"{v!r} is not a monochrome format; use one of {', '.join(BIT_DEPTH)}")
+        return v
+
+
+class _SimulatedWorld(_Strict):
+    """A scene rendered as the camera's view (the simulated station)."""
+
+    scene: str | None = None
+    channels: dict[Channel, str] = {}
+    channel_irradiance: dict[Channel, Annotated[float, Field(gt=0, allow_inf_nan=False)]] = {}
+    width: Annotated[int, Field(ge=16, le=20000)] = 320
+    height: Annotated[int, Field(ge=16, le=20000)] = 240
+    latency: Annotated[int, Field(ge=0, le=100)] = 2
+
+
+class SimulatedCameraSpec(_CameraCommon, _SimulatedWorld):
+    backend: Literal["simulated"]
+    scene: str
+
+
+class GenicamCameraSpec(_CameraCommon):
+    backend: Literal["genicam"]
     cti: str | None = None
     serial: str | None = None
-    index: int = Field(default=0, ge=0)
-    # v4l2
+    index: Annotated[int, Field(ge=0)] = 0
+    num_buffers: Annotated[int, Field(ge=1, le=1000)] | None = None  # harvesters' default else
+
+
+class PylonCameraSpec(_CameraCommon, _SimulatedWorld):
+    backend: Literal["pylon"]
+    serial: str | None = None
+    index: Annotated[int, Field(ge=0)] = 0
+
+
+class V4l2CameraSpec(_CameraCommon):
+    backend: Literal["v4l2"]
     device: str | int | None = None
-    # replay
-    folder: str | None = None
-    # simulated
-    scene: str | None = None
-    channels: dict[int, str] = {}
-    channel_irradiance: dict[int, float] = {}
-    width: int = Field(default=320, ge=16)
-    height: int = Field(default=240, ge=16)
-    latency: int = Field(default=2, ge=0)
+    index: Annotated[int, Field(ge=0)] = 0
+
+
+class ReplayCameraSpec(_CameraCommon):
+    backend: Literal["replay"]
+    folder: str
+
+
+CameraSpec = one_of(
+    {
+        "simulated": SimulatedCameraSpec,
+        "genicam": GenicamCameraSpec,
+        "pylon": PylonCameraSpec,
+        "v4l2": V4l2CameraSpec,
+        "replay": ReplayCameraSpec,
+    },
+    what="camera",
+    field="backend",
+)
 
 
 _TEMPLATE_FIELDS = {
@@ -113,46 +166,83 @@ class AsciiProtocol(BaseModel):
         return v
 
 
-class ControllerSpec(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-    backend: Literal["simulated", "gardasoft", "generic", "manual"]
-    port: str | None = None
-    channels: int = Field(default=4, ge=1, le=64)
-    timeout_s: float = Field(default=1.0, gt=0)
+class _ControllerCommon(_Strict):
+    channels: Annotated[int, Field(ge=1, le=64)] = 4
+    timeout_s: Seconds = 1.0
     error_codes: dict[int, str] = {}
-    protocol: AsciiProtocol | None = None  # generic backend
-    simulator_args: list[
-        str
-    ] = []  # faults for the simulated controller (tests): e.g. ["--vanish-after", "5"]
 
 
-class Illumination(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-    name: str = Field(pattern=r"^[A-Za-z0-9_.-]+$")
-    channels: dict[int, float]
-
-    @field_validator("channels")
-    @classmethod
-    def _percent(cls, v):
-        for ch, pct in v.items():
-            if not 0 <= pct <= 100:
-                raise ValueError(f"channel {ch}: {pct} % is outside 0–100")
-        return v
+class SimulatedControllerSpec(_ControllerCommon):
+    backend: Literal["simulated"]
+    protocol: AsciiProtocol | None = None  # the generic driver on the simulator's line dialect
+    # faults for the simulated controller (tests): e.g. ["--vanish-after", "5"]
+    simulator_args: list[str] = []
 
 
-class Station(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+class GardasoftControllerSpec(_ControllerCommon):
+    backend: Literal["gardasoft"]
+    port: Annotated[str, Field(min_length=1)]
+
+
+class GenericControllerSpec(_ControllerCommon):
+    backend: Literal["generic"]
+    port: Annotated[str, Field(min_length=1)]
+    protocol: AsciiProtocol
+
+
+class ManualControllerSpec(_Strict):
+    backend: Literal["manual"]
+    channels: Annotated[int, Field(ge=1, le=64)] = 4
+
+
+ControllerSpec = one_of(
+    {
+        "simulated": SimulatedControllerSpec,
+        "gardasoft": GardasoftControllerSpec,
+        "generic": GenericControllerSpec,
+        "manual": ManualControllerSpec,
+    },
+    what="controller",
+    field="backend",
+)
+
+
+class Illumination(_Strict):
+    name: str = Field(pattern=r"^[A-Za-z0-9_.-]+$", max_length=100)
+    channels: dict[Channel, Annotated[float, Field(ge=0, le=100, allow_inf_nan=False)]]
+
+
+class Station(_Strict):
     name: str = "station"
     camera: CameraSpec
     controller: ControllerSpec
     illuminations: list[Illumination] = Field(min_length=1)
-    frames: int = Field(default=4, ge=1)
-    dark_frames: int = Field(default=4, ge=0)
-    discard_max: int = Field(default=20, ge=0)
-    brightness_tolerance: float = Field(default=0.02, gt=0)
+    frames: int = Field(default=4, ge=1, le=100_000)
+    dark_frames: int = Field(default=4, ge=0, le=100_000)
+    discard_max: int = Field(default=20, ge=0, le=100_000)
+    brightness_tolerance: float = Field(default=0.02, gt=0, le=1)
     rois: str | None = None
     scene: str | None = None
     path: Path | None = None
+
+    @model_validator(mode="after")
+    def _channels_exist(self):
+        """Every channel an illumination (or the simulated camera) uses is on the controller."""
+        n = self.controller.channels
+        for i, ill in enumerate(self.illuminations):
+            missing = sorted(c for c in ill.channels if c > n)
+            if missing:
+                raise ValueError(
+                    f"illuminations[{i}] ({ill.name}): channel {missing[0]} is not on the "
+                    f"controller (controller.channels: {n})"
+                )
+        mapped = sorted(c for c in getattr(self.camera, "channels", {}) if c > n)
+        if mapped:
+            raise ValueError(
+                f"camera.channels: channel {mapped[0]} is not on the controller "
+                f"(controller.channels: {n})"
+            )
+        return self
 
     def resolve(self, relative: str | None) -> Path | None:
         """A path given in the station file, relative to the file."""

@@ -47,7 +47,9 @@ class CaptureStore:
                 )
             self.manifest = manifest
         else:
-            self.folder.mkdir(parents=True, exist_ok=True)
+            from inspect_validate.files import output_folder
+
+            output_folder(self.folder)
             self.manifest = {
                 "schema": "inspect-validate/capture",
                 "schema_version": 1,
@@ -57,15 +59,30 @@ class CaptureStore:
                 "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
                 "steps": {},
             }
-            self._save_manifest()
 
     def _save_manifest(self) -> None:
         atomic_write(self.manifest_path, json.dumps(self.manifest, indent=2).encode())
 
     def record(self, key: str, value) -> None:
-        """Add ``key`` to the manifest (e.g. the camera and the settings it lacks)."""
+        """Add ``key`` to the manifest (e.g. the camera and the settings it lacks).
+
+        Resuming with another camera than the one that took the saved frames is
+        refused: a stack must come from one camera.
+        """
+        if key == "camera" and "camera" in self.manifest:
+            before, now = self.manifest["camera"].get("name"), value.get("name")
+            if before != now:
+                raise InputError(
+                    f"the frames here were taken with {before!r}, the station now opens {now!r}; "
+                    "resume with the same camera or capture into a new --out folder",
+                    source=str(self.folder),
+                )
         self.manifest[key] = value
         self._save_manifest()
+
+    def note(self, step: str, key: str, value) -> None:
+        """Record ``key`` for ``step`` (e.g. the light state the controller reports)."""
+        self.manifest["steps"][step][key] = value
 
     def is_complete(self, step: str) -> bool:
         return bool(self.manifest["steps"].get(step, {}).get("complete"))

@@ -22,9 +22,49 @@ from pydantic import BaseModel, ValidationError
 
 from inspect_validate.errors import InputError
 
-__all__ = ["explain", "load_yaml", "parse_yaml"]
+__all__ = ["explain", "load_yaml", "one_of", "parse_yaml"]
 
 M = TypeVar("M", bound=BaseModel)
+
+
+def one_of(models: dict, *, what: str, field: str | None = None, shorthand=None):
+    """A union of models told apart by one key: a validated model per kind.
+
+    With ``field`` None the kind is the one key of ``models`` that a mapping has
+    (``{led: {...}}`` in a scene); otherwise it is the value of ``field``
+    (``backend: genicam`` in a station). Unknown keys inside a kind are refused
+    by that kind's model. Tags start with "_" so that messages show the user's
+    own field path once (:func:`explain` leaves them out). ``shorthand`` maps a
+    plain value (a name) to a mapping first.
+    """
+    from typing import Annotated, Union
+
+    from pydantic import BeforeValidator, Discriminator, Tag
+
+    kinds = tuple(models)
+
+    def tag(value):
+        if isinstance(value, dict):
+            if field is not None:
+                kind = value.get(field)
+                return f"_{kind}" if kind in kinds else None
+            found = [k for k in kinds if k in value]
+            return f"_{found[0]}" if len(found) == 1 else None
+        for kind, model in models.items():
+            if isinstance(value, model):
+                return f"_{kind}"
+        return None
+
+    message = (
+        f"{what}: give exactly one of {', '.join(kinds)}"
+        if field is None
+        else f"{field} must be one of {', '.join(kinds)}"
+    )
+    union = Annotated[
+        Union[tuple(Annotated[m, Tag(f"_{k}")] for k, m in models.items())],  # noqa: UP007
+        Discriminator(tag, custom_error_type="kind", custom_error_message=message),
+    ]
+    return Annotated[union, BeforeValidator(shorthand)] if shorthand else union
 
 
 def explain(exc: ValidationError) -> str:

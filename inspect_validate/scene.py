@@ -39,16 +39,13 @@ from typing import Annotated, Any, Literal
 import numpy as np
 from pydantic import (
     BaseModel,
-    BeforeValidator,
     ConfigDict,
-    Discriminator,
     Field,
-    Tag,
     field_validator,
     model_validator,
 )
 
-from inspect_validate.config import load_yaml
+from inspect_validate.config import load_yaml, one_of
 from inspect_validate.errors import InputError
 
 __all__ = ["IRRADIANCE_BAND", "MAX_GRID_POINTS", "Scene", "read_scene"]
@@ -67,34 +64,6 @@ Name = Annotated[str, Field(min_length=1, max_length=200)]
 
 class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
-
-
-def _kind(kinds: tuple[str, ...]):
-    """Discriminator: the one key of ``kinds`` a mapping has (tags start with '_',
-    so field paths in messages show the user's key only once)."""
-
-    def tag(value: Any) -> str | None:
-        if isinstance(value, dict):
-            found = [k for k in kinds if k in value]
-            return f"_{found[0]}" if len(found) == 1 else None
-        return getattr(value, "_tag", None)
-
-    return tag
-
-
-def _union(kinds: tuple[str, ...], models: tuple[type, ...], what: str, shorthand=None):
-    from typing import Union
-
-    members = tuple(Annotated[m, Tag(f"_{k}")] for k, m in zip(kinds, models, strict=True))
-    union = Annotated[
-        Union[members],  # noqa: UP007 - a runtime-built union
-        Discriminator(
-            _kind(kinds),
-            custom_error_type="component_kind",
-            custom_error_message=f"{what}: give exactly one of {', '.join(kinds)}",
-        ),
-    ]
-    return Annotated[union, BeforeValidator(shorthand)] if shorthand else union
 
 
 # --- lights ----------------------------------------------------------------------
@@ -151,8 +120,11 @@ class _LightFile(_LightCommon):
 
 
 _LIGHT_KINDS = ("led", "blackbody", "cie", "daylight", "white_led", "file")
-LightSpec = _union(
-    _LIGHT_KINDS, (_Led, _Blackbody, _Cie, _Daylight, _WhiteLed, _LightFile), "a light"
+LightSpec = one_of(
+    dict(
+        zip(_LIGHT_KINDS, (_Led, _Blackbody, _Cie, _Daylight, _WhiteLed, _LightFile), strict=True)
+    ),
+    what="a light",
 )
 
 # --- optics ----------------------------------------------------------------------
@@ -191,8 +163,10 @@ def _optics_shorthand(v):
 
 
 _OPTICS_KINDS = ("lens", "ideal", "material", "file")
-OpticsSpec = _union(
-    _OPTICS_KINDS, (_Lens, _Ideal, _Material, _OpticsFile), "optics", _optics_shorthand
+OpticsSpec = one_of(
+    dict(zip(_OPTICS_KINDS, (_Lens, _Ideal, _Material, _OpticsFile), strict=True)),
+    what="optics",
+    shorthand=_optics_shorthand,
 )
 
 # --- cameras ---------------------------------------------------------------------
@@ -229,7 +203,9 @@ def _camera_shorthand(v):
     return {"builtin": v} if isinstance(v, str) else v
 
 
-CameraSpec = _union(("builtin", "file"), (_Builtin, _CameraFile), "a camera", _camera_shorthand)
+CameraSpec = one_of(
+    {"builtin": _Builtin, "file": _CameraFile}, what="a camera", shorthand=_camera_shorthand
+)
 
 # --- classes ---------------------------------------------------------------------
 
@@ -252,7 +228,7 @@ class _CookTorrance(_Strict):
     cook_torrance: _CookTorranceParams
 
 
-GlossSpec = _union(("blinn_phong", "cook_torrance"), (_BlinnPhong, _CookTorrance), "gloss")
+GlossSpec = one_of({"blinn_phong": _BlinnPhong, "cook_torrance": _CookTorrance}, what="gloss")
 
 
 class _ClassCommon(_Strict):
@@ -273,7 +249,7 @@ class _ClassSpectrometer(_ClassCommon):
     spectrometer: _Spectrometer
 
 
-ClassSpec = _union(("file", "spectrometer"), (_ClassFile, _ClassSpectrometer), "a class")
+ClassSpec = one_of({"file": _ClassFile, "spectrometer": _ClassSpectrometer}, what="a class")
 
 # --- the file --------------------------------------------------------------------
 

@@ -150,7 +150,9 @@ def test_bad_station_file_names_the_field(tmp_path, capsys):
     )
     assert run(["capture", bad, "--out", tmp_path / "o"]) == 2
     err = capsys.readouterr().err
-    assert "controller.backend" in err and "illuminations" in err
+    assert (
+        "controller: backend must be one of simulated, gardasoft" in err and "illuminations" in err
+    )
 
 
 def test_a_step_no_brighter_than_dark_is_reported(tmp_path, capsys):
@@ -244,27 +246,125 @@ class FakeCamera:
         ]
 
 
+def _verified(*args, **kwargs):
+    got = list(verified_frames(*args, **kwargs))
+    return [f for f, _ in got], got[-1][1]
+
+
 def test_verification_discards_stale_and_settling_frames():
     cam = FakeCamera([(5, 10), (6, 10), (20, 50), (21, 100), (22, 100), (23, 100)])
-    frames, discarded = verified_frames(
+    frames, discarded = _verified(
         cam, 3, switched_ns=10, discard_max=5, tolerance=0.02, timeout_s=1
     )
     assert [f.data.mean() for f in frames] == [100, 100, 100] and discarded == 3
 
 
+def test_frames_are_handed_out_as_soon_as_verified():
+    """A jump on the last frame must not take the verified frames before it with it."""
+    jumpy = FakeCamera([(20, 100), (21, 100), (22, 100), (23, 160)])
+    got = verified_frames(jumpy, 4, switched_ns=10, discard_max=3, tolerance=0.02, timeout_s=1)
+    handed = []
+    with pytest.raises(DeviceError, match="brightness jumps"):
+        for frame, _ in got:
+            handed.append(frame.mean)
+    assert handed == [100, 100, 100]
+
+
 def test_verification_fails_loudly():
     stale = FakeCamera([(1, 10)] * 10)
     with pytest.raises(DeviceError, match="exposed before the light switch"):
-        verified_frames(stale, 2, switched_ns=10, discard_max=3, tolerance=0.02, timeout_s=1)
+        _verified(stale, 2, switched_ns=10, discard_max=3, tolerance=0.02, timeout_s=1)
     jumpy = FakeCamera([(20, 100), (21, 100), (22, 160), (23, 100), (24, 100)])
     with pytest.raises(DeviceError, match="brightness jumps within a step"):
-        verified_frames(jumpy, 5, switched_ns=10, discard_max=3, tolerance=0.02, timeout_s=1)
+        _verified(jumpy, 5, switched_ns=10, discard_max=3, tolerance=0.02, timeout_s=1)
 
 
 def test_frames_without_exposure_timestamps_are_flushed():
     # Four old frames but a flush of three: the settling rule drops the fourth.
     cam = FakeCamera([(0, 10)] * 4 + [(0, 100)] * 3, clock="arrival")
-    frames, discarded = verified_frames(
+    frames, discarded = _verified(
         cam, 2, switched_ns=10, discard_max=5, tolerance=0.02, timeout_s=1, flush=3
     )
     assert [f.data.mean() for f in frames] == [100, 100] and discarded == 4
+
+
+def test_illumination_on_a_missing_channel_is_refused_when_read(tmp_path, capsys):
+    path = station_copy(tmp_path)
+    path.write_text(
+        path.read_text().replace(
+            "{name: red, channels: {2: 100}}", "{name: red, channels: {3: 100}}"
+        )
+    )
+    assert run(["capture", path, "--out", tmp_path / "o"]) == 2
+    err = capsys.readouterr().err
+    assert (
+        "illuminations[1] (red): channel 3 is not on the controller (controller.channels: 2)" in err
+    )
+    assert not (tmp_path / "o" / "manifest.json").exists()
+
+
+def test_settings_of_another_backend_are_refused(tmp_path, capsys):
+    path = tmp_path / "s.yaml"
+    path.write_text(
+        "camera: {backend: genicam, latency: 3}\ncontroller: {backend: gardasoft, port: /dev/x}\n"
+        "illuminations: [{name: a, channels: {1: 100}}]\n"
+    )
+    assert run(["capture", path, "--out", tmp_path / "o"]) == 2
+    assert "camera.latency: Extra inputs are not permitted" in capsys.readouterr().err
+
+
+def test_camera_that_fails_to_open_leaves_nothing_blocking_a_rerun(tmp_path, capsys):
+    path = station_copy(tmp_path)
+    good = path.read_text()
+    path.write_text(
+        re.sub(r"(camera:\n  backend: simulated\n  scene: ).*", r"\1missing.yaml", good)
+    )
+    out = tmp_path / "o"
+    assert run(["capture", path, "--out", out]) == 2
+    assert "missing.yaml" in capsys.readouterr().err
+    assert not (out / "manifest.json").exists()
+    path.write_text(good)
+    assert run(["capture", path, "--out", out]) == 0
+
+
+def test_resume_with_another_camera_is_refused(tmp_path, capsys):
+    path = station_copy(tmp_path, simulator_args=["--vanish-after", "5"])
+    out = tmp_path / "o"
+    assert run(["capture", path, "--out", out]) == 3
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert "simulated camera" in manifest["camera"]["name"]
+    manifest["camera"]["name"] = "Basler acA1920 (serial 123)"  # as if another camera took them
+    (out / "manifest.json").write_text(json.dumps(manifest))
+    capsys.readouterr()
+    assert run(["capture", path, "--out", out, "--resume"]) == 2
+    assert "taken with 'Basler acA1920 (serial 123)'" in capsys.readouterr().err
+
+
+def test_controller_status_is_recorded_per_step(tmp_path):
+    out = tmp_path / "o"
+    assert run(["capture", station_copy(tmp_path), "--out", out]) == 0
+    steps = json.loads((out / "manifest.json").read_text())["steps"]
+    assert "CH1 continuous 100%" in steps["amber"]["controller_status"]
+    assert "CH2 continuous 0%" in steps["amber"]["controller_status"]
+    assert "CH2 continuous 100%" in steps["red"]["controller_status"]
+
+
+def test_a_jump_on_the_last_frame_keeps_the_verified_frames(tmp_path, capsys):
+    """Frames are saved as they are verified, not after the whole step."""
+    import cv2
+
+    folder = tmp_path / "images"
+    folder.mkdir()
+    for i, level in enumerate([40, 40, 40, 90]):
+        cv2.imwrite(str(folder / f"img_{i}.png"), np.full((32, 48), level, np.uint8))
+    path = tmp_path / "s.yaml"
+    path.write_text(
+        "camera: {backend: replay, folder: images, flush_frames: 0}\n"
+        "controller: {backend: simulated, channels: 1}\n"
+        "illuminations: [{name: one, channels: {1: 100}}]\nframes: 4\ndark_frames: 0\n"
+    )
+    out = tmp_path / "o"
+    assert run(["capture", path, "--out", out]) == 3
+    assert "brightness jumps" in capsys.readouterr().err
+    assert len(list((out / "one").glob("frame_*.tif"))) == 3
+    assert len(list((out / "one").glob("frame_*.json"))) == 3

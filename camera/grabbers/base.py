@@ -38,6 +38,15 @@ class Grabber(ABC):
     def grab(self, n: int, *, timeout_s: float = 2.0) -> list[Frame]:
         """The next ``n`` frames, each copied out of the driver's buffers."""
 
+    def restart_stream(self) -> bool:
+        """Drop every frame queued or in flight, if the backend can.
+
+        Called after a light switch. True means no frame exposed before this
+        call will be delivered (the capture then needs no flush); False (the
+        default) means the capture must flush ``pipeline_frames``.
+        """
+        return False
+
     def close(self) -> None:  # noqa: B027 - optional for backends without a connection
         """Release the device."""
 

@@ -8,6 +8,13 @@
   acquisition is stopped to change them.
 * Nodes a device lacks (e.g. no ExposureTime) are listed in ``missing`` and the
   frame records None for them; the capture goes on.
+* A free-running producer keeps every announced buffer filled, so after a light
+  switch up to ``num_buffers`` frames from before it wait in the queue — more than
+  any fixed flush. :meth:`GenICamCamera.restart_stream` stops and restarts the
+  acquisition, which discards them all; ``pipeline_frames`` still reports the
+  buffer count for callers that do not restart.
+* The pixel format is read from each buffer, not assumed from the setting: a
+  buffer in another format than the one asked for is an error naming the device.
 """
 
 from __future__ import annotations
@@ -57,7 +64,14 @@ def _node(node_map, names):
 class GenICamCamera(Grabber):
     """A GenICam camera chosen by serial number or index."""
 
-    def __init__(self, cti: str | None = None, *, serial: str | None = None, index: int = 0):
+    def __init__(
+        self,
+        cti: str | None = None,
+        *,
+        serial: str | None = None,
+        index: int = 0,
+        num_buffers: int | None = None,
+    ):
         from harvesters.core import Harvester
 
         self._harvester = Harvester()
@@ -86,6 +100,18 @@ class GenICamCamera(Grabber):
             self._ia = self._harvester.create(index)
             info = devices[index]
         self.name = f"{info.vendor} {info.model} (serial {info.serial_number})"
+        if num_buffers is not None:
+            try:
+                self._ia.num_buffers = int(num_buffers)
+            except Exception as exc:  # harvesters refuses fewer than the producer's minimum
+                self.close()
+                raise DeviceError(
+                    f"{self.name}: cannot announce {num_buffers} buffers ({exc})"
+                ) from None
+        # Every announced buffer may hold a frame from before a change, plus one in flight.
+        self.pipeline_frames = int(self._ia.num_buffers) + 1
+        self._requested_format = None
+        self._acquiring = False
         self._nodes = self._ia.remote_device.node_map
         self.missing = {
             label
@@ -96,7 +122,6 @@ class GenICamCamera(Grabber):
             )
             if _node(self._nodes, names)[0] is None
         }
-        self._acquiring = False
 
     def _set(self, names, value, label):
         name, node = _node(self._nodes, names)
@@ -114,6 +139,11 @@ class GenICamCamera(Grabber):
             self._ia.stop()
             self._acquiring = False
 
+    def restart_stream(self) -> bool:
+        """Stop and restart the acquisition: harvesters flushes every queued buffer on stop."""
+        self._stop()
+        return True
+
     def configure(self, *, exposure_us=None, gain_db=None, pixel_format=None, region=None) -> None:
         self._stop()  # Width/Height/PixelFormat are locked while acquiring
         if pixel_format is not None:
@@ -127,6 +157,7 @@ class GenICamCamera(Grabber):
                     f"{self.name}: pixel format {pixel_format} not offered; it has {', '.join(symbolics)}"
                 )
             self._set(("PixelFormat",), pixel_format, "pixel_format")
+            self._requested_format = pixel_format
         if region is not None:
             x, y, w, h = region
             self._set(("OffsetX",), 0, "region")
@@ -151,10 +182,12 @@ class GenICamCamera(Grabber):
         from genicam.gentl import TimeoutException
 
         if not self._acquiring:
-            self._ia.start()
+            try:
+                self._ia.start()
+            except Exception as exc:  # GenTL raises several types when it cannot arm
+                raise DeviceError(f"{self.name}: cannot start the acquisition ({exc})") from None
             self._acquiring = True
         exposure, gain = self._read(_EXPOSURE_NODES), self._read(_GAIN_NODES)
-        fmt = str(self._nodes.PixelFormat.value)
         frames = []
         for k in range(n):
             try:
@@ -162,6 +195,7 @@ class GenICamCamera(Grabber):
                     arrived = time.monotonic_ns()
                     comp = buf.payload.components[0]
                     w, h = int(comp.width), int(comp.height)
+                    fmt = self._buffer_format(comp)
                     if fmt in ("Mono8", "Mono10", "Mono12", "Mono14", "Mono16"):
                         data = comp.data.reshape(h, w).copy()  # copy before the buffer is re-queued
                     else:
@@ -191,6 +225,24 @@ class GenICamCamera(Grabber):
                     "check trigger mode, frame rate, exposure time and the cable"
                 ) from None
         return frames
+
+    def _buffer_format(self, comp) -> str:
+        """The pixel format the buffer itself reports, checked against the request."""
+        try:
+            fmt = str(comp.data_format)
+        except Exception:  # a producer that reports no format: the node's value
+            fmt = str(self._nodes.PixelFormat.value)
+        if fmt not in BIT_DEPTH:
+            raise DeviceError(
+                f"{self.name}: delivers {fmt} frames, not a supported monochrome format; set "
+                f"camera.pixel_format in the station file to one of {', '.join(BIT_DEPTH)}"
+            )
+        if self._requested_format is not None and fmt != self._requested_format:
+            raise DeviceError(
+                f"{self.name}: asked for {self._requested_format}, the buffer holds {fmt}; "
+                "the device did not apply the pixel format (check it is not locked or overridden)"
+            )
+        return fmt
 
     def close(self) -> None:
         try:
