@@ -24,6 +24,15 @@ from inspect_validate.errors import (
 _PATH = click.Path(path_type=Path)
 
 
+def _finite(value, param):
+    """Refuse NaN and infinities, which click's float type lets through."""
+    import math
+
+    if value is not None and not math.isfinite(value):
+        raise click.BadParameter(f"{value} is not a finite number", param=param)
+    return value
+
+
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="inspect-validate")
 def cli():
@@ -47,6 +56,7 @@ def cli():
 @click.option(
     "--saturation-level",
     type=float,
+    callback=lambda ctx, param, v: _finite(v, param),
     help="Raw value counted as saturated [DN]; default the data type's maximum.",
 )
 @click.option(

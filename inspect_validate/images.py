@@ -35,9 +35,7 @@ def read_image(path: str | Path) -> np.ndarray:
     suffix = path.suffix.lower()
     try:
         if suffix in _TIFF:
-            import tifffile
-
-            image = tifffile.imread(path)
+            image = _read_tiff(path)
         elif suffix == ".npy":
             image = np.load(path, allow_pickle=False)
         elif suffix in _OPENCV:
@@ -57,7 +55,48 @@ def read_image(path: str | Path) -> np.ndarray:
     image = np.asarray(image)
     if image.dtype.kind not in "uif" or image.size == 0:
         raise InputError(f"not a grey-value image (dtype {image.dtype})", source=str(path))
+    if image.dtype.kind == "f" and not np.all(np.isfinite(image)):
+        bad = np.argwhere(~np.isfinite(image))[0]
+        raise InputError(
+            f"pixel {tuple(int(i) for i in bad[::-1])} (x, y[, frame]) is NaN or infinite; "
+            "grey values must be numbers",
+            source=str(path),
+        )
+    if image.dtype.itemsize == 8 and image.dtype.kind in "ui":
+        lo, hi = int(image.min()), int(image.max())
+        if hi >= 2**62 or lo <= -(2**62):
+            raise InputError(
+                f"grey values up to {hi} DN: beyond ±2⁶² they are not a camera's grey values "
+                "(check the data type the file was written with)",
+                source=str(path),
+            )
+        image = image.astype(np.int64)  # uint64 below 2⁶² converts exactly
     return _monochrome(image, path)
+
+
+def _read_tiff(path: Path) -> np.ndarray:
+    """Every page of a TIFF: one frame, or a stack (N, H, W) of pages of one size and type.
+
+    A stack written page by page is a series per page to tifffile, whose
+    ``imread`` returns the first only; pages are therefore read one by one.
+    """
+    import tifffile
+
+    with tifffile.TiffFile(path) as tif:
+        pages = list(tif.pages)
+        if len(pages) == 1 or (len(tif.series) == 1 and tif.series[0].ndim <= 3):
+            return tif.asarray()
+        frames = []
+        for i, page in enumerate(pages):
+            data = page.asarray()
+            if frames and (data.shape != frames[0].shape or data.dtype != frames[0].dtype):
+                raise InputError(
+                    f"page {i + 1} is {data.shape} {data.dtype}, page 1 is {frames[0].shape} "
+                    f"{frames[0].dtype}: the pages of a stack must be frames of one camera setting",
+                    source=str(path),
+                )
+            frames.append(data)
+        return np.stack(frames)
 
 
 def _capture_step(path: Path) -> str | None:

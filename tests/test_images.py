@@ -52,3 +52,67 @@ def test_mismatched_stack(tmp_path):
     tifffile.imwrite(tmp_path / "b.tif", np.zeros((4, 5), np.uint16))
     with pytest.raises(InputError, match=r"b.tif: frame is 5×4 uint16, but .*a.tif is 4×4"):
         read_frames([tmp_path / "a.tif", tmp_path / "b.tif"])
+
+
+def test_tiff_stack_written_page_by_page_is_every_page(tmp_path):
+    import tifffile
+
+    path = tmp_path / "stack.tif"
+    for i in range(3):  # three separate writes: three series to tifffile
+        tifffile.imwrite(path, np.full((4, 5), i, np.uint16), append=True, photometric="minisblack")
+    stack = read_frames([path])
+    assert stack.shape == (3, 4, 5) and stack[:, 0, 0].tolist() == [0, 1, 2]
+
+
+def test_tiff_pages_of_mixed_size_or_type_are_refused(tmp_path):
+    import tifffile
+
+    path = tmp_path / "mixed.tif"
+    tifffile.imwrite(path, np.zeros((4, 5), np.uint16), photometric="minisblack")
+    tifffile.imwrite(path, np.zeros((4, 5), np.uint8), append=True, photometric="minisblack")
+    with pytest.raises(
+        InputError, match=r"mixed\.tif: page 2 is \(4, 5\) uint8, page 1 is \(4, 5\) uint16"
+    ):
+        read_frames([path])
+
+
+def test_lzw_tiff_as_opencv_writes_it(tmp_path):
+    import cv2
+
+    path = tmp_path / "lzw.tif"
+    frame = np.arange(64 * 48, dtype=np.uint16).reshape(48, 64)
+    assert cv2.imwrite(str(path), frame)  # OpenCV's default TIFF compression is LZW
+    assert np.array_equal(read_frames([path])[0], frame)
+
+
+def test_uint64_beyond_signed_range_is_refused_not_wrapped(tmp_path):
+    path = tmp_path / "big.npy"
+    np.save(path, np.full((4, 4), 2**63 + 5, np.uint64))
+    with pytest.raises(InputError, match=r"big\.npy: grey values up to 9223372036854775813 DN"):
+        read_frames([path])
+    ok = tmp_path / "ok.npy"
+    np.save(ok, np.full((4, 4), 7, np.uint64))
+    assert read_frames([ok]).dtype == np.int64
+
+
+def test_nan_pixel_is_named_with_its_file_and_position(tmp_path):
+    path = tmp_path / "f.npy"
+    frame = np.ones((4, 6), np.float32)
+    frame[2, 5] = np.nan
+    np.save(path, frame)
+    with pytest.raises(InputError, match=r"f\.npy: pixel \(5, 2\) \(x, y\[, frame\]\) is NaN"):
+        read_frames([path])
+
+
+def test_integer_frame_spanning_2_to_the_40_does_not_allocate_by_span():
+    from inspect_validate.measure import measure_classes
+    from inspect_validate.stats import as_sample
+
+    frame = np.zeros((1, 40, 40), np.int64)
+    frame[0, 20:] = 2**40
+    frame[0, ::2] += 3
+    sample = as_sample(frame)
+    assert isinstance(sample, np.ndarray) and sample.size == 1600  # values, not a 2⁴⁰ histogram
+    mask = np.ones((40, 40), bool)
+    (cls,) = measure_classes(frame, {"all": mask})
+    assert cls.mean == pytest.approx(2**39 + 1.5)

@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import optimize
 
+from inspect_validate.errors import InputError
 from inspect_validate.stats.sample import (
     LatticeSample,
     _converted_moments,
@@ -53,6 +54,7 @@ _DIRECT_CORRELATE_MAX = 4096  # histogram widths up to this use exact integer co
 _BIN_FRACTION = 1000  # binned h is within ~1e-7 of exact at h/1000 (measured, benchmarks/)
 _GRID_PER_DECADE = 24
 _KERNEL_REACH = 20.0  # e^{-20²/4} ≈ 4e-44: lags beyond 20 h do not count at any n < 1e20
+_MAX_BINS = 2**25  # linear-binning grid points at most (256 MiB of float64)
 _EXACT_MAX = 500  # above, binning (h within ~1e-8 of exact, benchmarks/) is far faster
 
 
@@ -154,6 +156,12 @@ def _pair_counts(
     from inspect_validate.stats._binning_kernels import linear_bin
 
     step = bin_width if bin_width is not None else (hi - lo) / 2**15
+    if (hi - lo) / step > _MAX_BINS:
+        raise InputError(
+            f"grey values span {hi - lo:.6g} DN, {(hi - lo) / step:.3g} times the kernel "
+            "resolution: too wide for a kernel density; check the frames' data type and dark "
+            "frames, or measure with --no-kde"
+        )
     w, self0, self1 = linear_bin(x, lo, step, int(np.ceil((hi - lo) / step)) + 2)
     auto = _autocorrelate(w, None if max_lag is None else int(np.ceil(max_lag / step)) + 1)
     # Remove each point's pairing with itself across its two bins.

@@ -28,6 +28,7 @@ from inspect_validate.stats.sample import LatticeSample, as_sample
 __all__ = ["KdeError", "kde_error", "kernel_mixture", "mixture_error"]
 
 _EXACT_POINTS_MAX = 2**14
+_MAX_BINS = 2**25  # linear-binning grid points at most (256 MiB of float64)
 _BIN_FRACTION = 2000
 _GRID_STEP = 0.25  # grid spacing for finding crossings, in units of the smaller h
 _TAIL_REACH = 40.0  # kernels are negligible beyond 40 h
@@ -59,6 +60,10 @@ def kernel_mixture(sample, h: float) -> tuple[np.ndarray, np.ndarray]:
 
     step = h / _BIN_FRACTION
     lo = x.min()
+    if (x.max() - lo) / step > _MAX_BINS:
+        # Bins by span would not fit: one kernel per distinct value instead (sorting).
+        values, counts = np.unique(x, return_counts=True)
+        return values, counts / x.size
     w, _, _ = linear_bin(x, lo, step, int(np.ceil((x.max() - lo) / step)) + 2)
     keep = w > 0
     return lo + np.flatnonzero(keep) * step, w[keep] / x.size

@@ -27,6 +27,10 @@ __all__ = [
 ]
 
 
+LATTICE_SPAN_MAX = 2**24
+"""Widest grey-value span kept as a histogram (128 MiB of counts); wider spans stay values."""
+
+
 @dataclass(frozen=True, eq=False)
 class LatticeSample:
     """Grey values on the lattice ``(origin + i) / denominator`` DN, ``counts[i]`` times each.
@@ -117,7 +121,16 @@ def as_sample(values, *, denominator: int = 1) -> LatticeSample | np.ndarray:
     if x.dtype.kind not in "iub":
         raise InputError(f"grey values must be numbers, got dtype {x.dtype}")
     x = x.astype(np.int64, copy=False)
-    lo = int(x.min())
+    lo, hi = int(x.min()), int(x.max())
+    if hi - lo > max(LATTICE_SPAN_MAX, 4 * x.size):
+        # A histogram would be allocated by span, not by count: keep the values
+        # (exact in float64 below 2⁵³) and let the statistics sort rather than bin.
+        if max(abs(lo), abs(hi)) >= 2**53:
+            raise InputError(
+                f"grey values span {lo}..{hi}: beyond ±2⁵³ they cannot be held exactly; "
+                "these are not a camera's grey values"
+            )
+        return x.astype(np.float64) / denominator
     return LatticeSample(np.bincount(x - lo), lo, denominator)
 
 
