@@ -62,6 +62,12 @@ def read_image(path: str | Path) -> np.ndarray:
             "grey values must be numbers",
             source=str(path),
         )
+    if image.dtype.kind == "f" and np.abs(image).max() >= 2.0**53:
+        raise InputError(
+            f"grey values up to {np.abs(image).max():.3g}: beyond 2⁵³ they are not a camera's "
+            "grey values (check the file's scaling)",
+            source=str(path),
+        )
     if image.dtype.itemsize == 8 and image.dtype.kind in "ui":
         lo, hi = int(image.min()), int(image.max())
         if hi >= 2**62 or lo <= -(2**62):

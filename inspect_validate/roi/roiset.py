@@ -82,7 +82,10 @@ class _FileModel(BaseModel):
     model_config = ConfigDict(extra="forbid")
     version: int = 1
     erode: NonNegativeInt = 0
-    classes: dict[str, _ClassModel | list[dict[str, Any]]] = Field(min_length=1)
+    classes: dict[
+        Annotated[str, Field(min_length=1, max_length=100, pattern=r"^[^,]+$")],
+        _ClassModel | Annotated[list[dict[str, Any]], Field(min_length=1)],
+    ] = Field(min_length=1)
 
 
 _SHAPE_KEYS = ("rect", "polygon", "ellipse", "mask", "imagej")
@@ -97,6 +100,8 @@ def read_rois(path: str | Path) -> RoiSet:
         by_class: dict[str, list] = {}
         for shape, name, where in _imagej_shapes(path):
             by_class.setdefault(name.split(":")[0].strip() or name, []).append((shape, where))
+        if not by_class:
+            raise InputError("the ImageJ file holds no ROI", source=str(path))
         return RoiSet(tuple(ClassRoi(n, tuple(s)) for n, s in by_class.items()), str(path))
     model = load_yaml(path, _FileModel, what="ROI file")
     if model.version != 1:

@@ -1,0 +1,354 @@
+"""Hostile inputs across the commands: no traceback, no hang, no NaN or absurd number out.
+
+Hypothesis generates scene, ROI, station and spectrum files and frames from a
+mix of valid and malformed parts (wrong types, NaN, ±inf, negative, huge and
+tiny numbers, unknown keys, empty collections). Each command must either do its
+job (exit 0, or 1 for a failed check) or refuse with exit 2 and an ``error:``
+line — never the internal-error exit 70 — and whatever it prints or writes holds
+no NaN. A valid file is never refused: the generators also produce valid files,
+and those must pass.
+"""
+
+import json
+import math
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from inspect_validate.cli import main
+
+SETTINGS = settings(
+    max_examples=60,
+    deadline=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+)
+
+numbers = st.one_of(
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.sampled_from([0, -1, 1e-300, 1e300, 0.5, 2.8, 550, 30, 4000, 1e6]),
+    st.integers(-(2**70), 2**70),
+)
+junk = st.one_of(numbers, st.text(max_size=8), st.none(), st.booleans(), st.just([]), st.just({}))
+maybe = lambda good: st.one_of(good, good, good, junk)  # noqa: E731 - mostly good, sometimes not
+
+
+def run(args, capsys):
+    try:
+        main([str(a) for a in args])
+        code = 0
+    except SystemExit as exc:
+        code = exc.code
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def assert_clean(code, out, err, allowed=(0, 2)):
+    assert code in allowed, f"exit {code}\n{err}"
+    assert "Traceback" not in err and "internal error" not in err, err
+    if code == 2:
+        assert "error" in err.lower() or "usage" in err.lower(), err
+    for word in out.replace("|", " ").split():
+        assert word.lower() not in ("nan", "nan%"), out
+
+
+def csv(rows):
+    return "\n".join(
+        ",".join(f"{v!r}" if isinstance(v, float) else str(v) for v in r) for r in rows
+    )
+
+
+def reflectance_rows(level, spread):
+    return [(w, level, level * (1 + spread), level * (1 - spread)) for w in range(380, 781, 10)]
+
+
+lights = st.lists(
+    st.one_of(
+        st.fixed_dictionaries(
+            {
+                "led": st.fixed_dictionaries(
+                    {"peak": maybe(st.floats(380, 780)), "fwhm": maybe(st.floats(1, 100))}
+                )
+            },
+            optional={
+                "irradiance": maybe(st.floats(0.01, 1e3)),
+                "name": st.text(min_size=1, max_size=5),
+            },
+        ),
+        st.fixed_dictionaries({"blackbody": maybe(st.floats(500, 20000))}),
+        st.fixed_dictionaries({"cie": st.sampled_from(["D65", "FL2", "HP1", "A", "nope"])}),
+        st.dictionaries(st.sampled_from(["led", "gain", "file", "laser"]), junk, max_size=3),
+    ),
+    max_size=3,
+)
+cameras = st.lists(
+    st.one_of(
+        st.sampled_from(["cmos-visible", "cmos-nir-enhanced", "ingaas-swir", "other"]),
+        st.fixed_dictionaries(
+            {"builtin": st.just("cmos-visible")},
+            optional={
+                "gain": maybe(st.floats(0.01, 5)),
+                "bit_depth": maybe(st.integers(1, 32)),
+                "saturation": maybe(st.floats(10, 1e6)),
+            },
+        ),
+    ),
+    max_size=2,
+)
+optics = st.lists(
+    st.one_of(
+        st.sampled_from(["ideal", "visible", "uv", "bogus"]),
+        st.fixed_dictionaries(
+            {"lens": st.sampled_from(["visible", "swir"])},
+            optional={"f_number": maybe(st.floats(0.5, 32))},
+        ),
+        st.fixed_dictionaries(
+            {"material": st.sampled_from(["BK7", "ZnSe", "x"])},
+            optional={"thickness_mm": maybe(st.floats(0.1, 50))},
+        ),
+    ),
+    max_size=2,
+)
+exposures = st.one_of(
+    st.none(),
+    st.fixed_dictionaries(
+        {"mode": st.just("auto")},
+        optional={"target": maybe(st.floats(0.05, 1)), "max_time": maybe(st.floats(1e-6, 1))},
+    ),
+    st.fixed_dictionaries({"mode": st.just("fixed"), "time": maybe(st.floats(1e-6, 1))}),
+)
+
+
+@SETTINGS
+@given(
+    lights=lights,
+    optics=optics,
+    cameras=cameras,
+    exposure=exposures,
+    levels=st.tuples(st.floats(0, 1.5), st.floats(0, 1.5)),
+    spread=st.floats(0, 0.5),
+)
+def test_predict_never_crashes(capsys, lights, optics, cameras, exposure, levels, spread):
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        for name, level in zip("ab", levels, strict=True):
+            (tmp / f"{name}.csv").write_text(csv(reflectance_rows(level, spread)))
+        doc = {
+            "classes": {"A": {"file": "a.csv"}, "B": {"file": "b.csv"}},
+            "lights": lights,
+            "optics": optics,
+            "cameras": cameras,
+        }
+        if exposure is not None:
+            doc["exposure"] = exposure
+        (tmp / "s.yaml").write_text(yaml.safe_dump(doc))
+        code, out, err = run(["predict", tmp / "s.yaml", "--json", tmp / "p.json"], capsys)
+        assert_clean(code, out, err)
+        if code == 0:
+            doc = json.loads((tmp / "p.json").read_text())
+            for row in doc["ranking"]:
+                for c in row["classes"]:
+                    assert c["mean"] is not None and 0 <= c["saturated_fraction"] <= 1
+                    assert c["variance"] is not None and c["variance"] >= 0
+                for comp in row["comparisons"]:
+                    assert comp["error_gaussian"] is not None and 0 <= comp["error_gaussian"] <= 0.5
+
+
+shapes = st.one_of(
+    st.fixed_dictionaries({"rect": st.lists(maybe(st.integers(-50, 700)), min_size=0, max_size=5)}),
+    st.fixed_dictionaries(
+        {"ellipse": st.lists(maybe(st.floats(-10, 700)), min_size=0, max_size=5)}
+    ),
+    st.fixed_dictionaries(
+        {
+            "polygon": st.lists(
+                st.lists(maybe(st.floats(-10, 700)), min_size=2, max_size=2), max_size=5
+            )
+        }
+    ),
+    st.dictionaries(st.sampled_from(["rect", "circle", "mask"]), junk, max_size=2),
+)
+
+
+@SETTINGS
+@given(
+    classes=st.dictionaries(
+        st.text(min_size=0, max_size=4), st.lists(shapes, max_size=3), max_size=4
+    ),
+    erode=maybe(st.integers(0, 5)),
+)
+def test_measure_with_hostile_roi_files(capsys, paperboard, classes, erode):
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "rois.yaml"
+        path.write_text(yaml.safe_dump({"erode": erode, "classes": classes}))
+        code, out, err = run(
+            ["measure", paperboard / "optimized.png", "--rois", path, "--no-kde"], capsys
+        )
+        assert_clean(code, out, err, allowed=(0, 1, 2))
+
+
+frames = st.one_of(
+    st.builds(
+        lambda dtype, level, noise, seed: np.clip(
+            level + noise * np.random.default_rng(seed).standard_normal((3, 24, 32)),
+            *_limits(dtype),
+        ).astype(dtype),
+        st.sampled_from([np.uint8, np.uint16, np.int32, np.float32, np.float64]),
+        st.floats(-1e6, 1e6),
+        st.floats(0, 1e4),
+        st.integers(0, 2**16),
+    ),
+    st.sampled_from(
+        [
+            np.zeros((24, 32), np.uint16),
+            np.full((24, 32), 65535, np.uint16),
+            np.full((24, 32), 255, np.uint8),
+            np.full((24, 32), np.nan, np.float32),
+            np.full((24, 32), np.inf),
+            np.full((24, 32), 1e300),
+            np.full((24, 32), 0.25, np.float32),
+            (np.arange(24 * 32).reshape(24, 32) % 7 / 4095).astype(np.float32),
+            np.full((24, 32), 2**63 + 1, np.uint64),
+            np.zeros((0, 32), np.uint16),
+            np.zeros((2, 2, 24, 32), np.uint16),
+        ]
+    ),
+)
+
+
+def _limits(dtype):
+    if np.dtype(dtype).kind == "f":
+        return -np.inf, np.inf
+    info = np.iinfo(dtype)
+    return info.min, info.max
+
+
+@SETTINGS
+@given(frame=frames, dark=st.booleans(), kde=st.booleans())
+def test_measure_with_hostile_frames(capsys, frame, dark, kde):
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        np.save(tmp / "f.npy", frame)
+        (tmp / "rois.yaml").write_text(
+            "classes:\n  A: [{rect: [0, 0, 32, 10]}]\n  B: [{rect: [0, 12, 32, 12]}]\n"
+        )
+        args = ["measure", tmp / "f.npy", "--rois", tmp / "rois.yaml", "--json", tmp / "m.json"]
+        if dark:
+            args += ["--dark", tmp / "f.npy"]
+        if not kde:
+            args.append("--no-kde")
+        code, out, err = run(args, capsys)
+        assert_clean(code, out, err, allowed=(0, 1, 2))
+        if code in (0, 1):
+            doc = json.loads((tmp / "m.json").read_text())
+            for c in doc["classes"]:
+                assert c["mean"] is not None and math.isfinite(c["mean"])
+                assert c["variance"] is not None and c["variance"] >= 0
+            for comp in doc["comparisons"]:
+                assert comp["error_gaussian"] is not None and 0 <= comp["error_gaussian"] <= 0.5
+                if kde:
+                    assert comp["error_kde"] is not None and 0 <= comp["error_kde"] <= 0.5 + 1e-12
+
+
+lines = st.lists(
+    st.one_of(
+        st.tuples(st.floats(allow_nan=True), st.floats(allow_nan=True)).map(
+            lambda t: f"{t[0]},{t[1]}"
+        ),
+        st.text(max_size=12),
+        st.sampled_from(
+            ["wavelength,a,b", "# comment", "", "400;0.5;0.4", "500\t0.6\t0.5", "600 0.7 0.6"]
+        ),
+    ),
+    max_size=8,
+)
+
+
+@SETTINGS
+@given(rows=lines)
+def test_analyze_spectra_with_hostile_csv(capsys, rows):
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        (tmp / "a.csv").write_text("\n".join(rows))
+        (tmp / "b.csv").write_text(csv(reflectance_rows(0.5, 0.1)))
+        (tmp / "s.yaml").write_text(
+            "classes: {A: {file: a.csv}, B: {file: b.csv}}\nlights: [{cie: D65}]\noptics: [ideal]\ncameras: [cmos-visible]\n"
+        )
+        code, out, err = run(["analyze-spectra", tmp / "s.yaml", "--no-kde"], capsys)
+        assert_clean(code, out, err)
+
+
+@SETTINGS
+@given(
+    camera=st.dictionaries(
+        st.sampled_from(
+            [
+                "backend",
+                "exposure_us",
+                "gain_db",
+                "pixel_format",
+                "cti",
+                "latency",
+                "scene",
+                "timeout_s",
+            ]
+        ),
+        junk,
+        max_size=4,
+    ),
+    controller=st.dictionaries(
+        st.sampled_from(["backend", "port", "channels", "timeout_s", "protocol"]), junk, max_size=3
+    ),
+    illuminations=st.lists(
+        st.fixed_dictionaries(
+            {
+                "name": maybe(st.text(min_size=1, max_size=4)),
+                "channels": st.dictionaries(
+                    st.one_of(st.integers(-2, 70), st.text(max_size=3), st.floats()),
+                    maybe(st.floats(0, 100)),
+                    max_size=3,
+                ),
+            }
+        ),
+        max_size=3,
+    ),
+)
+def test_station_files_are_validated_not_crashed_on(capsys, camera, controller, illuminations):
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        (tmp / "st.yaml").write_text(
+            yaml.safe_dump(
+                {"camera": camera, "controller": controller, "illuminations": illuminations}
+            )
+        )
+        code, out, err = run(["capture", tmp / "st.yaml", "--out", tmp / "o"], capsys)
+        # A generated station that validates may still fail to open its devices (exit 3).
+        assert_clean(code, out, err, allowed=(0, 2, 3))
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["measure", "{p}/optimized.png", "--rois", "{p}/rois.yaml", "--json", "{p}"],
+        [
+            "measure",
+            "{p}/optimized.png",
+            "--rois",
+            "{p}/rois.yaml",
+            "--json",
+            "{p}/optimized.png/x.json",
+        ],
+        ["measure", "{p}/optimized.png", "--rois", "{p}/rois.yaml", "--saturation-level", "inf"],
+        ["measure", "{p}/optimized.png", "--rois", "{p}", "--no-kde"],
+        ["predict", "{p}/optimized.png"],
+        ["analyze-spectra", "{p}/rois.yaml"],
+    ],
+)
+def test_output_and_input_paths_that_are_wrong(capsys, paperboard, args):
+    code, out, err = run([a.format(p=paperboard) for a in args], capsys)
+    assert_clean(code, out, err)
+    assert code == 2
