@@ -133,6 +133,8 @@ def _parse_shape(raw, base: Path, where: str) -> list[tuple[Shape, str]]:
     except ValidationError as exc:
         raise InputError(f"{kind}: {explain(exc)}", source=where) from None
     where = f"{where} ({kind})"
+    if getattr(m, kind) is None:
+        raise InputError(f"'{kind}:' needs its values (see README, 'ROI files')", source=where)
     if kind == "rect":
         return [(Rect(*m.rect), where)]
     if kind == "polygon":
