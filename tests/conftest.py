@@ -40,3 +40,14 @@ def simulator(tmp_path):
         p.kill()
         p.wait()
         p.stdout.close()
+
+
+def run_cli(args) -> int | None:
+    """Run the CLI in-process; its exit code (None when it returned without exiting)."""
+    from inspect_validate.cli import main
+
+    try:
+        main([str(a) for a in args])
+    except SystemExit as exc:
+        return exc.code
+    return None

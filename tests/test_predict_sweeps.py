@@ -10,8 +10,8 @@ import json
 
 import numpy as np
 import pytest
+from conftest import run_cli as run
 
-from inspect_validate.cli import main
 from inspect_validate.components import builtin_camera, ideal_lens, led
 from inspect_validate.model import Exposure, ObjectClass, predict, predicted_kde_error, rank
 from inspect_validate.spectra import Spectrum
@@ -31,14 +31,6 @@ def flat(name, level, spread=0.05, n=6, lo=380, hi=780):
             f"{name}.csv",
         ),
     )
-
-
-def run(args):
-    try:
-        main([str(a) for a in args])
-    except SystemExit as exc:
-        return exc.code
-    return None
 
 
 def test_over_exposing_candidate_is_kept_marked_and_ranked_last():

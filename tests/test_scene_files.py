@@ -9,19 +9,11 @@ import re
 
 import numpy as np
 import pytest
+from conftest import run_cli as run
 
-from inspect_validate.cli import main
 from inspect_validate.scene import read_scene
 
 LIGHT = "[{led: {peak: 550, fwhm: 30}}]"
-
-
-def run(args):
-    try:
-        main([str(a) for a in args])
-    except SystemExit as exc:
-        return exc.code
-    return None
 
 
 def write(tmp_path, text, csv_rows=None):
