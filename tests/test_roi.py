@@ -117,3 +117,15 @@ def test_missing_file_and_line_roi(tmp_path):
     line.tofile(tmp_path / "line.roi")
     with pytest.raises(InputError, match="no area"):
         read_rois(tmp_path / "line.roi")
+
+
+def test_empty_imagej_set_is_refused(tmp_path):
+    import zipfile
+
+    from inspect_validate.errors import InputError
+    from inspect_validate.roi import read_rois
+
+    path = tmp_path / "RoiSet.zip"
+    zipfile.ZipFile(path, "w").close()
+    with pytest.raises(InputError, match=r"RoiSet\.zip: the ImageJ file holds no ROI"):
+        read_rois(path)
