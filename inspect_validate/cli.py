@@ -87,6 +87,7 @@ def measure(frames, rois, dark, json_path, saturation_level, max_saturated, max_
     from inspect_validate.report import format_measurement, measurement_document, write_json
     from inspect_validate.roi import class_masks, read_rois
 
+    _outputs(files=[json_path])
     stack = read_frames(frames)
     dark_stack = read_frames(dark) if dark else None
     if dark_stack is not None and dark_stack.shape[1:] != stack.shape[1:]:
@@ -187,16 +188,11 @@ def predict(scene, json_path, top, rank_by, comparison, no_kde, plot_dir, render
     by = rank_by or sc.rank_by
     rank_comparison, comparison = comparison, comparison or sc.rank_comparison
     if comparison is not None:
-        from inspect_validate.comparisons import default_groups, find_comparison
+        from inspect_validate.comparisons import find_comparison, named_groups
         from inspect_validate.errors import InputError
 
-        names = [c.name for c in sc.classes]
-        groups = [
-            (tuple(names[i] for i in a), tuple(names[i] for i in b))
-            for a, b in default_groups(len(names))
-        ]
         try:  # an unknown comparison fails before the sweep, naming where it came from
-            find_comparison(groups, comparison)
+            find_comparison(named_groups([c.name for c in sc.classes]), comparison)
         except InputError as exc:
             where = "--comparison" if rank_comparison else f"{scene}: rank.comparison"
             raise InputError(str(exc), source=where) from None
@@ -226,7 +222,6 @@ def predict(scene, json_path, top, rank_by, comparison, no_kde, plot_dir, render
             plot_spectral_errors,
         )
 
-        plot_dir.mkdir(parents=True, exist_ok=True)
         written = [
             plot_component_spectra(sc, plot_dir / "spectra.png"),
             plot_spectral_errors(
@@ -276,10 +271,10 @@ def analyze_spectra(scene, json_path, plot_path, best, no_kde):
 
     from inspect_validate.model import analyse_spectra
     from inspect_validate.report import render_table, write_json
-    from inspect_validate.report.jsonfile import json_number
     from inspect_validate.report.tables import format_error
     from inspect_validate.scene import read_scene
 
+    _outputs(files=[json_path, plot_path])
     sc = read_scene(scene)
     for note in sc.notes():
         click.echo(f"note: {note}", err=True)
@@ -305,15 +300,13 @@ def analyze_spectra(scene, json_path, plot_path, best, no_kde):
             "schema": "inspect-validate/spectral-analysis",
             "schema_version": 1,
             "scene": str(scene),
-            "wavelength_nm": [json_number(v) for v in sep.wavelengths],
+            "wavelength_nm": sep.wavelengths.tolist(),
             "comparisons": [
                 {
                     "first": list(a),
                     "second": list(b),
-                    "error_gaussian": [json_number(v) for v in sep.error_gaussian[j]],
-                    "error_kde": None
-                    if sep.error_kde is None
-                    else [json_number(v) for v in sep.error_kde[j]],
+                    "error_gaussian": sep.error_gaussian[j].tolist(),
+                    "error_kde": None if sep.error_kde is None else sep.error_kde[j].tolist(),
                 }
                 for j, (a, b) in enumerate(sep.comparisons)
             ],
@@ -323,7 +316,6 @@ def analyze_spectra(scene, json_path, plot_path, best, no_kde):
     if plot_path:
         from inspect_validate.report.plots import plot_spectral_errors
 
-        plot_path.parent.mkdir(parents=True, exist_ok=True)
         click.echo(f"wrote {plot_spectral_errors(sep, plot_path)}")
 
 

@@ -13,7 +13,7 @@ from itertools import combinations
 
 from inspect_validate.errors import InputError
 
-__all__ = ["default_groups", "find_comparison", "label"]
+__all__ = ["default_groups", "find_comparison", "label", "named_groups"]
 
 Group = tuple[int, ...]
 
@@ -24,6 +24,14 @@ def default_groups(n_classes: int) -> list[tuple[Group, Group]]:
     if n_classes >= 3:
         groups += [((i,), tuple(j for j in range(n_classes) if j != i)) for i in range(n_classes)]
     return groups
+
+
+def named_groups(names) -> tuple[tuple[tuple[str, ...], tuple[str, ...]], ...]:
+    """:func:`default_groups` of ``names``, as groups of names."""
+    return tuple(
+        (tuple(names[i] for i in a), tuple(names[i] for i in b))
+        for a, b in default_groups(len(names))
+    )
 
 
 def label(first, second) -> str:

@@ -62,9 +62,10 @@ def read_image(path: str | Path) -> np.ndarray:
             "grey values must be numbers",
             source=str(path),
         )
-    if image.dtype.kind == "f" and np.abs(image).max() >= 2.0**53:
+    largest = float(np.abs(image).max()) if image.dtype.kind == "f" else 0.0
+    if largest >= 2.0**53:
         raise InputError(
-            f"grey values up to {np.abs(image).max():.3g}: beyond 2⁵³ they are not a camera's "
+            f"grey values up to {largest:.3g}: beyond 2⁵³ they are not a camera's "
             "grey values (check the file's scaling)",
             source=str(path),
         )

@@ -33,7 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import special
 
-from inspect_validate.comparisons import default_groups
+from inspect_validate.comparisons import default_groups, named_groups
 from inspect_validate.components.cameras import Camera
 from inspect_validate.components.lights import Light
 from inspect_validate.components.optics import Optics
@@ -192,7 +192,8 @@ def predict(
 
     n_l, n_o, n_c, n_s = len(lights), len(optics), len(cameras), r_all.shape[0]
     lo_rows = (e[:, None, :] * t[None, :, :]).reshape(n_l * n_o, grid.size)
-    _check_masked(lights, optics, cameras, classes, e, t, q, invalid, sample_class, grid)
+    present = _present(e), _present(t), _present(q)
+    _check_masked(classes, present, invalid, sample_class, grid)
     cs_rows = (q[:, None, :] * r_all[None, :, :]).reshape(n_c * n_s, grid.size)
     rate = (lo_rows @ cs_rows.T).reshape(n_l, n_o, n_c, n_s)  # e⁻/s per sample
 
@@ -203,7 +204,7 @@ def predict(
     class_rate = rate @ onehot / per_class  # mean e⁻/s per class
 
     valid, skipped = _feasible(
-        lights, optics, cameras, classes, e, t, q, lo_rows, inside, class_rate
+        lights, optics, cameras, classes, present, q, lo_rows, inside, class_rate
     )
     # Skipped combinations are computed on a stand-in rate (kept finite so no
     # warning or NaN travels through the arithmetic) and blanked at the end.
@@ -253,9 +254,7 @@ def predict(
         optics=tuple(o.name for o in optics),
         cameras=tuple(c.name for c in cameras),
         classes=names,
-        comparisons=tuple(
-            (tuple(names[i] for i in g1), tuple(names[i] for i in g2)) for g1, g2 in groups
-        ),
+        comparisons=named_groups(names),
         grid=grid,
         exposure_time=blank(t_exp),
         electrons=blank(class_rate * t_exp[..., None]),
@@ -349,7 +348,7 @@ def _present(a):
     return a > _PRESENT * a.max(axis=-1, keepdims=True)
 
 
-def _feasible(lights, optics, cameras, classes, e, t, q, lo_rows, inside, class_rate):
+def _feasible(lights, optics, cameras, classes, present, q, lo_rows, inside, class_rate):
     """Which combinations can be predicted, and why the others cannot.
 
     Model curves (Gaussian tails, logistic edges) are never exactly zero, so a
@@ -360,11 +359,11 @@ def _feasible(lights, optics, cameras, classes, e, t, q, lo_rows, inside, class_
     valid : ndarray of bool, shape (L, O, C)
     reasons : tuple of str
     """
-    n_l, n_o, n_c, n_w = len(lights), len(optics), len(cameras), e.shape[-1]
+    n_l, n_o, n_c, n_w = len(lights), len(optics), len(cameras), q.shape[-1]
     # Wavelengths where light, optics and camera are all present, counted per
     # combination by one product of indicator matrices: no (L, O, C, W) array,
     # which at 10⁶ combinations would take ~0.6 GB.
-    pe, pt, pq = _present(e), _present(t), _present(q)
+    pe, pt, pq = present
     light_optics = (pe[:, None, :] & pt[None, :, :]).reshape(-1, n_w).astype(np.float32)
     shared = (light_optics @ pq.T.astype(np.float32)).reshape(n_l, n_o, n_c) > 0
     # The chain's response e·t·q, in all and inside each class's measured range.
@@ -406,9 +405,10 @@ def _feasible(lights, optics, cameras, classes, e, t, q, lo_rows, inside, class_
     return valid, tuple(reasons)
 
 
-def _check_masked(lights, optics, cameras, classes, e, t, q, invalid, sample_class, grid):
+def _check_masked(classes, present, invalid, sample_class, grid):
     """No reflectance marked invalid (34) where some light, optics and camera all respond."""
-    anywhere = _present(e).any(axis=0) & _present(t).any(axis=0) & _present(q).any(axis=0)
+    pe, pt, pq = present
+    anywhere = pe.any(axis=0) & pt.any(axis=0) & pq.any(axis=0)
     bad = invalid & anywhere[None, :]
     if bad.any():
         s, _j = (int(x[0]) for x in np.nonzero(bad))

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from inspect_validate.comparisons import default_groups
+from inspect_validate.comparisons import default_groups, named_groups
 from inspect_validate.errors import InputError
 from inspect_validate.model.acquisition import ObjectClass
 from inspect_validate.stats import gaussian_error, kde_error
@@ -92,7 +92,7 @@ def analyse_spectra(
     names = [c.name for c in classes]
     return SpectralSeparation(
         grid,
-        tuple((tuple(names[i] for i in a), tuple(names[i] for i in b)) for a, b in groups),
+        named_groups(names),
         np.array(gauss),
         np.array(kde_err) if kde else None,
     )

@@ -38,20 +38,20 @@ def json_number(x):
 
 
 def measurement_document(m: Measurement, *, inputs: dict, limits: dict) -> dict:
-    """The JSON-ready document of a measurement."""
+    """The document of a measurement (:func:`write_json` makes its numbers JSON-safe)."""
     classes = []
     for c in m.classes:
         classes.append(
             {
                 "name": c.name,
-                "mean": json_number(c.mean),
-                "variance": json_number(c.variance),
+                "mean": c.mean,
+                "variance": c.variance,
                 "n_pixels": c.n_pixels,
                 "n_frames": c.n_frames,
-                "saturated_fraction": json_number(c.saturated_fraction),
-                "zero_fraction": json_number(c.zero_fraction),
-                "temporal_variance": json_number(c.temporal_variance),
-                "spatial_variance": json_number(c.spatial_variance),
+                "saturated_fraction": c.saturated_fraction,
+                "zero_fraction": c.zero_fraction,
+                "temporal_variance": c.temporal_variance,
+                "spatial_variance": c.spatial_variance,
             }
         )
     comparisons = []
@@ -60,15 +60,13 @@ def measurement_document(m: Measurement, *, inputs: dict, limits: dict) -> dict:
             {
                 "first": list(c.first),
                 "second": list(c.second),
-                "snr_db": json_number(c.snr_db),
-                "cnr_db": json_number(c.cnr_db),
-                "fisher_db": json_number(c.fisher_db),
-                "error_gaussian": json_number(c.error_gaussian),
-                "log_error_gaussian": json_number(c.log_error_gaussian),
-                "error_kde": json_number(c.error_kde),
-                "kde_bandwidth": [json_number(h) for h in c.kde_bandwidth]
-                if c.kde_bandwidth
-                else None,
+                "snr_db": c.snr_db,
+                "cnr_db": c.cnr_db,
+                "fisher_db": c.fisher_db,
+                "error_gaussian": c.error_gaussian,
+                "log_error_gaussian": c.log_error_gaussian,
+                "error_kde": c.error_kde,
+                "kde_bandwidth": list(c.kde_bandwidth) if c.kde_bandwidth else None,
                 "kde_bandwidth_at_floor": list(c.kde_bandwidth_at_floor)
                 if c.kde_bandwidth_at_floor
                 else None,

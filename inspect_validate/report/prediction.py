@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from inspect_validate import __version__
@@ -80,10 +78,6 @@ def prediction_rows(
     return rows
 
 
-def _db(x: float) -> str:
-    return f"{x:.2f}" if math.isfinite(x) else ("inf" if x > 0 else "-inf")
-
-
 def format_prediction(p: Prediction, rows: list[dict], *, by: str, comparison: str | None) -> str:
     header = ["#", "light", "optics", "camera", "t_exp"]
     header += [f"μ {c}" for c in p.classes] + [f"σ² {c}" for c in p.classes]
@@ -105,8 +99,8 @@ def format_prediction(p: Prediction, rows: list[dict], *, by: str, comparison: s
             + [f"{c['variance']:.1f}" for c in row["classes"]]
             + [
                 f"{','.join(comp['first'])} vs {','.join(comp['second'])}",
-                _db(comp["snr_db"]),
-                _db(comp["cnr_db"]),
+                f"{comp['snr_db']:.2f}",
+                f"{comp['cnr_db']:.2f}",
                 format_error(comp["error_gaussian"], comp["log_error_gaussian"]),
                 format_error(comp["error_kde"]),
                 (f"{100 * sat:.2g} %" + (" !" if row["saturated"] else "")) if sat > 1e-6 else "-",

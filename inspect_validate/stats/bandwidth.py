@@ -54,7 +54,8 @@ _DIRECT_CORRELATE_MAX = 4096  # histogram widths up to this use exact integer co
 _BIN_FRACTION = 1000  # binned h is within ~1e-7 of exact at h/1000 (measured, benchmarks/)
 _GRID_PER_DECADE = 24
 _KERNEL_REACH = 20.0  # e^{-20²/4} ≈ 4e-44: lags beyond 20 h do not count at any n < 1e20
-_MAX_BINS = 2**25  # linear-binning grid points at most (256 MiB of float64)
+MAX_BINS = 2**25
+"""Linear-binning grid points at most (256 MiB of float64), here and in the KDE error."""
 _EXACT_MAX = 500  # above, binning (h within ~1e-8 of exact, benchmarks/) is far faster
 
 
@@ -156,7 +157,7 @@ def _pair_counts(
     from inspect_validate.stats._binning_kernels import linear_bin
 
     step = bin_width if bin_width is not None else (hi - lo) / 2**15
-    if (hi - lo) / step > _MAX_BINS:
+    if (hi - lo) / step > MAX_BINS:
         raise InputError(
             f"grey values span {hi - lo:.6g} DN, {(hi - lo) / step:.3g} times the kernel "
             "resolution: too wide for a kernel density; check the frames' data type and dark "

@@ -21,14 +21,13 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import optimize, special
 
-from inspect_validate.stats.bandwidth import Bandwidth, lscv_bandwidth
+from inspect_validate.stats.bandwidth import MAX_BINS, Bandwidth, lscv_bandwidth
 from inspect_validate.stats.gaussian_error import _interval
 from inspect_validate.stats.sample import LatticeSample, as_sample
 
 __all__ = ["KdeError", "kde_error", "kernel_mixture", "mixture_error"]
 
 _EXACT_POINTS_MAX = 2**14
-_MAX_BINS = 2**25  # linear-binning grid points at most (256 MiB of float64)
 _BIN_FRACTION = 2000
 _GRID_STEP = 0.25  # grid spacing for finding crossings, in units of the smaller h
 _TAIL_REACH = 40.0  # kernels are negligible beyond 40 h
@@ -51,20 +50,18 @@ def kernel_mixture(sample, h: float) -> tuple[np.ndarray, np.ndarray]:
         keep = sample.counts > 0
         return sample.points[keep], sample.counts[keep] / sample.n
     x = np.asarray(sample, dtype=np.float64)
-    if h == 0.0:  # a point mass per distinct value (a constant class of float data)
+    if h > 0.0 and x.size <= _EXACT_POINTS_MAX:
+        return x, np.full(x.size, 1.0 / x.size)
+    lo, hi = x.min(), x.max()
+    step = h / _BIN_FRACTION
+    if h == 0.0 or (hi - lo) / step > MAX_BINS:
+        # A point mass per distinct value (h = 0: a constant float class), or, where
+        # bins by span would not fit, one kernel per distinct value (sorting).
         values, counts = np.unique(x, return_counts=True)
         return values, counts / x.size
-    if x.size <= _EXACT_POINTS_MAX:
-        return x, np.full(x.size, 1.0 / x.size)
     from inspect_validate.stats._binning_kernels import linear_bin
 
-    step = h / _BIN_FRACTION
-    lo = x.min()
-    if (x.max() - lo) / step > _MAX_BINS:
-        # Bins by span would not fit: one kernel per distinct value instead (sorting).
-        values, counts = np.unique(x, return_counts=True)
-        return values, counts / x.size
-    w, _, _ = linear_bin(x, lo, step, int(np.ceil((x.max() - lo) / step)) + 2)
+    w, _, _ = linear_bin(x, lo, step, int(np.ceil((hi - lo) / step)) + 2)
     keep = w > 0
     return lo + np.flatnonzero(keep) * step, w[keep] / x.size
 
