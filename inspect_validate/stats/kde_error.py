@@ -31,6 +31,10 @@ _EXACT_POINTS_MAX = 2**14
 _BIN_FRACTION = 2000
 _GRID_STEP = 0.25  # grid spacing for finding crossings, in units of the smaller h
 _TAIL_REACH = 40.0  # kernels are negligible beyond 40 h
+_WINDOW_MIN = 256  # components above which a kernel density is summed in windows
+_WINDOW_REACH = 20.0  # in h, beyond the nearest component
+_WINDOW_CHUNK = 64  # grid points per window (16 h at the crossing grid's step)
+_LOG_SQRT_2PI = 0.5 * np.log(2.0 * np.pi)
 
 
 @dataclass(frozen=True)
@@ -67,15 +71,45 @@ def kernel_mixture(sample, h: float) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _log_density(x, centres, weights, sigma):
-    """log p(x) of a Gaussian mixture for an array of x, chunked to bound memory."""
-    out = np.empty(np.shape(x))
-    flat = np.ravel(x)
-    log_w = np.log(weights) - np.log(sigma)
+    """log p(x) of a Gaussian mixture for an array of x, chunked to bound memory.
+
+    With one width for all components and many components (a kernel density),
+    each chunk of x sums only the components within ``d0 + 20 h`` of it, d0 the
+    distance to the nearest component: the rest weigh less than e^{-200} relative
+    to that nearest one (for weights ≥ 1e-70), so the sum is exact in float64 and
+    the cost no longer grows with the number of components times grid points.
+    ``centres`` must then be sorted.
+    """
+    flat = np.ravel(np.asarray(x, dtype=np.float64))
+    out = np.empty(flat.shape)
+    sigma = np.asarray(sigma, dtype=np.float64)
+    uniform = sigma.ndim == 0 or (sigma.size > 0 and np.all(sigma == sigma.flat[0]))
+    if not uniform or centres.size <= _WINDOW_MIN:
+        _log_density_all(flat, out, centres, np.log(weights) - np.log(sigma), sigma)
+        return out.reshape(np.shape(x)) - _LOG_SQRT_2PI
+    h = float(sigma.flat[0])
+    log_w = np.log(weights) - np.log(h)
+    order = np.argsort(flat, kind="stable")
+    xs = flat[order]
+    j = np.clip(np.searchsorted(centres, xs), 1, centres.size - 1)
+    d0 = np.minimum(np.abs(xs - centres[j - 1]), np.abs(xs - centres[j]))
+    values = np.empty(xs.shape)
+    for i in range(0, xs.size, _WINDOW_CHUNK):
+        part = slice(i, i + _WINDOW_CHUNK)
+        reach = d0[part].max() + _WINDOW_REACH * h
+        lo = np.searchsorted(centres, xs[part][0] - reach, side="left")
+        hi = np.searchsorted(centres, xs[part][-1] + reach, side="right")
+        _log_density_all(xs[part], values[part], centres[lo:hi], log_w[lo:hi], h)
+    out[order] = values
+    return out.reshape(np.shape(x)) - _LOG_SQRT_2PI
+
+
+def _log_density_all(flat, out, centres, log_w, sigma):
+    """Unnormalised log-density of every component at every point, in memory-bounded chunks."""
     chunk = max(1, 2**22 // max(1, centres.size))
     for i in range(0, flat.size, chunk):
         z = (flat[i : i + chunk, None] - centres[None, :]) / sigma
-        out.flat[i : i + chunk] = special.logsumexp(log_w - 0.5 * z * z, axis=1)
-    return out - 0.5 * np.log(2.0 * np.pi)
+        out[i : i + chunk] = special.logsumexp(log_w - 0.5 * z * z, axis=1)
 
 
 def _mass(a, b, centres, weights, sigma):
@@ -135,8 +169,8 @@ def mixture_error(centres1, weights1, sigma1, centres2, weights2, sigma2) -> flo
         a1 = _point_masses(c1[atom1], w1[atom1])
         a2 = _point_masses(c2[atom2], w2[atom2])
         total += sum(min(w, a2[x]) for x, w in a1.items() if x in a2)
-    c1, w1, s1 = c1[~atom1], w1[~atom1], s1[~atom1]
-    c2, w2, s2 = c2[~atom2], w2[~atom2], s2[~atom2]
+    c1, w1, s1 = _sorted(c1[~atom1], w1[~atom1], s1[~atom1])
+    c2, w2, s2 = _sorted(c2[~atom2], w2[~atom2], s2[~atom2])
     if c1.size and c2.size:
         crossings = _crossings(c1, w1, s1, c2, w2, s2)
         edges = np.concatenate([[-np.inf], crossings, [np.inf]])
@@ -145,6 +179,11 @@ def mixture_error(centres1, weights1, sigma1, centres2, weights2, sigma2) -> flo
             lower_is_1 = _log_density(probe, c1, w1, s1) <= _log_density(probe, c2, w2, s2)
             total += _mass(a, b, c1, w1, s1) if lower_is_1 else _mass(a, b, c2, w2, s2)
     return 0.5 * total
+
+
+def _sorted(centres, weights, sigma):
+    order = np.argsort(centres, kind="stable")
+    return centres[order], weights[order], sigma[order]
 
 
 def _point_masses(centres, weights) -> dict[float, float]:
