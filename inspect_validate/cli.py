@@ -74,7 +74,32 @@ def cli():
     help="Largest acceptable fraction of zero (underexposed) pixels per class.",
 )
 @click.option("--no-kde", is_flag=True, help="Skip the nonparametric (kernel density) error.")
-def measure(frames, rois, dark, json_path, saturation_level, max_saturated, max_zero, no_kde):
+@click.option(
+    "--comparison",
+    "comparison_texts",
+    multiple=True,
+    help='Compare only these, e.g. "A vs B,C" (repeat; default every pair and each class vs the rest).',
+)
+@click.option(
+    "--weights",
+    type=click.Choice(["equal", "pixels"]),
+    default="equal",
+    show_default=True,
+    help="How a group of several classes is weighted: equally, or by pixel count (pooled pixels, "
+    "as the chapter's Table 3).",
+)
+def measure(
+    frames,
+    rois,
+    dark,
+    json_path,
+    saturation_level,
+    max_saturated,
+    max_zero,
+    no_kde,
+    comparison_texts,
+    weights,
+):
     """Measure object classes in FRAMES (one setting; several files, a folder or a quoted glob make a stack).
 
     Prints per-class μ and σ² (chapter Table 4) and, for every pair of classes
@@ -82,55 +107,29 @@ def measure(frames, rois, dark, json_path, saturation_level, max_saturated, max_
     classification error ε_tot (37), parametric and kernel-density (Table 3).
     Exits 1 when a class has more saturated or zero pixels than allowed.
     """
-    from inspect_validate.images import read_frames
-    from inspect_validate.measure import Measurement, compare, measure_classes
+    from inspect_validate.comparisons import ComparisonsSpec
+    from inspect_validate.measure import Limits, measure_files
     from inspect_validate.report import format_measurement, measurement_document, write_json
-    from inspect_validate.roi import class_masks, read_rois
 
     _outputs(files=[json_path])
-    stack = read_frames(frames)
-    dark_stack = read_frames(dark) if dark else None
-    if dark_stack is not None and dark_stack.shape[1:] != stack.shape[1:]:
-        from inspect_validate.errors import InputError
-
-        raise InputError(
-            f"dark frames are {dark_stack.shape[2]}×{dark_stack.shape[1]}, frames are "
-            f"{stack.shape[2]}×{stack.shape[1]}: take darks with the same camera region",
-            source=str(dark[0]),
-        )
-    roi_set = read_rois(rois)
-    masks = class_masks(roi_set, stack.shape[1:])
-    classes = measure_classes(stack, masks, dark=dark_stack, saturation_level=saturation_level)
-    result = Measurement(classes, compare(classes, kde=not no_kde))
-    violations = [
-        f"class {c.name}: {100 * frac:.3g} % {what} pixels (limit {100 * limit:.3g} %)"
-        for c in classes
-        for what, frac, limit in (
-            ("saturated", c.saturated_fraction, max_saturated),
-            ("zero", c.zero_fraction, max_zero),
-        )
-        if frac > limit
-    ]
+    spec = ComparisonsSpec(groups=list(comparison_texts) or "default", weights=weights)
+    limits = Limits(max_saturated=max_saturated, max_zero=max_zero)
+    result = measure_files(
+        frames,
+        rois,
+        dark=dark,
+        comparisons=spec,
+        saturation_level=saturation_level,
+        limits=limits,
+        kde=not no_kde,
+    )
     click.echo(format_measurement(result, saturation_limit=max_saturated))
     if json_path:
-        inputs = {
-            "frames": [str(p) for p in frames],
-            "dark": [str(p) for p in dark],
-            "rois": str(rois),
-            "frame_shape": list(stack.shape[1:]),
-            "n_frames": stack.shape[0],
-            "dtype": str(stack.dtype),
-        }
-        limits = {
-            "max_saturated_fraction": max_saturated,
-            "max_zero_fraction": max_zero,
-            "violations": violations,
-        }
-        write_json(measurement_document(result, inputs=inputs, limits=limits), json_path)
+        write_json(measurement_document(result, limits=limits), json_path)
         click.echo(f"\nwrote {json_path}")
-    if violations:
-        for v in violations:
-            click.echo(f"limit exceeded: {v}", err=True)
+    for v in result.violations:
+        click.echo(f"limit exceeded: {v}", err=True)
+    if result.violations:
         sys.exit(EXIT_CHECK_FAILED)
 
 
@@ -188,11 +187,10 @@ def predict(scene, json_path, top, rank_by, comparison, no_kde, plot_dir, render
     by = rank_by or sc.rank_by
     rank_comparison, comparison = comparison, comparison or sc.rank_comparison
     if comparison is not None:
-        from inspect_validate.comparisons import find_comparison, named_groups
         from inspect_validate.errors import InputError
 
         try:  # an unknown comparison fails before the sweep, naming where it came from
-            find_comparison(named_groups([c.name for c in sc.classes]), comparison)
+            sc.comparisons.index(comparison)
         except InputError as exc:
             where = "--comparison" if rank_comparison else f"{scene}: rank.comparison"
             raise InputError(str(exc), source=where) from None
@@ -225,7 +223,8 @@ def predict(scene, json_path, top, rank_by, comparison, no_kde, plot_dir, render
         written = [
             plot_component_spectra(sc, plot_dir / "spectra.png"),
             plot_spectral_errors(
-                analyse_spectra(list(sc.classes), kde=not no_kde), plot_dir / "spectral_error.png"
+                analyse_spectra(list(sc.classes), kde=not no_kde, comparisons=sc.comparisons),
+                plot_dir / "spectral_error.png",
             ),
             plot_ranked_separation(rows, plot_dir / "ranking.png"),
         ]
@@ -278,7 +277,7 @@ def analyze_spectra(scene, json_path, plot_path, best, no_kde):
     sc = read_scene(scene)
     for note in sc.notes():
         click.echo(f"note: {note}", err=True)
-    sep = analyse_spectra(list(sc.classes), kde=not no_kde)
+    sep = analyse_spectra(list(sc.classes), kde=not no_kde, comparisons=sc.comparisons)
     rows = []
     for j, (a, b) in enumerate(sep.comparisons):
         eps = sep.error_gaussian[j]

@@ -1,29 +1,79 @@
-"""Comparisons: which groups of classes are told apart, and how they are named.
+"""Comparisons: which groups of classes are told apart, and how a group of several is weighted.
 
 A comparison is a pair of groups of class names, ``(("A",), ("B", "C"))``,
-written ``"A vs B,C"``. By default a scene or a frame is compared in every pair
-of classes and, with three or more classes, each class against all the others
-(the chapter's Tables 3–4). ``measure`` and ``predict`` both take their groups
-from :func:`default_groups`, so a label means the same classes everywhere.
+written ``"A vs B,C"``. By default every pair of classes is compared and, with
+three or more classes, each class against all the others (the chapter's
+Tables 3–4). ``measure``, ``predict``, ``analyze-spectra`` and ``verify`` all
+read one :class:`Comparisons`, so a label means the same numbers everywhere.
+
+A group of several classes is a **mixture** of its classes, weighted by
+
+* ``equal`` (default): each class counts the same, whatever its area;
+* class **priors** (``{A: 0.7, B: 0.2, C: 0.1}``): how often each class occurs
+  on the line, normalised within the group;
+* ``pixels``: by the pixel count of each class's region — pooling the pixels,
+  as the chapter does for its Table 3 (measurement only: a scene has no pixels).
+
+Its mean and variance are the mixture's (μ = Σ πᵢμᵢ, σ² = Σ πᵢ(σᵢ² + μᵢ²) − μ²),
+which SNR_dB (36), CNR and the Fisher ratio use; its classification error is
+that of the mixture density itself — of the classes' Gaussians for ε Gauss,
+of their kernel density estimates for ε KDE — never of one moment-matched
+Gaussian (a bimodal "rest" around a class can be perfectly separable while
+its moment-matched Gaussian overlaps the class). Between the two groups of a
+comparison ε_tot (37) keeps equal priors, as in the chapter.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from itertools import combinations
+from typing import Annotated, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
 
 from inspect_validate.errors import InputError
 
-__all__ = ["default_groups", "find_comparison", "label", "named_groups"]
+__all__ = [
+    "Comparisons",
+    "ComparisonsSpec",
+    "GaussianSeparation",
+    "default_groups",
+    "find_comparison",
+    "gaussian_separation",
+    "kde_separation",
+    "label",
+    "mixture_moments",
+    "named_groups",
+]
 
 Group = tuple[int, ...]
+Weighting = Literal["equal", "pixels"]
+
+
+class ComparisonsSpec(BaseModel):
+    """The ``comparisons:`` section of a scene or station file."""
+
+    model_config = ConfigDict(extra="forbid")
+    groups: Literal["default", "pairs", "rest"] | list[Annotated[str, Field(min_length=1)]] = (
+        "default"
+    )
+    weights: Weighting | dict[str, Annotated[float, Field(gt=0, allow_inf_nan=False)]] = "equal"
 
 
 def default_groups(n_classes: int) -> list[tuple[Group, Group]]:
     """Index groups: every pair, then (with three or more classes) each against the rest."""
-    groups = [((a,), (b,)) for a, b in combinations(range(n_classes), 2)]
-    if n_classes >= 3:
-        groups += [((i,), tuple(j for j in range(n_classes) if j != i)) for i in range(n_classes)]
-    return groups
+    return _pairs(n_classes) + _rest(n_classes)
+
+
+def _pairs(n):
+    return [((a,), (b,)) for a, b in combinations(range(n), 2)]
+
+
+def _rest(n):
+    if n < 3:
+        return []
+    return [((i,), tuple(j for j in range(n) if j != i)) for i in range(n)]
 
 
 def named_groups(names) -> tuple[tuple[tuple[str, ...], tuple[str, ...]], ...]:
@@ -39,6 +89,14 @@ def label(first, second) -> str:
     return f"{','.join(first)} vs {','.join(second)}"
 
 
+def _parse(text: str) -> tuple[frozenset, frozenset] | None:
+    parts = text.split(" vs ") if " vs " in text else text.split("vs")
+    if len(parts) != 2:
+        return None
+    groups = tuple(frozenset(n.strip() for n in p.split(",") if n.strip()) for p in parts)
+    return groups if all(groups) else None
+
+
 def find_comparison(comparisons, text: str) -> int:
     """Index of the comparison written ``text`` (``"A vs B,C"``; spaces and order
     inside a group do not matter) in a sequence of ``(first, second)`` name groups.
@@ -48,11 +106,277 @@ def find_comparison(comparisons, text: str) -> int:
     InputError
         No such comparison; the message lists the ones there are.
     """
-    parts = text.split(" vs ") if " vs " in text else text.split("vs")
-    if len(parts) == 2:
-        want = tuple(frozenset(n.strip() for n in p.split(",") if n.strip()) for p in parts)
-        for i, (a, b) in enumerate(comparisons):
-            if (frozenset(a), frozenset(b)) == want:
-                return i
+    want = _parse(text)
+    for i, (a, b) in enumerate(comparisons):
+        if (frozenset(a), frozenset(b)) == want:
+            return i
     known = ", ".join(label(a, b) for a, b in comparisons)
     raise InputError(f"no comparison {text!r}; there are: {known}")
+
+
+@dataclass(frozen=True)
+class Comparisons:
+    """The comparisons of a set of classes and the weighting of groups.
+
+    Attributes
+    ----------
+    classes : tuple of str
+        Class names, in the order of the class axis of every array.
+    groups : tuple of (tuple of int, tuple of int)
+        Class indices of the two sides of each comparison.
+    weights : ``"equal"``, ``"pixels"`` or tuple of float
+        Group weighting; a tuple holds one prior per class.
+    """
+
+    classes: tuple[str, ...]
+    groups: tuple[tuple[Group, Group], ...]
+    weights: str | tuple[float, ...] = "equal"
+
+    @classmethod
+    def of(
+        cls, classes, spec: ComparisonsSpec | None = None, *, source: str | None = None
+    ) -> Comparisons:
+        """The comparisons a ``comparisons:`` section asks for (default: every pair and each
+        class against the rest, equal weights); unknown class names are errors naming
+        ``source``."""
+        classes = tuple(classes)
+        spec = spec or ComparisonsSpec()
+        n = len(classes)
+        if spec.groups == "default":
+            groups = default_groups(n)
+        elif spec.groups == "pairs":
+            groups = _pairs(n)
+        elif spec.groups == "rest":
+            groups = _rest(n) or _pairs(n)
+        else:
+            groups = []
+            for text in spec.groups:
+                sides = _parse(text)
+                if sides is None:
+                    raise InputError(
+                        f"comparisons.groups: {text!r} is not 'A vs B' or 'A vs B,C'", source=source
+                    )
+                unknown = sorted((sides[0] | sides[1]) - set(classes))
+                if unknown or sides[0] & sides[1]:
+                    why = (
+                        f"no class {unknown[0]!r} (there are {', '.join(classes)})"
+                        if unknown
+                        else "a class is on both sides"
+                    )
+                    raise InputError(f"comparisons.groups: {text!r}: {why}", source=source)
+                groups.append(tuple(tuple(i for i in range(n) if classes[i] in s) for s in sides))
+        weights = spec.weights
+        if isinstance(weights, dict):
+            unknown = sorted(set(weights) - set(classes))
+            missing = [c for c in classes if c not in weights]
+            if unknown or missing:
+                what = f"no class {unknown[0]!r}" if unknown else f"no prior for {missing[0]!r}"
+                raise InputError(
+                    f"comparisons.weights: {what}; give one prior per class ({', '.join(classes)})",
+                    source=source,
+                )
+            weights = tuple(float(weights[c]) for c in classes)
+        return cls(classes, tuple(groups), weights)
+
+    @property
+    def named(self) -> tuple[tuple[tuple[str, ...], tuple[str, ...]], ...]:
+        """Each comparison as ``(first names, second names)``."""
+        return tuple(
+            (tuple(self.classes[i] for i in a), tuple(self.classes[i] for i in b))
+            for a, b in self.groups
+        )
+
+    @property
+    def labels(self) -> tuple[str, ...]:
+        return tuple(label(a, b) for a, b in self.named)
+
+    @property
+    def weighting(self) -> str:
+        """``"equal"``, ``"pixels"`` or ``"priors"``."""
+        return self.weights if isinstance(self.weights, str) else "priors"
+
+    def index(self, text: str) -> int:
+        """Position of the comparison written ``text`` (see :func:`find_comparison`)."""
+        return find_comparison(self.named, text)
+
+    def select(self, texts) -> Comparisons:
+        """Only the comparisons written in ``texts``, in that order (no duplicates)."""
+        picked = dict.fromkeys(self.index(t) for t in texts)
+        return Comparisons(self.classes, tuple(self.groups[i] for i in picked), self.weights)
+
+    def class_weights(self, pixels=None) -> np.ndarray:
+        """Unnormalised weight of each class, (K,).
+
+        Parameters
+        ----------
+        pixels : array_like, optional
+            Pixel count of each class's region; needed for ``pixels`` weighting.
+        """
+        if self.weights == "equal":
+            return np.ones(len(self.classes))
+        if self.weights == "pixels":
+            if pixels is None:
+                raise InputError(
+                    "comparisons.weights: 'pixels' weights classes by their region's pixel "
+                    "count, which only a measurement has; use 'equal' or class priors "
+                    "({A: 0.5, B: 0.5}) for a prediction"
+                )
+            return np.asarray(pixels, dtype=np.float64)
+        return np.asarray(self.weights, dtype=np.float64)
+
+
+def mixture_moments(means, variances, weights) -> tuple[np.ndarray, np.ndarray]:
+    """Mean and variance of a mixture along the last axis: Σπμ and Σπ(σ² + μ²) − μ².
+
+    The variance is summed as Σπσ² + Σπ(μ − μ̄)² (no cancellation).
+
+    Parameters
+    ----------
+    means, variances : ndarray, (..., K)
+        Component means (DN) and variances (DN²).
+    weights : ndarray, (K,)
+        Non-negative; normalised here.
+    """
+    w = np.asarray(weights, dtype=np.float64)
+    w = w / w.sum()
+    m = np.asarray(means, dtype=np.float64)
+    mean = m @ w
+    return mean, np.asarray(variances, dtype=np.float64) @ w + ((m - mean[..., None]) ** 2) @ w
+
+
+@dataclass(frozen=True, eq=False)
+class GaussianSeparation:
+    """Separation of the two sides of each comparison, arrays (..., P).
+
+    ``mean1``…``variance2`` are the two sides' (mixture) moments, DN and DN²;
+    ``error_gaussian`` is ε_tot (37) of the sides' Gaussian mixtures.
+    """
+
+    mean1: np.ndarray
+    variance1: np.ndarray
+    mean2: np.ndarray
+    variance2: np.ndarray
+    snr_db: np.ndarray
+    cnr_db: np.ndarray
+    fisher_db: np.ndarray
+    error_gaussian: np.ndarray
+    log_error_gaussian: np.ndarray
+
+
+def gaussian_separation(
+    means, variances, comparisons: Comparisons, *, pixels=None, valid=None
+) -> GaussianSeparation:
+    """SNR_dB (36), CNR, Fisher ratio and ε Gauss (37) of every comparison.
+
+    Parameters
+    ----------
+    means, variances : ndarray, (..., K)
+        Per-class μ (DN) and σ² (DN²); leading axes are combinations.
+    comparisons : Comparisons
+    pixels : array_like, keyword-only, optional
+        Per-class pixel counts (for ``pixels`` weighting).
+    valid : ndarray of bool, (...), keyword-only, optional
+        Where to compute the mixture errors (elsewhere they are NaN); all by default.
+    """
+    from inspect_validate.stats import cnr_db, fisher_db, gaussian_error_and_log, snr_db
+    from inspect_validate.stats.kde_error import mixture_error
+
+    means = np.asarray(means, dtype=np.float64)
+    variances = np.asarray(variances, dtype=np.float64)
+    lead = means.shape[:-1]
+    w = comparisons.class_weights(pixels)
+    sides = [
+        [mixture_moments(means[..., list(g)], variances[..., list(g)], w[list(g)]) for g in pair]
+        for pair in comparisons.groups
+    ]
+    m1, v1, m2, v2 = (
+        np.stack([s[i][j] for s in sides], axis=-1) if sides else np.zeros((*lead, 0))
+        for i, j in ((0, 0), (0, 1), (1, 0), (1, 1))
+    )
+    eps, log_eps = gaussian_error_and_log(m1, v1, m2, v2)
+    eps, log_eps = np.array(eps, dtype=np.float64), np.array(log_eps, dtype=np.float64)
+    valid = np.ones(lead, bool) if valid is None else np.asarray(valid, bool)
+    sd = np.sqrt(variances)
+    for p, (g1, g2) in enumerate(comparisons.groups):
+        if len(g1) == 1 and len(g2) == 1:
+            continue  # a Gaussian against a Gaussian: the closed form above is exact
+        for idx in np.ndindex(lead):
+            if not valid[idx]:
+                eps[(*idx, p)] = log_eps[(*idx, p)] = np.nan
+                continue
+            e = mixture_error(
+                means[idx][list(g1)],
+                w[list(g1)] / w[list(g1)].sum(),
+                sd[idx][list(g1)],
+                means[idx][list(g2)],
+                w[list(g2)] / w[list(g2)].sum(),
+                sd[idx][list(g2)],
+            )
+            eps[(*idx, p)] = e
+            with np.errstate(divide="ignore"):
+                log_eps[(*idx, p)] = np.log(e)
+    return GaussianSeparation(
+        m1,
+        v1,
+        m2,
+        v2,
+        np.asarray(snr_db(m1, v1, m2, v2)),
+        np.asarray(cnr_db(m1, v1, m2, v2)),
+        np.asarray(fisher_db(m1, v1, m2, v2)),
+        eps,
+        log_eps,
+    )
+
+
+@dataclass(frozen=True)
+class KdeSeparation:
+    """ε KDE (37) of each comparison and the LSCV bandwidth of each class (DN)."""
+
+    error: tuple[float, ...]
+    bandwidth: tuple[float, ...]
+    at_floor: tuple[bool, ...]
+
+
+def kde_separation(
+    samples, comparisons: Comparisons, *, pixels=None, quantum: float | None = None
+) -> KdeSeparation:
+    """ε KDE (37) of every comparison: each side the weighted mixture of its classes'
+    kernel density estimates (41), one LSCV bandwidth (42)–(43) per class.
+
+    Parameters
+    ----------
+    samples : sequence of LatticeSample or array_like
+        Grey values of each class, DN.
+    comparisons : Comparisons
+    pixels : array_like, keyword-only, optional
+        Per-class pixel counts (for ``pixels`` weighting).
+    quantum : float, keyword-only, optional
+        Quantisation step, the bandwidth floor.
+    """
+    from inspect_validate.stats import lscv_bandwidth
+    from inspect_validate.stats.kde_error import kernel_mixture, mixture_error
+
+    w = comparisons.class_weights(pixels)
+    used = sorted({k for pair in comparisons.groups for g in pair for k in g})
+    bandwidths, kernels = {}, {}
+    for k in used:  # one bandwidth per class, shared by every comparison it is in
+        bandwidths[k] = lscv_bandwidth(samples[k], quantum=quantum)
+        kernels[k] = kernel_mixture(samples[k], bandwidths[k].h)
+    errors = []
+    for g1, g2 in comparisons.groups:
+        parts = []
+        for g in (g1, g2):
+            share = w[list(g)] / w[list(g)].sum()
+            parts += [
+                np.concatenate([kernels[k][0] for k in g]),
+                np.concatenate([kernels[k][1] * s for k, s in zip(g, share, strict=True)]),
+                np.concatenate([np.full(kernels[k][0].size, bandwidths[k].h) for k in g]),
+            ]
+        errors.append(float(mixture_error(*parts)))
+    return KdeSeparation(
+        tuple(errors),
+        tuple(bandwidths[k].h if k in bandwidths else np.nan for k in range(len(samples))),
+        tuple(
+            bool(bandwidths[k].at_floor) if k in bandwidths else False for k in range(len(samples))
+        ),
+    )

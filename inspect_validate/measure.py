@@ -7,25 +7,24 @@ and the classification error ε_tot (37), parametric and nonparametric.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
+from pathlib import Path
 
 import numpy as np
 
-from inspect_validate.comparisons import default_groups, label
-from inspect_validate.stats import (
-    Moments,
-    RegionStatistics,
-    cnr_db,
-    fisher_db,
-    gaussian_error_and_log,
-    kde_error,
-    merge_samples,
-    region_statistics,
-    sample_moments,
-    snr_db,
-)
+from inspect_validate.comparisons import Comparisons, gaussian_separation, kde_separation, label
+from inspect_validate.errors import InputError
+from inspect_validate.stats import RegionStatistics, region_statistics, sample_moments
 
-__all__ = ["ClassMeasurement", "Comparison", "Measurement", "compare", "measure_classes"]
+__all__ = [
+    "ClassMeasurement",
+    "Comparison",
+    "Limits",
+    "Measurement",
+    "compare",
+    "measure_classes",
+    "measure_files",
+]
 
 
 @dataclass(frozen=True)
@@ -35,6 +34,8 @@ class ClassMeasurement:
     ``temporal_variance`` and ``spatial_variance`` are the EMVA 1288 components
     (:class:`~inspect_validate.stats.RegionStatistics`); ``variance`` is σ² (39)
     of all pixel values pooled over the frames, what a classifier sees.
+    ``kde_bandwidth`` is the class's LSCV bandwidth (42)–(43), DN, once a
+    comparison's ε KDE has needed it.
     """
 
     name: str
@@ -47,11 +48,14 @@ class ClassMeasurement:
     temporal_variance: float | None
     spatial_variance: float | None
     region: RegionStatistics
+    kde_bandwidth: float | None = None
+    kde_bandwidth_at_floor: bool | None = None
 
 
 @dataclass(frozen=True)
 class Comparison:
-    """Separation of two groups of classes (Table 3); a group of several is their union."""
+    """Separation of two groups of classes (Table 3); a group of several is a weighted
+    mixture of its classes (:mod:`inspect_validate.comparisons`)."""
 
     first: tuple[str, ...]
     second: tuple[str, ...]
@@ -61,8 +65,6 @@ class Comparison:
     error_gaussian: float
     log_error_gaussian: float
     error_kde: float | None
-    kde_bandwidth: tuple[float, float] | None
-    kde_bandwidth_at_floor: tuple[bool, bool] | None
 
     @property
     def label(self) -> str:
@@ -70,9 +72,46 @@ class Comparison:
 
 
 @dataclass(frozen=True)
+class Limits:
+    """Largest acceptable fractions of saturated and of zero (underexposed) pixels per class."""
+
+    max_saturated: float = 0.001
+    max_zero: float = 0.001
+
+    def violations(self, classes) -> tuple[str, ...]:
+        """One message per class and limit exceeded."""
+        return tuple(
+            f"class {c.name}: {100 * frac:.3g} % {what} pixels (limit {100 * limit:.3g} %)"
+            for c in classes
+            for what, frac, limit in (
+                ("saturated", c.saturated_fraction, self.max_saturated),
+                ("zero", c.zero_fraction, self.max_zero),
+            )
+            if frac > limit
+        )
+
+
+@dataclass(frozen=True)
 class Measurement:
+    """Classes, comparisons and limit violations of one frame stack.
+
+    ``weighting`` says how groups of several classes were weighted
+    (``equal``, ``pixels`` or ``priors``); ``inputs`` names what was read.
+    """
+
     classes: tuple[ClassMeasurement, ...]
     comparisons: tuple[Comparison, ...]
+    weighting: str = "equal"
+    violations: tuple[str, ...] = ()
+    inputs: dict = field(default_factory=dict)
+
+    def comparison(self, text: str) -> Comparison:
+        """The comparison written ``text`` (``"A vs B,C"``)."""
+        from inspect_validate.comparisons import find_comparison
+
+        return self.comparisons[
+            find_comparison([(c.first, c.second) for c in self.comparisons], text)
+        ]
 
 
 def measure_classes(
@@ -85,7 +124,10 @@ def measure_classes(
     """Per-class statistics of a frame stack (N, H, W) under class masks."""
     out = []
     for name, mask in masks.items():
-        region = region_statistics(frames, mask, dark=dark, saturation_level=saturation_level)
+        try:
+            region = region_statistics(frames, mask, dark=dark, saturation_level=saturation_level)
+        except InputError as exc:
+            raise InputError(f"class {name}: {exc}", source=exc.source) from None
         m = sample_moments(region.sample)
         out.append(
             ClassMeasurement(
@@ -105,48 +147,125 @@ def measure_classes(
 
 
 def compare(
-    classes: tuple[ClassMeasurement, ...], *, kde: bool = True, quantum: float | None = None
-) -> tuple[Comparison, ...]:
-    """Every pair of classes, then (with three or more) each class against all others.
+    classes: tuple[ClassMeasurement, ...],
+    comparisons: Comparisons | None = None,
+    *,
+    kde: bool = True,
+    quantum: float | None = None,
+) -> Measurement:
+    """Separation of the classes in every comparison.
 
     Parameters
     ----------
     classes : tuple of ClassMeasurement
+    comparisons : Comparisons, optional
+        Which groups, and how a group of several classes is weighted; default
+        every pair and each class against the rest, equal weights.
     kde : bool, keyword-only
         Also compute the nonparametric ε (kernel densities with LSCV bandwidth).
     quantum : float, keyword-only, optional
         Quantisation step of the grey values (the KDE bandwidth floor), DN.
     """
-    groups = default_groups(len(classes))
-    return tuple(_compare(classes, a, b, kde=kde, quantum=quantum) for a, b in groups)
-
-
-def _compare(classes, first, second, *, kde, quantum) -> Comparison:
-    samples = [merge_samples([classes[i].region.sample for i in g]) for g in (first, second)]
-    m1, m2 = (
-        sample_moments(s) if len(g) > 1 else _moments_of(classes[g[0]])
-        for s, g in zip(samples, (first, second), strict=True)
+    names = tuple(c.name for c in classes)
+    comparisons = comparisons or Comparisons.of(names)
+    if comparisons.classes != names:
+        raise InputError(
+            f"the comparisons are of classes {', '.join(comparisons.classes)}, "
+            f"the regions of {', '.join(names)}"
+        )
+    pixels = [c.n_pixels for c in classes]
+    g = gaussian_separation(
+        [c.mean for c in classes], [c.variance for c in classes], comparisons, pixels=pixels
     )
-    args = (m1.mean, m1.variance, m2.mean, m2.variance)
-    err, log_err = gaussian_error_and_log(*args)
-    kde_result = kde_error(*samples, quantum=quantum) if kde else None
-    return Comparison(
-        first=tuple(classes[i].name for i in first),
-        second=tuple(classes[i].name for i in second),
-        snr_db=float(snr_db(*args)),
-        cnr_db=float(cnr_db(*args)),
-        fisher_db=float(fisher_db(*args)),
-        error_gaussian=float(err),
-        log_error_gaussian=float(log_err),
-        error_kde=kde_result.error if kde_result else None,
-        kde_bandwidth=(kde_result.bandwidth1.h, kde_result.bandwidth2.h) if kde_result else None,
-        kde_bandwidth_at_floor=(
-            (bool(kde_result.bandwidth1.at_floor), bool(kde_result.bandwidth2.at_floor))
-            if kde_result
-            else None
-        ),
+    k = None
+    if kde:
+        k = kde_separation(
+            [c.region.sample for c in classes], comparisons, pixels=pixels, quantum=quantum
+        )
+        classes = tuple(
+            c
+            if np.isnan(k.bandwidth[i])
+            else replace(c, kde_bandwidth=k.bandwidth[i], kde_bandwidth_at_floor=k.at_floor[i])
+            for i, c in enumerate(classes)
+        )
+    out = tuple(
+        Comparison(
+            first=first,
+            second=second,
+            snr_db=float(g.snr_db[p]),
+            cnr_db=float(g.cnr_db[p]),
+            fisher_db=float(g.fisher_db[p]),
+            error_gaussian=float(g.error_gaussian[p]),
+            log_error_gaussian=float(g.log_error_gaussian[p]),
+            error_kde=k.error[p] if k else None,
+        )
+        for p, (first, second) in enumerate(comparisons.named)
     )
+    return Measurement(classes, out, comparisons.weighting)
 
 
-def _moments_of(c: ClassMeasurement) -> Moments:
-    return Moments(c.n_pixels * c.n_frames, c.mean, c.variance)
+def measure_files(
+    frames,
+    rois,
+    *,
+    dark=(),
+    comparisons=None,
+    saturation_level: float | None = None,
+    limits: Limits = Limits(),
+    kde: bool = True,
+) -> Measurement:
+    """Measure the classes of an ROI file in a stack of frame files.
+
+    The one measuring path of ``measure`` and ``verify``.
+
+    Parameters
+    ----------
+    frames : sequence of path
+        Frame files, folders or glob patterns of one camera setting (a stack).
+    rois : path or RoiSet
+        ROI file (YAML, ImageJ ``.roi`` / RoiSet ``.zip``) or a set already read.
+    dark : sequence of path, keyword-only
+        Dark frames at the same exposure and gain (subtracted per pixel).
+    comparisons : Comparisons or ComparisonsSpec, keyword-only, optional
+        What to compare; default every pair and each class against the rest.
+    saturation_level : float, keyword-only, optional
+        Raw value counted as saturated, DN; default the data type's maximum.
+    limits : Limits, keyword-only
+        Saturated and zero fractions; exceeded ones are listed in ``violations``.
+    kde : bool, keyword-only
+        Also the nonparametric ε.
+
+    Raises
+    ------
+    InputError
+        An unreadable frame or ROI file, darks of another size, an ROI outside
+        the frame (each message names the file).
+    """
+    from inspect_validate.comparisons import ComparisonsSpec
+    from inspect_validate.images import read_frames
+    from inspect_validate.roi import class_masks, read_rois
+
+    stack = read_frames(frames)
+    dark = list(dark)
+    dark_stack = read_frames(dark) if dark else None
+    if dark_stack is not None and dark_stack.shape[1:] != stack.shape[1:]:
+        raise InputError(
+            f"dark frames are {dark_stack.shape[2]}×{dark_stack.shape[1]}, frames are "
+            f"{stack.shape[2]}×{stack.shape[1]}: take darks with the same camera region",
+            source=str(dark[0]),
+        )
+    roi_set = read_rois(rois) if isinstance(rois, (str, Path)) else rois
+    masks = class_masks(roi_set, stack.shape[1:])
+    classes = measure_classes(stack, masks, dark=dark_stack, saturation_level=saturation_level)
+    if comparisons is None or isinstance(comparisons, ComparisonsSpec):
+        comparisons = Comparisons.of([c.name for c in classes], comparisons, source=str(rois))
+    result = compare(classes, comparisons, kde=kde)
+    inputs = {
+        "frames": [str(p) for p in frames],
+        "dark": [str(p) for p in dark],
+        "rois": str(getattr(roi_set, "source", rois)),
+        "frame_shape": list(stack.shape[1:]),
+        "n_frames": stack.shape[0],
+        "dtype": str(stack.dtype),
+    }
+    return replace(result, violations=limits.violations(result.classes), inputs=inputs)

@@ -24,6 +24,9 @@ YAML, paths relative to the scene file (README, "Scene files")::
       - {file: qe.csv, gain: 0.4, dark_noise: 2.5, saturation: 10000, bit_depth: 12}
     exposure: {mode: auto, target: 0.7}               # or {mode: fixed, time: 0.002}
     rank: {by: error}                                 # error | snr_db | cnr_db; comparison: "A vs B,C"
+    comparisons:                                      # optional
+      groups: default                                 # default | pairs | rest | ["A vs B,C", ...]
+      weights: equal                                  # equal | {A: 0.7, B: 0.2, C: 0.1} (priors)
 
 Every component kind is its own validated model (a discriminated union on the
 key that names the kind): an unknown or misplaced key, a number out of its
@@ -45,6 +48,7 @@ from pydantic import (
     model_validator,
 )
 
+from inspect_validate.comparisons import Comparisons, ComparisonsSpec
 from inspect_validate.config import load_yaml, one_of
 from inspect_validate.errors import InputError
 
@@ -297,6 +301,7 @@ class _Scene(_Strict):
     cameras: list[CameraSpec] = Field(min_length=1)
     exposure: _Exposure = _Exposure()
     rank: _Rank = _Rank()
+    comparisons: ComparisonsSpec = ComparisonsSpec()
 
     @field_validator("classes")
     @classmethod
@@ -321,6 +326,7 @@ class Scene:
     grid: np.ndarray
     rank_by: str
     rank_comparison: str | None
+    comparisons: Comparisons
 
     def predict(self, *, grid: np.ndarray | None = None):
         """:func:`inspect_validate.model.predict` for every combination of this scene."""
@@ -333,6 +339,7 @@ class Scene:
             list(self.classes),
             exposure=self.exposure,
             grid=self.grid if grid is None else grid,
+            comparisons=self.comparisons,
         )
 
     def notes(self) -> list[str]:
@@ -383,6 +390,13 @@ def read_scene(path: str | Path) -> Scene:
                 f"{kind}: duplicate name(s) {sorted(dup)}; give each a 'name'", source=str(path)
             )
     exposure = Exposure(**model.exposure.model_dump())
+    comparisons = Comparisons.of(
+        [c.name for c in classes], model.comparisons, source=f"{path}: comparisons"
+    )
+    try:  # 'pixels' is for measurements: refuse it here, naming the file
+        comparisons.class_weights()
+    except InputError as exc:
+        raise InputError(str(exc), source=f"{path}: comparisons.weights") from None
     grid = _grid(model.wavelength, classes, lights, optics, cameras, path)
     return Scene(
         model.name or path.stem,
@@ -395,6 +409,7 @@ def read_scene(path: str | Path) -> Scene:
         grid,
         model.rank.by,
         model.rank.comparison,
+        comparisons,
     )
 
 

@@ -38,11 +38,14 @@ def test_reproduces_tables_3_and_4(paperboard, tmp_path, setting, capsys):
             paperboard / "rois.yaml",
             "--json",
             out,
+            "--weights",
+            "pixels",  # the chapter pools the pixels of a group
         ]
     )
     assert code == 0
     doc = json.loads(out.read_text())
-    assert doc["schema"] == "inspect-validate/measurement" and doc["schema_version"] == 1
+    assert doc["schema"] == "inspect-validate/measurement" and doc["schema_version"] == 2
+    assert doc["weights"] == "pixels"
     TABLE4 = runpy.run_path(str(paperboard / "generate.py"))["TABLE4"]
     for c in doc["classes"]:
         mean, var = TABLE4[setting][c["name"]]

@@ -33,14 +33,13 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import special
 
-from inspect_validate.comparisons import default_groups, named_groups
+from inspect_validate.comparisons import Comparisons, gaussian_separation
 from inspect_validate.components.cameras import Camera
 from inspect_validate.components.lights import Light
 from inspect_validate.components.optics import Optics
 from inspect_validate.constants import C, H
 from inspect_validate.errors import InputError
 from inspect_validate.spectra import Spectrum
-from inspect_validate.stats import cnr_db, fisher_db, gaussian_error_and_log, snr_db
 
 __all__ = ["Exposure", "ObjectClass", "Prediction", "predict"]
 
@@ -95,7 +94,7 @@ class Prediction:
     optics: tuple[str, ...]
     cameras: tuple[str, ...]
     classes: tuple[str, ...]
-    comparisons: tuple[tuple[tuple[str, ...], tuple[str, ...]], ...]
+    comparison_set: Comparisons
     grid: np.ndarray
     exposure_time: np.ndarray  # s, (L, O, C)
     electrons: np.ndarray  # mean μ_e per class, (L, O, C, K)
@@ -117,6 +116,11 @@ class Prediction:
     valid: np.ndarray  # (L, O, C) bool: False where the combination was skipped (values NaN)
     skipped: tuple[str, ...] = ()  # why combinations were skipped (at most 20 named, then a count)
     absolute: np.ndarray | None = None  # (L,) bool: the light's irradiance is known (times in s)
+
+    @property
+    def comparisons(self) -> tuple[tuple[tuple[str, ...], tuple[str, ...]], ...]:
+        """Each comparison as ``(first names, second names)``, the order of the last axis."""
+        return self.comparison_set.named
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -146,6 +150,7 @@ def predict(
     *,
     exposure: Exposure = Exposure(),
     grid: np.ndarray,
+    comparisons: Comparisons | None = None,
 ) -> Prediction:
     """Predict μ, σ², SNR_dB, CNR, Fisher ratio and ε Gauss for every combination.
 
@@ -157,6 +162,9 @@ def predict(
     exposure : Exposure, keyword-only
     grid : ndarray, keyword-only
         Integration wavelengths, nm (trapezoidal rule).
+    comparisons : Comparisons, keyword-only, optional
+        Which groups of classes to compare and how a group is weighted; default
+        every pair and each class against the rest, equal weights.
     """
     if len(classes) < 2:
         raise InputError("a scene needs at least two object classes to separate")
@@ -238,12 +246,10 @@ def predict(
     saturated = above @ onehot / per_class
 
     names = tuple(c.name for c in classes)
-    groups = default_groups(k_count)
-    m1, v1, m2, v2 = (
-        np.stack(x, axis=-1)
-        for x in zip(*(_group_moments(mean, variance, g1, g2) for g1, g2 in groups), strict=True)
-    )
-    eps, log_eps = gaussian_error_and_log(m1, v1, m2, v2)
+    comparisons = comparisons or Comparisons.of(names)
+    if comparisons.classes != names:
+        raise InputError(f"the comparisons are of classes {comparisons.classes}, not {names}")
+    sep = gaussian_separation(mean, variance, comparisons, valid=valid)
 
     def blank(a):
         """NaN where the combination was skipped."""
@@ -254,7 +260,7 @@ def predict(
         optics=tuple(o.name for o in optics),
         cameras=tuple(c.name for c in cameras),
         classes=names,
-        comparisons=named_groups(names),
+        comparison_set=comparisons,
         grid=grid,
         exposure_time=blank(t_exp),
         electrons=blank(class_rate * t_exp[..., None]),
@@ -262,11 +268,11 @@ def predict(
         variance=blank(variance),
         spectral_variance=blank(spectral),
         saturated_fraction=blank(saturated),
-        snr_db=blank(snr_db(m1, v1, m2, v2)),
-        cnr_db=blank(cnr_db(m1, v1, m2, v2)),
-        fisher_db=blank(fisher_db(m1, v1, m2, v2)),
-        error_gaussian=blank(eps),
-        log_error_gaussian=blank(log_eps),
+        snr_db=blank(sep.snr_db),
+        cnr_db=blank(sep.cnr_db),
+        fisher_db=blank(sep.fisher_db),
+        error_gaussian=blank(sep.error_gaussian),
+        log_error_gaussian=blank(sep.log_error_gaussian),
         sample_electrons=blank(mu_e),
         sample_mean=blank(clip_mean),
         sample_variance=blank(clip_var),
@@ -305,18 +311,6 @@ def _irradiance_scale(lights) -> np.ndarray:
             )
         scale[i] = light.irradiance / in_band
     return scale
-
-
-def _group_moments(mean, variance, g1, g2):
-    """Moments of one class or of the equal-weight union of several."""
-
-    def union(g):
-        m = mean[..., list(g)]
-        v = variance[..., list(g)]
-        return m.mean(axis=-1), v.mean(axis=-1) + m.var(axis=-1)
-
-    (a, b), (c, d) = union(g1), union(g2)
-    return a, b, c, d
 
 
 def _clipped_moments(mean, var, ceiling):

@@ -85,23 +85,22 @@ def predicted_kde_error(prediction: Prediction, index, column: int) -> float:
     widened by the LSCV bandwidth of the sample values (with ≥ 5 samples) —
     no assumption that a class is Gaussian.
     """
-    first, second = prediction.comparisons[column]
-    names = list(prediction.classes)
     li, oi, ci = index
     means = prediction.sample_mean[li, oi, ci]
     noise = prediction.sample_variance[li, oi, ci]
+    class_weights = prediction.comparison_set.class_weights()
     parts = []
-    for group in (first, second):
-        members = [names.index(n) for n in group]
+    for members in prediction.comparison_set.groups[column]:
+        share = class_weights[list(members)] / class_weights[list(members)].sum()
         centres, weights, sigmas = [], [], []
-        for k in members:
+        for k, pi in zip(members, share, strict=True):
             sel = prediction.sample_class == k
             m = means[sel]
             h2 = 0.0
             if m.size >= _MIN_SAMPLES_FOR_LSCV and np.ptp(m) > 0:
                 h2 = lscv_bandwidth(as_sample(m), method="exact").h ** 2
             centres.append(m)
-            weights.append(np.full(m.size, 1.0 / (m.size * len(members))))
+            weights.append(np.full(m.size, pi / m.size))
             sigmas.append(np.sqrt(noise[sel] + h2))
         parts += [np.concatenate(centres), np.concatenate(weights), np.concatenate(sigmas)]
     return mixture_error(*parts)

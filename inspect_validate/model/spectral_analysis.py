@@ -14,10 +14,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from inspect_validate.comparisons import default_groups, named_groups
+from inspect_validate.comparisons import Comparisons, gaussian_separation, kde_separation
 from inspect_validate.errors import InputError
 from inspect_validate.model.acquisition import ObjectClass
-from inspect_validate.stats import gaussian_error, kde_error
 
 __all__ = ["SpectralSeparation", "analyse_spectra"]
 
@@ -38,6 +37,7 @@ def analyse_spectra(
     grid: np.ndarray | None = None,
     kde: bool = True,
     resolution: float = 1e-3,
+    comparisons: Comparisons | None = None,
 ) -> SpectralSeparation:
     """ε_tot per wavelength between the classes' reflectance samples.
 
@@ -54,6 +54,9 @@ def analyse_spectra(
         Reflectance resolution of the measurement, the KDE bandwidth floor.
         LSCV on a handful of spectra otherwise runs to h → 0 and spiky
         densities that promise errors no measurement can support.
+    comparisons : Comparisons, keyword-only, optional
+        Groups and their weighting (default every pair and each class against
+        the rest, equal weights): a group is the mixture of its classes.
     """
     if len(classes) < 2:
         raise InputError("spectral analysis needs at least two classes")
@@ -72,27 +75,23 @@ def analyse_spectra(
     if grid.size == 0 or grid[0] < lo or grid[-1] > hi:
         raise InputError(f"the classes' reflectances share only {lo:g}–{hi:g} nm")
     values = [c.reflectance.resample(grid) for c in classes]  # (S_k, W)
-    groups = default_groups(len(classes))
-    gauss, kde_err = [], []
-    for g1, g2 in groups:
-        s1 = np.concatenate([values[i] for i in g1])
-        s2 = np.concatenate([values[i] for i in g2])
-        valid = np.all(np.isfinite(s1), axis=0) & np.all(np.isfinite(s2), axis=0)
-        eps = np.full(grid.size, np.nan)
-        eps[valid] = gaussian_error(
-            s1.mean(0)[valid], s1.var(0, ddof=1)[valid], s2.mean(0)[valid], s2.var(0, ddof=1)[valid]
-        )
-        gauss.append(eps)
-        if kde:
-            e = np.full(grid.size, np.nan)
-            for j in np.flatnonzero(valid):
-                # Identical samples are a kernel of the resolution's width, not undefined.
-                e[j] = kde_error(s1[:, j], s2[:, j], quantum=resolution).error
-            kde_err.append(e)
     names = [c.name for c in classes]
+    comparisons = comparisons or Comparisons.of(names)
+    valid = np.all([np.all(np.isfinite(v), axis=0) for v in values], axis=0)
+    means = np.stack([v.mean(0) for v in values], axis=-1)  # (W, K)
+    variances = np.stack([v.var(0, ddof=1) for v in values], axis=-1)
+    gauss = gaussian_separation(means, variances, comparisons, valid=valid).error_gaussian.T
+    gauss = np.where(valid[None, :], gauss, np.nan)
+    kde_err = np.full(gauss.shape, np.nan)
+    if kde:
+        for j in np.flatnonzero(valid):
+            # Identical samples are a kernel of the resolution's width, not undefined.
+            kde_err[:, j] = kde_separation(
+                [v[:, j] for v in values], comparisons, quantum=resolution
+            ).error
     return SpectralSeparation(
         grid,
-        named_groups(names),
-        np.array(gauss),
-        np.array(kde_err) if kde else None,
+        comparisons.named,
+        gauss,
+        kde_err if kde else None,
     )

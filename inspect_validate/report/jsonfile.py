@@ -24,7 +24,8 @@ __all__ = [
     "write_json",
 ]
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
+"""Measurement JSON: 2 moved the KDE bandwidth to the classes and added ``weights``."""
 
 
 def json_number(x):
@@ -37,47 +38,48 @@ def json_number(x):
     return x if math.isfinite(x) else ("inf" if x > 0 else "-inf")
 
 
-def measurement_document(m: Measurement, *, inputs: dict, limits: dict) -> dict:
+def measurement_document(m: Measurement, *, limits) -> dict:
     """The document of a measurement (:func:`write_json` makes its numbers JSON-safe)."""
-    classes = []
-    for c in m.classes:
-        classes.append(
-            {
-                "name": c.name,
-                "mean": c.mean,
-                "variance": c.variance,
-                "n_pixels": c.n_pixels,
-                "n_frames": c.n_frames,
-                "saturated_fraction": c.saturated_fraction,
-                "zero_fraction": c.zero_fraction,
-                "temporal_variance": c.temporal_variance,
-                "spatial_variance": c.spatial_variance,
-            }
-        )
-    comparisons = []
-    for c in m.comparisons:
-        comparisons.append(
-            {
-                "first": list(c.first),
-                "second": list(c.second),
-                "snr_db": c.snr_db,
-                "cnr_db": c.cnr_db,
-                "fisher_db": c.fisher_db,
-                "error_gaussian": c.error_gaussian,
-                "log_error_gaussian": c.log_error_gaussian,
-                "error_kde": c.error_kde,
-                "kde_bandwidth": list(c.kde_bandwidth) if c.kde_bandwidth else None,
-                "kde_bandwidth_at_floor": list(c.kde_bandwidth_at_floor)
-                if c.kde_bandwidth_at_floor
-                else None,
-            }
-        )
+    classes = [
+        {
+            "name": c.name,
+            "mean": c.mean,
+            "variance": c.variance,
+            "n_pixels": c.n_pixels,
+            "n_frames": c.n_frames,
+            "saturated_fraction": c.saturated_fraction,
+            "zero_fraction": c.zero_fraction,
+            "temporal_variance": c.temporal_variance,
+            "spatial_variance": c.spatial_variance,
+            "kde_bandwidth": c.kde_bandwidth,
+            "kde_bandwidth_at_floor": c.kde_bandwidth_at_floor,
+        }
+        for c in m.classes
+    ]
+    comparisons = [
+        {
+            "first": list(c.first),
+            "second": list(c.second),
+            "snr_db": c.snr_db,
+            "cnr_db": c.cnr_db,
+            "fisher_db": c.fisher_db,
+            "error_gaussian": c.error_gaussian,
+            "log_error_gaussian": c.log_error_gaussian,
+            "error_kde": c.error_kde,
+        }
+        for c in m.comparisons
+    ]
     return {
         "schema": "inspect-validate/measurement",
         "schema_version": SCHEMA_VERSION,
         "tool_version": __version__,
-        "inputs": inputs,
-        "limits": limits,
+        "inputs": m.inputs,
+        "limits": {
+            "max_saturated_fraction": limits.max_saturated,
+            "max_zero_fraction": limits.max_zero,
+            "violations": list(m.violations),
+        },
+        "weights": m.weighting,
         "classes": classes,
         "comparisons": comparisons,
     }

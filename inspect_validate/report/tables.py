@@ -38,6 +38,9 @@ def format_measurement(m: Measurement, *, saturation_limit: float | None = None)
     header = ["class", "mean [DN]", "var [DN²]", "pixels", "saturated"]
     if stack:
         header += ["temporal var", "spatial var"]
+    kde = any(c.kde_bandwidth is not None for c in m.classes)
+    if kde:
+        header += ["KDE h [DN]"]
     rows = []
     for c in m.classes:
         flag = (
@@ -52,31 +55,30 @@ def format_measurement(m: Measurement, *, saturation_limit: float | None = None)
         ]
         if stack:
             row += [f"{c.temporal_variance:.2f}", f"{c.spatial_variance:.2f}"]
+        if kde:
+            h = c.kde_bandwidth
+            row += ["-" if h is None else f"{h:.3g}{'*' if c.kde_bandwidth_at_floor else ''}"]
         rows.append(row)
     out = ["Classes (chapter Table 4: μ (38), σ² (39))", render_table(header, rows), ""]
-    header = ["classes", "SNR_dB (36)", "CNR_dB", "Fisher_dB", "ε Gauss", "ε KDE", "KDE h [DN]"]
-    rows = []
-    for c in m.comparisons:
-        h = "-"
-        if c.kde_bandwidth is not None:
-            marks = ["*" if f else "" for f in c.kde_bandwidth_at_floor]
-            h = " / ".join(f"{v:.3g}{mk}" for v, mk in zip(c.kde_bandwidth, marks, strict=True))
-        rows.append(
-            [
-                c.label,
-                f"{c.snr_db:.2f}",
-                f"{c.cnr_db:.2f}",
-                f"{c.fisher_db:.2f}",
-                format_error(c.error_gaussian, c.log_error_gaussian),
-                format_error(c.error_kde),
-                h,
-            ]
-        )
+    header = ["classes", "SNR_dB (36)", "CNR_dB", "Fisher_dB", "ε Gauss", "ε KDE"]
+    rows = [
+        [
+            c.label,
+            f"{c.snr_db:.2f}",
+            f"{c.cnr_db:.2f}",
+            f"{c.fisher_db:.2f}",
+            format_error(c.error_gaussian, c.log_error_gaussian),
+            format_error(c.error_kde),
+        ]
+        for c in m.comparisons
+    ]
+    groups = {"equal": "equal weights", "pixels": "weighted by pixels", "priors": "class priors"}
     out += [
-        "Separation (chapter Table 3; ε_tot (37) with equal priors)",
+        "Separation (chapter Table 3; ε_tot (37) with equal priors between the sides; "
+        f"a group of classes is their mixture, {groups[m.weighting]})",
         render_table(header, rows),
     ]
-    if any(any(c.kde_bandwidth_at_floor or ()) for c in m.comparisons):
+    if any(c.kde_bandwidth_at_floor for c in m.classes):
         out.append(
             "* KDE bandwidth at its floor of one quantisation step: LSCV wants a narrower "
             "kernel than the grey levels resolve."

@@ -33,6 +33,7 @@ _GRID_STEP = 0.25  # grid spacing for finding crossings, in units of the smaller
 _TAIL_REACH = 40.0  # kernels are negligible beyond 40 h
 _WINDOW_MIN = 256  # components above which a kernel density is summed in windows
 _WINDOW_REACH = 20.0  # in h, beyond the nearest component
+_WINDOW_WIDTHS_MAX = 16  # distinct kernel widths (classes in a group) summed part by part
 _WINDOW_CHUNK = 64  # grid points per window (16 h at the crossing grid's step)
 _LOG_SQRT_2PI = 0.5 * np.log(2.0 * np.pi)
 
@@ -70,25 +71,44 @@ def kernel_mixture(sample, h: float) -> tuple[np.ndarray, np.ndarray]:
     return lo + np.flatnonzero(keep) * step, w[keep] / x.size
 
 
-def _log_density(x, centres, weights, sigma):
-    """log p(x) of a Gaussian mixture for an array of x, chunked to bound memory.
+def _density_parts(centres, weights, sigma) -> list:
+    """A mixture as parts summed separately by :func:`_log_density`.
 
-    With one width for all components and many components (a kernel density),
-    each chunk of x sums only the components within ``d0 + 20 h`` of it, d0 the
-    distance to the nearest component: the rest weigh less than e^{-200} relative
-    to that nearest one (for weights ≥ 1e-70), so the sum is exact in float64 and
-    the cost no longer grows with the number of components times grid points.
-    ``centres`` must then be sorted.
+    Many components of one width (a kernel density, or each class of a group's
+    mixture of kernel densities) form a part evaluated in windows: each chunk
+    of x sums only the components within ``d0 + 20 h`` of it, d0 the distance
+    to the nearest component. The rest weigh less than e^{-200} relative to
+    that nearest one (for weights ≥ 1e-70), so the sum is exact in float64 and
+    its cost no longer grows as components × grid points. Anything else (a few
+    Gaussians of their own widths) is one part summed in full.
     """
+    widths = np.unique(sigma)
+    if centres.size <= _WINDOW_MIN or widths.size > _WINDOW_WIDTHS_MAX:
+        return [(centres, np.log(weights) - np.log(sigma), sigma)]
+    parts = []
+    for h in widths:
+        sel = sigma == h
+        parts.append((centres[sel], np.log(weights[sel]) - np.log(h), float(h)))
+    return parts
+
+
+def _log_density(x, parts):
+    """log p(x) of a mixture given by :func:`_density_parts`, for an array of x."""
     flat = np.ravel(np.asarray(x, dtype=np.float64))
-    out = np.empty(flat.shape)
-    sigma = np.asarray(sigma, dtype=np.float64)
-    uniform = sigma.ndim == 0 or (sigma.size > 0 and np.all(sigma == sigma.flat[0]))
-    if not uniform or centres.size <= _WINDOW_MIN:
-        _log_density_all(flat, out, centres, np.log(weights) - np.log(sigma), sigma)
-        return out.reshape(np.shape(x)) - _LOG_SQRT_2PI
-    h = float(sigma.flat[0])
-    log_w = np.log(weights) - np.log(h)
+    logs = []
+    for centres, log_w, sigma in parts:
+        out = np.empty(flat.shape)
+        if np.ndim(sigma) or centres.size <= _WINDOW_MIN:
+            _log_density_all(flat, out, centres, log_w, sigma)
+        else:
+            _log_density_windowed(flat, out, centres, log_w, sigma)
+        logs.append(out)
+    total = logs[0] if len(logs) == 1 else special.logsumexp(np.stack(logs), axis=0)
+    return total.reshape(np.shape(x)) - _LOG_SQRT_2PI
+
+
+def _log_density_windowed(flat, out, centres, log_w, h):
+    """:func:`_log_density_all` over the components near each chunk of x (sorted centres)."""
     order = np.argsort(flat, kind="stable")
     xs = flat[order]
     j = np.clip(np.searchsorted(centres, xs), 1, centres.size - 1)
@@ -101,7 +121,6 @@ def _log_density(x, centres, weights, sigma):
         hi = np.searchsorted(centres, xs[part][-1] + reach, side="right")
         _log_density_all(xs[part], values[part], centres[lo:hi], log_w[lo:hi], h)
     out[order] = values
-    return out.reshape(np.shape(x)) - _LOG_SQRT_2PI
 
 
 def _log_density_all(flat, out, centres, log_w, sigma):
@@ -172,11 +191,12 @@ def mixture_error(centres1, weights1, sigma1, centres2, weights2, sigma2) -> flo
     c1, w1, s1 = _sorted(c1[~atom1], w1[~atom1], s1[~atom1])
     c2, w2, s2 = _sorted(c2[~atom2], w2[~atom2], s2[~atom2])
     if c1.size and c2.size:
-        crossings = _crossings(c1, w1, s1, c2, w2, s2)
+        p1, p2 = _density_parts(c1, w1, s1), _density_parts(c2, w2, s2)
+        crossings = _crossings(p1, p2, c1, s1, c2, s2)
         edges = np.concatenate([[-np.inf], crossings, [np.inf]])
         for a, b in itertools.pairwise(edges):
             probe = _probe(a, b, c1, c2, s1.max(), s2.max())
-            lower_is_1 = _log_density(probe, c1, w1, s1) <= _log_density(probe, c2, w2, s2)
+            lower_is_1 = _log_density(probe, p1) <= _log_density(probe, p2)
             total += _mass(a, b, c1, w1, s1) if lower_is_1 else _mass(a, b, c2, w2, s2)
     return 0.5 * total
 
@@ -205,7 +225,7 @@ def _probe(a, b, c1, c2, h1, h2):
     return np.array([0.5 * (np.median(c1) + np.median(c2))])
 
 
-def _crossings(c1, w1, s1, c2, w2, s2) -> np.ndarray:
+def _crossings(p1, p2, c1, s1, c2, s2) -> np.ndarray:
     step = _GRID_STEP * min(s1.min(), s2.min())
     hmax = max(s1.max(), s2.max())
     lo = min(c1.min(), c2.min()) - _TAIL_REACH * hmax
@@ -214,7 +234,7 @@ def _crossings(c1, w1, s1, c2, w2, s2) -> np.ndarray:
     grid = np.linspace(lo, hi, count)
 
     def diff(x):
-        return _log_density(x, c1, w1, s1) - _log_density(x, c2, w2, s2)
+        return _log_density(x, p1) - _log_density(x, p2)
 
     d = diff(grid)
     sign = np.sign(d)
