@@ -115,26 +115,22 @@ def _generic_controller(station: Station, port: str | None):
 
 
 def _scene_renderer(station: Station, state_path: Path | None):
-    """The simulated camera of ``camera.scene``, lit by the simulated controller's state."""
+    """The simulated camera of the station's scene, lit by the simulated controller's state."""
     spec = station.camera
     if state_path is None:
         raise InputError(
-            f"a camera with a scene ({spec.backend}) needs the simulated controller (controller.backend: simulated)",
+            f"a camera that renders the scene ({spec.backend}) needs the simulated controller "
+            "(controller.backend: simulated)",
             source=str(station.path),
-        )
-    if not spec.scene:
-        raise InputError(
-            "camera.scene is required for the simulated camera", source=str(station.path)
         )
     from inspect_validate.camera.grabbers.simulated import SimulatedCamera
 
-    from inspect_validate.scene import read_scene
+    from inspect_validate.model.illumination import station_model
 
     return SimulatedCamera(
-        read_scene(station.resolve(spec.scene)),
-        spec.channels,
+        station_model(station),
         state_path,
-        irradiance=spec.channel_irradiance,
+        world=spec.world,
         width=spec.width,
         height=spec.height,
         latency=spec.latency,
@@ -155,7 +151,7 @@ def _open_camera(station: Station, state_path: Path | None, controller):
     if spec.backend == "pylon":
         from inspect_validate.camera.grabbers.pylon import PylonCamera
 
-        if spec.scene:  # the simulated station through pylon's camera emulator
+        if spec.simulate:  # the simulated station through pylon's camera emulator
             from inspect_validate.camera.grabbers.emulator_feed import EmulatorFeed
 
             renderer = _scene_renderer(station, state_path)

@@ -1,12 +1,18 @@
 """Station files: camera, light controller, illuminations and frame counts (YAML).
 
-Example (README, "Station files")::
+The one description of a station that ``capture``, ``verify`` and ``train``
+read: what is in front of the camera (``scene``, ``rois``), what each controller
+channel drives (``channels``), the camera settings the prediction uses, and
+what the station must achieve (``acceptance``). Example (README, "Station files")::
 
     name: paperboard station
+    scene: ../scenes/paperboard/scene.yaml
+    rois: rois.yaml
+    channels:                       # controller channel → scene light
+      1: {light: amber LED, irradiance: 5.0}    # W/m² at the object at 100 %
+      2: red LED
     camera:
       backend: simulated            # simulated | genicam | pylon | v4l2 | replay
-      scene: ../scenes/paperboard/scene.yaml
-      channels: {1: amber LED, 2: red LED}
       exposure_us: 20000
       gain_db: 0
     controller:
@@ -17,7 +23,6 @@ Example (README, "Station files")::
       - {name: red, channels: {2: 100}}
     frames: 4
     dark_frames: 4
-    rois: rois.yaml
 """
 
 from __future__ import annotations
@@ -26,11 +31,20 @@ import hashlib
 from pathlib import Path
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic import (
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    field_validator,
+    model_validator,
+)
 
+from inspect_validate.comparisons import ComparisonsSpec
 from inspect_validate.config import load_yaml, one_of
+from inspect_validate.verification.acceptance import Acceptance, Calibration
 
-__all__ = ["Station", "read_station", "station_hash"]
+__all__ = ["ChannelLight", "Station", "World", "read_station", "station_hash"]
 
 
 class _Strict(BaseModel):
@@ -42,6 +56,7 @@ Channel = Annotated[int, Field(ge=1, le=64)]
 
 
 class _CameraCommon(_Strict):
+    model: str | None = None  # which of the scene's cameras this is (default: its only one)
     exposure_us: Annotated[float, Field(gt=0, le=1e8, allow_inf_nan=False)] | None = None
     gain_db: Annotated[float, Field(ge=-60, le=100, allow_inf_nan=False)] | None = None
     pixel_format: str | None = None
@@ -59,20 +74,44 @@ class _CameraCommon(_Strict):
         return v
 
 
-class _SimulatedWorld(_Strict):
-    """A scene rendered as the camera's view (the simulated station)."""
+class World(_Strict):
+    """How the simulated world differs from the station's scene.
 
-    scene: str | None = None
-    channels: dict[Channel, str] = {}
-    channel_irradiance: dict[Channel, Annotated[float, Field(gt=0, allow_inf_nan=False)]] = {}
+    A simulator rendered from the very scene it is checked against can only
+    agree with it; these deviations make the simulated station a reality that
+    the verification has to notice or calibrate away. Per-channel entries are
+    keyed by controller channel.
+    """
+
+    irradiance: dict[Channel, Annotated[float, Field(gt=0, le=100, allow_inf_nan=False)]] = {}
+    """Factor on the channel's irradiance at the object (a dimmer or farther light)."""
+    peak_shift_nm: dict[Channel, Annotated[float, Field(ge=-200, le=200, allow_inf_nan=False)]] = {}
+    """The channel's spectrum shifted by this many nm (an LED drifted from its datasheet)."""
+    width_scale: dict[Channel, Annotated[float, Field(ge=0.2, le=5, allow_inf_nan=False)]] = {}
+    """The channel's spectrum stretched about its peak (FWHM × this factor)."""
+    reflectance_seed: Annotated[int, Field(ge=0)] | None = None
+    """The objects are another draw (bootstrap) from each class's reflectance samples."""
+    transmission: Annotated[float, Field(gt=0, le=2, allow_inf_nan=False)] = 1.0
+    """Factor on the lens transmission."""
+    vignetting: Annotated[float, Field(ge=0, lt=1, allow_inf_nan=False)] = 0.0
+    """Relative irradiance lost at the frame's corners (quadratic in the radius)."""
+    ambient: Annotated[float, Field(ge=0, le=1000, allow_inf_nan=False)] = 0.0
+    """W/m² of equal-energy light over 380–780 nm at the object, always on (also in darks)."""
+    gain_error: Annotated[float, Field(gt=-0.9, lt=10, allow_inf_nan=False)] = 0.0
+    """Relative error of the system gain K against the camera's declared one."""
+
+
+class _Rendered(_Strict):
+    """A camera that renders the station's scene (simulated, or fed into pylon's emulator)."""
+
     width: Annotated[int, Field(ge=16, le=20000)] = 320
     height: Annotated[int, Field(ge=16, le=20000)] = 240
     latency: Annotated[int, Field(ge=0, le=100)] = 2
+    world: World = World()
 
 
-class SimulatedCameraSpec(_CameraCommon, _SimulatedWorld):
+class SimulatedCameraSpec(_CameraCommon, _Rendered):
     backend: Literal["simulated"]
-    scene: str
 
 
 class GenicamCameraSpec(_CameraCommon):
@@ -83,10 +122,12 @@ class GenicamCameraSpec(_CameraCommon):
     num_buffers: Annotated[int, Field(ge=1, le=1000)] | None = None  # harvesters' default else
 
 
-class PylonCameraSpec(_CameraCommon, _SimulatedWorld):
+class PylonCameraSpec(_CameraCommon, _Rendered):
     backend: Literal["pylon"]
     serial: str | None = None
     index: Annotated[int, Field(ge=0)] = 0
+    # render the station's scene into pylon's camera emulator (PYLON_CAMEMU=1)
+    simulate: bool = False
 
 
 class V4l2CameraSpec(_CameraCommon):
@@ -207,6 +248,18 @@ ControllerSpec = one_of(
 )
 
 
+class ChannelLight(_Strict):
+    """What a controller channel drives: a light of the station's scene."""
+
+    light: Annotated[str, Field(min_length=1)]
+    irradiance: Annotated[float, Field(gt=0, le=1e6, allow_inf_nan=False)] | None = None
+    """W/m² at the object at 100 % (default: the scene light's own ``irradiance``)."""
+
+
+def _channel_shorthand(v):
+    return {"light": v} if isinstance(v, str) else v
+
+
 class Illumination(_Strict):
     name: str = Field(pattern=r"^[A-Za-z0-9_.-]+$", max_length=100)
     channels: dict[Channel, Annotated[float, Field(ge=0, le=100, allow_inf_nan=False)]]
@@ -221,8 +274,13 @@ class Station(_Strict):
     dark_frames: int = Field(default=4, ge=0, le=100_000)
     discard_max: int = Field(default=20, ge=0, le=100_000)
     brightness_tolerance: float = Field(default=0.02, gt=0, le=1)
-    rois: str | None = None
     scene: str | None = None
+    rois: str | None = None
+    channels: dict[Channel, Annotated[ChannelLight, BeforeValidator(_channel_shorthand)]] = {}
+    optics: str | None = None  # which of the scene's optics (default: its only one)
+    comparisons: ComparisonsSpec = ComparisonsSpec()
+    calibration: Calibration = Calibration()
+    acceptance: Acceptance = Acceptance()
     path: Path | None = None
 
     @model_validator(mode="after")
@@ -236,13 +294,22 @@ class Station(_Strict):
                     f"illuminations[{i}] ({ill.name}): channel {missing[0]} is not on the "
                     f"controller (controller.channels: {n})"
                 )
-        mapped = sorted(c for c in getattr(self.camera, "channels", {}) if c > n)
+        mapped = sorted(c for c in self.channels if c > n)
         if mapped:
             raise ValueError(
-                f"camera.channels: channel {mapped[0]} is not on the controller "
-                f"(controller.channels: {n})"
+                f"channels: channel {mapped[0]} is not on the controller (controller.channels: {n})"
+            )
+        if self.renders and not (self.scene and self.channels):
+            raise ValueError(
+                "a simulated camera renders the station's scene: give 'scene' and 'channels' "
+                "(controller channel → scene light)"
             )
         return self
+
+    @property
+    def renders(self) -> bool:
+        """The camera renders the scene (simulated, or pylon's emulator fed with renderings)."""
+        return self.camera.backend == "simulated" or getattr(self.camera, "simulate", False)
 
     def resolve(self, relative: str | None) -> Path | None:
         """A path given in the station file, relative to the file."""

@@ -17,10 +17,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from conftest import ROOT
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from inspect_validate.cli import main
+
+SCENE = ROOT / "sample_images" / "scenes" / "paperboard" / "scene.yaml"
 
 SETTINGS = settings(
     max_examples=60,
@@ -293,7 +296,8 @@ def test_analyze_spectra_with_hostile_csv(capsys, rows):
                 "pixel_format",
                 "cti",
                 "latency",
-                "scene",
+                "world",
+                "model",
                 "timeout_s",
             ]
         ),
@@ -316,15 +320,22 @@ def test_analyze_spectra_with_hostile_csv(capsys, rows):
         ),
         max_size=3,
     ),
+    channels=st.dictionaries(
+        st.one_of(st.integers(-2, 70), st.text(max_size=3)),
+        st.one_of(junk, st.fixed_dictionaries({"light": junk}, optional={"irradiance": junk})),
+        max_size=3,
+    ),
+    scene=maybe(st.sampled_from(["missing.yaml", "", str(SCENE)])),
 )
-def test_station_files_are_validated_not_crashed_on(capsys, camera, controller, illuminations):
+def test_station_files_are_validated_not_crashed_on(
+    capsys, camera, controller, illuminations, channels, scene
+):
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        (tmp / "st.yaml").write_text(
-            yaml.safe_dump(
-                {"camera": camera, "controller": controller, "illuminations": illuminations}
-            )
-        )
+        doc = {"camera": camera, "controller": controller, "illuminations": illuminations}
+        doc.update({"channels": channels} if channels else {})
+        doc.update({"scene": scene} if scene is not None else {})
+        (tmp / "st.yaml").write_text(yaml.safe_dump(doc))
         code, out, err = run(["capture", tmp / "st.yaml", "--out", tmp / "o"], capsys)
         # A generated station that validates may still fail to open its devices (exit 3).
         assert_clean(code, out, err, allowed=(0, 2, 3))

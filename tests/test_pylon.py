@@ -85,7 +85,7 @@ def test_full_capture_through_the_emulator_matches_the_simulated_station(tmp_pat
     station = ROOT / "sample_images" / "station"
     text = (station / "station.yaml").read_text()
     text = text.replace(
-        "backend: simulated\n  scene:", "backend: pylon\n  pixel_format: Mono16\n  scene:"
+        "backend: simulated\n", "backend: pylon\n  simulate: true\n  pixel_format: Mono16\n", 1
     )
     text = text.replace("../scenes/", f"{ROOT / 'sample_images' / 'scenes'}/")
     pylon_station = tmp_path / "pylon.yaml"

@@ -1,6 +1,6 @@
 """A simulated camera: frames of a scene under whichever LED channels are on right now.
 
-The station maps controller channels to lights of a scene file. On every frame
+The station maps controller channels to lights of its scene. On every frame
 the camera reads the (simulated) controller's state file, computes each class's
 photo-electrons with the acquisition model for the lights that are on, at their
 intensities, and renders the frame with the EMVA 1288 noise model
@@ -8,6 +8,12 @@ intensities, and renders the frame with the EMVA 1288 noise model
 frame delivered now was exposed ``latency`` frames ago, under the light of that
 moment, and carries that moment's timestamp — so a capture that does not
 discard and verify records stale frames.
+
+The world it renders need not be the scene: the station's ``camera.world``
+gives irradiance factors, drifted or widened LED spectra, another draw of the
+reflectance samples, a lens transmission factor, vignetting, ambient light and
+a gain error (:func:`world_components`), so that verification has a reality
+to notice.
 """
 
 from __future__ import annotations
@@ -21,47 +27,113 @@ import numpy as np
 from inspect_validate.camera.frame import Frame
 from inspect_validate.camera.grabbers.base import Grabber
 
-from inspect_validate.errors import DeviceError, InputError
+from inspect_validate.errors import DeviceError
 from inspect_validate.model.render import class_bands, expose
 
 __all__ = ["SimulatedCamera"]
 
 
+def world_components(model, world) -> tuple[dict, object, object, list]:
+    """The simulated world: the station's components with ``world``'s deviations.
+
+    Returns the channel lights (with an always-on ambient light as channel 0
+    when ``world.ambient`` > 0), the optics, the camera (gain error applied)
+    and the object classes (another draw of the reflectance samples when
+    ``world.reflectance_seed`` is set).
+    """
+    from dataclasses import replace
+
+    from inspect_validate.components.lights import Light
+    from inspect_validate.model import ObjectClass
+    from inspect_validate.spectra import Spectrum, SpectrumKind
+
+    lights = {}
+    for ch, light in model.channels.items():
+        spd = light.spd
+        shift, stretch = world.peak_shift_nm.get(ch, 0.0), world.width_scale.get(ch, 1.0)
+        if shift or stretch != 1.0:
+            peak = spd.wavelengths[int(np.nanargmax(spd.values[0]))]
+            spd = replace(spd, wavelengths=peak + (spd.wavelengths - peak) * stretch + shift)
+        lights[ch] = replace(
+            light,
+            spd=spd,
+            irradiance=light.irradiance * world.irradiance.get(ch, 1.0),
+            band=(float(spd.wavelengths[0]), float(spd.wavelengths[-1]))
+            if (shift or stretch != 1.0)
+            else light.band,
+        )
+        if shift or stretch != 1.0:
+            # The same power as before, now emitted at the shifted/stretched wavelengths.
+            lights[ch] = replace(
+                lights[ch], irradiance=lights[ch].irradiance * _power(light) / light.band_power()
+            )
+    if world.ambient > 0:
+        grid = np.arange(380.0, 781.0)
+        flat = Spectrum(grid, np.ones((1, grid.size)), SpectrumKind.SPD, "ambient", "world.ambient")
+        lights[0] = Light("ambient", flat, irradiance=world.ambient)
+    t = model.optics.transmission
+    optics = replace(
+        model.optics,
+        transmission=replace(t, values=np.minimum(t.values * world.transmission, 1.0)),
+    )
+    camera = replace(model.scene_camera, gain=model.scene_camera.gain * (1.0 + world.gain_error))
+    classes = list(model.scene.classes)
+    if world.reflectance_seed is not None:
+        rng = np.random.default_rng(world.reflectance_seed)
+        classes = [
+            ObjectClass(
+                c.name,
+                replace(
+                    c.reflectance,
+                    values=c.reflectance.values[
+                        rng.integers(0, c.reflectance.n_samples, c.reflectance.n_samples)
+                    ],
+                ),
+            )
+            for c in classes
+        ]
+    return lights, optics, camera, classes
+
+
+def _power(light) -> float:
+    """∫ SPD over the light's whole range (what a shift or stretch must conserve)."""
+    return float(np.trapezoid(np.nan_to_num(light.spd.values[0]), light.spd.wavelengths))
+
+
 class SimulatedCamera(Grabber):
-    """Render frames of ``scene`` lit by the channels in ``state_path``.
+    """Render frames of a station's scene lit by the channels in ``state_path``.
 
     Parameters
     ----------
-    scene : Scene
-        Classes (reflectances), optics and camera (the first of each is used).
-    channel_lights : dict
-        Controller channel → name of a light in the scene.
-    irradiance : dict, optional
-        Channel → irradiance at the object at 100 %, W/m² (default: the scene
-        light's own ``irradiance``).
+    model : StationModel
+        The station's scene components (:func:`inspect_validate.model.illumination.station_model`).
     state_path : Path
         JSON written by the controller (``{"channels": {"1": percent, ...}}``).
+    world : World, optional
+        Deviations of the simulated world from the scene.
     """
 
     def __init__(
         self,
-        scene,
-        channel_lights: dict[int, str],
+        model,
         state_path: Path,
         *,
-        irradiance: dict[int, float] | None = None,
+        world=None,
         width: int = 320,
         height: int = 240,
         latency: int = 2,
         frame_interval_s: float = 0.01,
         seed: int = 0,
     ):
+        from inspect_validate.camera.station import World
+
         from inspect_validate.model import Exposure, predict
 
-        self.name = f"simulated camera ({scene.cameras[0].name})"
+        world = world or World()
+        self.name = f"simulated camera ({model.scene_camera.name})"
         self.missing = set()
         self.state_path = Path(state_path)
-        self.camera = scene.cameras[0]
+        lights, optics, self.camera, classes = world_components(model, world)
         self.width, self.height = width, height
         self.latency = latency
         self.interval = frame_interval_s
@@ -69,31 +141,15 @@ class SimulatedCamera(Grabber):
         self.exposure_us = 10_000.0
         self.gain_db = 0.0
         self.frame_id = 0
-        names = {light.name: light for light in scene.lights}
-        self.channels = {}
-        for ch, light_name in channel_lights.items():
-            if light_name not in names:
-                raise InputError(
-                    f"channel {ch}: the scene has no light {light_name!r} (it has {', '.join(names)})"
-                )
-            light = names[light_name]
-            if irradiance and int(ch) in irradiance:
-                from dataclasses import replace
-
-                light = replace(light, irradiance=float(irradiance[int(ch)]))
-            if light.irradiance is None:
-                raise InputError(
-                    f"light {light_name!r} needs 'irradiance' (W/m² at 100 %) for the simulated station"
-                )
-            self.channels[int(ch)] = light
+        self.channels = lights
         # Electrons per second per reflectance sample for each light alone at 100 %.
         p = predict(
-            list(self.channels.values()),
-            [scene.optics[0]],
+            list(lights.values()),
+            [optics],
             [self.camera],
-            list(scene.classes),
+            classes,
             exposure=Exposure("fixed", time=1.0),
-            grid=scene.grid,
+            grid=model.scene.grid,
         )
         self.rates = p.sample_electrons[:, 0, 0]  # (channels, samples), e⁻/s at 100 %, unclipped
         self.sample_class = p.sample_class
@@ -108,6 +164,11 @@ class SimulatedCamera(Grabber):
             self._objects.append(
                 ((slice(y, y + h), slice(x, x + w)), self.rng.choice(samples, size=(h, w)))
             )
+        yy, xx = np.mgrid[0:height, 0:width]
+        r2 = ((yy - (height - 1) / 2) ** 2 + (xx - (width - 1) / 2) ** 2) / (
+            ((height - 1) / 2) ** 2 + ((width - 1) / 2) ** 2
+        )
+        self._falloff = 1.0 - world.vignetting * r2
         self.pipeline: deque = deque()
 
     def configure(self, *, exposure_us=None, gain_db=None, pixel_format=None, region=None) -> None:
@@ -151,11 +212,12 @@ class SimulatedCamera(Grabber):
 
     def render(self, state: dict[int, float]) -> np.ndarray:
         """One noisy frame (uint16 DN) under ``state`` (channel → %), EMVA 1288 model."""
-        percent = np.array([state.get(ch, 0.0) for ch in self.channels])
+        percent = np.array([100.0 if ch == 0 else state.get(ch, 0.0) for ch in self.channels])
         rate = percent / 100.0 @ self.rates  # e⁻/s per reflectance sample
         electrons = np.zeros((self.height, self.width))
         for where, pick in self._objects:
             electrons[where] = rate[pick] * (self.exposure_us * 1e-6)
+        electrons *= self._falloff
         return expose(
             electrons, self.camera, rng=self.rng, gain=self.camera.gain * 10 ** (self.gain_db / 20)
         )

@@ -1,0 +1,102 @@
+"""The ``calibration:`` and ``acceptance:`` sections of a station file.
+
+Example::
+
+    calibration:
+      method: fit                  # fit | reference | absolute
+      reference: white             # the class of known reflectance (method: reference)
+    acceptance:
+      illumination: amber          # separation checks apply to this one (default: every one)
+      separation:
+        - {comparison: "A vs B,C", min_snr_db: -10, max_error: 0.1}
+      max_saturated: 0.001         # fraction of a class's pixels, per illumination
+      max_zero: 0.001
+      agreement:                   # measured against predicted, after calibration
+        mean_relative: 0.05
+        snr_db: 1.5
+      ranking: true                # the measured best illumination is the predicted best
+      gain_relative: 0.1           # photon-transfer K against the camera's declared gain
+      drift: {golden: golden.json, k: 3}
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+__all__ = ["Acceptance", "Agreement", "Calibration", "Drift", "Separation"]
+
+Fraction = Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)]
+Decibel = Annotated[float, Field(ge=-200, le=200, allow_inf_nan=False)]
+Relative = Annotated[float, Field(gt=0, le=100, allow_inf_nan=False)]
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class Calibration(_Strict):
+    """How the prediction's absolute scale is tied to the measurement.
+
+    ``fit``: one irradiance scale per illumination, least squares over the
+    classes' mean signals; ``reference``: the scale that makes the class named
+    by ``reference`` (known reflectance, e.g. a white tile) match; ``absolute``:
+    the irradiances as the station gives them (radiometrically calibrated lights).
+    """
+
+    method: Literal["fit", "reference", "absolute"] = "fit"
+    reference: str | None = None
+
+    @model_validator(mode="after")
+    def _reference_class(self):
+        if self.method == "reference" and not self.reference:
+            raise ValueError(
+                "method 'reference' needs 'reference: <class name>' (e.g. a white tile)"
+            )
+        return self
+
+
+class Separation(_Strict):
+    """Limits on one comparison's measured separation."""
+
+    comparison: Annotated[str, Field(min_length=1)]
+    min_snr_db: Decibel | None = None
+    min_cnr_db: Decibel | None = None
+    max_error: Fraction | None = None
+    """ε Gauss (37), a fraction."""
+    max_error_kde: Fraction | None = None
+    """ε KDE (37); asking for it is what makes ``verify`` compute the kernel densities."""
+
+
+class Agreement(_Strict):
+    """Largest deviations of the measurement from the calibrated prediction."""
+
+    mean_relative: Relative | None = 0.1
+    """|μ_meas − μ_pred| / (μ_pred − dark level), per class and illumination."""
+    variance_relative: Relative | None = None
+    """|σ²_meas − σ²_pred| / σ²_pred."""
+    snr_db: Annotated[float, Field(gt=0, le=200)] | None = 3.0
+    """|SNR_meas − SNR_pred| in dB, per comparison and illumination."""
+
+
+class Drift(_Strict):
+    """Drift from a golden file written by ``train``."""
+
+    golden: Annotated[str, Field(min_length=1)]
+    k: Annotated[float, Field(gt=0, le=100)] | None = 3.0
+    """Tolerance as k × the spread across the training repeats ..."""
+    mean_dn: Annotated[float, Field(gt=0)] | None = None
+    """... or explicit tolerances (DN for μ, dB for SNR), which take precedence."""
+    snr_db: Annotated[float, Field(gt=0)] | None = None
+
+
+class Acceptance(_Strict):
+    illumination: str | None = None
+    separation: list[Separation] = []
+    max_saturated: Fraction | None = 0.001
+    max_zero: Fraction | None = 0.001
+    agreement: Agreement | None = Agreement()
+    ranking: bool = False
+    gain_relative: Relative | None = None
+    drift: Drift | None = None
