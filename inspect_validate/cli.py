@@ -340,20 +340,10 @@ def capture(station, out, resume):
     TIFFs with JSON sidecars atomically. Exits 3 on a camera or controller
     failure, keeping every frame saved; rerun with --resume to continue.
     """
-    from inspect_validate.camera.capture import capture as run_capture
     from inspect_validate.camera.station import read_station
 
     st = read_station(station)
-    total = sum(st.frames for _ in st.illuminations) + st.dark_frames
-    with click.progressbar(length=total, label="capturing", file=sys.stderr) as bar:
-        last = [0]
-
-        def progress(step, done, _total):
-            bar.label = f"capturing {step}"
-            bar.update(done - last[0])
-            last[0] = done
-
-        result = run_capture(st, out, resume=resume, progress=progress)
+    result = _capture(st, out, resume=resume)
     if result.not_applied:
         click.echo(
             f"warning: the camera has no {', '.join(result.not_applied)} setting; the station's value "
@@ -367,6 +357,90 @@ def capture(station, out, resume):
     for step in result.skipped:
         click.echo(f"{step}: already complete, skipped")
     click.echo(f"manifest: {out / 'manifest.json'}")
+
+
+@cli.command()
+@click.argument("station", type=_PATH)
+@click.option(
+    "--frames",
+    "frames_dir",
+    type=_PATH,
+    help="A capture folder made by 'capture' (default: capture now through the station's devices).",
+)
+@click.option(
+    "--out",
+    type=_PATH,
+    help="Where to save the frames captured now (default: REPORT/frames, else a new "
+    "folder verify-<station>-<time>).",
+)
+@click.option(
+    "--report",
+    "report_dir",
+    type=_PATH,
+    help="Write verification.json and junit.xml to this folder.",
+)
+def verify(station, frames_dir, out, report_dir):
+    """Verify STATION: measure its frames, predict it as built, calibrate, compare and check.
+
+    Captures every illumination and the darks through the station's camera and
+    controller (or reads --frames), measures the classes in the station's ROIs,
+    predicts the same quantities from the spectra at the station's exposure and
+    gain, estimates the system gain K by photon transfer, ties each
+    illumination's irradiance to the measurement (calibration: fit, reference
+    or absolute) and runs the checks of the station's acceptance section.
+    Exits 0 when every check passes, 1 when one fails (reports still written),
+    2 on bad input, 3 on a camera or controller failure (frames kept).
+    """
+    import time
+
+    from inspect_validate.camera.station import read_station
+    from inspect_validate.report import write_json
+    from inspect_validate.report.verification import (
+        format_verdict,
+        verification_document,
+        write_junit,
+    )
+    from inspect_validate.verification.verify import verify as run_verify
+
+    st = read_station(station)
+    _outputs(folders=[report_dir])
+    if frames_dir is None:
+        if out is None:
+            out = (
+                report_dir / "frames"
+                if report_dir
+                else Path(f"verify-{Path(station).stem}-{time.strftime('%Y%m%dT%H%M%S')}")
+            )
+        _capture(st, out)
+        click.echo(f"frames: {out}")
+        frames_dir = out
+    result = run_verify(st, frames_dir)
+    click.echo(
+        f"{st.name}: {len(st.illuminations)} illumination(s), calibration {st.calibration.method}"
+    )
+    click.echo(format_verdict(result))
+    if report_dir:
+        write_json(verification_document(result), report_dir / "verification.json")
+        write_junit(result, report_dir / "junit.xml")
+        click.echo(f"report: {report_dir / 'verification.json'}, {report_dir / 'junit.xml'}")
+    if not result.passed:
+        sys.exit(EXIT_CHECK_FAILED)
+
+
+def _capture(station, out, *, resume=False):
+    """Capture ``station`` into ``out`` with a progress bar on stderr."""
+    from inspect_validate.camera.capture import capture
+
+    total = sum(station.frames for _ in station.illuminations) + station.dark_frames
+    with click.progressbar(length=total, label="capturing", file=sys.stderr) as bar:
+        last = [0]
+
+        def progress(step, done, _total):
+            bar.label = f"capturing {step}"
+            bar.update(done - last[0])
+            last[0] = done
+
+        return capture(station, out, resume=resume, progress=progress)
 
 
 def _outputs(*, files=(), folders=()):

@@ -1,0 +1,190 @@
+"""Reports of a verification: the verdict table, ``verification.json`` and ``junit.xml``.
+
+``verification.json`` (schema ``inspect-validate/verification``, version 1)
+holds every input (station file and its SHA-256, tool version, the frame
+files), the calibration (system gain K, one irradiance scale per illumination
+with its method and uncertainty), predicted against measured per class and
+comparison, the ranking, and every check with value, limit, unit and verdict.
+``junit.xml`` has one test case per check, as CI systems read it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict
+from pathlib import Path
+
+from inspect_validate import __version__
+from inspect_validate.report.tables import render_table
+
+__all__ = [
+    "VERIFICATION_SCHEMA_VERSION",
+    "format_verdict",
+    "verification_document",
+    "write_junit",
+]
+
+VERIFICATION_SCHEMA_VERSION = 1
+
+
+def _ordered(checks):
+    """Failures first, then in the order the checks were made."""
+    return sorted(checks, key=lambda c: c.passed)
+
+
+def format_verdict(v) -> str:
+    """The calibration lines, the checks table (failures first) and the verdict line."""
+    out = []
+    if v.gain is not None:
+        g = v.gain
+        out.append(
+            f"system gain K (photon transfer, {len(g.points)} points): {g.value:.4g} ± "
+            f"{g.standard_error:.2g} DN/e⁻, declared {g.declared:.4g} "
+            f"({100 * g.relative_deviation:+.1f} %)"
+        )
+    for s in v.scales.values():
+        extra = ""
+        if s.residuals:
+            extra = f", residuals up to {100 * max(map(abs, s.residuals)):.2g} %"
+        out.append(
+            f"{s.illumination}: irradiance scale {s.scale:.4g} ± {s.standard_error:.2g} "
+            f"({s.method}{extra}) → {s.irradiance:.4g} W/m² at the object"
+        )
+    if v.ranking:
+        r = v.ranking
+        out.append(
+            f"ranking by {r['comparison']}: predicted best {r['predicted_best']}, measured best "
+            f"{r['measured_best']} (Kendall τ {r['kendall_tau']:.2f})"
+        )
+    rows = [
+        [
+            c.verdict,
+            c.name,
+            _number(c),
+            f"{c.relation} {c.limit:.4g}",
+            c.unit,
+            c.detail,
+        ]
+        for c in _ordered(v.checks)
+    ]
+    if rows:
+        out += ["", render_table(["verdict", "check", "value", "limit", "unit", "detail"], rows)]
+    for s in v.skipped:
+        out.append(f"skipped: {s}")
+    for n in v.notes:
+        out.append(f"note: {n}")
+    failed = sum(not c.passed for c in v.checks)
+    out.append("")
+    out.append(
+        f"PASS: all {len(v.checks)} checks passed"
+        if not failed
+        else f"FAIL: {failed} of {len(v.checks)} checks failed"
+    )
+    return "\n".join(out)
+
+
+def _number(c) -> str:
+    if c.kind == "ranking":
+        return "yes" if c.value >= 1 else "no"
+    if c.unit == "" and c.kind == "separation":  # ε, a fraction
+        return f"{c.value:.3g}"
+    return f"{c.value:.4g}"
+
+
+def verification_document(v) -> dict:
+    """The ``verification.json`` document (:func:`~inspect_validate.report.write_json` makes it JSON-safe)."""
+    from inspect_validate.report.jsonfile import measurement_document
+
+    limits = v.station.acceptance
+    return {
+        "schema": "inspect-validate/verification",
+        "schema_version": VERIFICATION_SCHEMA_VERSION,
+        "tool_version": __version__,
+        "verdict": "pass" if v.passed else "fail",
+        "inputs": v.inputs,
+        "acceptance": limits.model_dump(),
+        "calibration": {
+            "method": v.station.calibration.method,
+            "reference": v.station.calibration.reference,
+            "gain": None
+            if v.gain is None
+            else {
+                "value": v.gain.value,
+                "standard_error": v.gain.standard_error,
+                "declared": v.gain.declared,
+                "relative_deviation": v.gain.relative_deviation,
+                "unit": "DN/e-",
+                "points": [list(p) for p in v.gain.points],
+            },
+            "illuminations": {k: asdict(s) for k, s in v.scales.items()},
+        },
+        "exposure_time_s": float(v.prediction.exposure_time[0, 0, 0]),
+        "classes": v.classes,
+        "comparisons": v.comparisons,
+        "ranking": v.ranking,
+        "checks": [
+            {
+                "name": c.name,
+                "kind": c.kind,
+                "value": c.value,
+                "limit": c.limit,
+                "relation": c.relation,
+                "unit": c.unit,
+                "verdict": c.verdict.lower(),
+                "detail": c.detail,
+            }
+            for c in _ordered(v.checks)
+        ],
+        "skipped": list(v.skipped),
+        "notes": list(v.notes),
+        "measurements": {
+            ill: measurement_document(m, limits=_limits(limits))
+            for ill, m in v.measurements.items()
+        },
+    }
+
+
+def _limits(acceptance):
+    from inspect_validate.measure import Limits
+
+    return Limits(
+        max_saturated=1.0 if acceptance.max_saturated is None else acceptance.max_saturated,
+        max_zero=1.0 if acceptance.max_zero is None else acceptance.max_zero,
+    )
+
+
+def write_junit(v, path: str | Path) -> Path:
+    """One ``<testcase>`` per check in one ``<testsuite>``; failures carry value and limit."""
+    import xml.etree.ElementTree as ET
+
+    from inspect_validate.files import atomic_write
+
+    suite = ET.Element(
+        "testsuite",
+        name=f"inspect-validate verify {v.station.name}",
+        tests=str(len(v.checks)),
+        failures=str(sum(not c.passed for c in v.checks)),
+        errors="0",
+        skipped=str(len(v.skipped)),
+    )
+    for c in v.checks:
+        case = ET.SubElement(suite, "testcase", classname=f"{v.station.name}.{c.kind}", name=c.name)
+        if not c.passed:
+            fail = ET.SubElement(
+                case,
+                "failure",
+                message=f"{c.value:.6g} {c.unit} is not {c.relation} {c.limit:.6g} {c.unit}".replace(
+                    "  ", " "
+                ),
+                type=c.kind,
+            )
+            fail.text = c.detail
+        elif c.detail:
+            ET.SubElement(case, "system-out").text = c.detail
+    for s in v.skipped:
+        case = ET.SubElement(suite, "testcase", classname=f"{v.station.name}.skipped", name=s)
+        ET.SubElement(case, "skipped", message=s)
+    root = ET.Element("testsuites")
+    root.append(suite)
+    ET.indent(root)
+    text = ET.tostring(root, encoding="unicode", xml_declaration=True)
+    return atomic_write(path, (text + "\n").encode())

@@ -1,0 +1,200 @@
+"""Calibration of a station: its system gain K and the absolute scale of each illumination.
+
+Photon transfer (EMVA 1288, §6.3): for every region and illumination, the
+temporal variance of the grey value above the dark one grows with the mean
+signal above dark as
+
+    σ²_y − σ²_y.dark = K (μ_y − μ_y.dark),
+
+K the system gain in DN/e⁻. The slope is fitted through the origin over every
+class and illumination with a stack of at least two frames and no clipping.
+
+Irradiance scale: a station's lights are rarely radiometrically calibrated, so
+the prediction's signal μ − offset is tied to the measured μ − μ_dark by one
+factor per illumination — fitted by least squares over all its classes
+(``fit``), taken from one class of known reflectance (``reference``), or 1
+(``absolute``). The factor times the illumination's stated irradiance is the
+irradiance at the object the measurement implies.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from inspect_validate.errors import InputError
+
+__all__ = ["Gain", "IrradianceScale", "fit_scales", "photon_transfer_gain"]
+
+MIN_SIGNAL_DN = 1.0  # a point needs at least this much signal above dark to count
+
+
+@dataclass(frozen=True)
+class Gain:
+    """System gain K from photon transfer, DN/e⁻, with its standard error and the points used."""
+
+    value: float
+    standard_error: float
+    declared: float
+    points: tuple[tuple[float, float], ...]  # (μ − μ_dark, σ²_temporal − σ²_dark), DN and DN²
+
+    @property
+    def relative_deviation(self) -> float:
+        """(K_measured − K_declared) / K_declared."""
+        return (self.value - self.declared) / self.declared
+
+
+def photon_transfer_gain(measurements, dark, *, declared: float, max_saturated: float = 1e-3):
+    """K from the temporal variance against the mean over classes and illuminations.
+
+    Parameters
+    ----------
+    measurements : sequence of Measurement
+        One per illumination, stacks of ≥ 2 frames, raw grey values (no dark subtracted).
+    dark : Measurement
+        The dark stack measured in the same regions.
+    declared : float
+        The camera's K (DN/e⁻), for comparison.
+    max_saturated : float, keyword-only
+        Classes with more clipped pixels than this fraction are left out.
+
+    Returns
+    -------
+    Gain or None
+        None when fewer than one usable point exists (single frames, no signal).
+    """
+    dark_by = {c.name: c for c in dark.classes}
+    points = []
+    for m in measurements:
+        for c in m.classes:
+            d = dark_by.get(c.name)
+            if d is None or c.temporal_variance is None or d.temporal_variance is None:
+                continue
+            if c.saturated_fraction > max_saturated or c.zero_fraction > max_saturated:
+                continue
+            x = c.mean - d.mean
+            if x < MIN_SIGNAL_DN:
+                continue
+            points.append((x, c.temporal_variance - d.temporal_variance, c, d))
+    if not points:
+        return None
+    x = np.array([p[0] for p in points])
+    y = np.array([p[1] for p in points])
+    k = float(x @ y / (x @ x))
+    if len(points) >= 3:
+        resid = y - k * x
+        se = float(np.sqrt(resid @ resid / (len(points) - 1) / (x @ x)))
+    else:
+        # The sampling error of a temporal variance averaged over P pixels of
+        # N frames: var ≈ 2σ⁴ / (P (N − 1)), propagated to the slope.
+        var_y = np.array(
+            [
+                2 * c.temporal_variance**2 / (c.n_pixels * (c.n_frames - 1))
+                + 2 * d.temporal_variance**2 / (d.n_pixels * (d.n_frames - 1))
+                for _, _, c, d in points
+            ]
+        )
+        se = float(np.sqrt((x**2) @ var_y) / (x @ x))
+    return Gain(
+        k, se, float(declared), tuple((float(a), float(b)) for a, b in zip(x, y, strict=True))
+    )
+
+
+@dataclass(frozen=True)
+class IrradianceScale:
+    """The factor tying one illumination's prediction to its measurement.
+
+    ``residuals`` are (measured − scaled predicted) / scaled predicted signal
+    per class used (``fit``), empty otherwise.
+    """
+
+    illumination: str
+    method: str
+    scale: float
+    standard_error: float
+    irradiance: float  # W/m² at the object implied by the measurement
+    classes: tuple[str, ...]
+    residuals: tuple[float, ...]
+
+
+def fit_scales(
+    prediction,
+    measurements: dict,
+    *,
+    method: str,
+    offset: float,
+    dark_means: dict | None,
+    irradiance: dict,
+    reference: str | None = None,
+    max_saturated: float = 1e-3,
+) -> dict[str, IrradianceScale]:
+    """One :class:`IrradianceScale` per illumination.
+
+    Parameters
+    ----------
+    prediction : Prediction
+        Of the station at its stated irradiances, lights in the order of ``measurements``.
+    measurements : dict of str to Measurement
+        Illumination name → its measurement (raw grey values).
+    method : {"fit", "reference", "absolute"}
+    offset : float
+        The camera model's dark offset, DN (the prediction's zero-signal level).
+    dark_means : dict of str to float, optional
+        Class → measured dark mean, DN (default: ``offset`` for every class).
+    irradiance : dict of str to float
+        Illumination → its stated irradiance, W/m².
+    reference : str, optional
+        The class of known reflectance (method ``reference``).
+    """
+    out = {}
+    classes = list(prediction.classes)
+    for li, (name, m) in enumerate(measurements.items()):
+        by = {c.name: c for c in m.classes}
+        predicted = prediction.mean[li, 0, 0] - offset
+        measured = np.array(
+            [by[c].mean - (dark_means or {}).get(c, offset) for c in classes], dtype=float
+        )
+        usable = np.array(
+            [
+                by[c].saturated_fraction <= max_saturated
+                and by[c].zero_fraction <= max_saturated
+                and prediction.saturated_fraction[li, 0, 0, k] <= max_saturated
+                and predicted[k] > 0
+                for k, c in enumerate(classes)
+            ]
+        )
+        if method == "absolute":
+            s, se, used, resid = 1.0, 0.0, (), ()
+        elif method == "reference":
+            if reference not in classes:
+                raise InputError(
+                    f"calibration.reference: no class {reference!r} in the ROIs and scene "
+                    f"(there are {', '.join(classes)})"
+                )
+            k = classes.index(reference)
+            if not usable[k]:
+                raise InputError(
+                    f"illumination {name!r}: the reference class {reference!r} is clipped or "
+                    "dark, so it cannot calibrate; lower the exposure or the light"
+                )
+            c = by[reference]
+            s = measured[k] / predicted[k]
+            se = abs(s) * np.sqrt(c.variance / (c.n_pixels * c.n_frames)) / abs(measured[k])
+            used, resid = (reference,), ()
+        else:
+            if not usable.any():
+                raise InputError(
+                    f"illumination {name!r}: every class is clipped or dark, so no scale can be "
+                    "fitted; lower the exposure or the light"
+                )
+            a, b = predicted[usable], measured[usable]
+            s = float(a @ b / (a @ a))
+            r = b - s * a
+            se = float(np.sqrt(r @ r / max(a.size - 1, 1) / (a @ a))) if a.size > 1 else 0.0
+            used = tuple(c for c, u in zip(classes, usable, strict=True) if u)
+            resid = tuple(float(x) for x in r / (s * a))
+        out[name] = IrradianceScale(
+            name, method, float(s), float(se), float(s * irradiance[name]), used, resid
+        )
+    return out

@@ -1,0 +1,481 @@
+"""Verify a station: measure its frames, predict the station as built, calibrate, compare, check.
+
+Steps (each reported): the frames of every illumination and the darks (a
+capture folder, or captured now); each measured in the station's ROIs with the
+station's comparisons (raw grey values: the prediction includes the dark
+level); the prediction of the station at its stated irradiances; the system
+gain K by photon transfer; one irradiance scale per illumination
+(:mod:`.calibration`); the calibrated prediction; per class and comparison,
+predicted against measured; the measured ranking of the illuminations against
+the predicted one; and the checks the ``acceptance:`` section asks for.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from inspect_validate.errors import InputError
+from inspect_validate.verification.checks import Check, at_least, at_most
+
+__all__ = ["Verification", "read_capture", "verify"]
+
+
+@dataclass(frozen=True)
+class Verification:
+    """Everything ``verify`` found; :attr:`passed` is the verdict."""
+
+    station: object
+    inputs: dict
+    measurements: dict  # illumination → Measurement
+    dark: object | None  # Measurement of the dark stack, or None
+    nominal: object  # Prediction at the stated irradiances
+    prediction: object  # Prediction after calibration
+    scales: dict  # illumination → IrradianceScale
+    gain: object | None  # Gain, or None
+    classes: list  # per illumination and class: predicted against measured
+    comparisons: list  # per illumination and comparison: predicted against measured
+    ranking: dict | None
+    checks: tuple[Check, ...]
+    skipped: tuple[str, ...] = ()
+    notes: tuple[str, ...] = field(default=())
+
+    @property
+    def passed(self) -> bool:
+        return all(c.passed for c in self.checks)
+
+
+def read_capture(folder: Path, station) -> tuple[dict[str, list[Path]], list[Path], dict]:
+    """Frame files of each illumination and of the darks in a capture folder, and its manifest.
+
+    Raises
+    ------
+    InputError
+        No manifest, or an illumination of the station missing or incomplete.
+    """
+    folder = Path(folder)
+    manifest_path = folder / "manifest.json"
+    if not manifest_path.is_file():
+        raise InputError(
+            "not a capture folder (no manifest.json); make one with 'inspect-validate capture' "
+            "or leave out --frames to capture now",
+            source=str(folder),
+        )
+    try:
+        manifest = json.loads(manifest_path.read_text())
+    except ValueError as exc:
+        raise InputError(f"manifest.json is not JSON ({exc})", source=str(folder)) from None
+    steps = manifest.get("steps", {}) if isinstance(manifest, dict) else {}
+    frames = {}
+    for ill in station.illuminations:
+        files = sorted((folder / ill.name).glob("frame_*.tif"))
+        if not steps.get(ill.name, {}).get("complete") or not files:
+            raise InputError(
+                f"illumination {ill.name!r} was not captured completely here; "
+                "rerun the capture with --resume",
+                source=str(folder),
+            )
+        frames[ill.name] = files
+    dark = (
+        sorted((folder / "dark").glob("frame_*.tif"))
+        if steps.get("dark", {}).get("complete")
+        else []
+    )
+    return frames, dark, manifest
+
+
+def verify(station, frames_dir: Path, *, manifest: dict | None = None) -> Verification:
+    """Verify ``station`` (a :class:`~inspect_validate.camera.station.Station`) on the capture
+    in ``frames_dir``.
+
+    Raises
+    ------
+    InputError
+        A station without scene, channels, ROIs or exposure; ROI classes the
+        scene does not have; an unreadable capture (exit code 2).
+    """
+    from inspect_validate.camera.station import station_hash
+    from inspect_validate.comparisons import Comparisons
+    from inspect_validate.measure import Limits, measure_files
+    from inspect_validate.model.illumination import station_model
+    from inspect_validate.roi import read_rois
+    from inspect_validate.verification.calibration import fit_scales, photon_transfer_gain
+
+    source = str(station.path)
+    acc = station.acceptance
+    files, dark_files, manifest = read_capture(frames_dir, station)
+    if station.rois is None:
+        raise InputError("the station has no 'rois:' (the regions of its classes)", source=source)
+    if station.camera.exposure_us is None:
+        raise InputError(
+            "camera.exposure_us is needed to predict the station's grey values", source=source
+        )
+    model = station_model(station)
+    rois = read_rois(station.resolve(station.rois))
+    scene_classes = {c.name: c for c in model.scene.classes}
+    names = [c.name for c in rois.classes]
+    unknown = [n for n in names if n not in scene_classes]
+    if unknown:
+        raise InputError(
+            f"ROI class {unknown[0]!r} is not a class of the scene "
+            f"({', '.join(scene_classes)}); name the regions as the scene's classes",
+            source=str(station.resolve(station.rois)),
+        )
+    comparisons = Comparisons.of(names, station.comparisons, source=f"{source}: comparisons")
+    skipped = []
+    asked = [s.comparison for s in acc.separation]
+    if asked:
+        for text in asked:
+            try:
+                comparisons.index(text)
+            except InputError as exc:
+                raise InputError(str(exc), source=f"{source}: acceptance.separation") from None
+    if acc.illumination is not None and acc.illumination not in files:
+        raise InputError(
+            f"acceptance.illumination: no illumination {acc.illumination!r} "
+            f"(there are {', '.join(files)})",
+            source=source,
+        )
+    need_kde = any(s.max_error_kde is not None for s in acc.separation)
+    if not need_kde:
+        skipped.append("ε KDE: no check asks for it (acceptance.separation[].max_error_kde)")
+
+    limits = Limits(
+        max_saturated=acc.max_saturated if acc.max_saturated is not None else 1.0,
+        max_zero=acc.max_zero if acc.max_zero is not None else 1.0,
+    )
+    measurements = {
+        name: measure_files(paths, rois, comparisons=comparisons, limits=limits, kde=need_kde)
+        for name, paths in files.items()
+    }
+    dark = (
+        measure_files(dark_files, rois, comparisons=comparisons, kde=False) if dark_files else None
+    )
+    pixels = [c.n_pixels for c in next(iter(measurements.values())).classes]
+    if comparisons.weighting == "pixels":  # the prediction weights groups as the regions do
+        from inspect_validate.comparisons import Comparisons as C
+
+        predicted_comparisons = C(
+            comparisons.classes, comparisons.groups, tuple(map(float, pixels))
+        )
+    else:
+        predicted_comparisons = comparisons
+
+    # The prediction of just these classes, at the stated irradiances.
+    from dataclasses import replace
+
+    scene = replace(model.scene, classes=tuple(scene_classes[n] for n in names))
+    model = replace(model, scene=scene)
+    nominal = model.predict(station, comparisons=predicted_comparisons)
+    method = station.calibration.method
+    used_channels = {c for i in station.illuminations for c, v in i.channels.items() if v > 0}
+    if method == "absolute" and used_channels & model.nominal:
+        ch = min(used_channels & model.nominal)
+        raise InputError(
+            f"calibration 'absolute' needs every light's irradiance, and channel {ch} "
+            f"({model.channels[ch].name}) has none; give channels.{ch}.irradiance or use "
+            "calibration 'fit' or 'reference'",
+            source=source,
+        )
+    offset = model.camera.dark_offset
+    dark_means = {c.name: c.mean for c in dark.classes} if dark else None
+    if dark is None:
+        skipped.append("dark level: no dark frames; the camera's dark offset is used")
+    stated = {
+        light: float(nominal_light.irradiance)
+        for light, nominal_light in zip(nominal.lights, model.lights(station), strict=True)
+    }
+    scales = fit_scales(
+        nominal,
+        measurements,
+        method=method,
+        offset=offset,
+        dark_means=dark_means,
+        irradiance=stated,
+        reference=station.calibration.reference,
+        max_saturated=limits.max_saturated,
+    )
+    prediction = model.predict(
+        station,
+        scale={k: v.scale for k, v in scales.items()},
+        comparisons=predicted_comparisons,
+    )
+
+    gain = None
+    if dark is None or station.frames < 2 or station.dark_frames < 2:
+        skipped.append("system gain K: needs stacks of ≥ 2 frames and dark frames")
+    else:
+        gain = photon_transfer_gain(list(measurements.values()), dark, declared=model.camera.gain)
+        if gain is None:
+            skipped.append("system gain K: no class has signal above dark without clipping")
+
+    class_rows, comparison_rows = _compare(
+        measurements, prediction, dark_means, offset, need_kde=need_kde
+    )
+    ranking = _ranking(measurements, prediction, model.scene, acc, comparisons, skipped)
+    checks = _checks(acc, measurements, class_rows, comparison_rows, ranking, gain, skipped)
+    inputs = {
+        "station": str(station.path),
+        "station_sha256": station_hash(station.path),
+        "capture": str(frames_dir),
+        "capture_station_sha256": manifest.get("station_sha256"),
+        "frames": {k: [str(p) for p in v] for k, v in files.items()},
+        "dark": [str(p) for p in dark_files],
+        "rois": str(station.resolve(station.rois)),
+        "scene": str(station.resolve(station.scene)),
+    }
+    notes = []
+    if manifest.get("station_sha256") not in (None, inputs["station_sha256"]):
+        notes.append(
+            "the capture was made with another version of the station file "
+            f"({manifest.get('station')}); its frames are used as they are"
+        )
+    return Verification(
+        station,
+        inputs,
+        measurements,
+        dark,
+        nominal,
+        prediction,
+        scales,
+        gain,
+        class_rows,
+        comparison_rows,
+        ranking,
+        tuple(checks),
+        tuple(skipped),
+        tuple(notes),
+    )
+
+
+def _compare(measurements, p, dark_means, offset, *, need_kde):
+    """Rows of predicted against measured, per illumination and class / comparison."""
+    from inspect_validate.model import predicted_kde_error
+
+    class_rows, comparison_rows = [], []
+    temporal = _per_class(p, p.sample_variance)
+    for li, (ill, m) in enumerate(measurements.items()):
+        for k, c in enumerate(m.classes):
+            pm, pv = float(p.mean[li, 0, 0, k]), float(p.variance[li, 0, 0, k])
+            level = (dark_means or {}).get(c.name, offset)
+            signal = pm - offset
+            class_rows.append(
+                {
+                    "illumination": ill,
+                    "class": c.name,
+                    "predicted": {
+                        "mean": pm,
+                        "variance": pv,
+                        "temporal_variance": float(temporal[li, k]),
+                        "spatial_variance": float(p.spectral_variance[li, 0, 0, k]),
+                        "saturated_fraction": float(p.saturated_fraction[li, 0, 0, k]),
+                    },
+                    "measured": {
+                        "mean": c.mean,
+                        "variance": c.variance,
+                        "temporal_variance": c.temporal_variance,
+                        "spatial_variance": c.spatial_variance,
+                        "saturated_fraction": c.saturated_fraction,
+                        "zero_fraction": c.zero_fraction,
+                        "dark_mean": level,
+                    },
+                    # Relative to the signal above the dark level, which is what the model predicts.
+                    "mean_relative": (c.mean - pm) / signal if signal > 0 else float("nan"),
+                    "variance_relative": (c.variance - pv) / pv if pv > 0 else float("nan"),
+                }
+            )
+        for j, comp in enumerate(m.comparisons):
+            predicted_kde = predicted_kde_error(p, (li, 0, 0), j) if need_kde else None
+            comparison_rows.append(
+                {
+                    "illumination": ill,
+                    "comparison": comp.label,
+                    "predicted": {
+                        "snr_db": float(p.snr_db[li, 0, 0, j]),
+                        "cnr_db": float(p.cnr_db[li, 0, 0, j]),
+                        "error_gaussian": float(p.error_gaussian[li, 0, 0, j]),
+                        "error_kde": predicted_kde,
+                    },
+                    "measured": {
+                        "snr_db": comp.snr_db,
+                        "cnr_db": comp.cnr_db,
+                        "error_gaussian": comp.error_gaussian,
+                        "error_kde": comp.error_kde,
+                    },
+                    "snr_db_difference": comp.snr_db - float(p.snr_db[li, 0, 0, j]),
+                }
+            )
+    return class_rows, comparison_rows
+
+
+def _per_class(p, per_sample):
+    """Mean over each class's reflectance samples of a per-sample array, (L, K)."""
+    out = np.empty((len(p.lights), len(p.classes)))
+    for k in range(len(p.classes)):
+        out[:, k] = per_sample[:, 0, 0, p.sample_class == k].mean(axis=-1)
+    return out
+
+
+def _ranking(measurements, p, scene, acc, comparisons, skipped):
+    """The illuminations ranked by the key comparison, measured against predicted."""
+    from scipy import stats
+
+    if len(measurements) < 2:
+        skipped.append("ranking: one illumination, nothing to rank")
+        return None
+    text = (
+        acc.separation[0].comparison
+        if acc.separation
+        else scene.rank_comparison
+        if scene.rank_comparison in comparisons.labels
+        else None
+    )
+    if text is None:  # the worst pair decides, as predict ranks by default
+        text = comparisons.labels[0]
+    j = comparisons.index(text)
+    by = scene.rank_by if scene.rank_by in ("snr_db", "cnr_db") else "error"
+    names = list(measurements)
+    if by == "error":
+        predicted = np.array([p.log_error_gaussian[i, 0, 0, j] for i in range(len(names))])
+        measured = np.array([measurements[n].comparisons[j].log_error_gaussian for n in names])
+        best_p, best_m = names[int(np.argmin(predicted))], names[int(np.argmin(measured))]
+    else:
+        attr = by
+        predicted = np.array([getattr(p, attr)[i, 0, 0, j] for i in range(len(names))])
+        measured = np.array([getattr(measurements[n].comparisons[j], attr) for n in names])
+        best_p, best_m = names[int(np.argmax(predicted))], names[int(np.argmax(measured))]
+    tau = float(stats.kendalltau(predicted, measured).statistic) if len(names) >= 2 else np.nan
+    return {
+        "comparison": comparisons.labels[j],
+        "by": "log_error_gaussian" if by == "error" else by,
+        "predicted": dict(zip(names, map(float, predicted), strict=True)),
+        "measured": dict(zip(names, map(float, measured), strict=True)),
+        "predicted_best": best_p,
+        "measured_best": best_m,
+        "agree": best_p == best_m,
+        "kendall_tau": tau,
+    }
+
+
+def _checks(acc, measurements, class_rows, comparison_rows, ranking, gain, skipped):
+    checks = []
+    targets = [acc.illumination] if acc.illumination else list(measurements)
+    for sep in acc.separation:
+        for ill in targets:
+            comp = measurements[ill].comparison(sep.comparison)
+            where = f"{ill}: {comp.label}"
+            if sep.min_snr_db is not None:
+                checks.append(
+                    at_least(f"{where} SNR_dB", "separation", comp.snr_db, sep.min_snr_db, "dB")
+                )
+            if sep.min_cnr_db is not None:
+                checks.append(
+                    at_least(f"{where} CNR_dB", "separation", comp.cnr_db, sep.min_cnr_db, "dB")
+                )
+            if sep.max_error is not None:
+                checks.append(
+                    at_most(f"{where} ε Gauss", "separation", comp.error_gaussian, sep.max_error)
+                )
+            if sep.max_error_kde is not None:
+                checks.append(
+                    at_most(f"{where} ε KDE", "separation", comp.error_kde, sep.max_error_kde)
+                )
+    for ill, m in measurements.items():
+        for c in m.classes:
+            if acc.max_saturated is not None:
+                checks.append(
+                    at_most(
+                        f"{ill}: {c.name} saturated",
+                        "saturation",
+                        100 * c.saturated_fraction,
+                        100 * acc.max_saturated,
+                        "%",
+                    )
+                )
+            if acc.max_zero is not None:
+                checks.append(
+                    at_most(
+                        f"{ill}: {c.name} zero",
+                        "saturation",
+                        100 * c.zero_fraction,
+                        100 * acc.max_zero,
+                        "%",
+                    )
+                )
+    agree = acc.agreement
+    if agree is not None:
+        for row in class_rows:
+            where = f"{row['illumination']}: {row['class']}"
+            pred = row["predicted"]
+            if agree.mean_relative is not None:
+                checks.append(
+                    at_most(
+                        f"{where} μ deviation",
+                        "agreement",
+                        100 * abs(row["mean_relative"]),
+                        100 * agree.mean_relative,
+                        "%",
+                        f"predicted {pred['mean']:.4g} DN, measured {row['measured']['mean']:.4g} DN",
+                    )
+                )
+            if agree.variance_relative is not None:
+                checks.append(
+                    at_most(
+                        f"{where} σ² deviation",
+                        "agreement",
+                        100 * abs(row["variance_relative"]),
+                        100 * agree.variance_relative,
+                        "%",
+                        f"predicted {pred['variance']:.4g} DN², "
+                        f"measured {row['measured']['variance']:.4g} DN²",
+                    )
+                )
+        if agree.snr_db is not None:
+            for row in comparison_rows:
+                if max(row["predicted"]["snr_db"], row["measured"]["snr_db"]) < agree.snr_floor_db:
+                    continue  # both unseparable: the dB values carry no agreement to check
+                checks.append(
+                    at_most(
+                        f"{row['illumination']}: {row['comparison']} SNR_dB deviation",
+                        "agreement",
+                        abs(row["snr_db_difference"]),
+                        agree.snr_db,
+                        "dB",
+                        f"predicted {row['predicted']['snr_db']:.2f} dB, "
+                        f"measured {row['measured']['snr_db']:.2f} dB",
+                    )
+                )
+    if acc.ranking:
+        if ranking is None:
+            skipped.append("ranking check: one illumination")
+        else:
+            checks.append(
+                at_least(
+                    f"ranking by {ranking['comparison']}: measured best is predicted best",
+                    "ranking",
+                    1.0 if ranking["agree"] else 0.0,
+                    1.0,
+                    "",
+                    f"predicted best {ranking['predicted_best']}, measured best "
+                    f"{ranking['measured_best']}, Kendall τ {ranking['kendall_tau']:.2f}",
+                )
+            )
+    if acc.gain_relative is not None:
+        if gain is None:
+            skipped.append("gain check: no photon-transfer estimate of K")
+        else:
+            checks.append(
+                at_most(
+                    "system gain K deviation from the camera's",
+                    "gain",
+                    100 * abs(gain.relative_deviation),
+                    100 * acc.gain_relative,
+                    "%",
+                    f"K = {gain.value:.4g} ± {gain.standard_error:.2g} DN/e⁻, "
+                    f"declared {gain.declared:.4g}",
+                )
+            )
+    return checks

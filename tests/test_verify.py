@@ -1,0 +1,173 @@
+"""`inspect-validate verify` end to end on the simulated station, against worlds that are not the scene.
+
+The simulated camera renders the station's scene with deviations (``camera.world``):
+a calibration must recover what it can absorb (an irradiance ×0.4 within 1 %)
+and the agreement checks must fail on what it cannot (an LED drifted 25 nm).
+"""
+
+import json
+import shutil
+import xml.etree.ElementTree as ET
+
+import pytest
+import yaml
+from conftest import ROOT, run_cli
+
+STATION = ROOT / "sample_images" / "station"
+
+
+def station(tmp_path, *, world=None, **top):
+    """The shipped station in ``tmp_path`` with ``camera.world`` and top-level keys replaced."""
+    doc = yaml.safe_load((STATION / "station.yaml").read_text())
+    doc["scene"] = str(ROOT / "sample_images" / "scenes" / "paperboard" / "scene.yaml")
+    if world:
+        doc["camera"]["world"] = world
+    doc.update(top)
+    path = tmp_path / "station.yaml"
+    path.write_text(yaml.safe_dump(doc, sort_keys=False))
+    shutil.copy(STATION / "rois.yaml", tmp_path / "rois.yaml")
+    return path
+
+
+@pytest.fixture
+def cli(capsys):
+    def call(args):
+        capsys.readouterr()
+        code = run_cli(args)
+        captured = capsys.readouterr()
+        return code, captured.out, captured.err
+
+    return call
+
+
+def verify(cli, tmp_path, path, *extra):
+    report = tmp_path / "report"
+    code, out, err = cli(["verify", path, "--report", report, *extra])
+    doc = json.loads((report / "verification.json").read_text()) if code in (0, 1) else None
+    return code, out, err, doc
+
+
+def test_shipped_station_passes_with_reports(cli, tmp_path):
+    code, out, err, doc = verify(cli, tmp_path, station(tmp_path))
+    assert code == 0, out + err
+    assert "PASS: all" in out and "Traceback" not in err
+    assert doc["schema"] == "inspect-validate/verification" and doc["schema_version"] == 1
+    assert doc["verdict"] == "pass" and len(doc["inputs"]["station_sha256"]) == 64
+    assert {c["kind"] for c in doc["checks"]} >= {"separation", "agreement", "ranking"}
+    for c in doc["checks"]:
+        assert set(c) >= {"value", "limit", "unit", "verdict"}
+    suite = ET.parse(tmp_path / "report" / "junit.xml").getroot().find("testsuite")
+    cases = suite.findall("testcase")
+    assert int(suite.get("tests")) == len(doc["checks"]) and suite.get("failures") == "0"
+    assert len(cases) == len(doc["checks"]) + len(doc["skipped"])
+    # The frames captured for the verification are kept next to the report.
+    assert len(list((tmp_path / "report" / "frames" / "amber").glob("frame_*.tif"))) == 4
+
+
+def test_fit_recovers_a_dimmer_light_and_still_passes(cli, tmp_path):
+    code, out, err, doc = verify(cli, tmp_path, station(tmp_path, world={"irradiance": {1: 0.4}}))
+    assert code == 0, out + err
+    scales = doc["calibration"]["illuminations"]
+    assert scales["amber"]["scale"] == pytest.approx(0.4, rel=0.01)
+    assert scales["red"]["scale"] == pytest.approx(1.0, rel=0.01)
+    assert scales["amber"]["irradiance"] == pytest.approx(2.0, rel=0.01)  # W/m² at the object
+
+
+def test_reference_class_recovers_the_irradiance(cli, tmp_path):
+    path = station(
+        tmp_path,
+        world={"irradiance": {2: 0.4}},
+        calibration={"method": "reference", "reference": "A"},
+    )
+    code, out, err, doc = verify(cli, tmp_path, path)
+    assert code == 0, out + err
+    red = doc["calibration"]["illuminations"]["red"]
+    assert red["method"] == "reference" and red["scale"] == pytest.approx(0.4, rel=0.01)
+
+
+def test_absolute_calibration_notices_the_dimmer_light(cli, tmp_path):
+    path = station(tmp_path, world={"irradiance": {1: 0.4}}, calibration={"method": "absolute"})
+    code, _out, _err, doc = verify(cli, tmp_path, path)
+    assert code == 1
+    failed = [c for c in doc["checks"] if c["verdict"] == "fail"]
+    assert failed and all(c["name"].startswith("amber") for c in failed)
+    assert any("μ deviation" in c["name"] for c in failed)
+    assert doc["checks"][0]["verdict"] == "fail"  # failures first
+
+
+def test_a_drifted_led_fails_prediction_agreement(cli, tmp_path):
+    # The amber LED 25 nm off its datasheet: no irradiance scale absorbs how
+    # the classes' contrast changes.
+    code, out, _err, doc = verify(
+        cli, tmp_path, station(tmp_path, world={"peak_shift_nm": {1: 25}})
+    )
+    assert code == 1, out
+    failed = {c["kind"] for c in doc["checks"] if c["verdict"] == "fail"}
+    assert "agreement" in failed
+    assert "FAIL:" in out
+
+
+def test_frames_of_an_earlier_capture_are_verified_again(cli, tmp_path):
+    path = station(tmp_path)
+    code, *_ = verify(cli, tmp_path, path)
+    assert code == 0
+    frames = tmp_path / "report" / "frames"
+    code, out, _err = cli(["verify", path, "--frames", frames])
+    assert code == 0 and "PASS" in out
+
+
+def test_measure_and_verify_agree_on_every_shared_number(cli, tmp_path):
+    path = station(tmp_path)
+    code, _, _, doc = verify(cli, tmp_path, path)
+    assert code == 0
+    frames = tmp_path / "report" / "frames" / "amber"
+    code, _out, err = cli(
+        [
+            "measure",
+            frames,
+            "--rois",
+            tmp_path / "rois.yaml",
+            "--json",
+            tmp_path / "m.json",
+            "--no-kde",
+        ]
+    )
+    assert code == 0, err
+    m = json.loads((tmp_path / "m.json").read_text())
+    assert m == {**doc["measurements"]["amber"], "inputs": m["inputs"]}
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"rois": "missing.yaml"}, "ROI file not found"),
+        ({"channels": {1: "green LED", 2: "red LED"}}, "the scene has no light 'green LED'"),
+        (
+            {"acceptance": {"separation": [{"comparison": "A vs D", "min_snr_db": 0}]}},
+            "no comparison",
+        ),
+        ({"acceptance": {"illumination": "blue"}}, "no illumination 'blue'"),
+        ({"calibration": {"method": "reference"}}, "needs 'reference"),
+        ({"comparisons": {"weights": {"A": 1}}}, "no prior for 'B'"),
+    ],
+)
+def test_bad_stations_exit_2_naming_the_field(cli, tmp_path, change, message):
+    code, out, err = cli(["verify", station(tmp_path, **change), "--out", tmp_path / "f"])
+    assert code == 2, out + err
+    assert message in err and "Traceback" not in err
+
+
+def test_frames_folder_without_a_capture_exits_2(cli, tmp_path):
+    (tmp_path / "empty").mkdir()
+    code, _out, err = cli(["verify", station(tmp_path), "--frames", tmp_path / "empty"])
+    assert code == 2 and "not a capture folder" in err
+
+
+def test_a_controller_that_vanishes_exits_3_and_keeps_the_frames(cli, tmp_path):
+    path = station(tmp_path)
+    doc = yaml.safe_load(path.read_text())
+    doc["controller"]["simulator_args"] = ["--vanish-after", "3"]
+    path.write_text(yaml.safe_dump(doc))
+    code, out, err = cli(["verify", path, "--out", tmp_path / "f"])
+    assert code == 3, out + err
+    assert (tmp_path / "f" / "manifest.json").exists()
