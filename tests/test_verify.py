@@ -171,3 +171,46 @@ def test_a_controller_that_vanishes_exits_3_and_keeps_the_frames(cli, tmp_path):
     code, out, err = cli(["verify", path, "--out", tmp_path / "f"])
     assert code == 3, out + err
     assert (tmp_path / "f" / "manifest.json").exists()
+
+
+def test_photon_transfer_recovers_a_gain_error_within_2_percent(cli, tmp_path):
+    # A 12-bit camera with a black level (darks unclipped), 16-frame stacks, and a
+    # sensor whose K is 10 % above the declared one.
+    scene = (ROOT / "sample_images" / "scenes" / "paperboard" / "scene.yaml").read_text()
+    base = ROOT / "sample_images" / "scenes"
+    scene = scene.replace("file: A.csv", f"file: {base / 'paperboard' / 'A.csv'}")
+    scene = scene.replace("file: B.csv", f"file: {base / 'paperboard' / 'B.csv'}")
+    scene = scene.replace("file: C.csv", f"file: {base / 'paperboard' / 'C.csv'}")
+    scene = scene.replace(
+        "file: ../chapter_table2/camera1_qe.csv, name: mono 8-bit, gain: 0.0255, dark_noise: 12, "
+        "saturation: 10000, bit_depth: 8",
+        f"file: {base / 'chapter_table2' / 'camera1_qe.csv'}, name: mono 12-bit, gain: 0.1, "
+        "dark_noise: 12, saturation: 30000, bit_depth: 12, dark_offset: 20",
+    )
+    (tmp_path / "scene.yaml").write_text(scene)
+    path = station(
+        tmp_path,
+        world={"gain_error": 0.1},
+        frames=16,
+        dark_frames=16,
+        acceptance={"gain_relative": 0.05, "agreement": None},
+    )
+    doc = yaml.safe_load(path.read_text())
+    doc["scene"] = str(tmp_path / "scene.yaml")
+    path.write_text(yaml.safe_dump(doc))
+    code, out, err, report = verify(cli, tmp_path, path)
+    assert code == 1, out + err  # 10 % off the declared K fails a 5 % limit
+    gain = report["calibration"]["gain"]
+    assert gain["value"] == pytest.approx(0.11, rel=0.02)
+    assert gain["declared"] == pytest.approx(0.1)
+    assert [c["kind"] for c in report["checks"] if c["verdict"] == "fail"] == ["gain"]
+
+
+def test_gain_is_skipped_with_a_reason_when_darks_clip_at_zero(cli, tmp_path):
+    # The shipped 8-bit camera has no black level: its darks sit at 0.
+    code, out, err, doc = verify(
+        cli, tmp_path, station(tmp_path, acceptance={"gain_relative": 0.1, "agreement": None})
+    )
+    assert code == 0, out + err
+    assert doc["calibration"]["gain"] is None
+    assert any("clipped at 0" in s for s in doc["skipped"])

@@ -210,7 +210,10 @@ def verify(station, frames_dir: Path, *, manifest: dict | None = None) -> Verifi
     else:
         gain = photon_transfer_gain(list(measurements.values()), dark, declared=model.camera.gain)
         if gain is None:
-            skipped.append("system gain K: no class has signal above dark without clipping")
+            skipped.append(
+                "system gain K: no class has signal above dark without clipping, or the dark "
+                "frames are clipped at 0 (set a black-level offset on the camera)"
+            )
 
     class_rows, comparison_rows = _compare(
         measurements, prediction, dark_means, offset, need_kde=need_kde
