@@ -38,6 +38,7 @@ __all__ = [
     "Comparisons",
     "ComparisonsSpec",
     "GaussianSeparation",
+    "KdeSeparation",
     "default_groups",
     "find_comparison",
     "gaussian_separation",
@@ -199,10 +200,12 @@ class Comparisons:
         """Position of the comparison written ``text`` (see :func:`find_comparison`)."""
         return find_comparison(self.named, text)
 
-    def select(self, texts) -> Comparisons:
-        """Only the comparisons written in ``texts``, in that order (no duplicates)."""
-        picked = dict.fromkeys(self.index(t) for t in texts)
-        return Comparisons(self.classes, tuple(self.groups[i] for i in picked), self.weights)
+    def with_pixels(self, pixels) -> Comparisons:
+        """These comparisons with ``pixels`` weighting turned into priors from the regions'
+        pixel counts, for a prediction of the same regions; others unchanged."""
+        if self.weights != "pixels":
+            return self
+        return Comparisons(self.classes, self.groups, tuple(float(p) for p in pixels))
 
     def class_weights(self, pixels=None) -> np.ndarray:
         """Unnormalised weight of each class, (K,).

@@ -49,24 +49,19 @@ def world_components(model, world) -> tuple[dict, object, object, list]:
 
     lights = {}
     for ch, light in model.channels.items():
-        spd = light.spd
+        irradiance = light.irradiance * world.irradiance.get(ch, 1.0)
         shift, stretch = world.peak_shift_nm.get(ch, 0.0), world.width_scale.get(ch, 1.0)
         if shift or stretch != 1.0:
+            # The same power as before, emitted at the shifted/stretched wavelengths:
+            # stated over the whole new range instead of the old band.
+            spd = light.spd
             peak = spd.wavelengths[int(np.nanargmax(spd.values[0]))]
             spd = replace(spd, wavelengths=peak + (spd.wavelengths - peak) * stretch + shift)
-        lights[ch] = replace(
-            light,
-            spd=spd,
-            irradiance=light.irradiance * world.irradiance.get(ch, 1.0),
-            band=(float(spd.wavelengths[0]), float(spd.wavelengths[-1]))
-            if (shift or stretch != 1.0)
-            else light.band,
-        )
-        if shift or stretch != 1.0:
-            # The same power as before, now emitted at the shifted/stretched wavelengths.
-            lights[ch] = replace(
-                lights[ch], irradiance=lights[ch].irradiance * _power(light) / light.band_power()
+            irradiance *= _power(light) / light.band_power()
+            light = replace(
+                light, spd=spd, band=(float(spd.wavelengths[0]), float(spd.wavelengths[-1]))
             )
+        lights[ch] = replace(light, irradiance=irradiance)
     if world.ambient > 0:
         grid = np.arange(380.0, 781.0)
         flat = Spectrum(grid, np.ones((1, grid.size)), SpectrumKind.SPD, "ambient", "world.ambient")

@@ -94,14 +94,13 @@ def verification_document(v) -> dict:
     """The ``verification.json`` document (:func:`~inspect_validate.report.write_json` makes it JSON-safe)."""
     from inspect_validate.report.jsonfile import measurement_document
 
-    limits = v.station.acceptance
     return {
         "schema": "inspect-validate/verification",
         "schema_version": VERIFICATION_SCHEMA_VERSION,
         "tool_version": __version__,
         "verdict": "pass" if v.passed else "fail",
         "inputs": v.inputs,
-        "acceptance": limits.model_dump(),
+        "acceptance": v.station.acceptance.model_dump(),
         "calibration": {
             "method": v.station.calibration.method,
             "reference": v.station.calibration.reference,
@@ -137,19 +136,9 @@ def verification_document(v) -> dict:
         "skipped": list(v.skipped),
         "notes": list(v.notes),
         "measurements": {
-            ill: measurement_document(m, limits=_limits(limits))
-            for ill, m in v.measurements.items()
+            ill: measurement_document(m, limits=v.limits) for ill, m in v.measurements.items()
         },
     }
-
-
-def _limits(acceptance):
-    from inspect_validate.measure import Limits
-
-    return Limits(
-        max_saturated=1.0 if acceptance.max_saturated is None else acceptance.max_saturated,
-        max_zero=1.0 if acceptance.max_zero is None else acceptance.max_zero,
-    )
 
 
 def write_junit(v, path: str | Path) -> Path:

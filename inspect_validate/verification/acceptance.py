@@ -91,3 +91,13 @@ class Acceptance(_Strict):
     agreement: Agreement | None = Agreement()
     ranking: bool = False
     gain_relative: Relative | None = None
+
+    def limits(self):
+        """The saturated and zero fractions as measurement :class:`~inspect_validate.measure.Limits`
+        (no limit given: any fraction passes)."""
+        from inspect_validate.measure import Limits
+
+        return Limits(
+            max_saturated=1.0 if self.max_saturated is None else self.max_saturated,
+            max_zero=1.0 if self.max_zero is None else self.max_zero,
+        )

@@ -29,6 +29,7 @@ class Verification:
     """Everything ``verify`` found; :attr:`passed` is the verdict."""
 
     station: object
+    limits: object  # Limits: the saturated and zero fractions the measurements were held to
     inputs: dict
     measurements: dict  # illumination → Measurement
     dark: object | None  # Measurement of the dark stack, or None
@@ -87,7 +88,7 @@ def read_capture(folder: Path, station) -> tuple[dict[str, list[Path]], list[Pat
     return frames, dark, manifest
 
 
-def verify(station, frames_dir: Path, *, manifest: dict | None = None) -> Verification:
+def verify(station, frames_dir: Path) -> Verification:
     """Verify ``station`` (a :class:`~inspect_validate.camera.station.Station`) on the capture
     in ``frames_dir``.
 
@@ -99,7 +100,7 @@ def verify(station, frames_dir: Path, *, manifest: dict | None = None) -> Verifi
     """
     from inspect_validate.camera.station import station_hash
     from inspect_validate.comparisons import Comparisons
-    from inspect_validate.measure import Limits, measure_files
+    from inspect_validate.measure import measure_files
     from inspect_validate.model.illumination import station_model
     from inspect_validate.roi import read_rois
     from inspect_validate.verification.calibration import fit_scales, photon_transfer_gain
@@ -126,13 +127,11 @@ def verify(station, frames_dir: Path, *, manifest: dict | None = None) -> Verifi
         )
     comparisons = Comparisons.of(names, station.comparisons, source=f"{source}: comparisons")
     skipped = []
-    asked = [s.comparison for s in acc.separation]
-    if asked:
-        for text in asked:
-            try:
-                comparisons.index(text)
-            except InputError as exc:
-                raise InputError(str(exc), source=f"{source}: acceptance.separation") from None
+    for sep in acc.separation:
+        try:
+            comparisons.index(sep.comparison)
+        except InputError as exc:
+            raise InputError(str(exc), source=f"{source}: acceptance.separation") from None
     if acc.illumination is not None and acc.illumination not in files:
         raise InputError(
             f"acceptance.illumination: no illumination {acc.illumination!r} "
@@ -143,10 +142,7 @@ def verify(station, frames_dir: Path, *, manifest: dict | None = None) -> Verifi
     if not need_kde:
         skipped.append("ε KDE: no check asks for it (acceptance.separation[].max_error_kde)")
 
-    limits = Limits(
-        max_saturated=acc.max_saturated if acc.max_saturated is not None else 1.0,
-        max_zero=acc.max_zero if acc.max_zero is not None else 1.0,
-    )
+    limits = acc.limits()
     measurements = {
         name: measure_files(paths, rois, comparisons=comparisons, limits=limits, kde=need_kde)
         for name, paths in files.items()
@@ -154,15 +150,10 @@ def verify(station, frames_dir: Path, *, manifest: dict | None = None) -> Verifi
     dark = (
         measure_files(dark_files, rois, comparisons=comparisons, kde=False) if dark_files else None
     )
-    pixels = [c.n_pixels for c in next(iter(measurements.values())).classes]
-    if comparisons.weighting == "pixels":  # the prediction weights groups as the regions do
-        from inspect_validate.comparisons import Comparisons as C
-
-        predicted_comparisons = C(
-            comparisons.classes, comparisons.groups, tuple(map(float, pixels))
-        )
-    else:
-        predicted_comparisons = comparisons
+    # The prediction weights a group's classes as the measured regions do.
+    predicted_comparisons = comparisons.with_pixels(
+        [c.n_pixels for c in next(iter(measurements.values())).classes]
+    )
 
     # The prediction of just these classes, at the stated irradiances.
     from dataclasses import replace
@@ -184,10 +175,7 @@ def verify(station, frames_dir: Path, *, manifest: dict | None = None) -> Verifi
     dark_means = {c.name: c.mean for c in dark.classes} if dark else None
     if dark is None:
         skipped.append("dark level: no dark frames; the camera's dark offset is used")
-    stated = {
-        light: float(nominal_light.irradiance)
-        for light, nominal_light in zip(nominal.lights, model.lights(station), strict=True)
-    }
+    stated = {light.name: light.irradiance for light in model.lights(station)}
     scales = fit_scales(
         nominal,
         measurements,
@@ -204,16 +192,17 @@ def verify(station, frames_dir: Path, *, manifest: dict | None = None) -> Verifi
         comparisons=predicted_comparisons,
     )
 
-    gain = None
-    if dark is None or station.frames < 2 or station.dark_frames < 2:
-        skipped.append("system gain K: needs stacks of ≥ 2 frames and dark frames")
-    else:
-        gain = photon_transfer_gain(list(measurements.values()), dark, declared=model.camera.gain)
-        if gain is None:
-            skipped.append(
-                "system gain K: no class has signal above dark without clipping, or the dark "
-                "frames are clipped at 0 (set a black-level offset on the camera)"
-            )
+    # The frames read decide (a --frames folder need not have the station's counts).
+    gain = (
+        photon_transfer_gain(list(measurements.values()), dark, declared=model.camera.gain)
+        if dark is not None
+        else None
+    )
+    if gain is None:
+        skipped.append(
+            "system gain K: needs dark frames and stacks of ≥ 2 frames with signal above dark, "
+            "neither clipped; dark frames clipped at 0 need a black-level offset on the camera"
+        )
 
     class_rows, comparison_rows = _compare(
         measurements, prediction, dark_means, offset, need_kde=need_kde
@@ -238,6 +227,7 @@ def verify(station, frames_dir: Path, *, manifest: dict | None = None) -> Verifi
         )
     return Verification(
         station,
+        limits,
         inputs,
         measurements,
         dark,
@@ -259,7 +249,7 @@ def _compare(measurements, p, dark_means, offset, *, need_kde):
     from inspect_validate.model import predicted_kde_error
 
     class_rows, comparison_rows = [], []
-    temporal = _per_class(p, p.sample_variance)
+    temporal = p.variance - p.spectral_variance  # σ² = temporal (mean over samples) + spectral
     for li, (ill, m) in enumerate(measurements.items()):
         for k, c in enumerate(m.classes):
             pm, pv = float(p.mean[li, 0, 0, k]), float(p.variance[li, 0, 0, k])
@@ -272,7 +262,7 @@ def _compare(measurements, p, dark_means, offset, *, need_kde):
                     "predicted": {
                         "mean": pm,
                         "variance": pv,
-                        "temporal_variance": float(temporal[li, k]),
+                        "temporal_variance": float(temporal[li, 0, 0, k]),
                         "spatial_variance": float(p.spectral_variance[li, 0, 0, k]),
                         "saturated_fraction": float(p.saturated_fraction[li, 0, 0, k]),
                     },
@@ -314,14 +304,6 @@ def _compare(measurements, p, dark_means, offset, *, need_kde):
     return class_rows, comparison_rows
 
 
-def _per_class(p, per_sample):
-    """Mean over each class's reflectance samples of a per-sample array, (L, K)."""
-    out = np.empty((len(p.lights), len(p.classes)))
-    for k in range(len(p.classes)):
-        out[:, k] = per_sample[:, 0, 0, p.sample_class == k].mean(axis=-1)
-    return out
-
-
 def _ranking(measurements, p, scene, acc, comparisons, skipped):
     """The illuminations ranked by the key comparison, measured against predicted."""
     from scipy import stats
@@ -346,11 +328,10 @@ def _ranking(measurements, p, scene, acc, comparisons, skipped):
         measured = np.array([measurements[n].comparisons[j].log_error_gaussian for n in names])
         best_p, best_m = names[int(np.argmin(predicted))], names[int(np.argmin(measured))]
     else:
-        attr = by
-        predicted = np.array([getattr(p, attr)[i, 0, 0, j] for i in range(len(names))])
-        measured = np.array([getattr(measurements[n].comparisons[j], attr) for n in names])
+        predicted = np.array([getattr(p, by)[i, 0, 0, j] for i in range(len(names))])
+        measured = np.array([getattr(measurements[n].comparisons[j], by) for n in names])
         best_p, best_m = names[int(np.argmax(predicted))], names[int(np.argmax(measured))]
-    tau = float(stats.kendalltau(predicted, measured).statistic) if len(names) >= 2 else np.nan
+    tau = float(stats.kendalltau(predicted, measured).statistic)
     return {
         "comparison": comparisons.labels[j],
         "by": "log_error_gaussian" if by == "error" else by,
@@ -388,26 +369,16 @@ def _checks(acc, measurements, class_rows, comparison_rows, ranking, gain, skipp
                 )
     for ill, m in measurements.items():
         for c in m.classes:
-            if acc.max_saturated is not None:
-                checks.append(
-                    at_most(
-                        f"{ill}: {c.name} saturated",
-                        "saturation",
-                        100 * c.saturated_fraction,
-                        100 * acc.max_saturated,
-                        "%",
+            for what, frac, limit in (
+                ("saturated", c.saturated_fraction, acc.max_saturated),
+                ("zero", c.zero_fraction, acc.max_zero),
+            ):
+                if limit is not None:
+                    checks.append(
+                        at_most(
+                            f"{ill}: {c.name} {what}", "saturation", 100 * frac, 100 * limit, "%"
+                        )
                     )
-                )
-            if acc.max_zero is not None:
-                checks.append(
-                    at_most(
-                        f"{ill}: {c.name} zero",
-                        "saturation",
-                        100 * c.zero_fraction,
-                        100 * acc.max_zero,
-                        "%",
-                    )
-                )
     agree = acc.agreement
     if agree is not None:
         for row in class_rows:
