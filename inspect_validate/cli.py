@@ -395,6 +395,7 @@ def verify(station, frames_dir, out, report_dir):
 
     from inspect_validate.camera.station import read_station
     from inspect_validate.report import write_json
+    from inspect_validate.report.html import write_verification_html
     from inspect_validate.report.verification import (
         format_verdict,
         verification_document,
@@ -422,7 +423,8 @@ def verify(station, frames_dir, out, report_dir):
     if report_dir:
         write_json(verification_document(result), report_dir / "verification.json")
         write_junit(result, report_dir / "junit.xml")
-        click.echo(f"report: {report_dir / 'verification.json'}, {report_dir / 'junit.xml'}")
+        write_verification_html(result, report_dir / "report.html")
+        click.echo(f"report: {report_dir / 'report.html'} (verification.json, junit.xml)")
     if not result.passed:
         sys.exit(EXIT_CHECK_FAILED)
 

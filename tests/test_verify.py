@@ -214,3 +214,18 @@ def test_gain_is_skipped_with_a_reason_when_darks_clip_at_zero(cli, tmp_path):
     assert code == 0, out + err
     assert doc["calibration"]["gain"] is None
     assert any("clipped at 0" in s for s in doc["skipped"])
+
+
+@pytest.mark.parametrize(
+    ("name", "expected", "failing"),
+    [
+        ("station.yaml", 0, set()),
+        ("red_only.yaml", 1, {"separation"}),  # red misses the classes' differences
+        ("amber_drift.yaml", 1, {"agreement"}),  # separates, but not as predicted
+    ],
+)
+def test_shipped_stations_give_their_verdicts(cli, tmp_path, name, expected, failing):
+    code, out, err, doc = verify(cli, tmp_path, STATION / name)
+    assert code == expected, out + err
+    assert {c["kind"] for c in doc["checks"] if c["verdict"] == "fail"} == failing
+    assert f"report: {tmp_path / 'report' / 'report.html'}" in out

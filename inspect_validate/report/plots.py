@@ -1,15 +1,23 @@
-"""PNG plots of a prediction: component spectra, per-wavelength errors, ranked separation.
+"""PNG plots: component spectra, per-wavelength errors, ranked separation (a prediction);
+frames with their regions, class histograms, predicted against measured (a verification).
 
-matplotlib is imported here only (Agg backend, no display needed).
+Each function draws to ``target``, a path or a binary file object (the HTML
+report embeds the bytes). matplotlib is imported here only (Agg backend, no
+display needed).
 """
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
-__all__ = ["plot_component_spectra", "plot_ranked_separation", "plot_spectral_errors"]
+__all__ = [
+    "plot_agreement",
+    "plot_class_histograms",
+    "plot_component_spectra",
+    "plot_frame_regions",
+    "plot_ranked_separation",
+    "plot_spectral_errors",
+]
 
 
 def _pyplot():
@@ -21,9 +29,25 @@ def _pyplot():
     return plt
 
 
-def plot_component_spectra(scene, path: Path) -> Path:
-    """Lights (normalised), reflectances (mean ± sample range), optics and QE, as the chapter's Fig. 18."""
+def _save(fig, target):
+    fig.tight_layout()
+    fig.savefig(target, dpi=110, format="png")
+    _pyplot().close(fig)
+    return target
+
+
+def _colour(k: int):
+    return f"C{k % 10}"
+
+
+def plot_component_spectra(scene, path, *, marked: dict[str, str] | None = None):
+    """Lights (normalised), reflectances (mean ± sample range), optics and QE, as the chapter's Fig. 18.
+
+    ``marked`` maps light names to a note (e.g. the controller channel driving
+    it): those are drawn bold and labelled with it, the other candidates thin.
+    """
     plt = _pyplot()
+    marked = marked or {}
     fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharex=True)
     panels = [
         ("lights (relative SPD)", [(x.name, x.spd) for x in scene.lights], True),
@@ -38,7 +62,18 @@ def plot_component_spectra(scene, path: Path) -> Path:
             wl, v = s.wavelengths[keep], s.values[:, keep]
             if normalise:
                 v = v / np.nanmax(v)
-            line = ax.plot(wl, np.nanmean(v, axis=0), label=name)[0]
+            if normalise and marked:
+                bold = name in marked
+                label = f"{name} ({marked[name]})" if bold else name
+                line = ax.plot(
+                    wl,
+                    np.nanmean(v, axis=0),
+                    label=label,
+                    lw=2.2 if bold else 0.8,
+                    ls="-" if bold else "--",
+                )[0]
+            else:
+                line = ax.plot(wl, np.nanmean(v, axis=0), label=name)[0]
             if v.shape[0] > 1:
                 ax.fill_between(
                     wl,
@@ -51,14 +86,19 @@ def plot_component_spectra(scene, path: Path) -> Path:
         ax.legend(fontsize=7)
     for ax in axes[1]:
         ax.set_xlabel("wavelength [nm]")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    axes[0][0].set_ylabel("relative SPD")
+    axes[0][1].set_ylabel("reflectance")
+    axes[1][0].set_ylabel("transmission")
+    axes[1][1].set_ylabel("quantum efficiency [e⁻/photon]")
+    return _save(fig, path)
 
 
-def plot_spectral_errors(separation, path: Path) -> Path:
-    """ε per wavelength for every comparison, parametric and kernel density (Fig. 22)."""
+def plot_spectral_errors(separation, path, *, marked: dict[str, float] | None = None):
+    """ε per wavelength for every comparison, parametric and kernel density (Fig. 22).
+
+    ``marked`` maps labels to wavelengths (nm) drawn as vertical lines, e.g. the
+    peaks of the lights a station uses.
+    """
     plt = _pyplot()
     fig, axes = plt.subplots(
         1, 2 if separation.error_kde is not None else 1, figsize=(11, 4), squeeze=False, sharey=True
@@ -77,17 +117,27 @@ def plot_spectral_errors(separation, path: Path) -> Path:
                 np.maximum(eps, 1e-16),
                 label=f"{','.join(a)} vs {','.join(b)}",
             )
+        for k, (name, wl) in enumerate((marked or {}).items()):
+            ax.axvline(wl, color="0.3", ls=":", lw=1)
+            ax.annotate(
+                name,
+                (wl, 1.0),
+                xycoords=("data", "axes fraction"),
+                rotation=90,
+                va="top",
+                ha="right",
+                fontsize=7,
+                xytext=(-2, -2 - 40 * (k % 2)),
+                textcoords="offset points",
+            )
         ax.set_title(f"ε_tot per wavelength, {title}")
         ax.set_xlabel("wavelength [nm]")
         ax.legend(fontsize=7)
     axes[0][0].set_ylabel("classification error ε_tot")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path)
 
 
-def plot_ranked_separation(rows: list[dict], path: Path) -> Path:
+def plot_ranked_separation(rows: list[dict], path):
     """ε Gauss of the ranked combinations (log scale), best first."""
     plt = _pyplot()
     labels = [f"{r['rank']}: {r['light']} / {r['optics']} / {r['camera']}" for r in rows]
@@ -98,7 +148,177 @@ def plot_ranked_separation(rows: list[dict], path: Path) -> Path:
     ax.set_yticks(range(len(rows)), labels, fontsize=7)
     ax.invert_yaxis()
     ax.set_xlabel("predicted ε_tot (worst listed comparison)")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    return _save(fig, path)
+
+
+def plot_frame_regions(frame: np.ndarray, masks: dict[str, np.ndarray], target, *, title: str):
+    """One frame with each class's region outlined and labelled, contrast-stretched to the
+    0.5–99.5 percentiles of the regions' pixels (the background does not set the stretch)."""
+    plt = _pyplot()
+    frame = np.asarray(frame, dtype=np.float64)
+    inside = np.logical_or.reduce(list(masks.values())) if masks else np.ones(frame.shape, bool)
+    values = frame[inside & np.isfinite(frame)]
+    step = max(1, values.size // 2**18)  # percentiles of ≤ 256 k pixels suffice
+    lo, hi = np.percentile(values[::step], [0.5, 99.5]) if values.size else (0.0, 1.0)
+    if not hi > lo:
+        hi = lo + 1.0
+    h, w = frame.shape
+    fig, ax = plt.subplots(figsize=(7, 6 * h / w + 0.8))
+    image = ax.imshow(frame, cmap="gray", vmin=lo, vmax=hi, interpolation="antialiased")
+    for k, (name, mask) in enumerate(masks.items()):
+        ax.contour(mask.astype(np.uint8), levels=[0.5], colors=[_colour(k)], linewidths=1.5)
+        ys, xs = np.nonzero(mask)
+        ax.text(
+            xs.mean(),
+            ys.mean(),
+            name,
+            color=_colour(k),
+            fontsize=11,
+            weight="bold",
+            ha="center",
+            va="center",
+            bbox={"facecolor": "white", "alpha": 0.7, "edgecolor": "none", "pad": 1},
+        )
+    ax.set_title(f"{title}\n(display stretched to {lo:.4g}–{hi:.4g} DN)", fontsize=10)
+    ax.set_xlabel("x [px]")
+    ax.set_ylabel("y [px]")
+    fig.colorbar(image, ax=ax, label="grey value [DN]", shrink=0.8)
+    return _save(fig, target)
+
+
+def plot_class_histograms(classes, target, *, title: str, kde_bandwidths=None):
+    """Each class's grey-value histogram (as a density) with its Gaussian N(μ, σ²) (dashed)
+    and its kernel density estimate (41) (solid), 1/DN against DN.
+
+    ``classes`` are :class:`~inspect_validate.measure.ClassMeasurement`;
+    ``kde_bandwidths`` (DN per class, optional) default to each class's own.
+    """
+    from scipy import stats
+
+    from inspect_validate.stats import LatticeSample
+    from inspect_validate.stats.kde_error import kernel_density
+
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(9, 4))
+    for k, c in enumerate(classes):
+        sample = c.region.sample
+        if isinstance(sample, LatticeSample):
+            points = sample.points
+            step = 1.0 / sample.denominator
+            merge = max(1, int(np.ceil(points.size / 256)))  # ≤ 256 bars a class
+            n_bins = int(np.ceil(points.size / merge))
+            counts = np.add.reduceat(sample.counts, np.arange(0, points.size, merge))
+            edges = points[0] - step / 2 + np.arange(n_bins + 1) * merge * step
+            density = counts / (sample.n * merge * step)
+        else:
+            density, edges = np.histogram(sample, bins="auto", density=True)
+            if density.size > 256:
+                density, edges = np.histogram(sample, bins=256, density=True)
+        ax.stairs(density, edges, color=_colour(k), alpha=0.35, fill=True, label=f"{c.name}")
+        sd = np.sqrt(c.variance)
+        lo = min(edges[0], c.mean - 4 * sd)
+        hi = max(edges[-1], c.mean + 4 * sd)
+        x = np.linspace(lo, hi, 400)
+        if sd > 0:
+            ax.plot(x, stats.norm.pdf(x, c.mean, sd), color=_colour(k), ls="--", lw=1.2)
+        h = (kde_bandwidths or {}).get(c.name, c.kde_bandwidth)
+        if h is not None and h > 0:
+            ax.plot(x, kernel_density(sample, h, x), color=_colour(k), lw=1.4)
+    ax.plot([], [], color="0.3", ls="--", label="Gaussian N(μ, σ²)")
+    ax.plot([], [], color="0.3", label="kernel density (LSCV h)")
+    ax.set_xlabel("grey value [DN]")
+    ax.set_ylabel("density [1/DN]")
+    ax.set_title(title)
+    ax.legend(fontsize=8)
+    return _save(fig, target)
+
+
+def plot_agreement(
+    class_rows: list[dict],
+    comparison_rows: list[dict],
+    target,
+    *,
+    agreement=None,
+    offset: float = 0.0,
+):
+    """Deviation of measured from predicted against the prediction: μ (% of the signal above
+    the dark level), σ² (%) per illumination and class, SNR_dB (dB) per comparison; the
+    acceptance tolerance as a band. Comparisons both predicted and measured below the
+    agreement floor are not checked and drawn hollow."""
+    plt = _pyplot()
+    fig, axes = plt.subplots(1, 3, figsize=(13, 4.2))
+    illuminations = list(dict.fromkeys(r["illumination"] for r in class_rows))
+    markers = "osD^v<>ph*"
+    floor = getattr(agreement, "snr_floor_db", None)
+
+    def panel(ax, rows, get, tolerance, title, x_unit, y_unit, checked=lambda r: True):
+        values = np.array([get(r) for r in rows], dtype=float).reshape(-1, 2)
+        for i, ill in enumerate(illuminations):
+            for on in (True, False):
+                sel = [
+                    j for j, r in enumerate(rows) if r["illumination"] == ill and checked(r) == on
+                ]
+                if sel:
+                    ax.scatter(
+                        values[sel, 0],
+                        values[sel, 1],
+                        marker=markers[i % len(markers)],
+                        facecolors=_colour(i) if on else "none",
+                        edgecolors=_colour(i),
+                        label=ill if on else f"{ill} (below floor, not checked)",
+                        zorder=3,
+                    )
+        ax.axhline(0.0, color="0.4", lw=1)
+        if tolerance is not None:
+            ax.axhspan(-tolerance, tolerance, color="tab:green", alpha=0.15, label="tolerance")
+        finite = values[np.isfinite(values[:, 1]), 1]
+        reach = max([*np.abs(finite), 1.5 * (tolerance or 0.0), 1e-3])
+        ax.set_ylim(-1.15 * reach, 1.15 * reach)
+        ax.set_title(title)
+        ax.set_xlabel(f"predicted [{x_unit}]")
+        ax.set_ylabel(f"measured − predicted [{y_unit}]")
+
+    def pct(x):
+        return None if x is None else 100.0 * x
+
+    panel(
+        axes[0],
+        class_rows,
+        lambda r: (r["predicted"]["mean"], 100.0 * r["mean_relative"]),
+        pct(getattr(agreement, "mean_relative", None)),
+        "class mean μ",
+        "DN",
+        "% of signal",
+    )
+    panel(
+        axes[1],
+        class_rows,
+        lambda r: (r["predicted"]["variance"], 100.0 * r["variance_relative"]),
+        pct(getattr(agreement, "variance_relative", None)),
+        "class variance σ²",
+        "DN²",
+        "%",
+    )
+    panel(
+        axes[2],
+        comparison_rows,
+        lambda r: (r["predicted"]["snr_db"], r["snr_db_difference"]),
+        getattr(agreement, "snr_db", None),
+        "SNR_dB per comparison",
+        "dB",
+        "dB",
+        checked=lambda r: (
+            floor is None or max(r["predicted"]["snr_db"], r["measured"]["snr_db"]) >= floor
+        ),
+    )
+    labels = {}
+    for ax in axes:
+        for handle, label in zip(*ax.get_legend_handles_labels(), strict=True):
+            labels.setdefault(label, handle)
+    fig.legend(
+        labels.values(), labels.keys(), loc="upper center", ncol=6, fontsize=8, frameon=False
+    )
+    fig.tight_layout(rect=(0, 0, 1, 0.9))
+    fig.savefig(target, dpi=110, format="png")
     plt.close(fig)
-    return path
+    return target

@@ -25,7 +25,7 @@ from inspect_validate.stats.bandwidth import MAX_BINS, Bandwidth, lscv_bandwidth
 from inspect_validate.stats.gaussian_error import _interval
 from inspect_validate.stats.sample import LatticeSample, as_sample
 
-__all__ = ["KdeError", "kde_error", "kernel_mixture", "mixture_error"]
+__all__ = ["KdeError", "kde_error", "kernel_density", "kernel_mixture", "mixture_error"]
 
 _EXACT_POINTS_MAX = 2**14
 _BIN_FRACTION = 2000
@@ -69,6 +69,16 @@ def kernel_mixture(sample, h: float) -> tuple[np.ndarray, np.ndarray]:
     w, _, _ = linear_bin(x, lo, step, int(np.ceil((hi - lo) / step)) + 2)
     keep = w > 0
     return lo + np.flatnonzero(keep) * step, w[keep] / x.size
+
+
+def kernel_density(sample, h: float, x) -> np.ndarray:
+    """The kernel density estimate (41) of ``sample`` with bandwidth ``h`` > 0 at grey values
+    ``x``, 1/DN (what ε KDE integrates; for plots against a histogram)."""
+    if not h > 0.0:
+        raise ValueError(f"the bandwidth must be positive, not {h}")
+    centres, weights = kernel_mixture(sample, h)
+    parts = _density_parts(centres, weights, np.full(centres.size, float(h)))
+    return np.exp(_log_density(x, parts))
 
 
 def _density_parts(centres, weights, sigma) -> list:

@@ -29,6 +29,7 @@ class Verification:
     """Everything ``verify`` found; :attr:`passed` is the verdict."""
 
     station: object
+    model: object  # StationModel the prediction used (its scene holds the ROI classes only)
     limits: object  # Limits: the saturated and zero fractions the measurements were held to
     inputs: dict
     measurements: dict  # illumination → Measurement
@@ -226,21 +227,22 @@ def verify(station, frames_dir: Path) -> Verification:
             f"({manifest.get('station')}); its frames are used as they are"
         )
     return Verification(
-        station,
-        limits,
-        inputs,
-        measurements,
-        dark,
-        nominal,
-        prediction,
-        scales,
-        gain,
-        class_rows,
-        comparison_rows,
-        ranking,
-        tuple(checks),
-        tuple(skipped),
-        tuple(notes),
+        station=station,
+        model=model,
+        limits=limits,
+        inputs=inputs,
+        measurements=measurements,
+        dark=dark,
+        nominal=nominal,
+        prediction=prediction,
+        scales=scales,
+        gain=gain,
+        classes=class_rows,
+        comparisons=comparison_rows,
+        ranking=ranking,
+        checks=tuple(checks),
+        skipped=tuple(skipped),
+        notes=tuple(notes),
     )
 
 

@@ -1,0 +1,342 @@
+"""``report.html``: one self-contained page of a verification that opens offline.
+
+The verdict and the checks (failures first) come first, then the calibration,
+then per illumination the first frame contrast-stretched with the classes'
+regions outlined, the class histograms with their Gaussian and kernel
+densities, and predicted against measured per class; then predicted against
+measured across illuminations with the acceptance tolerances as bands, the
+spectra with the station's lights marked among the scene's candidates, and the
+per-wavelength ε of the classes' reflectances. Figures are PNGs embedded as
+``data:`` URIs; the page has no script and loads nothing.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+from pathlib import Path
+
+import numpy as np
+
+from inspect_validate import __version__
+
+__all__ = ["verification_html", "write_verification_html"]
+
+_STYLE = """
+body { font-family: system-ui, sans-serif; margin: 2em auto; max-width: 1200px; color: #222; }
+h1 { margin-bottom: 0.2em; } h2 { border-bottom: 1px solid #ccc; margin-top: 2em; }
+.verdict { font-size: 1.6em; font-weight: bold; padding: 0.3em 0.6em; display: inline-block; }
+.pass { color: #0a6b2d; } .fail { color: #b00020; }
+.verdict.pass { background: #e3f5e8; } .verdict.fail { background: #fde7ea; }
+table { border-collapse: collapse; margin: 0.8em 0; font-size: 0.9em; }
+th, td { border: 1px solid #ccc; padding: 0.25em 0.6em; text-align: left; }
+td.num { text-align: right; font-variant-numeric: tabular-nums; }
+tr.fail td { background: #fde7ea; }
+img { max-width: 100%; display: block; margin: 0.5em 0; }
+.meta { color: #555; font-size: 0.9em; }
+"""
+
+
+def write_verification_html(v, path: str | Path) -> Path:
+    """Write :func:`verification_html` of ``v`` to ``path`` (atomically)."""
+    from inspect_validate.files import atomic_write
+
+    return atomic_write(path, verification_html(v).encode())
+
+
+def verification_html(v) -> str:
+    """The page of a :class:`~inspect_validate.verification.Verification`, as text."""
+    e = html.escape
+    verdict = "pass" if v.passed else "fail"
+    failed = sum(not c.passed for c in v.checks)
+    parts = [
+        "<!DOCTYPE html>",
+        '<html lang="en"><head><meta charset="utf-8">',
+        f"<title>verify {e(v.station.name)}: {verdict.upper()}</title>",
+        f"<style>{_STYLE}</style></head><body>",
+        f"<h1>{e(v.station.name)}</h1>",
+        f'<div class="verdict {verdict}">{verdict.upper()}: '
+        + (
+            f"all {len(v.checks)} checks passed"
+            if not failed
+            else f"{failed} of {len(v.checks)} checks failed"
+        )
+        + "</div>",
+        f'<p class="meta">station {e(str(v.inputs["station"]))} (SHA-256 '
+        f"{e(str(v.inputs['station_sha256'])[:16])}…), capture {e(str(v.inputs['capture']))}, "
+        f"inspect-validate {e(__version__)}</p>",
+        "<h2>Checks</h2>",
+        _checks_table(v),
+    ]
+    parts += [f"<p>skipped: {e(s)}</p>" for s in v.skipped]
+    parts += [f"<p>note: {e(n)}</p>" for n in v.notes]
+    parts += ["<h2>Calibration</h2>", _calibration(v)]
+    parts += _illuminations(v)
+    from inspect_validate.report.plots import plot_agreement
+
+    parts += [
+        "<h2>Predicted against measured</h2>",
+        "<p>Deviation of the measurement from the calibrated prediction; the band is the "
+        "acceptance section's tolerance (none drawn where it sets none).</p>",
+        _figure(
+            plot_agreement,
+            v.classes,
+            v.comparisons,
+            agreement=v.station.acceptance.agreement,
+            offset=v.model.camera.dark_offset,
+            alt="measured against predicted μ, σ² and SNR_dB",
+        ),
+        _comparisons_table(v),
+    ]
+    parts += _spectra(v)
+    parts.append("</body></html>")
+    return "\n".join(parts)
+
+
+def _figure(plot, *args, alt: str, **options) -> str:
+    """``plot(*args, target, **options)`` (a :mod:`~inspect_validate.report.plots` function)
+    as an ``<img>`` with the PNG inline."""
+    buffer = io.BytesIO()
+    plot(*args, buffer, **options)
+    data = base64.b64encode(buffer.getvalue()).decode("ascii")
+    return f'<img src="data:image/png;base64,{data}" alt="{html.escape(alt)}">'
+
+
+def _table(header, rows, *, failed=None) -> str:
+    e = html.escape
+    out = ["<table><tr>" + "".join(f"<th>{e(h)}</th>" for h in header) + "</tr>"]
+    for i, row in enumerate(rows):
+        cls = ' class="fail"' if failed and failed[i] else ""
+        cells = "".join(
+            f'<td class="num">{e(c)}</td>' if _numeric(c) else f"<td>{e(c)}</td>" for c in row
+        )
+        out.append(f"<tr{cls}>{cells}</tr>")
+    out.append("</table>")
+    return "\n".join(out)
+
+
+def _numeric(text: str) -> bool:
+    try:
+        float(text.split()[0].replace("−", "-"))
+    except (ValueError, IndexError):
+        return False
+    return True
+
+
+def _g(x, digits=4) -> str:
+    return "—" if x is None or not np.isfinite(x) else f"{x:.{digits}g}"
+
+
+def _checks_table(v) -> str:
+    from inspect_validate.report.verification import _number, _ordered
+
+    checks = _ordered(v.checks)
+    if not checks:
+        return "<p>The station's acceptance section asks for no check.</p>"
+    rows = [
+        [c.verdict, c.name, _number(c), f"{c.relation} {c.limit:.4g}", c.unit, c.detail]
+        for c in checks
+    ]
+    return _table(
+        ["verdict", "check", "value", "limit", "unit", "detail"],
+        rows,
+        failed=[not c.passed for c in checks],
+    )
+
+
+def _calibration(v) -> str:
+    e = html.escape
+    out = []
+    g = v.gain
+    if g is not None:
+        out.append(
+            f"<p>System gain K by photon transfer ({len(g.points)} points): "
+            f"{g.value:.4g} ± {g.standard_error:.2g} DN/e⁻; the camera declares "
+            f"{g.declared:.4g} DN/e⁻ ({100 * g.relative_deviation:+.1f} %).</p>"
+        )
+    rows = [
+        [
+            s.illumination,
+            s.method,
+            _g(s.scale),
+            _g(s.standard_error, 2),
+            _g(s.irradiance),
+            ", ".join(
+                f"{c} {100 * r:+.2g} %" for c, r in zip(s.classes, s.residuals, strict=False)
+            ),
+        ]
+        for s in v.scales.values()
+    ]
+    out.append(
+        _table(
+            [
+                "illumination",
+                "method",
+                "irradiance scale",
+                "± (1 s.e.)",
+                "irradiance at the object [W/m²]",
+                "residuals per class",
+            ],
+            rows,
+        )
+    )
+    if v.ranking:
+        r = v.ranking
+        out.append(
+            f"<p>Ranking by {e(r['comparison'])} ({e(r['by'])}): predicted best "
+            f"{e(r['predicted_best'])}, measured best {e(r['measured_best'])}, "
+            f"Kendall τ {r['kendall_tau']:.2f}.</p>"
+        )
+    return "\n".join(out)
+
+
+def _illuminations(v) -> list[str]:
+    from inspect_validate.images import read_image
+    from inspect_validate.report.plots import plot_class_histograms, plot_frame_regions
+    from inspect_validate.roi import class_masks, read_rois
+
+    rois = read_rois(v.inputs["rois"])
+    out = []
+    for ill, m in v.measurements.items():
+        out.append(f"<h2>Illumination {html.escape(ill)}</h2>")
+        first = v.inputs["frames"][ill][0]
+        frame = read_image(first)
+        masks = class_masks(rois, frame.shape)
+        out.append(
+            _figure(
+                plot_frame_regions,
+                frame,
+                masks,
+                title=f"{ill}: {Path(first).name} with the class regions",
+                alt=f"{ill}: frame with regions",
+            )
+        )
+        out.append(
+            _figure(
+                plot_class_histograms,
+                m.classes,
+                title=f"{ill}: grey values of the classes over {m.classes[0].n_frames} frames",
+                kde_bandwidths=_bandwidths(m.classes),
+                alt=f"{ill}: class histograms",
+            )
+        )
+        rows = [
+            [
+                r["class"],
+                _g(r["predicted"]["mean"]),
+                _g(r["measured"]["mean"]),
+                _g(100 * r["mean_relative"], 3),
+                _g(r["predicted"]["temporal_variance"]),
+                _g(r["measured"]["temporal_variance"]),
+                _g(r["predicted"]["spatial_variance"]),
+                _g(r["measured"]["spatial_variance"]),
+                _g(100 * r["measured"]["saturated_fraction"], 3),
+            ]
+            for r in v.classes
+            if r["illumination"] == ill
+        ]
+        out.append(
+            _table(
+                [
+                    "class",
+                    "μ predicted [DN]",
+                    "μ measured [DN]",
+                    "μ deviation [% of signal]",
+                    "σ² temporal predicted [DN²]",
+                    "σ² temporal measured [DN²]",
+                    "σ² spatial predicted [DN²]",
+                    "σ² spatial measured [DN²]",
+                    "saturated [%]",
+                ],
+                rows,
+            )
+        )
+    return out
+
+
+def _bandwidths(classes) -> dict[str, float]:
+    """Each class's LSCV bandwidth: the one ε KDE used, else computed for the plot."""
+    from inspect_validate.stats import lscv_bandwidth
+
+    return {
+        c.name: c.kde_bandwidth
+        if c.kde_bandwidth is not None
+        else lscv_bandwidth(c.region.sample).h
+        for c in classes
+    }
+
+
+def _comparisons_table(v) -> str:
+    rows = [
+        [
+            r["illumination"],
+            r["comparison"],
+            _g(r["predicted"]["snr_db"]),
+            _g(r["measured"]["snr_db"]),
+            _g(r["predicted"]["cnr_db"]),
+            _g(r["measured"]["cnr_db"]),
+            _g(r["predicted"]["error_gaussian"], 3),
+            _g(r["measured"]["error_gaussian"], 3),
+            _g(r["predicted"]["error_kde"], 3),
+            _g(r["measured"]["error_kde"], 3),
+        ]
+        for r in v.comparisons
+    ]
+    return _table(
+        [
+            "illumination",
+            "comparison",
+            "SNR_dB predicted",
+            "SNR_dB measured",
+            "CNR_dB predicted",
+            "CNR_dB measured",
+            "ε Gauss predicted",
+            "ε Gauss measured",
+            "ε KDE predicted",
+            "ε KDE measured",
+        ],
+        rows,
+    )
+
+
+def _spectra(v) -> list[str]:
+    from inspect_validate.errors import InputError
+    from inspect_validate.model import analyse_spectra
+    from inspect_validate.report.plots import plot_component_spectra, plot_spectral_errors
+
+    model = v.model
+    marked = {}
+    peaks = {}
+    for ch, light in sorted(model.channels.items()):
+        marked[light.name] = f"channel {ch}"
+        s = light.spd
+        peaks[f"{light.name} peak"] = float(s.wavelengths[np.argmax(np.nanmean(s.values, axis=0))])
+    out = [
+        "<h2>Spectra</h2>",
+        "<p>The scene's candidate lights (dashed), those the station's channels drive (bold); "
+        "the classes' reflectances (mean and range of the samples); the station's optics and "
+        "camera among the scene's.</p>",
+        _figure(plot_component_spectra, model.scene, marked=marked, alt="component spectra"),
+    ]
+    try:
+        separation = analyse_spectra(
+            list(model.scene.classes),
+            kde=False,
+            comparisons=v.prediction.comparison_set,
+        )
+    except InputError as exc:
+        out.append(f"<p>ε per wavelength not drawn: {html.escape(str(exc))}</p>")
+        return out
+    out += [
+        "<p>ε_tot (Gaussian) between the classes' reflectance samples at each wavelength: "
+        "where a narrow light would separate them; dotted lines mark the peaks of the "
+        "station's lights.</p>",
+        _figure(
+            plot_spectral_errors,
+            separation,
+            marked=peaks,
+            alt="classification error per wavelength",
+        ),
+    ]
+    return out

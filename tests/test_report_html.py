@@ -1,0 +1,111 @@
+"""``report.html`` of ``verify``: self-contained, every figure a decodable PNG, failures first,
+and looked at as a page in headless Chromium (skipped where Debian's chromium is absent)."""
+
+import base64
+import io
+import re
+import shutil
+import subprocess
+from html.parser import HTMLParser
+
+import pytest
+from conftest import ROOT, run_cli
+from PIL import Image
+
+STATION = ROOT / "sample_images" / "station"
+
+
+class _Page(HTMLParser):
+    def __init__(self):
+        super().__init__()
+        self.images, self.links, self.rows, self._row = [], [], [], None
+
+    def handle_starttag(self, tag, attrs):
+        a = dict(attrs)
+        if tag == "img":
+            self.images.append(a)
+        for key in ("src", "href"):
+            if key in a and tag != "img":
+                self.links.append(a[key])
+        if tag == "tr":
+            self._row = []
+
+    def handle_data(self, data):
+        if self._row is not None and data.strip():
+            self._row.append(data.strip())
+
+    def handle_endtag(self, tag):
+        if tag == "tr":
+            self.rows.append(self._row)
+            self._row = None
+
+
+@pytest.fixture(scope="module")
+def report(tmp_path_factory):
+    """The report of the drifted-LED station (it fails: failures come first)."""
+    out = tmp_path_factory.mktemp("report")
+    assert run_cli(["verify", STATION / "amber_drift.yaml", "--report", out]) == 1
+    return out / "report.html"
+
+
+def test_every_figure_is_an_inline_png_that_decodes(report):
+    page = _Page()
+    page.feed(report.read_text())
+    # Per illumination the frame and the histograms; agreement, spectra, ε per wavelength.
+    assert len(page.images) == 2 * 2 + 3
+    for img in page.images:
+        assert img["alt"]
+        head, data = img["src"].split(",", 1)
+        assert head == "data:image/png;base64"
+        image = Image.open(io.BytesIO(base64.b64decode(data)))
+        image.load()
+        assert image.width > 300 and image.height > 200
+    assert page.links == []  # nothing to load: the page opens offline
+
+
+def test_checks_table_lists_failures_first(report):
+    page = _Page()
+    page.feed(report.read_text())
+    checks = [r for r in page.rows if r and r[0] in ("pass", "FAIL")]
+    verdicts = [r[0] for r in checks]
+    assert "FAIL" in verdicts and verdicts == sorted(verdicts, key=lambda v: v != "FAIL")
+    assert all("SNR_dB deviation" in r[1] for r in checks if r[0] == "FAIL")
+    assert "<title>verify paperboard station, amber LED drifted: FAIL</title>" in report.read_text()
+
+
+_PROBE = """<script>
+window.addEventListener('load', () => {
+  const bad = [...document.images].filter(i => !(i.complete && i.naturalWidth > 0));
+  document.body.setAttribute('data-probe', document.images.length + ':' + bad.length);
+});
+</script>"""
+
+
+@pytest.mark.skipif(shutil.which("chromium") is None, reason="Debian's chromium is not installed")
+def test_report_renders_in_headless_chromium(report, tmp_path):
+    # The page itself has no script; a copy gets a probe that counts the images the
+    # browser decoded, read back from the DOM once the page has loaded.
+    probe = tmp_path / "probe.html"
+    probe.write_text(report.read_text().replace("</body>", _PROBE + "</body>"))
+    run = subprocess.run(
+        [
+            "chromium",
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--virtual-time-budget=10000",
+            "--enable-logging=stderr",
+            "--v=0",
+            "--dump-dom",
+            probe.as_uri(),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert run.returncode == 0, run.stderr[-2000:]
+    found = re.search(r'data-probe="(\d+):(\d+)"', run.stdout)
+    assert found, "the page did not finish loading"
+    assert int(found[1]) == 7 and int(found[2]) == 0  # every image decoded
+    console = [line for line in run.stderr.splitlines() if ":CONSOLE" in line]
+    assert console == []
