@@ -377,7 +377,7 @@ def capture(station, out, resume):
     "--report",
     "report_dir",
     type=_PATH,
-    help="Write verification.json and junit.xml to this folder.",
+    help="Write report.html, verification.json and junit.xml to this folder.",
 )
 def verify(station, frames_dir, out, report_dir):
     """Verify STATION: measure its frames, predict it as built, calibrate, compare and check.
@@ -401,10 +401,12 @@ def verify(station, frames_dir, out, report_dir):
         verification_document,
         write_junit,
     )
+    from inspect_validate.verification.verify import plan_verification
     from inspect_validate.verification.verify import verify as run_verify
 
     st = read_station(station)
     _outputs(folders=[report_dir])
+    plan = plan_verification(st)  # a mistake in the station file costs no capture
     if frames_dir is None:
         if out is None:
             out = (
@@ -415,7 +417,7 @@ def verify(station, frames_dir, out, report_dir):
         _capture(st, out)
         click.echo(f"frames: {out}")
         frames_dir = out
-    result = run_verify(st, frames_dir)
+    result = run_verify(st, frames_dir, plan=plan)
     click.echo(
         f"{st.name}: {len(st.illuminations)} illumination(s), calibration {st.calibration.method}"
     )
@@ -427,6 +429,88 @@ def verify(station, frames_dir, out, report_dir):
         click.echo(f"report: {report_dir / 'report.html'} (verification.json, junit.xml)")
     if not result.passed:
         sys.exit(EXIT_CHECK_FAILED)
+
+
+@cli.command()
+@click.argument("station", type=_PATH)
+@click.option(
+    "--out",
+    "golden_path",
+    type=_PATH,
+    required=True,
+    help="The golden file to write (JSON); acceptance.drift.golden names it.",
+)
+@click.option(
+    "--repeats",
+    type=click.IntRange(1, 1000),
+    default=5,
+    show_default=True,
+    help="Captures of the known-good setup (re-place the parts between them).",
+)
+@click.option(
+    "--frames",
+    "frames_dirs",
+    type=_PATH,
+    multiple=True,
+    help="Train on these capture folders instead of capturing (repeatable; --repeats is ignored).",
+)
+@click.option(
+    "--frames-out",
+    type=_PATH,
+    help="Where to keep the captures (default: <golden file's stem>-frames next to it).",
+)
+def train(station, golden_path, repeats, frames_dirs, frames_out):
+    """Store the golden statistics of STATION in a known-good state.
+
+    Captures the station --repeats times (or reads --frames folders), measures
+    every illumination in the station's ROIs and writes per class μ and σ² and
+    per comparison SNR_dB and ε with their spread across the repeats.
+    'verify' then checks drift from it (acceptance.drift). Exits 2 on bad input,
+    3 on a camera or controller failure (the captures so far are kept).
+    """
+    from inspect_validate.camera.station import read_station
+    from inspect_validate.report import render_table, write_json
+    from inspect_validate.verification.golden import train as run_train
+    from inspect_validate.verification.verify import station_regions
+
+    st = read_station(station)
+    _outputs(files=[golden_path], folders=[frames_out])
+    station_regions(st)  # a station without ROIs fails before the captures
+    captures = list(frames_dirs)
+    if not captures:
+        base = frames_out or golden_path.with_name(f"{golden_path.stem}-frames")
+        for i in range(repeats):
+            folder = base / f"repeat_{i + 1:02d}"
+            if repeats > 1:
+                click.echo(f"repeat {i + 1} of {repeats}", err=True)
+            _capture(st, folder)
+            captures.append(folder)
+        click.echo(f"frames: {base}")
+    golden = run_train(st, captures)
+    rows = [
+        [
+            ill,
+            name,
+            f"{c.mean.mean:.4g} ± {c.mean.std:.2g}",
+            f"{c.variance.mean:.4g} ± {c.variance.std:.2g}",
+        ]
+        for ill, g in golden.illuminations.items()
+        for name, c in g.classes.items()
+    ]
+    click.echo(render_table(["illumination", "class", "μ [DN]", "σ² [DN²]"], rows))
+    rows = [
+        [
+            ill,
+            label,
+            f"{c.snr_db.mean:.3g} ± {c.snr_db.std:.2g}",
+            f"{c.error_gaussian.mean:.3g} ± {c.error_gaussian.std:.2g}",
+        ]
+        for ill, g in golden.illuminations.items()
+        for label, c in g.comparisons.items()
+    ]
+    click.echo(render_table(["illumination", "comparison", "SNR_dB", "ε Gauss"], rows))
+    write_json(golden.document(), golden_path)
+    click.echo(f"golden: {golden_path} ({golden.repeats} repeats)")
 
 
 def _capture(station, out, *, resume=False):

@@ -1,8 +1,10 @@
+import shutil
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPERBOARD = ROOT / "sample_images" / "paperboard"
@@ -51,3 +53,29 @@ def run_cli(args) -> int | None:
     except SystemExit as exc:
         return exc.code
     return None
+
+
+def copy_station(tmp_path, *, world=None, **top):
+    """The shipped station in ``tmp_path`` with ``camera.world`` and top-level keys replaced."""
+    doc = yaml.safe_load((ROOT / "sample_images" / "station" / "station.yaml").read_text())
+    doc["scene"] = str(ROOT / "sample_images" / "scenes" / "paperboard" / "scene.yaml")
+    if world:
+        doc["camera"]["world"] = world
+    doc.update(top)
+    path = tmp_path / "station.yaml"
+    path.write_text(yaml.safe_dump(doc, sort_keys=False))
+    shutil.copy(ROOT / "sample_images" / "station" / "rois.yaml", tmp_path / "rois.yaml")
+    return path
+
+
+@pytest.fixture
+def cli(capsys):
+    """Run the CLI in-process: ``cli(args) -> (exit code, stdout, stderr)``."""
+
+    def call(args):
+        capsys.readouterr()
+        code = run_cli(args)
+        captured = capsys.readouterr()
+        return code, captured.out, captured.err
+
+    return call

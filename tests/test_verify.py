@@ -6,38 +6,14 @@ and the agreement checks must fail on what it cannot (an LED drifted 25 nm).
 """
 
 import json
-import shutil
 import xml.etree.ElementTree as ET
 
 import pytest
 import yaml
-from conftest import ROOT, run_cli
+from conftest import ROOT, copy_station
 
 STATION = ROOT / "sample_images" / "station"
-
-
-def station(tmp_path, *, world=None, **top):
-    """The shipped station in ``tmp_path`` with ``camera.world`` and top-level keys replaced."""
-    doc = yaml.safe_load((STATION / "station.yaml").read_text())
-    doc["scene"] = str(ROOT / "sample_images" / "scenes" / "paperboard" / "scene.yaml")
-    if world:
-        doc["camera"]["world"] = world
-    doc.update(top)
-    path = tmp_path / "station.yaml"
-    path.write_text(yaml.safe_dump(doc, sort_keys=False))
-    shutil.copy(STATION / "rois.yaml", tmp_path / "rois.yaml")
-    return path
-
-
-@pytest.fixture
-def cli(capsys):
-    def call(args):
-        capsys.readouterr()
-        code = run_cli(args)
-        captured = capsys.readouterr()
-        return code, captured.out, captured.err
-
-    return call
+station = copy_station
 
 
 def verify(cli, tmp_path, path, *extra):

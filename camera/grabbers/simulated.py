@@ -106,6 +106,10 @@ class SimulatedCamera(Grabber):
         JSON written by the controller (``{"channels": {"1": percent, ...}}``).
     world : World, optional
         Deviations of the simulated world from the scene.
+    seed : int
+        Which reflectance sample each object pixel shows (the parts themselves).
+    noise_seed : int, optional
+        The sensor noise; default new entropy for every camera opened.
     """
 
     def __init__(
@@ -119,6 +123,7 @@ class SimulatedCamera(Grabber):
         latency: int = 2,
         frame_interval_s: float = 0.01,
         seed: int = 0,
+        noise_seed: int | None = None,
     ):
         from inspect_validate.camera.station import World
 
@@ -132,7 +137,11 @@ class SimulatedCamera(Grabber):
         self.width, self.height = width, height
         self.latency = latency
         self.interval = frame_interval_s
-        self.rng = np.random.default_rng(seed)
+        # The objects (which reflectance sample each pixel shows) are the same every
+        # time, as the parts on a station are; the noise is new in every capture, as a
+        # sensor's is (repeats of 'train' must not be copies of one another).
+        objects = np.random.default_rng(seed)
+        self.noise = np.random.default_rng(noise_seed)
         self.exposure_us = 10_000.0
         self.gain_db = 0.0
         self.frame_id = 0
@@ -157,7 +166,7 @@ class SimulatedCamera(Grabber):
         for k, (x, y, w, h) in enumerate(self.bands.values()):
             samples = np.flatnonzero(self.sample_class == k)
             self._objects.append(
-                ((slice(y, y + h), slice(x, x + w)), self.rng.choice(samples, size=(h, w)))
+                ((slice(y, y + h), slice(x, x + w)), objects.choice(samples, size=(h, w)))
             )
         yy, xx = np.mgrid[0:height, 0:width]
         r2 = ((yy - (height - 1) / 2) ** 2 + (xx - (width - 1) / 2) ** 2) / (
@@ -214,7 +223,7 @@ class SimulatedCamera(Grabber):
             electrons[where] = rate[pick] * (self.exposure_us * 1e-6)
         electrons *= self._falloff
         return expose(
-            electrons, self.camera, rng=self.rng, gain=self.camera.gain * 10 ** (self.gain_db / 20)
+            electrons, self.camera, rng=self.noise, gain=self.camera.gain * 10 ** (self.gain_db / 20)
         )
 
     def _render(self, state: dict[int, float], stamp: int) -> Frame:

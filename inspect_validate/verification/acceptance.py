@@ -16,6 +16,11 @@ Example::
         snr_db: 1.5
       ranking: true                # the measured best illumination is the predicted best
       gain_relative: 0.1           # photon-transfer K against the camera's declared gain
+      drift:                       # against the golden statistics of 'inspect-validate train'
+        golden: golden.json        # relative to the station file
+        k: 3                       # tolerance k × the trained spread, unless given:
+        mean_dn: 2                 # |μ − μ_golden| per class, DN
+        snr_db: 0.5                # |SNR_dB − SNR_dB golden| per comparison
 """
 
 from __future__ import annotations
@@ -24,7 +29,7 @@ from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-__all__ = ["Acceptance", "Agreement", "Calibration", "Separation"]
+__all__ = ["Acceptance", "Agreement", "Calibration", "Drift", "Separation"]
 
 Fraction = Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)]
 Decibel = Annotated[float, Field(ge=-200, le=200, allow_inf_nan=False)]
@@ -83,6 +88,18 @@ class Agreement(_Strict):
     says nothing), so a comparison below the floor in both agrees."""
 
 
+class Drift(_Strict):
+    """Largest drift from the golden statistics ``inspect-validate train`` stored
+    (:mod:`.golden`); a tolerance not given is ``k`` × the trained spread."""
+
+    golden: Annotated[str, Field(min_length=1)]
+    k: Annotated[float, Field(gt=0, le=100, allow_inf_nan=False)] = 3.0
+    mean_dn: Annotated[float, Field(gt=0, le=1e9, allow_inf_nan=False)] | None = None
+    snr_db: Annotated[float, Field(gt=0, le=200, allow_inf_nan=False)] | None = None
+    snr_floor_db: Decibel = -20.0
+    """As in :class:`Agreement`: comparisons below it, trained and now, are not checked."""
+
+
 class Acceptance(_Strict):
     illumination: str | None = None
     separation: list[Separation] = []
@@ -91,6 +108,7 @@ class Acceptance(_Strict):
     agreement: Agreement | None = Agreement()
     ranking: bool = False
     gain_relative: Relative | None = None
+    drift: Drift | None = None
 
     def limits(self):
         """The saturated and zero fractions as measurement :class:`~inspect_validate.measure.Limits`

@@ -13,15 +13,37 @@ the predicted one; and the checks the ``acceptance:`` section asks for.
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
 from inspect_validate.errors import InputError
 from inspect_validate.verification.checks import Check, at_least, at_most
+from inspect_validate.verification.golden import drift_checks
 
-__all__ = ["Verification", "read_capture", "verify"]
+__all__ = [
+    "Capture",
+    "Plan",
+    "Verification",
+    "measure_capture",
+    "plan_verification",
+    "read_capture",
+    "station_regions",
+    "verify",
+]
+
+
+@dataclass(frozen=True)
+class Capture:
+    """A capture folder of a station, measured in the station's regions."""
+
+    folder: Path
+    files: dict  # illumination → frame files
+    dark_files: list
+    manifest: dict
+    measurements: dict  # illumination → Measurement
+    dark: object | None  # Measurement of the dark stack, or None
 
 
 @dataclass(frozen=True)
@@ -89,34 +111,89 @@ def read_capture(folder: Path, station) -> tuple[dict[str, list[Path]], list[Pat
     return frames, dark, manifest
 
 
-def verify(station, frames_dir: Path) -> Verification:
-    """Verify ``station`` (a :class:`~inspect_validate.camera.station.Station`) on the capture
-    in ``frames_dir``.
+def station_regions(station):
+    """The station's ROI set and the :class:`~inspect_validate.comparisons.Comparisons` of
+    its classes (the station's ``comparisons:``).
+
+    Raises
+    ------
+    InputError
+        No ``rois:``, an unreadable ROI file, weights naming unknown classes.
+    """
+    from inspect_validate.comparisons import Comparisons
+    from inspect_validate.roi import read_rois
+
+    if station.rois is None:
+        raise InputError(
+            "the station has no 'rois:' (the regions of its classes)", source=str(station.path)
+        )
+    rois = read_rois(station.resolve(station.rois))
+    comparisons = Comparisons.of(
+        [c.name for c in rois.classes],
+        station.comparisons,
+        source=f"{station.path}: comparisons",
+    )
+    return rois, comparisons
+
+
+def measure_capture(station, folder: Path, *, rois, comparisons, limits, kde: bool) -> Capture:
+    """Measure every illumination (and the darks) of a capture folder of ``station``
+    with :func:`~inspect_validate.measure.measure_files`, the one measuring path.
+
+    Raises
+    ------
+    InputError
+        Not a complete capture of the station; an unreadable frame; an ROI
+        outside the frame.
+    """
+    from inspect_validate.measure import measure_files
+
+    files, dark_files, manifest = read_capture(folder, station)
+    measurements = {
+        name: measure_files(paths, rois, comparisons=comparisons, limits=limits, kde=kde)
+        for name, paths in files.items()
+    }
+    dark = (
+        measure_files(dark_files, rois, comparisons=comparisons, kde=False) if dark_files else None
+    )
+    return Capture(Path(folder), files, dark_files, manifest, measurements, dark)
+
+
+@dataclass(frozen=True)
+class Plan:
+    """What a station's verification needs before any frame: its regions, comparisons and
+    model, the golden file, and what will be skipped. Made first, so that a mistake in the
+    station file costs no capture."""
+
+    rois: object
+    comparisons: object
+    model: object  # StationModel
+    golden: object | None  # Golden, for acceptance.drift
+    need_kde: bool
+    skipped: tuple[str, ...]
+
+
+def plan_verification(station) -> Plan:
+    """Check ``station``'s scene, channels, ROIs, comparisons, acceptance and golden file.
 
     Raises
     ------
     InputError
         A station without scene, channels, ROIs or exposure; ROI classes the
-        scene does not have; an unreadable capture (exit code 2).
+        scene does not have; an acceptance section naming unknown comparisons or
+        illuminations; an unreadable golden file (exit code 2).
     """
-    from inspect_validate.camera.station import station_hash
-    from inspect_validate.comparisons import Comparisons
-    from inspect_validate.measure import measure_files
     from inspect_validate.model.illumination import station_model
-    from inspect_validate.roi import read_rois
-    from inspect_validate.verification.calibration import fit_scales, photon_transfer_gain
+    from inspect_validate.verification.golden import read_golden
 
     source = str(station.path)
     acc = station.acceptance
-    files, dark_files, manifest = read_capture(frames_dir, station)
-    if station.rois is None:
-        raise InputError("the station has no 'rois:' (the regions of its classes)", source=source)
     if station.camera.exposure_us is None:
         raise InputError(
             "camera.exposure_us is needed to predict the station's grey values", source=source
         )
+    rois, comparisons = station_regions(station)
     model = station_model(station)
-    rois = read_rois(station.resolve(station.rois))
     scene_classes = {c.name: c for c in model.scene.classes}
     names = [c.name for c in rois.classes]
     unknown = [n for n in names if n not in scene_classes]
@@ -124,47 +201,22 @@ def verify(station, frames_dir: Path) -> Verification:
         raise InputError(
             f"ROI class {unknown[0]!r} is not a class of the scene "
             f"({', '.join(scene_classes)}); name the regions as the scene's classes",
-            source=str(station.resolve(station.rois)),
+            source=rois.source,
         )
-    comparisons = Comparisons.of(names, station.comparisons, source=f"{source}: comparisons")
-    skipped = []
     for sep in acc.separation:
         try:
             comparisons.index(sep.comparison)
         except InputError as exc:
             raise InputError(str(exc), source=f"{source}: acceptance.separation") from None
-    if acc.illumination is not None and acc.illumination not in files:
+    names_of = [i.name for i in station.illuminations]
+    if acc.illumination is not None and acc.illumination not in names_of:
         raise InputError(
             f"acceptance.illumination: no illumination {acc.illumination!r} "
-            f"(there are {', '.join(files)})",
+            f"(there are {', '.join(names_of)})",
             source=source,
         )
-    need_kde = any(s.max_error_kde is not None for s in acc.separation)
-    if not need_kde:
-        skipped.append("ε KDE: no check asks for it (acceptance.separation[].max_error_kde)")
-
-    limits = acc.limits()
-    measurements = {
-        name: measure_files(paths, rois, comparisons=comparisons, limits=limits, kde=need_kde)
-        for name, paths in files.items()
-    }
-    dark = (
-        measure_files(dark_files, rois, comparisons=comparisons, kde=False) if dark_files else None
-    )
-    # The prediction weights a group's classes as the measured regions do.
-    predicted_comparisons = comparisons.with_pixels(
-        [c.n_pixels for c in next(iter(measurements.values())).classes]
-    )
-
-    # The prediction of just these classes, at the stated irradiances.
-    from dataclasses import replace
-
-    scene = replace(model.scene, classes=tuple(scene_classes[n] for n in names))
-    model = replace(model, scene=scene)
-    nominal = model.predict(station, comparisons=predicted_comparisons)
-    method = station.calibration.method
     used_channels = {c for i in station.illuminations for c, v in i.channels.items() if v > 0}
-    if method == "absolute" and used_channels & model.nominal:
+    if station.calibration.method == "absolute" and used_channels & model.nominal:
         ch = min(used_channels & model.nominal)
         raise InputError(
             f"calibration 'absolute' needs every light's irradiance, and channel {ch} "
@@ -172,6 +224,52 @@ def verify(station, frames_dir: Path) -> Verification:
             "calibration 'fit' or 'reference'",
             source=source,
         )
+    golden = None
+    if acc.drift:
+        from inspect_validate.verification.golden import check_setup
+
+        golden = read_golden(station.resolve(acc.drift.golden))
+        check_setup(golden, station, source=str(station.resolve(acc.drift.golden)))
+    need_kde = any(s.max_error_kde is not None for s in acc.separation)
+    skipped = ()
+    if not need_kde:
+        skipped = ("ε KDE: no check asks for it (acceptance.separation[].max_error_kde)",)
+    # Only the ROI classes are predicted.
+    scene = replace(model.scene, classes=tuple(scene_classes[n] for n in names))
+    return Plan(rois, comparisons, replace(model, scene=scene), golden, need_kde, skipped)
+
+
+def verify(station, frames_dir: Path, *, plan: Plan | None = None) -> Verification:
+    """Verify ``station`` (a :class:`~inspect_validate.camera.station.Station`) on the capture
+    in ``frames_dir``; ``plan`` is :func:`plan_verification` of it, made here if not given.
+
+    Raises
+    ------
+    InputError
+        See :func:`plan_verification`; an unreadable or incomplete capture (exit code 2).
+    """
+    from inspect_validate.camera.station import station_hash
+    from inspect_validate.verification.calibration import fit_scales, photon_transfer_gain
+
+    plan = plan or plan_verification(station)
+    acc = station.acceptance
+    rois, comparisons, model, golden = plan.rois, plan.comparisons, plan.model, plan.golden
+    need_kde = plan.need_kde
+    skipped = list(plan.skipped)
+    limits = acc.limits()
+    capture = measure_capture(
+        station, frames_dir, rois=rois, comparisons=comparisons, limits=limits, kde=need_kde
+    )
+    files, dark_files, manifest = capture.files, capture.dark_files, capture.manifest
+    measurements, dark = capture.measurements, capture.dark
+    # The prediction weights a group's classes as the measured regions do.
+    predicted_comparisons = comparisons.with_pixels(
+        [c.n_pixels for c in next(iter(measurements.values())).classes]
+    )
+
+    # The prediction at the stated irradiances.
+    nominal = model.predict(station, comparisons=predicted_comparisons)
+    method = station.calibration.method
     offset = model.camera.dark_offset
     dark_means = {c.name: c.mean for c in dark.classes} if dark else None
     if dark is None:
@@ -210,6 +308,10 @@ def verify(station, frames_dir: Path) -> Verification:
     )
     ranking = _ranking(measurements, prediction, model.scene, acc, comparisons, skipped)
     checks = _checks(acc, measurements, class_rows, comparison_rows, ranking, gain, skipped)
+    if golden is not None:
+        checks += drift_checks(
+            golden, station, measurements, acc.drift, source=str(station.resolve(acc.drift.golden))
+        )
     inputs = {
         "station": str(station.path),
         "station_sha256": station_hash(station.path),
@@ -217,7 +319,8 @@ def verify(station, frames_dir: Path) -> Verification:
         "capture_station_sha256": manifest.get("station_sha256"),
         "frames": {k: [str(p) for p in v] for k, v in files.items()},
         "dark": [str(p) for p in dark_files],
-        "rois": str(station.resolve(station.rois)),
+        "rois": rois.source,
+        "golden": str(station.resolve(acc.drift.golden)) if golden else None,
         "scene": str(station.resolve(station.scene)),
     }
     notes = []

@@ -1,0 +1,163 @@
+"""`inspect-validate train` and the drift check of `verify` against its golden file.
+
+A golden file trained on three captures of the simulated station; `verify` on
+one of those captures is within k = 3 trained spreads by construction (one of
+n values lies within (n−1)/√n spreads of their mean), and a light that aged
+by 5 % — which the irradiance fit absorbs, so agreement with the prediction
+still passes — fails the drift check.
+"""
+
+import json
+import shutil
+
+import pytest
+import yaml
+from conftest import copy_station, run_cli
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory):
+    """A station copy, and a golden file trained on three captures of it."""
+    folder = tmp_path_factory.mktemp("trained")
+    path = copy_station(folder)
+    assert run_cli(["train", path, "--out", folder / "golden.json", "--repeats", 3]) == 0
+    return path, folder / "golden.json"
+
+
+def with_acceptance(tmp_path, trained, world=None, **acceptance):
+    """The trained station in ``tmp_path`` with acceptance keys (and camera.world) replaced."""
+    path, golden = trained
+    doc = yaml.safe_load(path.read_text())
+    doc["acceptance"].update(acceptance)
+    if world:
+        doc["camera"]["world"] = world
+    out = tmp_path / "station.yaml"
+    out.write_text(yaml.safe_dump(doc, sort_keys=False))
+    shutil.copy(path.parent / "rois.yaml", tmp_path / "rois.yaml")
+    shutil.copy(golden, tmp_path / "golden.json")
+    return out
+
+
+def test_golden_file_holds_every_repeat_and_its_spread(trained):
+    golden = trained[1]
+    doc = json.loads(golden.read_text())
+    assert doc["schema"] == "inspect-validate/golden" and doc["schema_version"] == 1
+    assert doc["repeats"] == 3 and doc["exposure_us"] == 8000
+    a = doc["illuminations"]["amber"]["classes"]["A"]["mean"]
+    assert len(a["values"]) == 3 and a["min"] <= a["mean"] <= a["max"]
+    # New sensor noise in every capture: the repeats are not copies.
+    assert a["std"] > 0 and len(set(a["values"])) == 3
+    assert a["std"] < 0.1  # the same parts under the same light: noise of the mean only
+    comp = doc["illuminations"]["amber"]["comparisons"]["A vs B,C"]
+    assert comp["snr_db"]["mean"] == pytest.approx(-5.1, abs=0.3)
+    assert len(comp["error_kde"]["values"]) == 3
+    for i in (1, 2, 3):
+        assert (golden.parent / "golden-frames" / f"repeat_0{i}" / "manifest.json").exists()
+
+
+def test_a_training_capture_is_within_k_spreads(cli, tmp_path, trained):
+    path = with_acceptance(tmp_path, trained, drift={"golden": "golden.json", "k": 3})
+    frames = trained[1].parent / "golden-frames" / "repeat_02"
+    code, out, err = cli(["verify", path, "--frames", frames, "--report", tmp_path / "r"])
+    assert code == 0, out + err
+    doc = json.loads((tmp_path / "r" / "verification.json").read_text())
+    drift = [c for c in doc["checks"] if c["kind"] == "drift"]
+    names = {c["name"] for c in drift}
+    assert {f"{i}: {k} μ drift" for i in ("amber", "red") for k in "ABC"} <= names
+    amber = {n for n in names if n.startswith("amber") and "SNR_dB" in n}
+    assert len(amber) == 5  # C vs A,B (−37 dB) is below the floor: not checked
+    assert all("3 × spread" in c["detail"] for c in drift)
+
+
+def test_an_aged_light_passes_agreement_and_fails_drift(cli, tmp_path, trained):
+    path = with_acceptance(
+        tmp_path,
+        trained,
+        world={"irradiance": {1: 0.95}},
+        drift={"golden": "golden.json", "mean_dn": 2.0, "snr_db": 0.5},
+    )
+    code, out, err = cli(["verify", path, "--out", tmp_path / "f", "--report", tmp_path / "r"])
+    assert code == 1, out + err
+    doc = json.loads((tmp_path / "r" / "verification.json").read_text())
+    failed = {c["name"] for c in doc["checks"] if c["verdict"] == "fail"}
+    # 5 % of ~150 DN: every amber class drifted ~7.5 DN; the fit absorbed it for agreement.
+    assert failed == {"amber: A μ drift", "amber: B μ drift", "amber: C μ drift"}
+    assert doc["inputs"]["golden"].endswith("golden.json")
+
+
+@pytest.mark.parametrize(
+    ("drift", "golden_text", "message"),
+    [
+        ({"golden": "missing.json"}, None, "golden file not found"),
+        ({"golden": "golden.json"}, "{not json", "not a golden JSON file"),
+        ({"golden": "golden.json"}, '{"schema": "inspect-validate/measurement"}', "not a golden"),
+        ({"golden": "golden.json"}, '{"schema": "inspect-validate/golden"}', "repeats"),
+    ],
+)
+def test_bad_golden_files_exit_2_naming_the_file(
+    cli, tmp_path, trained, drift, golden_text, message
+):
+    path = with_acceptance(tmp_path, trained, drift=drift)
+    if golden_text is not None:
+        (tmp_path / "golden.json").write_text(golden_text)
+    code, out, err = cli(["verify", path, "--out", tmp_path / "f"])
+    assert code == 2, out + err
+    assert message in err and "golden" in err and "Traceback" not in err
+    assert not (tmp_path / "f").exists()  # refused before capturing
+
+
+def test_a_golden_file_of_other_camera_settings_is_refused(cli, tmp_path, trained):
+    path = with_acceptance(tmp_path, trained, drift={"golden": "golden.json"})
+    doc = yaml.safe_load(path.read_text())
+    doc["camera"]["exposure_us"] = 9000
+    path.write_text(yaml.safe_dump(doc))
+    frames = trained[1].parent / "golden-frames" / "repeat_01"
+    code, _out, err = cli(["verify", path, "--frames", frames])
+    assert code == 2 and "retrain" in err and "8000" in err
+
+
+def test_one_repeat_has_no_spread_for_k(cli, tmp_path):
+    path = copy_station(tmp_path)
+    code, out, err = cli(["train", path, "--out", tmp_path / "g.json", "--repeats", 1])
+    assert code == 0, err
+    doc = yaml.safe_load(path.read_text())
+    doc["acceptance"]["drift"] = {"golden": "g.json"}
+    path.write_text(yaml.safe_dump(doc))
+    frames = tmp_path / "g-frames" / "repeat_01"
+    code, _out, err = cli(["verify", path, "--frames", frames])
+    assert code == 2 and "no spread" in err and "--repeats 2" in err
+    doc["acceptance"]["drift"] = {"golden": "g.json", "mean_dn": 1, "snr_db": 0.5}
+    path.write_text(yaml.safe_dump(doc))
+    code, out, err = cli(["verify", path, "--frames", frames])
+    assert code == 0, out + err
+
+
+def test_train_on_existing_captures(cli, tmp_path, trained):
+    frames = trained[1].parent / "golden-frames"
+    code, out, err = cli(
+        [
+            "train",
+            trained[0],
+            "--out",
+            tmp_path / "g.json",
+            "--frames",
+            frames / "repeat_01",
+            "--frames",
+            frames / "repeat_03",
+        ]
+    )
+    assert code == 0, err
+    doc = json.loads((tmp_path / "g.json").read_text())
+    assert doc["repeats"] == 2 and doc["captures"][1].endswith("repeat_03")
+    assert "golden:" in out and "μ [DN]" in out
+
+
+def test_a_controller_failure_while_training_exits_3_and_keeps_the_captures(cli, tmp_path):
+    path = copy_station(tmp_path)
+    doc = yaml.safe_load(path.read_text())
+    doc["controller"]["simulator_args"] = ["--vanish-after", "3"]
+    path.write_text(yaml.safe_dump(doc))
+    code, out, err = cli(["train", path, "--out", tmp_path / "g.json", "--repeats", 2])
+    assert code == 3, out + err
+    assert not (tmp_path / "g.json").exists()
+    assert (tmp_path / "g-frames" / "repeat_01" / "manifest.json").exists()
