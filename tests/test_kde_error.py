@@ -7,7 +7,7 @@ import pytest
 from scipy import integrate
 
 from inspect_validate.stats import as_sample, gaussian_error, kde_error
-from inspect_validate.stats.kde_error import kernel_mixture
+from inspect_validate.stats.kde_error import kernel_mixture, mixture_error
 
 
 def brute_force(s1, s2, h1, h2, lo, hi):
@@ -81,3 +81,14 @@ def test_windowed_density_equals_the_full_sum():
     parts = _density_parts(centres, weights, np.full(centres.size, h))
     windowed = _log_density(x, parts) + 0.5 * np.log(2 * np.pi)
     np.testing.assert_allclose(windowed, full, rtol=1e-12, atol=1e-12)
+
+
+@pytest.mark.parametrize("scale", [1.0, 1e-300, 5e-324 * 2**10, 1e280])
+def test_mixture_error_is_invariant_to_the_grey_value_unit(scale):
+    # ε depends on the densities' shapes only; subnormal or huge units (a fuzzer's float
+    # frames) must give the same number as DN, not a failed root search.
+    c1, c2 = np.array([0.0, 3.0, 4.0]), np.array([2.0, 5.0])
+    w1, w2 = np.array([0.5, 0.3, 0.2]), np.array([0.6, 0.4])
+    expected = mixture_error(c1, w1, 1.0, c2, w2, 1.5)
+    got = mixture_error(c1 * scale + 7 * scale, w1, scale, c2 * scale + 7 * scale, w2, 1.5 * scale)
+    assert got == pytest.approx(expected, rel=1e-6 if scale < 1e-300 else 1e-12)

@@ -201,6 +201,10 @@ def mixture_error(centres1, weights1, sigma1, centres2, weights2, sigma2) -> flo
     c1, w1, s1 = _sorted(c1[~atom1], w1[~atom1], s1[~atom1])
     c2, w2, s2 = _sorted(c2[~atom2], w2[~atom2], s2[~atom2])
     if c1.size and c2.size:
+        # ε is invariant under x → (x − a)/b; working in units of the widest kernel
+        # keeps the crossings' arithmetic normal where grey values are tiny or huge.
+        shift, unit = min(c1[0], c2[0]), max(s1.max(), s2.max())
+        c1, s1, c2, s2 = (c1 - shift) / unit, s1 / unit, (c2 - shift) / unit, s2 / unit
         p1, p2 = _density_parts(c1, w1, s1), _density_parts(c2, w2, s2)
         crossings = _crossings(p1, p2, c1, s1, c2, s2)
         edges = np.concatenate([[-np.inf], crossings, [np.inf]])
@@ -249,8 +253,9 @@ def _crossings(p1, p2, c1, s1, c2, s2) -> np.ndarray:
     d = diff(grid)
     sign = np.sign(d)
     idx = np.flatnonzero(sign[:-1] * sign[1:] < 0)
+    xtol = 1e-13 * hmax
     roots = [
-        optimize.brentq(lambda t: diff(np.array([t]))[0], grid[i], grid[i + 1], xtol=1e-13 * hmax)
+        optimize.brentq(lambda t: diff(np.array([t]))[0], grid[i], grid[i + 1], xtol=xtol)
         for i in idx
     ]
     roots += list(grid[np.flatnonzero(sign == 0)])
