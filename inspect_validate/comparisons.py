@@ -56,9 +56,11 @@ class ComparisonsSpec(BaseModel):
     """The ``comparisons:`` section of a scene or station file."""
 
     model_config = ConfigDict(extra="forbid")
-    groups: Literal["default", "pairs", "rest"] | list[Annotated[str, Field(min_length=1)]] = (
-        "default"
-    )
+    # An empty list would leave nothing to rank or check: name one, or take "default".
+    groups: (
+        Literal["default", "pairs", "rest"]
+        | Annotated[list[Annotated[str, Field(min_length=1)]], Field(min_length=1)]
+    ) = "default"
     weights: Weighting | dict[str, Annotated[float, Field(gt=0, allow_inf_nan=False)]] = "equal"
 
 

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 import yaml
 from conftest import ROOT
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 from inspect_validate.cli import main
@@ -363,3 +363,174 @@ def test_output_and_input_paths_that_are_wrong(capsys, paperboard, args):
     code, out, err = run([a.format(p=paperboard) for a in args], capsys)
     assert_clean(code, out, err)
     assert code == 2
+
+
+@pytest.fixture(scope="module")
+def verified_capture(tmp_path_factory):
+    """One capture of the simulated station and a golden file trained on it (twice)."""
+    from conftest import copy_station, run_cli
+
+    folder = tmp_path_factory.mktemp("verify_fuzz")
+    path = copy_station(folder)
+    assert run_cli(["capture", path, "--out", folder / "frames"]) == 0
+    frames = folder / "frames"
+    args = ["train", path, "--out", folder / "golden.json", "--frames", frames, "--frames", frames]
+    assert run_cli(args) == 0
+    return path, frames, folder / "golden.json"
+
+
+def verify_sections(*, hostile: bool):
+    """Strategies for a station's acceptance, calibration, comparisons and stated irradiance:
+    each value valid, or (``hostile``) now and then junk or a name that does not exist."""
+
+    def pick(good):
+        # maybe() flattens into one one_of with junk's many branches (mostly junk); a
+        # mapped junk is one branch among the good ones.
+        return st.one_of(*[good] * 5, junk.map(lambda x: x)) if hostile else good
+
+    names = ["A vs B,C", "A vs B", "B vs A,C"] + (["A vs D", "", " vs ", "A"] if hostile else [])
+    comparison_texts = st.sampled_from(names)
+    illuminations = ["amber", "red"] + (["blue"] if hostile else [])
+    goldens = ["golden.json"] + (["missing.json", "frames"] if hostile else [])
+    acceptance = st.fixed_dictionaries(
+        {},
+        optional={
+            "illumination": pick(st.sampled_from(illuminations)),
+            "separation": pick(
+                st.lists(
+                    st.fixed_dictionaries(
+                        {"comparison": pick(comparison_texts)},
+                        optional={
+                            "min_snr_db": pick(st.floats(-60, 20)),
+                            "min_cnr_db": pick(st.floats(-60, 20)),
+                            "max_error": pick(st.floats(0, 1)),
+                            "max_error_kde": pick(st.floats(0, 1)),
+                        },
+                    ),
+                    max_size=3,
+                )
+            ),
+            "max_saturated": pick(st.floats(0, 1)),
+            "max_zero": pick(st.floats(0, 1)),
+            "agreement": pick(
+                st.one_of(
+                    st.none(),
+                    st.fixed_dictionaries(
+                        {},
+                        optional={
+                            "mean_relative": pick(st.floats(0.001, 1)),
+                            "variance_relative": pick(st.floats(0.001, 1)),
+                            "snr_db": pick(st.floats(0.01, 10)),
+                            "snr_floor_db": pick(st.floats(-60, 0)),
+                        },
+                    ),
+                )
+            ),
+            "ranking": pick(st.booleans()),
+            "gain_relative": pick(st.floats(0.001, 1)),
+            "drift": pick(
+                st.fixed_dictionaries(
+                    {"golden": pick(st.sampled_from(goldens))},
+                    optional={
+                        "k": pick(st.floats(0.1, 10)),
+                        "mean_dn": pick(st.floats(0.001, 10)),
+                        "snr_db": pick(st.floats(0.001, 10)),
+                    },
+                )
+            ),
+        },
+    )
+    weights = ["equal", "pixels", {"A": 0.5, "B": 0.3, "C": 0.2}] + ([{"A": 1}] if hostile else [])
+    # Valid groups hold every comparison a separation check may name.
+    groups = ["default", ["A vs B,C", "A vs B", "B vs A,C", "B vs C"]] + (
+        ["pairs", "rest", []] if hostile else []
+    )
+    methods = ["fit", "reference", "absolute"]
+    return {
+        "acceptance": pick(acceptance),
+        "calibration": pick(
+            st.one_of(
+                st.fixed_dictionaries({"method": pick(st.sampled_from(["fit", "absolute"]))}),
+                st.fixed_dictionaries(
+                    {
+                        "method": pick(st.sampled_from(methods)),
+                        "reference": pick(st.sampled_from(["A", "white"] if hostile else ["A"])),
+                    }
+                ),
+            )
+        ),
+        "comparisons": pick(
+            st.fixed_dictionaries(
+                {},
+                optional={
+                    "groups": pick(st.sampled_from(groups)),
+                    "weights": pick(st.sampled_from(weights)),
+                },
+            )
+        ),
+        # Up to 10× the irradiance that lights the objects: the fit absorbs it.
+        "irradiance": pick(st.floats(0.5, 50)),
+    }
+
+
+golden_edits = st.sampled_from(
+    ["keep", "truncate", "nan values", "no classes", "empty values", "other exposure", "inf snr"]
+)
+
+
+def _edit_golden(text: str, edit: str) -> str:
+    if edit == "truncate":
+        return text[: len(text) // 2]
+    doc = json.loads(text)
+    ill = doc["illuminations"]["amber"]
+    if edit == "nan values":
+        ill["classes"]["A"]["mean"]["values"] = [None, None]
+    elif edit == "no classes":
+        ill["classes"] = {}
+    elif edit == "empty values":
+        ill["comparisons"]["A vs B"]["snr_db"]["values"] = []
+    elif edit == "other exposure":
+        doc["exposure_us"] = 1
+    elif edit == "inf snr":
+        ill["comparisons"]["A vs B,C"]["snr_db"]["values"] = ["inf", "-inf"]
+    return json.dumps(doc)
+
+
+@SETTINGS
+@given(**verify_sections(hostile=True), golden=golden_edits)
+def test_verify_with_hostile_station_sections(
+    capsys, verified_capture, acceptance, calibration, comparisons, irradiance, golden
+):
+    path, frames, golden_path = verified_capture
+    doc = yaml.safe_load(path.read_text())
+    doc.update(acceptance=acceptance, calibration=calibration, comparisons=comparisons)
+    doc["channels"] = {1: {"light": "amber LED", "irradiance": irradiance}, 2: "red LED"}
+    with tempfile.TemporaryDirectory(dir=path.parent) as tmp:
+        tmp = Path(tmp)
+        (tmp / "rois.yaml").write_text((path.parent / "rois.yaml").read_text())
+        (tmp / "golden.json").write_text(_edit_golden(golden_path.read_text(), golden))
+        (tmp / "st.yaml").write_text(yaml.safe_dump(doc))
+        code, out, err = run(["verify", tmp / "st.yaml", "--frames", frames], capsys)
+        event(f"exit {code}")  # --hypothesis-show-statistics: how many reach a verdict
+        assert_clean(code, out, err, allowed=(0, 1, 2))
+
+
+@settings(SETTINGS, max_examples=25)
+@given(**verify_sections(hostile=False))
+def test_verify_never_refuses_a_valid_station(
+    capsys, verified_capture, acceptance, calibration, comparisons, irradiance
+):
+    path, frames, golden_path = verified_capture
+    doc = yaml.safe_load(path.read_text())
+    doc.update(acceptance=acceptance, calibration=calibration, comparisons=comparisons)
+    doc["channels"] = {
+        1: {"light": "amber LED", "irradiance": irradiance},
+        2: {"light": "red LED", "irradiance": 5.0},  # calibration 'absolute' needs both
+    }
+    with tempfile.TemporaryDirectory(dir=path.parent) as tmp:
+        tmp = Path(tmp)
+        (tmp / "rois.yaml").write_text((path.parent / "rois.yaml").read_text())
+        (tmp / "golden.json").write_text(golden_path.read_text())
+        (tmp / "st.yaml").write_text(yaml.safe_dump(doc))
+        code, out, err = run(["verify", tmp / "st.yaml", "--frames", frames], capsys)
+        assert_clean(code, out, err, allowed=(0, 1))

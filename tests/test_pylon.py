@@ -146,3 +146,37 @@ def test_full_capture_through_the_emulator_matches_the_simulated_station(tmp_pat
         # Different noise realisations of the same model: the spatial spread dominates.
         assert abs(e["mean"] - m["mean"]) < 4 * (m["variance"] / m["n_pixels"]) ** 0.5 + 0.5, cls
         assert abs(e["variance"] / m["variance"] - 1) < 0.1, cls
+
+
+def test_verify_through_the_emulator_recovers_a_dimmer_light(tmp_path):
+    """`verify` end to end on pylon's grab engine and the simulated controller process on a
+    pseudo-terminal, against a world whose amber light gives 40 % of its stated irradiance."""
+    import yaml
+    from conftest import copy_station
+
+    path = copy_station(tmp_path, world={"irradiance": {1: 0.4}})
+    doc = yaml.safe_load(path.read_text())
+    doc["camera"] = {
+        "backend": "pylon",
+        "simulate": True,
+        "pixel_format": "Mono16",
+        **{k: doc["camera"][k] for k in ("exposure_us", "gain_db", "width", "height", "world")},
+    }
+    path.write_text(yaml.safe_dump(doc, sort_keys=False))
+    report = tmp_path / "report"
+    done = subprocess.run(
+        [sys.executable, "-m", "inspect_validate", "verify", str(path), "--report", str(report)],
+        env={**os.environ, "PYLON_CAMEMU": "1"},
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
+    result = json.loads((report / "verification.json").read_text())
+    assert result["verdict"] == "pass"
+    scales = result["calibration"]["illuminations"]
+    assert scales["amber"]["scale"] == pytest.approx(0.4, rel=0.01)
+    assert scales["red"]["scale"] == pytest.approx(1.0, rel=0.01)
+    meta = json.loads((report / "frames" / "amber" / "frame_0001.json").read_text())
+    assert meta["device"].startswith("Basler Emulation")
+    assert (report / "report.html").stat().st_size > 0

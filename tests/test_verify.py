@@ -205,3 +205,57 @@ def test_shipped_stations_give_their_verdicts(cli, tmp_path, name, expected, fai
     assert code == expected, out + err
     assert {c["kind"] for c in doc["checks"] if c["verdict"] == "fail"} == failing
     assert f"report: {tmp_path / 'report' / 'report.html'}" in out
+
+
+def test_predict_on_the_station_as_a_scene_gives_verifys_nominal_numbers(cli, tmp_path):
+    # The station written as a scene: its two LEDs at their stated 5 W/m², its fixed
+    # 8 ms exposure, its comparisons. `predict` must give what verify predicted
+    # before calibration, to float precision: one model, two entry points.
+    code, _, _, doc = verify(cli, tmp_path, station(tmp_path))
+    assert code == 0
+    base = ROOT / "sample_images" / "scenes"
+    scene = yaml.safe_load((base / "paperboard" / "scene.yaml").read_text())
+    for c in scene["classes"].values():
+        c["file"] = str(base / "paperboard" / c["file"])
+    scene["cameras"][0]["file"] = str(base / "chapter_table2" / "camera1_qe.csv")
+    for light in scene["lights"]:
+        light["irradiance"] = 5.0
+    scene["exposure"] = {"mode": "fixed", "time": 0.008}
+    scene["comparisons"] = {"weights": "equal"}
+    (tmp_path / "scene.yaml").write_text(yaml.safe_dump(scene))
+    code, _out, err = cli(
+        ["predict", tmp_path / "scene.yaml", "--json", tmp_path / "p.json", "--no-kde"]
+    )
+    assert code == 0, err
+    rows = {r["light"]: r for r in json.loads((tmp_path / "p.json").read_text())["ranking"]}
+    for ill, light in (("amber", "amber LED"), ("red", "red LED")):
+        p = rows[light]
+        assert p["exposure_time_s"] == pytest.approx(doc["exposure_time_s"], rel=1e-12)
+        predicted = {c["name"]: c for c in p["classes"]}
+        for row in (r for r in doc["classes"] if r["illumination"] == ill):
+            c = predicted[row["class"]]
+            assert c["mean"] == pytest.approx(row["nominal"]["mean"], rel=1e-12)
+            assert c["variance"] == pytest.approx(row["nominal"]["variance"], rel=1e-12)
+        labels = {f"{','.join(c['first'])} vs {','.join(c['second'])}": c for c in p["comparisons"]}
+        for row in (r for r in doc["comparisons"] if r["illumination"] == ill):
+            c = labels[row["comparison"]]
+            assert c["snr_db"] == pytest.approx(row["nominal"]["snr_db"], rel=1e-12)
+            assert c["error_gaussian"] == pytest.approx(row["nominal"]["error_gaussian"], rel=1e-9)
+
+
+def test_fit_calibrates_a_stated_irradiance_that_would_saturate(cli, tmp_path):
+    # Channel 1 stated at 50 W/m², ten times what lights the (simulated) objects: the
+    # prediction at the stated irradiance clips at 255 DN, the linear signal K·μ_e
+    # does not, and the fit finds 0.1.
+    path = station(
+        tmp_path,
+        channels={1: {"light": "amber LED", "irradiance": 50.0}, 2: "red LED"},
+        world={"irradiance": {1: 0.1}},
+    )
+    code, out, err, doc = verify(cli, tmp_path, path)
+    assert code == 0, out + err
+    amber = doc["calibration"]["illuminations"]["amber"]
+    assert amber["scale"] == pytest.approx(0.1, rel=0.01)
+    assert amber["irradiance"] == pytest.approx(5.0, rel=0.01)
+    nominal = [r["nominal"]["mean"] for r in doc["classes"] if r["illumination"] == "amber"]
+    assert max(nominal) > 254  # the stated irradiance would saturate

@@ -223,7 +223,10 @@ class SimulatedCamera(Grabber):
             electrons[where] = rate[pick] * (self.exposure_us * 1e-6)
         electrons *= self._falloff
         return expose(
-            electrons, self.camera, rng=self.noise, gain=self.camera.gain * 10 ** (self.gain_db / 20)
+            electrons,
+            self.camera,
+            rng=self.noise,
+            gain=self.camera.gain * 10 ** (self.gain_db / 20),
         )
 
     def _render(self, state: dict[int, float], stamp: int) -> Frame:

@@ -131,6 +131,7 @@ def fit_scales(
     offset: float,
     dark_means: dict | None,
     irradiance: dict,
+    gain: float,
     reference: str | None = None,
     max_saturated: float = 1e-3,
 ) -> dict[str, IrradianceScale]:
@@ -149,6 +150,10 @@ def fit_scales(
         Class → measured dark mean, DN (default: ``offset`` for every class).
     irradiance : dict of str to float
         Illumination → its stated irradiance, W/m².
+    gain : float
+        The model camera's system gain K, DN/e⁻: the predicted signal is K·μ_e,
+        linear in the irradiance before any clipping, so a prediction that
+        saturates at a stated irradiance ten times too high still calibrates.
     reference : str, optional
         The class of known reflectance (method ``reference``).
     """
@@ -156,7 +161,7 @@ def fit_scales(
     classes = list(prediction.classes)
     for li, (name, m) in enumerate(measurements.items()):
         by = {c.name: c for c in m.classes}
-        predicted = prediction.mean[li, 0, 0] - offset
+        predicted = gain * prediction.electrons[li, 0, 0]
         measured = np.array(
             [by[c].mean - (dark_means or {}).get(c, offset) for c in classes], dtype=float
         )
@@ -164,7 +169,6 @@ def fit_scales(
             [
                 by[c].saturated_fraction <= max_saturated
                 and by[c].zero_fraction <= max_saturated
-                and prediction.saturated_fraction[li, 0, 0, k] <= max_saturated
                 and predicted[k] > 0
                 for k, c in enumerate(classes)
             ]

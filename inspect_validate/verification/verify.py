@@ -282,6 +282,7 @@ def verify(station, frames_dir: Path, *, plan: Plan | None = None) -> Verificati
         offset=offset,
         dark_means=dark_means,
         irradiance=stated,
+        gain=model.camera.gain,
         reference=station.calibration.reference,
         max_saturated=limits.max_saturated,
     )
@@ -304,7 +305,7 @@ def verify(station, frames_dir: Path, *, plan: Plan | None = None) -> Verificati
         )
 
     class_rows, comparison_rows = _compare(
-        measurements, prediction, dark_means, offset, need_kde=need_kde
+        measurements, prediction, nominal, dark_means, offset, need_kde=need_kde
     )
     ranking = _ranking(measurements, prediction, model.scene, acc, comparisons, skipped)
     checks = _checks(acc, measurements, class_rows, comparison_rows, ranking, gain, skipped)
@@ -349,8 +350,9 @@ def verify(station, frames_dir: Path, *, plan: Plan | None = None) -> Verificati
     )
 
 
-def _compare(measurements, p, dark_means, offset, *, need_kde):
-    """Rows of predicted against measured, per illumination and class / comparison."""
+def _compare(measurements, p, nominal, dark_means, offset, *, need_kde):
+    """Rows of predicted (calibrated; and ``nominal``, at the stated irradiances, as
+    ``predict`` gives them) against measured, per illumination and class / comparison."""
     from inspect_validate.model import predicted_kde_error
 
     class_rows, comparison_rows = [], []
@@ -370,6 +372,10 @@ def _compare(measurements, p, dark_means, offset, *, need_kde):
                         "temporal_variance": float(temporal[li, 0, 0, k]),
                         "spatial_variance": float(p.spectral_variance[li, 0, 0, k]),
                         "saturated_fraction": float(p.saturated_fraction[li, 0, 0, k]),
+                    },
+                    "nominal": {
+                        "mean": float(nominal.mean[li, 0, 0, k]),
+                        "variance": float(nominal.variance[li, 0, 0, k]),
                     },
                     "measured": {
                         "mean": c.mean,
@@ -396,6 +402,11 @@ def _compare(measurements, p, dark_means, offset, *, need_kde):
                         "cnr_db": float(p.cnr_db[li, 0, 0, j]),
                         "error_gaussian": float(p.error_gaussian[li, 0, 0, j]),
                         "error_kde": predicted_kde,
+                    },
+                    "nominal": {
+                        "snr_db": float(nominal.snr_db[li, 0, 0, j]),
+                        "cnr_db": float(nominal.cnr_db[li, 0, 0, j]),
+                        "error_gaussian": float(nominal.error_gaussian[li, 0, 0, j]),
                     },
                     "measured": {
                         "snr_db": comp.snr_db,
