@@ -524,6 +524,16 @@ def _checks(acc, measurements, class_rows, comparison_rows, ranking, gain, skipp
                     )
                 )
         if agree.snr_db is not None:
+            below = [
+                f"{r['illumination']}: {r['comparison']}"
+                for r in comparison_rows
+                if max(r["predicted"]["snr_db"], r["measured"]["snr_db"]) < agree.snr_floor_db
+            ]
+            if below:
+                skipped.append(
+                    f"SNR_dB agreement of {', '.join(below)}: predicted and measured below "
+                    f"agreement.snr_floor_db ({agree.snr_floor_db:g} dB)"
+                )
             for row in comparison_rows:
                 if max(row["predicted"]["snr_db"], row["measured"]["snr_db"]) < agree.snr_floor_db:
                     continue  # both unseparable: the dB values carry no agreement to check
