@@ -1,0 +1,323 @@
+"""The best mix of a multi-channel controller's lights: drive levels that minimise the worst
+comparison's ε, with the camera's noise in the loop and no class saturating.
+
+Channel c at 100 % gives reflectance sample s ``E[c, s]`` photo-electrons at the
+exposure (the acquisition model (32), linear in the light). At drive levels
+w ∈ [0, 1]ᴺ a sample collects μ_e(s) = Σ_c w_c E[c, s], so class k has
+
+    μ_k  = d + K m_kᵀ w                                  (linear in w)
+    σ²_k = K² wᵀ C_k w  +  K² (σ_d² + m_kᵀ w) + 1/12      (spectral + temporal)
+
+with m_k and C_k the mean and (unbiased) covariance of the class's samples'
+per-channel responses, K the system gain (DN/e⁻), σ_d the dark noise (e⁻), d
+the dark offset (DN); the spectral term is quadratic in w, the temporal (EMVA
+1288) linear through the photon count. This is what ``predict`` computes for the
+mixed light, before clipping. No class may saturate: every sample's mean stays
+z·σ below the largest grey value, z the normal quantile of the allowed
+saturated fraction, σ the temporal noise at that grey value — a linear
+constraint on w.
+
+The objective is the worst named comparison's ε_tot (37) — each side a mixture
+of its classes' Gaussians, exact, with the exact gradient of
+:func:`~inspect_validate.stats.kde_error.mixture_error_gradient` — minimised in
+log space as an epigraph problem (SLSQP) from several starts: each channel
+alone, all channels equal, the Fisher direction S⁻¹Δm of each comparison (the
+generalised-eigenvalue solution that maximises (wᵀΔm)²/wᵀSw), and seeded
+random mixes, each scaled up to the saturation limit.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from inspect_validate.errors import InputError
+
+__all__ = [
+    "ChannelResponse",
+    "Mix",
+    "channel_response",
+    "comparison_errors",
+    "mix_moments",
+    "optimise_mix",
+]
+
+_LOG_FLOOR = 1e-300  # ε below this is perfect separation for any purpose
+
+
+@dataclass(frozen=True, eq=False)
+class ChannelResponse:
+    """Photo-electrons each channel gives each reflectance sample at 100 %, and the camera.
+
+    Attributes
+    ----------
+    channels : tuple of str
+        Channel labels, in the order of ``electrons``' rows.
+    electrons : ndarray, (N, S)
+        e⁻ per sample at 100 % drive and the exposure time.
+    sample_class : ndarray of int, (S,)
+    classes : tuple of str
+    gain : float
+        System gain K, DN/e⁻.
+    dark_noise : float
+        e⁻.
+    dark_offset, max_dn : float
+        DN.
+    exposure_time : float
+        s.
+    """
+
+    channels: tuple[str, ...]
+    electrons: np.ndarray
+    sample_class: np.ndarray
+    classes: tuple[str, ...]
+    gain: float
+    dark_noise: float
+    dark_offset: float
+    max_dn: float
+    exposure_time: float
+
+    def class_statistics(self) -> tuple[np.ndarray, np.ndarray]:
+        """Per class the mean response m_k (K, N) and its covariance C_k (K, N, N), e⁻."""
+        n = self.electrons.shape[0]
+        means, covs = [], []
+        for k in range(len(self.classes)):
+            e = self.electrons[:, self.sample_class == k]
+            means.append(e.mean(axis=1))
+            covs.append(np.cov(e, ddof=1).reshape(n, n) if e.shape[1] > 1 else np.zeros((n, n)))
+        return np.array(means), np.array(covs)
+
+    def ceiling(self, max_saturated: float) -> float:
+        """Largest mean signal K·μ_e (DN above the offset) a sample may reach."""
+        from scipy import stats
+
+        from inspect_validate.model.acquisition import QUANTISATION_VARIANCE
+
+        z = float(stats.norm.isf(max_saturated))
+        top = self.max_dn - self.dark_offset
+        noise = np.sqrt(self.gain**2 * self.dark_noise**2 + self.gain * top + QUANTISATION_VARIANCE)
+        return top - z * noise
+
+
+def channel_response(channels: dict, optics, camera, classes, *, grid, exposure_time: float):
+    """:class:`ChannelResponse` of scene lights (label → Light with its irradiance) through
+    ``optics`` onto ``camera`` at ``exposure_time`` s.
+
+    Raises
+    ------
+    InputError
+        A channel whose light the model cannot predict for these classes (a
+        reflectance not measured where the light shines), naming the reason.
+    """
+    from inspect_validate.model import Exposure, predict
+
+    lights = list(channels.values())
+    p = predict(
+        lights,
+        [optics],
+        [camera],
+        list(classes),
+        exposure=Exposure("fixed", time=float(exposure_time)),
+        grid=grid,
+    )
+    electrons = p.sample_electrons[:, 0, 0]
+    bad = ~np.all(np.isfinite(electrons), axis=1)
+    if bad.any():
+        label = list(channels)[int(np.argmax(bad))]
+        raise InputError(
+            f"channel {label} ({lights[int(np.argmax(bad))].name}) cannot be predicted: "
+            + "; ".join(p.skipped[:1])
+        )
+    return ChannelResponse(
+        channels=tuple(str(c) for c in channels),
+        electrons=np.ascontiguousarray(electrons),
+        sample_class=np.asarray(p.sample_class),
+        classes=tuple(p.classes),
+        gain=float(camera.gain),
+        dark_noise=float(camera.dark_noise),
+        dark_offset=float(camera.dark_offset),
+        max_dn=float(camera.max_dn),
+        exposure_time=float(exposure_time),
+    )
+
+
+def mix_moments(response: ChannelResponse, levels, *, stats=None, jacobian: bool = False):
+    """Class means (DN) and variances (DN²) at drive ``levels`` (N,), before clipping;
+    with ``jacobian`` also ∂μ/∂w and ∂σ²/∂w, (K, N) each."""
+    from inspect_validate.model.acquisition import QUANTISATION_VARIANCE
+
+    w = np.asarray(levels, dtype=np.float64)
+    m, c = stats or response.class_statistics()
+    k2 = response.gain**2
+    mean = response.dark_offset + response.gain * (m @ w)
+    cw = c @ w  # (K, N)
+    variance = k2 * (cw @ w) + k2 * (response.dark_noise**2 + m @ w) + QUANTISATION_VARIANCE
+    if not jacobian:
+        return mean, variance
+    return mean, variance, response.gain * m, k2 * (2.0 * cw + m)
+
+
+def comparison_errors(response, levels, comparisons, *, stats=None, gradient: bool = False):
+    """ε_tot (37) of every comparison at ``levels``, (P,); with ``gradient`` also ∂ε/∂w, (P, N)."""
+    from inspect_validate.stats.kde_error import mixture_error_gradient
+
+    mean, var, d_mean, d_var = mix_moments(response, levels, stats=stats, jacobian=True)
+    sd = np.sqrt(var)
+    prior = comparisons.class_weights()
+    errors = np.empty(len(comparisons.groups))
+    grads = np.zeros((len(comparisons.groups), np.size(levels)))
+    for p, (g1, g2) in enumerate(comparisons.groups):
+        g1, g2 = list(g1), list(g2)
+        e, dm1, ds1, dm2, ds2 = mixture_error_gradient(
+            mean[g1],
+            prior[g1] / prior[g1].sum(),
+            sd[g1],
+            mean[g2],
+            prior[g2] / prior[g2].sum(),
+            sd[g2],
+        )
+        errors[p] = e
+        if gradient:
+            for g, dm, ds in ((g1, dm1, ds1), (g2, dm2, ds2)):
+                # ∂σ/∂w = ∂σ²/∂w / 2σ
+                grads[p] += dm @ d_mean[g] + (ds / (2.0 * sd[g])) @ d_var[g]
+    return (errors, grads) if gradient else errors
+
+
+@dataclass(frozen=True, eq=False)
+class Mix:
+    """The optimal drive levels and what they give.
+
+    Attributes
+    ----------
+    levels : ndarray, (N,)
+        Drive level of each channel, 0–1 (may exceed 1 with ``max_level``).
+    errors : ndarray, (P,)
+        ε_tot of every comparison at ``levels``.
+    worst : int
+        Index of the comparison the objective is about.
+    starts : int
+        Local optimisations run.
+    """
+
+    levels: np.ndarray
+    errors: np.ndarray
+    worst: int
+    starts: int
+
+    @property
+    def objective(self) -> float:
+        return float(self.errors[self.worst])
+
+
+def optimise_mix(
+    response: ChannelResponse,
+    comparisons,
+    *,
+    max_saturated: float = 1e-3,
+    max_level: float = 1.0,
+    random_starts: int = 4,
+    seed: int = 0,
+) -> Mix:
+    """Drive levels in [0, ``max_level``]ᴺ that minimise the worst comparison's ε_tot, no
+    class saturating (see the module's description).
+
+    Parameters
+    ----------
+    response : ChannelResponse
+    comparisons : Comparisons
+        Those whose worst ε is minimised (every one the objective should see).
+    max_saturated : float, keyword-only
+        Allowed saturated fraction of a sample's pixels (sets z of the ceiling).
+    max_level : float, keyword-only
+        Upper bound of each level: 1 at a fixed exposure; larger stands for a
+        longer exposure (the caller rescales).
+    random_starts : int, keyword-only
+        Seeded random mixes besides the structured starts.
+
+    Raises
+    ------
+    InputError
+        No mix keeps every class below saturation (even the faintest start is
+        too bright: shorten the exposure).
+    """
+    from scipy import optimize
+
+    n = response.electrons.shape[0]
+    stats = response.class_statistics()
+    a = response.gain * response.electrons.T  # (S, N): DN per sample per unit level
+    ceiling = response.ceiling(max_saturated)
+
+    def scaled(w):
+        """``w`` scaled up (or down) to the saturation limit and the level bounds."""
+        w = np.clip(np.asarray(w, float), 0.0, None)
+        peak = float((a @ w).max())
+        if peak <= 0:
+            return None
+        w = w * (ceiling / peak)
+        if w.max() > max_level:
+            w = w * (max_level / w.max())
+        return w
+
+    starts = [np.eye(n)[c] for c in range(n)] + [np.ones(n)]
+    m, c = stats
+    for g1, g2 in comparisons.groups:
+        # Fisher direction of the two sides' mean responses: S⁻¹Δm, each sign.
+        d = m[list(g1)].mean(axis=0) - m[list(g2)].mean(axis=0)
+        s = c[list(g1)].mean(axis=0) + c[list(g2)].mean(axis=0)
+        s = s + np.eye(n) * (1e-9 * np.trace(s) / n + 1e-300)
+        direction = np.linalg.solve(s, d)
+        starts += [direction, -direction]
+    rng = np.random.default_rng(seed)
+    starts += list(rng.dirichlet(np.ones(n), size=random_starts))
+    starts = [w for w in (scaled(x) for x in starts) if w is not None]
+    if not starts:
+        raise InputError("no channel gives any signal on these classes")
+
+    cache = {}
+
+    def log_errors(w):
+        key = w.tobytes()
+        if key not in cache:  # SLSQP asks for a constraint's value and Jacobian apart
+            cache.clear()
+            e, g = comparison_errors(response, w, comparisons, stats=stats, gradient=True)
+            cache[key] = (np.log(e + _LOG_FLOOR), g / (e + _LOG_FLOOR)[:, None])
+        return cache[key]
+
+    def objective(x):
+        return x[-1], np.r_[np.zeros(n), 1.0]
+
+    constraints = [
+        {
+            "type": "ineq",  # t − log ε_p(w) ≥ 0
+            "fun": lambda x: x[-1] - log_errors(x[:-1])[0],
+            "jac": lambda x: np.c_[-log_errors(x[:-1])[1], np.ones(len(comparisons.groups))],
+        },
+        {
+            "type": "ineq",  # ceiling − K·E_sᵀ w ≥ 0 for every sample
+            "fun": lambda x: ceiling - a @ x[:-1],
+            "jac": lambda x: np.c_[-a, np.zeros(a.shape[0])],
+        },
+    ]
+    bounds = [(0.0, max_level)] * n + [(None, None)]
+    best = None
+    for w0 in starts:
+        x0 = np.r_[w0, log_errors(w0)[0].max()]
+        res = optimize.minimize(
+            objective,
+            x0,
+            jac=True,
+            method="SLSQP",
+            bounds=bounds,
+            constraints=constraints,
+            options={"maxiter": 200, "ftol": 1e-12},
+        )
+        w = np.clip(res.x[:-1], 0.0, max_level)
+        if (a @ w).max() > ceiling * (1 + 1e-9):
+            w = scaled(w)  # SLSQP may end a hair outside; pull back onto the limit
+        errors = comparison_errors(response, w, comparisons, stats=stats)
+        if best is None or errors.max() < best[1].max():
+            best = (w, errors)
+    w, errors = best
+    return Mix(levels=w, errors=errors, worst=int(np.argmax(errors)), starts=len(starts))
