@@ -12,6 +12,12 @@ pattern of Table 2. The chapter's own spectra are not published.
 from B and C around 575 nm but not at 630 nm (chapter §4.2, Fig. 21), under an
 amber and a red LED: the prediction ranks amber above red.
 
+``mix/``: three printed inks, A brighter than B around 465 nm, C brighter than B
+around 635 nm, under a blue, a green and a red LED on one controller. Blue
+alone cannot tell B from C, red alone cannot tell A from B, and an equal mix of
+the two makes A look like C: only an unequal mix separates all three (the
+example of ``inspect-validate design``).
+
 Run ``python sample_images/scenes/generate.py`` to rewrite the files.
 """
 
@@ -96,10 +102,40 @@ def paperboard(rng):
     )
 
 
+def mix(rng):
+    out = HERE / "mix"
+    out.mkdir(exist_ok=True)
+    g = GRID
+    base = 0.40 + 0.10 * sigmoid((g - 520) / 40)
+    bumps = {"A": (465.0, 0.08), "B": (550.0, 0.0), "C": (635.0, 0.08)}
+    for name, (centre, height) in bumps.items():
+        curve = base + height * np.exp(-0.5 * ((g - centre) / 22) ** 2)
+        samples = [
+            curve * (1 + rng.normal(0, 0.004)) + rng.normal(0, 0.002, g.size) for _ in range(20)
+        ]
+        write_csv(out / f"{name}.csv", g, samples, [f"r{i + 1}" for i in range(20)])
+    (out / "scene.yaml").write_text(
+        "# Three inks under a blue, a green and a red LED: no single LED separates all three.\n"
+        "name: inks\n"
+        "wavelength: {start: 380, stop: 780, step: 1}\n"
+        "classes:\n  A: {file: A.csv}\n  B: {file: B.csv}\n  C: {file: C.csv}\n"
+        "lights:\n"
+        "  - {led: {peak: 465, fwhm: 20}, name: blue LED, irradiance: 2.0}\n"
+        "  - {led: {peak: 530, fwhm: 30}, name: green LED, irradiance: 2.0}\n"
+        "  - {led: {peak: 635, fwhm: 18}, name: red LED, irradiance: 2.0}\n"
+        "optics:\n  - {lens: visible}\n"
+        "cameras:\n  - {file: ../chapter_table2/camera1_qe.csv, name: mono 12-bit, gain: 0.1, "
+        "dark_noise: 12, saturation: 30000, bit_depth: 12, dark_offset: 20}\n"
+        "exposure: {mode: fixed, time: 0.04}\n"
+        'rank: {by: error}\n'
+    )
+
+
 def main():
     rng = np.random.default_rng(2012)
     chapter_table2(rng)
     paperboard(rng)
+    mix(np.random.default_rng(465))
 
 
 if __name__ == "__main__":
