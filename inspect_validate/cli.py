@@ -513,6 +513,66 @@ def train(station, golden_path, repeats, frames_dirs, frames_out):
     click.echo(f"golden: {golden_path} ({golden.repeats} repeats)")
 
 
+@cli.command()
+@click.argument("source", type=_PATH)
+@click.option("--json", "json_path", type=_PATH, help="Write the design as JSON.")
+def design(source, json_path):
+    """Design the mix of a controller's channels that separates the classes best.
+
+    SOURCE is a station file (its channels, exposure, camera and the
+    comparisons its acceptance section names) or a scene file (its lights as
+    channels 1, 2, … at its fixed exposure). Finds the drive levels that
+    minimise the worst comparison's ε Gauss with no class saturating, and
+    prints them next to the best single channel, how the worst ε moves when a
+    level is off by ±10 %, and an illumination entry for the station file.
+    """
+    from inspect_validate.design.problem import design_problem
+    from inspect_validate.design.solve import solve
+    from inspect_validate.report import render_table, write_json
+    from inspect_validate.report.design import design_document
+
+    _outputs(files=[json_path])
+    problem = design_problem(source)
+    result = solve(problem)
+    names = {c: light.name for c, light in problem.channels.items()}
+    click.echo(
+        f"{Path(source).name}: {len(names)} channels, exposure "
+        f"{1e3 * problem.exposure_time:g} ms, minimising the worst ε Gauss of "
+        f"{', '.join(problem.objective.labels)} ({result.starts} starts)"
+    )
+    click.echo(
+        "designed mix: "
+        + ", ".join(f"channel {c} ({names[c]}) {p:g} %" for c, p in result.percent.items())
+    )
+    ch, level = result.single
+    click.echo(f"best single channel: {ch} ({names[ch]}) at {100 * level:.1f} %")
+    mix, single = result.mix, result.single_prediction
+    rows = [
+        [
+            text,
+            f"{mix.error_gaussian[0, 0, 0, j]:.3g}",
+            f"{single.error_gaussian[0, 0, 0, j]:.3g}",
+            f"{mix.snr_db[0, 0, 0, j]:.2f}",
+            f"{single.snr_db[0, 0, 0, j]:.2f}",
+        ]
+        for j, text in enumerate(problem.comparisons.labels)
+    ]
+    click.echo(
+        render_table(["comparison", "ε mix", "ε single", "SNR_dB mix", "SNR_dB single"], rows)
+    )
+    worst = max(result.flatness, key=lambda f: f["worst_error"])
+    click.echo(
+        f"drive tolerance: with one level off by ±10 % the worst ε is at most "
+        f"{worst['worst_error']:.3g} (channel {worst['channel']} {100 * worst['change']:+.0f} %)"
+        + ("; +10 % on a level saturates" if any(f["saturates"] for f in result.flatness) else "")
+    )
+    entry = ", ".join(f"{c}: {p:g}" for c, p in result.percent.items())
+    click.echo(f"station entry:\n  - {{name: design, channels: {{{entry}}}}}")
+    if json_path:
+        write_json(design_document(result), json_path)
+        click.echo(f"wrote {json_path}")
+
+
 def _capture(station, out, *, resume=False):
     """Capture ``station`` into ``out`` with a progress bar on stderr."""
     from inspect_validate.camera.capture import capture

@@ -202,6 +202,12 @@ class Comparisons:
         """Position of the comparison written ``text`` (see :func:`find_comparison`)."""
         return find_comparison(self.named, text)
 
+    def subset(self, texts) -> Comparisons:
+        """Only the comparisons written ``texts`` (each as :meth:`index` reads it), in that order."""
+        return Comparisons(
+            self.classes, tuple(self.groups[self.index(t)] for t in texts), self.weights
+        )
+
     def with_pixels(self, pixels) -> Comparisons:
         """These comparisons with ``pixels`` weighting turned into priors from the regions'
         pixel counts, for a prediction of the same regions; others unchanged."""

@@ -4,7 +4,6 @@ differences, the optimiser against a brute-force search, and the shipped example
 import numpy as np
 import pytest
 from conftest import ROOT
-from scipy import optimize
 
 from inspect_validate.design import channel_response, comparison_errors, mix_moments, optimise_mix
 from inspect_validate.model import Exposure, predict
@@ -126,3 +125,49 @@ def test_shipped_example_mix_beats_every_single_channel_tenfold(inks):
     assert mix.objective < min(singles) / 10
     assert mix.levels[0] > 0.5 and mix.levels[2] > 0.2  # blue and red, unequal
     assert abs(mix.levels[0] - mix.levels[2]) > 0.1
+
+
+def test_design_cli_on_the_example_scene(cli, tmp_path):
+    import json
+
+    code, out, err = cli(["design", MIX, "--json", tmp_path / "d.json"])
+    assert code == 0, err
+    assert "designed mix: channel 1 (blue LED) 100 %, channel 3 (red LED)" in out
+    assert "  - {name: design, channels: {1: 100, 3: " in out  # pastes into a station file
+    doc = json.loads((tmp_path / "d.json").read_text())
+    assert doc["schema"] == "inspect-validate/design" and doc["schema_version"] == 1
+    worst_mix = max(c["error_gaussian"] for c in doc["mix"]["comparisons"])
+    worst_single = max(c["error_gaussian"] for c in doc["best_single"]["comparisons"])
+    assert worst_mix < worst_single / 10
+    assert len(doc["drive_tolerance"]) == 6
+    assert all(c["saturated_fraction"] < 1e-3 for c in doc["mix"]["classes"])
+
+
+def test_design_cli_on_a_station_names_its_acceptance_comparison(cli):
+    code, out, err = cli(["design", ROOT / "sample_images" / "station" / "station.yaml"])
+    assert code == 0, err
+    assert "minimising the worst ε Gauss of A vs B,C" in out
+
+
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        (lambda s: s.replace("{mode: fixed, time: 0.04}", "{mode: auto}"), "mode: fixed"),
+        (lambda s: s.replace(", irradiance: 2.0}", "}", 1), "has no irradiance"),
+        (
+            lambda s: s.replace(
+                "  - {lens: visible}", "  - {lens: visible}\n  - {lens: visible, name: b}"
+            ),
+            "optics",
+        ),
+    ],
+)
+def test_design_refuses_scenes_it_cannot_mix(cli, tmp_path, edit, message):
+    text = edit(MIX.read_text())
+    for name in ("A", "B", "C"):
+        text = text.replace(f"file: {name}.csv", f"file: {MIX.parent / name}.csv")
+    text = text.replace("../chapter_table2/", f"{MIX.parent.parent / 'chapter_table2'}/")
+    (tmp_path / "s.yaml").write_text(text)
+    code, out, err = cli(["design", tmp_path / "s.yaml"])
+    assert code == 2, out + err
+    assert message in err and "Traceback" not in err

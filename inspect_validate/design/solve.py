@@ -1,0 +1,117 @@
+"""Solve a :class:`~inspect_validate.design.problem.DesignProblem`: the optimal mix, the
+best single channel, both predicted by ``predict`` for the mixed light, and how flat the
+optimum is."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+__all__ = ["Design", "solve"]
+
+DRIVE_TOLERANCE = 0.10  # an LED controller's output is good to about ±10 %
+
+
+@dataclass(frozen=True, eq=False)
+class Design:
+    """The designed mix and the best single channel.
+
+    Attributes
+    ----------
+    problem : DesignProblem
+    levels : dict of channel to float
+        Optimal drive level per channel, 0–1.
+    single : tuple (channel, level)
+        The best single channel and its level.
+    mix, single_prediction : Prediction
+        ``predict`` of the mixed light and of the single channel at its level
+        (every comparison of the problem), shape (1, 1, 1).
+    flatness : list of dict
+        For each channel moved by ±10 % of its level: the worst objective ε.
+    starts : int
+    """
+
+    problem: object
+    levels: dict
+    single: tuple
+    mix: object
+    single_prediction: object
+    flatness: list
+    starts: int
+
+    @property
+    def percent(self) -> dict:
+        return {c: round(100.0 * w, 1) for c, w in self.levels.items() if w > 5e-4}
+
+
+def solve(problem) -> Design:
+    """The mix of ``problem``'s channels that minimises its objective's worst ε."""
+    from inspect_validate.design.mix import channel_response, comparison_errors, optimise_mix
+
+    response = channel_response(
+        problem.channels,
+        problem.optics,
+        problem.camera,
+        problem.classes,
+        grid=problem.grid,
+        exposure_time=problem.exposure_time,
+    )
+    mix = optimise_mix(response, problem.objective, max_saturated=problem.max_saturated)
+    labels = list(problem.channels)
+    singles = []
+    for c in range(len(labels)):
+        sub = replace(response, electrons=response.electrons[c : c + 1])
+        best = optimise_mix(sub, problem.objective, max_saturated=problem.max_saturated)
+        singles.append((best.objective, labels[c], float(best.levels[0])))
+    _, single_label, single_level = min(singles, key=lambda s: s[0])
+
+    flatness = []
+    a = response.gain * response.electrons.T
+    ceiling = response.ceiling(problem.max_saturated)
+    for c, label in enumerate(labels):
+        for sign in (-1.0, 1.0):
+            w = mix.levels.copy()
+            w[c] *= 1.0 + sign * DRIVE_TOLERANCE
+            w[c] = min(w[c], 1.0)
+            eps = comparison_errors(response, w, problem.objective).max()
+            flatness.append(
+                {
+                    "channel": label,
+                    "change": sign * DRIVE_TOLERANCE,
+                    "worst_error": float(eps),
+                    "saturates": bool((a @ w).max() > ceiling),
+                }
+            )
+    levels = dict(zip(labels, map(float, mix.levels), strict=True))
+    return Design(
+        problem=problem,
+        levels=levels,
+        single=(single_label, single_level),
+        mix=_predict(problem, levels, "designed mix"),
+        single_prediction=_predict(
+            problem, {single_label: single_level}, f"channel {single_label}"
+        ),
+        flatness=flatness,
+        starts=mix.starts,
+    )
+
+
+def _predict(problem, levels: dict, name: str):
+    """``predict`` of the light ``levels`` mix, with every comparison of the problem."""
+    from inspect_validate.model import Exposure, predict
+    from inspect_validate.model.illumination import illumination_light
+
+    light = illumination_light(
+        name,
+        {c: 100.0 * w for c, w in levels.items()},
+        problem.channels,
+        grid=problem.grid,
+    )
+    return predict(
+        [light],
+        [problem.optics],
+        [problem.camera],
+        list(problem.classes),
+        exposure=Exposure("fixed", time=problem.exposure_time),
+        grid=problem.grid,
+        comparisons=problem.comparisons,
+    )
