@@ -475,7 +475,7 @@ def train(station, golden_path, repeats, frames_dirs, frames_out):
 
     st = read_station(station)
     _outputs(files=[golden_path], folders=[frames_out])
-    station_regions(st)  # a station without ROIs fails before the captures
+    regions = station_regions(st)  # a station without ROIs fails before the captures
     captures = list(frames_dirs)
     if not captures:
         base = frames_out or golden_path.with_name(f"{golden_path.stem}-frames")
@@ -486,7 +486,7 @@ def train(station, golden_path, repeats, frames_dirs, frames_out):
             _capture(st, folder)
             captures.append(folder)
         click.echo(f"frames: {base}")
-    golden = run_train(st, captures)
+    golden = run_train(st, captures, regions=regions)
     rows = [
         [
             ill,

@@ -76,7 +76,7 @@ def brute_force(response, comparisons, channels, points, *, refine=7, rounds=11)
     only), then zooming: a ``refine``-point grid on a box around the best point, shrunk
     ×2/(refine − 1) a round — a grid search that needs no smoothness
     (the minimax objective has a kink at its optimum, where Nelder–Mead stalls)."""
-    a = response.gain * response.electrons.T
+    a = response.camera.gain * response.electrons.T
     ceiling = response.ceiling(1e-3)
 
     def worst(w):

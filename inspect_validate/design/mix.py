@@ -29,6 +29,7 @@ random mixes, each scaled up to the saturation limit.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -52,41 +53,32 @@ class ChannelResponse:
 
     Attributes
     ----------
-    channels : tuple of str
-        Channel labels, in the order of ``electrons``' rows.
     electrons : ndarray, (N, S)
-        e⁻ per sample at 100 % drive and the exposure time.
+        e⁻ per sample at 100 % drive and the exposure time, channels in the
+        problem's order.
     sample_class : ndarray of int, (S,)
-    classes : tuple of str
-    gain : float
-        System gain K, DN/e⁻.
-    dark_noise : float
-        e⁻.
-    dark_offset, max_dn : float
-        DN.
-    exposure_time : float
-        s.
+    camera : Camera
+        K (DN/e⁻), dark noise (e⁻), dark offset and largest grey value (DN).
     """
 
-    channels: tuple[str, ...]
     electrons: np.ndarray
     sample_class: np.ndarray
-    classes: tuple[str, ...]
-    gain: float
-    dark_noise: float
-    dark_offset: float
-    max_dn: float
-    exposure_time: float
+    camera: object
 
+    @cached_property
     def class_statistics(self) -> tuple[np.ndarray, np.ndarray]:
         """Per class the mean response m_k (K, N) and its covariance C_k (K, N, N), e⁻."""
         n = self.electrons.shape[0]
         means, covs = [], []
-        for k in range(len(self.classes)):
+        for k in range(int(self.sample_class.max()) + 1):
             e = self.electrons[:, self.sample_class == k]
             means.append(e.mean(axis=1))
             covs.append(np.cov(e, ddof=1).reshape(n, n) if e.shape[1] > 1 else np.zeros((n, n)))
         return np.array(means), np.array(covs)
+
+    def signal(self, levels) -> np.ndarray:
+        """Each sample's mean signal K·μ_e above the dark offset at ``levels``, DN."""
+        return self.camera.gain * (np.asarray(levels, float) @ self.electrons)
 
     def ceiling(self, max_saturated: float) -> float:
         """Largest mean signal K·μ_e (DN above the offset) a sample may reach."""
@@ -94,9 +86,10 @@ class ChannelResponse:
 
         from inspect_validate.model.acquisition import QUANTISATION_VARIANCE
 
+        cam = self.camera
         z = float(stats.norm.isf(max_saturated))
-        top = self.max_dn - self.dark_offset
-        noise = np.sqrt(self.gain**2 * self.dark_noise**2 + self.gain * top + QUANTISATION_VARIANCE)
+        top = cam.max_dn - cam.dark_offset
+        noise = np.sqrt(cam.gain**2 * cam.dark_noise**2 + cam.gain * top + QUANTISATION_VARIANCE)
         return top - z * noise
 
 
@@ -129,40 +122,31 @@ def channel_response(channels: dict, optics, camera, classes, *, grid, exposure_
             f"channel {label} ({lights[int(np.argmax(bad))].name}) cannot be predicted: "
             + "; ".join(p.skipped[:1])
         )
-    return ChannelResponse(
-        channels=tuple(str(c) for c in channels),
-        electrons=np.ascontiguousarray(electrons),
-        sample_class=np.asarray(p.sample_class),
-        classes=tuple(p.classes),
-        gain=float(camera.gain),
-        dark_noise=float(camera.dark_noise),
-        dark_offset=float(camera.dark_offset),
-        max_dn=float(camera.max_dn),
-        exposure_time=float(exposure_time),
-    )
+    return ChannelResponse(np.ascontiguousarray(electrons), np.asarray(p.sample_class), camera)
 
 
-def mix_moments(response: ChannelResponse, levels, *, stats=None, jacobian: bool = False):
+def mix_moments(response: ChannelResponse, levels, *, jacobian: bool = False):
     """Class means (DN) and variances (DN²) at drive ``levels`` (N,), before clipping;
     with ``jacobian`` also ∂μ/∂w and ∂σ²/∂w, (K, N) each."""
     from inspect_validate.model.acquisition import QUANTISATION_VARIANCE
 
+    cam = response.camera
     w = np.asarray(levels, dtype=np.float64)
-    m, c = stats or response.class_statistics()
-    k2 = response.gain**2
-    mean = response.dark_offset + response.gain * (m @ w)
+    m, c = response.class_statistics
+    k2 = cam.gain**2
+    mean = cam.dark_offset + cam.gain * (m @ w)
     cw = c @ w  # (K, N)
-    variance = k2 * (cw @ w) + k2 * (response.dark_noise**2 + m @ w) + QUANTISATION_VARIANCE
+    variance = k2 * (cw @ w) + k2 * (cam.dark_noise**2 + m @ w) + QUANTISATION_VARIANCE
     if not jacobian:
         return mean, variance
-    return mean, variance, response.gain * m, k2 * (2.0 * cw + m)
+    return mean, variance, cam.gain * m, k2 * (2.0 * cw + m)
 
 
-def comparison_errors(response, levels, comparisons, *, stats=None, gradient: bool = False):
+def comparison_errors(response, levels, comparisons, *, gradient: bool = False):
     """ε_tot (37) of every comparison at ``levels``, (P,); with ``gradient`` also ∂ε/∂w, (P, N)."""
     from inspect_validate.stats.kde_error import mixture_error_gradient
 
-    mean, var, d_mean, d_var = mix_moments(response, levels, stats=stats, jacobian=True)
+    mean, var, d_mean, d_var = mix_moments(response, levels, jacobian=True)
     sd = np.sqrt(var)
     prior = comparisons.class_weights()
     errors = np.empty(len(comparisons.groups))
@@ -245,14 +229,13 @@ def optimise_mix(
     from scipy import optimize
 
     n = response.electrons.shape[0]
-    stats = response.class_statistics()
-    a = response.gain * response.electrons.T  # (S, N): DN per sample per unit level
+    a = response.camera.gain * response.electrons.T  # (S, N): DN per sample per unit level
     ceiling = response.ceiling(max_saturated)
 
     def scaled(w):
         """``w`` scaled up (or down) to the saturation limit and the level bounds."""
         w = np.clip(np.asarray(w, float), 0.0, None)
-        peak = float((a @ w).max())
+        peak = float(response.signal(w).max())
         if peak <= 0:
             return None
         w = w * (ceiling / peak)
@@ -261,7 +244,7 @@ def optimise_mix(
         return w
 
     starts = [np.eye(n)[c] for c in range(n)] + [np.ones(n)]
-    m, c = stats
+    m, c = response.class_statistics
     for g1, g2 in comparisons.groups:
         # Fisher direction of the two sides' mean responses: S⁻¹Δm, each sign.
         d = m[list(g1)].mean(axis=0) - m[list(g2)].mean(axis=0)
@@ -272,6 +255,8 @@ def optimise_mix(
     rng = np.random.default_rng(seed)
     starts += list(rng.dirichlet(np.ones(n), size=random_starts))
     starts = [w for w in (scaled(x) for x in starts) if w is not None]
+    # Starts that scale to the same mix (every start of a single channel) are run once.
+    starts = list(np.unique(np.round(starts, 12), axis=0)) if starts else []
     if not starts:
         raise InputError("no channel gives any signal on these classes")
 
@@ -281,7 +266,7 @@ def optimise_mix(
         key = w.tobytes()
         if key not in cache:  # SLSQP asks for a constraint's value and Jacobian apart
             cache.clear()
-            e, g = comparison_errors(response, w, comparisons, stats=stats, gradient=True)
+            e, g = comparison_errors(response, w, comparisons, gradient=True)
             cache[key] = (np.log(e + _LOG_FLOOR), g / (e + _LOG_FLOOR)[:, None])
         return cache[key]
 
@@ -314,9 +299,9 @@ def optimise_mix(
             options={"maxiter": 200, "ftol": 1e-12},
         )
         w = np.clip(res.x[:-1], 0.0, max_level)
-        if (a @ w).max() > ceiling * (1 + 1e-9):
+        if response.signal(w).max() > ceiling * (1 + 1e-9):
             w = scaled(w)  # SLSQP may end a hair outside; pull back onto the limit
-        errors = comparison_errors(response, w, comparisons, stats=stats)
+        errors = comparison_errors(response, w, comparisons)
         if best is None or errors.max() < best[1].max():
             best = (w, errors)
     w, errors = best

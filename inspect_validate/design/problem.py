@@ -92,7 +92,10 @@ def _from_station(path: Path) -> DesignProblem:
         exposure_time=model.exposure_time,
         comparisons=comparisons,
         objective=objective,
-        max_saturated=st.acceptance.max_saturated or 1e-3,
+        # None (no limit) designs to the default; 0 would put the ceiling at −∞.
+        max_saturated=max(
+            1e-3 if st.acceptance.max_saturated is None else st.acceptance.max_saturated, 1e-9
+        ),
         station=st,
     )
 

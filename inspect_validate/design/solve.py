@@ -65,7 +65,6 @@ def solve(problem) -> Design:
     _, single_label, single_level = min(singles, key=lambda s: s[0])
 
     flatness = []
-    a = response.gain * response.electrons.T
     ceiling = response.ceiling(problem.max_saturated)
     for c, label in enumerate(labels):
         for sign in (-1.0, 1.0):
@@ -78,7 +77,7 @@ def solve(problem) -> Design:
                     "channel": label,
                     "change": sign * DRIVE_TOLERANCE,
                     "worst_error": float(eps),
-                    "saturates": bool((a @ w).max() > ceiling),
+                    "saturates": bool(response.signal(w).max() > ceiling),
                 }
             )
     levels = dict(zip(labels, map(float, mix.levels), strict=True))

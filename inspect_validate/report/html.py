@@ -47,6 +47,8 @@ def write_verification_html(v, path: str | Path) -> Path:
 
 def verification_html(v) -> str:
     """The page of a :class:`~inspect_validate.verification.Verification`, as text."""
+    from inspect_validate.report.plots import plot_agreement
+
     e = html.escape
     verdict = "pass" if v.passed else "fail"
     failed = sum(not c.passed for c in v.checks)
@@ -73,8 +75,6 @@ def verification_html(v) -> str:
     parts += [f"<p>note: {e(n)}</p>" for n in v.notes]
     parts += ["<h2>Calibration</h2>", _calibration(v)]
     parts += _illuminations(v)
-    from inspect_validate.report.plots import plot_agreement
-
     parts += [
         "<h2>Predicted against measured</h2>",
         "<p>Deviation of the measurement from the calibrated prediction; the band is the "
@@ -84,7 +84,6 @@ def verification_html(v) -> str:
             v.classes,
             v.comparisons,
             agreement=v.station.acceptance.agreement,
-            offset=v.model.camera.dark_offset,
             alt="measured against predicted μ, σ² and SNR_dB",
         ),
         _comparisons_table(v),
@@ -129,19 +128,13 @@ def _g(x, digits=4) -> str:
 
 
 def _checks_table(v) -> str:
-    from inspect_validate.report.verification import _number, _ordered
+    from inspect_validate.report.verification import CHECK_COLUMNS, check_rows
 
-    checks = _ordered(v.checks)
-    if not checks:
+    rows = check_rows(v.checks)
+    if not rows:
         return "<p>The station's acceptance section asks for no check.</p>"
-    rows = [
-        [c.verdict, c.name, _number(c), f"{c.relation} {c.limit:.4g}", c.unit, c.detail]
-        for c in checks
-    ]
     return _table(
-        ["verdict", "check", "value", "limit", "unit", "detail"],
-        rows,
-        failed=[not c.passed for c in checks],
+        CHECK_COLUMNS, [cells for _, cells in rows], failed=[not c.passed for c, _ in rows]
     )
 
 
@@ -194,20 +187,21 @@ def _calibration(v) -> str:
 def _illuminations(v) -> list[str]:
     from inspect_validate.images import read_image
     from inspect_validate.report.plots import plot_class_histograms, plot_frame_regions
-    from inspect_validate.roi import class_masks, read_rois
+    from inspect_validate.roi import class_masks
 
-    rois = read_rois(v.inputs["rois"])
+    masks = {}  # frame shape → class masks: every illumination has the same frames
     out = []
     for ill, m in v.measurements.items():
         out.append(f"<h2>Illumination {html.escape(ill)}</h2>")
         first = v.inputs["frames"][ill][0]
         frame = read_image(first)
-        masks = class_masks(rois, frame.shape)
+        if frame.shape not in masks:
+            masks[frame.shape] = class_masks(v.rois, frame.shape)
         out.append(
             _figure(
                 plot_frame_regions,
                 frame,
-                masks,
+                masks[frame.shape],
                 title=f"{ill}: {Path(first).name} with the class regions",
                 alt=f"{ill}: frame with regions",
             )

@@ -29,8 +29,8 @@ def _pyplot():
     return plt
 
 
-def _save(fig, target):
-    fig.tight_layout()
+def _save(fig, target, *, rect=None):
+    fig.tight_layout(rect=rect)
     fig.savefig(target, dpi=110, format="png")
     _pyplot().close(fig)
     return target
@@ -239,7 +239,6 @@ def plot_agreement(
     target,
     *,
     agreement=None,
-    offset: float = 0.0,
 ):
     """Deviation of measured from predicted against the prediction: μ (% of the signal above
     the dark level), σ² (%) per illumination and class, SNR_dB (dB) per comparison; the
@@ -318,7 +317,4 @@ def plot_agreement(
     fig.legend(
         labels.values(), labels.keys(), loc="upper center", ncol=6, fontsize=8, frameon=False
     )
-    fig.tight_layout(rect=(0, 0, 1, 0.9))
-    fig.savefig(target, dpi=110, format="png")
-    plt.close(fig)
-    return target
+    return _save(fig, target, rect=(0, 0, 1, 0.9))  # room for the legend above

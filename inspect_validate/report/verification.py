@@ -17,7 +17,9 @@ from inspect_validate import __version__
 from inspect_validate.report.tables import render_table
 
 __all__ = [
+    "CHECK_COLUMNS",
     "VERIFICATION_SCHEMA_VERSION",
+    "check_rows",
     "format_verdict",
     "verification_document",
     "write_junit",
@@ -26,9 +28,16 @@ __all__ = [
 VERIFICATION_SCHEMA_VERSION = 1
 
 
-def _ordered(checks):
-    """Failures first, then in the order the checks were made."""
-    return sorted(checks, key=lambda c: c.passed)
+CHECK_COLUMNS = ("verdict", "check", "value", "limit", "unit", "detail")
+
+
+def check_rows(checks) -> list[tuple[object, list[str]]]:
+    """``(check, cells under CHECK_COLUMNS)`` for each check, failures first, then in the
+    order the checks were made: the verdict table and the HTML report show these."""
+    return [
+        (c, [c.verdict, c.name, _number(c), f"{c.relation} {c.limit:.4g}", c.unit, c.detail])
+        for c in sorted(checks, key=lambda c: c.passed)
+    ]
 
 
 def format_verdict(v) -> str:
@@ -55,19 +64,9 @@ def format_verdict(v) -> str:
             f"ranking by {r['comparison']}: predicted best {r['predicted_best']}, measured best "
             f"{r['measured_best']} (Kendall τ {r['kendall_tau']:.2f})"
         )
-    rows = [
-        [
-            c.verdict,
-            c.name,
-            _number(c),
-            f"{c.relation} {c.limit:.4g}",
-            c.unit,
-            c.detail,
-        ]
-        for c in _ordered(v.checks)
-    ]
+    rows = [cells for _, cells in check_rows(v.checks)]
     if rows:
-        out += ["", render_table(["verdict", "check", "value", "limit", "unit", "detail"], rows)]
+        out += ["", render_table(list(CHECK_COLUMNS), rows)]
     for s in v.skipped:
         out.append(f"skipped: {s}")
     for n in v.notes:
@@ -131,7 +130,7 @@ def verification_document(v) -> dict:
                 "verdict": c.verdict.lower(),
                 "detail": c.detail,
             }
-            for c in _ordered(v.checks)
+            for c, _ in check_rows(v.checks)
         ],
         "skipped": list(v.skipped),
         "notes": list(v.notes),

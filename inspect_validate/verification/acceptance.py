@@ -110,6 +110,11 @@ class Acceptance(_Strict):
     gain_relative: Relative | None = None
     drift: Drift | None = None
 
+    @property
+    def needs_kde(self) -> bool:
+        """Whether a check asks for ε KDE (the kernel densities are computed only then)."""
+        return any(s.max_error_kde is not None for s in self.separation)
+
     def limits(self):
         """The saturated and zero fractions as measurement :class:`~inspect_validate.measure.Limits`
         (no limit given: any fraction passes)."""

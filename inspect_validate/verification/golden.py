@@ -33,7 +33,7 @@ __all__ = [
     "GOLDEN_SCHEMA_VERSION",
     "Golden",
     "Spread",
-    "check_setup",
+    "check_golden",
     "drift_checks",
     "read_golden",
     "train",
@@ -137,8 +137,10 @@ class Golden(_Frozen):
         return doc
 
 
-def train(station, captures: list[Path]) -> Golden:
-    """Measure every capture folder of ``station`` and gather the golden statistics.
+def train(station, captures: list[Path], *, regions=None) -> Golden:
+    """Measure every capture folder of ``station`` and gather the golden statistics;
+    ``regions`` is :func:`~inspect_validate.verification.verify.station_regions` of it,
+    read here if not given.
 
     Raises
     ------
@@ -150,7 +152,7 @@ def train(station, captures: list[Path]) -> Golden:
     from inspect_validate.camera.station import station_hash
     from inspect_validate.verification.verify import measure_capture, station_regions
 
-    rois, comparisons = station_regions(station)
+    rois, comparisons = regions or station_regions(station)
     limits = station.acceptance.limits()
     runs = [
         measure_capture(station, f, rois=rois, comparisons=comparisons, limits=limits, kde=True)
@@ -228,42 +230,35 @@ def read_golden(path: str | Path) -> Golden:
         raise InputError(explain(exc), source=str(path)) from None
 
 
-def drift_checks(golden: Golden, station, measurements: dict, drift, *, source: str) -> list[Check]:
-    """Drift of each class's μ (DN) and each comparison's SNR_dB (dB) from ``golden``.
+def drift_checks(golden: Golden, measurements: dict, drift) -> list[Check]:
+    """Drift of each class's μ (DN) and each comparison's SNR_dB (dB) from ``golden``, which
+    :func:`check_golden` has accepted for the station.
 
     ``drift`` is the station's ``acceptance.drift``; a tolerance it does not
     give explicitly is ``k`` × the trained spread.
-
-    Raises
-    ------
-    InputError
-        The golden file was trained at other camera settings or illuminations,
-        lacks an illumination, class or comparison, or has no spread where a
-        tolerance needs one (exit code 2: retrain, or give the tolerance).
     """
-    check_setup(golden, station, source=source)
     checks = []
     for ill, m in measurements.items():
         g = golden.illuminations[ill]
         for c in m.classes:
-            ref = _entry(g.classes, c.name, ill, "class", source)
-            tol, how = _tolerance(drift.mean_dn, drift.k, ref.mean, f"{ill}: {c.name} μ", source)
+            ref = g.classes[c.name].mean
+            tol, how = _tolerance(drift.mean_dn, drift.k, ref)
             checks.append(
                 at_most(
                     f"{ill}: {c.name} μ drift",
                     "drift",
-                    abs(c.mean - ref.mean.mean),
+                    abs(c.mean - ref.mean),
                     tol,
                     "DN",
-                    f"golden {ref.mean.mean:.4g} ± {_g(ref.mean.std)} DN over "
-                    f"{len(ref.mean.values)} repeats, now {c.mean:.4g} DN; limit {how}",
+                    f"golden {ref.mean:.4g} ± {_g(ref.std)} DN over "
+                    f"{len(ref.values)} repeats, now {c.mean:.4g} DN; limit {how}",
                 )
             )
         for comp in m.comparisons:
-            ref = _entry(g.comparisons, comp.label, ill, "comparison", source).snr_db
+            ref = g.comparisons[comp.label].snr_db
             if max(ref.mean, comp.snr_db) < drift.snr_floor_db:
                 continue  # both unseparable: their dB carry no drift to check
-            tol, how = _tolerance(drift.snr_db, drift.k, ref, f"{ill}: {comp.label}", source)
+            tol, how = _tolerance(drift.snr_db, drift.k, ref)
             checks.append(
                 at_most(
                     f"{ill}: {comp.label} SNR_dB drift",
@@ -282,9 +277,17 @@ def _g(x) -> str:
     return f"{x:.2g}" if math.isfinite(x) else "—"
 
 
-def check_setup(golden: Golden, station, *, source: str) -> None:
-    """Refuse a golden file trained at other camera settings or illuminations than
-    ``station``'s (InputError naming ``source``: retrain)."""
+def check_golden(golden: Golden, station, drift, *, classes, comparisons, source: str) -> None:
+    """Refuse, before any capture, a golden file that cannot check ``station``'s drift.
+
+    Raises
+    ------
+    InputError
+        Trained at other camera settings or illuminations, without one of the
+        ``classes`` or ``comparisons`` (labels), or without a spread where
+        ``drift`` gives no explicit tolerance (names ``source``: retrain, or give
+        the tolerance).
+    """
     camera = station.camera
     if golden.exposure_us != camera.exposure_us or golden.gain_db != camera.gain_db:
         raise InputError(
@@ -307,6 +310,12 @@ def check_setup(golden: Golden, station, *, source: str) -> None:
                 f"{dict(ill.channels)}: retrain",
                 source=source,
             )
+        for name in classes:
+            spread = _entry(g.classes, name, ill.name, "class", source).mean
+            _needs_spread(drift.mean_dn, spread, f"{ill.name}: {name} μ", source)
+        for text in comparisons:
+            spread = _entry(g.comparisons, text, ill.name, "comparison", source).snr_db
+            _needs_spread(drift.snr_db, spread, f"{ill.name}: {text} SNR_dB", source)
 
 
 def _entry(table: dict, name: str, ill: str, what: str, source: str):
@@ -319,14 +328,17 @@ def _entry(table: dict, name: str, ill: str, what: str, source: str):
     return table[name]
 
 
-def _tolerance(explicit, k, spread: Spread, where: str, source: str) -> tuple[float, str]:
-    if explicit is not None:
-        return float(explicit), "given"
-    if not math.isfinite(spread.std):
+def _needs_spread(explicit, spread: Spread, where: str, source: str) -> None:
+    if explicit is None and not math.isfinite(spread.std):
         raise InputError(
             f"{where}: the golden file has no spread (trained with "
             f"{len(spread.values)} repeat(s)); train with --repeats 2 or more, or give the "
             "tolerance in acceptance.drift (mean_dn, snr_db)",
             source=source,
         )
+
+
+def _tolerance(explicit, k, spread: Spread) -> tuple[float, str]:
+    if explicit is not None:
+        return float(explicit), "given"
     return k * spread.std, f"{k:g} × spread"

@@ -38,7 +38,6 @@ __all__ = [
 class Capture:
     """A capture folder of a station, measured in the station's regions."""
 
-    folder: Path
     files: dict  # illumination → frame files
     dark_files: list
     manifest: dict
@@ -52,6 +51,7 @@ class Verification:
 
     station: object
     model: object  # StationModel the prediction used (its scene holds the ROI classes only)
+    rois: object  # RoiSet measured
     limits: object  # Limits: the saturated and zero fractions the measurements were held to
     inputs: dict
     measurements: dict  # illumination → Measurement
@@ -156,21 +156,19 @@ def measure_capture(station, folder: Path, *, rois, comparisons, limits, kde: bo
     dark = (
         measure_files(dark_files, rois, comparisons=comparisons, kde=False) if dark_files else None
     )
-    return Capture(Path(folder), files, dark_files, manifest, measurements, dark)
+    return Capture(files, dark_files, manifest, measurements, dark)
 
 
 @dataclass(frozen=True)
 class Plan:
     """What a station's verification needs before any frame: its regions, comparisons and
-    model, the golden file, and what will be skipped. Made first, so that a mistake in the
-    station file costs no capture."""
+    model, and the golden file. Made first, so that a mistake in the station file costs
+    no capture."""
 
     rois: object
     comparisons: object
     model: object  # StationModel
     golden: object | None  # Golden, for acceptance.drift
-    need_kde: bool
-    skipped: tuple[str, ...]
 
 
 def plan_verification(station) -> Plan:
@@ -226,17 +224,20 @@ def plan_verification(station) -> Plan:
         )
     golden = None
     if acc.drift:
-        from inspect_validate.verification.golden import check_setup
+        from inspect_validate.verification.golden import check_golden
 
         golden = read_golden(station.resolve(acc.drift.golden))
-        check_setup(golden, station, source=str(station.resolve(acc.drift.golden)))
-    need_kde = any(s.max_error_kde is not None for s in acc.separation)
-    skipped = ()
-    if not need_kde:
-        skipped = ("ε KDE: no check asks for it (acceptance.separation[].max_error_kde)",)
+        check_golden(
+            golden,
+            station,
+            acc.drift,
+            classes=names,
+            comparisons=comparisons.labels,
+            source=str(station.resolve(acc.drift.golden)),
+        )
     # Only the ROI classes are predicted.
     scene = replace(model.scene, classes=tuple(scene_classes[n] for n in names))
-    return Plan(rois, comparisons, replace(model, scene=scene), golden, need_kde, skipped)
+    return Plan(rois, comparisons, replace(model, scene=scene), golden)
 
 
 def verify(station, frames_dir: Path, *, plan: Plan | None = None) -> Verification:
@@ -254,8 +255,10 @@ def verify(station, frames_dir: Path, *, plan: Plan | None = None) -> Verificati
     plan = plan or plan_verification(station)
     acc = station.acceptance
     rois, comparisons, model, golden = plan.rois, plan.comparisons, plan.model, plan.golden
-    need_kde = plan.need_kde
-    skipped = list(plan.skipped)
+    need_kde = acc.needs_kde
+    skipped = []
+    if not need_kde:
+        skipped.append("ε KDE: no check asks for it (acceptance.separation[].max_error_kde)")
     limits = acc.limits()
     capture = measure_capture(
         station, frames_dir, rois=rois, comparisons=comparisons, limits=limits, kde=need_kde
@@ -310,9 +313,7 @@ def verify(station, frames_dir: Path, *, plan: Plan | None = None) -> Verificati
     ranking = _ranking(measurements, prediction, model.scene, acc, comparisons, skipped)
     checks = _checks(acc, measurements, class_rows, comparison_rows, ranking, gain, skipped)
     if golden is not None:
-        checks += drift_checks(
-            golden, station, measurements, acc.drift, source=str(station.resolve(acc.drift.golden))
-        )
+        checks += drift_checks(golden, measurements, acc.drift)
     inputs = {
         "station": str(station.path),
         "station_sha256": station_hash(station.path),
@@ -333,6 +334,7 @@ def verify(station, frames_dir: Path, *, plan: Plan | None = None) -> Verificati
     return Verification(
         station=station,
         model=model,
+        rois=rois,
         limits=limits,
         inputs=inputs,
         measurements=measurements,

@@ -127,7 +127,7 @@ def mix(rng):
         "cameras:\n  - {file: ../chapter_table2/camera1_qe.csv, name: mono 12-bit, gain: 0.1, "
         "dark_noise: 12, saturation: 30000, bit_depth: 12, dark_offset: 20}\n"
         "exposure: {mode: fixed, time: 0.04}\n"
-        'rank: {by: error}\n'
+        "rank: {by: error}\n"
     )
 
 
