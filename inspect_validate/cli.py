@@ -491,8 +491,8 @@ def train(station, golden_path, repeats, frames_dirs, frames_out):
         [
             ill,
             name,
-            f"{c.mean.mean:.4g} ± {c.mean.std:.2g}",
-            f"{c.variance.mean:.4g} ± {c.variance.std:.2g}",
+            c.mean.summary(),
+            c.variance.summary(),
         ]
         for ill, g in golden.illuminations.items()
         for name, c in g.classes.items()
@@ -502,8 +502,8 @@ def train(station, golden_path, repeats, frames_dirs, frames_out):
         [
             ill,
             label,
-            f"{c.snr_db.mean:.3g} ± {c.snr_db.std:.2g}",
-            f"{c.error_gaussian.mean:.3g} ± {c.error_gaussian.std:.2g}",
+            c.snr_db.summary(3),
+            c.error_gaussian.summary(3),
         ]
         for ill, g in golden.illuminations.items()
         for label, c in g.comparisons.items()

@@ -120,6 +120,7 @@ def test_one_repeat_has_no_spread_for_k(cli, tmp_path):
     path = copy_station(tmp_path)
     code, out, err = cli(["train", path, "--out", tmp_path / "g.json", "--repeats", 1])
     assert code == 0, err
+    assert "nan" not in out.lower() and "(no spread)" in out
     doc = yaml.safe_load(path.read_text())
     doc["acceptance"]["drift"] = {"golden": "g.json"}
     path.write_text(yaml.safe_dump(doc))

@@ -70,6 +70,14 @@ class Spread(BaseModel):
         v = self._finite
         return float(v.std(ddof=1)) if v.size >= 2 else math.nan
 
+    def summary(self, digits: int = 4) -> str:
+        """``mean ± std`` for a reader; the mean alone where there is no spread."""
+        if not math.isfinite(self.mean):
+            return "—"
+        if not math.isfinite(self.std):
+            return f"{self.mean:.{digits}g} (no spread)"
+        return f"{self.mean:.{digits}g} ± {self.std:.2g}"
+
     def document(self) -> dict:
         v = self._finite
         return {
@@ -250,8 +258,8 @@ def drift_checks(golden: Golden, measurements: dict, drift) -> list[Check]:
                     abs(c.mean - ref.mean),
                     tol,
                     "DN",
-                    f"golden {ref.mean:.4g} ± {_g(ref.std)} DN over "
-                    f"{len(ref.values)} repeats, now {c.mean:.4g} DN; limit {how}",
+                    f"golden {ref.summary()} DN over {len(ref.values)} repeats, "
+                    f"now {c.mean:.4g} DN; limit {how}",
                 )
             )
         for comp in m.comparisons:
@@ -266,15 +274,10 @@ def drift_checks(golden: Golden, measurements: dict, drift) -> list[Check]:
                     abs(comp.snr_db - ref.mean),
                     tol,
                     "dB",
-                    f"golden {ref.mean:.2f} ± {_g(ref.std)} dB, now {comp.snr_db:.2f} dB; "
-                    f"limit {how}",
+                    f"golden {ref.summary(3)} dB, now {comp.snr_db:.2f} dB; limit {how}",
                 )
             )
     return checks
-
-
-def _g(x) -> str:
-    return f"{x:.2g}" if math.isfinite(x) else "—"
 
 
 def check_golden(golden: Golden, station, drift, *, classes, comparisons, source: str) -> None:
