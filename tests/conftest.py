@@ -10,6 +10,12 @@ ROOT = Path(__file__).resolve().parents[1]
 PAPERBOARD = ROOT / "sample_images" / "paperboard"
 
 
+@pytest.fixture(autouse=True)
+def _work_in_tmp(tmp_path, monkeypatch):
+    """Every test runs in its own folder: a default output path lands there, not in the checkout."""
+    monkeypatch.chdir(tmp_path)
+
+
 @pytest.fixture
 def paperboard():
     return PAPERBOARD
