@@ -44,7 +44,7 @@ from inspect_validate.comparisons import ComparisonsSpec
 from inspect_validate.config import load_yaml, one_of
 from inspect_validate.verification.acceptance import Acceptance, Calibration
 
-__all__ = ["ChannelLight", "Station", "World", "read_station", "station_hash"]
+__all__ = ["ChannelLight", "Station", "World", "read_station", "station_hash", "write_station"]
 
 
 class _Strict(BaseModel):
@@ -333,3 +333,27 @@ def read_station(path: str | Path) -> Station:
 def station_hash(path: str | Path) -> str:
     """SHA-256 of the station file's bytes: which configuration a capture belongs to."""
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def write_station(station: Station, path: str | Path, *, comment: str = "") -> Station:
+    """Write ``station`` as a station file at ``path`` and read it back from there.
+
+    The paths it names (scene, ROIs, GenTL producer, replay folder, golden
+    file) are written absolute, so the file means the same wherever it lies;
+    ``comment`` heads the file (one ``#`` line per line).
+    """
+    import yaml
+
+    doc = station.model_dump(mode="json", exclude={"path"}, exclude_unset=True)
+    for key in ("scene", "rois"):
+        if doc.get(key):
+            doc[key] = str(station.resolve(doc[key]).resolve())
+    for key in ("cti", "folder"):
+        if doc["camera"].get(key):
+            doc["camera"][key] = str(station.resolve(doc["camera"][key]).resolve())
+    drift = doc.get("acceptance", {}).get("drift")
+    if drift:
+        drift["golden"] = str(station.resolve(drift["golden"]).resolve())
+    head = "".join(f"# {line}\n" for line in comment.splitlines())
+    Path(path).write_text(head + yaml.safe_dump(doc, sort_keys=False, allow_unicode=True))
+    return read_station(path)

@@ -394,6 +394,23 @@ def verify(station, frames_dir, out, report_dir):
     import time
 
     from inspect_validate.camera.station import read_station
+
+    st = read_station(station)
+    _outputs(folders=[report_dir])
+    if frames_dir is None and out is None:
+        out = (
+            report_dir / "frames"
+            if report_dir
+            else Path(f"verify-{Path(station).stem}-{time.strftime('%Y%m%dT%H%M%S')}")
+        )
+    result = _verify_station(st, frames_dir=frames_dir, out=out, report_dir=report_dir)
+    if not result.passed:
+        sys.exit(EXIT_CHECK_FAILED)
+
+
+def _verify_station(st, *, frames_dir, out, report_dir):
+    """Plan, capture into ``out`` unless ``frames_dir`` is given, verify, print the verdict
+    and write the reports into ``report_dir``; the :class:`Verification`."""
     from inspect_validate.report import write_json
     from inspect_validate.report.html import write_verification_html
     from inspect_validate.report.verification import (
@@ -404,16 +421,8 @@ def verify(station, frames_dir, out, report_dir):
     from inspect_validate.verification.verify import plan_verification
     from inspect_validate.verification.verify import verify as run_verify
 
-    st = read_station(station)
-    _outputs(folders=[report_dir])
     plan = plan_verification(st)  # a mistake in the station file costs no capture
     if frames_dir is None:
-        if out is None:
-            out = (
-                report_dir / "frames"
-                if report_dir
-                else Path(f"verify-{Path(station).stem}-{time.strftime('%Y%m%dT%H%M%S')}")
-            )
         _capture(st, out)
         click.echo(f"frames: {out}")
         frames_dir = out
@@ -427,8 +436,7 @@ def verify(station, frames_dir, out, report_dir):
         write_junit(result, report_dir / "junit.xml")
         write_verification_html(result, report_dir / "report.html")
         click.echo(f"report: {report_dir / 'report.html'} (verification.json, junit.xml)")
-    if not result.passed:
-        sys.exit(EXIT_CHECK_FAILED)
+    return result
 
 
 @cli.command()
@@ -516,7 +524,21 @@ def train(station, golden_path, repeats, frames_dirs, frames_out):
 @cli.command()
 @click.argument("source", type=_PATH)
 @click.option("--json", "json_path", type=_PATH, help="Write the design as JSON.")
-def design(source, json_path):
+@click.option(
+    "--verify",
+    "check",
+    is_flag=True,
+    help="Capture the mix and the best single channel on the station (a station file) and "
+    "verify them: measured against predicted, the station's acceptance checks on the mix.",
+)
+@click.option(
+    "--out",
+    "out_dir",
+    type=_PATH,
+    help="Folder for design.json, the plots and, with --verify, the station it verified, "
+    "the frames and the verification reports (default with --verify: design-<source>-<time>).",
+)
+def design(source, json_path, check, out_dir):
     """Design the mix of a controller's channels that separates the classes best.
 
     SOURCE is a station file (its channels, exposure, camera and the
@@ -525,14 +547,27 @@ def design(source, json_path):
     minimise the worst comparison's ε Gauss with no class saturating, and
     prints them next to the best single channel, how the worst ε moves when a
     level is off by ±10 %, and an illumination entry for the station file.
+    With --verify, exits 1 when a check on the captured mix fails or the mix
+    does not measure better than the best single channel.
     """
+    import time
+
     from inspect_validate.design.problem import design_problem
     from inspect_validate.design.solve import solve
+    from inspect_validate.errors import InputError
     from inspect_validate.report import render_table, write_json
     from inspect_validate.report.design import design_document
 
-    _outputs(files=[json_path])
+    if check and out_dir is None:
+        out_dir = Path(f"design-{Path(source).stem}-{time.strftime('%Y%m%dT%H%M%S')}")
+    _outputs(files=[json_path], folders=[out_dir])
     problem = design_problem(source)
+    if check and problem.station is None:
+        raise InputError(
+            "--verify captures on a station: give a station file (it has 'controller:'), "
+            "not a scene file",
+            source=str(source),
+        )
     result = solve(problem)
     names = {c: light.name for c, light in problem.channels.items()}
     click.echo(
@@ -568,9 +603,48 @@ def design(source, json_path):
     )
     entry = ", ".join(f"{c}: {p:g}" for c, p in result.percent.items())
     click.echo(f"station entry:\n  - {{name: design, channels: {{{entry}}}}}")
-    if json_path:
-        write_json(design_document(result), json_path)
-        click.echo(f"wrote {json_path}")
+    document = design_document(result)
+    for path in (json_path, out_dir and out_dir / "design.json"):
+        if path:
+            write_json(document, path)
+            click.echo(f"wrote {path}")
+    if check:
+        _verify_design(problem, result, out_dir)
+
+
+def _verify_design(problem, result, out_dir):
+    """Capture ``result``'s mix and best single channel on ``problem``'s station, verify them
+    and print measured against predicted ε; exit 1 when the design does not hold."""
+    from inspect_validate.camera.station import write_station
+    from inspect_validate.design.station import design_station
+    from inspect_validate.report import render_table
+    from inspect_validate.report.design import design_verification
+
+    st = write_station(
+        design_station(problem.station, result),
+        out_dir / "station.yaml",
+        comment=f"{problem.station.name} lit by the mix 'design' found for it "
+        f"(inspect-validate design --verify {problem.source})",
+    )
+    click.echo(f"\nverifying the design on {st.path}")
+    verification = _verify_station(st, frames_dir=None, out=out_dir / "frames", report_dir=out_dir)
+    summary = design_verification(verification, problem.objective.labels)
+    click.echo(
+        render_table(
+            [
+                "comparison",
+                *(
+                    f"ε {ill} {what}"
+                    for ill in summary.illuminations
+                    for what in ("predicted", "measured")
+                ),
+            ],
+            summary.rows,
+        )
+    )
+    click.echo(summary.verdict)
+    if not (verification.passed and summary.holds):
+        sys.exit(EXIT_CHECK_FAILED)
 
 
 def _capture(station, out, *, resume=False):

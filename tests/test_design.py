@@ -171,3 +171,85 @@ def test_design_refuses_scenes_it_cannot_mix(cli, tmp_path, edit, message):
     code, out, err = cli(["design", tmp_path / "s.yaml"])
     assert code == 2, out + err
     assert message in err and "Traceback" not in err
+
+
+INKS_STATION = ROOT / "sample_images" / "station" / "inks.yaml"
+
+
+def _inks_station(tmp_path, **world):
+    """The shipped inks station in ``tmp_path`` with more deviations in its simulated world."""
+    import shutil
+
+    import yaml
+
+    doc = yaml.safe_load(INKS_STATION.read_text())
+    doc["scene"] = str(MIX)
+    doc["camera"]["world"].update(world)
+    shutil.copy(INKS_STATION.parent / "rois.yaml", tmp_path / "rois.yaml")
+    path = tmp_path / "inks.yaml"
+    path.write_text(yaml.safe_dump(doc, sort_keys=False))
+    return path
+
+
+def test_design_verify_measures_the_mix_on_the_simulated_station(cli, tmp_path):
+    import json
+
+    from inspect_validate.camera.station import read_station
+
+    out = tmp_path / "d"
+    code, stdout, err = cli(["design", _inks_station(tmp_path), "--verify", "--out", out])
+    assert code == 0, stdout + err
+    assert "PASS: all" in stdout
+    # The station it verified is a station file of its own: re-readable, lit by the mix.
+    st = read_station(out / "station.yaml")
+    assert [i.name for i in st.illuminations] == ["design", "single-3"]
+    assert st.illuminations[0].channels[1] == 100.0 and 55 < st.illuminations[0].channels[3] < 75
+    doc = json.loads((out / "verification.json").read_text())
+    rows = {(r["illumination"], r["comparison"]): r for r in doc["comparisons"]}
+    pairs = ("A vs B", "A vs C", "B vs C")
+    worst = {
+        (ill, what): max(rows[ill, c][what]["error_gaussian"] for c in pairs)
+        for ill in ("design", "single-3")
+        for what in ("predicted", "measured")
+    }
+    # Measured like predicted: the mix ≥ 10× better than the single channel, both ways.
+    assert worst["single-3", "measured"] > 10 * worst["design", "measured"]
+    assert worst["single-3", "predicted"] > 10 * worst["design", "predicted"]
+    # Measured ε of the mix within a factor 2 of the prediction (other ink prints, 4 frames).
+    assert 0.5 < worst["design", "measured"] / worst["design", "predicted"] < 2
+    assert "measured worst ε: mix" in stdout and "FAIL" not in stdout
+    assert sorted(p.name for p in (out / "frames").iterdir()) == [
+        "dark",
+        "design",
+        "manifest.json",
+        "single-3",
+    ]
+
+
+def test_design_verify_notices_a_weaker_led_than_designed_for(cli, tmp_path):
+    # The red LED gives 60 % of its stated irradiance: the mix is off its optimum.
+    path = _inks_station(tmp_path, irradiance={3: 0.6})
+    code, stdout, err = cli(["design", path, "--verify", "--out", tmp_path / "d"])
+    assert code == 1, stdout + err
+    failed = [line for line in stdout.splitlines() if line.startswith("FAIL ")]
+    assert any("design: B vs C ε Gauss" in line for line in failed)
+    assert any("design: A vs C SNR_dB deviation" in line for line in failed)
+    assert (tmp_path / "d" / "report.html").is_file()  # the reports are written on a failure
+
+
+def test_design_verify_needs_a_station(cli, tmp_path):
+    code, _out, err = cli(["design", MIX, "--verify", "--out", tmp_path / "d"])
+    assert code == 2 and "--verify captures on a station" in err
+    assert not (tmp_path / "d" / "frames").exists()
+
+
+def test_write_station_round_trips(tmp_path):
+    from inspect_validate.camera.station import read_station, write_station
+
+    st = read_station(INKS_STATION)
+    again = write_station(st, tmp_path / "elsewhere.yaml", comment="a copy\nof the inks")
+    assert again.model_dump(exclude={"path"}) == st.model_dump(exclude={"path"}) | {
+        "scene": str(MIX.resolve()),
+        "rois": str((INKS_STATION.parent / "rois.yaml").resolve()),
+    }
+    assert (tmp_path / "elsewhere.yaml").read_text().startswith("# a copy\n# of the inks\n")

@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from inspect_validate import __version__
 
-__all__ = ["DESIGN_SCHEMA_VERSION", "design_document"]
+__all__ = ["DESIGN_SCHEMA_VERSION", "DesignCheck", "design_document", "design_verification"]
 
 DESIGN_SCHEMA_VERSION = 1
 
@@ -51,3 +53,51 @@ def design_document(d) -> dict:
         "drive_tolerance": d.flatness,
         "starts": d.starts,
     }
+
+
+@dataclass(frozen=True)
+class DesignCheck:
+    """A verified design: per objective comparison ε predicted and measured for the mix and
+    the best single channel, and whether the mix measured better."""
+
+    illuminations: tuple
+    rows: list
+    verdict: str
+    holds: bool
+
+
+def design_verification(verification, objective) -> DesignCheck:
+    """Summarise a :class:`~inspect_validate.verification.verify.Verification` of a
+    :func:`~inspect_validate.design.station.design_station` over the ``objective`` comparisons
+    (labels): the worst ε of the mix against the single channel's, predicted and measured."""
+    from inspect_validate.design.station import DESIGN_ILLUMINATION
+
+    by = {(r["illumination"], r["comparison"]): r for r in verification.comparisons}
+    ills = tuple(dict.fromkeys(r["illumination"] for r in verification.comparisons))
+    rows = [
+        [label]
+        + [
+            f"{by[ill, label][what]['error_gaussian']:.3g}"
+            for ill in ills
+            for what in ("predicted", "measured")
+        ]
+        for label in objective
+    ]
+
+    def worst(ill, what):
+        return max(by[ill, label][what]["error_gaussian"] for label in objective)
+
+    mix = worst(DESIGN_ILLUMINATION, "measured")
+    if len(ills) == 1:
+        return DesignCheck(ills, rows, f"measured worst ε of the mix: {mix:.3g}", True)
+    single = ills[1]
+    predicted = worst(single, "predicted") / max(worst(DESIGN_ILLUMINATION, "predicted"), 1e-300)
+    holds = mix < worst(single, "measured")
+    ratio = worst(single, "measured") / max(mix, 1e-300)
+    verdict = (
+        f"measured worst ε: mix {mix:.3g}, {single} {worst(single, 'measured'):.3g} "
+        f"({ratio:.3g}× lower; predicted {predicted:.3g}×)"
+    )
+    if not holds:
+        verdict += f": FAIL, the mix does not measure better than {single}"
+    return DesignCheck(ills, rows, verdict, holds)

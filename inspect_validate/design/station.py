@@ -1,0 +1,30 @@
+"""The station that closes a design by a measurement: the designed mix and the best single
+channel as its illuminations, its acceptance checks on the mix."""
+
+from __future__ import annotations
+
+__all__ = ["DESIGN_ILLUMINATION", "design_station"]
+
+DESIGN_ILLUMINATION = "design"
+
+
+def design_station(station, design):
+    """``station`` (a :class:`~camera.station.Station`) lit by ``design``'s mix and its best
+    single channel instead of its own illuminations.
+
+    The acceptance's separation limits apply to the mix; agreement, saturation
+    and gain checks to both; the drift check and the ranking are dropped (the
+    golden file and the ranking are about the station's own illuminations).
+    The single channel is left out when the mix is that channel alone.
+    """
+    from inspect_validate.camera.station import Illumination
+
+    illuminations = [Illumination(name=DESIGN_ILLUMINATION, channels=design.percent)]
+    channel, level = design.single
+    single = {channel: round(100.0 * level, 1)}
+    if single != design.percent:
+        illuminations.append(Illumination(name=f"single-{channel}", channels=single))
+    acceptance = station.acceptance.model_copy(
+        update={"illumination": DESIGN_ILLUMINATION, "drift": None, "ranking": False}
+    )
+    return station.model_copy(update={"illuminations": illuminations, "acceptance": acceptance})
