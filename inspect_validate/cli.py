@@ -538,7 +538,13 @@ def train(station, golden_path, repeats, frames_dirs, frames_out):
     help="Folder for design.json, the plots and, with --verify, the station it verified, "
     "the frames and the verification reports (default with --verify: design-<source>-<time>).",
 )
-def design(source, json_path, check, out_dir):
+@click.option(
+    "--choose",
+    type=click.IntRange(1, 64),
+    help="Choose the best K of the channels (a scene's lights: a catalogue of LEDs) for a "
+    "K-channel controller, with their mix.",
+)
+def design(source, json_path, check, out_dir, choose):
     """Design the mix of a controller's channels that separates the classes best.
 
     SOURCE is a station file (its channels, exposure, camera and the
@@ -568,7 +574,18 @@ def design(source, json_path, check, out_dir):
             "not a scene file",
             source=str(source),
         )
-    result = solve(problem)
+    if choose is None:
+        result = solve(problem)
+    else:
+        with click.progressbar(
+            length=1, label=f"choosing {choose} of {len(problem.channels)}", file=sys.stderr
+        ) as bar:
+
+            def progress(done, total):
+                bar.length = total
+                bar.update(done - bar.pos)
+
+            result = solve(problem, choose=choose, progress=progress)
     names = {c: light.name for c, light in problem.channels.items()}
     click.echo(
         f"{Path(source).name}: {len(names)} channels, exposure "
@@ -579,6 +596,16 @@ def design(source, json_path, check, out_dir):
         "designed mix: "
         + ", ".join(f"channel {c} ({names[c]}) {p:g} %" for c, p in result.percent.items())
     )
+    if result.choice is not None:
+        c = result.choice
+        how = (
+            "every subset optimised"
+            if c.exhaustive
+            else f"local search; no choice can beat all {len(names)} mixed, worst ε {c.bound:.3g}"
+        )
+        click.echo(
+            f"chose {len(c.channels)} of {len(names)} channels ({c.evaluated} subsets, {how})"
+        )
     ch, level = result.single
     click.echo(f"best single channel: {ch} ({names[ch]}) at {100 * level:.1f} %")
     mix, single = result.mix, result.single_prediction

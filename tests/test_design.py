@@ -1,6 +1,8 @@
 """Illumination design: the mix model against ``predict``, its gradient against finite
 differences, the optimiser against a brute-force search, and the shipped example."""
 
+import math
+
 import numpy as np
 import pytest
 from conftest import ROOT
@@ -253,3 +255,69 @@ def test_write_station_round_trips(tmp_path):
         "rois": str((INKS_STATION.parent / "rois.yaml").resolve()),
     }
     assert (tmp_path / "elsewhere.yaml").read_text().startswith("# a copy\n# of the inks\n")
+
+
+def _catalogue_scene(tmp_path, peaks, *, fwhm=25):
+    """The inks scene lit by a catalogue of LEDs at ``peaks`` nm (2 W/m² each)."""
+    text = MIX.read_text()
+    head, rest = text.split("lights:\n")
+    tail = rest[rest.index("optics:") :]
+    leds = "".join(
+        f"  - {{led: {{peak: {p:g}, fwhm: {fwhm}}}, name: LED {p:g}, irradiance: 2.0}}\n"
+        for p in peaks
+    )
+    text = head + "lights:\n" + leds + tail
+    for name in ("A", "B", "C"):
+        text = text.replace(f"file: {name}.csv", f"file: {MIX.parent / name}.csv")
+    text = text.replace("../chapter_table2/", f"{MIX.parent.parent / 'chapter_table2'}/")
+    path = tmp_path / "catalogue.yaml"
+    path.write_text(text)
+    return path
+
+
+@pytest.fixture(scope="module")
+def catalogue(tmp_path_factory):
+    from inspect_validate.design.problem import design_problem
+
+    p = design_problem(_catalogue_scene(tmp_path_factory.mktemp("cat"), range(420, 700, 25)))
+    response = channel_response(
+        p.channels, p.optics, p.camera, p.classes, grid=p.grid, exposure_time=p.exposure_time
+    )
+    return p, response
+
+
+@pytest.mark.parametrize("k", [2, 3])
+def test_catalogue_local_search_finds_the_exhaustive_choice(catalogue, k):
+    from inspect_validate.design.catalogue import choose_channels
+
+    p, response = catalogue  # 12 LEDs, 420–695 nm
+    exhaustive = choose_channels(response, p.objective, k)
+    local = choose_channels(response, p.objective, k, exhaustive_max=0)
+    assert exhaustive.exhaustive and not local.exhaustive
+    assert exhaustive.evaluated == math.comb(12, k)
+    if k == 3:
+        assert local.evaluated < exhaustive.evaluated / 2  # 220 subsets; k = 2 gains nothing
+    assert local.channels == exhaustive.channels
+    assert local.mix.objective == pytest.approx(exhaustive.mix.objective, rel=1e-6)
+    # The mix of all 12 bounds every choice from below (up to the optimiser's tolerance).
+    assert exhaustive.bound <= exhaustive.mix.objective * (1 + 1e-6)
+    # The chosen subset's mix is that subset's optimum: the full multi-start agrees.
+    again = optimise_mix(response.subset(exhaustive.channels), p.objective, random_starts=16)
+    assert exhaustive.mix.objective <= again.objective * (1 + 1e-6)
+
+
+def test_design_cli_chooses_from_a_catalogue(cli, tmp_path):
+    import json
+
+    path = _catalogue_scene(tmp_path, range(420, 700, 25))
+    code, out, err = cli(["design", path, "--choose", "2", "--json", tmp_path / "d.json"])
+    assert code == 0, err
+    assert "chose 2 of 12 channels (66 subsets, every subset optimised)" in out
+    assert "choosing 2 of 12" in err  # the progress bar
+    doc = json.loads((tmp_path / "d.json").read_text())
+    assert doc["choice"]["exhaustive"] and len(doc["choice"]["channels"]) == 2
+    assert set(doc["illumination"]["channels"]) <= set(doc["choice"]["channels"])
+    worst_mix = max(c["error_gaussian"] for c in doc["mix"]["comparisons"])
+    assert worst_mix >= doc["choice"]["lower_bound_error"] * (1 - 1e-6)
+    code, out, err = cli(["design", path, "--choose", "13"])
+    assert code == 2 and "cannot choose 13 of 12" in err

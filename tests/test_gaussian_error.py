@@ -106,3 +106,40 @@ def test_degenerate_cases():
         gaussian_error(0, -1, 1, 1)
     with pytest.raises(ValueError, match="finite"):
         gaussian_error(np.nan, 1, 1, 1)
+
+
+def test_gradient_matches_central_differences_and_the_mixture_gradient():
+    from inspect_validate.stats.gaussian_error import gaussian_error_gradient
+    from inspect_validate.stats.kde_error import mixture_error_gradient
+
+    rng = np.random.default_rng(12)
+    m1, m2 = rng.normal(0, 3, (2, 400))
+    s1, s2 = np.exp(rng.normal(0, 1, (2, 400)))
+    s2[::5] = s1[::5]  # equal widths: one crossing
+    s2[1::7] = s1[1::7] * (1 + 1e-9)  # nearly equal: the far crossing at −∞ in effect
+    e, log_e, *grad = gaussian_error_gradient(m1, s1, m2, s2)
+    np.testing.assert_allclose(e, gaussian_error(m1, s1**2, m2, s2**2), rtol=1e-15)
+    np.testing.assert_allclose(log_e, np.log(e), rtol=1e-13)
+    args = [m1, s1, m2, s2]
+    for i, g in enumerate(grad):
+        h = 1e-6 * np.maximum(np.abs(args[i]), 1.0)
+        up, down = list(args), list(args)
+        up[i], down[i] = args[i] + h, args[i] - h
+        fd = (
+            gaussian_error(up[0], up[1] ** 2, up[2], up[3] ** 2)
+            - gaussian_error(down[0], down[1] ** 2, down[2], down[3] ** 2)
+        ) / (2 * h)
+        np.testing.assert_allclose(g, fd, rtol=1e-5, atol=1e-9)
+    for j in range(0, 400, 37):  # the general mixture path, independently derived
+        ref = mixture_error_gradient([m1[j]], [1.0], s1[j], [m2[j]], [1.0], s2[j])
+        np.testing.assert_allclose(
+            [g[j] for g in grad], [r[0] for r in ref[1:]], rtol=1e-10, atol=1e-300
+        )
+
+
+def test_gradient_of_degenerate_pairs_is_zero():
+    from inspect_validate.stats.gaussian_error import gaussian_error_gradient
+
+    e, _, *grad = gaussian_error_gradient([1.0, 1.0], [0.0, 2.0], [3.0, 1.0], [1.0, 2.0])
+    np.testing.assert_array_equal(e, [0.0, 0.5])
+    assert all(np.all(g == 0) for g in grad)

@@ -92,3 +92,26 @@ def test_mixture_error_is_invariant_to_the_grey_value_unit(scale):
     expected = mixture_error(c1, w1, 1.0, c2, w2, 1.5)
     got = mixture_error(c1 * scale + 7 * scale, w1, scale, c2 * scale + 7 * scale, w2, 1.5 * scale)
     assert got == pytest.approx(expected, rel=1e-6 if scale < 1e-300 else 1e-12)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_small_mixtures_match_quadrature(seed):
+    # A group comparison: a few Gaussians of their own widths against one or two more
+    # (the crossings by vectorised Newton steps inside the grid's brackets).
+    rng = np.random.default_rng(seed)
+    n1, n2 = rng.integers(1, 4, 2)
+    c1, c2 = rng.normal(0, 4, n1), rng.normal(2, 4, n2)
+    s1, s2 = np.exp(rng.normal(0, 0.5, n1)), np.exp(rng.normal(0, 0.5, n2))
+    w1, w2 = rng.dirichlet(np.ones(n1)), rng.dirichlet(np.ones(n2))
+
+    def p(x, c, w, s):
+        return np.sum(w * np.exp(-0.5 * ((x - c) / s) ** 2) / s) / np.sqrt(2 * np.pi)
+
+    edges = np.linspace(-40, 40, 400)
+    ref = 0.5 * sum(
+        integrate.quad(
+            lambda x: min(p(x, c1, w1, s1), p(x, c2, w2, s2)), a, b, epsabs=0, epsrel=1e-12
+        )[0]
+        for a, b in itertools.pairwise(edges)
+    )
+    assert mixture_error(c1, w1, s1, c2, w2, s2) == pytest.approx(ref, rel=1e-9)

@@ -45,6 +45,8 @@ __all__ = [
 ]
 
 _LOG_FLOOR = 1e-300  # ε below this is perfect separation for any purpose
+_SCREEN_ITERATIONS = 8  # SLSQP iterations from every start before choosing which to polish
+_POLISHED = 3  # distinct screened ends run to convergence
 
 
 @dataclass(frozen=True, eq=False)
@@ -75,6 +77,15 @@ class ChannelResponse:
             means.append(e.mean(axis=1))
             covs.append(np.cov(e, ddof=1).reshape(n, n) if e.shape[1] > 1 else np.zeros((n, n)))
         return np.array(means), np.array(covs)
+
+    def subset(self, channels) -> ChannelResponse:
+        """The response of ``channels`` (indices) only, its class statistics sliced, not
+        recomputed."""
+        idx = np.asarray(channels, dtype=int)
+        sub = ChannelResponse(self.electrons[idx], self.sample_class, self.camera)
+        m, c = self.class_statistics
+        sub.__dict__["class_statistics"] = (m[:, idx], c[:, idx][:, :, idx])
+        return sub
 
     def signal(self, levels) -> np.ndarray:
         """Each sample's mean signal K·μ_e above the dark offset at ``levels``, DN."""
@@ -143,16 +154,37 @@ def mix_moments(response: ChannelResponse, levels, *, jacobian: bool = False):
 
 
 def comparison_errors(response, levels, comparisons, *, gradient: bool = False):
-    """ε_tot (37) of every comparison at ``levels``, (P,); with ``gradient`` also ∂ε/∂w, (P, N)."""
+    """ε_tot (37) of every comparison at ``levels``, (P,); with ``gradient`` also ∂ε/∂w, (P, N).
+
+    Comparisons of one class against one class are evaluated together in closed
+    form (:func:`~inspect_validate.stats.gaussian_error.gaussian_error_gradient`);
+    a group's side is a mixture of its classes' Gaussians.
+    """
+    from inspect_validate.stats.gaussian_error import gaussian_error_gradient
     from inspect_validate.stats.kde_error import mixture_error_gradient
 
     mean, var, d_mean, d_var = mix_moments(response, levels, jacobian=True)
     sd = np.sqrt(var)
+    d_sd = d_var / (2.0 * sd[:, None])  # ∂σ/∂w = ∂σ²/∂w / 2σ
+    groups = [(list(g1), list(g2)) for g1, g2 in comparisons.groups]
+    errors = np.empty(len(groups))
+    grads = np.zeros((len(groups), np.size(levels)))
+    single = [p for p, (g1, g2) in enumerate(groups) if len(g1) == len(g2) == 1]
+    if single:
+        i = np.array([groups[p][0][0] for p in single])
+        j = np.array([groups[p][1][0] for p in single])
+        e, _, dm1, ds1, dm2, ds2 = gaussian_error_gradient(mean[i], sd[i], mean[j], sd[j])
+        errors[single] = e
+        grads[single] = (
+            dm1[:, None] * d_mean[i]
+            + ds1[:, None] * d_sd[i]
+            + dm2[:, None] * d_mean[j]
+            + ds2[:, None] * d_sd[j]
+        )
     prior = comparisons.class_weights()
-    errors = np.empty(len(comparisons.groups))
-    grads = np.zeros((len(comparisons.groups), np.size(levels)))
-    for p, (g1, g2) in enumerate(comparisons.groups):
-        g1, g2 = list(g1), list(g2)
+    for p, (g1, g2) in enumerate(groups):
+        if p in single:
+            continue
         e, dm1, ds1, dm2, ds2 = mixture_error_gradient(
             mean[g1],
             prior[g1] / prior[g1].sum(),
@@ -162,10 +194,8 @@ def comparison_errors(response, levels, comparisons, *, gradient: bool = False):
             sd[g2],
         )
         errors[p] = e
-        if gradient:
-            for g, dm, ds in ((g1, dm1, ds1), (g2, dm2, ds2)):
-                # ∂σ/∂w = ∂σ²/∂w / 2σ
-                grads[p] += dm @ d_mean[g] + (ds / (2.0 * sd[g])) @ d_var[g]
+        for g, dm, ds in ((g1, dm1, ds1), (g2, dm2, ds2)):
+            grads[p] += dm @ d_mean[g] + ds @ d_sd[g]
     return (errors, grads) if gradient else errors
 
 
@@ -203,6 +233,7 @@ def optimise_mix(
     max_level: float = 1.0,
     random_starts: int = 4,
     seed: int = 0,
+    starts=None,
 ) -> Mix:
     """Drive levels in [0, ``max_level``]ᴺ that minimise the worst comparison's ε_tot, no
     class saturating (see the module's description).
@@ -219,6 +250,9 @@ def optimise_mix(
         longer exposure (the caller rescales).
     random_starts : int, keyword-only
         Seeded random mixes besides the structured starts.
+    starts : sequence of array_like, keyword-only, optional
+        Start from these levels (and the equal mix) only, instead of the
+        structured and random starts: a warm start from a neighbouring problem.
 
     Raises
     ------
@@ -243,17 +277,10 @@ def optimise_mix(
             w = w * (max_level / w.max())
         return w
 
-    starts = [np.eye(n)[c] for c in range(n)] + [np.ones(n)]
-    m, c = response.class_statistics
-    for g1, g2 in comparisons.groups:
-        # Fisher direction of the two sides' mean responses: S⁻¹Δm, each sign.
-        d = m[list(g1)].mean(axis=0) - m[list(g2)].mean(axis=0)
-        s = c[list(g1)].mean(axis=0) + c[list(g2)].mean(axis=0)
-        s = s + np.eye(n) * (1e-9 * np.trace(s) / n + 1e-300)
-        direction = np.linalg.solve(s, d)
-        starts += [direction, -direction]
-    rng = np.random.default_rng(seed)
-    starts += list(rng.dirichlet(np.ones(n), size=random_starts))
+    if starts is not None:
+        starts = [*starts, np.ones(n)]
+    else:
+        starts = _structured_starts(response, comparisons, random_starts, seed)
     starts = [w for w in (scaled(x) for x in starts) if w is not None]
     # Starts that scale to the same mix (every start of a single channel) are run once.
     starts = list(np.unique(np.round(starts, 12), axis=0)) if starts else []
@@ -286,8 +313,8 @@ def optimise_mix(
         },
     ]
     bounds = [(0.0, max_level)] * n + [(None, None)]
-    best = None
-    for w0 in starts:
+
+    def run(w0, maxiter):
         x0 = np.r_[w0, log_errors(w0)[0].max()]
         res = optimize.minimize(
             objective,
@@ -296,13 +323,39 @@ def optimise_mix(
             method="SLSQP",
             bounds=bounds,
             constraints=constraints,
-            options={"maxiter": 200, "ftol": 1e-12},
+            options={"maxiter": maxiter, "ftol": 1e-12},
         )
         w = np.clip(res.x[:-1], 0.0, max_level)
         if response.signal(w).max() > ceiling * (1 + 1e-9):
             w = scaled(w)  # SLSQP may end a hair outside; pull back onto the limit
-        errors = comparison_errors(response, w, comparisons)
-        if best is None or errors.max() < best[1].max():
-            best = (w, errors)
+        return w, comparison_errors(response, w, comparisons)
+
+    # A few iterations from every start find the basins; only the best few distinct
+    # ends are run to convergence (most of an optimisation's evaluations are its last
+    # digits).
+    screened = sorted((run(w0, _SCREEN_ITERATIONS) for w0 in starts), key=lambda r: r[1].max())
+    ends = np.unique(np.round([w for w, _ in screened], 3), axis=0, return_index=True)[1]
+    polish = [screened[i][0] for i in sorted(ends)[:_POLISHED]]
+    best = min((run(w0, 200) for w0 in polish), key=lambda r: r[1].max())
+    if screened[0][1].max() < best[1].max():
+        best = screened[0]
     w, errors = best
     return Mix(levels=w, errors=errors, worst=int(np.argmax(errors)), starts=len(starts))
+
+
+def _structured_starts(response, comparisons, random_starts, seed):
+    """Each channel alone, the equal mix, each comparison's Fisher direction (±) and
+    seeded random mixes (unscaled)."""
+    n = response.electrons.shape[0]
+    starts = [np.eye(n)[c] for c in range(n)] + [np.ones(n)]
+    m, c = response.class_statistics
+    for g1, g2 in comparisons.groups:
+        # Fisher direction of the two sides' mean responses: S⁻¹Δm, each sign.
+        d = m[list(g1)].mean(axis=0) - m[list(g2)].mean(axis=0)
+        s = c[list(g1)].mean(axis=0) + c[list(g2)].mean(axis=0)
+        s = s + np.eye(n) * (1e-9 * np.trace(s) / n + 1e-300)
+        direction = np.linalg.solve(s, d)
+        starts += [direction, -direction]
+    rng = np.random.default_rng(seed)
+    starts += list(rng.dirichlet(np.ones(n), size=random_starts))
+    return starts

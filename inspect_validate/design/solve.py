@@ -4,7 +4,7 @@ optimum is."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 __all__ = ["Design", "solve"]
 
@@ -28,6 +28,8 @@ class Design:
     flatness : list of dict
         For each channel moved by ±10 % of its level: the worst objective ε.
     starts : int
+    choice : Choice or None
+        How the channels were chosen from a catalogue (``choose``), else None.
     """
 
     problem: object
@@ -37,14 +39,18 @@ class Design:
     single_prediction: object
     flatness: list
     starts: int
+    choice: object = None
 
     @property
     def percent(self) -> dict:
         return {c: round(100.0 * w, 1) for c, w in self.levels.items() if w > 5e-4}
 
 
-def solve(problem) -> Design:
-    """The mix of ``problem``'s channels that minimises its objective's worst ε."""
+def solve(problem, *, choose: int | None = None, progress=None) -> Design:
+    """The mix of ``problem``'s channels that minimises its objective's worst ε; with
+    ``choose``, of the best ``choose`` of them (:func:`~.catalogue.choose_channels`,
+    ``progress`` its callback)."""
+    from inspect_validate.design.catalogue import choose_channels
     from inspect_validate.design.mix import channel_response, comparison_errors, optimise_mix
 
     response = channel_response(
@@ -55,32 +61,46 @@ def solve(problem) -> Design:
         grid=problem.grid,
         exposure_time=problem.exposure_time,
     )
-    mix = optimise_mix(response, problem.objective, max_saturated=problem.max_saturated)
     labels = list(problem.channels)
+    choice = None
+    if choose is None:
+        chosen = list(range(len(labels)))
+        mix = optimise_mix(response, problem.objective, max_saturated=problem.max_saturated)
+    else:
+        choice = choose_channels(
+            response,
+            problem.objective,
+            choose,
+            max_saturated=problem.max_saturated,
+            progress=progress,
+        )
+        chosen, mix = list(choice.channels), choice.mix
     singles = []
     for c in range(len(labels)):
-        sub = replace(response, electrons=response.electrons[c : c + 1])
-        best = optimise_mix(sub, problem.objective, max_saturated=problem.max_saturated)
+        best = optimise_mix(
+            response.subset([c]), problem.objective, max_saturated=problem.max_saturated
+        )
         singles.append((best.objective, labels[c], float(best.levels[0])))
     _, single_label, single_level = min(singles, key=lambda s: s[0])
 
     flatness = []
+    mixed = response.subset(chosen)
     ceiling = response.ceiling(problem.max_saturated)
-    for c, label in enumerate(labels):
+    for c, label in enumerate(labels[i] for i in chosen):
         for sign in (-1.0, 1.0):
             w = mix.levels.copy()
             w[c] *= 1.0 + sign * DRIVE_TOLERANCE
             w[c] = min(w[c], 1.0)
-            eps = comparison_errors(response, w, problem.objective).max()
+            eps = comparison_errors(mixed, w, problem.objective).max()
             flatness.append(
                 {
                     "channel": label,
                     "change": sign * DRIVE_TOLERANCE,
                     "worst_error": float(eps),
-                    "saturates": bool(response.signal(w).max() > ceiling),
+                    "saturates": bool(mixed.signal(w).max() > ceiling),
                 }
             )
-    levels = dict(zip(labels, map(float, mix.levels), strict=True))
+    levels = dict(zip([labels[i] for i in chosen], map(float, mix.levels), strict=True))
     return Design(
         problem=problem,
         levels=levels,
@@ -91,6 +111,7 @@ def solve(problem) -> Design:
         ),
         flatness=flatness,
         starts=mix.starts,
+        choice=choice,
     )
 
 

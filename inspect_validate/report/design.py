@@ -52,6 +52,15 @@ def design_document(d) -> dict:
         "best_single": {"channel": str(channel), "level": level, **predicted(d.single_prediction)},
         "drive_tolerance": d.flatness,
         "starts": d.starts,
+        "choice": None
+        if d.choice is None
+        else {
+            "channels": [str(list(p.channels)[i]) for i in d.choice.channels],
+            "candidates": len(p.channels),
+            "subsets_optimised": d.choice.evaluated,
+            "exhaustive": d.choice.exhaustive,
+            "lower_bound_error": d.choice.bound,
+        },
     }
 
 

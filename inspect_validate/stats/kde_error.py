@@ -42,6 +42,7 @@ _WINDOW_MIN = 256  # components above which a kernel density is summed in window
 _WINDOW_REACH = 20.0  # in h, beyond the nearest component
 _WINDOW_WIDTHS_MAX = 16  # distinct kernel widths (classes in a group) summed part by part
 _WINDOW_CHUNK = 64  # grid points per window (16 h at the crossing grid's step)
+_NEWTON_COMPONENTS_MAX = 64  # crossings of mixtures this small: vectorised Newton, not brentq
 _LOG_SQRT_2PI = 0.5 * np.log(2.0 * np.pi)
 
 
@@ -319,6 +320,48 @@ def _gaussian_crossings(m1, s1, m2, s2) -> np.ndarray:
     return np.sort(np.array(roots, dtype=float))
 
 
+def _polish(lo, hi, f_lo, p1, p2, xtol):
+    """Roots of log p1 − log p2 in the brackets (lo, hi), all at once: Newton steps
+    where they stay inside the bracket, bisection where not (few components only)."""
+    lo, hi = lo.copy(), hi.copy()
+    x = 0.5 * (lo + hi)
+    active = np.ones(x.shape, dtype=bool)
+    for _ in range(200):
+        f1, g1 = _log_density_slope(x[active], p1)
+        f2, g2 = _log_density_slope(x[active], p2)
+        f, g = f1 - f2, g1 - g2
+        xa, la, ha = x[active], lo[active], hi[active]
+        same = np.sign(f) == np.sign(f_lo[active])
+        la, ha = np.where(same, xa, la), np.where(same, ha, xa)
+        with np.errstate(all="ignore"):
+            newton = xa - f / g
+        inside = np.isfinite(newton) & (newton >= la) & (newton <= ha)
+        step = np.where(inside, newton, 0.5 * (la + ha))
+        # A converged root stays put: at rounding level f's sign is noise.
+        done = (f == 0) | (np.abs(step - xa) <= xtol) | (ha - la <= xtol)
+        x[active] = np.where(f == 0, xa, step)
+        lo[active], hi[active] = la, ha
+        active[active] = ~done
+        if not active.any():
+            break
+    return x
+
+
+def _log_density_slope(x, parts):
+    """log p(x) (unnormalised as in :func:`_log_density`) and d log p / dx, summing every
+    component (for mixtures of few components)."""
+    v, slope = [], []
+    for centres, log_w, sigma in parts:
+        z = (x[:, None] - centres[None, :]) / sigma
+        v.append(log_w - 0.5 * z * z)
+        slope.append(np.broadcast_to(-z / sigma, z.shape))
+    v, slope = np.concatenate(v, axis=1), np.concatenate(slope, axis=1)
+    top = v.max(axis=1, keepdims=True)
+    e = np.exp(v - top)
+    total = e.sum(axis=1)
+    return top[:, 0] + np.log(total), (e * slope).sum(axis=1) / total
+
+
 def _crossings(p1, p2, c1, s1, c2, s2) -> np.ndarray:
     step = _GRID_STEP * min(s1.min(), s2.min())
     hmax = max(s1.max(), s2.max())
@@ -334,9 +377,12 @@ def _crossings(p1, p2, c1, s1, c2, s2) -> np.ndarray:
     sign = np.sign(d)
     idx = np.flatnonzero(sign[:-1] * sign[1:] < 0)
     xtol = 1e-13 * hmax
-    roots = [
-        optimize.brentq(lambda t: diff(np.array([t]))[0], grid[i], grid[i + 1], xtol=xtol)
-        for i in idx
-    ]
+    if sum(c.size for c, _, _ in p1 + p2) <= _NEWTON_COMPONENTS_MAX:
+        roots = list(_polish(grid[idx], grid[idx + 1], d[idx], p1, p2, xtol))
+    else:
+        roots = [
+            optimize.brentq(lambda t: diff(np.array([t]))[0], grid[i], grid[i + 1], xtol=xtol)
+            for i in idx
+        ]
     roots += list(grid[np.flatnonzero(sign == 0)])
     return np.sort(np.array(roots, dtype=float))

@@ -1,0 +1,172 @@
+"""Choosing k lights of a catalogue of M for a k-channel controller.
+
+Every k-subset has its own optimal mix (:func:`~inspect_validate.design.mix.optimise_mix`);
+the choice is the subset whose optimum has the lowest worst ε. A subset is
+*screened* by optimising its mix from a warm start (the neighbouring subset's
+mix) and the equal mix only; the best few screened subsets are then optimised
+from every structured start, and the best of those is the choice. Where M
+choose k is small every subset is screened. Beyond, the search is:
+
+1. *greedy*: the best single light, then repeatedly the light whose addition
+   lowers the optimum most, up to k;
+2. the *support* of the optimal mix of all M lights: its k strongest;
+3. from each of these, *swaps*: replace one chosen light by one not chosen
+   (at the level of the one it replaces) while that lowers the optimum (first
+   improvement, until no swap does).
+
+This is a local search; it reports how far from exhaustive it may be by the
+optimum of all M lights mixed together, a lower bound on every k-subset's
+optimum (a k-subset's mixes are mixes of the M lights with the others at 0),
+exact up to the optimiser's own tolerance.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from inspect_validate.errors import InputError
+
+__all__ = ["EXHAUSTIVE_MAX", "Choice", "choose_channels"]
+
+EXHAUSTIVE_MAX = 400  # subsets optimised one by one; beyond, the local search
+_REFINED = 4  # best screened subsets re-optimised from every structured start
+
+
+@dataclass(frozen=True, eq=False)
+class Choice:
+    """The chosen channels and their mix.
+
+    Attributes
+    ----------
+    channels : tuple of int
+        Indices of the chosen channels, ascending.
+    mix : Mix
+        The optimal mix of the chosen channels (levels in their order).
+    evaluated : int
+        Subsets optimised (screened from a warm start and the equal mix).
+    exhaustive : bool
+        Every subset was optimised.
+    bound : float
+        Worst ε of the optimal mix of *all* channels: no subset does better.
+    """
+
+    channels: tuple
+    mix: object
+    evaluated: int
+    exhaustive: bool
+    bound: float
+
+
+def choose_channels(
+    response,
+    comparisons,
+    k: int,
+    *,
+    max_saturated: float = 1e-3,
+    exhaustive_max: int = EXHAUSTIVE_MAX,
+    progress=None,
+) -> Choice:
+    """The ``k`` channels of ``response`` whose optimal mix has the lowest worst ε.
+
+    Parameters
+    ----------
+    response : ChannelResponse
+        Every candidate light (M channels).
+    comparisons : Comparisons
+        The objective's comparisons.
+    k : int
+        Channels of the controller, 1 ≤ k ≤ M.
+    exhaustive_max : int, keyword-only
+        Largest M choose k optimised subset by subset.
+    progress : callable, keyword-only, optional
+        ``progress(done, total)`` after each subset (total is an estimate for the
+        local search).
+
+    Raises
+    ------
+    InputError
+        ``k`` outside 1…M.
+    """
+    from inspect_validate.design.mix import optimise_mix
+
+    m = response.electrons.shape[0]
+    if not 1 <= k <= m:
+        raise InputError(f"cannot choose {k} of {m} lights: give --choose between 1 and {m}")
+    cache: dict[tuple, object] = {}
+    total = math.comb(m, k)
+    exhaustive = total <= exhaustive_max
+    if not exhaustive:
+        # greedy (≈ k·M) + two swap passes from two seeds (≈ 2·2·k·(M − k))
+        total = k * m + 4 * k * (m - k)
+    total += _REFINED
+
+    def optimum(channels, warm=None) -> float:
+        """Worst ε of the subset's mix, screened: from ``warm`` (levels by channel) and
+        the equal mix only."""
+        key = tuple(sorted(int(c) for c in channels))
+        if key not in cache:
+            w0 = np.array([(warm or {}).get(c, 0.0) for c in key])
+            cache[key] = optimise_mix(
+                response.subset(key),
+                comparisons,
+                max_saturated=max_saturated,
+                starts=[w0] if w0.any() else [],
+            )
+            if progress:
+                progress(min(len(cache), total), total)
+        return cache[key].objective
+
+    def levels(key):
+        return dict(zip(key, cache[key].levels, strict=True))
+
+    full = optimise_mix(response, comparisons, max_saturated=max_saturated)
+    if exhaustive:
+        for subset in itertools.combinations(range(m), k):
+            optimum(subset)
+    else:
+        chosen: tuple = ()
+        while len(chosen) < k:
+            rest = [c for c in range(m) if c not in chosen]
+            warm = levels(chosen) if chosen else None
+            best = min(rest, key=lambda c, w=warm: optimum([*chosen, c], w))
+            chosen = tuple(sorted([*chosen, best]))
+        support = np.argsort(-full.levels * response.electrons.sum(axis=1))[:k]
+        full_levels = dict(enumerate(full.levels))
+        optimum(support, full_levels)
+        for seed in (chosen, tuple(sorted(int(c) for c in support))):
+            _swap_search(seed, m, optimum, levels)
+    # The screened optima rank the subsets; the best few get the full multi-start.
+    refined = {
+        key: optimise_mix(response.subset(key), comparisons, max_saturated=max_saturated)
+        for key in sorted(cache, key=lambda key: cache[key].objective)[:_REFINED]
+    }
+    best = min(refined, key=lambda key: min(refined[key].objective, cache[key].objective))
+    mix = min(refined[best], cache[best], key=lambda mix: mix.objective)
+    if progress:
+        progress(total, total)
+    return Choice(best, mix, len(cache), exhaustive, full.objective)
+
+
+def _swap_search(chosen, m, optimum, levels):
+    """Swap one chosen channel for one not chosen while that lowers ``optimum``, each trial
+    warm-started from the current mix with the new channel at the old one's level."""
+    chosen = tuple(chosen)
+    current = optimum(chosen)
+    improved = True
+    while improved:
+        improved = False
+        for i, j in itertools.product(range(len(chosen)), range(m)):
+            if j in chosen:
+                continue
+            warm = levels(chosen)
+            warm[j] = warm.pop(chosen[i])
+            trial = tuple(sorted([*chosen[:i], j, *chosen[i + 1 :]]))
+            value = optimum(trial, warm)
+            if value < current:
+                chosen, current, improved = trial, value, True
+                break
+    return chosen
