@@ -2,8 +2,8 @@
 
 Every k-subset has its own optimal mix (:func:`~inspect_validate.design.mix.optimise_mix`);
 the choice is the subset whose optimum has the lowest worst ε. A subset is
-*screened* by optimising its mix from a warm start (the neighbouring subset's
-mix) and the equal mix only; the best few screened subsets are then optimised
+*screened* by optimising its mix from one start: the neighbouring subset's mix
+(warm), else the equal mix; the best few screened subsets are then optimised
 from every structured start, and the best of those is the choice. Where M
 choose k is small every subset is screened. Beyond, the search is:
 
@@ -13,6 +13,12 @@ choose k is small every subset is screened. Beyond, the search is:
 3. from each of these, *swaps*: replace one chosen light by one not chosen
    (at the level of the one it replaces) while that lowers the optimum (first
    improvement, until no swap does).
+
+Steps 1 and 3 try the 12 most promising lights only, ranked by the first-order
+change of the worst log ε when a little of the light is added to the current
+mix (scaled to keep its brightest sample where it was); the best end is then
+swapped against every light until no single swap improves it, so the choice
+is swap-optimal.
 
 This is a local search; it reports how far from exhaustive it may be by the
 optimum of all M lights mixed together, a lower bound on every k-subset's
@@ -34,6 +40,7 @@ __all__ = ["EXHAUSTIVE_MAX", "Choice", "choose_channels"]
 
 EXHAUSTIVE_MAX = 400  # subsets optimised one by one; beyond, the local search
 _REFINED = 4  # best screened subsets re-optimised from every structured start
+_CANDIDATES = 12  # channels tried per greedy step and per swap pass, by first-order score
 
 
 @dataclass(frozen=True, eq=False)
@@ -100,13 +107,13 @@ def choose_channels(
     total = math.comb(m, k)
     exhaustive = total <= exhaustive_max
     if not exhaustive:
-        # greedy (≈ k·M) + two swap passes from two seeds (≈ 2·2·k·(M − k))
-        total = k * m + 4 * k * (m - k)
+        # singles, greedy steps and about two swap passes from each of two seeds
+        total = m + (k - 1) * _CANDIDATES + 4 * k * _CANDIDATES + k * (m - k)
     total += _REFINED
 
     def optimum(channels, warm=None) -> float:
-        """Worst ε of the subset's mix, screened: from ``warm`` (levels by channel) and
-        the equal mix only."""
+        """Worst ε of the subset's mix, screened: from ``warm`` (levels by channel) only,
+        else from the equal mix."""
         key = tuple(sorted(int(c) for c in channels))
         if key not in cache:
             w0 = np.array([(warm or {}).get(c, 0.0) for c in key])
@@ -114,7 +121,7 @@ def choose_channels(
                 response.subset(key),
                 comparisons,
                 max_saturated=max_saturated,
-                starts=[w0] if w0.any() else [],
+                starts=[w0 if w0.any() else np.ones(len(key))],
             )
             if progress:
                 progress(min(len(cache), total), total)
@@ -128,17 +135,24 @@ def choose_channels(
         for subset in itertools.combinations(range(m), k):
             optimum(subset)
     else:
+        score = _first_order_score(response, comparisons, m)
         chosen: tuple = ()
         while len(chosen) < k:
-            rest = [c for c in range(m) if c not in chosen]
-            warm = levels(chosen) if chosen else None
+            if chosen:
+                warm = levels(chosen)
+                rest = score(warm)[:_CANDIDATES]
+            else:
+                warm, rest = None, range(m)
             best = min(rest, key=lambda c, w=warm: optimum([*chosen, c], w))
-            chosen = tuple(sorted([*chosen, best]))
+            chosen = tuple(sorted([*chosen, int(best)]))
         support = np.argsort(-full.levels * response.electrons.sum(axis=1))[:k]
-        full_levels = dict(enumerate(full.levels))
-        optimum(support, full_levels)
-        for seed in (chosen, tuple(sorted(int(c) for c in support))):
-            _swap_search(seed, m, optimum, levels)
+        optimum(support, dict(enumerate(full.levels)))
+        ends = [
+            _swap_search(seed, optimum, levels, lambda w: score(w)[:_CANDIDATES])
+            for seed in (chosen, tuple(sorted(int(c) for c in support)))
+        ]
+        # The best end, made swap-optimal against every channel, not only the promising.
+        _swap_search(min(ends, key=optimum), optimum, levels, score)
     # The screened optima rank the subsets; the best few get the full multi-start.
     refined = {
         key: optimise_mix(response.subset(key), comparisons, max_saturated=max_saturated)
@@ -151,22 +165,44 @@ def choose_channels(
     return Choice(best, mix, len(cache), exhaustive, full.objective)
 
 
-def _swap_search(chosen, m, optimum, levels):
-    """Swap one chosen channel for one not chosen while that lowers ``optimum``, each trial
-    warm-started from the current mix with the new channel at the old one's level."""
+def _swap_search(chosen, optimum, levels, candidates):
+    """Swap one chosen channel for one of ``candidates(levels)`` while that lowers
+    ``optimum``, each trial warm-started with the new channel at the old one's level."""
     chosen = tuple(chosen)
     current = optimum(chosen)
     improved = True
     while improved:
         improved = False
-        for i, j in itertools.product(range(len(chosen)), range(m)):
-            if j in chosen:
-                continue
+        for i, j in itertools.product(range(len(chosen)), candidates(levels(chosen))):
             warm = levels(chosen)
-            warm[j] = warm.pop(chosen[i])
-            trial = tuple(sorted([*chosen[:i], j, *chosen[i + 1 :]]))
+            warm[int(j)] = warm.pop(chosen[i])
+            trial = tuple(sorted([*chosen[:i], int(j), *chosen[i + 1 :]]))
             value = optimum(trial, warm)
             if value < current:
                 chosen, current, improved = trial, value, True
                 break
     return chosen
+
+
+def _first_order_score(response, comparisons, m):
+    """``score(levels)``: the channels not in ``levels`` (channel → level), most promising
+    first — by the derivative of the worst log ε when a little of the channel is added and
+    the mix scaled down to keep its brightest sample's signal."""
+    from inspect_validate.design.mix import comparison_errors
+
+    def score(levels):
+        w = np.zeros(m)
+        w[list(levels)] = list(levels.values())
+        e, g = comparison_errors(response, w, comparisons, gradient=True)
+        g = g / np.maximum(e, 1e-300)[:, None]  # ∂ log ε / ∂w
+        signal = response.signal(w)
+        brightest = int(np.argmax(signal))
+        scale = (
+            response.camera.gain * response.electrons[:, brightest] / max(signal[brightest], 1e-300)
+        )
+        active = e >= 0.5 * e.max()  # the comparisons the worst may switch to
+        slope = (g[active] - np.outer(g[active] @ w, scale)).max(axis=0)
+        rest = [c for c in np.argsort(slope) if c not in levels]
+        return rest
+
+    return score

@@ -251,8 +251,9 @@ def optimise_mix(
     random_starts : int, keyword-only
         Seeded random mixes besides the structured starts.
     starts : sequence of array_like, keyword-only, optional
-        Start from these levels (and the equal mix) only, instead of the
-        structured and random starts: a warm start from a neighbouring problem.
+        Start from these levels only, each run until log ε moves by less than
+        1e-6 (a screening), instead of the structured and random starts: a warm
+        start from a neighbouring problem.
 
     Raises
     ------
@@ -277,9 +278,8 @@ def optimise_mix(
             w = w * (max_level / w.max())
         return w
 
-    if starts is not None:
-        starts = [*starts, np.ones(n)]
-    else:
+    warm = bool(starts)
+    if not warm:
         starts = _structured_starts(response, comparisons, random_starts, seed)
     starts = [w for w in (scaled(x) for x in starts) if w is not None]
     # Starts that scale to the same mix (every start of a single channel) are run once.
@@ -314,7 +314,7 @@ def optimise_mix(
     ]
     bounds = [(0.0, max_level)] * n + [(None, None)]
 
-    def run(w0, maxiter):
+    def run(w0, maxiter, ftol=1e-12):
         x0 = np.r_[w0, log_errors(w0)[0].max()]
         res = optimize.minimize(
             objective,
@@ -323,7 +323,7 @@ def optimise_mix(
             method="SLSQP",
             bounds=bounds,
             constraints=constraints,
-            options={"maxiter": maxiter, "ftol": 1e-12},
+            options={"maxiter": maxiter, "ftol": ftol},
         )
         w = np.clip(res.x[:-1], 0.0, max_level)
         if response.signal(w).max() > ceiling * (1 + 1e-9):
@@ -333,6 +333,10 @@ def optimise_mix(
     # A few iterations from every start find the basins; only the best few distinct
     # ends are run to convergence (most of an optimisation's evaluations are its last
     # digits).
+    if warm:
+        # A screening: log ε to 1e-6, which ranks subsets; the chosen few are polished.
+        best = min((run(w0, 60, 1e-6) for w0 in starts), key=lambda r: r[1].max())
+        return Mix(best[0], best[1], worst=int(np.argmax(best[1])), starts=len(starts))
     screened = sorted((run(w0, _SCREEN_ITERATIONS) for w0 in starts), key=lambda r: r[1].max())
     ends = np.unique(np.round([w for w, _ in screened], 3), axis=0, return_index=True)[1]
     polish = [screened[i][0] for i in sorted(ends)[:_POLISHED]]

@@ -243,21 +243,28 @@ def mixture_error_gradient(centres1, weights1, sigma1, centres2, weights2, sigma
         raise ValueError("mixture_error_gradient needs every component's σ > 0")
     order = [np.argsort(ci, kind="stable") for ci in c]
     cs, ws, ss = ([x[o] for x, o in zip(arr, order, strict=True)] for arr in (c, w, s))
-    total = 0.0
     grads = [[np.zeros(ci.size), np.zeros(ci.size)] for ci in c]
+    ends = [[], []]
     for a, b, lower_is_1 in _lower_regions(cs[0], ss[0], cs[1], ss[1], ws[0], ws[1]):
-        side = 0 if lower_is_1 else 1
+        ends[0 if lower_is_1 else 1].append((a, b))
+    total = 0.0
+    for side, limits in enumerate(ends):
+        if not limits:
+            continue
         mu, wt, sg = cs[side], ws[side], ss[side]
-        total += _mass(a, b, mu, wt, sg)
-        za, zb = (a - mu) / sg, (b - mu) / sg
+        a, b = np.array(limits).T
+        za, zb = (a[:, None] - mu) / sg, (b[:, None] - mu) / sg  # (regions, components)
+        zero = np.zeros(za.size)
+        value, _ = _interval(za.ravel(), zero, zb.ravel(), zero)
+        total += float(np.sum(wt * value.reshape(za.shape)))
         pa, pb = np.exp(-0.5 * za * za), np.exp(-0.5 * zb * zb)
         # φ(±∞) and z·φ(z) at ±∞ are 0.
         za_pa = np.where(np.isfinite(za), za, 0.0) * pa
         zb_pb = np.where(np.isfinite(zb), zb, 0.0) * pb
         k = wt / (sg * np.sqrt(2.0 * np.pi))
         d_mu, d_sigma = grads[side]
-        d_mu[order[side]] += k * (pa - pb)
-        d_sigma[order[side]] += k * (za_pa - zb_pb)
+        d_mu[order[side]] += (k * (pa - pb)).sum(axis=0)
+        d_sigma[order[side]] += (k * (za_pa - zb_pb)).sum(axis=0)
     (g1m, g1s), (g2m, g2s) = grads
     return 0.5 * total, 0.5 * g1m, 0.5 * g1s, 0.5 * g2m, 0.5 * g2s
 
@@ -275,10 +282,11 @@ def _lower_regions(c1, s1, c2, s2, w1, w2):
     else:
         crossings = _crossings(p1, p2, u1, v1, u2, v2)
     edges = np.concatenate([[-np.inf], crossings, [np.inf]])
-    for a, b in itertools.pairwise(edges):
-        probe = _probe(a, b, u1, u2, v1.max(), v2.max())
-        lower_is_1 = bool(_log_density(probe, p1) <= _log_density(probe, p2))
-        yield shift + unit * a, shift + unit * b, lower_is_1
+    regions = list(itertools.pairwise(edges))
+    probes = np.concatenate([_probe(a, b, u1, u2, v1.max(), v2.max()) for a, b in regions])
+    lower = _log_density(probes, p1) <= _log_density(probes, p2)
+    for (a, b), lower_is_1 in zip(regions, lower, strict=True):
+        yield shift + unit * a, shift + unit * b, bool(lower_is_1)
 
 
 def _sorted(centres, weights, sigma):
