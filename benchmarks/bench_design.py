@@ -1,0 +1,134 @@
+"""Speed of illumination design and how close it gets, against slower references in the
+same run.
+
+Run: ``python benchmarks/bench_design.py`` (about four minutes on 2 cores).
+
+The classes are the shipped inks example (3 classes × 20 reflectance samples,
+the 12-bit camera at 40 ms, every comparison of the scene: 3 pairs and 3
+one-against-the-rest groups); the lights are LEDs of 25 nm FWHM at 2 W/m².
+
+1. ``optimise_mix``, 8 channels (420–680 nm): the default starts against 64
+   seeded random starts more (the reference); error = relative excess of our
+   worst ε over the reference's (0: the same optimum or a better one).
+2. ``choose_channels``, 3 of 16 LEDs: the local search against every subset
+   screened (exhaustive); error as above.
+3. ``choose_channels``, 4 of 50 LEDs (seeded random peaks 400–700 nm): the
+   target is ≤ 30 s; no exhaustive reference (230,300 subsets, ≈ 4 h); the
+   error column is the gap to the all-50 mix, a lower bound.
+4. The whole ``design`` CLI on the shipped example scene, in a fresh process
+   (what a user waits for, imports included).
+"""
+
+from __future__ import annotations
+
+import os
+import platform
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from inspect_validate.components import led
+from inspect_validate.design.catalogue import choose_channels
+from inspect_validate.design.mix import channel_response, optimise_mix
+from inspect_validate.scene import read_scene
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENE = ROOT / "sample_images" / "scenes" / "mix" / "scene.yaml"
+
+
+def response(scene, peaks):
+    lights = {
+        i + 1: led(p, 25, grid=scene.grid, name=f"LED {p:.0f}", irradiance=2.0)
+        for i, p in enumerate(peaks)
+    }
+    return channel_response(
+        lights,
+        scene.optics[0],
+        scene.cameras[0],
+        scene.classes,
+        grid=scene.grid,
+        exposure_time=0.04,
+    )
+
+
+def timed(fn):
+    t = time.perf_counter()
+    out = fn()
+    return out, time.perf_counter() - t
+
+
+def main():
+    scene = read_scene(SCENE)
+    objective = scene.comparisons
+    rows = []
+
+    r8 = response(scene, np.linspace(420, 680, 8))
+    ours, t1 = timed(lambda: optimise_mix(r8, objective))
+    ref, t2 = timed(lambda: optimise_mix(r8, objective, random_starts=68, seed=1))
+    rows.append(
+        (
+            "mix of 8 channels",
+            "+64 random starts",
+            t1,
+            t2,
+            max(ours.objective / ref.objective - 1, 0),
+            f"worst ε {ours.objective:.3g}",
+        )
+    )
+
+    r16 = response(scene, np.linspace(410, 690, 16))
+    ours, t1 = timed(lambda: choose_channels(r16, objective, 3, exhaustive_max=0))
+    ref, t2 = timed(lambda: choose_channels(r16, objective, 3, exhaustive_max=10**6))
+    rows.append(
+        (
+            "choose 3 of 16",
+            "all 560 subsets",
+            t1,
+            t2,
+            max(ours.mix.objective / ref.mix.objective - 1, 0),
+            f"{ours.evaluated} subsets; same choice: {ours.channels == ref.channels}",
+        )
+    )
+
+    rng = np.random.default_rng(50)
+    r50 = response(scene, np.sort(rng.uniform(400, 700, 50)))
+    ours, t1 = timed(lambda: choose_channels(r50, objective, 4))
+    rows.append(
+        (
+            "choose 4 of 50",
+            "— (bound: all 50)",
+            t1,
+            float("nan"),
+            ours.mix.objective / ours.bound - 1,
+            f"{ours.evaluated} subsets; worst ε {ours.mix.objective:.3g}, bound {ours.bound:.3g}",
+        )
+    )
+
+    cmd = [sys.executable, "-m", "inspect_validate", "design", str(SCENE)]
+    _, t1 = timed(lambda: subprocess.run(cmd, check=True, capture_output=True))
+    rows.append(
+        ("design CLI, inks scene", "—", t1, float("nan"), float("nan"), "3 channels, fresh process")
+    )
+
+    print(
+        f"machine: {platform.machine()}, {platform.processor() or platform.system()}, "
+        f"Python {platform.python_version()}"
+    )
+    header = (
+        f"{'task':26} {'reference':20} {'t ours':>9} {'t ref':>9} {'t ratio':>8} "
+        f"{'excess ε':>9}  note"
+    )
+    print(header)
+    print("-" * len(header))
+    for task, refname, t1, t2, err, note in rows:
+        ratio = f"{t1 / t2:.3f}" if np.isfinite(t2) else "—"
+        t2s = f"{t2:.2f} s" if np.isfinite(t2) else "—"
+        errs = f"{err:.1e}" if np.isfinite(err) else "—"
+        print(f"{task:26} {refname:20} {t1:7.2f} s {t2s:>9} {ratio:>8} {errs:>9}  {note}")
+
+
+if __name__ == "__main__":
+    main()
