@@ -54,6 +54,15 @@ def response(scene, peaks):
     )
 
 
+def cpu_name() -> str:
+    info = Path("/proc/cpuinfo")
+    if info.exists():
+        for line in info.read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    return platform.processor() or platform.machine()
+
+
 def timed(fn):
     t = time.perf_counter()
     out = fn()
@@ -113,10 +122,7 @@ def main():
         ("design CLI, inks scene", "—", t1, float("nan"), float("nan"), "3 channels, fresh process")
     )
 
-    print(
-        f"machine: {platform.machine()}, {platform.processor() or platform.system()}, "
-        f"Python {platform.python_version()}"
-    )
+    print(f"machine: {cpu_name()}, {os.cpu_count()} cores, Python {platform.python_version()}")
     header = (
         f"{'task':26} {'reference':20} {'t ours':>9} {'t ref':>9} {'t ratio':>8} "
         f"{'excess ε':>9}  note"
