@@ -40,6 +40,12 @@ junk = st.one_of(numbers, st.text(max_size=8), st.none(), st.booleans(), st.just
 maybe = lambda good: st.one_of(good, good, good, junk)  # noqa: E731 - mostly good, sometimes not
 
 
+def rarely_junk(good):
+    """``good``, one draw in six junk. (maybe() flattens into one one_of with junk's many
+    branches, so most of its draws are junk; a mapped junk is one branch.)"""
+    return st.one_of(*[good] * 5, junk.map(lambda x: x))
+
+
 def run(args, capsys):
     try:
         main([str(a) for a in args])
@@ -384,9 +390,7 @@ def verify_sections(*, hostile: bool):
     each value valid, or (``hostile``) now and then junk or a name that does not exist."""
 
     def pick(good):
-        # maybe() flattens into one one_of with junk's many branches (mostly junk); a
-        # mapped junk is one branch among the good ones.
-        return st.one_of(*[good] * 5, junk.map(lambda x: x)) if hostile else good
+        return rarely_junk(good) if hostile else good
 
     names = ["A vs B,C", "A vs B", "B vs A,C"] + (["A vs D", "", " vs ", "A"] if hostile else [])
     comparison_texts = st.sampled_from(names)
@@ -534,3 +538,90 @@ def test_verify_never_refuses_a_valid_station(
         (tmp / "st.yaml").write_text(yaml.safe_dump(doc))
         code, out, err = run(["verify", tmp / "st.yaml", "--frames", frames], capsys)
         assert_clean(code, out, err, allowed=(0, 1))
+
+
+design_leds = st.lists(
+    st.fixed_dictionaries(
+        {
+            "led": st.fixed_dictionaries({"peak": st.floats(200, 1200), "fwhm": st.floats(1, 150)}),
+            "irradiance": rarely_junk(st.sampled_from([1e-300, 1e-6, 0.5, 2.0, 2.0, 1e3, 1e6])),
+        }
+    ),
+    min_size=1,
+    max_size=4,
+)
+
+
+def _design_scene(tmp, leds, levels, spreads, band, time, bits):
+    """A scene for ``design``: classes with reflectances over ``band`` nm only."""
+    classes = {}
+    for name, level, spread in zip("ABC", levels, spreads, strict=False):
+        rows = [r for r in reflectance_rows(level, spread) if band[0] <= r[0] <= band[1]]
+        (tmp / f"{name}.csv").write_text(csv(rows))
+        classes[name] = {"file": f"{name}.csv"}
+    doc = {
+        "classes": classes,
+        "lights": leds,
+        "optics": ["visible"],
+        "cameras": [{"builtin": "cmos-visible", "bit_depth": bits}],
+        "exposure": {"mode": "fixed", "time": time},
+    }
+    (tmp / "s.yaml").write_text(yaml.safe_dump(doc))
+    return tmp / "s.yaml"
+
+
+def _check_design(tmp, code):
+    if code != 0:
+        return
+    doc = json.loads((tmp / "d.json").read_text())
+    assert all(0 <= w <= 1 for w in doc["levels"].values())
+    for part in (doc["mix"], doc["best_single"]):
+        for c in part["comparisons"]:
+            assert 0 <= c["error_gaussian"] <= 0.5
+        for c in part["classes"]:
+            assert math.isfinite(c["mean"]) and c["variance"] >= 0
+
+
+@SETTINGS
+@given(
+    leds=design_leds,
+    levels=st.lists(st.sampled_from([0.0, 1e-9, 0.05, 0.3, 0.3, 0.7, 1.0]), min_size=2, max_size=3),
+    spreads=st.lists(st.sampled_from([0.0, 1e-12, 0.02, 0.3]), min_size=3, max_size=3),
+    band=st.sampled_from([(380, 780)] * 4 + [(500, 600), (380, 450), (700, 780)]),
+    time=st.sampled_from([1e-9, 1e-4, 0.04, 10.0]),
+    bits=st.sampled_from([8, 12, 16]),
+    choose=st.sampled_from([None, 1, 2]),
+)
+def test_design_with_hostile_scenes(capsys, leds, levels, spreads, band, time, bits, choose):
+    # Lights outside the reflectances' band, lights of equal brightness (repeats),
+    # classes without spread, exposures that saturate everything or give no signal.
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        path = _design_scene(tmp, leds, levels, spreads, band, time, bits)
+        args = ["design", path, "--json", tmp / "d.json"]
+        code, out, err = run([*args, *(["--choose", choose] if choose else [])], capsys)
+        event(f"exit {code}")
+        assert_clean(code, out, err)
+        _check_design(tmp, code)
+
+
+@settings(SETTINGS, max_examples=20)
+@given(
+    peaks=st.lists(st.floats(420, 680), min_size=1, max_size=4),
+    repeat=st.booleans(),
+    levels=st.lists(st.floats(0.05, 0.9), min_size=2, max_size=3),
+    spreads=st.lists(st.floats(0.005, 0.2), min_size=3, max_size=3),
+)
+def test_design_never_refuses_a_valid_scene(capsys, peaks, repeat, levels, spreads):
+    leds = [
+        {"led": {"peak": p, "fwhm": 25}, "irradiance": 2.0, "name": f"L{i}"}
+        for i, p in enumerate(peaks)
+    ]
+    if repeat:
+        leds.append(dict(leds[0], name="twin"))  # two identical LEDs of equal brightness
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        path = _design_scene(tmp, leds, levels, spreads, (380, 780), 0.01, 12)
+        code, out, err = run(["design", path, "--json", tmp / "d.json"], capsys)
+        assert_clean(code, out, err, allowed=(0,))
+        _check_design(tmp, code)

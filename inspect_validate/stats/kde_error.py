@@ -215,7 +215,7 @@ def mixture_error(centres1, weights1, sigma1, centres2, weights2, sigma2) -> flo
     if c1.size and c2.size:
         for a, b, lower_is_1 in _lower_regions(c1, s1, c2, s2, w1, w2):
             total += _mass(a, b, c1, w1, s1) if lower_is_1 else _mass(a, b, c2, w2, s2)
-    return 0.5 * total
+    return min(0.5 * total, 0.5)  # the regions' masses may sum to 1 + 1 ulp
 
 
 def mixture_error_gradient(centres1, weights1, sigma1, centres2, weights2, sigma2):
@@ -266,7 +266,7 @@ def mixture_error_gradient(centres1, weights1, sigma1, centres2, weights2, sigma
         d_mu[order[side]] += (k * (pa - pb)).sum(axis=0)
         d_sigma[order[side]] += (k * (za_pa - zb_pb)).sum(axis=0)
     (g1m, g1s), (g2m, g2s) = grads
-    return 0.5 * total, 0.5 * g1m, 0.5 * g1s, 0.5 * g2m, 0.5 * g2s
+    return min(0.5 * total, 0.5), 0.5 * g1m, 0.5 * g1s, 0.5 * g2m, 0.5 * g2s
 
 
 def _lower_regions(c1, s1, c2, s2, w1, w2):
