@@ -1,7 +1,7 @@
 """Speed of illumination design and how close it gets, against slower references in the
 same run.
 
-Run: ``python benchmarks/bench_design.py`` (about four minutes on 2 cores).
+Run: ``python benchmarks/bench_design.py`` (about a minute on 2 cores).
 
 The classes are the shipped inks example (3 classes × 20 reflectance samples,
 the 12-bit camera at 40 ms, every comparison of the scene: 3 pairs and 3

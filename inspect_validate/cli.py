@@ -391,18 +391,12 @@ def verify(station, frames_dir, out, report_dir):
     Exits 0 when every check passes, 1 when one fails (reports still written),
     2 on bad input, 3 on a camera or controller failure (frames kept).
     """
-    import time
-
     from inspect_validate.camera.station import read_station
 
     st = read_station(station)
     _outputs(folders=[report_dir])
     if frames_dir is None and out is None:
-        out = (
-            report_dir / "frames"
-            if report_dir
-            else Path(f"verify-{Path(station).stem}-{time.strftime('%Y%m%dT%H%M%S')}")
-        )
+        out = report_dir / "frames" if report_dir else _new_folder("verify", station)
     result = _verify_station(st, frames_dir=frames_dir, out=out, report_dir=report_dir)
     if not result.passed:
         sys.exit(EXIT_CHECK_FAILED)
@@ -535,8 +529,8 @@ def train(station, golden_path, repeats, frames_dirs, frames_out):
     "--out",
     "out_dir",
     type=_PATH,
-    help="Folder for design.json, the plots and, with --verify, the station it verified, "
-    "the frames and the verification reports (default with --verify: design-<source>-<time>).",
+    help="Folder for design.json and, with --verify, the station it verified, the frames "
+    "and the verification reports (default with --verify: design-<source>-<time>).",
 )
 @click.option(
     "--choose",
@@ -556,8 +550,6 @@ def design(source, json_path, check, out_dir, choose):
     With --verify, exits 1 when a check on the captured mix fails or the mix
     does not measure better than the best single channel.
     """
-    import time
-
     from inspect_validate.design.problem import design_problem
     from inspect_validate.design.solve import solve
     from inspect_validate.errors import InputError
@@ -565,7 +557,7 @@ def design(source, json_path, check, out_dir, choose):
     from inspect_validate.report.design import design_document
 
     if check and out_dir is None:
-        out_dir = Path(f"design-{Path(source).stem}-{time.strftime('%Y%m%dT%H%M%S')}")
+        out_dir = _new_folder("design", source)
     _outputs(files=[json_path], folders=[out_dir])
     problem = design_problem(source)
     if check and problem.station is None:
@@ -656,19 +648,7 @@ def _verify_design(problem, result, out_dir):
     click.echo(f"\nverifying the design on {st.path}")
     verification = _verify_station(st, frames_dir=None, out=out_dir / "frames", report_dir=out_dir)
     summary = design_verification(verification, problem.objective.labels)
-    click.echo(
-        render_table(
-            [
-                "comparison",
-                *(
-                    f"ε {ill} {what}"
-                    for ill in summary.illuminations
-                    for what in ("predicted", "measured")
-                ),
-            ],
-            summary.rows,
-        )
-    )
+    click.echo(render_table(summary.header, summary.rows))
     click.echo(summary.verdict)
     if not (verification.passed and summary.holds):
         sys.exit(EXIT_CHECK_FAILED)
@@ -688,6 +668,13 @@ def _capture(station, out, *, resume=False):
             last[0] = done
 
         return capture(station, out, resume=resume, progress=progress)
+
+
+def _new_folder(command: str, source) -> Path:
+    """A default output folder in the working directory: <command>-<source's stem>-<time>."""
+    import time
+
+    return Path(f"{command}-{Path(source).stem}-{time.strftime('%Y%m%dT%H%M%S')}")
 
 
 def _outputs(*, files=(), folders=()):

@@ -135,7 +135,7 @@ def choose_channels(
         for subset in itertools.combinations(range(m), k):
             optimum(subset)
     else:
-        score = _first_order_score(response, comparisons, m)
+        score = _first_order_score(response, comparisons)
         chosen: tuple = ()
         while len(chosen) < k:
             if chosen:
@@ -154,12 +154,18 @@ def choose_channels(
         # The best end, made swap-optimal against every channel, not only the promising.
         _swap_search(min(ends, key=optimum), optimum, levels, score)
     # The screened optima rank the subsets; the best few get the full multi-start.
-    refined = {
-        key: optimise_mix(response.subset(key), comparisons, max_saturated=max_saturated)
-        for key in sorted(cache, key=lambda key: cache[key].objective)[:_REFINED]
-    }
-    best = min(refined, key=lambda key: min(refined[key].objective, cache[key].objective))
-    mix = min(refined[best], cache[best], key=lambda mix: mix.objective)
+    top = sorted(cache, key=lambda key: cache[key].objective)[:_REFINED]
+    best, mix = min(
+        (
+            (key, mix)
+            for key in top
+            for mix in (
+                cache[key],
+                optimise_mix(response.subset(key), comparisons, max_saturated=max_saturated),
+            )
+        ),
+        key=lambda pair: pair[1].objective,
+    )
     if progress:
         progress(total, total)
     return Choice(best, mix, len(cache), exhaustive, full.objective)
@@ -184,14 +190,14 @@ def _swap_search(chosen, optimum, levels, candidates):
     return chosen
 
 
-def _first_order_score(response, comparisons, m):
+def _first_order_score(response, comparisons):
     """``score(levels)``: the channels not in ``levels`` (channel → level), most promising
     first — by the derivative of the worst log ε when a little of the channel is added and
     the mix scaled down to keep its brightest sample's signal."""
     from inspect_validate.design.mix import comparison_errors
 
     def score(levels):
-        w = np.zeros(m)
+        w = np.zeros(response.electrons.shape[0])
         w[list(levels)] = list(levels.values())
         e, g = comparison_errors(response, w, comparisons, gradient=True)
         g = g / np.maximum(e, 1e-300)[:, None]  # ∂ log ε / ∂w
@@ -202,7 +208,6 @@ def _first_order_score(response, comparisons, m):
         )
         active = e >= 0.5 * e.max()  # the comparisons the worst may switch to
         slope = (g[active] - np.outer(g[active] @ w, scale)).max(axis=0)
-        rest = [c for c in np.argsort(slope) if c not in levels]
-        return rest
+        return [c for c in np.argsort(slope) if c not in levels]
 
     return score

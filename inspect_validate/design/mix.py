@@ -175,12 +175,13 @@ def comparison_errors(response, levels, comparisons, *, gradient: bool = False):
         j = np.array([groups[p][1][0] for p in single])
         e, _, dm1, ds1, dm2, ds2 = gaussian_error_gradient(mean[i], sd[i], mean[j], sd[j])
         errors[single] = e
-        grads[single] = (
-            dm1[:, None] * d_mean[i]
-            + ds1[:, None] * d_sd[i]
-            + dm2[:, None] * d_mean[j]
-            + ds2[:, None] * d_sd[j]
-        )
+        if gradient:
+            grads[single] = (
+                dm1[:, None] * d_mean[i]
+                + ds1[:, None] * d_sd[i]
+                + dm2[:, None] * d_mean[j]
+                + ds2[:, None] * d_sd[j]
+            )
     prior = comparisons.class_weights()
     for p, (g1, g2) in enumerate(groups):
         if p in single:
@@ -194,8 +195,9 @@ def comparison_errors(response, levels, comparisons, *, gradient: bool = False):
             sd[g2],
         )
         errors[p] = e
-        for g, dm, ds in ((g1, dm1, ds1), (g2, dm2, ds2)):
-            grads[p] += dm @ d_mean[g] + ds @ d_sd[g]
+        if gradient:
+            for g, dm, ds in ((g1, dm1, ds1), (g2, dm2, ds2)):
+                grads[p] += dm @ d_mean[g] + ds @ d_sd[g]
     return (errors, grads) if gradient else errors
 
 
@@ -330,20 +332,19 @@ def optimise_mix(
             w = scaled(w)  # SLSQP may end a hair outside; pull back onto the limit
         return w, comparison_errors(response, w, comparisons)
 
-    # A few iterations from every start find the basins; only the best few distinct
-    # ends are run to convergence (most of an optimisation's evaluations are its last
-    # digits).
+    def worst(result):
+        return result[1].max()
+
     if warm:
-        # A screening: log ε to 1e-6, which ranks subsets; the chosen few are polished.
-        best = min((run(w0, 60, 1e-6) for w0 in starts), key=lambda r: r[1].max())
-        return Mix(best[0], best[1], worst=int(np.argmax(best[1])), starts=len(starts))
-    screened = sorted((run(w0, _SCREEN_ITERATIONS) for w0 in starts), key=lambda r: r[1].max())
-    ends = np.unique(np.round([w for w, _ in screened], 3), axis=0, return_index=True)[1]
-    polish = [screened[i][0] for i in sorted(ends)[:_POLISHED]]
-    best = min((run(w0, 200) for w0 in polish), key=lambda r: r[1].max())
-    if screened[0][1].max() < best[1].max():
-        best = screened[0]
-    w, errors = best
+        # A screening: log ε to 1e-6 ranks neighbouring problems; the chosen are polished.
+        w, errors = min((run(w0, 60, 1e-6) for w0 in starts), key=worst)
+    else:
+        # A few iterations from every start find the basins; only the best few distinct
+        # ends are run to convergence (most of a run's evaluations are its last digits).
+        screened = sorted((run(w0, _SCREEN_ITERATIONS) for w0 in starts), key=worst)
+        ends = np.unique(np.round([w for w, _ in screened], 3), axis=0, return_index=True)[1]
+        polished = [run(screened[i][0], 200) for i in sorted(ends)[:_POLISHED]]
+        w, errors = min([*polished, screened[0]], key=worst)
     return Mix(levels=w, errors=errors, worst=int(np.argmax(errors)), starts=len(starts))
 
 

@@ -74,6 +74,13 @@ class DesignCheck:
     verdict: str
     holds: bool
 
+    @property
+    def header(self) -> list[str]:
+        """Column titles of :attr:`rows`."""
+        return ["comparison"] + [
+            f"ε {ill} {what}" for ill in self.illuminations for what in ("predicted", "measured")
+        ]
+
 
 def design_verification(verification, objective) -> DesignCheck:
     """Summarise a :class:`~inspect_validate.verification.verify.Verification` of a

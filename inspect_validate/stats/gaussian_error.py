@@ -114,15 +114,8 @@ def gaussian_error_gradient(mean1, sd1, mean2, sd2):
     flat = (sn == 0.0) | ((mn == mw) & (sn == sw))
     sn, sw = np.where(flat, 1.0, sn), np.where(flat, 2.0, sw)
     with np.errstate(all="ignore"):
-        # The crossings along t = ±(x − μ_n)/σ_n towards μ_w, as in the value's derivation.
         sign = np.where(mw < mn, -1.0, 1.0)
-        d = np.abs(mw - mn) / sn
-        r2 = (sn / sw) ** 2
-        k = 1.0 - r2
-        big_l = 2.0 * np.log(sw / sn)
-        root = np.sqrt(r2 * d * d + k * big_l)
-        t_near = (r2 * d * d + big_l) / (root + r2 * d)
-        t_far = np.where(k > 0, -(r2 * d + root) / k, -np.inf)
+        t_near, t_far = _crossings(np.abs(mw - mn) / sn, sn * sn, sw * sw)
         x_near, x_far = mn + sign * t_near * sn, mn + sign * t_far * sn
         x_far = np.where(np.isfinite(t_far), x_far, -sign * np.inf)
         lo, hi = np.minimum(x_near, x_far), np.maximum(x_near, x_far)
@@ -149,6 +142,20 @@ def gaussian_error_gradient(mean1, sd1, mean2, sd2):
         np.where(swap, dmn, dmw),
         np.where(swap, dsn, dsw),
     )
+
+
+def _crossings(d, vn, vw):
+    """Where N(μ_n, σ_n²) and N(μ_w, σ_w²) cross, σ_n ≤ σ_w, along t = ±(x − μ_n)/σ_n
+    pointing from μ_n to μ_w (μ_w at t = d ≥ 0): t_near towards μ_w, without
+    cancellation, and t_far, → −inf as the variances become equal (no division by
+    σ_w² − σ_n² in t_near)."""
+    r2 = vn / vw
+    k = (vw - vn) / vw
+    big_l = np.log1p((vw - vn) / vn)
+    sqrt_disc = np.sqrt(r2 * d * d + k * big_l)
+    t_near = (r2 * d * d + big_l) / (sqrt_disc + r2 * d)
+    t_far = -(r2 * d + sqrt_disc) / k
+    return t_near, np.where(np.isfinite(t_far), t_far, -np.inf)
 
 
 # --- double-double helpers (error-free transformations, vectorised) ---------
@@ -313,16 +320,7 @@ def _error(mean1, var1, mean2, var2):
         dh, dl = sign * dh, sign * dl
         snh, snl = _dd_sqrt(vn)
         swh, swl = _dd_sqrt(vw)
-        d = dh / snh
-        r2 = vn / vw
-        k = (vw - vn) / vw
-        big_l = np.log1p((vw - vn) / vn)
-        sqrt_disc = np.sqrt(r2 * d * d + k * big_l)
-        # The crossings: t_near without cancellation, t_far → −inf as the
-        # variances become equal (no division by σ_w² − σ_n² in t_near).
-        t_near = (r2 * d * d + big_l) / (sqrt_disc + r2 * d)
-        t_far = -(r2 * d + sqrt_disc) / k
-        t_far = np.where(np.isfinite(t_far), t_far, -np.inf)
+        t_near, t_far = _crossings(dh / snh, vn, vw)
 
         # The crossings are *defined* as the exact points t·σ_n, so class n's
         # arguments are exact; class w's u = (t·σ_n − Δ)/σ_w in double-double.
