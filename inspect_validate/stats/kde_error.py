@@ -204,12 +204,9 @@ def mixture_error(centres1, weights1, sigma1, centres2, weights2, sigma2) -> flo
     spread1, spread2 = ~atom1, ~atom2
     if spread1.any() and spread2.any():
         # The densities' part: ε of the mixtures without their point masses (weights as
-        # they are), the one place regions are integrated.
-        total += (
-            2.0
-            * mixture_error_gradient(
-                c1[spread1], w1[spread1], s1[spread1], c2[spread2], w2[spread2], s2[spread2]
-            )[0]
+        # they are).
+        total += 2.0 * _densities_error(
+            c1[spread1], w1[spread1], s1[spread1], c2[spread2], w2[spread2], s2[spread2]
         )
     return min(0.5 * total, 0.5)  # the parts' masses may sum to 1 + 1 ulp
 
@@ -229,6 +226,12 @@ def mixture_error_gradient(centres1, weights1, sigma1, centres2, weights2, sigma
     d_centres1, d_sigma1, d_centres2, d_sigma2 : ndarray
         ∂ε/∂μ and ∂ε/∂σ of each component, in the order given.
     """
+    return _densities_error(centres1, weights1, sigma1, centres2, weights2, sigma2, gradient=True)
+
+
+def _densities_error(centres1, weights1, sigma1, centres2, weights2, sigma2, *, gradient=False):
+    """ε of two mixtures of components with σ > 0 (:func:`mixture_error_gradient`'s value,
+    and with ``gradient`` its gradient): the one place the regions are integrated."""
     c = [np.asarray(x, float) for x in (centres1, centres2)]
     w = [np.asarray(x, float) for x in (weights1, weights2)]
     s = [
@@ -253,6 +256,8 @@ def mixture_error_gradient(centres1, weights1, sigma1, centres2, weights2, sigma
         zero = np.zeros(za.size)
         value, _ = _interval(za.ravel(), zero, zb.ravel(), zero)
         total += float(np.sum(wt * value.reshape(za.shape)))
+        if not gradient:
+            continue
         pa, pb = np.exp(-0.5 * za * za), np.exp(-0.5 * zb * zb)
         # φ(±∞) and z·φ(z) at ±∞ are 0.
         za_pa = np.where(np.isfinite(za), za, 0.0) * pa
@@ -261,8 +266,11 @@ def mixture_error_gradient(centres1, weights1, sigma1, centres2, weights2, sigma
         d_mu, d_sigma = grads[side]
         d_mu[order[side]] += (k * (pa - pb)).sum(axis=0)
         d_sigma[order[side]] += (k * (za_pa - zb_pb)).sum(axis=0)
+    error = min(0.5 * total, 0.5)  # the regions' masses may sum to 1 + 1 ulp
+    if not gradient:
+        return error
     (g1m, g1s), (g2m, g2s) = grads
-    return min(0.5 * total, 0.5), 0.5 * g1m, 0.5 * g1s, 0.5 * g2m, 0.5 * g2s
+    return error, 0.5 * g1m, 0.5 * g1s, 0.5 * g2m, 0.5 * g2s
 
 
 def _lower_regions(c1, s1, c2, s2, w1, w2):
