@@ -42,6 +42,7 @@ from pydantic import (
 
 from inspect_validate.comparisons import ComparisonsSpec
 from inspect_validate.config import load_yaml, one_of
+from inspect_validate.scene import Irradiance
 from inspect_validate.verification.acceptance import Acceptance, Calibration
 
 __all__ = ["ChannelLight", "Station", "World", "read_station", "station_hash", "write_station"]
@@ -252,7 +253,7 @@ class ChannelLight(_Strict):
     """What a controller channel drives: a light of the station's scene."""
 
     light: Annotated[str, Field(min_length=1)]
-    irradiance: Annotated[float, Field(gt=0, le=1e6, allow_inf_nan=False)] | None = None
+    irradiance: Irradiance | None = None
     """W/m² at the object at 100 % (default: the scene light's own ``irradiance``)."""
 
 

@@ -551,7 +551,7 @@ def design(source, json_path, check, out_dir, choose):
     does not measure better than the best single channel.
     """
     from inspect_validate.design.problem import design_problem
-    from inspect_validate.design.solve import solve
+    from inspect_validate.design.solve import drive_percent, solve
     from inspect_validate.errors import InputError
     from inspect_validate.report import render_table, write_json
     from inspect_validate.report.design import design_document
@@ -599,7 +599,7 @@ def design(source, json_path, check, out_dir, choose):
             f"chose {len(c.channels)} of {len(names)} channels ({c.evaluated} subsets, {how})"
         )
     ch, level = result.single
-    click.echo(f"best single channel: {ch} ({names[ch]}) at {100 * level:.1f} %")
+    click.echo(f"best single channel: {ch} ({names[ch]}) at {drive_percent(level):g} %")
     mix, single = result.mix, result.single_prediction
     rows = [
         [

@@ -64,6 +64,9 @@ Positive = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 NonNegative = Annotated[float, Field(ge=0, allow_inf_nan=False)]
 Nanometre = Annotated[float, Field(gt=1, le=100_000, allow_inf_nan=False)]
 Name = Annotated[str, Field(min_length=1, max_length=200)]
+Irradiance = Annotated[float, Field(gt=0, le=1e6, allow_inf_nan=False)]
+"""W/m² at the object, up to 1000 suns: far below where the variances' squares overflow
+float64 (1e300 W/m² did)."""
 
 
 class _Strict(BaseModel):
@@ -75,7 +78,7 @@ class _Strict(BaseModel):
 
 class _LightCommon(_Strict):
     name: Name | None = None
-    irradiance: Positive | None = None  # W/m² at the object over irradiance_band
+    irradiance: Irradiance | None = None  # W/m² at the object over irradiance_band
     irradiance_band: tuple[Nanometre, Nanometre] | None = None
 
     @field_validator("irradiance_band")

@@ -50,6 +50,18 @@ def simulator(tmp_path):
         p.stdout.close()
 
 
+def write_mix_scene(path, edit=lambda text: text) -> Path:
+    """The shipped inks scene (sample_images/scenes/mix) changed by ``edit`` (its text), at
+    ``path`` with the files it names made absolute."""
+    mix = ROOT / "sample_images" / "scenes" / "mix"
+    text = edit((mix / "scene.yaml").read_text())
+    for name in ("A", "B", "C"):
+        text = text.replace(f"file: {name}.csv", f"file: {mix / name}.csv")
+    text = text.replace("../chapter_table2/", f"{mix.parent / 'chapter_table2'}/")
+    Path(path).write_text(text)
+    return Path(path)
+
+
 def run_cli(args) -> int | None:
     """Run the CLI in-process; its exit code (None when it returned without exiting)."""
     from inspect_validate.cli import main

@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 import pytest
-from conftest import ROOT
+from conftest import ROOT, write_mix_scene
 
 from inspect_validate.design import channel_response, comparison_errors, mix_moments, optimise_mix
 from inspect_validate.model import Exposure, predict
@@ -165,12 +165,7 @@ def test_design_cli_on_a_station_names_its_acceptance_comparison(cli):
     ],
 )
 def test_design_refuses_scenes_it_cannot_mix(cli, tmp_path, edit, message):
-    text = edit(MIX.read_text())
-    for name in ("A", "B", "C"):
-        text = text.replace(f"file: {name}.csv", f"file: {MIX.parent / name}.csv")
-    text = text.replace("../chapter_table2/", f"{MIX.parent.parent / 'chapter_table2'}/")
-    (tmp_path / "s.yaml").write_text(text)
-    code, out, err = cli(["design", tmp_path / "s.yaml"])
+    code, out, err = cli(["design", write_mix_scene(tmp_path / "s.yaml", edit)])
     assert code == 2, out + err
     assert message in err and "Traceback" not in err
 
@@ -259,20 +254,16 @@ def test_write_station_round_trips(tmp_path):
 
 def _catalogue_scene(tmp_path, peaks, *, fwhm=25):
     """The inks scene lit by a catalogue of LEDs at ``peaks`` nm (2 W/m² each)."""
-    text = MIX.read_text()
-    head, rest = text.split("lights:\n")
-    tail = rest[rest.index("optics:") :]
     leds = "".join(
         f"  - {{led: {{peak: {p:g}, fwhm: {fwhm}}}, name: LED {p:g}, irradiance: 2.0}}\n"
         for p in peaks
     )
-    text = head + "lights:\n" + leds + tail
-    for name in ("A", "B", "C"):
-        text = text.replace(f"file: {name}.csv", f"file: {MIX.parent / name}.csv")
-    text = text.replace("../chapter_table2/", f"{MIX.parent.parent / 'chapter_table2'}/")
-    path = tmp_path / "catalogue.yaml"
-    path.write_text(text)
-    return path
+
+    def relit(text):
+        head, rest = text.split("lights:\n")
+        return head + "lights:\n" + leds + rest[rest.index("optics:") :]
+
+    return write_mix_scene(tmp_path / "catalogue.yaml", relit)
 
 
 @pytest.fixture(scope="module")

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 import yaml
 from conftest import ROOT
-from hypothesis import HealthCheck, event, given, settings
+from hypothesis import HealthCheck, event, example, given, settings
 from hypothesis import strategies as st
 
 from inspect_validate.cli import main
@@ -575,6 +575,9 @@ def _check_design(tmp, code):
         return
     doc = json.loads((tmp / "d.json").read_text())
     assert all(0 <= w <= 1 for w in doc["levels"].values())
+    # The entry to paste lights what the design lights, however dim (no empty mix).
+    assert all(float(p) > 0 for p in doc["illumination"]["channels"].values())
+    assert bool(doc["illumination"]["channels"]) == any(doc["levels"].values())
     for part in (doc["mix"], doc["best_single"]):
         for c in part["comparisons"]:
             assert 0 <= c["error_gaussian"] <= 0.5
@@ -591,6 +594,15 @@ def _check_design(tmp, code):
     time=st.sampled_from([1e-9, 1e-4, 0.04, 10.0]),
     bits=st.sampled_from([8, 12, 16]),
     choose=st.sampled_from([None, 1, 2]),
+)
+@example(  # a light so bright its level is 1e-6 over classes without spread: NaN starts
+    leds=[{"led": {"peak": 623.0, "fwhm": 1.0}, "irradiance": 1e6}],
+    levels=[0.0, 0.05],
+    spreads=[0.0, 0.0, 0.0],
+    band=(380, 780),
+    time=0.04,
+    bits=8,
+    choose=None,
 )
 def test_design_with_hostile_scenes(capsys, leds, levels, spreads, band, time, bits, choose):
     # Lights outside the reflectances' band, lights of equal brightness (repeats),

@@ -10,6 +10,7 @@ import re
 import numpy as np
 import pytest
 from conftest import run_cli as run
+from conftest import write_mix_scene
 
 from inspect_validate.scene import read_scene
 
@@ -204,3 +205,14 @@ def test_yaml_1_1_booleans_stay_strings(tmp_path):
     """``off:``/``yes``/``on`` are not booleans (YAML 1.2): a name 'on' stays 'on'."""
     sc = read_scene(write(tmp_path, scene(lights="[{led: {peak: 550, fwhm: 30}, name: on}]")))
     assert sc.lights[0].name == "on"
+
+
+def test_irradiance_is_bounded_like_in_station_files(tmp_path):
+    # 1e300 W/m² overflowed the variances' squares in predict (exit 70, found by the fuzz test).
+    from inspect_validate.errors import InputError
+
+    path = write_mix_scene(
+        tmp_path / "s.yaml", lambda t: t.replace("irradiance: 2.0}", "irradiance: 1e300}", 1)
+    )
+    with pytest.raises(InputError, match=r"lights\[0\]\.irradiance: Input should be less than"):
+        read_scene(path)

@@ -268,6 +268,11 @@ def optimise_mix(
     n = response.electrons.shape[0]
     a = response.camera.gain * response.electrons.T  # (S, N): DN per sample per unit level
     ceiling = response.ceiling(max_saturated)
+    if not ceiling > 0:
+        raise InputError(
+            "the camera's temporal noise alone saturates more than the allowed fraction "
+            f"({max_saturated:g}) at any signal: allow more, or use a camera with more headroom"
+        )
 
     def scaled(w):
         """``w`` scaled up (or down) to the saturation limit and the level bounds."""
@@ -275,33 +280,38 @@ def optimise_mix(
         peak = float(response.signal(w).max())
         if peak <= 0:
             return None
-        w = w * (ceiling / peak)
-        if w.max() > max_level:
-            w = w * (max_level / w.max())
-        return w
+        # min() first: ceiling / peak overflows to inf for a channel of subnormal signal.
+        return w * min(ceiling / peak, max_level / w.max())
 
     warm = bool(starts)
     if not warm:
         starts = _structured_starts(response, comparisons, random_starts, seed)
+    # SLSQP works in u = w / unit, unit the level at which a channel alone reaches the
+    # ceiling: a very bright channel's levels of 1e-6 and signals of 1e8 DN per unit
+    # level would leave it ill-conditioned (it stepped to NaN).
+    peaks = a.max(axis=0)
+    with np.errstate(over="ignore", divide="ignore"):
+        unit = np.clip(ceiling / peaks, 1e-300, max_level)  # no signal: inf → max_level
     starts = [w for w in (scaled(x) for x in starts) if w is not None]
     # Starts that scale to the same mix (every start of a single channel) are run once.
-    starts = list(np.unique(np.round(starts, 12), axis=0)) if starts else []
+    starts = list(np.unique(np.round(np.divide(starts, unit), 12), axis=0) * unit) if starts else []
     if not starts:
         raise InputError("no channel gives any signal on these classes")
 
     cache = {}
 
-    def log_errors(w):
-        key = w.tobytes()
+    def log_errors(u):
+        key = u.tobytes()
         if key not in cache:  # SLSQP asks for a constraint's value and Jacobian apart
             cache.clear()
-            e, g = comparison_errors(response, w, comparisons, gradient=True)
-            cache[key] = (np.log(e + _LOG_FLOOR), g / (e + _LOG_FLOOR)[:, None])
+            e, g = comparison_errors(response, u * unit, comparisons, gradient=True)
+            cache[key] = (np.log(e + _LOG_FLOOR), g * unit / (e + _LOG_FLOOR)[:, None])
         return cache[key]
 
     def objective(x):
         return x[-1], np.r_[np.zeros(n), 1.0]
 
+    relative = a * unit / ceiling  # (S, N): each sample's share of the ceiling per unit u
     constraints = [
         {
             "type": "ineq",  # t − log ε_p(w) ≥ 0
@@ -309,15 +319,15 @@ def optimise_mix(
             "jac": lambda x: np.c_[-log_errors(x[:-1])[1], np.ones(len(comparisons.groups))],
         },
         {
-            "type": "ineq",  # ceiling − K·E_sᵀ w ≥ 0 for every sample
-            "fun": lambda x: ceiling - a @ x[:-1],
-            "jac": lambda x: np.c_[-a, np.zeros(a.shape[0])],
+            "type": "ineq",  # 1 − K·E_sᵀ w / ceiling ≥ 0 for every sample
+            "fun": lambda x: 1.0 - relative @ x[:-1],
+            "jac": lambda x: np.c_[-relative, np.zeros(a.shape[0])],
         },
     ]
-    bounds = [(0.0, max_level)] * n + [(None, None)]
+    bounds = [(0.0, max_level / u) for u in unit] + [(None, None)]
 
     def run(w0, maxiter, ftol=1e-12):
-        x0 = np.r_[w0, log_errors(w0)[0].max()]
+        x0 = np.r_[w0 / unit, log_errors(w0 / unit)[0].max()]
         res = optimize.minimize(
             objective,
             x0,
@@ -327,7 +337,7 @@ def optimise_mix(
             constraints=constraints,
             options={"maxiter": maxiter, "ftol": ftol},
         )
-        w = np.clip(res.x[:-1], 0.0, max_level)
+        w = np.clip(res.x[:-1] * unit, 0.0, max_level)
         if response.signal(w).max() > ceiling * (1 + 1e-9):
             w = scaled(w)  # SLSQP may end a hair outside; pull back onto the limit
         return w, comparison_errors(response, w, comparisons)
@@ -342,7 +352,7 @@ def optimise_mix(
         # A few iterations from every start find the basins; only the best few distinct
         # ends are run to convergence (most of a run's evaluations are its last digits).
         screened = sorted((run(w0, _SCREEN_ITERATIONS) for w0 in starts), key=worst)
-        ends = np.unique(np.round([w for w, _ in screened], 3), axis=0, return_index=True)[1]
+        ends = np.unique(np.round([w / unit for w, _ in screened], 3), axis=0, return_index=True)[1]
         polished = [run(screened[i][0], 200) for i in sorted(ends)[:_POLISHED]]
         w, errors = min([*polished, screened[0]], key=worst)
     return Mix(levels=w, errors=errors, worst=int(np.argmax(errors)), starts=len(starts))
@@ -358,9 +368,11 @@ def _structured_starts(response, comparisons, random_starts, seed):
         # Fisher direction of the two sides' mean responses: S⁻¹Δm, each sign.
         d = m[list(g1)].mean(axis=0) - m[list(g2)].mean(axis=0)
         s = c[list(g1)].mean(axis=0) + c[list(g2)].mean(axis=0)
-        s = s + np.eye(n) * (1e-9 * np.trace(s) / n + 1e-300)
-        direction = np.linalg.solve(s, d)
-        starts += [direction, -direction]
+        ridge = 1e-9 * np.trace(s) / n
+        # Classes without spread: every direction has S-norm 0, Δm itself is as good.
+        direction = np.linalg.solve(s + ridge * np.eye(n), d) if ridge > 0 else d
+        if np.all(np.isfinite(direction)):
+            starts += [direction, -direction]
     rng = np.random.default_rng(seed)
     starts += list(rng.dirichlet(np.ones(n), size=random_starts))
     return starts

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-__all__ = ["Design", "solve"]
+__all__ = ["Design", "drive_percent", "solve"]
 
 DRIVE_TOLERANCE = 0.10  # an LED controller's output is good to about ±10 %
 
@@ -43,7 +43,15 @@ class Design:
 
     @property
     def percent(self) -> dict:
-        return {c: round(100.0 * w, 1) for c, w in self.levels.items() if w > 5e-4}
+        """Drive levels in % to 3 significant digits (a very bright light may need 0.0001 %),
+        channels below 1/1000 of the strongest left out."""
+        top = max(self.levels.values(), default=0.0)
+        return {c: drive_percent(w) for c, w in self.levels.items() if w > 1e-3 * top}
+
+
+def drive_percent(level: float) -> float:
+    """A drive level (0–1) as the % a station file's illumination gives, 3 significant digits."""
+    return float(f"{100.0 * level:.3g}")
 
 
 def solve(problem, *, choose: int | None = None, progress=None) -> Design:

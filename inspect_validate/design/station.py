@@ -18,10 +18,11 @@ def design_station(station, design):
     The single channel is left out when the mix is that channel alone.
     """
     from inspect_validate.camera.station import Illumination
+    from inspect_validate.design.solve import drive_percent
 
     illuminations = [Illumination(name=DESIGN_ILLUMINATION, channels=design.percent)]
     channel, level = design.single
-    single = {channel: round(100.0 * level, 1)}
+    single = {channel: drive_percent(level)}
     if single != design.percent:
         illuminations.append(Illumination(name=f"single-{channel}", channels=single))
     acceptance = station.acceptance.model_copy(
