@@ -529,8 +529,9 @@ def train(station, golden_path, repeats, frames_dirs, frames_out):
     "--out",
     "out_dir",
     type=_PATH,
-    help="Folder for design.json and, with --verify, the station it verified, the frames "
-    "and the verification reports (default with --verify: design-<source>-<time>).",
+    help="Folder for design.json, the plots (design-spectrum.png, design-path.png) and, with "
+    "--verify, the station it verified, the frames and the verification reports (default "
+    "with --verify: design-<source>-<time>).",
 )
 @click.option(
     "--choose",
@@ -538,20 +539,33 @@ def train(station, golden_path, repeats, frames_dirs, frames_out):
     help="Choose the best K of the channels (a scene's lights: a catalogue of LEDs) for a "
     "K-channel controller, with their mix.",
 )
-def design(source, json_path, check, out_dir, choose):
+@click.option(
+    "--objective",
+    type=click.Choice(["error", "cnr"]),
+    help="Minimise the worst comparison's ε Gauss (error) or maximise its contrast-to-noise "
+    "ratio (cnr). Default: cnr for a scene that ranks by cnr_db, else error.",
+)
+@click.option(
+    "--auto-exposure",
+    is_flag=True,
+    help="Design the exposure time too (up to 100 s, or the scene's exposure.max_time): the "
+    "shortest at which no level needs more than 100 %. A scene with 'exposure: auto' is "
+    "designed so anyway.",
+)
+def design(source, json_path, check, out_dir, choose, objective, auto_exposure):
     """Design the mix of a controller's channels that separates the classes best.
 
     SOURCE is a station file (its channels, exposure, camera and the
     comparisons its acceptance section names) or a scene file (its lights as
-    channels 1, 2, … at its fixed exposure). Finds the drive levels that
-    minimise the worst comparison's ε Gauss with no class saturating, and
-    prints them next to the best single channel, how the worst ε moves when a
-    level is off by ±10 %, and an illumination entry for the station file.
-    With --verify, exits 1 when a check on the captured mix fails or the mix
-    does not measure better than the best single channel.
+    channels 1, 2, … at its exposure). Finds the drive levels that minimise
+    the worst comparison's ε Gauss (or maximise its CNR) with no class
+    saturating, and prints them next to the best single channel, how the worst
+    value moves when a level is off by ±10 %, and an illumination entry for the
+    station file. With --verify, exits 1 when a check on the captured mix fails
+    or the mix does not measure better than the best single channel.
     """
     from inspect_validate.design.problem import design_problem
-    from inspect_validate.design.solve import drive_percent, solve
+    from inspect_validate.design.solve import decibel, drive_percent, solve
     from inspect_validate.errors import InputError
     from inspect_validate.report import render_table, write_json
     from inspect_validate.report.design import design_document
@@ -559,7 +573,8 @@ def design(source, json_path, check, out_dir, choose):
     if check and out_dir is None:
         out_dir = _new_folder("design", source)
     _outputs(files=[json_path], folders=[out_dir])
-    problem = design_problem(source)
+    problem = design_problem(source, auto_exposure=auto_exposure)
+    objective = objective or ("cnr" if problem.rank_by == "cnr_db" else "error")
     if check and problem.station is None:
         raise InputError(
             "--verify captures on a station: give a station file (it has 'controller:'), "
@@ -567,7 +582,7 @@ def design(source, json_path, check, out_dir, choose):
             source=str(source),
         )
     if choose is None:
-        result = solve(problem)
+        result = solve(problem, objective=objective)
     else:
         with click.progressbar(
             length=1, label=f"choosing {choose} of {len(problem.channels)}", file=sys.stderr
@@ -577,11 +592,14 @@ def design(source, json_path, check, out_dir, choose):
                 bar.length = total
                 bar.update(done - bar.pos)
 
-            result = solve(problem, choose=choose, progress=progress)
+            result = solve(problem, objective=objective, choose=choose, progress=progress)
     names = {c: light.name for c, light in problem.channels.items()}
+    goal = "minimising the worst ε Gauss" if objective == "error" else "maximising the worst CNR"
+    exposure = f"{1e3 * result.exposure_time:.4g} ms" + (
+        " (designed)" if problem.auto_exposure else ""
+    )
     click.echo(
-        f"{Path(source).name}: {len(names)} channels, exposure "
-        f"{1e3 * problem.exposure_time:g} ms, minimising the worst ε Gauss of "
+        f"{Path(source).name}: {len(names)} channels, exposure {exposure}, {goal} of "
         f"{', '.join(problem.objective.labels)} ({result.starts} starts)"
     )
     click.echo(
@@ -590,10 +608,11 @@ def design(source, json_path, check, out_dir, choose):
     )
     if result.choice is not None:
         c = result.choice
+        bound = f"ε {c.bound:.3g}" if objective == "error" else f"CNR {decibel(c.bound):.2f} dB"
         how = (
             "every subset optimised"
             if c.exhaustive
-            else f"local search; no choice can beat all {len(names)} mixed, worst ε {c.bound:.3g}"
+            else f"local search; no choice can beat all {len(names)} mixed, worst {bound}"
         )
         click.echo(
             f"chose {len(c.channels)} of {len(names)} channels ({c.evaluated} subsets, {how})"
@@ -601,32 +620,60 @@ def design(source, json_path, check, out_dir, choose):
     ch, level = result.single
     click.echo(f"best single channel: {ch} ({names[ch]}) at {drive_percent(level):g} %")
     mix, single = result.mix, result.single_prediction
+    ratio = "snr_db" if objective == "error" else "cnr_db"  # the chapter's SNR, or the objective
     rows = [
         [
             text,
             f"{mix.error_gaussian[0, 0, 0, j]:.3g}",
             f"{single.error_gaussian[0, 0, 0, j]:.3g}",
-            f"{mix.snr_db[0, 0, 0, j]:.2f}",
-            f"{single.snr_db[0, 0, 0, j]:.2f}",
+            f"{getattr(mix, ratio)[0, 0, 0, j]:.2f}",
+            f"{getattr(single, ratio)[0, 0, 0, j]:.2f}",
         ]
         for j, text in enumerate(problem.comparisons.labels)
     ]
+    name = "SNR_dB" if objective == "error" else "CNR_dB"
     click.echo(
-        render_table(["comparison", "ε mix", "ε single", "SNR_dB mix", "SNR_dB single"], rows)
+        render_table(["comparison", "ε mix", "ε single", f"{name} mix", f"{name} single"], rows)
     )
-    worst = max(result.flatness, key=lambda f: f["worst_error"])
+    if objective == "error":
+        worst = max(result.flatness, key=lambda f: f["worst_error"])
+        value = f"the worst ε is at most {worst['worst_error']:.3g}"
+    else:
+        worst = min(result.flatness, key=lambda f: f["worst_cnr_db"])
+        value = f"the worst CNR is at least {worst['worst_cnr_db']:.2f} dB"
     click.echo(
-        f"drive tolerance: with one level off by ±10 % the worst ε is at most "
-        f"{worst['worst_error']:.3g} (channel {worst['channel']} {100 * worst['change']:+.0f} %)"
+        f"drive tolerance: with one level off by ±10 % {value} "
+        f"(channel {worst['channel']} {100 * worst['change']:+.0f} %)"
         + ("; +10 % on a level saturates" if any(f["saturates"] for f in result.flatness) else "")
     )
     entry = ", ".join(f"{c}: {p:g}" for c, p in result.percent.items())
     click.echo(f"station entry:\n  - {{name: design, channels: {{{entry}}}}}")
+    if problem.auto_exposure:
+        click.echo(f"  with camera.exposure_us: {1e6 * result.exposure_time:.6g}")
+        top = max(result.levels.values())
+        if top < 1.0:  # the single channel set the exposure; the mix alone needs less
+            alone = ", ".join(
+                f"{c}: {drive_percent(w / top):g}"
+                for c, w in result.levels.items()
+                if c in result.percent
+            )
+            click.echo(
+                f"  (the mix alone, faster: channels {{{alone}}} at camera.exposure_us "
+                f"{1e6 * result.exposure_time * top:.6g})"
+            )
     document = design_document(result)
     for path in (json_path, out_dir and out_dir / "design.json"):
         if path:
             write_json(document, path)
             click.echo(f"wrote {path}")
+    if out_dir:
+        from inspect_validate.report.plots import plot_design_path, plot_design_spectrum
+
+        for plot, file in (
+            (plot_design_spectrum, "design-spectrum.png"),
+            (plot_design_path, "design-path.png"),
+        ):
+            click.echo(f"wrote {plot(result, out_dir / file)}")
     if check:
         _verify_design(problem, result, out_dir)
 
@@ -647,7 +694,7 @@ def _verify_design(problem, result, out_dir):
     )
     click.echo(f"\nverifying the design on {st.path}")
     verification = _verify_station(st, frames_dir=None, out=out_dir / "frames", report_dir=out_dir)
-    summary = design_verification(verification, problem.objective.labels)
+    summary = design_verification(verification, problem.objective.labels, kind=result.objective)
     click.echo(render_table(summary.header, summary.rows))
     click.echo(summary.verdict)
     if not (verification.passed and summary.holds):

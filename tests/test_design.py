@@ -7,7 +7,14 @@ import numpy as np
 import pytest
 from conftest import ROOT, write_mix_scene
 
-from inspect_validate.design import channel_response, comparison_errors, mix_moments, optimise_mix
+from inspect_validate.design import (
+    channel_response,
+    comparison_cnr,
+    comparison_errors,
+    comparison_losses,
+    mix_moments,
+    optimise_mix,
+)
 from inspect_validate.model import Exposure, predict
 from inspect_validate.model.illumination import illumination_light
 from inspect_validate.scene import read_scene
@@ -56,67 +63,140 @@ def test_mix_moments_and_errors_are_predicts_for_the_mixed_light(inks):
             p.error_gaussian[0, 0, 0],
             rtol=1e-9,
         )
+        # CNR of groups from their mixture moments, as predict's cnr_db
+        np.testing.assert_allclose(
+            20 * np.log10(comparison_cnr(response, levels, scene.comparisons)),
+            p.cnr_db[0, 0, 0],
+            rtol=1e-9,
+        )
 
 
-def test_gradient_matches_central_differences(inks):
-    scene, _, response = inks
+@pytest.mark.parametrize("quantity", [comparison_errors, comparison_cnr])
+def test_gradient_matches_central_differences(inks, quantity):
+    scene, _, response = inks  # pairs and one-against-the-rest groups
     levels = np.array([0.7, 0.2, 0.45])
-    _, grad = comparison_errors(response, levels, scene.comparisons, gradient=True)
+    _, grad = quantity(response, levels, scene.comparisons, gradient=True)
     step = 1e-6
     for c in range(3):
         dw = np.zeros(3)
         dw[c] = step
         numeric = (
-            comparison_errors(response, levels + dw, scene.comparisons)
-            - comparison_errors(response, levels - dw, scene.comparisons)
+            quantity(response, levels + dw, scene.comparisons)
+            - quantity(response, levels - dw, scene.comparisons)
         ) / (2 * step)
         np.testing.assert_allclose(grad[:, c], numeric, rtol=1e-5, atol=1e-12)
 
 
-def brute_force(response, comparisons, channels, points, *, refine=7, rounds=11):
-    """min of the worst ε over a grid of ``points`` levels per channel (feasible points
-    only), then zooming: a ``refine``-point grid on a box around the best point, shrunk
-    ×2/(refine − 1) a round — a grid search that needs no smoothness
-    (the minimax objective has a kink at its optimum, where Nelder–Mead stalls)."""
-    a = response.camera.gain * response.electrons.T
+def brute_force(response, comparisons, channels, points, *, objective="error", refine=7, rounds=11):
+    """min of the worst loss (log ε, −log CNR) by grid search, without gradients.
+
+    Every face of the problem is searched on its own: every non-empty subset of
+    ``channels`` lit, the rest at 0 — an optimum on a face (a channel off) sits on a
+    sharp ridge there that a grid of the whole box misses (CNR of the inks: green
+    off, a tent in red 6 CNR units steep). A face is parametrised as the direction
+    of the levels on the simplex and the fraction of the largest feasible scale
+    along it (so the ridges, rays of fixed proportions, lie along a grid axis):
+    a grid of ``points`` per axis, then zooming: a ``refine``-point grid on a box
+    around the best point, shrunk ×2/(refine − 1) a round."""
+    import itertools
+
     ceiling = response.ceiling(1e-3)
+    best = np.inf
+    for n in range(1, len(channels) + 1):
+        for face in itertools.combinations(channels, n):
+            a = response.camera.gain * response.electrons[list(face)].T
 
-    def worst(w):
-        if np.any(w < 0) or np.any(w > 1) or (a[:, channels] @ w).max() > ceiling:
-            return np.inf
-        full = np.zeros(response.electrons.shape[0])
-        full[channels] = w
-        return comparison_errors(response, full, comparisons).max()
+            def worst(x, face=face, a=a):
+                direction = np.r_[x[:-1], 1.0 - x[:-1].sum()]
+                if direction[-1] < -1e-12:
+                    return np.inf  # off the simplex
+                direction = np.clip(direction, 0, None)
+                top = min(1.0 / direction.max(), ceiling / (a @ direction).max())
+                full = np.zeros(response.electrons.shape[0])
+                full[list(face)] = x[-1] * top * direction
+                return comparison_losses(response, full, comparisons, objective=objective).max()
 
-    def search(lo, hi, n):
-        axes = [np.linspace(a_, b_, n) for a_, b_ in zip(lo, hi, strict=True)]
-        grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, len(channels))
-        values = np.array([worst(w) for w in grid])
-        return grid[int(np.argmin(values))], values.min()
+            def search(lo, hi, k, worst=worst, d=n):
+                axes = [np.linspace(a_, b_, k) for a_, b_ in zip(lo, hi, strict=True)]
+                grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, d)
+                values = np.array([worst(x) for x in grid])
+                return grid[int(np.argmin(values))], values.min()
 
-    d = len(channels)
-    best, value = search(np.zeros(d), np.ones(d), points)
-    half = 1.0 / (points - 1)
-    for _ in range(rounds):
-        best, value = search(np.clip(best - half, 0, 1), np.clip(best + half, 0, 1), refine)
-        half *= 2.0 / (refine - 1)
-    return value
+            x, value = search(np.zeros(n), np.ones(n), points)
+            half = 1.0 / (points - 1)
+            for _ in range(rounds):
+                x, value = search(np.clip(x - half, 0, 1), np.clip(x + half, 0, 1), refine)
+                half *= 2.0 / (refine - 1)
+            best = min(best, value)
+    return best
 
 
+@pytest.mark.parametrize("objective", ["error", "cnr"])
 @pytest.mark.parametrize(
     ("channels", "points"),
-    # blue+red: a 41² grid, then 11 rounds of 7² zooming by 1/3 (level to ~3e-7);
-    # all three: 11³, then 11 rounds of 7³ (level to ~1.7e-6).
+    # blue+red: a 41² grid, then 11 rounds of 7² zooming by 1/3 (to ~3e-7 of the axes);
+    # all three: 11³, then 11 rounds of 7³ (to ~1.7e-6); each face likewise.
     [([0, 2], 41), ([0, 1, 2], 11)],
 )
-def test_optimiser_matches_brute_force(inks, channels, points):
+def test_optimiser_matches_brute_force(inks, channels, points, objective):
     scene, _, response = inks
     from dataclasses import replace
 
     sub = replace(response, electrons=response.electrons[channels])
-    mix = optimise_mix(sub, scene.comparisons)
-    reference = brute_force(response, scene.comparisons, channels, points)
+    mix = optimise_mix(sub, scene.comparisons, objective=objective)
+    loss = brute_force(response, scene.comparisons, channels, points, objective=objective)
+    reference = math.exp(loss) if objective == "error" else math.exp(-loss)
     assert mix.objective == pytest.approx(reference, rel=1e-6)
+
+
+def test_cnr_and_error_objectives_differ_where_a_group_straddles(tmp_path):
+    """CNR sees a side's mixture by its first two moments only: C between A and B gives
+    "C vs A,B" a CNR near 0 however little the classes overlap. The two objectives then
+    choose different mixes, each the better by its own measure."""
+    from inspect_validate.design.problem import design_problem
+    from inspect_validate.design.solve import solve
+
+    p = design_problem(write_mix_scene(tmp_path / "s.yaml"), auto_exposure=True)
+    by_error, by_cnr = solve(p), solve(p, objective="cnr")
+    assert abs(by_error.levels[3] - by_cnr.levels[3]) > 0.1
+    e = {d: d.mix.error_gaussian[0, 0, 0].max() for d in (by_error, by_cnr)}
+    c = {d: d.mix.cnr_db[0, 0, 0].min() for d in (by_error, by_cnr)}
+    assert e[by_error] < e[by_cnr] / 100  # 4e-4 against 0.27
+    assert c[by_cnr] > c[by_error] + 20  # −1.2 dB against −30 dB
+
+
+def test_auto_exposure_designs_the_exposure(tmp_path):
+    from inspect_validate.design.mix import channel_response
+    from inspect_validate.design.problem import design_problem
+    from inspect_validate.design.solve import solve
+
+    def scene(time):
+        return write_mix_scene(
+            tmp_path / f"{time}.yaml",
+            lambda t: t.replace("{mode: fixed, time: 0.04}", f"{{mode: fixed, time: {time}}}"),
+        )
+
+    fixed = solve(design_problem(scene(0.04)))
+    auto = [solve(design_problem(scene(t), auto_exposure=True)) for t in (0.04, 0.005)]
+    # The reference exposure the levels are computed at does not matter.
+    assert auto[0].exposure_time == pytest.approx(auto[1].exposure_time, rel=1e-6)
+    for c in auto[0].levels:
+        assert auto[0].levels[c] == pytest.approx(auto[1].levels[c], abs=1e-6)
+    # A freer problem: no worse than at the fixed exposure, and a level at 100 %.
+    worst = {d: d.mix.error_gaussian[0, 0, 0].max() for d in (fixed, auto[0])}
+    assert worst[auto[0]] <= worst[fixed] * (1 + 1e-9)
+    assert max(*auto[0].levels.values(), auto[0].single[1]) == pytest.approx(1.0)
+    # The light is not the limit any more: the brightest sample sits at the saturation
+    # ceiling, with the mix or the single channel (whichever needs the longer exposure).
+    p = auto[0].problem
+    at = channel_response(
+        p.channels, p.optics, p.camera, p.classes, grid=p.grid, exposure_time=auto[0].exposure_time
+    )
+    mix = np.array([auto[0].levels.get(c, 0.0) for c in p.channels])
+    single = np.array([auto[0].single[1] if c == auto[0].single[0] else 0.0 for c in p.channels])
+    ceiling = at.ceiling(p.max_saturated)
+    assert at.signal(mix).max() == pytest.approx(ceiling, rel=1e-6)
+    assert at.signal(single).max() <= ceiling * (1 + 1e-9)
 
 
 def test_shipped_example_mix_beats_every_single_channel_tenfold(inks):
@@ -145,6 +225,44 @@ def test_design_cli_on_the_example_scene(cli, tmp_path):
     assert all(c["saturated_fraction"] < 1e-3 for c in doc["mix"]["classes"])
 
 
+def test_design_cli_cnr_auto_exposure_and_plots(cli, tmp_path):
+    import json
+
+    from matplotlib.image import imread
+
+    out = tmp_path / "d"
+    code, stdout, err = cli(["design", MIX, "--objective", "cnr", "--auto-exposure", "--out", out])
+    assert code == 0, err
+    assert "ms (designed), maximising the worst CNR of" in stdout
+    assert "CNR_dB mix" in stdout and "the worst CNR is at least" in stdout
+    assert "  with camera.exposure_us: " in stdout
+    doc = json.loads((out / "design.json").read_text())
+    assert doc["exposure"] == "auto" and doc["objective"]["maximise"] == "worst cnr_db"
+    path = doc["path"]
+    assert path["fraction"][0] == 0 and path["fraction"][-1] == 1
+    assert len(path["cnr"]) == len(path["fraction"]) and len(path["cnr"][0]) == 6
+    # the path ends at the mix: its worst CNR is the design's
+    worst_cnr = min(c["cnr_db"] for c in doc["mix"]["comparisons"])
+    assert 20 * math.log10(min(path["cnr"][-1])) == pytest.approx(worst_cnr, abs=1e-6)
+    for name in ("design-spectrum.png", "design-path.png"):
+        image = imread(out / name)
+        assert image.shape[0] > 300 and image.shape[1] > 600 and image.std() > 0.05
+
+
+def test_design_cli_takes_exposure_and_objective_from_the_scene(cli, tmp_path):
+    path = write_mix_scene(
+        tmp_path / "s.yaml",
+        lambda t: t.replace("{mode: fixed, time: 0.04}", "{mode: auto, max_time: 0.5}").replace(
+            "rank: {by: error}", "rank: {by: cnr_db}"
+        ),
+    )
+    code, out, err = cli(["design", path])
+    assert code == 0, err
+    assert "(designed), maximising the worst CNR" in out
+    code, out, err = cli(["design", path, "--objective", "error"])
+    assert code == 0 and "minimising the worst ε Gauss" in out
+
+
 def test_design_cli_on_a_station_names_its_acceptance_comparison(cli):
     code, out, err = cli(["design", ROOT / "sample_images" / "station" / "station.yaml"])
     assert code == 0, err
@@ -154,7 +272,6 @@ def test_design_cli_on_a_station_names_its_acceptance_comparison(cli):
 @pytest.mark.parametrize(
     ("edit", "message"),
     [
-        (lambda s: s.replace("{mode: fixed, time: 0.04}", "{mode: auto}"), "mode: fixed"),
         (lambda s: s.replace(", irradiance: 2.0}", "}", 1), "has no irradiance"),
         (
             lambda s: s.replace(
@@ -221,6 +338,23 @@ def test_design_verify_measures_the_mix_on_the_simulated_station(cli, tmp_path):
         "manifest.json",
         "single-3",
     ]
+
+
+def test_design_verify_with_auto_exposure_and_cnr(cli, tmp_path):
+    import json
+
+    from inspect_validate.camera.station import read_station
+
+    out = tmp_path / "d"
+    args = ["design", _inks_station(tmp_path), "--verify", "--out", out]
+    code, stdout, err = cli([*args, "--auto-exposure", "--objective", "cnr"])
+    assert code == 0, stdout + err
+    design = json.loads((out / "design.json").read_text())
+    st = read_station(out / "station.yaml")
+    # the station it verified runs at the designed exposure, not the station's 40 ms
+    assert st.camera.exposure_us == pytest.approx(1e6 * design["exposure_time_s"])
+    assert st.camera.exposure_us > 60_000
+    assert "measured worst CNR_dB: mix" in stdout and "FAIL" not in stdout
 
 
 def test_design_verify_notices_a_weaker_led_than_designed_for(cli, tmp_path):

@@ -47,18 +47,30 @@ def rarely_junk(good):
 
 
 def run(args, capsys):
-    try:
-        main([str(a) for a in args])
-        code = 0
-    except SystemExit as exc:
-        code = exc.code
+    """Exit code, stdout and stderr of the CLI; numeric warnings (which pytest would catch,
+    a user sees on stderr) are appended to stderr."""
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", RuntimeWarning)
+        try:
+            main([str(a) for a in args])
+            code = 0
+        except SystemExit as exc:
+            code = exc.code
     out = capsys.readouterr()
-    return code, out.out, out.err
+    shown = "".join(
+        f"{w.filename}:{w.lineno}: {w.category.__name__}: {w.message}\n"
+        for w in caught
+        if issubclass(w.category, RuntimeWarning)
+    )
+    return code, out.out, out.err + shown
 
 
 def assert_clean(code, out, err, allowed=(0, 2)):
     assert code in allowed, f"exit {code}\n{err}"
     assert "Traceback" not in err and "internal error" not in err, err
+    assert "RuntimeWarning" not in err, err  # an overflow or invalid value leaked to the user
     if code == 2:
         assert "error" in err.lower() or "usage" in err.lower(), err
     for word in out.replace("|", " ").split():
@@ -578,11 +590,22 @@ def _check_design(tmp, code):
     # The entry to paste lights what the design lights, however dim (no empty mix).
     assert all(float(p) > 0 for p in doc["illumination"]["channels"].values())
     assert bool(doc["illumination"]["channels"]) == any(doc["levels"].values())
+    assert 0 < doc["exposure_time_s"] <= 100
     for part in (doc["mix"], doc["best_single"]):
         for c in part["comparisons"]:
             assert 0 <= c["error_gaussian"] <= 0.5
+            assert c["cnr_db"] == "-inf" or math.isfinite(c["cnr_db"])
         for c in part["classes"]:
             assert math.isfinite(c["mean"]) and c["variance"] >= 0
+    path = doc["path"]
+    assert all(0 <= e <= 0.5 for row in path["error_gaussian"] for e in row)
+    assert all(0 <= r < math.inf for row in path["cnr"] for r in row)
+
+
+# what the design is after and at which exposure
+design_options = st.sampled_from(
+    [[], ["--objective", "cnr"], ["--auto-exposure"], ["--objective", "cnr", "--auto-exposure"]]
+)
 
 
 @SETTINGS
@@ -594,6 +617,7 @@ def _check_design(tmp, code):
     time=st.sampled_from([1e-9, 1e-4, 0.04, 10.0]),
     bits=st.sampled_from([8, 12, 16]),
     choose=st.sampled_from([None, 1, 2]),
+    options=design_options,
 )
 @example(  # a light so bright its level is 1e-6 over classes without spread: NaN starts
     leds=[{"led": {"peak": 623.0, "fwhm": 1.0}, "irradiance": 1e6}],
@@ -603,14 +627,17 @@ def _check_design(tmp, code):
     time=0.04,
     bits=8,
     choose=None,
+    options=["--auto-exposure"],
 )
-def test_design_with_hostile_scenes(capsys, leds, levels, spreads, band, time, bits, choose):
+def test_design_with_hostile_scenes(
+    capsys, leds, levels, spreads, band, time, bits, choose, options
+):
     # Lights outside the reflectances' band, lights of equal brightness (repeats),
     # classes without spread, exposures that saturate everything or give no signal.
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         path = _design_scene(tmp, leds, levels, spreads, band, time, bits)
-        args = ["design", path, "--json", tmp / "d.json"]
+        args = ["design", path, "--json", tmp / "d.json", *options]
         code, out, err = run([*args, *(["--choose", choose] if choose else [])], capsys)
         event(f"exit {code}")
         assert_clean(code, out, err)
@@ -623,8 +650,9 @@ def test_design_with_hostile_scenes(capsys, leds, levels, spreads, band, time, b
     repeat=st.booleans(),
     levels=st.lists(st.floats(0.05, 0.9), min_size=2, max_size=3),
     spreads=st.lists(st.floats(0.005, 0.2), min_size=3, max_size=3),
+    options=design_options,
 )
-def test_design_never_refuses_a_valid_scene(capsys, peaks, repeat, levels, spreads):
+def test_design_never_refuses_a_valid_scene(capsys, peaks, repeat, levels, spreads, options):
     leds = [
         {"led": {"peak": p, "fwhm": 25}, "irradiance": 2.0, "name": f"L{i}"}
         for i, p in enumerate(peaks)
@@ -634,6 +662,6 @@ def test_design_never_refuses_a_valid_scene(capsys, peaks, repeat, levels, sprea
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         path = _design_scene(tmp, leds, levels, spreads, (380, 780), 0.01, 12)
-        code, out, err = run(["design", path, "--json", tmp / "d.json"], capsys)
+        code, out, err = run(["design", path, "--json", tmp / "d.json", *options], capsys)
         assert_clean(code, out, err, allowed=(0,))
         _check_design(tmp, code)

@@ -2,19 +2,25 @@
 station's classes best (:mod:`.mix`)."""
 
 from inspect_validate.design.mix import (
+    OBJECTIVES,
     ChannelResponse,
     Mix,
     channel_response,
+    comparison_cnr,
     comparison_errors,
+    comparison_losses,
     mix_moments,
     optimise_mix,
 )
 
 __all__ = [
+    "OBJECTIVES",
     "ChannelResponse",
     "Mix",
     "channel_response",
+    "comparison_cnr",
     "comparison_errors",
+    "comparison_losses",
     "mix_moments",
     "optimise_mix",
 ]

@@ -1,7 +1,7 @@
 """Choosing k lights of a catalogue of M for a k-channel controller.
 
 Every k-subset has its own optimal mix (:func:`~inspect_validate.design.mix.optimise_mix`);
-the choice is the subset whose optimum has the lowest worst ε. A subset is
+the choice is the subset whose optimum is best (lowest worst ε, or highest worst CNR). A subset is
 *screened* by optimising its mix from one start: the neighbouring subset's mix
 (warm), else the equal mix; the best few screened subsets are then optimised
 from every structured start, and the best of those is the choice. Where M
@@ -15,7 +15,7 @@ choose k is small every subset is screened. Beyond, the search is:
    improvement, until no swap does).
 
 Steps 1 and 3 try the 12 most promising lights only, ranked by the first-order
-change of the worst log ε when a little of the light is added to the current
+change of the worst log ε (−log CNR) when a little of the light is added to the current
 mix (scaled to keep its brightest sample where it was); the best end is then
 swapped against every light until no single swap improves it, so the choice
 is swap-optimal.
@@ -58,7 +58,7 @@ class Choice:
     exhaustive : bool
         Every subset was optimised.
     bound : float
-        Worst ε of the optimal mix of *all* channels: no subset does better.
+        Worst ε (CNR) of the optimal mix of *all* channels: no subset does better.
     """
 
     channels: tuple
@@ -73,11 +73,14 @@ def choose_channels(
     comparisons,
     k: int,
     *,
+    objective: str = "error",
     max_saturated: float = 1e-3,
+    max_level: float = 1.0,
     exhaustive_max: int = EXHAUSTIVE_MAX,
     progress=None,
 ) -> Choice:
-    """The ``k`` channels of ``response`` whose optimal mix has the lowest worst ε.
+    """The ``k`` channels of ``response`` whose optimal mix is best: lowest worst ε, or
+    highest worst CNR.
 
     Parameters
     ----------
@@ -87,6 +90,8 @@ def choose_channels(
         The objective's comparisons.
     k : int
         Channels of the controller, 1 ≤ k ≤ M.
+    objective, max_saturated, max_level : keyword-only
+        As :func:`~inspect_validate.design.mix.optimise_mix`'s.
     exhaustive_max : int, keyword-only
         Largest M choose k optimised subset by subset.
     progress : callable, keyword-only, optional
@@ -98,8 +103,17 @@ def choose_channels(
     InputError
         ``k`` outside 1…M.
     """
+    from functools import partial
+
     from inspect_validate.design.mix import optimise_mix
 
+    optimise = partial(
+        optimise_mix,
+        comparisons=comparisons,
+        objective=objective,
+        max_saturated=max_saturated,
+        max_level=max_level,
+    )
     m = response.electrons.shape[0]
     if not 1 <= k <= m:
         raise InputError(f"cannot choose {k} of {m} lights: give --choose between 1 and {m}")
@@ -112,30 +126,27 @@ def choose_channels(
     total += _REFINED
 
     def optimum(channels, warm=None) -> float:
-        """Worst ε of the subset's mix, screened: from ``warm`` (levels by channel) only,
+        """Loss of the subset's mix, screened: from ``warm`` (levels by channel) only,
         else from the equal mix."""
         key = tuple(sorted(int(c) for c in channels))
         if key not in cache:
             w0 = np.array([(warm or {}).get(c, 0.0) for c in key])
-            cache[key] = optimise_mix(
-                response.subset(key),
-                comparisons,
-                max_saturated=max_saturated,
-                starts=[w0 if w0.any() else np.ones(len(key))],
+            cache[key] = optimise(
+                response.subset(key), starts=[w0 if w0.any() else np.ones(len(key))]
             )
             if progress:
                 progress(min(len(cache), total), total)
-        return cache[key].objective
+        return cache[key].loss
 
     def levels(key):
         return dict(zip(key, cache[key].levels, strict=True))
 
-    full = optimise_mix(response, comparisons, max_saturated=max_saturated)
+    full = optimise(response)
     if exhaustive:
         for subset in itertools.combinations(range(m), k):
             optimum(subset)
     else:
-        score = _first_order_score(response, comparisons)
+        score = _first_order_score(response, comparisons, objective)
         chosen: tuple = ()
         while len(chosen) < k:
             if chosen:
@@ -154,17 +165,10 @@ def choose_channels(
         # The best end, made swap-optimal against every channel, not only the promising.
         _swap_search(min(ends, key=optimum), optimum, levels, score)
     # The screened optima rank the subsets; the best few get the full multi-start.
-    top = sorted(cache, key=lambda key: cache[key].objective)[:_REFINED]
+    top = sorted(cache, key=lambda key: cache[key].loss)[:_REFINED]
     best, mix = min(
-        (
-            (key, mix)
-            for key in top
-            for mix in (
-                cache[key],
-                optimise_mix(response.subset(key), comparisons, max_saturated=max_saturated),
-            )
-        ),
-        key=lambda pair: pair[1].objective,
+        ((key, mix) for key in top for mix in (cache[key], optimise(response.subset(key)))),
+        key=lambda pair: pair[1].loss,
     )
     if progress:
         progress(total, total)
@@ -190,23 +194,22 @@ def _swap_search(chosen, optimum, levels, candidates):
     return chosen
 
 
-def _first_order_score(response, comparisons):
+def _first_order_score(response, comparisons, objective):
     """``score(levels)``: the channels not in ``levels`` (channel → level), most promising
-    first — by the derivative of the worst log ε when a little of the channel is added and
-    the mix scaled down to keep its brightest sample's signal."""
-    from inspect_validate.design.mix import comparison_errors
+    first — by the derivative of the worst loss (log ε, −log CNR) when a little of the
+    channel is added and the mix scaled down to keep its brightest sample's signal."""
+    from inspect_validate.design.mix import comparison_losses
 
     def score(levels):
         w = np.zeros(response.electrons.shape[0])
         w[list(levels)] = list(levels.values())
-        e, g = comparison_errors(response, w, comparisons, gradient=True)
-        g = g / np.maximum(e, 1e-300)[:, None]  # ∂ log ε / ∂w
+        f, g = comparison_losses(response, w, comparisons, objective=objective, gradient=True)
         signal = response.signal(w)
         brightest = int(np.argmax(signal))
         scale = (
             response.camera.gain * response.electrons[:, brightest] / max(signal[brightest], 1e-300)
         )
-        active = e >= 0.5 * e.max()  # the comparisons the worst may switch to
+        active = f >= f.max() - np.log(2.0)  # the comparisons the worst may switch to
         slope = (g[active] - np.outer(g[active] @ w, scale)).max(axis=0)
         return [c for c in np.argsort(slope) if c not in levels]
 

@@ -1,5 +1,6 @@
 """The best mix of a multi-channel controller's lights: drive levels that minimise the worst
-comparison's ε, with the camera's noise in the loop and no class saturating.
+comparison's ε (or maximise its CNR), with the camera's noise in the loop and no class
+saturating.
 
 Channel c at 100 % gives reflectance sample s ``E[c, s]`` photo-electrons at the
 exposure (the acquisition model (32), linear in the light). At drive levels
@@ -19,11 +20,21 @@ constraint on w.
 
 The objective is the worst named comparison's ε_tot (37) — each side a mixture
 of its classes' Gaussians, exact, with the exact gradient of
-:func:`~inspect_validate.stats.kde_error.mixture_error_gradient` — minimised in
-log space as an epigraph problem (SLSQP) from several starts: each channel
-alone, all channels equal, the Fisher direction S⁻¹Δm of each comparison (the
+:func:`~inspect_validate.stats.kde_error.mixture_error_gradient` — or its
+contrast-to-noise ratio CNR = |μ₁ − μ₂| / √(σ₁² + σ₂²), each side's μ and σ²
+the moments of its classes' mixture (what ``predict`` reports as ``cnr_db``).
+ε weighs the tails the classes overlap in; CNR only the first two moments, so
+the two optima differ where a side's classes are far apart (a group) or their
+spreads differ much. Either is minimised in log space (log ε, −log CNR) as an
+epigraph problem (SLSQP) from several starts: each channel alone, all
+channels equal, the Fisher direction S⁻¹Δm of each comparison (the
 generalised-eigenvalue solution that maximises (wᵀΔm)²/wᵀSw), and seeded
 random mixes, each scaled up to the saturation limit.
+
+At a fixed exposure the levels are bounded by 100 %. With the exposure free
+(auto exposure) only the product of level and exposure time counts, so a
+caller optimises with ``max_level`` the longest exposure over the given one
+and rescales (:func:`~inspect_validate.design.solve.solve`).
 """
 
 from __future__ import annotations
@@ -36,13 +47,18 @@ import numpy as np
 from inspect_validate.errors import InputError
 
 __all__ = [
+    "OBJECTIVES",
     "ChannelResponse",
     "Mix",
     "channel_response",
+    "comparison_cnr",
     "comparison_errors",
+    "comparison_losses",
     "mix_moments",
     "optimise_mix",
 ]
+
+OBJECTIVES = ("error", "cnr")  # minimise the worst ε_tot; maximise the worst CNR
 
 _LOG_FLOOR = 1e-300  # ε below this is perfect separation for any purpose
 _SCREEN_ITERATIONS = 8  # SLSQP iterations from every start before choosing which to polish
@@ -201,6 +217,52 @@ def comparison_errors(response, levels, comparisons, *, gradient: bool = False):
     return (errors, grads) if gradient else errors
 
 
+def comparison_cnr(response, levels, comparisons, *, gradient: bool = False):
+    """CNR |μ₁ − μ₂| / √(σ₁² + σ₂²) of every comparison at ``levels``, (P,), each side the
+    moments of its classes' mixture; with ``gradient`` also ∂CNR/∂w, (P, N)."""
+    mean, var, d_mean, d_var = mix_moments(response, levels, jacobian=True)
+    prior = comparisons.class_weights()
+    sides = []
+    for s in (0, 1):
+        # (P, K): each comparison's side s as normalised class weights
+        pi = np.zeros((len(comparisons.groups), mean.size))
+        for p, pair in enumerate(comparisons.groups):
+            g = list(pair[s])
+            pi[p, g] = prior[g] / prior[g].sum()
+        m = pi @ mean
+        dev = mean[None, :] - m[:, None]
+        v = pi @ var + (pi * dev**2).sum(axis=1)  # Σπσ² + Σπ(μ − μ̄)², no cancellation
+        # ∂v = Σπ∂σ² + 2Σπ(μ − μ̄)∂μ (the ∂μ̄ term sums to 0)
+        sides.append((m, v, pi @ d_mean, pi @ d_var + 2.0 * (pi * dev) @ d_mean))
+    (m1, v1, dm1, dv1), (m2, v2, dm2, dv2) = sides
+    diff, total = m1 - m2, v1 + v2  # total ≥ 2/12 DN²: quantisation noise
+    cnr = np.abs(diff) / np.sqrt(total)
+    if not gradient:
+        return cnr
+    grad = np.sign(diff)[:, None] * (dm1 - dm2) / np.sqrt(total)[:, None] - 0.5 * (cnr / total)[
+        :, None
+    ] * (dv1 + dv2)
+    return cnr, grad
+
+
+def comparison_losses(response, levels, comparisons, *, objective: str = "error", gradient=False):
+    """What :func:`optimise_mix` minimises per comparison, (P,): log ε_tot, or −log CNR;
+    with ``gradient`` also its ∂/∂w, (P, N)."""
+    if objective not in OBJECTIVES:
+        raise ValueError(f"objective must be one of {OBJECTIVES}, not {objective!r}")
+    if not gradient:
+        if objective == "error":
+            return np.log(comparison_errors(response, levels, comparisons) + _LOG_FLOOR)
+        return -np.log(np.maximum(comparison_cnr(response, levels, comparisons), _LOG_FLOOR))
+    if objective == "error":
+        e, g = comparison_errors(response, levels, comparisons, gradient=True)
+        e = e + _LOG_FLOOR
+        return np.log(e), g / e[:, None]
+    r, g = comparison_cnr(response, levels, comparisons, gradient=True)
+    r = np.maximum(r, _LOG_FLOOR)  # equal means: CNR 0 (its gradient 0 too if for every w)
+    return -np.log(r), -g / r[:, None]
+
+
 @dataclass(frozen=True, eq=False)
 class Mix:
     """The optimal drive levels and what they give.
@@ -209,42 +271,58 @@ class Mix:
     ----------
     levels : ndarray, (N,)
         Drive level of each channel, 0–1 (may exceed 1 with ``max_level``).
-    errors : ndarray, (P,)
-        ε_tot of every comparison at ``levels``.
+    errors, cnr : ndarray, (P,)
+        ε_tot and CNR (a ratio, not dB) of every comparison at ``levels``.
+    objective_kind : str
+        What was optimised: ``"error"`` (the worst ε) or ``"cnr"`` (the worst CNR).
     worst : int
-        Index of the comparison the objective is about.
+        Index of the comparison the objective is about (highest ε, lowest CNR).
     starts : int
         Local optimisations run.
     """
 
     levels: np.ndarray
     errors: np.ndarray
+    cnr: np.ndarray
+    objective_kind: str
     worst: int
     starts: int
 
     @property
     def objective(self) -> float:
-        return float(self.errors[self.worst])
+        """The worst comparison's ε_tot, or its CNR."""
+        values = self.errors if self.objective_kind == "error" else self.cnr
+        return float(values[self.worst])
+
+    @property
+    def loss(self) -> float:
+        """What was minimised (log ε or −log CNR of the worst comparison): lower is better
+        whatever the objective."""
+        if self.objective_kind == "error":
+            return float(np.log(self.objective + _LOG_FLOOR))
+        return float(-np.log(max(self.objective, _LOG_FLOOR)))
 
 
 def optimise_mix(
     response: ChannelResponse,
     comparisons,
     *,
+    objective: str = "error",
     max_saturated: float = 1e-3,
     max_level: float = 1.0,
     random_starts: int = 4,
     seed: int = 0,
     starts=None,
 ) -> Mix:
-    """Drive levels in [0, ``max_level``]ᴺ that minimise the worst comparison's ε_tot, no
-    class saturating (see the module's description).
+    """Drive levels in [0, ``max_level``]ᴺ that minimise the worst comparison's ε_tot (or
+    maximise its CNR), no class saturating (see the module's description).
 
     Parameters
     ----------
     response : ChannelResponse
     comparisons : Comparisons
-        Those whose worst ε is minimised (every one the objective should see).
+        Those whose worst ε (CNR) is optimised (every one the objective should see).
+    objective : {"error", "cnr"}, keyword-only
     max_saturated : float, keyword-only
         Allowed saturated fraction of a sample's pixels (sets z of the ceiling).
     max_level : float, keyword-only
@@ -260,10 +338,12 @@ def optimise_mix(
     Raises
     ------
     InputError
-        No mix keeps every class below saturation (even the faintest start is
-        too bright: shorten the exposure).
+        The camera's noise alone saturates, or no channel gives any signal.
     """
     from scipy import optimize
+
+    if objective not in OBJECTIVES:
+        raise ValueError(f"objective must be one of {OBJECTIVES}, not {objective!r}")
 
     n = response.electrons.shape[0]
     a = response.camera.gain * response.electrons.T  # (S, N): DN per sample per unit level
@@ -277,11 +357,14 @@ def optimise_mix(
     def scaled(w):
         """``w`` scaled up (or down) to the saturation limit and the level bounds."""
         w = np.clip(np.asarray(w, float), 0.0, None)
-        peak = float(response.signal(w).max())
-        if peak <= 0:
+        if not w.max() > 0:
             return None
-        # min() first: ceiling / peak overflows to inf for a channel of subnormal signal.
-        return w * min(ceiling / peak, max_level / w.max())
+        w = w / w.max()  # a start of subnormal levels (a Fisher direction) would overflow
+        peak = float(response.signal(w).max())
+        if not peak > 0:
+            return None
+        # min() first: ceiling / peak is inf (Python floats) for a channel of subnormal signal.
+        return w * min(ceiling / peak, max_level)
 
     warm = bool(starts)
     if not warm:
@@ -300,23 +383,25 @@ def optimise_mix(
 
     cache = {}
 
-    def log_errors(u):
+    def losses(u):
         key = u.tobytes()
         if key not in cache:  # SLSQP asks for a constraint's value and Jacobian apart
             cache.clear()
-            e, g = comparison_errors(response, u * unit, comparisons, gradient=True)
-            cache[key] = (np.log(e + _LOG_FLOOR), g * unit / (e + _LOG_FLOOR)[:, None])
+            f, g = comparison_losses(
+                response, u * unit, comparisons, objective=objective, gradient=True
+            )
+            cache[key] = (f, g * unit)
         return cache[key]
 
-    def objective(x):
+    def epigraph(x):
         return x[-1], np.r_[np.zeros(n), 1.0]
 
     relative = a * unit / ceiling  # (S, N): each sample's share of the ceiling per unit u
     constraints = [
         {
-            "type": "ineq",  # t − log ε_p(w) ≥ 0
-            "fun": lambda x: x[-1] - log_errors(x[:-1])[0],
-            "jac": lambda x: np.c_[-log_errors(x[:-1])[1], np.ones(len(comparisons.groups))],
+            "type": "ineq",  # t − loss_p(w) ≥ 0
+            "fun": lambda x: x[-1] - losses(x[:-1])[0],
+            "jac": lambda x: np.c_[-losses(x[:-1])[1], np.ones(len(comparisons.groups))],
         },
         {
             "type": "ineq",  # 1 − K·E_sᵀ w / ceiling ≥ 0 for every sample
@@ -327,9 +412,9 @@ def optimise_mix(
     bounds = [(0.0, max_level / u) for u in unit] + [(None, None)]
 
     def run(w0, maxiter, ftol=1e-12):
-        x0 = np.r_[w0 / unit, log_errors(w0 / unit)[0].max()]
+        x0 = np.r_[w0 / unit, losses(w0 / unit)[0].max()]
         res = optimize.minimize(
-            objective,
+            epigraph,
             x0,
             jac=True,
             method="SLSQP",
@@ -340,22 +425,29 @@ def optimise_mix(
         w = np.clip(res.x[:-1] * unit, 0.0, max_level)
         if response.signal(w).max() > ceiling * (1 + 1e-9):
             w = scaled(w)  # SLSQP may end a hair outside; pull back onto the limit
-        return w, comparison_errors(response, w, comparisons)
+        return w, comparison_losses(response, w, comparisons, objective=objective)
 
     def worst(result):
         return result[1].max()
 
     if warm:
-        # A screening: log ε to 1e-6 ranks neighbouring problems; the chosen are polished.
-        w, errors = min((run(w0, 60, 1e-6) for w0 in starts), key=worst)
+        # A screening: the loss to 1e-6 ranks neighbouring problems; the chosen are polished.
+        w, loss = min((run(w0, 60, 1e-6) for w0 in starts), key=worst)
     else:
         # A few iterations from every start find the basins; only the best few distinct
         # ends are run to convergence (most of a run's evaluations are its last digits).
         screened = sorted((run(w0, _SCREEN_ITERATIONS) for w0 in starts), key=worst)
         ends = np.unique(np.round([w / unit for w, _ in screened], 3), axis=0, return_index=True)[1]
         polished = [run(screened[i][0], 200) for i in sorted(ends)[:_POLISHED]]
-        w, errors = min([*polished, screened[0]], key=worst)
-    return Mix(levels=w, errors=errors, worst=int(np.argmax(errors)), starts=len(starts))
+        w, loss = min([*polished, screened[0]], key=worst)
+    return Mix(
+        levels=w,
+        errors=comparison_errors(response, w, comparisons),
+        cnr=comparison_cnr(response, w, comparisons),
+        objective_kind=objective,
+        worst=int(np.argmax(loss)),
+        starts=len(starts),
+    )
 
 
 def _structured_starts(response, comparisons, random_starts, seed):

@@ -8,7 +8,9 @@ from pathlib import Path
 
 from inspect_validate.errors import InputError
 
-__all__ = ["DesignProblem", "design_problem"]
+__all__ = ["MAX_EXPOSURE_TIME", "DesignProblem", "design_problem"]
+
+MAX_EXPOSURE_TIME = 100.0  # s: the longest a station file takes (camera.exposure_us ≤ 1e8)
 
 
 @dataclass(frozen=True)
@@ -18,7 +20,9 @@ class DesignProblem:
     ``channels`` maps the controller channel (a scene's lights are numbered from
     1 in file order) to its light at 100 %, with its irradiance; ``objective``
     are the comparisons whose worst ε is minimised (the station's acceptance
-    separation comparisons, else every comparison).
+    separation comparisons, else every comparison). With ``auto_exposure`` the
+    exposure is designed too, up to ``max_exposure_time``; ``exposure_time`` is
+    then only the reference the levels are computed at.
     """
 
     source: str
@@ -33,17 +37,27 @@ class DesignProblem:
     objective: object  # Comparisons the objective is about
     max_saturated: float
     station: object | None = None
+    auto_exposure: bool = False
+    max_exposure_time: float = MAX_EXPOSURE_TIME  # s
+    rank_by: str = "error"  # what the scene ranks by (error, snr_db, cnr_db)
 
 
-def design_problem(path: str | Path) -> DesignProblem:
+def design_problem(path: str | Path, *, auto_exposure: bool = False) -> DesignProblem:
     """Read a station file (it has ``controller:``) or a scene file as a design problem.
+
+    Parameters
+    ----------
+    path : str or Path
+    auto_exposure : bool, keyword-only
+        Design the exposure time too. A scene whose exposure is ``auto`` is
+        designed so anyway, up to its ``max_time``.
 
     Raises
     ------
     InputError
-        A scene whose exposure is not fixed or whose lights lack an irradiance,
-        a scene with several optics or cameras, a station without ``scene:``,
-        ``channels:`` or ``camera.exposure_us``.
+        A scene whose lights lack an irradiance, a scene with several optics or
+        cameras, a station without ``scene:``, ``channels:`` or (unless
+        ``auto_exposure``) ``camera.exposure_us``.
     """
     from inspect_validate.config import parse_yaml
 
@@ -53,20 +67,25 @@ def design_problem(path: str | Path) -> DesignProblem:
     except (OSError, UnicodeDecodeError, InputError):
         doc = None  # read_scene says what is wrong with the file
     if isinstance(doc, dict) and "controller" in doc:
-        return _from_station(path)
-    return _from_scene(path)
+        return _from_station(path, auto_exposure)
+    return _from_scene(path, auto_exposure)
 
 
-def _from_station(path: Path) -> DesignProblem:
+def _from_station(path: Path, auto_exposure: bool) -> DesignProblem:
     from inspect_validate.camera.station import read_station
     from inspect_validate.comparisons import Comparisons
     from inspect_validate.model.illumination import station_model
 
     st = read_station(path)
     if st.camera.exposure_us is None:
-        raise InputError(
-            "camera.exposure_us is needed to design at the station's exposure", source=str(path)
-        )
+        if not auto_exposure:
+            raise InputError(
+                "camera.exposure_us is needed to design at the station's exposure (or design "
+                "the exposure too: --auto-exposure)",
+                source=str(path),
+            )
+        # any reference exposure will do: auto exposure rescales
+        st = st.model_copy(update={"camera": st.camera.model_copy(update={"exposure_us": 1e3})})
     model = station_model(st)
     if model.nominal:
         ch = min(model.nominal)
@@ -97,19 +116,16 @@ def _from_station(path: Path) -> DesignProblem:
             1e-3 if st.acceptance.max_saturated is None else st.acceptance.max_saturated, 1e-9
         ),
         station=st,
+        auto_exposure=auto_exposure,
     )
 
 
-def _from_scene(path: Path) -> DesignProblem:
+def _from_scene(path: Path, auto_exposure: bool) -> DesignProblem:
     from inspect_validate.scene import read_scene
 
     sc = read_scene(path)
-    if sc.exposure.mode != "fixed":
-        raise InputError(
-            "design mixes lights at one exposure: give 'exposure: {mode: fixed, time: …}' "
-            "(or design on a station file, which has its exposure)",
-            source=str(path),
-        )
+    auto = auto_exposure or sc.exposure.mode == "auto"
+    longest = sc.exposure.max_time or MAX_EXPOSURE_TIME
     for what, items in (("optics", sc.optics), ("cameras", sc.cameras)):
         if len(items) != 1:
             raise InputError(
@@ -135,8 +151,12 @@ def _from_scene(path: Path) -> DesignProblem:
         camera=sc.cameras[0],
         classes=tuple(sc.classes),
         grid=sc.grid,
-        exposure_time=float(sc.exposure.time),
+        # auto: any reference exposure will do (the levels rescale), below the longest
+        exposure_time=float(sc.exposure.time or min(1e-3, longest)),
         comparisons=sc.comparisons,
         objective=objective,
         max_saturated=1e-3,
+        auto_exposure=auto,
+        max_exposure_time=max(longest, float(sc.exposure.time or 0.0)),
+        rank_by=sc.rank_by,
     )

@@ -6,7 +6,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-__all__ = ["Design", "drive_percent", "solve"]
+import numpy as np
+
+__all__ = ["Design", "decibel", "drive_percent", "solve"]
 
 DRIVE_TOLERANCE = 0.10  # an LED controller's output is good to about ±10 %
 
@@ -18,26 +20,37 @@ class Design:
     Attributes
     ----------
     problem : DesignProblem
+    objective : str
+        ``"error"`` (the worst ε was minimised) or ``"cnr"`` (the worst CNR maximised).
+    exposure_time : float
+        s: the problem's, or with auto exposure the designed one — the shortest at
+        which neither the mix nor the best single channel needs a level above 100 %.
     levels : dict of channel to float
-        Optimal drive level per channel, 0–1.
+        Optimal drive level per channel, 0–1, at ``exposure_time``.
     single : tuple (channel, level)
-        The best single channel and its level.
+        The best single channel and its level at ``exposure_time``.
     mix, single_prediction : Prediction
         ``predict`` of the mixed light and of the single channel at its level
         (every comparison of the problem), shape (1, 1, 1).
     flatness : list of dict
-        For each channel moved by ±10 % of its level: the worst objective ε.
+        For each channel moved by ±10 % of its level: the worst objective ε and CNR.
+    path : dict of ndarray
+        Along the straight path from the best single channel (``fraction`` 0) to the
+        mix (1): ``errors`` and ``cnr`` (a ratio) of the objective's comparisons, (T, P).
     starts : int
     choice : Choice or None
         How the channels were chosen from a catalogue (``choose``), else None.
     """
 
     problem: object
+    objective: str
+    exposure_time: float
     levels: dict
     single: tuple
     mix: object
     single_prediction: object
     flatness: list
+    path: dict
     starts: int
     choice: object = None
 
@@ -54,12 +67,21 @@ def drive_percent(level: float) -> float:
     return float(f"{100.0 * level:.3g}")
 
 
-def solve(problem, *, choose: int | None = None, progress=None) -> Design:
-    """The mix of ``problem``'s channels that minimises its objective's worst ε; with
-    ``choose``, of the best ``choose`` of them (:func:`~.catalogue.choose_channels`,
-    ``progress`` its callback)."""
+def solve(problem, *, objective: str = "error", choose: int | None = None, progress=None) -> Design:
+    """The mix of ``problem``'s channels that minimises its objective's worst ε (or, with
+    ``objective="cnr"``, maximises the worst CNR); with ``choose``, of the best ``choose`` of
+    them (:func:`~.catalogue.choose_channels`, ``progress`` its callback). With the problem's
+    auto exposure the levels are optimised up to the longest exposure over the reference
+    one and rescaled to a designed exposure time."""
+    from functools import partial
+
     from inspect_validate.design.catalogue import choose_channels
-    from inspect_validate.design.mix import channel_response, comparison_errors, optimise_mix
+    from inspect_validate.design.mix import (
+        channel_response,
+        comparison_cnr,
+        comparison_errors,
+        optimise_mix,
+    )
 
     response = channel_response(
         problem.channels,
@@ -69,62 +91,94 @@ def solve(problem, *, choose: int | None = None, progress=None) -> Design:
         grid=problem.grid,
         exposure_time=problem.exposure_time,
     )
+    max_level = problem.max_exposure_time / problem.exposure_time if problem.auto_exposure else 1.0
+    options = {
+        "objective": objective,
+        "max_saturated": problem.max_saturated,
+        "max_level": max_level,
+    }
     labels = list(problem.channels)
     choice = None
     if choose is None:
         chosen = list(range(len(labels)))
-        mix = optimise_mix(response, problem.objective, max_saturated=problem.max_saturated)
+        mix = optimise_mix(response, problem.objective, **options)
     else:
-        choice = choose_channels(
-            response,
-            problem.objective,
-            choose,
-            max_saturated=problem.max_saturated,
-            progress=progress,
-        )
+        choice = choose_channels(response, problem.objective, choose, progress=progress, **options)
         chosen, mix = list(choice.channels), choice.mix
-    singles = []
-    for c in range(len(labels)):
-        best = optimise_mix(
-            response.subset([c]), problem.objective, max_saturated=problem.max_saturated
+    optimise = partial(optimise_mix, comparisons=problem.objective, **options)
+    singles = [optimise(response.subset([c])) for c in range(len(labels))]
+    best = min(range(len(labels)), key=lambda c: singles[c].loss)
+    single_level = float(singles[best].levels[0])
+
+    def worst(w):
+        """Worst ε and CNR of the objective over the chosen channels at levels ``w``."""
+        mixed = response.subset(chosen)
+        return (
+            float(comparison_errors(mixed, w, problem.objective).max()),
+            float(comparison_cnr(mixed, w, problem.objective).min()),
         )
-        singles.append((best.objective, labels[c], float(best.levels[0])))
-    _, single_label, single_level = min(singles, key=lambda s: s[0])
 
     flatness = []
-    mixed = response.subset(chosen)
     ceiling = response.ceiling(problem.max_saturated)
     for c, label in enumerate(labels[i] for i in chosen):
         for sign in (-1.0, 1.0):
             w = mix.levels.copy()
-            w[c] *= 1.0 + sign * DRIVE_TOLERANCE
-            w[c] = min(w[c], 1.0)
-            eps = comparison_errors(mixed, w, problem.objective).max()
+            w[c] = min(w[c] * (1.0 + sign * DRIVE_TOLERANCE), max_level)
+            eps, cnr = worst(w)
             flatness.append(
                 {
                     "channel": label,
                     "change": sign * DRIVE_TOLERANCE,
-                    "worst_error": float(eps),
-                    "saturates": bool(mixed.signal(w).max() > ceiling),
+                    "worst_error": eps,
+                    "worst_cnr_db": decibel(cnr),
+                    "saturates": bool(response.subset(chosen).signal(w).max() > ceiling),
                 }
             )
-    levels = dict(zip([labels[i] for i in chosen], map(float, mix.levels), strict=True))
+    # The straight path stays feasible: both ends are, and the constraints are linear.
+    start, end = np.zeros(len(labels)), np.zeros(len(labels))
+    start[best] = single_level
+    end[chosen] = mix.levels
+    fraction = np.linspace(0.0, 1.0, _PATH_POINTS)
+    on_path = [(1.0 - f) * start + f * end for f in fraction]
+    path = {
+        "fraction": fraction,
+        "errors": np.array([comparison_errors(response, w, problem.objective) for w in on_path]),
+        "cnr": np.array([comparison_cnr(response, w, problem.objective) for w in on_path]),
+    }
+    # Auto exposure: level × exposure is what counts; the longest-needing of the two
+    # illuminations sets the exposure at 100 %.
+    scale = max(float(mix.levels.max()), single_level) if problem.auto_exposure else 1.0
+    levels = dict(zip([labels[i] for i in chosen], map(float, mix.levels / scale), strict=True))
+    single = (labels[best], single_level / scale)
+    exposure_time = problem.exposure_time * scale
     return Design(
         problem=problem,
+        objective=objective,
+        exposure_time=exposure_time,
         levels=levels,
-        single=(single_label, single_level),
-        mix=_predict(problem, levels, "designed mix"),
+        single=single,
+        mix=_predict(problem, levels, "designed mix", exposure_time),
         single_prediction=_predict(
-            problem, {single_label: single_level}, f"channel {single_label}"
+            problem, {single[0]: single[1]}, f"channel {single[0]}", exposure_time
         ),
         flatness=flatness,
+        path=path,
         starts=mix.starts,
         choice=choice,
     )
 
 
-def _predict(problem, levels: dict, name: str):
-    """``predict`` of the light ``levels`` mix, with every comparison of the problem."""
+_PATH_POINTS = 101  # a comparison's CNR can pass through 0 between the ends
+
+
+def decibel(ratio: float) -> float:
+    """A CNR in dB: 20·log10, −inf for 0 (as ``predict``'s ``cnr_db``)."""
+    return float(20.0 * np.log10(ratio)) if ratio > 0 else float("-inf")
+
+
+def _predict(problem, levels: dict, name: str, exposure_time: float):
+    """``predict`` of the light ``levels`` mix at ``exposure_time`` s, with every comparison
+    of the problem."""
     from inspect_validate.model import Exposure, predict
     from inspect_validate.model.illumination import illumination_light
 
@@ -139,7 +193,7 @@ def _predict(problem, levels: dict, name: str):
         [problem.optics],
         [problem.camera],
         list(problem.classes),
-        exposure=Exposure("fixed", time=problem.exposure_time),
+        exposure=Exposure("fixed", time=exposure_time),
         grid=problem.grid,
         comparisons=problem.comparisons,
     )

@@ -15,7 +15,8 @@ def design_station(station, design):
     The acceptance's separation limits apply to the mix; agreement, saturation
     and gain checks to both; the drift check and the ranking are dropped (the
     golden file and the ranking are about the station's own illuminations).
-    The single channel is left out when the mix is that channel alone.
+    The single channel is left out when the mix is that channel alone. The
+    camera's exposure is the design's (with auto exposure, the designed one).
     """
     from inspect_validate.camera.station import Illumination
     from inspect_validate.design.solve import drive_percent
@@ -28,4 +29,7 @@ def design_station(station, design):
     acceptance = station.acceptance.model_copy(
         update={"illumination": DESIGN_ILLUMINATION, "drift": None, "ranking": False}
     )
-    return station.model_copy(update={"illuminations": illuminations, "acceptance": acceptance})
+    camera = station.camera.model_copy(update={"exposure_us": 1e6 * design.exposure_time})
+    return station.model_copy(
+        update={"illuminations": illuminations, "acceptance": acceptance, "camera": camera}
+    )

@@ -12,7 +12,8 @@ DESIGN_SCHEMA_VERSION = 1
 
 
 def design_document(d) -> dict:
-    """Levels, the best single channel, per comparison μ/σ²/SNR/ε of both, the flatness."""
+    """Levels, the best single channel, per comparison μ/σ²/SNR/ε of both, the flatness and
+    the path from the single channel to the mix."""
     p = d.problem
 
     def predicted(pred):
@@ -43,14 +44,29 @@ def design_document(d) -> dict:
         "schema_version": DESIGN_SCHEMA_VERSION,
         "tool_version": __version__,
         "source": p.source,
-        "exposure_time_s": p.exposure_time,
-        "objective": {"minimise": "worst error_gaussian", "comparisons": list(p.objective.labels)},
+        "exposure_time_s": d.exposure_time,
+        "exposure": "auto" if p.auto_exposure else "fixed",
+        "objective": {
+            **(
+                {"minimise": "worst error_gaussian"}
+                if d.objective == "error"
+                else {"maximise": "worst cnr_db"}
+            ),
+            "comparisons": list(p.objective.labels),
+        },
         "channels": {str(c): light.name for c, light in p.channels.items()},
         "levels": {str(c): w for c, w in d.levels.items()},
         "illumination": {"name": "design", "channels": {str(c): v for c, v in d.percent.items()}},
         "mix": predicted(d.mix),
         "best_single": {"channel": str(channel), "level": level, **predicted(d.single_prediction)},
         "drive_tolerance": d.flatness,
+        "path": {
+            "from": f"best single channel {channel}",
+            "fraction": d.path["fraction"].tolist(),
+            "comparisons": list(p.objective.labels),
+            "error_gaussian": d.path["errors"].tolist(),
+            "cnr": d.path["cnr"].tolist(),
+        },
         "starts": d.starts,
         "choice": None
         if d.choice is None
@@ -66,10 +82,11 @@ def design_document(d) -> dict:
 
 @dataclass(frozen=True)
 class DesignCheck:
-    """A verified design: per objective comparison ε predicted and measured for the mix and
-    the best single channel, and whether the mix measured better."""
+    """A verified design: per objective comparison ε (or CNR_dB) predicted and measured for
+    the mix and the best single channel, and whether the mix measured better."""
 
     illuminations: tuple
+    quantity: str  # "ε" or "CNR_dB"
     rows: list
     verdict: str
     holds: bool
@@ -78,22 +95,28 @@ class DesignCheck:
     def header(self) -> list[str]:
         """Column titles of :attr:`rows`."""
         return ["comparison"] + [
-            f"ε {ill} {what}" for ill in self.illuminations for what in ("predicted", "measured")
+            f"{self.quantity} {ill} {what}"
+            for ill in self.illuminations
+            for what in ("predicted", "measured")
         ]
 
 
-def design_verification(verification, objective) -> DesignCheck:
+def design_verification(verification, objective, *, kind: str = "error") -> DesignCheck:
     """Summarise a :class:`~inspect_validate.verification.verify.Verification` of a
     :func:`~inspect_validate.design.station.design_station` over the ``objective`` comparisons
-    (labels): the worst ε of the mix against the single channel's, predicted and measured."""
+    (labels): the worst ε (``kind="error"``) or CNR (``"cnr"``) of the mix against the single
+    channel's, predicted and measured."""
     from inspect_validate.design.station import DESIGN_ILLUMINATION
 
     by = {(r["illumination"], r["comparison"]): r for r in verification.comparisons}
     ills = tuple(dict.fromkeys(r["illumination"] for r in verification.comparisons))
+    field, quantity, fmt = (
+        ("error_gaussian", "ε", "{:.3g}") if kind == "error" else ("cnr_db", "CNR_dB", "{:.2f}")
+    )
     rows = [
         [label]
         + [
-            f"{by[ill, label][what]['error_gaussian']:.3g}"
+            fmt.format(by[ill, label][what][field])
             for ill in ills
             for what in ("predicted", "measured")
         ]
@@ -101,19 +124,30 @@ def design_verification(verification, objective) -> DesignCheck:
     ]
 
     def worst(ill, what):
-        return max(by[ill, label][what]["error_gaussian"] for label in objective)
+        values = [by[ill, label][what][field] for label in objective]
+        return max(values) if kind == "error" else min(values)
 
     mix = worst(DESIGN_ILLUMINATION, "measured")
     if len(ills) == 1:
-        return DesignCheck(ills, rows, f"measured worst ε of the mix: {mix:.3g}", True)
+        return DesignCheck(
+            ills, quantity, rows, f"measured worst {quantity} of the mix: {fmt.format(mix)}", True
+        )
     single = ills[1]
-    predicted = worst(single, "predicted") / max(worst(DESIGN_ILLUMINATION, "predicted"), 1e-300)
-    holds = mix < worst(single, "measured")
-    ratio = worst(single, "measured") / max(mix, 1e-300)
+    if kind == "error":
+        holds = mix < worst(single, "measured")
+        ratio = worst(single, "measured") / max(mix, 1e-300)
+        predicted = worst(single, "predicted") / max(
+            worst(DESIGN_ILLUMINATION, "predicted"), 1e-300
+        )
+        gain = f"{ratio:.3g}× lower; predicted {predicted:.3g}×"
+    else:
+        holds = mix > worst(single, "measured")
+        predicted = worst(DESIGN_ILLUMINATION, "predicted") - worst(single, "predicted")
+        gain = f"{mix - worst(single, 'measured'):+.2f} dB; predicted {predicted:+.2f} dB"
     verdict = (
-        f"measured worst ε: mix {mix:.3g}, {single} {worst(single, 'measured'):.3g} "
-        f"({ratio:.3g}× lower; predicted {predicted:.3g}×)"
+        f"measured worst {quantity}: mix {fmt.format(mix)}, {single} "
+        f"{fmt.format(worst(single, 'measured'))} ({gain})"
     )
     if not holds:
         verdict += f": FAIL, the mix does not measure better than {single}"
-    return DesignCheck(ills, rows, verdict, holds)
+    return DesignCheck(ills, quantity, rows, verdict, holds)

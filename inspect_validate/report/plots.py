@@ -1,5 +1,6 @@
 """PNG plots: component spectra, per-wavelength errors, ranked separation (a prediction);
-frames with their regions, class histograms, predicted against measured (a verification).
+frames with their regions, class histograms, predicted against measured (a verification);
+the mixed spectrum and the path from the best single channel to the mix (a design).
 
 Each function draws to ``target``, a path or a binary file object (the HTML
 report embeds the bytes). matplotlib is imported here only (Agg backend, no
@@ -14,6 +15,8 @@ __all__ = [
     "plot_agreement",
     "plot_class_histograms",
     "plot_component_spectra",
+    "plot_design_path",
+    "plot_design_spectrum",
     "plot_frame_regions",
     "plot_ranked_separation",
     "plot_spectral_errors",
@@ -318,3 +321,86 @@ def plot_agreement(
         labels.values(), labels.keys(), loc="upper center", ncol=6, fontsize=8, frameon=False
     )
     return _save(fig, target, rect=(0, 0, 1, 0.9))  # room for the legend above
+
+
+def plot_design_spectrum(design, path):
+    """The designed mix's irradiance at the object, stacked by channel, over the classes'
+    reflectances (mean and sample range) and the camera's relative sensitivity (optics
+    transmission × QE)."""
+    from inspect_validate.errors import InputError
+    from inspect_validate.model.illumination import illumination_light
+
+    plt = _pyplot()
+    p = design.problem
+    grid = p.grid
+    fig, ax = plt.subplots(figsize=(10, 4.5))
+    parts, labels = [], []
+    for c, percent in design.percent.items():
+        try:
+            light = illumination_light(str(c), {c: percent}, p.channels, grid=grid)
+        except InputError:
+            continue  # a channel with no light on the grid adds nothing
+        parts.append(light.spd.values[0])
+        labels.append(f"channel {c} ({p.channels[c].name}) {percent:g} %")
+    if parts:
+        ax.stackplot(grid, np.array(parts), labels=labels, alpha=0.8)
+    ax.set_xlabel("wavelength [nm]")
+    ax.set_ylabel("irradiance at the object [W m⁻² nm⁻¹]")
+    ax.set_title(
+        f"designed mix at {1e3 * design.exposure_time:.4g} ms exposure"
+        + (" (auto)" if p.auto_exposure else "")
+    )
+    ax.legend(loc="upper left", fontsize=7)
+    right = ax.twinx()
+    for k, cls in enumerate(p.classes):
+        r = cls.reflectance.resample(grid)
+        right.plot(
+            grid, np.nanmean(r, axis=0), color=_colour(k + len(parts)), lw=1.2, label=cls.name
+        )
+        if r.shape[0] > 1:
+            right.fill_between(
+                grid,
+                np.nanmin(r, axis=0),
+                np.nanmax(r, axis=0),
+                color=_colour(k + len(parts)),
+                alpha=0.15,
+            )
+    sensitivity = np.nan_to_num(p.optics.transmission.resample(grid)[0]) * np.nan_to_num(
+        p.camera.qe.resample(grid)[0]
+    )
+    if sensitivity.max() > 0:
+        right.plot(
+            grid, sensitivity / sensitivity.max(), "k--", lw=1, label="optics × QE (relative)"
+        )
+    right.set_ylabel("reflectance; relative sensitivity")
+    right.set_ylim(0, None)
+    right.legend(loc="upper right", fontsize=7)
+    return _save(fig, path)
+
+
+def plot_design_path(design, path):
+    """ε and CNR_dB of the objective's comparisons along the straight path from the best
+    single channel (0) to the designed mix (1): how much the mix gains, and where."""
+    plt = _pyplot()
+    p = design.problem
+    fraction, errors, cnr = (design.path[k] for k in ("fraction", "errors", "cnr"))
+    fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4), sharex=True)
+    with np.errstate(divide="ignore"):
+        cnr_db = 20.0 * np.log10(cnr)
+    for j, label in enumerate(p.objective.labels):
+        left.semilogy(fraction, np.maximum(errors[:, j], 1e-300), color=_colour(j), label=label)
+        right.plot(fraction, cnr_db[:, j], color=_colour(j), label=label)
+    worst = errors.max(axis=1) if design.objective == "error" else None
+    if worst is not None:
+        left.semilogy(fraction, np.maximum(worst, 1e-300), "k", lw=2.2, alpha=0.35, label="worst")
+    else:
+        right.plot(fraction, cnr_db.min(axis=1), "k", lw=2.2, alpha=0.35, label="worst")
+    channel = design.single[0]
+    for ax in (left, right):
+        ax.set_xlabel(f"0: channel {channel} alone  →  1: designed mix")
+        ax.legend(fontsize=7)
+    left.set_ylabel("predicted ε_tot")
+    right.set_ylabel("predicted CNR [dB]")
+    left.set_title("classification error along the path")
+    right.set_title("contrast-to-noise ratio along the path")
+    return _save(fig, path)
