@@ -168,7 +168,7 @@ def solve(problem, *, objective: str = "error", choose: int | None = None, progr
     )
 
 
-_PATH_POINTS = 101  # a comparison's CNR can pass through 0 between the ends
+_PATH_POINTS = 51  # a comparison's CNR can pass through 0 between the ends: not too coarse
 
 
 def decibel(ratio: float) -> float:
