@@ -9,7 +9,9 @@ For each illumination (and finally the dark frames, all lights off):
 3. verify the kept frames are stable: their means agree within
    ``brightness_tolerance`` (relative); a frame at the start that disagrees
    with the next (the light still settling) is dropped and replaced, a jump
-   after two agreeing frames is an error;
+   after two agreeing frames is an error; a frame identical to the one before
+   (sensor noise makes that impossible for a live image with any structure)
+   is a stale camera, an error;
 4. save each frame (16-bit TIFF + JSON sidecar, atomically) as soon as it is
    verified, so a failure later in the step loses none of them.
 
@@ -77,8 +79,15 @@ def verified_frames(
     kept: list = []
     flushed = 0
     done = 0
+    previous = None
     while done < n:
         frame = camera.grab(1, timeout_s=timeout_s)[0]
+        if _repeats(frame, previous):
+            raise DeviceError(
+                f"{camera.name}: frame {frame.frame_id} is identical to the one before: the "
+                "camera hands out a stale image (a hung driver or a stopped sensor) — restart it"
+            )
+        previous = frame
         if frame.clock == "exposure" and frame.timestamp_ns < switched_ns:
             discarded += 1  # exposed before the switch (camera pipeline)
         elif frame.clock != "exposure" and flushed < flush:
@@ -105,6 +114,15 @@ def verified_frames(
                 f"{camera.name}: {discarded} frames were exposed before the light switch or while it settled; "
                 "nothing stable arrived — check that the controller really switches this light and the camera's frame rate"
             )
+
+
+def _repeats(frame, previous) -> bool:
+    """``frame`` has the very pixels of ``previous`` though the image has structure (a
+    constant frame — all dark, all saturated — may legitimately repeat)."""
+    if previous is None or frame.data.shape != previous.data.shape:
+        return False
+    data = frame.data
+    return bool(data.min() != data.max() and np.array_equal(data, previous.data))
 
 
 def _agrees(frame, kept, tolerance) -> bool:

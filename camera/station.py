@@ -45,7 +45,16 @@ from inspect_validate.config import load_yaml, one_of
 from inspect_validate.scene import Irradiance
 from inspect_validate.verification.acceptance import Acceptance, Calibration
 
-__all__ = ["ChannelLight", "Station", "World", "read_station", "station_hash", "write_station"]
+__all__ = [
+    "ChannelLight",
+    "Station",
+    "World",
+    "WorldChange",
+    "read_station",
+    "simulated_at",
+    "station_hash",
+    "write_station",
+]
 
 
 class _Strict(BaseModel):
@@ -75,6 +84,43 @@ class _CameraCommon(_Strict):
         return v
 
 
+Factor = Annotated[float, Field(gt=0, le=100, allow_inf_nan=False)]
+Percent = Annotated[float, Field(gt=-100, lt=100, allow_inf_nan=False)]
+
+
+class WorldChange(_Strict):
+    """A change of the simulated world from cycle ``start`` of ``watch`` on (to ``stop``,
+    exclusive, if given): a step (factors), a gradual drift (% per cycle or per hour,
+    compounding from the start) or a device fault. A station that is ageing, soiled or
+    faulty on a schedule, for ``watch`` to notice."""
+
+    start: Annotated[int, Field(ge=0)] = 0
+    stop: Annotated[int, Field(ge=1)] | None = None
+    irradiance: dict[Channel, Factor] = {}
+    """Step: factor on the channel's irradiance (an LED replaced by a weaker one)."""
+    percent_per_cycle: dict[Channel, Percent] = {}
+    """Drift: the channel's output changes by this % every cycle (LED ageing: negative)."""
+    percent_per_hour: dict[Channel, Percent] = {}
+    """Drift: the channel's output changes by this % every hour of the watch."""
+    peak_shift_nm: dict[Channel, Annotated[float, Field(ge=-200, le=200, allow_inf_nan=False)]] = {}
+    """Step: the channel's spectrum shifted by this many nm more."""
+    exposure: Factor | None = None
+    """Step: factor on the light every frame collects (someone changed exposure or gain)."""
+    transmission: Annotated[float, Field(gt=0, le=2, allow_inf_nan=False)] | None = None
+    """Step: factor on the lens transmission (a soiled lens)."""
+    blur_px: Annotated[float, Field(ge=0, le=50, allow_inf_nan=False)] | None = None
+    """Step: Gaussian blur σ in pixels (defocus: the classes bleed into each other)."""
+    camera_timeout: bool = False
+    """Fault: the camera delivers no frame (its grab times out)."""
+    frozen: bool = False
+    """Fault: the camera repeats one frame (a stale image from a hung driver)."""
+    controller_faults: list[str] = []
+    """Fault: arguments for the simulated controller, e.g. ``["--garbage-after", "2"]``."""
+
+    def active(self, cycle: int) -> bool:
+        return cycle >= self.start and (self.stop is None or cycle < self.stop)
+
+
 class World(_Strict):
     """How the simulated world differs from the station's scene.
 
@@ -100,6 +146,51 @@ class World(_Strict):
     """W/m² of equal-energy light over 380–780 nm at the object, always on (also in darks)."""
     gain_error: Annotated[float, Field(gt=-0.9, lt=10, allow_inf_nan=False)] = 0.0
     """Relative error of the system gain K against the camera's declared one."""
+    exposure: Factor = 1.0
+    """Factor on the light every frame collects (the exposure the camera really uses)."""
+    blur_px: Annotated[float, Field(ge=0, le=50, allow_inf_nan=False)] = 0.0
+    """Gaussian blur σ of the image, pixels (defocus)."""
+    camera_timeout: bool = False
+    """The camera delivers no frame."""
+    frozen: bool = False
+    """The camera repeats its first frame."""
+    changes: list[WorldChange] = []
+    """Changes over the cycles of ``watch`` (:meth:`at`)."""
+
+    def at(self, cycle: int, *, hours: float = 0.0) -> World:
+        """This world at ``watch``'s cycle ``cycle``, ``hours`` after it started: every
+        active change applied, none left to apply."""
+        import math
+
+        w = self.model_dump(exclude={"changes"})
+        for c in self.changes:
+            if not c.active(cycle):
+                continue
+            n = cycle - c.start
+            for ch in {*c.irradiance, *c.percent_per_cycle, *c.percent_per_hour}:
+                factor = c.irradiance.get(ch, 1.0)
+                factor *= (1 + c.percent_per_cycle.get(ch, 0.0) / 100) ** n
+                # hours since the change began, as far as the cycles tell (uniform cycles)
+                since = hours * n / cycle if cycle else 0.0
+                factor *= math.exp(math.log1p(c.percent_per_hour.get(ch, 0.0) / 100) * since)
+                w["irradiance"][ch] = w["irradiance"].get(ch, 1.0) * factor
+            for ch, nm in c.peak_shift_nm.items():
+                w["peak_shift_nm"][ch] = w["peak_shift_nm"].get(ch, 0.0) + nm
+            if c.exposure is not None:
+                w["exposure"] *= c.exposure
+            if c.transmission is not None:
+                w["transmission"] = min(w["transmission"] * c.transmission, 2.0)
+            if c.blur_px is not None:
+                w["blur_px"] = max(w["blur_px"], c.blur_px)
+            w["camera_timeout"] |= c.camera_timeout
+            w["frozen"] |= c.frozen
+        # a drift schedule may not push a factor out of its range
+        w["irradiance"] = {ch: min(max(f, 1e-6), 100.0) for ch, f in w["irradiance"].items()}
+        return World(**w)
+
+    def controller_faults(self, cycle: int) -> list[str]:
+        """The simulated controller's fault arguments at ``cycle``."""
+        return [a for c in self.changes if c.active(cycle) for a in c.controller_faults]
 
 
 class _Rendered(_Strict):
@@ -358,3 +449,18 @@ def write_station(station: Station, path: str | Path, *, comment: str = "") -> S
     head = "".join(f"# {line}\n" for line in comment.splitlines())
     Path(path).write_text(head + yaml.safe_dump(doc, sort_keys=False, allow_unicode=True))
     return read_station(path)
+
+
+def simulated_at(station: Station, cycle: int, *, hours: float = 0.0) -> Station:
+    """``station`` as its simulated world is at ``watch``'s cycle ``cycle`` (``hours`` in):
+    the world's scheduled changes applied and the controller's scheduled faults added.
+    A station whose devices are real is returned as it is."""
+    world = getattr(station.camera, "world", None)
+    if world is None or not world.changes:
+        return station
+    update = {"camera": station.camera.model_copy(update={"world": world.at(cycle, hours=hours)})}
+    faults = world.controller_faults(cycle)
+    if faults and station.controller.backend == "simulated":
+        args = [*station.controller.simulator_args, *faults]
+        update["controller"] = station.controller.model_copy(update={"simulator_args": args})
+    return station.model_copy(update=update)

@@ -12,8 +12,10 @@ discard and verify records stale frames.
 The world it renders need not be the scene: the station's ``camera.world``
 gives irradiance factors, drifted or widened LED spectra, another draw of the
 reflectance samples, a lens transmission factor, vignetting, ambient light and
-a gain error (:func:`world_components`), so that verification has a reality
-to notice.
+a gain error (:func:`world_components`), an exposure factor and defocus blur,
+so that verification has a reality to notice; and faults: a camera that
+times out, or one that repeats a frame. ``watch`` evolves the world over its
+cycles (:meth:`~inspect_validate.camera.station.World.at`).
 """
 
 from __future__ import annotations
@@ -172,7 +174,9 @@ class SimulatedCamera(Grabber):
         r2 = ((yy - (height - 1) / 2) ** 2 + (xx - (width - 1) / 2) ** 2) / (
             ((height - 1) / 2) ** 2 + ((width - 1) / 2) ** 2
         )
-        self._falloff = 1.0 - world.vignetting * r2
+        self._falloff = (1.0 - world.vignetting * r2) * world.exposure
+        self.world = world
+        self._frozen = None  # the frame a frozen camera repeats
         self.pipeline: deque = deque()
 
     def configure(self, *, exposure_us=None, gain_db=None, pixel_format=None, region=None) -> None:
@@ -205,6 +209,9 @@ class SimulatedCamera(Grabber):
         return self.light_state(), time.monotonic_ns()
 
     def grab(self, n: int, *, timeout_s: float = 2.0) -> list[Frame]:
+        if self.world.camera_timeout:
+            time.sleep(timeout_s)
+            raise DeviceError(f"{self.name}: no frame within {timeout_s:g} s (timeout)")
         frames = []
         while len(frames) < n:
             self.pipeline.append(self._expose())
@@ -222,6 +229,10 @@ class SimulatedCamera(Grabber):
         for where, pick in self._objects:
             electrons[where] = rate[pick] * (self.exposure_us * 1e-6)
         electrons *= self._falloff
+        if self.world.blur_px > 0:
+            from scipy import ndimage
+
+            electrons = ndimage.gaussian_filter(electrons, self.world.blur_px, mode="nearest")
         return expose(
             electrons,
             self.camera,
@@ -230,7 +241,12 @@ class SimulatedCamera(Grabber):
         )
 
     def _render(self, state: dict[int, float], stamp: int) -> Frame:
-        data = self.render(state)
+        if self.world.frozen:  # a hung driver hands out its last buffer again
+            if self._frozen is None:
+                self._frozen = self.render(state)
+            data = self._frozen.copy()
+        else:
+            data = self.render(state)
         self.frame_id += 1
         cam = self.camera
         return Frame(

@@ -1,0 +1,220 @@
+"""Drift of a running station from its golden statistics: EWMA control charts, one per
+monitored quantity, and the likely cause from the pattern of what drifted.
+
+Each quantity x (a class's μ and σ² per illumination, a comparison's SNR_dB and
+log₁₀ ε) is standardised by its golden mean μ₀ and spread σ₀ (the trained
+repeats' standard deviation, floored: a golden file of near-identical repeats
+must not make every frame's noise an alarm), and smoothed:
+
+    z_t = λ x_t + (1 − λ) z_{t−1},  z_0 = μ₀
+
+It alarms when |z_t − μ₀| > L σ₀ √(λ/(2 − λ) · (1 − (1 − λ)^{2t})). With m charts
+watched together, L is chosen so that one chart's in-control average run length
+(ARL₀) is m × the family's target (:func:`ewma_limit`; the ARL of a chart is
+computed by the Markov-chain approximation of Brook & Evans (1972), 201
+states) — a Bonferroni split, conservative for correlated charts.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from functools import lru_cache
+
+import numpy as np
+
+__all__ = [
+    "LAMBDA",
+    "Chart",
+    "DriftMonitor",
+    "DriftState",
+    "SeriesKey",
+    "ewma_arl",
+    "ewma_limit",
+    "series_of",
+]
+
+LAMBDA = 0.2  # weight of the newest cycle: detects shifts of ~1 σ₀ within about 10 cycles
+FAMILY_ARL = 1000.0  # in-control cycles between false alarms of the whole family
+# Floors of σ₀: relative for μ and σ², absolute for dB and decades of ε.
+_FLOOR = {"mean": 2e-3, "variance": 0.02, "snr_db": 0.05, "log_error": 0.05}
+
+SeriesKey = tuple  # (illumination, "class" | "comparison", name, quantity)
+
+
+def ewma_arl(limit: float, *, lam: float = LAMBDA, shift: float = 0.0, states: int = 201) -> float:
+    """Average run length of an asymptotic-limit EWMA chart of unit-variance normal data
+    whose mean is ``shift`` σ off target (Brook & Evans' Markov chain, ``states`` states
+    across the in-control band ± ``limit`` σ_z)."""
+    from scipy.stats import norm
+
+    h = limit * math.sqrt(lam / (2.0 - lam))
+    width = 2.0 * h / states
+    centres = -h + width * (np.arange(states) + 0.5)
+    # From state i, z' = (1 − λ) c_i + λ x falls in state j with x ~ N(shift, 1).
+    lo = (centres - width / 2)[None, :] - (1 - lam) * centres[:, None]
+    hi = lo + width
+    q = norm.cdf(hi / lam - shift) - norm.cdf(lo / lam - shift)
+    arl = np.linalg.solve(np.eye(states) - q, np.ones(states))
+    return float(arl[states // 2])
+
+
+@lru_cache(maxsize=64)
+def ewma_limit(arl: float, *, lam: float = LAMBDA) -> float:
+    """The L (in σ_z) whose in-control ARL is ``arl`` cycles."""
+    from scipy.optimize import brentq
+
+    return float(brentq(lambda x: math.log(ewma_arl(x, lam=lam)) - math.log(arl), 0.5, 8.0))
+
+
+@dataclass
+class Chart:
+    """One quantity's EWMA chart: target, spread, smoothed value and cycles seen."""
+
+    target: float
+    sigma: float
+    ewma: float
+    n: int = 0
+
+    def update(self, x: float, *, limit: float, lam: float = LAMBDA) -> tuple[float, float, bool]:
+        """Add cycle value ``x``; the smoothed value, the half-width of the band, alarm."""
+        if math.isfinite(x):
+            self.ewma = lam * x + (1 - lam) * self.ewma
+            self.n += 1
+        half = limit * self.sigma * math.sqrt(lam / (2 - lam) * (1 - (1 - lam) ** (2 * self.n)))
+        return self.ewma, half, self.n > 0 and abs(self.ewma - self.target) > half
+
+
+def series_of(verification) -> dict[SeriesKey, float]:
+    """The monitored values of one cycle's verification."""
+    values = {}
+    for ill, m in verification.measurements.items():
+        for c in m.classes:
+            values[ill, "class", c.name, "mean"] = c.mean
+            values[ill, "class", c.name, "variance"] = c.variance
+        for comp in m.comparisons:
+            values[ill, "comparison", comp.label, "snr_db"] = comp.snr_db
+            values[ill, "comparison", comp.label, "log_error"] = math.log10(
+                max(comp.error_gaussian, 1e-300)
+            )
+    return values
+
+
+def golden_targets(golden) -> dict[SeriesKey, tuple[float, float]]:
+    """(μ₀, σ₀) of every quantity the golden file holds, σ₀ floored (module description)."""
+    targets = {}
+
+    def put(key, values, quantity):
+        v = np.array([np.nan if x is None else x for x in values], float)
+        if quantity == "log_error":
+            v = np.log10(np.maximum(v, 1e-300))
+        v = v[np.isfinite(v)]
+        if not v.size:
+            return
+        mu = float(v.mean())
+        sd = float(v.std(ddof=1)) if v.size > 1 else 0.0
+        floor = _FLOOR[quantity] * (abs(mu) if quantity in ("mean", "variance") else 1.0)
+        targets[key] = (mu, max(sd, floor, 1e-12))
+
+    for ill, g in golden.illuminations.items():
+        for name, c in g.classes.items():
+            put((ill, "class", name, "mean"), c.mean.values, "mean")
+            put((ill, "class", name, "variance"), c.variance.values, "variance")
+        for label, c in g.comparisons.items():
+            put((ill, "comparison", label, "snr_db"), c.snr_db.values, "snr_db")
+            put((ill, "comparison", label, "log_error"), c.error_gaussian.values, "log_error")
+    return targets
+
+
+@dataclass(frozen=True)
+class DriftState:
+    """One cycle's charts: per quantity (value, smoothed, low, high), the alarmed keys and
+    the likely cause."""
+
+    points: dict = field(default_factory=dict)
+    alarms: tuple = ()
+    cause: str | None = None
+
+    @property
+    def drifting(self) -> bool:
+        return bool(self.alarms)
+
+
+class DriftMonitor:
+    """The EWMA charts of a station against its golden file, restartable from history.
+
+    Parameters
+    ----------
+    golden : Golden
+    dark_offset : float
+        DN the means sit on without light (relative changes are of the signal above it).
+    family_arl : float, keyword-only
+        In-control cycles between false alarms of all charts together.
+    """
+
+    def __init__(self, golden, *, dark_offset: float, family_arl: float = FAMILY_ARL):
+        self.targets = golden_targets(golden)
+        self.dark_offset = float(dark_offset)
+        self.limit = ewma_limit(family_arl * max(len(self.targets), 1))
+        self.charts = {k: Chart(mu, sd, mu) for k, (mu, sd) in self.targets.items()}
+
+    def restore(self, key: SeriesKey, *, ewma: float, n: int) -> None:
+        """Continue a chart where an earlier run left it."""
+        if key in self.charts:
+            self.charts[key].ewma, self.charts[key].n = float(ewma), int(n)
+
+    def update(self, values: dict[SeriesKey, float]) -> DriftState:
+        points, alarms = {}, []
+        for key, x in values.items():
+            chart = self.charts.get(key)
+            if chart is None:
+                continue  # not in the golden file (check_golden refuses that up front)
+            ewma, half, alarm = chart.update(x, limit=self.limit)
+            points[key] = (x, ewma, chart.target - half, chart.target + half)
+            if alarm:
+                alarms.append(key)
+        return DriftState(points, tuple(alarms), self.cause(alarms) if alarms else None)
+
+    def relative_signal(self) -> dict[str, float]:
+        """Per illumination, the median over classes of the smoothed signal (μ above the dark
+        offset) relative to golden, − 1."""
+        by = {}
+        for (ill, kind, _, q), chart in self.charts.items():
+            if kind == "class" and q == "mean" and chart.target > self.dark_offset:
+                r = (chart.ewma - self.dark_offset) / (chart.target - self.dark_offset) - 1
+                by.setdefault(ill, []).append(r)
+        return {ill: float(np.median(r)) for ill, r in by.items()}
+
+    def cause(self, alarms) -> str:
+        """The likely cause of ``alarms`` from their pattern (see the README's table)."""
+        moved = {ill for ill, kind, _, q in alarms if kind == "class" and q == "mean"}
+        r = self.relative_signal()
+        if moved:
+            # An illumination counts as moved with its class means, by its median change.
+            changes = {ill: r[ill] for ill in moved if ill in r}
+            if len(r) >= 2 and len(changes) == len(r):
+                values = list(changes.values())
+                if all(v < 0 for v in values) or all(v > 0 for v in values):
+                    spread = max(values) - min(values)
+                    if spread <= 0.25 * max(abs(v) for v in values):
+                        return (
+                            f"every illumination {_percent(np.mean(values))}: exposure, gain or "
+                            "lens transmission changed"
+                        )
+            parts = [f"{ill} {_percent(v)}" for ill, v in sorted(changes.items())]
+            if len(r) == 1:
+                return f"{parts[0]}: LED output, or exposure/gain (one illumination cannot tell)"
+            if len(changes) == 1:
+                ill, v = next(iter(changes.items()))
+                what = "LED ageing or a failing channel" if v < 0 else "LED driven harder"
+                return f"illumination {ill} {_percent(v)}, the others steady: {what}"
+            return "; ".join(parts) + ": illuminations changed differently (LEDs, spectra)"
+        contrast = [k for k in alarms if k[1] == "comparison"]
+        noise = [k for k in alarms if k[1] == "class" and k[3] == "variance"]
+        if contrast or noise:
+            return "contrast falls and noise rises at a steady level: soiled lens or defocus"
+        return "drift of " + ", ".join(" ".join(k[::2]) for k in alarms[:3])
+
+
+def _percent(v: float) -> str:
+    return f"{'dimmer' if v < 0 else 'brighter'} by {100 * abs(v):.1f} %"

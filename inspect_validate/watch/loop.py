@@ -1,0 +1,194 @@
+"""``watch``: capture, verify and chart a running station cycle after cycle.
+
+Each cycle captures the station's illuminations into its own folder, verifies
+them as ``verify`` does (the acceptance checks and the golden file's drift
+checks), updates the drift charts (:mod:`.drift`), commits the cycle to the
+history (:mod:`.history`) and rewrites the status file atomically. A device
+fault (a camera timeout, a controller answering ``Err`` or garbage, a port
+that vanishes, a stale camera) is a cycle with status ``error`` and its reason:
+the next cycle reopens the devices after a back-off (doubling from
+``retry_delay``, at most 60 s), and ``max_failures`` in a row end the watch
+with exit 3. SIGINT and SIGTERM end it after the current cycle is committed.
+
+Frames are kept for every cycle that did not pass and for every
+``keep_every``-th passing one; the others are deleted once their cycle is
+committed. A folder left by a cycle that never committed (a kill) is renamed
+``…-uncommitted``, never reused or deleted.
+"""
+
+from __future__ import annotations
+
+import shutil
+import signal
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from inspect_validate.errors import DeviceError
+
+__all__ = ["CycleOutcome", "WatchSettings", "status_document", "watch"]
+
+
+@dataclass(frozen=True)
+class WatchSettings:
+    interval: float = 60.0  # s from the start of one cycle to the next
+    cycles: int | None = None  # stop after this many (None: until stopped)
+    max_failures: int = 5  # consecutive failed cycles that end the watch (exit 3)
+    retry_delay: float = 1.0  # s before the first reconnect; doubles, at most 60 s
+    keep_every: int = 10  # passing cycles whose frames are kept: every k-th
+
+
+@dataclass(frozen=True)
+class CycleOutcome:
+    record: object  # CycleRecord
+    state: object | None  # DriftState, None for an error cycle
+    verification: object | None
+    failures: int  # consecutive failed cycles, this one included
+
+
+def status_document(outcome: CycleOutcome, station) -> dict:
+    """The status file's content: the latest cycle's verdict for the line."""
+    r = outcome.record
+    doc = {
+        "schema": "inspect-validate/watch-status",
+        "schema_version": 1,
+        "station": str(station.path),
+        "cycle": r.cycle,
+        "time": r.started,
+        "status": r.status,
+        "passed": r.passed,
+        "reason": r.reason,
+        "cause": r.cause,
+        "consecutive_failures": outcome.failures,
+        "frames": r.frames,
+        "values": [],
+    }
+    if outcome.state is not None:
+        for (ill, kind, name, quantity), (x, ewma, low, high) in outcome.state.points.items():
+            doc["values"].append(
+                {
+                    "illumination": ill,
+                    "kind": kind,
+                    "name": name,
+                    "quantity": quantity,
+                    "value": x,
+                    "ewma": ewma,
+                    "low": low,
+                    "high": high,
+                    "alarm": (ill, kind, name, quantity) in outcome.state.alarms,
+                }
+            )
+    return doc
+
+
+def watch(station, history, monitor, *, folder: Path, settings: WatchSettings, on_cycle=None):
+    """Run cycles until ``settings.cycles`` are done or a signal stops the watch.
+
+    ``station`` is verified with its golden file (``acceptance.drift``); ``history`` a
+    :class:`~.history.History`, ``monitor`` a :class:`~.drift.DriftMonitor` (restored from
+    the history here). ``on_cycle(outcome)`` is called after each committed cycle.
+
+    Returns
+    -------
+    last : CycleOutcome or None
+        The last cycle's, None if none ran.
+    stopped : bool
+        A signal ended the watch (before ``settings.cycles``).
+
+    Raises
+    ------
+    DeviceError
+        ``max_failures`` consecutive cycles failed (exit 3); the last one is committed.
+    """
+    from inspect_validate.verification.verify import plan_verification
+
+    for key, (ewma, n) in history.chart_states().items():
+        if ewma is not None:
+            monitor.restore(key, ewma=ewma, n=n)
+    plan = plan_verification(station)  # a station-file mistake stops here, before a cycle
+    folder.mkdir(parents=True, exist_ok=True)
+    stop = []
+    previous = {}
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        try:
+            previous[sig] = signal.signal(sig, lambda *_: stop.append(True))
+        except ValueError:  # not the main thread: the caller stops the watch
+            pass
+    started = time.monotonic()
+    failures, done, last = 0, 0, None
+    try:
+        while not stop and (settings.cycles is None or done < settings.cycles):
+            t0 = time.monotonic()
+            last = _cycle(station, plan, history, monitor, folder, settings, failures, started)
+            failures = last.failures
+            done += 1
+            if on_cycle:
+                on_cycle(last)
+            if failures >= settings.max_failures:
+                raise DeviceError(
+                    f"{failures} cycles in a row failed, the last: {last.record.reason}; "
+                    f"the history is in {history.path}"
+                )
+            if settings.cycles is not None and done >= settings.cycles:
+                break
+            wait = settings.interval - (time.monotonic() - t0)
+            if failures:
+                wait = max(wait, min(settings.retry_delay * 2 ** (failures - 1), 60.0))
+            _sleep(wait, stop)
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+    return last, bool(stop)
+
+
+def _sleep(seconds: float, stop: list) -> None:
+    end = time.monotonic() + seconds
+    while not stop and time.monotonic() < end:
+        time.sleep(min(0.05, max(end - time.monotonic(), 0.0)))
+
+
+def _cycle(station, plan, history, monitor, folder, settings, failures, started):
+    from inspect_validate.camera.capture import capture
+    from inspect_validate.camera.station import simulated_at
+    from inspect_validate.verification.verify import verify
+    from inspect_validate.watch.drift import series_of
+    from inspect_validate.watch.history import CycleRecord
+
+    n = history.next_cycle()
+    frames = folder / f"cycle-{n:06d}"
+    if frames.exists():  # a cycle that never committed (killed): keep its frames aside
+        frames.rename(frames.with_name(f"{frames.name}-uncommitted-{int(time.time())}"))
+    when, t0 = time.time(), time.monotonic()
+    hours = (t0 - started) / 3600.0
+    state = verification = None
+    try:
+        capture(simulated_at(station, n, hours=hours), frames)
+        verification = verify(station, frames, plan=plan)
+    except DeviceError as exc:
+        failures += 1
+        status, passed, reason = "error", None, str(exc)
+        cause = "stale camera: frames stopped changing" if "stale" in reason else None
+    else:
+        failures = 0
+        state = monitor.update(series_of(verification))
+        passed = verification.passed
+        status = "fail" if not passed else ("drift" if state.drifting else "pass")
+        failed = [c for c in verification.checks if not c.passed]
+        reason = "; ".join(c.name for c in failed[:3]) or None
+        saturated = [c.name for c in failed if c.kind == "saturation"]
+        cause = f"a class clips: {saturated[0]}" if saturated else state.cause
+    keep = status != "pass" or n % max(settings.keep_every, 1) == 0
+    record = CycleRecord(
+        cycle=n,
+        started=when,
+        seconds=time.monotonic() - t0,
+        status=status,
+        passed=passed,
+        reason=reason,
+        cause=cause,
+        frames=str(frames) if keep and frames.exists() else None,
+    )
+    history.commit(record, state.points if state else {})
+    if not keep:
+        shutil.rmtree(frames, ignore_errors=True)
+    return CycleOutcome(record, state, verification, failures)
