@@ -826,7 +826,11 @@ def watch(
     golden = read_golden(golden_file)
     from inspect_validate.model.illumination import station_model
 
-    monitor = DriftMonitor(golden, dark_offset=station_model(st).camera.dark_offset)
+    monitor = DriftMonitor(
+        golden,
+        dark_offset=station_model(st).camera.dark_offset,
+        snr_floor_db=drift.snr_floor_db,
+    )
     history = History(db_path, station=str(st.path.resolve()), golden=str(golden_file))
     server = None
     if http_port is not None:

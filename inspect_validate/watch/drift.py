@@ -2,9 +2,14 @@
 monitored quantity, and the likely cause from the pattern of what drifted.
 
 Each quantity x (a class's μ and σ² per illumination, a comparison's SNR_dB and
-log₁₀ ε) is standardised by its golden mean μ₀ and spread σ₀ (the trained
-repeats' standard deviation, floored: a golden file of near-identical repeats
-must not make every frame's noise an alarm), and smoothed:
+log₁₀ ε) is standardised by its golden mean μ₀ and spread σ₀, and smoothed. σ₀
+is the upper 90 % confidence bound of the trained repeats' standard deviation
+(s·√((n−1)/χ²₀.₁,ₙ₋₁): ×1.94 for 5 repeats — a short training run
+underestimates the spread as often as not), floored (a golden file of
+near-identical repeats must not make every frame's noise an alarm).
+Comparisons whose golden SNR_dB is below the drift floor (``snr_floor_db``,
+−20 dB) are not charted: the dB of classes that are not separated are the log
+of a near-zero difference, noise without a drift to show.
 
     z_t = λ x_t + (1 − λ) z_{t−1},  z_0 = μ₀
 
@@ -100,8 +105,9 @@ def series_of(verification) -> dict[SeriesKey, float]:
     return values
 
 
-def golden_targets(golden) -> dict[SeriesKey, tuple[float, float]]:
-    """(μ₀, σ₀) of every quantity the golden file holds, σ₀ floored (module description)."""
+def golden_targets(golden, *, snr_floor_db: float = -20.0) -> dict[SeriesKey, tuple[float, float]]:
+    """(μ₀, σ₀) of every quantity the golden file holds worth charting (module
+    description)."""
     targets = {}
 
     def put(key, values, quantity):
@@ -112,7 +118,11 @@ def golden_targets(golden) -> dict[SeriesKey, tuple[float, float]]:
         if not v.size:
             return
         mu = float(v.mean())
-        sd = float(v.std(ddof=1)) if v.size > 1 else 0.0
+        sd = 0.0
+        if v.size > 1:
+            from scipy.stats import chi2
+
+            sd = float(v.std(ddof=1)) * math.sqrt((v.size - 1) / chi2.ppf(0.1, v.size - 1))
         floor = _FLOOR[quantity] * (abs(mu) if quantity in ("mean", "variance") else 1.0)
         targets[key] = (mu, max(sd, floor, 1e-12))
 
@@ -121,6 +131,8 @@ def golden_targets(golden) -> dict[SeriesKey, tuple[float, float]]:
             put((ill, "class", name, "mean"), c.mean.values, "mean")
             put((ill, "class", name, "variance"), c.variance.values, "variance")
         for label, c in g.comparisons.items():
+            if not c.snr_db.mean >= snr_floor_db:
+                continue
             put((ill, "comparison", label, "snr_db"), c.snr_db.values, "snr_db")
             put((ill, "comparison", label, "log_error"), c.error_gaussian.values, "log_error")
     return targets
@@ -148,12 +160,21 @@ class DriftMonitor:
     golden : Golden
     dark_offset : float
         DN the means sit on without light (relative changes are of the signal above it).
+    snr_floor_db : float, keyword-only
+        Comparisons below it in the golden file are not charted.
     family_arl : float, keyword-only
         In-control cycles between false alarms of all charts together.
     """
 
-    def __init__(self, golden, *, dark_offset: float, family_arl: float = FAMILY_ARL):
-        self.targets = golden_targets(golden)
+    def __init__(
+        self,
+        golden,
+        *,
+        dark_offset: float,
+        snr_floor_db: float = -20.0,
+        family_arl: float = FAMILY_ARL,
+    ):
+        self.targets = golden_targets(golden, snr_floor_db=snr_floor_db)
         self.dark_offset = float(dark_offset)
         self.limit = ewma_limit(family_arl * max(len(self.targets), 1))
         self.charts = {k: Chart(mu, sd, mu) for k, (mu, sd) in self.targets.items()}

@@ -1,0 +1,263 @@
+"""`inspect-validate watch` on the simulated station whose world changes on a schedule:
+drifts detected and attributed, faults survived with every cycle in the history once,
+a kill losing nothing committed; the EWMA chart's run lengths against the textbook."""
+
+import json
+import os
+import signal
+import sqlite3
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+from conftest import copy_station, run_cli
+
+from inspect_validate.watch.drift import LAMBDA, Chart, ewma_arl, ewma_limit
+
+
+@pytest.fixture(scope="module")
+def golden(tmp_path_factory):
+    """A golden file trained on five captures of the shipped simulated station."""
+    folder = tmp_path_factory.mktemp("golden")
+    path = copy_station(folder)
+    assert run_cli(["train", path, "--out", folder / "golden.json", "--repeats", 5]) == 0
+    return folder / "golden.json"
+
+
+def _watch(cli, tmp_path, golden, changes, *args, camera=None):
+    doc_camera = {"changes": changes}
+    path = copy_station(tmp_path, world=doc_camera)
+    if camera:
+        import yaml
+
+        doc = yaml.safe_load(path.read_text())
+        doc["camera"].update(camera)
+        path.write_text(yaml.safe_dump(doc, sort_keys=False))
+    db = tmp_path / "w" / "history.sqlite"
+    code, out, err = cli(
+        ["watch", path, "--golden", golden, "--db", db, "--interval", 0, "--retry-delay", 0, *args]
+    )
+    return code, out, err, db
+
+
+def _rows(db):
+    with sqlite3.connect(db) as con:
+        return con.execute(
+            "SELECT cycle, status, reason, cause FROM cycles ORDER BY cycle"
+        ).fetchall()
+
+
+def test_ewma_run_lengths_match_the_textbook():
+    # Montgomery, Introduction to Statistical Quality Control, Table 9.11:
+    # λ = 0.2, L = 2.962 → ARL₀ 500, ARL 10.2 at a 1σ shift (a Markov-chain table too).
+    assert ewma_arl(2.962, lam=0.2) == pytest.approx(500, rel=0.02)
+    assert ewma_arl(2.962, lam=0.2, shift=1.0) == pytest.approx(10.2, rel=0.05)
+    assert ewma_limit(500.0, lam=0.2) == pytest.approx(2.962, abs=0.01)
+
+
+def test_ewma_in_control_run_length_by_simulation():
+    """The chart as watch runs it (time-varying band), on N(0, 1) data: its mean run
+    length is the ARL asked for, within the Monte-Carlo error (±4 % at 4000 runs) plus
+    the early cycles' narrower band (which shortens it a little)."""
+    rng = np.random.default_rng(7)
+    limit = ewma_limit(100.0)
+    lengths = []
+    for _ in range(4000):
+        chart, t = Chart(0.0, 1.0, 0.0), 0
+        while True:
+            t += 1
+            if chart.update(float(rng.standard_normal()), limit=limit, lam=LAMBDA)[2]:
+                break
+        lengths.append(t)
+    assert 0.85 * 100 < np.mean(lengths) < 1.06 * 100
+
+
+def test_watch_flags_led_ageing_within_three_cycles_with_its_cause(cli, tmp_path, golden):
+    # The amber LED loses 1 % per cycle from cycle 8: 8 stable cycles, then ageing.
+    changes = [{"start": 8, "percent_per_cycle": {1: -1.0}}]
+    code, out, err, db = _watch(cli, tmp_path, golden, changes, "--cycles", 12)
+    assert code == 1, out + err  # the last cycle drifted
+    rows = _rows(db)
+    assert [r[0] for r in rows] == list(range(12))
+    assert all(r[1] == "pass" for r in rows[:8]), rows  # no false alarm while stable
+    first = next(r for r in rows if r[1] != "pass")
+    assert 8 <= first[0] <= 10, rows  # detected within 2 cycles of the onset
+    assert first[1] == "drift" and "amber dimmer" in first[3] and "LED ageing" in first[3]
+    status = json.loads((tmp_path / "w" / "status.json").read_text())
+    assert status["cycle"] == 11 and status["status"] == "drift"
+    # frames kept: cycle 0 (every 10th passing) and every drifting cycle
+    kept = sorted(p.name for p in (tmp_path / "w").glob("cycle-*"))
+    assert kept[0] == "cycle-000000" and "cycle-000001" not in kept
+    assert f"cycle-{first[0]:06d}" in kept
+
+
+def test_watch_attributes_an_exposure_change_to_every_illumination(cli, tmp_path, golden):
+    changes = [{"start": 2, "exposure": 0.95}]
+    code, out, err, db = _watch(cli, tmp_path, golden, changes, "--cycles", 5)
+    assert code == 1, out + err
+    rows = _rows(db)
+    drifted = [r for r in rows if r[1] != "pass"]
+    assert drifted and drifted[0][0] <= 3, rows
+    assert "every illumination dimmer" in drifted[-1][3]
+
+
+@pytest.mark.parametrize(
+    ("fault", "reason"),
+    [
+        ({"camera_timeout": True}, "timeout"),
+        ({"frozen": True}, "stale"),
+        ({"controller_faults": ["--garbage-after", "1"]}, "unexpected reply"),
+    ],
+)
+def test_watch_survives_a_fault_with_every_cycle_recorded_once(
+    cli, tmp_path, golden, fault, reason
+):
+    changes = [{"start": 1, "stop": 3, **fault}]
+    code, out, err, db = _watch(
+        cli, tmp_path, golden, changes, "--cycles", 5, camera={"timeout_s": 0.2}
+    )
+    assert code == 0, out + err
+    rows = _rows(db)
+    assert [r[0] for r in rows] == [0, 1, 2, 3, 4]  # none lost, none twice
+    assert [r[1] for r in rows] == ["pass", "error", "error", "pass", "pass"], rows
+    assert all(reason in r[2].lower() for r in rows[1:3]), rows
+    if reason == "stale":
+        assert rows[1][3].startswith("stale camera")
+    assert "cycle 1: ERROR" in out
+
+
+def test_watch_ends_with_exit_3_after_consecutive_failures(cli, tmp_path, golden):
+    changes = [{"start": 1, "camera_timeout": True}]
+    code, out, err, db = _watch(
+        cli, tmp_path, golden, changes, "--max-failures", 2, camera={"timeout_s": 0.1}
+    )
+    assert code == 3, out + err
+    assert "2 cycles in a row failed" in err
+    assert [r[1] for r in _rows(db)] == ["pass", "error", "error"]  # the last one committed
+
+
+def test_watch_continues_its_history(cli, tmp_path, golden):
+    code, *_ = _watch(cli, tmp_path, golden, [], "--cycles", 2)
+    assert code == 0
+    code, out, err, db = _watch(cli, tmp_path, golden, [], "--cycles", 2)
+    assert code == 0, out + err
+    assert "from cycle 2" in out
+    assert [r[0] for r in _rows(db)] == [0, 1, 2, 3]
+    with sqlite3.connect(db) as con:
+        (n,) = con.execute(
+            "SELECT COUNT(*) FROM points WHERE illumination = 'amber' AND name = 'A' "
+            "AND quantity = 'mean'"
+        ).fetchone()
+    assert n == 4
+
+
+def test_watch_needs_a_golden_file_that_fits(cli, tmp_path, golden):
+    path = copy_station(tmp_path)
+    code, _, err = cli(["watch", path, "--cycles", 1])
+    assert code == 2 and "--golden" in err
+    other = json.loads(golden.read_text())
+    del other["illuminations"]["red"]
+    (tmp_path / "g.json").write_text(json.dumps(other))
+    code, _, err = cli(["watch", path, "--golden", tmp_path / "g.json", "--cycles", 1])
+    assert code == 2 and "red" in err, err
+    (tmp_path / "db.sqlite").write_text("not a database")
+    code, _, err = cli(["watch", path, "--golden", golden, "--db", tmp_path / "db.sqlite"])
+    assert code == 2 and "not a watch history database" in err, err
+
+
+def test_a_kill_mid_cycle_loses_nothing_committed(tmp_path, golden):
+    path = copy_station(tmp_path)
+    db = tmp_path / "w" / "history.sqlite"
+    args = [sys.executable, "-m", "inspect_validate", "watch", str(path), "--golden", str(golden)]
+    args += ["--db", str(db), "--interval", "0"]
+    proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    try:
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline:  # wait for two committed cycles, then mid-third
+            if db.exists():
+                with sqlite3.connect(db) as con:
+                    try:
+                        (n,) = con.execute("SELECT COUNT(*) FROM cycles").fetchone()
+                    except sqlite3.OperationalError:
+                        n = 0
+                if n >= 2:
+                    break
+            time.sleep(0.05)
+        time.sleep(0.3)  # inside the next cycle's capture
+        os.kill(proc.pid, signal.SIGKILL)
+        proc.wait(10)
+    finally:
+        proc.kill()
+    with sqlite3.connect(db) as con:
+        assert con.execute("PRAGMA integrity_check").fetchone() == ("ok",)
+        committed = [r[0] for r in con.execute("SELECT cycle FROM cycles ORDER BY cycle")]
+        points = con.execute("SELECT DISTINCT cycle FROM points ORDER BY cycle").fetchall()
+    assert committed == list(range(len(committed))) and len(committed) >= 2
+    assert [p[0] for p in points] == committed  # every committed cycle whole
+    # A restart continues after the last committed cycle; the killed cycle's frames
+    # are kept aside, not overwritten.
+    assert run_cli(
+        ["watch", path, "--golden", golden, "--db", db, "--interval", 0, "--cycles", 1]
+    ) in (0, None)
+    with sqlite3.connect(db) as con:
+        again = [r[0] for r in con.execute("SELECT cycle FROM cycles ORDER BY cycle")]
+    assert again == [*committed, len(committed)]
+    assert list((tmp_path / "w").glob(f"cycle-{len(committed):06d}-uncommitted-*"))
+
+
+def test_sigint_ends_the_watch_after_the_cycle(tmp_path, golden):
+    path = copy_station(tmp_path)
+    db = tmp_path / "w" / "history.sqlite"
+    args = [sys.executable, "-m", "inspect_validate", "watch", str(path), "--golden", str(golden)]
+    proc = subprocess.Popen(
+        [*args, "--db", str(db), "--interval", "0"], stdout=subprocess.PIPE, text=True
+    )
+    line = ""
+    while "cycle 0:" not in line:
+        line = proc.stdout.readline()
+        assert line, "watch ended before its first cycle"
+    proc.send_signal(signal.SIGINT)
+    out, _ = proc.communicate(timeout=60)
+    assert proc.returncode == 130
+    assert "stopped after cycle" in out
+    with sqlite3.connect(db) as con:
+        cycles = [r[0] for r in con.execute("SELECT cycle FROM cycles")]
+    assert cycles == list(range(len(cycles))) and 1 <= len(cycles) <= 2
+
+
+def test_status_over_http_and_prometheus(golden):
+    import urllib.request
+
+    from inspect_validate.watch.serve import StatusServer, prometheus_text
+
+    server = StatusServer(0)
+    try:
+        url = f"http://127.0.0.1:{server.port}"
+        with pytest.raises(urllib.error.HTTPError) as exc:
+            urllib.request.urlopen(url + "/status")
+        assert exc.value.code == 503  # nothing committed yet
+        server.doc = {
+            "cycle": 7,
+            "status": "drift",
+            "consecutive_failures": 0,
+            "values": [
+                {
+                    "illumination": "amber",
+                    "kind": "comparison",
+                    "name": 'A vs "B"',
+                    "quantity": "snr_db",
+                    "value": float("-inf"),
+                    "alarm": True,
+                }
+            ],
+        }
+        doc = json.loads(urllib.request.urlopen(url + "/status").read())
+        assert doc["cycle"] == 7 and doc["values"][0]["value"] == "-inf"
+        text = urllib.request.urlopen(url + "/metrics").read().decode()
+        assert text == prometheus_text(server.doc)
+        assert 'inspect_validate_status{status="drift"} 1' in text
+        assert 'name="A vs \\"B\\"",quantity="snr_db"} -Inf' in text
+    finally:
+        server.close()
