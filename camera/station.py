@@ -86,6 +86,9 @@ class _CameraCommon(_Strict):
 
 Factor = Annotated[float, Field(gt=0, le=100, allow_inf_nan=False)]
 Percent = Annotated[float, Field(gt=-100, lt=100, allow_inf_nan=False)]
+ShiftNm = Annotated[float, Field(ge=-200, le=200, allow_inf_nan=False)]
+Transmission = Annotated[float, Field(gt=0, le=2, allow_inf_nan=False)]
+BlurPx = Annotated[float, Field(ge=0, le=50, allow_inf_nan=False)]
 
 
 class WorldChange(_Strict):
@@ -102,13 +105,13 @@ class WorldChange(_Strict):
     """Drift: the channel's output changes by this % every cycle (LED ageing: negative)."""
     percent_per_hour: dict[Channel, Percent] = {}
     """Drift: the channel's output changes by this % every hour of the watch."""
-    peak_shift_nm: dict[Channel, Annotated[float, Field(ge=-200, le=200, allow_inf_nan=False)]] = {}
+    peak_shift_nm: dict[Channel, ShiftNm] = {}
     """Step: the channel's spectrum shifted by this many nm more."""
     exposure: Factor | None = None
     """Step: factor on the light every frame collects (someone changed exposure or gain)."""
-    transmission: Annotated[float, Field(gt=0, le=2, allow_inf_nan=False)] | None = None
+    transmission: Transmission | None = None
     """Step: factor on the lens transmission (a soiled lens)."""
-    blur_px: Annotated[float, Field(ge=0, le=50, allow_inf_nan=False)] | None = None
+    blur_px: BlurPx | None = None
     """Step: Gaussian blur σ in pixels (defocus: the classes bleed into each other)."""
     camera_timeout: bool = False
     """Fault: the camera delivers no frame (its grab times out)."""
@@ -132,13 +135,13 @@ class World(_Strict):
 
     irradiance: dict[Channel, Annotated[float, Field(gt=0, le=100, allow_inf_nan=False)]] = {}
     """Factor on the channel's irradiance at the object (a dimmer or farther light)."""
-    peak_shift_nm: dict[Channel, Annotated[float, Field(ge=-200, le=200, allow_inf_nan=False)]] = {}
+    peak_shift_nm: dict[Channel, ShiftNm] = {}
     """The channel's spectrum shifted by this many nm (an LED drifted from its datasheet)."""
     width_scale: dict[Channel, Annotated[float, Field(ge=0.2, le=5, allow_inf_nan=False)]] = {}
     """The channel's spectrum stretched about its peak (FWHM × this factor)."""
     reflectance_seed: Annotated[int, Field(ge=0)] | None = None
     """The objects are another draw (bootstrap) from each class's reflectance samples."""
-    transmission: Annotated[float, Field(gt=0, le=2, allow_inf_nan=False)] = 1.0
+    transmission: Transmission = 1.0
     """Factor on the lens transmission."""
     vignetting: Annotated[float, Field(ge=0, lt=1, allow_inf_nan=False)] = 0.0
     """Relative irradiance lost at the frame's corners (quadratic in the radius)."""
@@ -148,7 +151,7 @@ class World(_Strict):
     """Relative error of the system gain K against the camera's declared one."""
     exposure: Factor = 1.0
     """Factor on the light every frame collects (the exposure the camera really uses)."""
-    blur_px: Annotated[float, Field(ge=0, le=50, allow_inf_nan=False)] = 0.0
+    blur_px: BlurPx = 0.0
     """Gaussian blur σ of the image, pixels (defocus)."""
     camera_timeout: bool = False
     """The camera delivers no frame."""

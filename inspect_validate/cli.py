@@ -780,18 +780,20 @@ def watch(
     """Verify a running station cycle after cycle and chart its drift.
 
     Each cycle captures STATION's illuminations, verifies them (the acceptance
-    checks and the golden file's drift checks), updates an EWMA chart per
-    class μ, σ² and comparison SNR_dB, log ε against the golden spread, names
+    checks; the charts replace the golden file's single-cycle drift checks),
+    updates an EWMA chart per class μ, σ² and comparison SNR_dB, log ε against
+    the golden spread, names
     the likely cause of a drift, and commits the cycle to the history. Ends
     after --cycles, on Ctrl-C (after committing the current cycle: exit 130),
     or with exit 3 after --max-failures failed cycles in a row; exits 1 when
     the last cycle failed a check or drifted.
     """
+    from dataclasses import replace
+
     from inspect_validate.camera.station import read_station
     from inspect_validate.errors import InputError
     from inspect_validate.report import write_json
     from inspect_validate.verification.acceptance import Drift
-    from inspect_validate.verification.golden import read_golden
     from inspect_validate.verification.verify import plan_verification
     from inspect_validate.watch.drift import DriftMonitor
     from inspect_validate.watch.history import History
@@ -811,10 +813,10 @@ def watch(
             "acceptance.drift.golden",
             source=str(station),
         )
-    # The golden file must fit the station (plan_verification checks it); each cycle is
-    # then verified without the single-cycle drift checks: the charts replace them, with
-    # a false-alarm rate controlled over every chart together.
-    plan_verification(
+    # The plan reads the golden file and checks it fits the station; each cycle is then
+    # verified without the single-cycle drift checks: the charts replace them, with a
+    # false-alarm rate controlled over every chart together.
+    plan = plan_verification(
         st.model_copy(update={"acceptance": st.acceptance.model_copy(update={"drift": drift})})
     )
     st = st.model_copy(update={"acceptance": st.acceptance.model_copy(update={"drift": None})})
@@ -823,13 +825,8 @@ def watch(
     status_path = Path(status_path or folder / "status.json")
     _outputs(files=[db_path, status_path], folders=[folder])
     golden_file = st.resolve(drift.golden)
-    golden = read_golden(golden_file)
-    from inspect_validate.model.illumination import station_model
-
     monitor = DriftMonitor(
-        golden,
-        dark_offset=station_model(st).camera.dark_offset,
-        snr_floor_db=drift.snr_floor_db,
+        plan.golden, dark_offset=plan.model.camera.dark_offset, snr_floor_db=drift.snr_floor_db
     )
     history = History(db_path, station=str(st.path.resolve()), golden=str(golden_file))
     server = None
@@ -860,7 +857,13 @@ def watch(
     )
     try:
         last, stopped = run_watch(
-            st, history, monitor, folder=folder, settings=settings, on_cycle=on_cycle
+            st,
+            replace(plan, golden=None),
+            history,
+            monitor,
+            folder=folder,
+            settings=settings,
+            on_cycle=on_cycle,
         )
     finally:
         history.close()

@@ -162,6 +162,13 @@ def test_watch_needs_a_golden_file_that_fits(cli, tmp_path, golden):
     (tmp_path / "g.json").write_text(json.dumps(other))
     code, _, err = cli(["watch", path, "--golden", tmp_path / "g.json", "--cycles", 1])
     assert code == 2 and "red" in err, err
+    # a history charted against another golden file is not continued on this one
+    db = tmp_path / "w" / "history.sqlite"
+    args = ["watch", path, "--interval", 0, "--cycles", 1, "--db", db]
+    assert cli([*args, "--golden", golden])[0] == 0
+    (tmp_path / "g2.json").write_text(golden.read_text())
+    code, _, err = cli([*args, "--golden", tmp_path / "g2.json"])
+    assert code == 2 and "belongs to golden file" in err, err
     (tmp_path / "db.sqlite").write_text("not a database")
     code, _, err = cli(["watch", path, "--golden", golden, "--db", tmp_path / "db.sqlite"])
     assert code == 2 and "not a watch history database" in err, err
@@ -227,7 +234,7 @@ def test_sigint_ends_the_watch_after_the_cycle(tmp_path, golden):
     assert cycles == list(range(len(cycles))) and 1 <= len(cycles) <= 2
 
 
-def test_status_over_http_and_prometheus(golden):
+def test_status_over_http_and_prometheus():
     import urllib.request
 
     from inspect_validate.watch.serve import StatusServer, prometheus_text
@@ -261,3 +268,33 @@ def test_status_over_http_and_prometheus(golden):
         assert 'name="A vs \\"B\\"",quantity="snr_db"} -Inf' in text
     finally:
         server.close()
+
+
+def test_world_schedule_compounds_per_cycle_and_per_hour():
+    from inspect_validate.camera.station import World
+
+    world = World(
+        irradiance={1: 0.9},
+        changes=[
+            {"start": 2, "percent_per_cycle": {1: -1.0}},
+            {"start": 4, "percent_per_hour": {2: -10.0}, "exposure": 0.5},
+            {"start": 1, "stop": 3, "camera_timeout": True},
+        ],
+    )
+    assert world.at(1).irradiance == {1: 0.9} and world.at(1).camera_timeout
+    assert world.at(2).irradiance[1] == pytest.approx(0.9)  # the drift starts at 0
+    at = world.at(8, hours=4.0)  # uniform cycles: cycle 4 began 2 h in, 2 h ago
+    assert at.irradiance[1] == pytest.approx(0.9 * 0.99**6)
+    assert at.irradiance[2] == pytest.approx(0.9**2)
+    assert at.exposure == 0.5 and not at.camera_timeout and at.changes == []
+
+
+def test_cause_without_signal_above_dark(golden):
+    """Classes at the dark offset have no relative change: their mean alarms fall through
+    to the other patterns instead of failing."""
+    from inspect_validate.verification.golden import read_golden
+    from inspect_validate.watch.drift import DriftMonitor
+
+    monitor = DriftMonitor(read_golden(golden), dark_offset=1e9)
+    assert monitor.relative_signal() == {}
+    assert monitor.cause([("amber", "class", "A", "mean")]).startswith("drift of amber")

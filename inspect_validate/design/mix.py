@@ -250,17 +250,21 @@ def comparison_losses(response, levels, comparisons, *, objective: str = "error"
     with ``gradient`` also its ∂/∂w, (P, N)."""
     if objective not in OBJECTIVES:
         raise ValueError(f"objective must be one of {OBJECTIVES}, not {objective!r}")
+    quantity = comparison_errors if objective == "error" else comparison_cnr
     if not gradient:
-        if objective == "error":
-            return np.log(comparison_errors(response, levels, comparisons) + _LOG_FLOOR)
-        return -np.log(np.maximum(comparison_cnr(response, levels, comparisons), _LOG_FLOOR))
+        return _loss(objective, quantity(response, levels, comparisons))
+    values, g = quantity(response, levels, comparisons, gradient=True)
+    # d log(v + floor) = dv / (v + floor); d −log max(r, floor) = −dr / max(r, floor)
+    # (equal means: CNR 0, its gradient 0 too if for every w)
+    scale = values + _LOG_FLOOR if objective == "error" else -np.maximum(values, _LOG_FLOOR)
+    return _loss(objective, values), g / scale[:, None]
+
+
+def _loss(objective: str, values):
+    """log ε (floored: ε = 0 is perfect, not −inf) or −log CNR (CNR 0 floored)."""
     if objective == "error":
-        e, g = comparison_errors(response, levels, comparisons, gradient=True)
-        e = e + _LOG_FLOOR
-        return np.log(e), g / e[:, None]
-    r, g = comparison_cnr(response, levels, comparisons, gradient=True)
-    r = np.maximum(r, _LOG_FLOOR)  # equal means: CNR 0 (its gradient 0 too if for every w)
-    return -np.log(r), -g / r[:, None]
+        return np.log(values + _LOG_FLOOR)
+    return -np.log(np.maximum(values, _LOG_FLOOR))
 
 
 @dataclass(frozen=True, eq=False)
@@ -298,9 +302,7 @@ class Mix:
     def loss(self) -> float:
         """What was minimised (log ε or −log CNR of the worst comparison): lower is better
         whatever the objective."""
-        if self.objective_kind == "error":
-            return float(np.log(self.objective + _LOG_FLOOR))
-        return float(-np.log(max(self.objective, _LOG_FLOOR)))
+        return float(_loss(self.objective_kind, self.objective))
 
 
 def optimise_mix(
@@ -341,9 +343,6 @@ def optimise_mix(
         The camera's noise alone saturates, or no channel gives any signal.
     """
     from scipy import optimize
-
-    if objective not in OBJECTIVES:
-        raise ValueError(f"objective must be one of {OBJECTIVES}, not {objective!r}")
 
     n = response.electrons.shape[0]
     a = response.camera.gain * response.electrons.T  # (S, N): DN per sample per unit level

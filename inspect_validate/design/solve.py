@@ -110,9 +110,10 @@ def solve(problem, *, objective: str = "error", choose: int | None = None, progr
     best = min(range(len(labels)), key=lambda c: singles[c].loss)
     single_level = float(singles[best].levels[0])
 
+    mixed = response.subset(chosen)
+
     def worst(w):
         """Worst ε and CNR of the objective over the chosen channels at levels ``w``."""
-        mixed = response.subset(chosen)
         return (
             float(comparison_errors(mixed, w, problem.objective).max()),
             float(comparison_cnr(mixed, w, problem.objective).min()),
@@ -131,7 +132,7 @@ def solve(problem, *, objective: str = "error", choose: int | None = None, progr
                     "change": sign * DRIVE_TOLERANCE,
                     "worst_error": eps,
                     "worst_cnr_db": decibel(cnr),
-                    "saturates": bool(response.subset(chosen).signal(w).max() > ceiling),
+                    "saturates": bool(mixed.signal(w).max() > ceiling),
                 }
             )
     # The straight path stays feasible: both ends are, and the constraints are linear.

@@ -390,9 +390,10 @@ def plot_design_path(design, path):
     for j, label in enumerate(p.objective.labels):
         left.semilogy(fraction, np.maximum(errors[:, j], 1e-300), color=_colour(j), label=label)
         right.plot(fraction, cnr_db[:, j], color=_colour(j), label=label)
-    worst = errors.max(axis=1) if design.objective == "error" else None
-    if worst is not None:
-        left.semilogy(fraction, np.maximum(worst, 1e-300), "k", lw=2.2, alpha=0.35, label="worst")
+    if design.objective == "error":  # the objective's worst, on its own panel
+        left.semilogy(
+            fraction, np.maximum(errors.max(axis=1), 1e-300), "k", lw=2.2, alpha=0.35, label="worst"
+        )
     else:
         right.plot(fraction, cnr_db.min(axis=1), "k", lw=2.2, alpha=0.35, label="worst")
     channel = design.single[0]

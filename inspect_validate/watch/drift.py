@@ -99,10 +99,15 @@ def series_of(verification) -> dict[SeriesKey, float]:
             values[ill, "class", c.name, "variance"] = c.variance
         for comp in m.comparisons:
             values[ill, "comparison", comp.label, "snr_db"] = comp.snr_db
-            values[ill, "comparison", comp.label, "log_error"] = math.log10(
-                max(comp.error_gaussian, 1e-300)
+            values[ill, "comparison", comp.label, "log_error"] = float(
+                _log_error(comp.error_gaussian)
             )
     return values
+
+
+def _log_error(error):
+    """log₁₀ ε, the charted form of ε (0 floored: perfect separation is not −inf)."""
+    return np.log10(np.maximum(error, 1e-300))
 
 
 def golden_targets(golden, *, snr_floor_db: float = -20.0) -> dict[SeriesKey, tuple[float, float]]:
@@ -113,7 +118,7 @@ def golden_targets(golden, *, snr_floor_db: float = -20.0) -> dict[SeriesKey, tu
     def put(key, values, quantity):
         v = np.array([np.nan if x is None else x for x in values], float)
         if quantity == "log_error":
-            v = np.log10(np.maximum(v, 1e-300))
+            v = _log_error(v)
         v = v[np.isfinite(v)]
         if not v.size:
             return
@@ -208,11 +213,15 @@ class DriftMonitor:
 
     def cause(self, alarms) -> str:
         """The likely cause of ``alarms`` from their pattern (see the README's table)."""
-        moved = {ill for ill, kind, _, q in alarms if kind == "class" and q == "mean"}
         r = self.relative_signal()
-        if moved:
-            # An illumination counts as moved with its class means, by its median change.
-            changes = {ill: r[ill] for ill in moved if ill in r}
+        # An illumination counts as moved with its class means, by its median change (of
+        # the signal above dark: classes at the dark offset have none).
+        changes = {
+            ill: r[ill]
+            for ill, kind, _, q in alarms
+            if kind == "class" and q == "mean" and ill in r
+        }
+        if changes:
             if len(r) >= 2 and len(changes) == len(r):
                 values = list(changes.values())
                 if all(v < 0 for v in values) or all(v > 0 for v in values):

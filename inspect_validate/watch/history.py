@@ -77,7 +77,8 @@ class History:
     Raises
     ------
     InputError
-        A file that is not an SQLite database, or the history of another station.
+        A file that is not an SQLite database, or the history of another station or
+        charted against another golden file (its charts would continue on other targets).
     """
 
     def __init__(self, path: str | Path, *, station: str, golden: str | None):
@@ -93,22 +94,25 @@ class History:
                 f"not a watch history database ({exc}); give another --db", source=str(path)
             ) from None
         if not meta:
+            meta = {
+                "schema_version": str(HISTORY_SCHEMA_VERSION),
+                "station": station,
+                "golden": golden or "",
+                "created": str(time.time()),
+            }
             with self.db:
-                self.db.executemany(
-                    "INSERT INTO meta VALUES (?, ?)",
-                    [
-                        ("schema_version", str(HISTORY_SCHEMA_VERSION)),
-                        ("station", station),
-                        ("golden", golden or ""),
-                        ("created", str(time.time())),
-                    ],
+                self.db.executemany("INSERT INTO meta VALUES (?, ?)", list(meta.items()))
+        for key, value, what in (
+            ("station", station, "station"),
+            ("golden", golden or "", "golden file"),
+        ):
+            if meta.get(key) != value:
+                raise InputError(
+                    f"this history belongs to {what} {meta.get(key)!r}, not {value!r}; "
+                    "give another --db",
+                    source=str(path),
                 )
-        elif meta.get("station") != station:
-            raise InputError(
-                f"this history belongs to station {meta.get('station')!r}, not {station!r}; "
-                "give another --db",
-                source=str(path),
-            )
+        self.created = float(meta["created"])  # Unix time, s: when the watch began
 
     def close(self) -> None:
         self.db.close()
@@ -141,13 +145,6 @@ class History:
             self.db.execute("ROLLBACK")
             raise
         self.db.execute("COMMIT")
-
-    def cycles(self) -> list[CycleRecord]:
-        return [CycleRecord(*row) for row in self.db.execute("SELECT * FROM cycles ORDER BY cycle")]
-
-    def points(self) -> list[tuple]:
-        """Every (cycle, illumination, kind, name, quantity, value, ewma, low, high)."""
-        return self.db.execute("SELECT * FROM points ORDER BY cycle").fetchall()
 
     def chart_states(self) -> dict:
         """Per series its last smoothed value and how many cycles it has seen."""

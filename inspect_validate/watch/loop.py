@@ -81,12 +81,13 @@ def status_document(outcome: CycleOutcome, station) -> dict:
     return doc
 
 
-def watch(station, history, monitor, *, folder: Path, settings: WatchSettings, on_cycle=None):
+def watch(station, plan, history, monitor, *, folder: Path, settings: WatchSettings, on_cycle=None):
     """Run cycles until ``settings.cycles`` are done or a signal stops the watch.
 
-    ``station`` is verified with its golden file (``acceptance.drift``); ``history`` a
-    :class:`~.history.History`, ``monitor`` a :class:`~.drift.DriftMonitor` (restored from
-    the history here). ``on_cycle(outcome)`` is called after each committed cycle.
+    ``station`` is verified by ``plan`` (:func:`~inspect_validate.verification.verify.
+    plan_verification` of it) every cycle; ``history`` is a :class:`~.history.History`,
+    ``monitor`` a :class:`~.drift.DriftMonitor` (restored from the history here).
+    ``on_cycle(outcome)`` is called after each committed cycle.
 
     Returns
     -------
@@ -100,12 +101,9 @@ def watch(station, history, monitor, *, folder: Path, settings: WatchSettings, o
     DeviceError
         ``max_failures`` consecutive cycles failed (exit 3); the last one is committed.
     """
-    from inspect_validate.verification.verify import plan_verification
-
     for key, (ewma, n) in history.chart_states().items():
         if ewma is not None:
             monitor.restore(key, ewma=ewma, n=n)
-    plan = plan_verification(station)  # a station-file mistake stops here, before a cycle
     folder.mkdir(parents=True, exist_ok=True)
     stop = []
     previous = {}
@@ -114,12 +112,11 @@ def watch(station, history, monitor, *, folder: Path, settings: WatchSettings, o
             previous[sig] = signal.signal(sig, lambda *_: stop.append(True))
         except ValueError:  # not the main thread: the caller stops the watch
             pass
-    started = time.monotonic()
     failures, done, last = 0, 0, None
     try:
         while not stop and (settings.cycles is None or done < settings.cycles):
             t0 = time.monotonic()
-            last = _cycle(station, plan, history, monitor, folder, settings, failures, started)
+            last = _cycle(station, plan, history, monitor, folder, settings, failures)
             failures = last.failures
             done += 1
             if on_cycle:
@@ -147,7 +144,7 @@ def _sleep(seconds: float, stop: list) -> None:
         time.sleep(min(0.05, max(end - time.monotonic(), 0.0)))
 
 
-def _cycle(station, plan, history, monitor, folder, settings, failures, started):
+def _cycle(station, plan, history, monitor, folder, settings, failures):
     from inspect_validate.camera.capture import capture
     from inspect_validate.camera.station import simulated_at
     from inspect_validate.verification.verify import verify
@@ -159,10 +156,10 @@ def _cycle(station, plan, history, monitor, folder, settings, failures, started)
     if frames.exists():  # a cycle that never committed (killed): keep its frames aside
         frames.rename(frames.with_name(f"{frames.name}-uncommitted-{int(time.time())}"))
     when, t0 = time.time(), time.monotonic()
-    hours = (t0 - started) / 3600.0
     state = verification = None
     try:
-        capture(simulated_at(station, n, hours=hours), frames)
+        # hours since the history began: a restarted watch goes on ageing its simulated LEDs
+        capture(simulated_at(station, n, hours=(when - history.created) / 3600.0), frames)
         verification = verify(station, frames, plan=plan)
     except DeviceError as exc:
         failures += 1
