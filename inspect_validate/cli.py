@@ -379,7 +379,13 @@ def capture(station, out, resume):
     type=_PATH,
     help="Write report.html, verification.json and junit.xml to this folder.",
 )
-def verify(station, frames_dir, out, report_dir):
+@click.option(
+    "--history",
+    "history_path",
+    type=_PATH,
+    help="A history 'watch' keeps of this station: its trends go into report.html.",
+)
+def verify(station, frames_dir, out, report_dir, history_path):
     """Verify STATION: measure its frames, predict it as built, calibrate, compare and check.
 
     Captures every illumination and the darks through the station's camera and
@@ -395,16 +401,37 @@ def verify(station, frames_dir, out, report_dir):
 
     st = read_station(station)
     _outputs(folders=[report_dir])
+    log = None
+    if history_path is not None:
+        if report_dir is None:
+            raise click.UsageError("--history adds trends to the report: give --report too")
+        log = _station_history(history_path, st)
     if frames_dir is None and out is None:
         out = report_dir / "frames" if report_dir else _new_folder("verify", station)
-    result = _verify_station(st, frames_dir=frames_dir, out=out, report_dir=report_dir)
+    result = _verify_station(st, frames_dir=frames_dir, out=out, report_dir=report_dir, history=log)
     if not result.passed:
         sys.exit(EXIT_CHECK_FAILED)
 
 
-def _verify_station(st, *, frames_dir, out, report_dir):
+def _station_history(path, st):
+    """The watch history at ``path``, refused unless it was kept of station ``st``."""
+    from inspect_validate.errors import InputError
+    from inspect_validate.watch.history import read_history
+
+    log = read_history(path)
+    if Path(log.station) != st.path.resolve():
+        raise InputError(
+            f"this history was kept of station {log.station}, not {st.path.resolve()}; "
+            "give the history of this station",
+            source=str(path),
+        )
+    return log
+
+
+def _verify_station(st, *, frames_dir, out, report_dir, history=None):
     """Plan, capture into ``out`` unless ``frames_dir`` is given, verify, print the verdict
-    and write the reports into ``report_dir``; the :class:`Verification`."""
+    and write the reports into ``report_dir`` (with ``history``'s trends); the
+    :class:`Verification`."""
     from inspect_validate.report import write_json
     from inspect_validate.report.html import write_verification_html
     from inspect_validate.report.verification import (
@@ -428,7 +455,7 @@ def _verify_station(st, *, frames_dir, out, report_dir):
     if report_dir:
         write_json(verification_document(result), report_dir / "verification.json")
         write_junit(result, report_dir / "junit.xml")
-        write_verification_html(result, report_dir / "report.html")
+        write_verification_html(result, report_dir / "report.html", history=history)
         click.echo(f"report: {report_dir / 'report.html'} (verification.json, junit.xml)")
     return result
 
@@ -876,6 +903,56 @@ def watch(
         sys.exit(EXIT_CHECK_FAILED)
 
 
+@cli.command("history")
+@click.argument("db", type=_PATH)
+@click.option("--last", type=click.IntRange(1), help="Only the last N cycles.")
+@click.option(
+    "--recent",
+    type=click.IntRange(0),
+    default=10,
+    show_default=True,
+    help="Cycles listed one by one (the trends cover all that are read).",
+)
+@click.option(
+    "--plot",
+    "plot_dir",
+    type=_PATH,
+    help="Write history-overview.png and one history-<illumination>.png per illumination.",
+)
+@click.option(
+    "--csv", "csv_path", type=_PATH, help="Export one row per cycle and chart (UTF-8 CSV)."
+)
+def history(db, last, recent, plot_dir, csv_path):
+    """Print, plot and export the history DB that 'watch' keeps.
+
+    Prints the cycles' statuses, the last cycles, and per drift chart its golden
+    target, its smoothed value at the start and now, its band now and how far
+    off target it is (in half-widths of the band: beyond ±1 is an alarm),
+    furthest first. Reads a history while 'watch' is still writing it.
+    """
+    import re
+
+    from inspect_validate.report.history import format_history, write_history_csv
+    from inspect_validate.watch.history import read_history
+
+    _outputs(files=[csv_path], folders=[plot_dir])
+    log = read_history(db, last=last)
+    click.echo(format_history(log, recent=recent))
+    if csv_path:
+        write_history_csv(log, csv_path)
+        click.echo(f"csv: {csv_path}")
+    if plot_dir and log.charts:
+        from inspect_validate.report.plots import plot_history_charts, plot_history_overview
+
+        written = [plot_history_overview(log, plot_dir / "history-overview.png")]
+        for ill in sorted({k[0] for k in log.charts}):
+            slug = re.sub(r"[^A-Za-z0-9_.-]+", "_", ill)
+            written.append(plot_history_charts(log, ill, plot_dir / f"history-{slug}.png"))
+        click.echo(f"plots: {', '.join(str(w) for w in written)}")
+    elif plot_dir:
+        click.echo("plots: none (no measured cycle yet)")
+
+
 def _show_cycle(outcome, *, live: bool) -> None:
     """One cycle: a table redrawn in place on a terminal, a log line otherwise."""
     import time as _time
@@ -907,7 +984,7 @@ def _show_cycle(outcome, *, live: bool) -> None:
                     "ALARM" if alarm else "",
                 ]
             )
-    click.echo("\x1b[H\x1b[2J", nl=False)  # redraw in place
+    click.echo("\x1b[H\x1b[2J", nl=False, color=True)  # redraw in place (kept: on a TTY)
     click.echo(line)
     if rows:
         click.echo(

@@ -97,3 +97,12 @@ def cli(capsys):
         return code, captured.out, captured.err
 
     return call
+
+
+@pytest.fixture(scope="session")
+def golden(tmp_path_factory):
+    """A golden file trained on five captures of the shipped simulated station."""
+    folder = tmp_path_factory.mktemp("golden")
+    path = copy_station(folder)
+    assert run_cli(["train", path, "--out", folder / "golden.json", "--repeats", 5]) == 0
+    return folder / "golden.json"

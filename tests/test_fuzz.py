@@ -665,3 +665,115 @@ def test_design_never_refuses_a_valid_scene(capsys, peaks, repeat, levels, sprea
         code, out, err = run(["design", path, "--json", tmp / "d.json", *options], capsys)
         assert_clean(code, out, err, allowed=(0,))
         _check_design(tmp, code)
+
+
+# A watch history: hostile rows in an untyped copy of its tables, and sound ones written
+# the way watch writes them.
+history_cycles = st.lists(
+    st.tuples(
+        rarely_junk(st.integers(0, 10**6)),
+        rarely_junk(st.floats(1e9, 2e9)),
+        rarely_junk(st.floats(0, 1e4)),
+        rarely_junk(st.sampled_from(["pass", "fail", "drift", "error"])),
+        rarely_junk(st.sampled_from([None, 0, 1])),
+        rarely_junk(st.one_of(st.none(), st.text(max_size=30))),
+        rarely_junk(st.one_of(st.none(), st.text(max_size=30))),
+        rarely_junk(st.one_of(st.none(), st.text(max_size=30))),
+    ),
+    max_size=6,
+    unique_by=lambda c: repr(c[0]),
+)
+history_values = st.floats(-1e6, 1e6, allow_nan=False) | st.sampled_from([0.0, 1e-300, 1e99])
+history_points = st.lists(
+    st.tuples(
+        rarely_junk(st.integers(0, 7)),
+        rarely_junk(st.sampled_from(["amber", "red", "a/b", ""])),
+        rarely_junk(st.sampled_from(["class", "comparison"])),
+        rarely_junk(st.sampled_from(["A", "A vs B", "ü"])),
+        rarely_junk(st.sampled_from(["mean", "variance", "snr_db", "log_error"])),
+        rarely_junk(history_values | st.none()),
+        rarely_junk(history_values),
+        rarely_junk(history_values),
+        rarely_junk(history_values),
+    ),
+    max_size=20,
+)
+
+
+def _storable(value):
+    """``value`` as SQLite can hold it: what it cannot (a list, an integer beyond 64 bits)
+    as its text, the way another tool would have put it there."""
+    if isinstance(value, (list, dict)) or (isinstance(value, int) and abs(value) >= 2**63):
+        return json.dumps(value)
+    return value
+
+
+@SETTINGS
+@given(
+    cycles=history_cycles,
+    points=history_points,
+    meta=rarely_junk(st.just({"station": "/s.yaml", "golden": "/g.json", "created": "1.7e9"})),
+    plot=st.sampled_from([False, False, False, True]),
+)
+def test_history_with_hostile_databases(capsys, cycles, points, meta, plot):
+    from test_history import _lenient
+
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        rows = (
+            [[_storable(v) for v in row] for row in cycles],
+            [[_storable(v) for v in row] for row in points],
+        )
+        _lenient(tmp / "h.sqlite", *rows, meta if isinstance(meta, dict) else {})
+        args = ["history", tmp / "h.sqlite", "--csv", tmp / "h.csv"]
+        code, out, err = run([*args, *(["--plot", tmp / "p"] if plot else [])], capsys)
+        event(f"exit {code}")
+        assert_clean(code, out, err)
+        if code == 0:
+            text = (tmp / "h.csv").read_text()
+            assert "nan" not in text.lower().replace("name", "")
+
+
+@settings(SETTINGS, max_examples=25)
+@given(
+    steps=st.lists(
+        st.tuples(
+            st.sampled_from(["pass", "fail", "drift", "error"]),
+            st.floats(-1e6, 1e6, allow_nan=False) | st.just(math.nan),  # not finite: NaN
+            st.floats(-1e6, 1e6, allow_nan=False),
+            st.floats(0, 1e6, allow_nan=False),
+        ),
+        min_size=1,
+        max_size=6,
+    ),
+    plot=st.sampled_from([False, False, False, True]),
+)
+def test_history_never_refuses_what_watch_writes(capsys, steps, plot):
+    from inspect_validate.watch.history import CycleRecord, History
+
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        history = History(tmp / "h.sqlite", station="/s.yaml", golden="/g.json")
+        for n, (status, value, target, half) in enumerate(steps):
+            ewma = 0.0 if not math.isfinite(value) else value / 2
+            points = (
+                {}
+                if status == "error"
+                else {
+                    ("amber", "class", "A", "mean"): (
+                        value,
+                        ewma,
+                        target - abs(half),
+                        target + abs(half),
+                    )
+                }
+            )
+            reason = "timeout" if status == "error" else None
+            history.commit(
+                CycleRecord(n, 1.7e9 + n, 0.5, status, status != "fail", reason, None, None), points
+            )
+        history.close()
+        args = ["history", tmp / "h.sqlite", "--csv", tmp / "h.csv"]
+        code, out, err = run([*args, *(["--plot", tmp / "p"] if plot else [])], capsys)
+        assert_clean(code, out, err, allowed=(0,))
+        assert len((tmp / "h.csv").read_text().splitlines()) == 1 + len(steps)

@@ -17,15 +17,6 @@ from conftest import copy_station, run_cli
 from inspect_validate.watch.drift import LAMBDA, Chart, ewma_arl, ewma_limit
 
 
-@pytest.fixture(scope="module")
-def golden(tmp_path_factory):
-    """A golden file trained on five captures of the shipped simulated station."""
-    folder = tmp_path_factory.mktemp("golden")
-    path = copy_station(folder)
-    assert run_cli(["train", path, "--out", folder / "golden.json", "--repeats", 5]) == 0
-    return folder / "golden.json"
-
-
 def _watch(cli, tmp_path, golden, changes, *args, camera=None):
     doc_camera = {"changes": changes}
     path = copy_station(tmp_path, world=doc_camera)
@@ -72,25 +63,6 @@ def test_ewma_in_control_run_length_by_simulation():
                 break
         lengths.append(t)
     assert 0.85 * 100 < np.mean(lengths) < 1.06 * 100
-
-
-def test_watch_flags_led_ageing_within_three_cycles_with_its_cause(cli, tmp_path, golden):
-    # The amber LED loses 1 % per cycle from cycle 8: 8 stable cycles, then ageing.
-    changes = [{"start": 8, "percent_per_cycle": {1: -1.0}}]
-    code, out, err, db = _watch(cli, tmp_path, golden, changes, "--cycles", 12)
-    assert code == 1, out + err  # the last cycle drifted
-    rows = _rows(db)
-    assert [r[0] for r in rows] == list(range(12))
-    assert all(r[1] == "pass" for r in rows[:8]), rows  # no false alarm while stable
-    first = next(r for r in rows if r[1] != "pass")
-    assert 8 <= first[0] <= 10, rows  # detected within 2 cycles of the onset
-    assert first[1] == "drift" and "amber dimmer" in first[3] and "LED ageing" in first[3]
-    status = json.loads((tmp_path / "w" / "status.json").read_text())
-    assert status["cycle"] == 11 and status["status"] == "drift"
-    # frames kept: cycle 0 (every 10th passing) and every drifting cycle
-    kept = sorted(p.name for p in (tmp_path / "w").glob("cycle-*"))
-    assert kept[0] == "cycle-000000" and "cycle-000001" not in kept
-    assert f"cycle-{first[0]:06d}" in kept
 
 
 def test_watch_attributes_an_exposure_change_to_every_illumination(cli, tmp_path, golden):
@@ -215,23 +187,57 @@ def test_a_kill_mid_cycle_loses_nothing_committed(tmp_path, golden):
 
 
 def test_sigint_ends_the_watch_after_the_cycle(tmp_path, golden):
+    """A running watch: its HTTP status and its history are read while it runs (WAL), and
+    SIGINT ends it after the cycle, committed."""
+    import urllib.request
+
     path = copy_station(tmp_path)
     db = tmp_path / "w" / "history.sqlite"
     args = [sys.executable, "-m", "inspect_validate", "watch", str(path), "--golden", str(golden)]
     proc = subprocess.Popen(
-        [*args, "--db", str(db), "--interval", "0"], stdout=subprocess.PIPE, text=True
+        [*args, "--db", str(db), "--interval", "0", "--http", "0"],
+        stdout=subprocess.PIPE,
+        text=True,
     )
-    line = ""
-    while "cycle 0:" not in line:
-        line = proc.stdout.readline()
-        assert line, "watch ended before its first cycle"
-    proc.send_signal(signal.SIGINT)
-    out, _ = proc.communicate(timeout=60)
+    try:
+        lines = [proc.stdout.readline()]
+        while "cycle 0:" not in lines[-1]:
+            lines.append(proc.stdout.readline())
+            assert lines[-1], "watch ended before its first cycle"
+        url = next(w for line in lines for w in line.split() if w.endswith("/status"))
+        doc = json.loads(urllib.request.urlopen(url, timeout=10).read())
+        assert doc["station"] == str(path) and doc["cycle"] >= 0 and doc["status"] == "pass"
+        assert run_cli(["history", db]) == 0
+        proc.send_signal(signal.SIGINT)
+        out, _ = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
     assert proc.returncode == 130
     assert "stopped after cycle" in out
     with sqlite3.connect(db) as con:
         cycles = [r[0] for r in con.execute("SELECT cycle FROM cycles")]
-    assert cycles == list(range(len(cycles))) and 1 <= len(cycles) <= 2
+    assert cycles == list(range(len(cycles))) and len(cycles) >= 1
+
+
+def test_terminal_view_redraws_a_table(capsys, golden):
+    from inspect_validate.cli import _show_cycle
+    from inspect_validate.watch.drift import DriftState
+    from inspect_validate.watch.history import CycleRecord
+    from inspect_validate.watch.loop import CycleOutcome
+
+    key = ("amber", "class", "A", "mean")
+    state = DriftState({key: (158.0, 159.5, 161.8, 162.6)}, (key,), "amber dimmer")
+    record = CycleRecord(4, 1.7e9, 0.9, "drift", True, None, "amber dimmer", None)
+    outcome = CycleOutcome(record, state, None, 0)
+    _show_cycle(outcome, live=True)
+    out = capsys.readouterr().out
+    assert out.startswith("\x1b[H\x1b[2J")  # drawn over the last one
+    assert "cycle 4: DRIFT — amber dimmer" in out
+    (row,) = [line for line in out.splitlines() if line.startswith("amber")]
+    assert row.split() == ["amber", "A", "mean", "158", "159.5", "161.8", "…", "162.6", "ALARM"]
+    _show_cycle(outcome, live=False)
+    out = capsys.readouterr().out
+    assert "\x1b" not in out and out.count("\n") == 1 and "cycle 4: DRIFT" in out
 
 
 def test_status_over_http_and_prometheus():

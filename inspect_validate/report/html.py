@@ -6,8 +6,9 @@ regions outlined, the class histograms with their Gaussian and kernel
 densities, and predicted against measured per class; then predicted against
 measured across illuminations with the acceptance tolerances as bands, the
 spectra with the station's lights marked among the scene's candidates, and the
-per-wavelength ε of the classes' reflectances. Figures are PNGs embedded as
-``data:`` URIs; the page has no script and loads nothing.
+per-wavelength ε of the classes' reflectances; given a ``watch`` history, its
+trends last. Figures are PNGs embedded as ``data:`` URIs; the page has no
+script and loads nothing.
 """
 
 from __future__ import annotations
@@ -38,15 +39,17 @@ img { max-width: 100%; display: block; margin: 0.5em 0; }
 """
 
 
-def write_verification_html(v, path: str | Path) -> Path:
+def write_verification_html(v, path: str | Path, *, history=None) -> Path:
     """Write :func:`verification_html` of ``v`` to ``path`` (atomically)."""
     from inspect_validate.files import atomic_write
 
-    return atomic_write(path, verification_html(v).encode())
+    return atomic_write(path, verification_html(v, history=history).encode())
 
 
-def verification_html(v) -> str:
-    """The page of a :class:`~inspect_validate.verification.Verification`, as text."""
+def verification_html(v, *, history=None) -> str:
+    """The page of a :class:`~inspect_validate.verification.Verification`, as text;
+    ``history``, a :class:`~inspect_validate.watch.history.HistoryLog` of the station,
+    adds its trends."""
     from inspect_validate.report.plots import plot_agreement
 
     e = html.escape
@@ -89,6 +92,8 @@ def verification_html(v) -> str:
         _comparisons_table(v),
     ]
     parts += _spectra(v)
+    if history is not None:
+        parts += _trends(history)
     parts.append("</body></html>")
     return "\n".join(parts)
 
@@ -333,4 +338,34 @@ def _spectra(v) -> list[str]:
             alt="classification error per wavelength",
         ),
     ]
+    return out
+
+
+def _trends(log) -> list[str]:
+    """The watch history's statuses and charts: the overview, the 12 charts furthest from
+    their target (off target in half-widths of the band), and every illumination's charts."""
+    from inspect_validate.report.history import trend_table
+    from inspect_validate.report.plots import plot_history_charts, plot_history_overview
+
+    e = html.escape
+    out = ["<h2>Trends (watch history)</h2>"]
+    counts = ", ".join(f"{n} {s}" for s, n in log.counts().items())
+    out.append(
+        f'<p class="meta">history {e(str(log.path))}: {len(log.cycles)} cycles ({counts})</p>'
+    )
+    if not log.cycles:
+        return out
+    last = log.cycles[-1]
+    out.append(
+        f"<p>last cycle {last.cycle}: {e(last.status.upper())}"
+        + (f" — {e(last.cause)}" if last.cause else "")
+        + "</p>"
+    )
+    if not log.charts:
+        return out
+    out.append(_figure(plot_history_overview, log, alt="status per cycle and charts off target"))
+    header, cells, alarmed = trend_table(log, limit=12)
+    out.append(_table(header, cells, failed=alarmed))
+    for ill in sorted({k[0] for k in log.charts}):
+        out.append(_figure(plot_history_charts, log, ill, alt=f"drift charts of {ill}"))
     return out

@@ -1,6 +1,7 @@
 """PNG plots: component spectra, per-wavelength errors, ranked separation (a prediction);
 frames with their regions, class histograms, predicted against measured (a verification);
-the mixed spectrum and the path from the best single channel to the mix (a design).
+the mixed spectrum and the path from the best single channel to the mix (a design);
+a watch history's trends.
 
 Each function draws to ``target``, a path or a binary file object (the HTML
 report embeds the bytes). matplotlib is imported here only (Agg backend, no
@@ -8,6 +9,9 @@ display needed).
 """
 
 from __future__ import annotations
+
+import math
+from pathlib import Path
 
 import numpy as np
 
@@ -18,6 +22,8 @@ __all__ = [
     "plot_design_path",
     "plot_design_spectrum",
     "plot_frame_regions",
+    "plot_history_charts",
+    "plot_history_overview",
     "plot_ranked_separation",
     "plot_spectral_errors",
 ]
@@ -405,3 +411,80 @@ def plot_design_path(design, path):
     left.set_title("classification error along the path")
     right.set_title("contrast-to-noise ratio along the path")
     return _save(fig, path)
+
+
+_STATUS_COLOURS = {"pass": "#2e8b57", "drift": "#e69500", "fail": "#c8102e", "error": "#777777"}
+
+
+def plot_history_overview(log, target):
+    """A watch history at a glance: each cycle's status, and per illumination every chart's
+    smoothed value off its golden target in band half-widths (beyond ±1 is an alarm;
+    charts that alarmed are labelled, the others grey)."""
+    plt = _pyplot()
+    illuminations = sorted({k[0] for k in log.charts})
+    fig, axes = plt.subplots(
+        1 + len(illuminations),
+        1,
+        figsize=(10, 1.2 + 2.6 * len(illuminations)),
+        sharex=True,
+        gridspec_kw={"height_ratios": [0.35] + [1] * len(illuminations)},
+        squeeze=False,
+    )
+    axes = axes[:, 0]
+    strip = axes[0]
+    cycles = np.array([r.cycle for r in log.cycles])
+    for status, colour in _STATUS_COLOURS.items():
+        at = cycles[[r.status == status for r in log.cycles]] if cycles.size else cycles
+        if at.size:
+            strip.bar(at, 1.0, width=1.0, color=colour, label=f"{status} ({at.size})")
+    strip.set_yticks([])
+    strip.set_title(f"{Path(log.station).name}: status per cycle", fontsize=9)
+    strip.legend(loc="upper left", bbox_to_anchor=(1.0, 1.3), fontsize=7, frameon=False)
+    for ax, ill in zip(axes[1:], illuminations, strict=True):
+        k = 0
+        for key, s in sorted(log.charts.items()):
+            if key[0] != ill:
+                continue
+            if s.alarm.any():
+                ax.plot(s.cycle, s.deviation, color=_colour(k), lw=1.4, label=f"{key[2]} {key[3]}")
+                k += 1
+            else:
+                ax.plot(s.cycle, s.deviation, color="0.7", lw=0.8)
+        ax.axhspan(-1, 1, color="#2e8b57", alpha=0.07)
+        for y in (-1, 1):
+            ax.axhline(y, color="k", ls="--", lw=0.8)
+        ax.set_ylabel("off target [band]")
+        ax.set_title(f"illumination {ill}", fontsize=9)
+        if k:
+            ax.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7, frameon=False)
+    axes[-1].set_xlabel("cycle")
+    return _save(fig, target)
+
+
+def plot_history_charts(log, illumination: str, target):
+    """The EWMA charts of one illumination: each cycle's value (dots), the smoothed value
+    (line), the control band around the golden target (shaded) and alarms (red)."""
+    plt = _pyplot()
+    charts = sorted((k, s) for k, s in log.charts.items() if k[0] == illumination)
+    ncols = min(4, max(len(charts), 1))
+    nrows = max(math.ceil(len(charts) / ncols), 1)
+    fig, axes = plt.subplots(
+        nrows, ncols, figsize=(3.2 * ncols, 2.4 * nrows + 0.4), sharex=True, squeeze=False
+    )
+    units = {"mean": "DN", "variance": "DN²", "snr_db": "dB", "log_error": "log₁₀ ε"}
+    for ax, (key, s) in zip(axes.flat, charts, strict=False):
+        ax.fill_between(s.cycle, s.low, s.high, color="#2e8b57", alpha=0.12, step="mid")
+        ax.axhline(s.target, color="#2e8b57", lw=0.8)
+        ax.plot(s.cycle, s.value, ".", color="0.55", ms=3)
+        ax.plot(s.cycle, s.ewma, color="C0", lw=1.3)
+        alarm = s.alarm
+        ax.plot(s.cycle[alarm], s.ewma[alarm], "o", color="#c8102e", ms=3.5)
+        ax.set_title(f"{key[2]} {key[3]}", fontsize=8)
+        ax.set_ylabel(units.get(key[3], ""), fontsize=7)
+        ax.tick_params(labelsize=7)
+    for ax in list(axes.flat)[len(charts) :]:
+        ax.set_visible(False)
+    for ax in axes[-1]:
+        ax.set_xlabel("cycle", fontsize=8)
+    fig.suptitle(f"illumination {illumination}: value, EWMA, control band, alarms", fontsize=10)
+    return _save(fig, target, rect=(0, 0, 1, 0.96))

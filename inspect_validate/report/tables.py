@@ -20,14 +20,17 @@ def format_error(value: float | None, log_value: float | None = None) -> str:
     return f"{value:.2e}"
 
 
-def render_table(header: list[str], rows: list[list[str]]) -> str:
+def render_table(header: list[str], rows: list[list[str]], *, left=(0,)) -> str:
+    """Columns padded to their widest cell: text columns (indices ``left``) flush left,
+    the others (numbers) flush right."""
     widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
 
     def line(r):
         cells = (
-            c.rjust(w) if i else c.ljust(w) for i, (c, w) in enumerate(zip(r, widths, strict=True))
+            c.ljust(w) if i in left else c.rjust(w)
+            for i, (c, w) in enumerate(zip(r, widths, strict=True))
         )
-        return "  ".join(cells)
+        return "  ".join(cells).rstrip()
 
     return "\n".join([line(header), line(["-" * w for w in widths]), *map(line, rows)])
 

@@ -13,19 +13,35 @@ Tables::
 
 ``status`` is ``pass`` (every check passed, no drift), ``fail`` (a check
 failed), ``drift`` (checks passed, a chart alarmed) or ``error`` (no
-measurement: a device fault, with ``reason``).
+measurement: a device fault, with ``reason``). A point alarmed when its
+smoothed value lies outside [low, high]; the chart's target is their middle.
+
+:func:`read_history` reads a history back (``inspect-validate history``, the
+trends in ``verify``'s report) without writing to it, also while ``watch``
+appends to it.
 """
 
 from __future__ import annotations
 
+import math
 import sqlite3
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from inspect_validate.errors import InputError
 
-__all__ = ["HISTORY_SCHEMA_VERSION", "STATUSES", "CycleRecord", "History"]
+__all__ = [
+    "HISTORY_SCHEMA_VERSION",
+    "STATUSES",
+    "ChartSeries",
+    "CycleRecord",
+    "History",
+    "HistoryLog",
+    "read_history",
+]
 
 HISTORY_SCHEMA_VERSION = 1
 STATUSES = ("pass", "fail", "drift", "error")
@@ -90,9 +106,7 @@ class History:
             self.db.executescript(_SCHEMA)
             meta = dict(self.db.execute("SELECT key, value FROM meta"))
         except sqlite3.DatabaseError as exc:
-            raise InputError(
-                f"not a watch history database ({exc}); give another --db", source=str(path)
-            ) from None
+            raise _not_history(path, exc, "give another --db") from None
         if not meta:
             meta = {
                 "schema_version": str(HISTORY_SCHEMA_VERSION),
@@ -155,3 +169,161 @@ class History:
             "ORDER BY cycle DESC LIMIT 1) FROM points p GROUP BY illumination, kind, name, quantity"
         )
         return {tuple(r[:4]): (r[5], r[4]) for r in rows}
+
+
+def _not_history(path, exc, todo: str) -> InputError:
+    return InputError(f"not a watch history database ({exc}); {todo}", source=str(path))
+
+
+@dataclass(frozen=True)
+class ChartSeries:
+    """One chart over the cycles that measured it (arrays of equal length)."""
+
+    cycle: np.ndarray  # int
+    value: np.ndarray  # the cycle's measured value (NaN: not finite that cycle)
+    ewma: np.ndarray
+    low: np.ndarray
+    high: np.ndarray
+
+    @property
+    def target(self) -> float:
+        """The golden mean the chart is centred on."""
+        return float((self.low[-1] + self.high[-1]) / 2)
+
+    @property
+    def alarm(self) -> np.ndarray:
+        return (self.ewma < self.low) | (self.ewma > self.high)
+
+    @property
+    def deviation(self) -> np.ndarray:
+        """(EWMA − target) in half-widths of the band: beyond ±1 is an alarm."""
+        with np.errstate(over="ignore", invalid="ignore"):  # read_history bounds them
+            half = (self.high - self.low) / 2
+            centre = (self.high + self.low) / 2
+            return np.divide(self.ewma - centre, half, out=np.zeros_like(half), where=half > 0)
+
+
+@dataclass(frozen=True)
+class HistoryLog:
+    """A history as read back: its cycles in order and its charts by key
+    (illumination, "class" | "comparison", name, quantity)."""
+
+    path: Path
+    station: str
+    golden: str
+    created: float  # Unix time, s
+    cycles: tuple[CycleRecord, ...]
+    charts: dict[tuple, ChartSeries]
+    total: int  # cycles in the database (``cycles`` may be the last few)
+
+    def counts(self) -> dict[str, int]:
+        """Cycles read per status."""
+        return {s: sum(r.status == s for r in self.cycles) for s in STATUSES}
+
+
+def read_history(path: str | Path, *, last: int | None = None) -> HistoryLog:
+    """Read the history at ``path``: every cycle, or the ``last`` ones.
+
+    Raises
+    ------
+    InputError
+        No such file, not a history ``watch`` wrote, or a damaged one (a cycle or a
+        chart point whose fields do not hold what ``watch`` writes).
+    """
+    path = Path(path)
+    todo = "give the --db file 'watch' wrote"
+    if not path.is_file():
+        raise InputError(f"no such history database; {todo}", source=str(path))
+    # mode=rw: never creates a file, and reads a WAL database that watch is writing.
+    uri = path.resolve().as_uri() + "?mode=rw"
+    try:
+        db = sqlite3.connect(uri, uri=True, timeout=10.0)
+    except sqlite3.DatabaseError as exc:
+        raise _not_history(path, exc, todo) from None
+    try:
+        meta = dict(db.execute("SELECT key, value FROM meta"))
+        (total,) = db.execute("SELECT COUNT(*) FROM cycles").fetchone()
+        (since,) = db.execute(
+            "SELECT MIN(cycle) FROM (SELECT cycle FROM cycles ORDER BY cycle DESC LIMIT ?)",
+            (-1 if last is None else last,),
+        ).fetchone()
+        cycles = db.execute(
+            "SELECT cycle, started, seconds, status, passed, reason, cause, frames FROM cycles "
+            "WHERE cycle >= ? ORDER BY cycle",
+            (since,),
+        ).fetchall()
+        rows = db.execute(
+            "SELECT illumination, kind, name, quantity, cycle, value, ewma, low, high "
+            "FROM points WHERE cycle IN (SELECT cycle FROM cycles WHERE cycle >= ?) "
+            "ORDER BY illumination, kind, name, quantity, cycle",
+            (since,),
+        ).fetchall()
+    except sqlite3.DatabaseError as exc:
+        raise _not_history(path, exc, todo) from None
+    finally:
+        db.close()
+    try:
+        created = float(meta["created"])
+        station = str(meta["station"])
+        if not math.isfinite(created):
+            raise ValueError
+    except (KeyError, ValueError, TypeError):
+        raise _not_history(path, "no station or start time in its meta table", todo) from None
+    return HistoryLog(
+        path=path,
+        station=station,
+        golden=str(meta.get("golden") or ""),
+        created=created,
+        cycles=tuple(_cycle_record(path, row) for row in cycles),
+        charts=_chart_series(path, rows),
+        total=int(total),
+    )
+
+
+def _damaged(path, what: str) -> InputError:
+    return InputError(
+        f"damaged history: {what}; restore a backup or start a new --db", source=str(path)
+    )
+
+
+def _cycle_record(path, row) -> CycleRecord:
+    cycle, started, seconds, status, passed, reason, cause, frames = row
+    texts = (reason, cause, frames)
+    if not (
+        isinstance(cycle, int)
+        and all(isinstance(x, (int, float)) and math.isfinite(x) for x in (started, seconds))
+        and 0 <= started < 1e11  # Unix time before the year 5000
+        and seconds >= 0
+        and status in STATUSES
+        and passed in (None, 0, 1)
+        and all(x is None or isinstance(x, str) for x in texts)
+    ):
+        raise _damaged(path, f"cycle {cycle!r} holds {row!r}")
+    return CycleRecord(
+        cycle,
+        float(started),
+        float(seconds),
+        status,
+        None if passed is None else bool(passed),
+        *texts,
+    )
+
+
+def _chart_series(path, rows) -> dict[tuple, ChartSeries]:
+    """Rows sorted by chart key then cycle → the charts."""
+    charts, start = {}, 0
+    for i in range(1, len(rows) + 1):
+        if i < len(rows) and rows[i][:4] == rows[start][:4]:
+            continue
+        key = tuple(rows[start][:4])
+        try:
+            if not all(isinstance(k, str) for k in key):
+                raise ValueError
+            block = np.array([r[4:] for r in rows[start:i]], dtype=float)  # NULL → NaN
+        except (ValueError, TypeError, OverflowError):
+            raise _damaged(path, f"chart {key!r} holds values that are not numbers") from None
+        if not (np.abs(block[:, 2:]) < 1e100).all():  # watch writes finite, physical values
+            raise _damaged(path, f"chart {key!r} has a smoothed value or band that is not finite")
+        charts[key] = ChartSeries(block[:, 0].astype(int), *(block[:, k] for k in range(1, 5)))
+        start = i
+    return charts

@@ -1,0 +1,243 @@
+"""A watch history read back: `inspect-validate history` prints, plots and exports what
+`watch` committed (checked against the database itself), `verify --history` puts the
+trends into its report, and a history that is missing, foreign or damaged is refused."""
+
+import csv
+import io
+import math
+import sqlite3
+from contextlib import redirect_stdout
+from datetime import datetime
+from types import SimpleNamespace
+
+import pytest
+import yaml
+from conftest import copy_station, run_cli
+
+
+@pytest.fixture(scope="module")
+def aged(tmp_path_factory, golden):
+    """12 cycles of `watch` on the simulated station: its amber LED loses 1 % per cycle
+    from cycle 8, and its camera times out in cycle 3."""
+    folder = tmp_path_factory.mktemp("aged")
+    changes = [
+        {"start": 8, "percent_per_cycle": {1: -1.0}},
+        {"start": 3, "stop": 4, "camera_timeout": True},
+    ]
+    path = copy_station(folder, world={"changes": changes})
+    doc = yaml.safe_load(path.read_text())
+    doc["camera"]["timeout_s"] = 0.2
+    path.write_text(yaml.safe_dump(doc, sort_keys=False))
+    db = folder / "w" / "history.sqlite"
+    out = io.StringIO()
+    with redirect_stdout(out):
+        code = run_cli(
+            [
+                "watch",
+                path,
+                "--golden",
+                golden,
+                "--db",
+                db,
+                "--interval",
+                0,
+                "--retry-delay",
+                0,
+                "--cycles",
+                12,
+            ]
+        )
+    return SimpleNamespace(station=path, db=db, code=code, out=out.getvalue(), folder=folder)
+
+
+def _sql(db, query):
+    with sqlite3.connect(db) as con:
+        return con.execute(query).fetchall()
+
+
+def test_watch_flags_led_ageing_from_the_cli(aged):
+    assert aged.code == 1, aged.out  # the last cycle drifted
+    rows = _sql(aged.db, "SELECT cycle, status, reason, cause FROM cycles ORDER BY cycle")
+    assert [r[0] for r in rows] == list(range(12))
+    # no false alarm while stable; the timeout is an error cycle, none lost
+    assert [r[1] for r in rows[:8]] == ["pass"] * 3 + ["error"] + ["pass"] * 4, rows
+    assert "timeout" in rows[3][2]
+    first = next(r for r in rows[4:] if r[1] != "pass")
+    assert 8 <= first[0] <= 10, rows  # detected within 2 cycles of the onset
+    assert first[1] == "drift" and "amber dimmer" in first[3] and "LED ageing" in first[3]
+    assert f"cycle {first[0]}: DRIFT — illumination amber dimmer" in aged.out
+    assert all(r[1] == "drift" for r in rows[first[0] :]), rows
+    # frames kept: cycle 0 (every 10th passing), the error and every drifting cycle
+    kept = sorted(p.name for p in (aged.folder / "w").glob("cycle-*"))
+    assert kept[0] == "cycle-000000" and "cycle-000001" not in kept
+    assert f"cycle-{first[0]:06d}" in kept
+
+
+def test_history_prints_the_trend(cli, aged):
+    code, out, err = cli(["history", aged.db, "--recent", 4])
+    assert code == 0, err
+    assert "cycles 0–11," in out
+    counts = dict(_sql(aged.db, "SELECT status, COUNT(*) FROM cycles GROUP BY status"))
+    assert f"{counts['pass']} pass" in out and "1 error" in out
+    assert f"{counts['drift']} drift" in out
+    assert "last: cycle 11 DRIFT — illumination amber dimmer" in out
+    recent = out.split("recent cycles")[1].split("trends")[0]
+    assert [line.split()[0] for line in recent.strip().splitlines()[2:]] == ["8", "9", "10", "11"]
+    # the trend table, furthest from target first: the amber means, alarmed since the
+    # cycle the database says their run of alarms began
+    table = out.split("trends")[1].strip().splitlines()[3:]
+    top = {line.split()[1] + " " + line.split()[2] for line in table[:3]}
+    assert top == {"A mean", "B mean", "C mean"} and all(
+        line.startswith("amber:") for line in table[:3]
+    )
+    alarms = _sql(
+        aged.db,
+        "SELECT cycle, ewma < low OR ewma > high FROM points WHERE illumination = 'amber' "
+        "AND name = 'A' AND quantity = 'mean' ORDER BY cycle",
+    )
+    onset = max(c for c, a in alarms if not a) + 1
+    row = next(line for line in table if line.startswith("amber: A mean")).split()
+    assert row[-2:] == [str(sum(a for _, a in alarms)), str(onset)]
+    assert all(line.split()[-1] == "—" for line in table if line.startswith("red:"))
+
+
+def test_history_exports_every_point_once(cli, aged, tmp_path):
+    code, _, err = cli(["history", aged.db, "--csv", tmp_path / "h.csv"])
+    assert code == 0, err
+    with open(tmp_path / "h.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    points = _sql(
+        aged.db,
+        "SELECT cycle, illumination, kind, name, quantity, value, ewma, low, high FROM points",
+    )
+    errors = _sql(aged.db, "SELECT cycle, reason FROM cycles WHERE status = 'error'")
+    assert len(rows) == len(points) + len(errors)
+    (error,) = [r for r in rows if r["status"] == "error"]
+    assert (int(error["cycle"]), error["reason"]) == errors[0] and error["illumination"] == ""
+    by_key = {
+        (int(r["cycle"]), r["illumination"], r["kind"], r["name"], r["quantity"]): r
+        for r in rows
+        if r["illumination"]
+    }
+    assert len(by_key) == len(points)  # none twice
+    for cycle, ill, kind, name, quantity, *numbers in points:
+        r = by_key[cycle, ill, kind, name, quantity]
+        assert [float(r[k]) for k in ("value", "ewma", "low", "high")] == numbers  # exact
+        _value, ewma, low, high = numbers
+        assert r["alarm"] == str(int(not low <= ewma <= high))
+    started = dict(_sql(aged.db, "SELECT cycle, started FROM cycles"))
+    for r in rows:
+        when = datetime.fromisoformat(r["time"])
+        assert when.tzinfo is not None
+        assert when.timestamp() == pytest.approx(started[int(r["cycle"])], abs=1e-3)
+
+
+def test_history_plots_the_trends(cli, aged, tmp_path):
+    from matplotlib.image import imread
+
+    code, _out, err = cli(["history", aged.db, "--plot", tmp_path / "plots"])
+    assert code == 0, err
+    names = sorted(p.name for p in (tmp_path / "plots").iterdir())
+    assert names == ["history-amber.png", "history-overview.png", "history-red.png"]
+    amber, red = (imread(tmp_path / "plots" / f"history-{n}.png") for n in ("amber", "red"))
+    assert amber.shape[0] > 400 and amber.shape[1] > 800
+    assert amber.shape != red.shape or (amber != red).any()
+
+
+def test_history_last_cycles(cli, aged, tmp_path):
+    code, out, err = cli(["history", aged.db, "--last", 3, "--csv", tmp_path / "h.csv"])
+    assert code == 0, err
+    assert "cycles 9–11 (the last 3 of 12)" in out
+    with open(tmp_path / "h.csv", newline="") as f:
+        assert {r["cycle"] for r in csv.DictReader(f)} == {"9", "10", "11"}
+    code, out, _ = cli(["history", aged.db, "--last", 100, "--recent", 0])
+    assert code == 0 and "cycles 0–11," in out and "recent cycles" not in out
+
+
+def test_verify_report_carries_the_history(cli, aged, tmp_path):
+    code, out, err = cli(["verify", aged.station, "--report", tmp_path / "r", "--history", aged.db])
+    assert code == 0, out + err
+    page = (tmp_path / "r" / "report.html").read_text()
+    trends = page.split("<h2>Trends (watch history)</h2>")[1]
+    assert "LED ageing" in trends and "amber: A mean" in trends
+    assert trends.count("data:image/png") == 3  # the overview and each illumination
+
+
+def test_verify_refuses_another_stations_history(cli, aged, tmp_path):
+    other = copy_station(tmp_path)
+    code, _, err = cli(["verify", other, "--report", tmp_path / "r", "--history", aged.db])
+    assert code == 2 and "history was kept of station" in err, err
+    assert not (tmp_path / "r" / "frames").exists()  # refused before capturing
+    code, _, err = cli(["verify", aged.station, "--history", aged.db])
+    assert code == 2 and "--report" in err
+
+
+def _lenient(path, cycles=(), points=(), meta=None):
+    """A database shaped like a history but without its types and constraints."""
+    con = sqlite3.connect(path)
+    con.executescript(
+        "CREATE TABLE meta (key, value); CREATE TABLE cycles (cycle, started, seconds, status, "
+        "passed, reason, cause, frames); CREATE TABLE points (cycle, illumination, kind, name, "
+        "quantity, value, ewma, low, high);"
+    )
+    meta = {"station": "/s.yaml", "golden": "/g.json", "created": "1.7e9"} if meta is None else meta
+    con.executemany("INSERT INTO meta VALUES (?, ?)", list(meta.items()))
+    con.executemany("INSERT INTO cycles VALUES (?, ?, ?, ?, ?, ?, ?, ?)", cycles)
+    con.executemany("INSERT INTO points VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)", points)
+    con.commit()
+    con.close()
+    return path
+
+
+GOOD_CYCLE = (0, 1.7e9, 1.0, "pass", 1, None, None, None)
+GOOD_POINT = (0, "amber", "class", "A", "mean", 160.0, 160.0, 159.0, 161.0)
+
+
+@pytest.mark.parametrize(
+    ("make", "message"),
+    [
+        (lambda p: p, "no such history database"),
+        (lambda p: p.write_bytes(b"\x00junk" * 100) and p, "not a watch history database"),
+        (lambda p: _lenient(p, meta={}), "no station or start time"),
+        (lambda p: _lenient(p, meta={"station": "s", "created": "never"}), "no station"),
+        (lambda p: _lenient(p, [(0, "noon", 1.0, "pass", 1, None, None, None)]), "damaged"),
+        (lambda p: _lenient(p, [(0, math.inf, 1.0, "pass", 1, None, None, None)]), "damaged"),
+        (lambda p: _lenient(p, [(0, 1.7e9, 1.0, "weird", 1, None, None, None)]), "damaged"),
+        (lambda p: _lenient(p, [(0, 1.7e9, -1.0, "pass", 7, None, None, None)]), "damaged"),
+        (lambda p: _lenient(p, [GOOD_CYCLE], [(*GOOD_POINT[:5], "x", 1, 0, 2)]), "damaged"),
+        (lambda p: _lenient(p, [GOOD_CYCLE], [(*GOOD_POINT[:6], math.inf, 0, 2)]), "damaged"),
+        (lambda p: _lenient(p, [GOOD_CYCLE], [(*GOOD_POINT[:7], None, 2)]), "damaged"),
+        (
+            lambda p: _lenient(p, [GOOD_CYCLE], [(0, 5, "class", "A", "mean", 1, 1, 0, 2)]),
+            "damaged",
+        ),
+    ],
+)
+def test_history_refuses_what_watch_did_not_write(cli, tmp_path, make, message):
+    db = tmp_path / "h.sqlite"
+    make(db)
+    code, _out, err = cli(["history", db, "--csv", tmp_path / "h.csv"])
+    assert code == 2 and message in err and str(db) in err, err
+    assert "Traceback" not in err and not (tmp_path / "h.csv").exists()
+    if message == "no such history database":
+        assert not db.exists()  # reading never creates one
+
+
+def test_history_of_a_lenient_but_sound_database(cli, tmp_path):
+    """What watch writes, held in untyped columns (another SQLite tool's copy), with a
+    value that was not finite that cycle: read, not refused."""
+    db = _lenient(tmp_path / "h.sqlite", [GOOD_CYCLE], [(*GOOD_POINT[:5], None, 160.0, 159, 161)])
+    code, out, err = cli(["history", db, "--csv", tmp_path / "h.csv", "--plot", tmp_path / "p"])
+    assert code == 0, err
+    assert "amber: A mean" in out and "nan" not in out.lower()
+    row = next(csv.DictReader(open(tmp_path / "h.csv", newline="")))
+    assert row["value"] == "" and row["ewma"] == "160.0"
+
+
+def test_history_with_no_cycle_yet(cli, tmp_path):
+    from inspect_validate.watch.history import History
+
+    History(tmp_path / "h.sqlite", station="/s.yaml", golden=None).close()
+    code, out, err = cli(["history", tmp_path / "h.sqlite", "--plot", tmp_path / "p"])
+    assert code == 0, err
+    assert "no cycles yet" in out and "plots: none" in out
