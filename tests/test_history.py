@@ -14,14 +14,16 @@ import pytest
 import yaml
 from conftest import copy_station, run_cli
 
+ONSET = 20  # stable cycles before the LED starts ageing
+
 
 @pytest.fixture(scope="module")
 def aged(tmp_path_factory, golden):
-    """12 cycles of `watch` on the simulated station: its amber LED loses 1 % per cycle
-    from cycle 8, and its camera times out in cycle 3."""
+    """24 cycles of `watch` on the simulated station: its amber LED loses 1 % per cycle
+    from cycle 20, and its camera times out in cycle 3."""
     folder = tmp_path_factory.mktemp("aged")
     changes = [
-        {"start": 8, "percent_per_cycle": {1: -1.0}},
+        {"start": ONSET, "percent_per_cycle": {1: -1.0}},
         {"start": 3, "stop": 4, "camera_timeout": True},
     ]
     path = copy_station(folder, world={"changes": changes})
@@ -44,7 +46,7 @@ def aged(tmp_path_factory, golden):
                 "--retry-delay",
                 0,
                 "--cycles",
-                12,
+                ONSET + 4,
             ]
         )
     return SimpleNamespace(station=path, db=db, code=code, out=out.getvalue(), folder=folder)
@@ -58,12 +60,13 @@ def _sql(db, query):
 def test_watch_flags_led_ageing_from_the_cli(aged):
     assert aged.code == 1, aged.out  # the last cycle drifted
     rows = _sql(aged.db, "SELECT cycle, status, reason, cause FROM cycles ORDER BY cycle")
-    assert [r[0] for r in rows] == list(range(12))
+    assert [r[0] for r in rows] == list(range(ONSET + 4))
     # no false alarm while stable; the timeout is an error cycle, none lost
-    assert [r[1] for r in rows[:8]] == ["pass"] * 3 + ["error"] + ["pass"] * 4, rows
+    stable = ["pass"] * 3 + ["error"] + ["pass"] * (ONSET - 4)
+    assert [r[1] for r in rows[:ONSET]] == stable, rows
     assert "timeout" in rows[3][2]
     first = next(r for r in rows[4:] if r[1] != "pass")
-    assert 8 <= first[0] <= 10, rows  # detected within 2 cycles of the onset
+    assert ONSET <= first[0] <= ONSET + 2, rows  # detected within 2 cycles of the onset
     assert first[1] == "drift" and "amber dimmer" in first[3] and "LED ageing" in first[3]
     assert f"cycle {first[0]}: DRIFT — illumination amber dimmer" in aged.out
     assert all(r[1] == "drift" for r in rows[first[0] :]), rows
@@ -76,13 +79,13 @@ def test_watch_flags_led_ageing_from_the_cli(aged):
 def test_history_prints_the_trend(cli, aged):
     code, out, err = cli(["history", aged.db, "--recent", 4])
     assert code == 0, err
-    assert "cycles 0–11," in out
+    assert "cycles 0–23," in out
     counts = dict(_sql(aged.db, "SELECT status, COUNT(*) FROM cycles GROUP BY status"))
     assert f"{counts['pass']} pass" in out and "1 error" in out
     assert f"{counts['drift']} drift" in out
-    assert "last: cycle 11 DRIFT — illumination amber dimmer" in out
+    assert "last: cycle 23 DRIFT — illumination amber dimmer" in out
     recent = out.split("recent cycles")[1].split("trends")[0]
-    assert [line.split()[0] for line in recent.strip().splitlines()[2:]] == ["8", "9", "10", "11"]
+    assert [line.split()[0] for line in recent.strip().splitlines()[2:]] == ["20", "21", "22", "23"]
     # the trend table, furthest from target first: the amber means, alarmed since the
     # cycle the database says their run of alarms began
     table = out.split("trends")[1].strip().splitlines()[3:]
@@ -147,11 +150,11 @@ def test_history_plots_the_trends(cli, aged, tmp_path):
 def test_history_last_cycles(cli, aged, tmp_path):
     code, out, err = cli(["history", aged.db, "--last", 3, "--csv", tmp_path / "h.csv"])
     assert code == 0, err
-    assert "cycles 9–11 (the last 3 of 12)" in out
+    assert "cycles 21–23 (the last 3 of 24)" in out
     with open(tmp_path / "h.csv", newline="") as f:
-        assert {r["cycle"] for r in csv.DictReader(f)} == {"9", "10", "11"}
+        assert {r["cycle"] for r in csv.DictReader(f)} == {"21", "22", "23"}
     code, out, _ = cli(["history", aged.db, "--last", 100, "--recent", 0])
-    assert code == 0 and "cycles 0–11," in out and "recent cycles" not in out
+    assert code == 0 and "cycles 0–23," in out and "recent cycles" not in out
 
 
 def test_verify_report_carries_the_history(cli, aged, tmp_path):

@@ -28,7 +28,8 @@ def _watch(cli, tmp_path, golden, changes, *args, camera=None):
         path.write_text(yaml.safe_dump(doc, sort_keys=False))
     db = tmp_path / "w" / "history.sqlite"
     code, out, err = cli(
-        ["watch", path, "--golden", golden, "--db", db, "--interval", 0, "--retry-delay", 0, *args]
+        ["watch", path, "--golden", golden, "--db", db, "--interval", 0, "--retry-delay", 0]
+        + [str(a) for a in args]
     )
     return code, out, err, db
 
@@ -65,14 +66,41 @@ def test_ewma_in_control_run_length_by_simulation():
     assert 0.85 * 100 < np.mean(lengths) < 1.06 * 100
 
 
-def test_watch_attributes_an_exposure_change_to_every_illumination(cli, tmp_path, golden):
-    changes = [{"start": 2, "exposure": 0.95}]
-    code, out, err, db = _watch(cli, tmp_path, golden, changes, "--cycles", 5)
+@pytest.mark.parametrize(
+    ("change", "within", "cause"),
+    [
+        ({"exposure": 0.95}, 1, "every illumination dimmer"),
+        ({"transmission": 0.93}, 1, "every illumination dimmer"),  # a dusty lens: less light
+        ({"irradiance": {2: 1.05}}, 1, "illumination red brighter"),
+        ({"peak_shift_nm": {1: 8.0}}, 1, "the light's spectrum changed"),
+        ({"blur_px": 1.5}, 1, "class noise (σ²) up"),  # defocus: classes blur into each other
+        ({"blur_px": 0.7}, 1, "class noise (σ²) down"),  # slight defocus: texture smoothed
+    ],
+)
+def test_watch_attributes_each_change_to_its_cause(cli, tmp_path, golden, change, within, cause):
+    """A step at cycle 2 is flagged, and its cause named, at most ``within`` cycles
+    later; the cause holds for every later cycle."""
+    code, out, err, db = _watch(cli, tmp_path, golden, [{"start": 2, **change}], "--cycles", 5)
     assert code == 1, out + err
     rows = _rows(db)
-    drifted = [r for r in rows if r[1] != "pass"]
-    assert drifted and drifted[0][0] <= 3, rows
-    assert "every illumination dimmer" in drifted[-1][3]
+    assert [r[1] for r in rows[:2]] == ["pass", "pass"], rows
+    flagged = [r for r in rows if r[1] != "pass"]
+    named = [r for r in rows if r[3] and cause in r[3]]
+    assert flagged[0][0] - 2 <= within and named and named[0][0] - 2 <= within, rows
+    assert all(cause in r[3] for r in rows if r[0] >= named[0][0]), rows
+    if "noise" in cause or "spectrum" in cause:
+        assert all("LED ageing" not in r[3] for r in rows if r[0] > named[0][0])
+
+
+def test_watch_flags_a_drift_per_hour(cli, tmp_path, golden):
+    """The amber LED losing 99 %/h from cycle 2 (≥ 0.13 % per ≥ 1 s cycle): flagged as
+    LED ageing by the last of 10 cycles, with no alarm before the onset."""
+    changes = [{"start": 2, "percent_per_hour": {1: -99.0}}]
+    code, out, err, db = _watch(cli, tmp_path, golden, changes, "--cycles", 10, "--interval", 1)
+    rows = _rows(db)
+    assert [r[1] for r in rows[:2]] == ["pass", "pass"], rows
+    assert rows[-1][1] == "drift" and "amber dimmer" in rows[-1][3] and "ageing" in rows[-1][3]
+    assert code == 1, out + err
 
 
 @pytest.mark.parametrize(

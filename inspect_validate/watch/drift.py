@@ -86,8 +86,17 @@ class Chart:
         if math.isfinite(x):
             self.ewma = lam * x + (1 - lam) * self.ewma
             self.n += 1
-        half = limit * self.sigma * math.sqrt(lam / (2 - lam) * (1 - (1 - lam) ** (2 * self.n)))
+        half = self.half_width(limit=limit, lam=lam)
         return self.ewma, half, self.n > 0 and abs(self.ewma - self.target) > half
+
+    def half_width(self, *, limit: float, lam: float = LAMBDA) -> float:
+        """Half-width of the band after the cycles seen."""
+        return limit * self.sigma * math.sqrt(lam / (2 - lam) * (1 - (1 - lam) ** (2 * self.n)))
+
+    def severity(self, *, limit: float) -> float:
+        """|EWMA − target| in half-widths of the band (beyond 1: alarm)."""
+        half = self.half_width(limit=limit)
+        return abs(self.ewma - self.target) / half if half > 0 else 0.0
 
 
 def series_of(verification) -> dict[SeriesKey, float]:
@@ -201,19 +210,48 @@ class DriftMonitor:
                 alarms.append(key)
         return DriftState(points, tuple(alarms), self.cause(alarms) if alarms else None)
 
-    def relative_signal(self) -> dict[str, float]:
-        """Per illumination, the median over classes of the smoothed signal (μ above the dark
-        offset) relative to golden, − 1."""
-        by = {}
-        for (ill, kind, _, q), chart in self.charts.items():
+    def relative_means(self) -> dict[str, dict[str, float]]:
+        """Per illumination and class, the smoothed signal (μ above the dark offset)
+        relative to golden, − 1; classes with less than a tenth of the illumination's
+        brightest signal are left out (their ratio is mostly noise)."""
+        signal = {}
+        for (ill, kind, name, q), chart in self.charts.items():
             if kind == "class" and q == "mean" and chart.target > self.dark_offset:
-                r = (chart.ewma - self.dark_offset) / (chart.target - self.dark_offset) - 1
-                by.setdefault(ill, []).append(r)
-        return {ill: float(np.median(r)) for ill, r in by.items()}
+                signal.setdefault(ill, {})[name] = chart
+        out = {}
+        for ill, charts in signal.items():
+            top = max(c.target for c in charts.values()) - self.dark_offset
+            out[ill] = {
+                name: (c.ewma - self.dark_offset) / (c.target - self.dark_offset) - 1
+                for name, c in charts.items()
+                if c.target - self.dark_offset >= 0.1 * top
+            }
+        return out
+
+    def relative_signal(self) -> dict[str, float]:
+        """Per illumination, the median over its classes of :meth:`relative_means`."""
+        return {ill: float(np.median(list(r.values()))) for ill, r in self.relative_means().items()}
 
     def cause(self, alarms) -> str:
-        """The likely cause of ``alarms`` from their pattern (see the README's table)."""
-        r = self.relative_signal()
+        """The likely cause of ``alarms`` from their pattern (see the README's table).
+
+        What moved most, in half-widths of the bands, leads: the class means (a light
+        level or the spectrum) or the classes' noise and contrast at steady means (focus,
+        haze). A level change moves an illumination's classes by one factor; a spectral
+        change (an LED's peak) moves them by different factors, as their reflectances
+        differ.
+        """
+        severity = {
+            k: self.charts[k].severity(limit=self.limit) for k in alarms if k in self.charts
+        }
+        level = max(
+            (v for k, v in severity.items() if k[1] == "class" and k[3] == "mean"), default=0
+        )
+        noise = max((v for k, v in severity.items() if k[3] != "mean"), default=0)
+        if noise > 3 * level:
+            return self._noise_cause(alarms)
+        per_class = self.relative_means()
+        r = {ill: float(np.median(list(v.values()))) for ill, v in per_class.items() if v}
         # An illumination counts as moved with its class means, by its median change (of
         # the signal above dark: classes at the dark offset have none).
         changes = {
@@ -222,11 +260,24 @@ class DriftMonitor:
             if kind == "class" and q == "mean" and ill in r
         }
         if changes:
+            spectral = {
+                ill: per_class[ill]
+                for ill, v in changes.items()
+                if _spread(per_class[ill].values()) > max(0.25 * abs(v), 0.005)
+            }
+            if spectral:
+                parts = [
+                    f"{ill} " + ", ".join(f"{n} {100 * x:+.1f} %" for n, x in sorted(c.items()))
+                    for ill, c in sorted(spectral.items())
+                ]
+                return (
+                    "; ".join(parts) + ": the classes changed by different factors, the light's "
+                    "spectrum changed (an LED's peak shifted: temperature, another bin)"
+                )
             if len(r) >= 2 and len(changes) == len(r):
                 values = list(changes.values())
                 if all(v < 0 for v in values) or all(v > 0 for v in values):
-                    spread = max(values) - min(values)
-                    if spread <= 0.25 * max(abs(v) for v in values):
+                    if _spread(values) <= 0.25 * max(abs(v) for v in values):
                         return (
                             f"every illumination {_percent(np.mean(values))}: exposure, gain or "
                             "lens transmission changed"
@@ -239,11 +290,28 @@ class DriftMonitor:
                 what = "LED ageing or a failing channel" if v < 0 else "LED driven harder"
                 return f"illumination {ill} {_percent(v)}, the others steady: {what}"
             return "; ".join(parts) + ": illuminations changed differently (LEDs, spectra)"
-        contrast = [k for k in alarms if k[1] == "comparison"]
-        noise = [k for k in alarms if k[1] == "class" and k[3] == "variance"]
-        if contrast or noise:
-            return "contrast falls and noise rises at a steady level: soiled lens or defocus"
+        if any(k[1] == "comparison" or k[3] == "variance" for k in alarms):
+            return self._noise_cause(alarms)
         return "drift of " + ", ".join(" ".join(k[::2]) for k in alarms[:3])
+
+    def _noise_cause(self, alarms) -> str:
+        """Noise or contrast moved at (nearly) steady means: the optics."""
+        variance = [
+            self.charts[k].ewma / self.charts[k].target - 1
+            for k in alarms
+            if k[3] == "variance" and k in self.charts and self.charts[k].target > 0
+        ]
+        if variance:
+            v = float(np.median(variance))
+            what = f"class noise (σ²) {'up' if v > 0 else 'down'} by {100 * abs(v):.0f} %"
+        else:
+            what = "contrast (SNR_dB, ε) changed"
+        return f"{what} at steady means: defocus or a soiled lens (blur, haze)"
+
+
+def _spread(values) -> float:
+    values = list(values)
+    return max(values) - min(values)
 
 
 def _percent(v: float) -> str:
