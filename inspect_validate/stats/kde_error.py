@@ -19,7 +19,6 @@ import itertools
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import optimize, special
 
 from inspect_validate.stats.bandwidth import MAX_BINS, Bandwidth, lscv_bandwidth
 from inspect_validate.stats.gaussian_error import _interval
@@ -42,7 +41,6 @@ _WINDOW_MIN = 256  # components above which a kernel density is summed in window
 _WINDOW_REACH = 20.0  # in h, beyond the nearest component
 _WINDOW_WIDTHS_MAX = 16  # distinct kernel widths (classes in a group) summed part by part
 _WINDOW_CHUNK = 64  # grid points per window (16 h at the crossing grid's step)
-_NEWTON_COMPONENTS_MAX = 64  # crossings of mixtures this small: vectorised Newton, not brentq
 _LOG_SQRT_2PI = 0.5 * np.log(2.0 * np.pi)
 
 
@@ -121,7 +119,7 @@ def _log_density(x, parts):
         else:
             _log_density_windowed(flat, out, centres, log_w, sigma)
         logs.append(out)
-    total = logs[0] if len(logs) == 1 else special.logsumexp(np.stack(logs), axis=0)
+    total = logs[0] if len(logs) == 1 else np.logaddexp.reduce(np.stack(logs), axis=0)
     return total.reshape(np.shape(x)) - _LOG_SQRT_2PI
 
 
@@ -329,7 +327,7 @@ def _gaussian_crossings(m1, s1, m2, s2) -> np.ndarray:
 
 def _polish(lo, hi, f_lo, p1, p2, xtol):
     """Roots of log p1 − log p2 in the brackets (lo, hi), all at once: Newton steps
-    where they stay inside the bracket, bisection where not (few components only)."""
+    where they stay inside the bracket, bisection where not."""
     lo, hi = lo.copy(), hi.copy()
     x = 0.5 * (lo + hi)
     active = np.ones(x.shape, dtype=bool)
@@ -356,7 +354,7 @@ def _polish(lo, hi, f_lo, p1, p2, xtol):
 
 def _log_density_slope(x, parts):
     """log p(x) (unnormalised as in :func:`_log_density`) and d log p / dx, summing every
-    component (for mixtures of few components)."""
+    component."""
     v, slope = [], []
     for centres, log_w, sigma in parts:
         z = (x[:, None] - centres[None, :]) / sigma
@@ -384,12 +382,15 @@ def _crossings(p1, p2, c1, s1, c2, s2) -> np.ndarray:
     sign = np.sign(d)
     idx = np.flatnonzero(sign[:-1] * sign[1:] < 0)
     xtol = 1e-13 * hmax
-    if sum(c.size for c, _, _ in p1 + p2) <= _NEWTON_COMPONENTS_MAX:
-        roots = list(_polish(grid[idx], grid[idx + 1], d[idx], p1, p2, xtol))
-    else:
-        roots = [
-            optimize.brentq(lambda t: diff(np.array([t]))[0], grid[i], grid[i + 1], xtol=xtol)
-            for i in idx
-        ]
+    # Every bracket is polished at once; for large mixtures in groups of brackets that keep
+    # the (brackets × components) arrays near 32 MB.
+    per = max(1, 2**22 // sum(c.size for c, _, _ in p1 + p2))
+    roots = [
+        x
+        for i in range(0, idx.size, per)
+        for x in _polish(
+            grid[idx[i : i + per]], grid[idx[i : i + per] + 1], d[idx[i : i + per]], p1, p2, xtol
+        )
+    ]
     roots += list(grid[np.flatnonzero(sign == 0)])
     return np.sort(np.array(roots, dtype=float))

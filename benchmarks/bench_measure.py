@@ -1,0 +1,131 @@
+"""What a user waits for: the whole ``measure`` CLI on one 5 MP uint16 frame with 3 ROIs,
+against a plain cv2 + numpy script doing the same means and variances, each in a fresh
+process (imports included), with peak memory.
+
+Run: ``python benchmarks/bench_measure.py [--runs 5]`` (about 20 s).
+
+The frame (2448 × 2048, seeded) holds three overlapping classes, N(12500, 400²),
+N(12000, 300²) and N(12250, 250²) DN, in three 2000 × 500 ROIs. Error: the largest
+relative deviation of μ and σ² over the classes from the exact values (rational
+arithmetic on the ROI's histogram).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import subprocess
+import sys
+import tempfile
+import time
+from fractions import Fraction
+from pathlib import Path
+
+import numpy as np
+import tifffile
+import yaml
+
+PLAIN = """
+import sys, cv2, yaml
+img = cv2.imread(sys.argv[1], cv2.IMREAD_UNCHANGED)
+for name, shapes in yaml.safe_load(open(sys.argv[2]))["classes"].items():
+    x, y, w, h = shapes[0]["rect"]
+    m, s = cv2.meanStdDev(img[y:y + h, x:x + w])
+    print(name, repr(float(m[0, 0])), repr(float(s[0, 0]) ** 2 * w * h / (w * h - 1)))
+"""
+
+ROIS = {"A": [100, 100, 2000, 500], "B": [100, 800, 2000, 500], "C": [100, 1500, 2000, 500]}
+
+
+def cpu_name() -> str:
+    info = Path("/proc/cpuinfo")
+    if info.exists():
+        for line in info.read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    return platform.processor() or platform.machine()
+
+
+def make_frame(folder: Path):
+    rng = np.random.default_rng(1)
+    img = rng.normal(12000, 300, (2048, 2448)).astype(np.uint16)
+    img[:700] = rng.normal(12500, 400, (700, 2448)).astype(np.uint16)
+    img[1400:] = rng.normal(12250, 250, (648, 2448)).astype(np.uint16)
+    tifffile.imwrite(folder / "frame.tif", img)
+    rois = {"classes": {k: [{"rect": v}] for k, v in ROIS.items()}}
+    (folder / "rois.yaml").write_text(yaml.safe_dump(rois))
+    exact = {}
+    for name, (x, y, w, h) in ROIS.items():
+        hist = np.bincount(img[y : y + h, x : x + w].ravel())
+        v = np.flatnonzero(hist)
+        n, s1, s2 = (
+            w * h,
+            int((hist[v] * v).sum()),
+            sum(int(c) * int(x) ** 2 for c, x in zip(hist[v], v, strict=True)),
+        )
+        exact[name] = (Fraction(s1, n), Fraction(n * s2 - s1 * s1, n * (n - 1)))
+    return exact
+
+
+def timed(args, runs):
+    """Median wall time (s) and peak RSS (MB) of ``args`` in fresh processes; its stdout."""
+    times, peaks = [], []
+    for _ in range(runs):
+        t0 = time.perf_counter()
+        proc = subprocess.Popen(args, stdout=subprocess.PIPE, text=True)
+        out = proc.stdout.read()
+        _, _, usage = os.wait4(proc.pid, 0)
+        times.append(time.perf_counter() - t0)
+        peaks.append(usage.ru_maxrss / 1024)
+    return float(np.median(times)), float(max(peaks)), out
+
+
+def error(values, exact) -> float:
+    return max(
+        abs(float((Fraction(v) - e) / e))
+        for name, (mu, var) in values.items()
+        for v, e in ((mu, exact[name][0]), (var, exact[name][1]))
+    )
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--runs", type=int, default=5)
+    args = parser.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        exact = make_frame(tmp)
+        frame, rois = str(tmp / "frame.tif"), str(tmp / "rois.yaml")
+        (tmp / "plain.py").write_text(PLAIN)
+        plain = timed([sys.executable, str(tmp / "plain.py"), frame, rois], args.runs)
+        plain_values = {
+            line.split()[0]: (float(line.split()[1]), float(line.split()[2]))
+            for line in plain[2].splitlines()
+        }
+        rows = []
+        for label, extra in (("measure (KDE on)", []), ("measure --no-kde", ["--no-kde"])):
+            json_path = tmp / "m.json"
+            cmd = [sys.executable, "-m", "inspect_validate", "measure", frame, "--rois", rois]
+            ours = timed([*cmd, "--json", str(json_path), *extra], args.runs)
+            doc = json.loads(json_path.read_text())
+            values = {c["name"]: (c["mean"], c["variance"]) for c in doc["classes"]}
+            rows.append((label, ours, error(values, exact)))
+    print(f"machine: {cpu_name()}, {os.cpu_count()} cores, Python {platform.python_version()}")
+    print(f"median of {args.runs} fresh processes each; 5 MP uint16, 3 ROIs of 1 MP")
+    print()
+    print(
+        "| task | ours | plain cv2 script | time ratio | peak RSS ours / plain | error ours | error plain |"
+    )
+    print("|---|---|---|---|---|---|---|")
+    for label, (t, peak, _), err in rows:
+        print(
+            f"| {label} | {t:.2f} s | {plain[0]:.2f} s | {t / plain[0]:.2f} | "
+            f"{peak:.0f} / {plain[1]:.0f} MB | {err:.1e} | {error(plain_values, exact):.1e} |"
+        )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
