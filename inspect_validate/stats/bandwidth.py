@@ -299,19 +299,32 @@ def lscv_bandwidth(sample, *, quantum: float | None = None, method: str = "auto"
 def _root(pairs: PairCounts, a: float, b: float, rtol: float = 4 * np.finfo(float).eps) -> float:
     """The zero of the LSCV slope in [a, b], where it changes sign from − to +.
 
-    The bracket shrinks 65-fold a round: the slope is evaluated at 64 points across it
-    at once (it is vectorised over h), and the first sign change kept — about 9 rounds
-    to ``rtol``. (scipy's brentq would need scipy.optimize, 0.2 s of a CLI's start.)
+    Regula falsi with the Illinois modification (an end kept twice has its value
+    halved): superlinear, and the root stays bracketed — about a dozen slope
+    evaluations, each a pass over the pair counts. (scipy's brentq would need
+    scipy.optimize, 0.2 s of a CLI's start.)
     """
-    for _ in range(100):
+    fa, fb = (float(v) for v in _lscv_slope(pairs, [a, b]))
+    kept = 0  # −1: a was kept last step, +1: b was
+    for _ in range(200):
         if b - a <= rtol * b:
             break
-        t = np.linspace(a, b, 66)[1:-1]
-        slope = _lscv_slope(pairs, t)
-        i = int(np.argmax(slope >= 0.0)) if (slope >= 0.0).any() else t.size
-        if i < t.size and slope[i] == 0.0:
-            return float(t[i])
-        a, b = (t[i - 1] if i > 0 else a), (t[i] if i < t.size else b)
+        x = (a * fb - b * fa) / (fb - fa) if fb != fa else 0.5 * (a + b)
+        if not a < x < b:
+            x = 0.5 * (a + b)
+        fx = float(_lscv_slope(pairs, x)[0])
+        if fx == 0.0:
+            return float(x)
+        if fx < 0.0:
+            a, fa = x, fx
+            if kept == 1:
+                fb *= 0.5
+            kept = 1
+        else:
+            b, fb = x, fx
+            if kept == -1:
+                fa *= 0.5
+            kept = -1
     return float(0.5 * (a + b))
 
 
