@@ -22,14 +22,13 @@ one-against-the-rest groups); the lights are LEDs of 25 nm FWHM at 2 W/m².
 
 from __future__ import annotations
 
-import os
-import platform
 import subprocess
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
+from machine import machine_line
 
 from inspect_validate.components import led
 from inspect_validate.design.catalogue import choose_channels
@@ -53,15 +52,6 @@ def response(scene, peaks):
         grid=scene.grid,
         exposure_time=0.04,
     )
-
-
-def cpu_name() -> str:
-    info = Path("/proc/cpuinfo")
-    if info.exists():
-        for line in info.read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    return platform.processor() or platform.machine()
 
 
 def timed(fn):
@@ -129,7 +119,7 @@ def main():
         ("design CLI, inks scene", "—", t1, float("nan"), float("nan"), "3 channels, fresh process")
     )
 
-    print(f"machine: {cpu_name()}, {os.cpu_count()} cores, Python {platform.python_version()}")
+    print(machine_line())
     header = (
         f"{'task':26} {'reference':20} {'t ours':>9} {'t ref':>9} {'t ratio':>8} "
         f"{'excess ε':>9}  note"

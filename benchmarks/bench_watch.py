@@ -25,8 +25,6 @@ import argparse
 import contextlib
 import io
 import math
-import os
-import platform
 import shutil
 import sqlite3
 import sys
@@ -36,6 +34,7 @@ from pathlib import Path
 
 import numpy as np
 import yaml
+from machine import machine_line
 
 from inspect_validate.cli import main as cli_main
 
@@ -52,15 +51,6 @@ CHANGES = [
     ("amber peak +8 nm", {"peak_shift_nm": {1: 8.0}}, "spectrum changed"),
     ("defocus 1 px", {"blur_px": 1.0}, "defocus"),
 ]
-
-
-def cpu_name() -> str:
-    info = Path("/proc/cpuinfo")
-    if info.exists():
-        for line in info.read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    return platform.processor() or platform.machine()
 
 
 def cli(*args) -> int:
@@ -169,7 +159,7 @@ def main():
         ]
         bare = capture_time(tmp)
         elapsed = time.perf_counter() - t0
-    print(f"machine: {cpu_name()}, {os.cpu_count()} cores, Python {platform.python_version()}")
+    print(machine_line())
     print(
         f"shipped simulated station: {stable['charts']} charts, L = {stable['limit']:.2f}, "
         f"golden from 5 repeats; {elapsed:.0f} s in all"
