@@ -2,7 +2,7 @@
 against a plain cv2 + numpy script doing the same means and variances, each in a fresh
 process (imports included), with peak memory.
 
-Run: ``python benchmarks/bench_measure.py [--runs 5]`` (about 20 s).
+Run: ``python benchmarks/bench_measure.py [--runs 5]`` (about 8 s).
 
 The frame (2448 × 2048, seeded) holds three overlapping classes, N(12500, 400²),
 N(12000, 300²) and N(12250, 250²) DN, in three 2000 × 500 ROIs. Error: the largest

@@ -945,7 +945,7 @@ def history(db, last, recent, plot_dir, csv_path):
         from inspect_validate.report.plots import plot_history_charts, plot_history_overview
 
         written = [plot_history_overview(log, plot_dir / "history-overview.png")]
-        for ill in sorted({k[0] for k in log.charts}):
+        for ill in log.illuminations:
             slug = re.sub(r"[^A-Za-z0-9_.-]+", "_", ill)
             written.append(plot_history_charts(log, ill, plot_dir / f"history-{slug}.png"))
         click.echo(f"plots: {', '.join(str(w) for w in written)}")
@@ -955,13 +955,11 @@ def history(db, last, recent, plot_dir, csv_path):
 
 def _show_cycle(outcome, *, live: bool) -> None:
     """One cycle: a table redrawn in place on a terminal, a log line otherwise."""
-    import time as _time
-
     from inspect_validate.report import render_table
+    from inspect_validate.report.history import local_time
 
     r = outcome.record
-    stamp = _time.strftime("%Y-%m-%d %H:%M:%S", _time.localtime(r.started))
-    line = f"{stamp} cycle {r.cycle}: {r.status.upper()}"
+    line = f"{local_time(r.started)} cycle {r.cycle}: {r.status.upper()}"
     if r.cause:
         line += f" — {r.cause}"
     if r.reason and r.status != "pass":

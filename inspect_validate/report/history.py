@@ -17,7 +17,8 @@ __all__ = [
     "chart_label",
     "format_history",
     "history_csv",
-    "trend_rows",
+    "local_time",
+    "status_counts",
     "trend_table",
     "write_history_csv",
 ]
@@ -49,66 +50,52 @@ def chart_label(key) -> str:
     return f"{ill}: {name} {quantity}"
 
 
-def _stamp(t: float) -> str:
+def local_time(t: float) -> str:
+    """Unix time ``t`` as local ``YYYY-MM-DD HH:MM:SS``."""
     return time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(t))
 
 
-def _g(x: float) -> str:
-    return "—" if not math.isfinite(x) else f"{x:.5g}"
-
-
-def trend_rows(log) -> list[dict]:
-    """Per chart: its target, first and last smoothed value, the last band, how far off
-    target in band half-widths (beyond ±1 alarms), the alarmed cycles, and the cycle
-    the current alarm began (None when the last point is inside the band). Furthest
-    from target first."""
-    rows = []
-    for key, s in log.charts.items():
-        alarm = s.alarm
-        since = None
-        if alarm[-1]:
-            inside = np.flatnonzero(~alarm)
-            since = int(s.cycle[inside[-1] + 1] if inside.size else s.cycle[0])
-        rows.append(
-            {
-                "key": key,
-                "target": s.target,
-                "first": float(s.ewma[0]),
-                "last": float(s.ewma[-1]),
-                "low": float(s.low[-1]),
-                "high": float(s.high[-1]),
-                "deviation": float(s.deviation[-1]),
-                "alarms": int(alarm.sum()),
-                "since": since,
-            }
-        )
-    rows.sort(key=lambda r: -abs(r["deviation"]))
-    return rows
+def _g(x) -> str:
+    return "—" if not math.isfinite(x) else f"{float(x):.5g}"
 
 
 def trend_table(log, *, limit: int | None = None):
-    """The trends as a table: header, rows of text and, per row, whether it alarms now."""
-    trends = trend_rows(log)[:limit]
-    header = ["chart", "target", "first", "now", "band now", "off", "alarms", "since"]
-    cells = [
-        [
-            chart_label(t["key"]),
-            _g(t["target"]),
-            _g(t["first"]),
-            _g(t["last"]),
-            f"{_g(t['low'])} … {_g(t['high'])}",
-            f"{t['deviation']:+.2f}",
-            str(t["alarms"]),
-            "—" if t["since"] is None else str(t["since"]),
+    """Per chart, furthest from its target first: the target, the first and last smoothed
+    value, the last band, how far off target in band half-widths (beyond ±1 alarms), the
+    alarmed cycles, and the cycle the current run of alarms began ("—" when the last
+    point is inside the band). The header, the rows as text and, per row, whether it
+    alarms now."""
+    trends = []
+    for key, s in log.charts.items():
+        alarm, off = s.alarm, float(s.deviation[-1])
+        since = "—"
+        if alarm[-1]:
+            inside = np.flatnonzero(~alarm)
+            since = str(int(s.cycle[inside[-1] + 1] if inside.size else s.cycle[0]))
+        cells = [
+            chart_label(key),
+            _g(s.target),
+            _g(s.ewma[0]),
+            _g(s.ewma[-1]),
+            f"{_g(s.low[-1])} … {_g(s.high[-1])}",
+            f"{off:+.2f}",
+            str(int(alarm.sum())),
+            since,
         ]
-        for t in trends
-    ]
-    return header, cells, [abs(t["deviation"]) > 1 for t in trends]
+        trends.append((-abs(off), cells))
+    trends.sort(key=lambda t: t[0])
+    header = ["chart", "target", "first", "now", "band now", "off", "alarms", "since"]
+    rows = [cells for _, cells in trends[:limit]]
+    return header, rows, [-neg > 1 for neg, _ in trends[:limit]]
+
+
+def status_counts(log) -> str:
+    """``n pass, n fail, n drift, n error`` of the cycles read."""
+    return ", ".join(f"{n} {s}" for s, n in log.counts().items())
 
 
 def format_history(log, *, recent: int = 10) -> str:
     """The history's summary, its ``recent`` last cycles and the trend of every chart."""
-    counts = log.counts()
     lines = [
         f"history {log.path}",
         f"station {log.station}",
@@ -120,8 +107,8 @@ def format_history(log, *, recent: int = 10) -> str:
     first, last = log.cycles[0], log.cycles[-1]
     shown = "" if len(log.cycles) == log.total else f" (the last {len(log.cycles)} of {log.total})"
     lines.append(
-        f"cycles {first.cycle}–{last.cycle}{shown}, {_stamp(first.started)} to "
-        f"{_stamp(last.started)}: " + ", ".join(f"{n} {s}" for s, n in counts.items())
+        f"cycles {first.cycle}–{last.cycle}{shown}, {local_time(first.started)} to "
+        f"{local_time(last.started)}: {status_counts(log)}"
     )
     lines.append(
         f"last: cycle {last.cycle} {last.status.upper()}"
@@ -131,7 +118,7 @@ def format_history(log, *, recent: int = 10) -> str:
     rows = [
         [
             str(r.cycle),
-            _stamp(r.started),
+            local_time(r.started),
             r.status,
             f"{r.seconds:.2f}",
             "; ".join(x for x in (r.cause, r.reason if r.status != "pass" else None) if x) or "",

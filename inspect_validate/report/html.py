@@ -344,14 +344,14 @@ def _spectra(v) -> list[str]:
 def _trends(log) -> list[str]:
     """The watch history's statuses and charts: the overview, the 12 charts furthest from
     their target (off target in half-widths of the band), and every illumination's charts."""
-    from inspect_validate.report.history import trend_table
+    from inspect_validate.report.history import status_counts, trend_table
     from inspect_validate.report.plots import plot_history_charts, plot_history_overview
 
     e = html.escape
     out = ["<h2>Trends (watch history)</h2>"]
-    counts = ", ".join(f"{n} {s}" for s, n in log.counts().items())
     out.append(
-        f'<p class="meta">history {e(str(log.path))}: {len(log.cycles)} cycles ({counts})</p>'
+        f'<p class="meta">history {e(str(log.path))}: {len(log.cycles)} cycles '
+        f"({status_counts(log)})</p>"
     )
     if not log.cycles:
         return out
@@ -366,6 +366,6 @@ def _trends(log) -> list[str]:
     out.append(_figure(plot_history_overview, log, alt="status per cycle and charts off target"))
     header, cells, alarmed = trend_table(log, limit=12)
     out.append(_table(header, cells, failed=alarmed))
-    for ill in sorted({k[0] for k in log.charts}):
+    for ill in log.illuminations:
         out.append(_figure(plot_history_charts, log, ill, alt=f"drift charts of {ill}"))
     return out

@@ -421,7 +421,7 @@ def plot_history_overview(log, target):
     smoothed value off its golden target in band half-widths (beyond ±1 is an alarm;
     charts that alarmed are labelled, the others grey)."""
     plt = _pyplot()
-    illuminations = sorted({k[0] for k in log.charts})
+    illuminations = log.illuminations
     fig, axes = plt.subplots(
         1 + len(illuminations),
         1,

@@ -300,9 +300,9 @@ def _root(pairs: PairCounts, a: float, b: float, rtol: float = 4 * np.finfo(floa
     """The zero of the LSCV slope in [a, b], where it changes sign from − to +.
 
     Regula falsi with the Illinois modification (an end kept twice has its value
-    halved): superlinear, and the root stays bracketed — about a dozen slope
-    evaluations, each a pass over the pair counts. (scipy's brentq would need
-    scipy.optimize, 0.2 s of a CLI's start.)
+    halved): superlinear, and the root stays bracketed — 7 to 16 slope evaluations
+    on normal, bimodal, gamma and 16-bit samples, each a pass over the pair counts.
+    (scipy's brentq would need scipy.optimize, 0.2 s of a CLI's start.)
     """
     fa, fb = (float(v) for v in _lscv_slope(pairs, [a, b]))
     kept = 0  # −1: a was kept last step, +1: b was

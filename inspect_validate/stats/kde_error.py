@@ -375,10 +375,7 @@ def _crossings(p1, p2, c1, s1, c2, s2) -> np.ndarray:
     count = int(min(np.ceil((hi - lo) / step), 2**18)) + 1
     grid = np.linspace(lo, hi, count)
 
-    def diff(x):
-        return _log_density(x, p1) - _log_density(x, p2)
-
-    d = diff(grid)
+    d = _log_density(grid, p1) - _log_density(grid, p2)
     sign = np.sign(d)
     idx = np.flatnonzero(sign[:-1] * sign[1:] < 0)
     xtol = 1e-13 * hmax

@@ -146,7 +146,7 @@ def _integer_region(frames, mask, dark, saturation_level, n_pixels) -> RegionSta
 
     if dark is None:
         scale, dark_sum = 1, np.zeros((1, 1), np.int64)
-        if frames.dtype.itemsize <= 2 and frames.dtype.kind == "u":
+        if narrow:
             lo, hi = 0, int(np.iinfo(frames.dtype).max)
         else:
             lo, hi = kern.masked_code_range(frames, mask, dark_sum, 1)

@@ -230,7 +230,7 @@ class DriftMonitor:
 
     def relative_signal(self) -> dict[str, float]:
         """Per illumination, the median over its classes of :meth:`relative_means`."""
-        return {ill: float(np.median(list(r.values()))) for ill, r in self.relative_means().items()}
+        return _medians(self.relative_means())
 
     def cause(self, alarms) -> str:
         """The likely cause of ``alarms`` from their pattern (see the README's table).
@@ -251,7 +251,7 @@ class DriftMonitor:
         if noise > 3 * level:
             return self._noise_cause(alarms)
         per_class = self.relative_means()
-        r = {ill: float(np.median(list(v.values()))) for ill, v in per_class.items() if v}
+        r = _medians(per_class)
         # An illumination counts as moved with its class means, by its median change (of
         # the signal above dark: classes at the dark offset have none).
         changes = {
@@ -307,6 +307,11 @@ class DriftMonitor:
         else:
             what = "contrast (SNR_dB, ε) changed"
         return f"{what} at steady means: defocus or a soiled lens (blur, haze)"
+
+
+def _medians(per_class: dict[str, dict[str, float]]) -> dict[str, float]:
+    # never of an empty dict: an illumination's brightest class is always kept
+    return {ill: float(np.median(list(r.values()))) for ill, r in per_class.items()}
 
 
 def _spread(values) -> float:

@@ -23,6 +23,7 @@ appends to it.
 
 from __future__ import annotations
 
+import itertools
 import math
 import sqlite3
 import time
@@ -216,6 +217,11 @@ class HistoryLog:
     charts: dict[tuple, ChartSeries]
     total: int  # cycles in the database (``cycles`` may be the last few)
 
+    @property
+    def illuminations(self) -> list[str]:
+        """The illuminations charted, sorted."""
+        return sorted({key[0] for key in self.charts})
+
     def counts(self) -> dict[str, int]:
         """Cycles read per status."""
         return {s: sum(r.status == s for r in self.cycles) for s in STATUSES}
@@ -311,19 +317,15 @@ def _cycle_record(path, row) -> CycleRecord:
 
 def _chart_series(path, rows) -> dict[tuple, ChartSeries]:
     """Rows sorted by chart key then cycle → the charts."""
-    charts, start = {}, 0
-    for i in range(1, len(rows) + 1):
-        if i < len(rows) and rows[i][:4] == rows[start][:4]:
-            continue
-        key = tuple(rows[start][:4])
+    charts = {}
+    for key, group in itertools.groupby(rows, key=lambda r: tuple(r[:4])):
         try:
             if not all(isinstance(k, str) for k in key):
                 raise ValueError
-            block = np.array([r[4:] for r in rows[start:i]], dtype=float)  # NULL → NaN
+            block = np.array([r[4:] for r in group], dtype=float)  # NULL → NaN
         except (ValueError, TypeError, OverflowError):
             raise _damaged(path, f"chart {key!r} holds values that are not numbers") from None
         if not (np.abs(block[:, 2:]) < 1e100).all():  # watch writes finite, physical values
             raise _damaged(path, f"chart {key!r} has a smoothed value or band that is not finite")
-        charts[key] = ChartSeries(block[:, 0].astype(int), *(block[:, k] for k in range(1, 5)))
-        start = i
+        charts[key] = ChartSeries(block[:, 0].astype(int), *block[:, 1:].T)
     return charts

@@ -44,6 +44,16 @@ def write_csv(path: Path, grid, columns, names):
     path.write_text("\n".join(rows) + "\n")
 
 
+def write_samples(out: Path, curves: dict, rng, *, gain: float, noise: float) -> None:
+    """20 spectrometer readings per class: its curve × a random gain (sd ``gain``) plus
+    white noise (sd ``noise``), each class to ``<name>.csv``."""
+    for name, curve in curves.items():
+        samples = [
+            curve * (1 + rng.normal(0, gain)) + rng.normal(0, noise, GRID.size) for _ in range(20)
+        ]
+        write_csv(out / f"{name}.csv", GRID, samples, [f"r{i + 1}" for i in range(20)])
+
+
 def chapter_table2(rng):
     out = HERE / "chapter_table2"
     out.mkdir(exist_ok=True)
@@ -83,12 +93,8 @@ def paperboard(rng):
     g = GRID
     base = 0.55 + 0.15 * sigmoid((g - 450) / 30) - 0.05 * sigmoid((g - 650) / 40)
     bumps = {"A": 0.07, "B": -0.02, "C": 0.015}
-    for name, bump in bumps.items():
-        curve = base + bump * np.exp(-0.5 * ((g - 575) / 18) ** 2)
-        samples = [
-            curve * (1 + rng.normal(0, 0.008)) + rng.normal(0, 0.003, g.size) for _ in range(20)
-        ]
-        write_csv(out / f"{name}.csv", g, samples, [f"r{i + 1}" for i in range(20)])
+    curves = {name: base + b * np.exp(-0.5 * ((g - 575) / 18) ** 2) for name, b in bumps.items()}
+    write_samples(out, curves, rng, gain=0.008, noise=0.003)
     (out / "scene.yaml").write_text(
         "# Paperboards A, B, C (chapter 4.2): which LED separates A from B and C?\n"
         "name: paperboard\n"
@@ -108,12 +114,11 @@ def mix(rng):
     g = GRID
     base = 0.40 + 0.10 * sigmoid((g - 520) / 40)
     bumps = {"A": (465.0, 0.08), "B": (550.0, 0.0), "C": (635.0, 0.08)}
-    for name, (centre, height) in bumps.items():
-        curve = base + height * np.exp(-0.5 * ((g - centre) / 22) ** 2)
-        samples = [
-            curve * (1 + rng.normal(0, 0.004)) + rng.normal(0, 0.002, g.size) for _ in range(20)
-        ]
-        write_csv(out / f"{name}.csv", g, samples, [f"r{i + 1}" for i in range(20)])
+    curves = {
+        name: base + height * np.exp(-0.5 * ((g - centre) / 22) ** 2)
+        for name, (centre, height) in bumps.items()
+    }
+    write_samples(out, curves, rng, gain=0.004, noise=0.002)
     (out / "scene.yaml").write_text(
         "# Three inks under a blue, a green and a red LED: no single LED separates all three.\n"
         "name: inks\n"
