@@ -195,12 +195,14 @@ def predict(scene, json_path, top, rank_by, comparison, no_kde, plot_dir, render
             where = "--comparison" if rank_comparison else f"{scene}: rank.comparison"
             raise InputError(str(exc), source=where) from None
     _outputs(files=[json_path], folders=[plot_dir, render_dir])
-    result = sc.predict()
+    result = sc.sweep(by=by, comparison=comparison, top=top)
     for reason in result.skipped:
         click.echo(f"skipped: {reason}", err=True)
-    rows = prediction_rows(result, by=by, comparison=comparison, top=top, kde=not no_kde)
-    n = int(result.valid.size)
-    n_skipped = n - int(result.valid.sum())
+    for work in result.skipped_work:
+        click.echo(f"not computed: {work}", err=True)
+    rows = prediction_rows(result, kde=not no_kde)
+    n = result.combinations
+    n_skipped = n - result.predicted
     click.echo(
         f"{sc.name}: {n} combinations{f' ({n_skipped} skipped)' if n_skipped else ''}, "
         f"{sc.grid[0]:g}–{sc.grid[-1]:g} nm in {sc.grid[1] - sc.grid[0]:g} nm steps"
@@ -230,13 +232,17 @@ def predict(scene, json_path, top, rank_by, comparison, no_kde, plot_dir, render
         ]
         click.echo("wrote " + ", ".join(str(p) for p in written))
     if render_dir:
-        from inspect_validate.model import rank
+        import dataclasses
+
         from inspect_validate.model.render import write_rendered
 
-        order = rank(result, by=by, comparison=comparison)[0]
-        for stem, idx in (("best", order[0]), ("worst", order[-1])):
+        for stem, (li, oi, ci) in (("best", result.index[0]), ("worst", result.worst)):
+            # The one combination again, on its own: a sweep keeps no per-pixel model.
+            one = dataclasses.replace(
+                sc, lights=(sc.lights[li],), optics=(sc.optics[oi],), cameras=(sc.cameras[ci],)
+            ).predict()
             tif, rois = write_rendered(
-                result, tuple(idx), render_dir, cameras=list(sc.cameras), stem=stem
+                one, (0, 0, 0), render_dir, cameras=[sc.cameras[ci]], stem=stem
             )
             click.echo(f"wrote {tif} and {rois}")
 

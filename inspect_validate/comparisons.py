@@ -275,7 +275,7 @@ class GaussianSeparation:
 
 
 def gaussian_separation(
-    means, variances, comparisons: Comparisons, *, pixels=None, valid=None
+    means, variances, comparisons: Comparisons, *, pixels=None, valid=None, mixtures=None
 ) -> GaussianSeparation:
     """SNR_dB (36), CNR, Fisher ratio and ε Gauss (37) of every comparison.
 
@@ -288,6 +288,10 @@ def gaussian_separation(
         Per-class pixel counts (for ``pixels`` weighting).
     valid : ndarray of bool, (...), keyword-only, optional
         Where to compute the mixture errors (elsewhere they are NaN); all by default.
+    mixtures : iterable of int, keyword-only, optional
+        The comparisons between groups whose ε to compute: a group's density is
+        a Gaussian mixture, its ε a root search per combination (about 1 ms).
+        Every one by default; the others' ε are NaN.
     """
     from inspect_validate.stats import cnr_db, fisher_db, gaussian_error_and_log, snr_db
     from inspect_validate.stats.kde_error import mixture_error
@@ -304,13 +308,24 @@ def gaussian_separation(
         np.stack([s[i][j] for s in sides], axis=-1) if sides else np.zeros((*lead, 0))
         for i, j in ((0, 0), (0, 1), (1, 0), (1, 1))
     )
-    eps, log_eps = gaussian_error_and_log(m1, v1, m2, v2)
-    eps, log_eps = np.array(eps, dtype=np.float64), np.array(log_eps, dtype=np.float64)
+    # The closed form is ε of a Gaussian against a Gaussian: pairs of classes only (a
+    # group's ε is its mixture's, below).
+    pairs = [p for p, (g1, g2) in enumerate(comparisons.groups) if len(g1) == len(g2) == 1]
+    eps = np.full(m1.shape, np.nan)
+    log_eps = np.full(m1.shape, np.nan)
+    if pairs:
+        eps[..., pairs], log_eps[..., pairs] = gaussian_error_and_log(
+            m1[..., pairs], v1[..., pairs], m2[..., pairs], v2[..., pairs]
+        )
     valid = np.ones(lead, bool) if valid is None else np.asarray(valid, bool)
     sd = np.sqrt(variances)
+    wanted = range(len(comparisons.groups)) if mixtures is None else set(mixtures)
     for p, (g1, g2) in enumerate(comparisons.groups):
         if len(g1) == 1 and len(g2) == 1:
             continue  # a Gaussian against a Gaussian: the closed form above is exact
+        if p not in wanted:
+            eps[..., p] = log_eps[..., p] = np.nan
+            continue
         for idx in np.ndindex(lead):
             if not valid[idx]:
                 eps[(*idx, p)] = log_eps[(*idx, p)] = np.nan

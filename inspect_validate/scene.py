@@ -345,6 +345,25 @@ class Scene:
             comparisons=self.comparisons,
         )
 
+    def sweep(self, *, by: str, comparison: str | None, top: int, memory: int | None = None):
+        """:func:`inspect_validate.model.sweep` of every combination of this scene."""
+        from inspect_validate.model import sweep
+        from inspect_validate.model.sweep import MEMORY
+
+        return sweep(
+            list(self.lights),
+            list(self.optics),
+            list(self.cameras),
+            list(self.classes),
+            exposure=self.exposure,
+            grid=self.grid,
+            comparisons=self.comparisons,
+            by=by,
+            comparison=comparison,
+            top=top,
+            memory=memory or MEMORY,
+        )
+
     def notes(self) -> list[str]:
         """What was noticed while reading the spectra: masked wavelengths, clipped noise."""
         spectra = [(c.name, c.reflectance) for c in self.classes]

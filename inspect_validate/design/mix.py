@@ -362,8 +362,9 @@ def optimise_mix(
         peak = float(response.signal(w).max())
         if not peak > 0:
             return None
-        # min() first: ceiling / peak is inf (Python floats) for a channel of subnormal signal.
-        return w * min(ceiling / peak, max_level)
+        # min() after: ceiling / peak is inf for a channel of subnormal signal.
+        with np.errstate(over="ignore"):
+            return w * min(float(ceiling) / peak, max_level)
 
     warm = bool(starts)
     if not warm:

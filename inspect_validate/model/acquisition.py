@@ -41,7 +41,7 @@ from inspect_validate.constants import C, H
 from inspect_validate.errors import InputError
 from inspect_validate.spectra import Spectrum
 
-__all__ = ["Exposure", "ObjectClass", "Prediction", "predict"]
+__all__ = ["Exposure", "ObjectClass", "Prediction", "predict", "skipped_reasons"]
 
 QUANTISATION_VARIANCE = 1.0 / 12.0  # DN²
 _PRESENT = 1e-6  # a component is present where it exceeds this fraction of its peak
@@ -82,8 +82,26 @@ class Exposure:
             raise InputError("exposure target must be a fraction of saturation in (0, 1]")
 
 
+class _Combinations:
+    """The light × optics × camera axes and the comparisons of a prediction or a ranking."""
+
+    lights: tuple[str, ...]
+    optics: tuple[str, ...]
+    cameras: tuple[str, ...]
+    comparison_set: Comparisons
+
+    @property
+    def comparisons(self) -> tuple[tuple[tuple[str, ...], tuple[str, ...]], ...]:
+        """Each comparison as ``(first names, second names)``, the order of the last axis."""
+        return self.comparison_set.named
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        return len(self.lights), len(self.optics), len(self.cameras)
+
+
 @dataclass(frozen=True, eq=False)
-class Prediction:
+class Prediction(_Combinations):
     """Predicted statistics for every light × optics × camera combination.
 
     Arrays are indexed ``[light, optics, camera, ...]``; the last axis is the
@@ -117,15 +135,6 @@ class Prediction:
     skipped: tuple[str, ...] = ()  # why combinations were skipped (at most 20 named, then a count)
     absolute: np.ndarray | None = None  # (L,) bool: the light's irradiance is known (times in s)
 
-    @property
-    def comparisons(self) -> tuple[tuple[tuple[str, ...], tuple[str, ...]], ...]:
-        """Each comparison as ``(first names, second names)``, the order of the last axis."""
-        return self.comparison_set.named
-
-    @property
-    def shape(self) -> tuple[int, int, int]:
-        return len(self.lights), len(self.optics), len(self.cameras)
-
 
 def _on_grid(spectra: list[Spectrum], grid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Values (first sample each) on the grid with 0 outside the range, and where defined."""
@@ -142,30 +151,34 @@ def _trapezoid_weights(grid: np.ndarray) -> np.ndarray:
     return w
 
 
-def predict(
-    lights: list[Light],
-    optics: list[Optics],
-    cameras: list[Camera],
-    classes: list[ObjectClass],
-    *,
-    exposure: Exposure = Exposure(),
-    grid: np.ndarray,
-    comparisons: Comparisons | None = None,
-) -> Prediction:
-    """Predict μ, σ², SNR_dB, CNR, Fisher ratio and ε Gauss for every combination.
+@dataclass(frozen=True, eq=False)
+class _Chain:
+    """A sweep's components on its grid: what every block of combinations shares."""
 
-    Parameters
-    ----------
-    lights, optics, cameras : lists of components
-    classes : list of ObjectClass
-        At least two.
-    exposure : Exposure, keyword-only
-    grid : ndarray, keyword-only
-        Integration wavelengths, nm (trapezoidal rule).
-    comparisons : Comparisons, keyword-only, optional
-        Which groups of classes to compare and how a group is weighted; default
-        every pair and each class against the rest, equal weights.
-    """
+    names: tuple[tuple[str, ...], tuple[str, ...], tuple[str, ...], tuple[str, ...]]
+    components: tuple[list, list, list, list]  # lights, optics, cameras, classes
+    comparisons: Comparisons
+    exposure: Exposure
+    grid: np.ndarray
+    e: np.ndarray  # W·m⁻²·nm⁻¹ per light, (L, W)
+    t: np.ndarray  # transmission / 4N², (O, W)
+    q: np.ndarray  # e⁻ per (W/m²·s) per nm bin, QE·A·λ/(hc)·trapezoid weight, (C, W)
+    r_all: np.ndarray  # every class's reflectance samples, (S, W)
+    sample_class: np.ndarray  # (S,)
+    inside: np.ndarray  # where each class is measured, (K, W)
+    present: tuple[np.ndarray, np.ndarray, np.ndarray]
+    absolute: np.ndarray  # (L,)
+    onehot: np.ndarray  # (S, K)
+    per_class: np.ndarray  # (K,)
+    camera: dict[str, np.ndarray]  # gain, dark_noise, saturation, dark_offset, max_dn: (C,)
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        return tuple(len(n) for n in self.names[:3])
+
+
+def _prepare(lights, optics, cameras, classes, *, exposure, grid, comparisons) -> _Chain:
+    """Validate the components and put them on the integration grid."""
     if len(classes) < 2:
         raise InputError("a scene needs at least two object classes to separate")
     grid = np.asarray(grid, float)
@@ -197,33 +210,132 @@ def predict(
     )
     invalid = ~np.isfinite(r_all) & inside[sample_class]
     r_all = np.where(np.isfinite(r_all), r_all, 0.0)
-
-    n_l, n_o, n_c, n_s = len(lights), len(optics), len(cameras), r_all.shape[0]
-    lo_rows = (e[:, None, :] * t[None, :, :]).reshape(n_l * n_o, grid.size)
     present = _present(e), _present(t), _present(q)
     _check_masked(classes, present, invalid, sample_class, grid)
-    cs_rows = (q[:, None, :] * r_all[None, :, :]).reshape(n_c * n_s, grid.size)
-    rate = (lo_rows @ cs_rows.T).reshape(n_l, n_o, n_c, n_s)  # e⁻/s per sample
 
-    k_count = len(classes)
-    onehot = np.zeros((n_s, k_count))
-    onehot[np.arange(n_s), sample_class] = 1.0
-    per_class = onehot.sum(axis=0)
+    onehot = np.zeros((r_all.shape[0], len(classes)))
+    onehot[np.arange(r_all.shape[0]), sample_class] = 1.0
+    names = tuple(c.name for c in classes)
+    comparisons = comparisons or Comparisons.of(names)
+    if comparisons.classes != names:
+        raise InputError(f"the comparisons are of classes {comparisons.classes}, not {names}")
+    camera = {
+        f: np.array([getattr(c, f) for c in cameras], dtype=float)
+        for f in ("gain", "dark_noise", "saturation", "dark_offset", "max_dn")
+    }
+    return _Chain(
+        names=(
+            tuple(lt.name for lt in lights),
+            tuple(o.name for o in optics),
+            tuple(c.name for c in cameras),
+            names,
+        ),
+        components=(list(lights), list(optics), list(cameras), list(classes)),
+        comparisons=comparisons,
+        exposure=exposure,
+        grid=grid,
+        e=e,
+        t=t,
+        q=q,
+        r_all=r_all,
+        sample_class=sample_class,
+        inside=inside,
+        present=present,
+        absolute=absolute,
+        onehot=onehot,
+        per_class=onehot.sum(axis=0),
+        camera=camera,
+    )
+
+
+def predict(
+    lights: list[Light],
+    optics: list[Optics],
+    cameras: list[Camera],
+    classes: list[ObjectClass],
+    *,
+    exposure: Exposure = Exposure(),
+    grid: np.ndarray,
+    comparisons: Comparisons | None = None,
+) -> Prediction:
+    """Predict μ, σ², SNR_dB, CNR, Fisher ratio and ε Gauss for every combination.
+
+    Every array holds every combination (about 1.5 kB each with 60 reflectance
+    samples); a sweep too large for that is :func:`~inspect_validate.model.sweep`'s.
+
+    Parameters
+    ----------
+    lights, optics, cameras : lists of components
+    classes : list of ObjectClass
+        At least two.
+    exposure : Exposure, keyword-only
+    grid : ndarray, keyword-only
+        Integration wavelengths, nm (trapezoidal rule).
+    comparisons : Comparisons, keyword-only, optional
+        Which groups of classes to compare and how a group is weighted; default
+        every pair and each class against the rest, equal weights.
+    """
+    chain = _prepare(
+        lights, optics, cameras, classes, exposure=exposure, grid=grid, comparisons=comparisons
+    )
+    everything = slice(None)
+    p, n_bad, reasons = _predict_block(chain, everything, everything, everything)
+    if n_bad == p.valid.size:
+        raise InputError("no combination of the scene can be predicted:\n  " + "\n  ".join(reasons))
+    return p
+
+
+def skipped_reasons(reasons, n_bad: int) -> tuple[str, ...]:
+    """The first :data:`_MAX_REASONS` reasons, then how many more combinations were skipped."""
+    listed = tuple(reasons[:_MAX_REASONS])
+    if n_bad > len(listed):
+        return (*listed, f"... and {n_bad - len(listed)} more combinations")
+    return listed
+
+
+def _predict_block(
+    chain: _Chain, ls: slice, os: slice, cs: slice, *, mixtures=None
+) -> tuple[Prediction, int, tuple[str, ...]]:
+    """:func:`predict` of the lights ``ls`` × optics ``os`` × cameras ``cs`` of a chain.
+
+    ``mixtures``: the group comparisons whose ε (a root search per combination)
+    to compute; all by default (see :func:`~inspect_validate.comparisons.gaussian_separation`).
+
+    Returns the prediction, the number of combinations skipped in it, and the
+    reasons (at most :data:`_MAX_REASONS`, then a count).
+    """
+    e, t, q = chain.e[ls], chain.t[os], chain.q[cs]
+    cam = {f: v[cs] for f, v in chain.camera.items()}
+    n_l, n_o, n_c, n_s = e.shape[0], t.shape[0], q.shape[0], chain.r_all.shape[0]
+    n_w = chain.grid.size
+    lo_rows = (e[:, None, :] * t[None, :, :]).reshape(n_l * n_o, n_w)
+    cs_rows = (q[:, None, :] * chain.r_all[None, :, :]).reshape(n_c * n_s, n_w)
+    rate = (lo_rows @ cs_rows.T).reshape(n_l, n_o, n_c, n_s)  # e⁻/s per sample
+    onehot, per_class = chain.onehot, chain.per_class
     class_rate = rate @ onehot / per_class  # mean e⁻/s per class
 
-    valid, skipped = _feasible(
-        lights, optics, cameras, classes, present, q, lo_rows, inside, class_rate
+    lights, optics, cameras, classes = (
+        c[s] for c, s in zip(chain.components, (ls, os, cs, slice(None)), strict=True)
     )
-    # Skipped combinations are computed on a stand-in rate (kept finite so no
-    # warning or NaN travels through the arithmetic) and blanked at the end.
-    rate = np.where(valid[..., None], rate, 1.0)
-    class_rate = np.where(valid[..., None], class_rate, 1.0)
+    pe, pt, pq = chain.present
+    valid, n_bad, reasons = _feasible(
+        lights,
+        optics,
+        cameras,
+        classes,
+        (pe[ls], pt[os], pq[cs]),
+        q,
+        lo_rows,
+        chain.inside,
+        class_rate,
+    )
+    if n_bad:
+        # Skipped combinations are computed on a stand-in rate (kept finite so no
+        # warning or NaN travels through the arithmetic) and blanked at the end.
+        rate = np.where(valid[..., None], rate, 1.0)
+        class_rate = np.where(valid[..., None], class_rate, 1.0)
 
-    cam = {
-        f: np.array([getattr(c, f) for c in cameras])
-        for f in ("gain", "dark_noise", "saturation", "dark_offset")
-    }
-    max_dn = np.array([c.max_dn for c in cameras])
+    exposure = chain.exposure
     if exposure.mode == "auto":
         brightest = class_rate.max(axis=-1)
         t_exp = exposure.target * cam["saturation"][None, None, :] / brightest
@@ -232,36 +344,36 @@ def predict(
     else:
         t_exp = np.full((n_l, n_o, n_c), exposure.time)
 
-    mu_e = rate * t_exp[..., None]
+    mu_e = rate
+    mu_e *= t_exp[..., None]  # rate is not used again: scaled in place
     gain = cam["gain"][None, None, :, None]
     mean_s = cam["dark_offset"][None, None, :, None] + gain * mu_e
     var_s = gain**2 * (cam["dark_noise"][None, None, :, None] ** 2 + mu_e) + QUANTISATION_VARIANCE
-    clip_mean, clip_var, above = _clipped_moments(mean_s, var_s, max_dn[None, None, :, None])
+    clip_mean, clip_var, above = _clipped_moments(mean_s, var_s, cam["max_dn"][None, None, :, None])
 
     mean = clip_mean @ onehot / per_class
     # Spectral spread: unbiased variance (39) of the samples' means within each class.
     dev2 = (clip_mean - mean @ onehot.T) ** 2
     spectral = (dev2 @ onehot) / np.maximum(per_class - 1, 1)
+    del dev2
     variance = clip_var @ onehot / per_class + spectral
-    saturated = above @ onehot / per_class
+    saturated = above @ onehot / per_class if above is not None else np.zeros_like(mean)
 
-    names = tuple(c.name for c in classes)
-    comparisons = comparisons or Comparisons.of(names)
-    if comparisons.classes != names:
-        raise InputError(f"the comparisons are of classes {comparisons.classes}, not {names}")
-    sep = gaussian_separation(mean, variance, comparisons, valid=valid)
+    sep = gaussian_separation(mean, variance, chain.comparisons, valid=valid, mixtures=mixtures)
 
     def blank(a):
         """NaN where the combination was skipped."""
+        if not n_bad:
+            return a
         return np.where(valid.reshape(valid.shape + (1,) * (a.ndim - 3)), a, np.nan)
 
-    return Prediction(
+    prediction = Prediction(
         lights=tuple(lt.name for lt in lights),
         optics=tuple(o.name for o in optics),
         cameras=tuple(c.name for c in cameras),
-        classes=names,
-        comparison_set=comparisons,
-        grid=grid,
+        classes=chain.names[3],
+        comparison_set=chain.comparisons,
+        grid=chain.grid,
         exposure_time=blank(t_exp),
         electrons=blank(class_rate * t_exp[..., None]),
         mean=blank(mean),
@@ -276,11 +388,12 @@ def predict(
         sample_electrons=blank(mu_e),
         sample_mean=blank(clip_mean),
         sample_variance=blank(clip_var),
-        sample_class=sample_class,
+        sample_class=chain.sample_class,
         valid=valid,
-        skipped=skipped,
-        absolute=absolute,
+        skipped=skipped_reasons(reasons, n_bad),
+        absolute=chain.absolute[ls],
     )
+    return prediction, n_bad, reasons
 
 
 def _irradiance_scale(lights) -> np.ndarray:
@@ -318,23 +431,28 @@ def _clipped_moments(mean, var, ceiling):
 
     Only values within 8σ of the ceiling are touched: below that the clipping
     changes nothing a double can hold (Φc(8) ≈ 6e-16), and the closed forms
-    would only add rounding.
+    would only add rounding. Where nothing is that near — the usual case — the
+    inputs are returned as they are, with exceedance ``None`` (zero).
     """
     ceiling = np.broadcast_to(ceiling, mean.shape)
-    sd = np.sqrt(var)
-    a = (ceiling - mean) / sd
+    # (ceiling − mean)² ≤ 64 σ² with mean < ceiling, or mean ≥ ceiling: no square root,
+    # no division over the whole array.
+    gap = ceiling - mean
+    near = (gap <= 0) | (gap * gap <= 64.0 * var)
+    if not near.any():
+        return mean, var, None
     m, v, tail = mean.copy(), var.copy(), np.zeros_like(mean)
-    near = a <= 8.0
-    if near.any():
-        mu, s, c, z = mean[near], sd[near], ceiling[near], a[near]
-        cdf, upper, pdf = (
-            special.ndtr(z),
-            special.ndtr(-z),
-            np.exp(-0.5 * z * z) / np.sqrt(2 * np.pi),
-        )
-        first = mu * cdf - s * pdf + c * upper
-        second = (mu**2 + s**2) * cdf - s * pdf * (mu + c) + c**2 * upper
-        m[near], v[near], tail[near] = first, np.maximum(second - first**2, 0.0), upper
+    mu, c = mean[near], ceiling[near]
+    s = np.sqrt(var[near])
+    z = (c - mu) / s
+    cdf, upper, pdf = (
+        special.ndtr(z),
+        special.ndtr(-z),
+        np.exp(-0.5 * z * z) / np.sqrt(2 * np.pi),
+    )
+    first = mu * cdf - s * pdf + c * upper
+    second = (mu**2 + s**2) * cdf - s * pdf * (mu + c) + c**2 * upper
+    m[near], v[near], tail[near] = first, np.maximum(second - first**2, 0.0), upper
     return m, v, tail
 
 
@@ -351,7 +469,10 @@ def _feasible(lights, optics, cameras, classes, present, q, lo_rows, inside, cla
     Returns
     -------
     valid : ndarray of bool, shape (L, O, C)
+    n_bad : int
+        Combinations skipped.
     reasons : tuple of str
+        Why, for the first :data:`_MAX_REASONS` of them.
     """
     n_l, n_o, n_c, n_w = len(lights), len(optics), len(cameras), q.shape[-1]
     # Wavelengths where light, optics and camera are all present, counted per
@@ -391,12 +512,7 @@ def _feasible(lights, optics, cameras, classes, present, q, lo_rows, inside, cla
         else:
             why = "no class reflects anything the camera sees"
         reasons.append(f"{combo}: {why}")
-    n_bad = int((~valid).sum())
-    if n_bad > _MAX_REASONS:
-        reasons.append(f"... and {n_bad - _MAX_REASONS} more combinations")
-    if not valid.any():
-        raise InputError("no combination of the scene can be predicted:\n  " + "\n  ".join(reasons))
-    return valid, tuple(reasons)
+    return valid, int((~valid).sum()), tuple(reasons)
 
 
 def _check_masked(classes, present, invalid, sample_class, grid):

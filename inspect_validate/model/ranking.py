@@ -21,7 +21,7 @@ from inspect_validate.model.acquisition import Prediction
 from inspect_validate.stats import as_sample, lscv_bandwidth
 from inspect_validate.stats.kde_error import mixture_error
 
-__all__ = ["comparison_index", "predicted_kde_error", "rank"]
+__all__ = ["comparison_index", "predicted_kde_error", "rank", "rank_keys"]
 
 _MIN_SAMPLES_FOR_LSCV = 5
 SATURATION_LIMIT = 1e-3
@@ -33,20 +33,21 @@ def comparison_index(prediction: Prediction, label: str) -> int:
     return find_comparison(prediction.comparisons, label)
 
 
-def rank(prediction: Prediction, *, by: str = "error", comparison: str | None = None):
-    """Combinations best first: unsaturated before saturated, then by the key.
+def rank_keys(prediction: Prediction, *, by: str = "error", comparison: str | None = None):
+    """Each combination's sort keys, flat in ``[light, optics, camera]`` order.
 
     Returns
     -------
-    order : ndarray of int, shape (N, 3)
-        (light, optics, camera) indices of the N predicted (not skipped)
-        combinations, best first.
+    keys : tuple of ndarray, shape (N,) each
+        For :func:`numpy.lexsort`, least significant first: the tiebreak (log ε
+        of the key comparison), the key (ε, or −dB: smaller is better) and
+        ``saturated``. Sorting them stably ranks best first.
     key : ndarray, shape (N,)
-        The ranking value of each row (ε, or dB).
+        The ranking value (ε, or dB).
     column : ndarray of int, shape (N,)
-        Each row's key comparison: the named one, or that row's worst pair.
+        The key comparison: the named one, or that row's worst pair.
     saturated : ndarray of bool, shape (N,)
-        Some class of the row has more than :data:`SATURATION_LIMIT` saturated.
+        Some class has more than :data:`SATURATION_LIMIT` of its pixels saturated.
     """
     values = {
         "error": prediction.error_gaussian,
@@ -68,26 +69,46 @@ def rank(prediction: Prediction, *, by: str = "error", comparison: str | None = 
     key = flat_values[rows, column]
     tiebreak = flat_log[rows, column]
     saturated = (prediction.saturated_fraction.max(axis=-1) > SATURATION_LIMIT).ravel()
-    keep = prediction.valid.ravel()
-    idx = rows[keep]
-    order = idx[
-        np.lexsort((tiebreak[keep], key[keep] if by == "error" else -key[keep], saturated[keep]))
-    ]
+    keys = (tiebreak, key if by == "error" else -key, saturated)
+    return keys, key, column, saturated
+
+
+def rank(prediction: Prediction, *, by: str = "error", comparison: str | None = None):
+    """Combinations best first: unsaturated before saturated, then by the key.
+
+    Returns
+    -------
+    order : ndarray of int, shape (N, 3)
+        (light, optics, camera) indices of the N predicted (not skipped)
+        combinations, best first.
+    key : ndarray, shape (N,)
+        The ranking value of each row (ε, or dB).
+    column : ndarray of int, shape (N,)
+        Each row's key comparison: the named one, or that row's worst pair.
+    saturated : ndarray of bool, shape (N,)
+        Some class of the row has more than :data:`SATURATION_LIMIT` saturated.
+    """
+    keys, key, column, saturated = rank_keys(prediction, by=by, comparison=comparison)
+    idx = np.flatnonzero(prediction.valid.ravel())
+    order = idx[np.lexsort(tuple(k[idx] for k in keys))]
     combos = np.stack(np.unravel_index(order, prediction.valid.shape), axis=1)
     return combos, key[order], column[order], saturated[order]
 
 
-def predicted_kde_error(prediction: Prediction, index, column: int) -> float:
+def predicted_kde_error(prediction, index, column: int) -> float:
     """Nonparametric ε (37) of one combination and comparison.
+
+    ``prediction`` is a :class:`~inspect_validate.model.Prediction` (``index``
+    a (light, optics, camera) tuple) or a :class:`~inspect_validate.model.Sweep`
+    (``index`` a row).
 
     Each class's density is a mixture over its reflectance samples: a Gaussian
     at each sample's predicted grey value with the camera's temporal noise,
     widened by the LSCV bandwidth of the sample values (with ≥ 5 samples) —
     no assumption that a class is Gaussian.
     """
-    li, oi, ci = index
-    means = prediction.sample_mean[li, oi, ci]
-    noise = prediction.sample_variance[li, oi, ci]
+    means = prediction.sample_mean[index]
+    noise = prediction.sample_variance[index]
     class_weights = prediction.comparison_set.class_weights()
     parts = []
     for members in prediction.comparison_set.groups[column]:

@@ -2,10 +2,8 @@
 
 from __future__ import annotations
 
-import numpy as np
-
 from inspect_validate import __version__
-from inspect_validate.model import Prediction, predicted_kde_error, rank
+from inspect_validate.model import Ranking, predicted_kde_error
 from inspect_validate.model.ranking import SATURATION_LIMIT
 from inspect_validate.report.tables import format_error, render_table
 
@@ -19,23 +17,22 @@ __all__ = [
 PREDICTION_SCHEMA_VERSION = 2
 """2: ``key_comparison`` (the row's ranking comparison, an index into its complete
 ``comparisons``) replaces ``worst_comparison``; ``saturated``, ``exposure``
-(``"absolute"``/``"relative"``) and the top-level ``skipped`` were added."""
+(``"absolute"``/``"relative"``) and the top-level ``skipped`` were added; later,
+additively, ``skipped_work`` (what the ranking did not need computed, and its cost)."""
 
 
-def prediction_rows(
-    p: Prediction, *, by: str, comparison: str | None, top: int, kde: bool = True
-) -> list[dict]:
-    """The ``top`` best combinations as dictionaries of plain numbers (the JSON ``ranking``).
+def prediction_rows(ranking: Ranking, *, kde: bool = True) -> list[dict]:
+    """The ranking's rows as dictionaries of plain numbers (the JSON ``ranking``).
 
     Every row lists every comparison; ``key_comparison`` indexes the one the row
     is ranked by. ε KDE is computed for that comparison only: it is the costly
     one, and the one the ranking is about.
     """
-    order, key, column, saturated = rank(p, by=by, comparison=comparison)
+    p = ranking
     rows = []
-    for r, (li, oi, ci) in enumerate(order[:top]):
-        idx = (li, oi, ci)
-        absolute = bool(p.absolute[li]) if p.absolute is not None else True
+    for r, (li, oi, ci) in enumerate(p.index):
+        absolute = bool(p.absolute[r])
+        column = int(p.column[r])
         rows.append(
             {
                 "rank": r + 1,
@@ -43,18 +40,18 @@ def prediction_rows(
                 "optics": p.optics[oi],
                 "camera": p.cameras[ci],
                 "exposure": "absolute" if absolute else "relative",
-                "exposure_time_s": float(p.exposure_time[idx]) if absolute else None,
-                "key": float(key[r]),
-                "key_comparison": int(column[r]),
-                "saturated": bool(saturated[r]),
+                "exposure_time_s": float(p.exposure_time[r]) if absolute else None,
+                "key": float(p.key[r]),
+                "key_comparison": column,
+                "saturated": bool(p.saturated[r]),
                 "classes": [
                     {
                         "name": name,
-                        "mean": float(p.mean[idx][k]),
-                        "variance": float(p.variance[idx][k]),
-                        "spectral_variance": float(p.spectral_variance[idx][k]),
-                        "electrons": float(p.electrons[idx][k]),
-                        "saturated_fraction": float(p.saturated_fraction[idx][k]),
+                        "mean": float(p.mean[r, k]),
+                        "variance": float(p.variance[r, k]),
+                        "spectral_variance": float(p.spectral_variance[r, k]),
+                        "electrons": float(p.electrons[r, k]),
+                        "saturated_fraction": float(p.saturated_fraction[r, k]),
                     }
                     for k, name in enumerate(p.classes)
                 ],
@@ -62,14 +59,12 @@ def prediction_rows(
                     {
                         "first": list(first),
                         "second": list(second),
-                        "snr_db": float(p.snr_db[idx][j]),
-                        "cnr_db": float(p.cnr_db[idx][j]),
-                        "fisher_db": float(p.fisher_db[idx][j]),
-                        "error_gaussian": float(p.error_gaussian[idx][j]),
-                        "log_error_gaussian": float(p.log_error_gaussian[idx][j]),
-                        "error_kde": predicted_kde_error(p, idx, j)
-                        if kde and j == column[r]
-                        else None,
+                        "snr_db": float(p.snr_db[r, j]),
+                        "cnr_db": float(p.cnr_db[r, j]),
+                        "fisher_db": float(p.fisher_db[r, j]),
+                        "error_gaussian": float(p.error_gaussian[r, j]),
+                        "log_error_gaussian": float(p.log_error_gaussian[r, j]),
+                        "error_kde": predicted_kde_error(p, r, j) if kde and j == column else None,
                     }
                     for j, (first, second) in enumerate(p.comparisons)
                 ],
@@ -78,7 +73,7 @@ def prediction_rows(
     return rows
 
 
-def format_prediction(p: Prediction, rows: list[dict], *, by: str, comparison: str | None) -> str:
+def format_prediction(p: Ranking, rows: list[dict], *, by: str, comparison: str | None) -> str:
     header = ["#", "light", "optics", "camera", "t_exp"]
     header += [f"μ {c}" for c in p.classes] + [f"σ² {c}" for c in p.classes]
     header += ["comparison", "SNR_dB (36)", "CNR_dB", "ε Gauss", "ε KDE", "sat"]
@@ -126,7 +121,7 @@ def format_prediction(p: Prediction, rows: list[dict], *, by: str, comparison: s
 
 
 def prediction_document(
-    p: Prediction, rows: list[dict], *, scene: str, by: str, comparison: str | None
+    p: Ranking, rows: list[dict], *, scene: str, by: str, comparison: str | None
 ) -> dict:
     return {
         "schema": "inspect-validate/prediction",
@@ -144,7 +139,8 @@ def prediction_document(
         "classes": list(p.classes),
         "rank_by": by,
         "rank_comparison": comparison,
-        "combinations": int(np.prod(p.shape)),
+        "combinations": p.combinations,
         "skipped": list(p.skipped),
+        "skipped_work": list(p.skipped_work),
         "ranking": rows,
     }

@@ -1,0 +1,288 @@
+"""Sweeps of any size: the prediction in blocks of combinations, the ranking streamed.
+
+:func:`~inspect_validate.model.predict` holds every combination's arrays, the
+per-sample ones included (about 1.5 kB a combination with 60 reflectance
+samples, several times that in temporaries): fine for a station, not for a
+catalogue. :func:`sweep` predicts blocks of combinations that fit ``memory``
+bytes, ranks each block, and keeps only its best ``top`` rows and its worst
+one; merging two blocks' rows is again a ranking, so the result does not
+depend on the blocks and memory does not grow with the number of combinations.
+
+What a ranking does not need is not computed for every combination: the ε of a
+comparison between groups of classes (a Gaussian mixture each side, a root
+search of about 1 ms per combination) is computed for the rows kept, unless
+the ranking is by that comparison's ε. :attr:`Ranking.skipped_work` says what
+was left out and the time it would have taken.
+"""
+
+from __future__ import annotations
+
+import itertools
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from inspect_validate.comparisons import Comparisons, gaussian_separation
+from inspect_validate.errors import InputError
+from inspect_validate.model.acquisition import (
+    _MAX_REASONS,
+    Exposure,
+    _Chain,
+    _Combinations,
+    _predict_block,
+    _prepare,
+    skipped_reasons,
+)
+from inspect_validate.model.ranking import rank_keys
+
+__all__ = ["Ranking", "sweep"]
+
+MEMORY = 256 * 2**20
+"""Default bytes for one block's arrays (the sweep's peak is about this plus the inputs)."""
+
+# Per-combination and per-sample arrays of a block, in float64 values: the rate, its
+# grey values and variances, the spread (per sample); the separation's double-double
+# passes (per comparison); the class moments (per class).
+_VALUES_PER_SAMPLE, _VALUES_PER_COMPARISON, _VALUES_PER_CLASS = 8, 48, 16
+
+_ROW_FIELDS = (
+    "exposure_time",
+    "electrons",
+    "mean",
+    "variance",
+    "spectral_variance",
+    "saturated_fraction",
+    "snr_db",
+    "cnr_db",
+    "fisher_db",
+    "error_gaussian",
+    "log_error_gaussian",
+    "sample_mean",
+    "sample_variance",
+)
+
+
+@dataclass(frozen=True, eq=False)
+class Ranking(_Combinations):
+    """The best rows of a sweep, best first, with what the whole sweep found.
+
+    Row arrays are indexed ``[row, ...]`` with the fields of
+    :class:`~inspect_validate.model.Prediction` (the last axis the class, the
+    comparison or the reflectance sample); ``index`` gives each row's
+    (light, optics, camera).
+    """
+
+    lights: tuple[str, ...]
+    optics: tuple[str, ...]
+    cameras: tuple[str, ...]
+    classes: tuple[str, ...]
+    comparison_set: Comparisons
+    grid: np.ndarray
+    by: str
+    comparison: str | None
+    index: np.ndarray  # (N, 3) int
+    key: np.ndarray  # ranking value (ε, or dB), (N,)
+    column: np.ndarray  # key comparison of each row, (N,)
+    saturated: np.ndarray  # (N,) bool
+    absolute: np.ndarray  # the row's light has an absolute irradiance, (N,) bool
+    exposure_time: np.ndarray
+    electrons: np.ndarray
+    mean: np.ndarray
+    variance: np.ndarray
+    spectral_variance: np.ndarray
+    saturated_fraction: np.ndarray
+    snr_db: np.ndarray
+    cnr_db: np.ndarray
+    fisher_db: np.ndarray
+    error_gaussian: np.ndarray
+    log_error_gaussian: np.ndarray
+    sample_mean: np.ndarray
+    sample_variance: np.ndarray
+    sample_class: np.ndarray
+    worst: tuple[int, int, int]  # the last-ranked combination
+    predicted: int  # combinations predicted (not skipped)
+    skipped: tuple[str, ...]  # why combinations were skipped (20 named, then a count)
+    blocks: int
+    skipped_work: tuple[str, ...] = ()  # what the ranking did not need, and its cost
+
+    @property
+    def combinations(self) -> int:
+        return int(np.prod(self.shape))
+
+
+def sweep(
+    lights,
+    optics,
+    cameras,
+    classes,
+    *,
+    exposure: Exposure | None = None,
+    grid: np.ndarray,
+    comparisons: Comparisons | None = None,
+    by: str = "error",
+    comparison: str | None = None,
+    top: int = 10,
+    memory: int = MEMORY,
+) -> Ranking:
+    """Predict every light × optics × camera combination in blocks and rank them.
+
+    The same numbers as :func:`~inspect_validate.model.predict` followed by
+    :func:`~inspect_validate.model.rank`, up to rounding (a block's matrix
+    product may sum in another order: relative differences of 1e-15 in μ, which
+    a small ε's conditioning turns into about 1e-13), in memory bounded by
+    ``memory`` whatever the number of combinations.
+
+    Parameters
+    ----------
+    lights, optics, cameras, classes, exposure, grid, comparisons
+        As for :func:`~inspect_validate.model.predict`.
+    by : {"error", "snr_db", "cnr_db"}, keyword-only
+    comparison : str, keyword-only, optional
+        Rank by this comparison (default: each combination's worst pair).
+    top : int, keyword-only
+        Rows to keep.
+    memory : int, keyword-only
+        Bytes for one block's arrays.
+    """
+    chain = _prepare(
+        lights,
+        optics,
+        cameras,
+        classes,
+        exposure=exposure or Exposure(),
+        grid=grid,
+        comparisons=comparisons,
+    )
+    comparison_set = chain.comparisons
+    key_column = comparison_set.index(comparison) if comparison is not None else None
+    groups = [
+        j for j, (a, b) in enumerate(comparison_set.groups) if not (len(a) == 1 and len(b) == 1)
+    ]
+    # A group's ε is needed for every combination only when the ranking is by it.
+    mixtures = [key_column] if by == "error" and key_column in groups else []
+
+    kept, reasons, n_bad, n_blocks = None, [], 0, 0
+    for block in _blocks(chain, memory=memory):
+        rows, bad, why = _block_rows(
+            chain, block, by=by, comparison=comparison, top=top, mixtures=mixtures
+        )
+        n_blocks += 1
+        n_bad += bad
+        reasons += why[: max(0, _MAX_REASONS - len(reasons))]
+        kept = rows if kept is None else _merge(kept, rows, top)
+    total = int(np.prod(chain.shape))
+    if n_bad == total:
+        raise InputError(
+            "no combination of the scene can be predicted:\n  "
+            + "\n  ".join(skipped_reasons(reasons, n_bad))
+        )
+    order = _order(kept)
+    best = order[:top]
+    worst = int(kept["flat"][order[-1]])
+    rows = {name: values[best] for name, values in kept.items()}
+
+    # The rows' group ε: the same function on the same moments as a full prediction.
+    left = [j for j in groups if j not in mixtures]
+    skipped_work = ()
+    if left:
+        started = time.perf_counter()
+        sep = gaussian_separation(rows["mean"], rows["variance"], comparison_set)
+        per = (time.perf_counter() - started) / max(1, best.size * len(left))
+        rows["error_gaussian"] = sep.error_gaussian
+        rows["log_error_gaussian"] = sep.log_error_gaussian
+        n_skip = (total - n_bad - best.size) * len(left)
+        if n_skip > 0:
+            labels = ", ".join(comparison_set.labels[j] for j in left)
+            skipped_work = (
+                f"ε Gauss of {labels} (a Gaussian mixture each side) for the {best.size} rows "
+                f"listed only, not for {total - n_bad - best.size} other combinations: "
+                f"{n_skip} root searches, about {_duration(n_skip * per)} at "
+                f"{1e3 * per:.2g} ms each (rank by one of them to compute it everywhere)",
+            )
+    names = chain.names
+    return Ranking(
+        lights=names[0],
+        optics=names[1],
+        cameras=names[2],
+        classes=names[3],
+        comparison_set=comparison_set,
+        grid=chain.grid,
+        by=by,
+        comparison=comparison,
+        index=np.stack(np.unravel_index(rows["flat"], chain.shape), axis=1),
+        key=rows["key"],
+        column=rows["column"],
+        saturated=rows["saturated"],
+        absolute=rows["absolute"],
+        **{name: rows[name] for name in _ROW_FIELDS},
+        sample_class=chain.sample_class,
+        worst=tuple(int(i) for i in np.unravel_index(worst, chain.shape)),
+        predicted=total - n_bad,
+        skipped=skipped_reasons(reasons, n_bad),
+        blocks=n_blocks,
+        skipped_work=skipped_work,
+    )
+
+
+def _duration(seconds: float) -> str:
+    if seconds < 120:
+        return f"{seconds:.2g} s"
+    if seconds < 2 * 3600:
+        return f"{seconds / 60:.0f} min"
+    return f"{seconds / 3600:.1f} h"
+
+
+def _blocks(chain: _Chain, *, memory: int):
+    """(lights, optics, cameras) slices whose block arrays fit ``memory`` bytes; cameras
+    are split only when one light × optics row of them does not fit, and so on."""
+    n_l, n_o, n_c = chain.shape
+    n_s, n_k = chain.r_all.shape[0], len(chain.names[3])
+    n_p = len(chain.comparisons.groups)
+    per = 8 * (_VALUES_PER_SAMPLE * n_s + _VALUES_PER_COMPARISON * n_p + _VALUES_PER_CLASS * n_k)
+    fit = max(1, memory // per)  # combinations in a block
+    bc = min(n_c, fit)
+    bo = min(n_o, max(1, fit // bc))
+    bl = min(n_l, max(1, fit // (bc * bo)))
+    for li, oi, ci in itertools.product(range(0, n_l, bl), range(0, n_o, bo), range(0, n_c, bc)):
+        yield slice(li, li + bl), slice(oi, oi + bo), slice(ci, ci + bc)
+
+
+def _block_rows(chain, block, *, by, comparison, top, mixtures):
+    """One block's best ``top`` rows and its worst, with their global flat indices and sort
+    keys; the number of combinations it skipped, and why."""
+    ls, os, cs = block
+    p, n_bad, reasons = _predict_block(chain, ls, os, cs, mixtures=mixtures)
+    keys, key, column, saturated = rank_keys(p, by=by, comparison=comparison)
+    idx = np.flatnonzero(p.valid.ravel())
+    order = idx[np.lexsort(tuple(k[idx] for k in keys))]
+    pick = np.unique(np.concatenate([order[:top], order[-1:]]))
+    li, oi, ci = np.unravel_index(pick, p.valid.shape)
+    _, n_o, n_c = chain.shape
+    flat = ((li + ls.start) * n_o + (oi + os.start)) * n_c + (ci + cs.start)
+    rows = {
+        "flat": flat,
+        "tiebreak": keys[0][pick],
+        "sort_key": keys[1][pick],
+        "saturated": saturated[pick],
+        "key": key[pick],
+        "column": column[pick],
+        "absolute": p.absolute[li],
+    }
+    for name in _ROW_FIELDS:
+        rows[name] = getattr(p, name)[li, oi, ci]
+    return rows, n_bad, reasons
+
+
+def _order(rows) -> np.ndarray:
+    """Best first: unsaturated, then by key, log ε and (as a full prediction's stable sort)
+    position in the sweep."""
+    return np.lexsort((rows["flat"], rows["tiebreak"], rows["sort_key"], rows["saturated"]))
+
+
+def _merge(a: dict, b: dict, top: int) -> dict:
+    """Two blocks' kept rows as one: the best ``top`` and the worst of both."""
+    both = {name: np.concatenate([a[name], b[name]]) for name in a}
+    order = _order(both)
+    pick = np.unique(np.concatenate([order[:top], order[-1:]]))
+    return {name: values[pick] for name, values in both.items()}
