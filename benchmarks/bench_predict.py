@@ -6,8 +6,10 @@ Run: ``python benchmarks/bench_predict.py`` (about two minutes on 2 cores).
    grid: the vectorised model against a straightforward colour-science loop
    (one ``SpectralDistribution`` product and integral per combination and
    sample), with the largest relative difference of the predicted electrons.
-2. 1,000,000 combinations (100 × 100 × 100), same classes; the loop's time is
-   extrapolated from (1), per combination.
+2. ``sweep`` of 10³ … 10⁷ combinations (up to 1000 × 100 × 100), same classes,
+   each in a fresh process: run time, time per combination against 10³'s, peak
+   RSS, blocks and the share of the matrix products. (``predict``, which holds
+   every array and every group comparison's ε, is not run at these sizes.)
 3. Predicted SNR_dB of the shipped scenes against grid step 1, 2, 5, 10 nm,
    each compared with a 0.1 nm grid: the error that sets the default step.
 """
@@ -21,7 +23,7 @@ import numpy as np
 
 from inspect_validate.components import Camera, Optics, led
 from inspect_validate.components.lights import C, H
-from inspect_validate.model import Exposure, ObjectClass, predict
+from inspect_validate.model import Exposure, ObjectClass, predict, sweep
 from inspect_validate.spectra import Spectrum
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -89,8 +91,9 @@ def rows_speed():
     rng = np.random.default_rng(0)
     parts = components(10, 10, 10, rng)
     t0 = time.perf_counter()
-    p = predict(*parts, exposure=Exposure("fixed", time=1.0), grid=GRID)
+    sweep(*parts, exposure=Exposure("fixed", time=1.0), grid=GRID, top=10)
     t_ours = time.perf_counter() - t0
+    p = predict(*parts, exposure=Exposure("fixed", time=1.0), grid=GRID)  # every μ_e, to compare
     sub = [parts[0][:2], parts[1][:5], parts[2][:5], parts[3]]
     t0 = time.perf_counter()
     ref = colour_loop(*sub)
@@ -99,24 +102,77 @@ def rows_speed():
     onehot[np.arange(60), np.repeat(np.arange(3), 20)] = 1 / 20
     rel = np.abs(p.electrons[:2, :5, :5] - ref @ onehot) / (ref @ onehot)
     yield (
-        "predict 10×10×10, 3×20 samples, 1 nm",
+        "sweep 10×10×10, 3×20 samples, 1 nm",
         "colour-science loop",
         t_ours,
         t_loop,
         rel.max(),
         "rel μ_e (loop extrapolated from 50 combos)",
     )
-    parts = components(100, 100, 100, rng)
+
+
+_SCALE = """
+import resource, sys, time
+sys.path.insert(0, {bench!r})
+import numpy as np
+from bench_predict import GRID, components, matmul_seconds
+from inspect_validate.model import sweep
+n_l, n_o, n_c = {shape}
+parts = components(n_l, n_o, n_c, np.random.default_rng(0))
+t0 = time.perf_counter()
+r = sweep(*parts, grid=GRID, top=10)
+elapsed = time.perf_counter() - t0
+print(elapsed, matmul_seconds(parts), r.blocks, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024)
+"""
+
+
+def matmul_seconds(parts) -> float:
+    """The sweep's matrix products alone: one block's, timed, times the blocks."""
+    from inspect_validate.model.acquisition import Exposure, _prepare
+    from inspect_validate.model.sweep import MEMORY, _blocks
+
+    chain = _prepare(*parts, exposure=Exposure(), grid=GRID, comparisons=None)
+    blocks = list(_blocks(chain, memory=MEMORY))
+    ls, os, cs = blocks[0]
+    lo = (chain.e[ls][:, None, :] * chain.t[os][None, :, :]).reshape(-1, GRID.size)
+    rows = (chain.q[cs][:, None, :] * chain.r_all[None, :, :]).reshape(-1, GRID.size)
+    best = min(_timed(lambda: lo @ rows.T) for _ in range(3))
+    return best * len(blocks)
+
+
+def _timed(fn) -> float:
     t0 = time.perf_counter()
-    predict(*parts, grid=GRID)
-    yield (
-        "predict 10⁶ combinations",
-        "colour-science loop",
-        time.perf_counter() - t0,
-        t_loop * 1000,
-        float("nan"),
-        "loop extrapolated",
-    )
+    fn()
+    return time.perf_counter() - t0
+
+
+def rows_scale():
+    """sweep from 10³ to 10⁷ combinations, each in a fresh process (peak RSS is the
+    process's): time per combination against 10³'s, memory, the products' share."""
+    import subprocess
+    import sys
+
+    per_first = None
+    for shape in ((10, 10, 10), (10, 10, 100), (100, 10, 100), (100, 100, 100), (1000, 100, 100)):
+        n = int(np.prod(shape))
+        out = subprocess.run(
+            [sys.executable, "-c", _SCALE.format(bench=str(Path(__file__).parent), shape=shape)],
+            capture_output=True,
+            text=True,
+            check=True,
+        ).stdout.split()
+        elapsed, matmul, blocks, peak = float(out[0]), float(out[1]), int(out[2]), int(out[3])
+        per = elapsed / n
+        per_first = per_first or per
+        yield (
+            f"sweep 10^{int(np.log10(n))} combinations",
+            "sweep at 10³",
+            elapsed,
+            per_first * n,
+            float("nan"),
+            f"{1e6 * per:.2f} µs/combination ({per / per_first:.2f}× 10³'s), peak RSS "
+            f"{peak / 2**20:.0f} MB, {blocks} blocks, matrix products {100 * matmul / elapsed:.0f} %",
+        )
 
 
 def rows_grid_step():
@@ -150,7 +206,7 @@ def main():
     header = f"{'task':40} {'reference':20} {'t ours':>10} {'t ref':>10} {'t ratio':>8} {'error':>10}  note"
     print(header)
     print("-" * len(header))
-    for task, ref, t1, t2, err, note in [*rows_speed(), *rows_grid_step()]:
+    for task, ref, t1, t2, err, note in [*rows_speed(), *rows_scale(), *rows_grid_step()]:
 
         def fmt(t):
             return "—" if not np.isfinite(t) else (f"{t * 1e3:.1f} ms" if t < 10 else f"{t:.0f} s")

@@ -216,6 +216,90 @@ def gaussian_error_row(rows):
     )
 
 
+def careful_scipy_error(m1, v1, m2, v2):
+    """ε_tot of two Gaussians as a careful scipy user writes it: the quadratic's roots
+    without cancellation, every tail from ``ndtr`` of the far side (no 1 − Φ)."""
+    from scipy import special
+
+    swap = v1 > v2
+    mn, vn = np.where(swap, m2, m1), np.where(swap, v2, v1)
+    mw, vw = np.where(swap, m1, m2), np.where(swap, v1, v2)
+    sn, sw = np.sqrt(vn), np.sqrt(vw)
+    a = 1 / (2 * vw) - 1 / (2 * vn)
+    b = mn / vn - mw / vw
+    c = mw**2 / (2 * vw) - mn**2 / (2 * vn) + np.log(sw / sn)
+    with np.errstate(all="ignore"):
+        q = -0.5 * (b + np.copysign(np.sqrt(b * b - 4 * a * c), b))
+        r1, r2 = q / a, c / q
+        x = -c / b  # equal variances: one crossing
+        equal = a == 0
+        lo = np.where(equal, np.where(mn < x, -np.inf, x), np.minimum(r1, r2))
+        hi = np.where(equal, np.where(mn < x, x, np.inf), np.maximum(r1, r2))
+        zl, zh = (lo - mw) / sw, (hi - mw) / sw
+        inside = np.where(
+            zl >= 0,
+            special.ndtr(-zl) - special.ndtr(-zh),
+            np.where(
+                zh <= 0,
+                special.ndtr(zh) - special.ndtr(zl),
+                1 - special.ndtr(-zh) - special.ndtr(zl),
+            ),
+        )
+        return 0.5 * (special.ndtr((lo - mn) / sn) + special.ndtr((mn - hi) / sn) + inside)
+
+
+def general_gaussian_error_rows(rows):
+    """Unequal variances, 10⁶ pairs: the compiled kernel, the numpy path, careful scipy."""
+    import importlib
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+    from test_gaussian_error import cases, reference
+
+    implementation = importlib.import_module("inspect_validate.stats.gaussian_error")
+    corpus = [c for c in cases() if reference(*c) >= 1e-300]
+    refs = [float(reference(*c)) for c in corpus]
+    # The variance ratio a careful scipy version survives (its roots lose all digits
+    # beyond): the tests' corpus reaches σ ratios of 1e±8.
+    moderate = [i for i, c in enumerate(corpus) if 1e-4 <= c[1] / c[3] <= 1e4]
+
+    def worst(fn, which):
+        return max(abs(float(fn(*map(np.float64, corpus[i]))) / refs[i] - 1) for i in which)
+
+    rng = np.random.default_rng(0)
+    n = 1_000_000
+    m1 = rng.normal(0, 100, n)
+    s1 = 10 ** rng.uniform(-1, 2, n)
+    s2 = s1 * 10 ** rng.uniform(-1, 1, n)
+    m2 = m1 + 10 ** rng.uniform(-1, 1.5, n) * np.maximum(s1, s2)
+    v1, v2 = s1 * s1, s2 * s2
+    t_ref = best_time(lambda: careful_scipy_error(m1, v1, m2, v2), 3)
+    everything = range(len(corpus))
+    e_ref = worst(careful_scipy_error, moderate)
+    e_ref_all = worst(careful_scipy_error, everything)
+    for name, threshold in (("compiled", 0), ("numpy", 2**62)):
+        saved = implementation.COMPILED_MIN, implementation.LOAD_MIN
+        implementation.COMPILED_MIN = implementation.LOAD_MIN = threshold
+        try:
+            t = best_time(lambda: implementation.gaussian_error_and_log(m1, v1, m2, v2), 3)
+            e = worst(implementation.gaussian_error, moderate)
+            e_all = worst(implementation.gaussian_error, everything)
+        finally:
+            implementation.COMPILED_MIN, implementation.LOAD_MIN = saved
+        rows.append(
+            (
+                f"ε Gauss, 10⁶ unequal-σ pairs ({name})",
+                "careful scipy",
+                t,
+                t_ref,
+                e,
+                e_ref,
+                f"max rel vs mpmath, σ ratio ≤ 100 (any ratio to 1e8: {e_all:.1e} vs {e_ref_all:.1e})",
+            )
+        )
+
+
 def kde_error_row(rows):
     from scipy import integrate
 
@@ -265,6 +349,7 @@ def main():
         statsmodels_row,
         binned_bandwidth_row,
         gaussian_error_row,
+        general_gaussian_error_rows,
         kde_error_row,
     ):
         step(rows)

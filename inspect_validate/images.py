@@ -93,17 +93,19 @@ def _read_tiff(path: Path) -> np.ndarray:
         pages = list(tif.pages)
         if len(pages) == 1 or (len(tif.series) == 1 and tif.series[0].ndim <= 3):
             return tif.asarray()
-        frames = []
-        for i, page in enumerate(pages):
+        first = pages[0].asarray()
+        stack = np.empty((len(pages), *first.shape), first.dtype)  # no list of pages to copy
+        stack[0] = first
+        for i, page in enumerate(pages[1:], start=1):
             data = page.asarray()
-            if frames and (data.shape != frames[0].shape or data.dtype != frames[0].dtype):
+            if data.shape != first.shape or data.dtype != first.dtype:
                 raise InputError(
-                    f"page {i + 1} is {data.shape} {data.dtype}, page 1 is {frames[0].shape} "
-                    f"{frames[0].dtype}: the pages of a stack must be frames of one camera setting",
+                    f"page {i + 1} is {data.shape} {data.dtype}, page 1 is {first.shape} "
+                    f"{first.dtype}: the pages of a stack must be frames of one camera setting",
                     source=str(path),
                 )
-            frames.append(data)
-        return np.stack(frames)
+            stack[i] = data
+        return stack
 
 
 def _capture_step(path: Path) -> str | None:
@@ -169,9 +171,13 @@ def read_frames(paths) -> np.ndarray:
     (:func:`expand_paths`). All frames must have the same size and data type,
     and frames written by a capture must all come from the same step.
     """
-    stack, first = [], None
+    # Frames are copied into one preallocated stack as they are read (sized for as many
+    # frames per file as the first has): peak memory is the stack plus one file, not
+    # twice the stack.
+    stack, n, first = None, 0, None
     steps: dict[str, Path] = {}
-    for path in expand_paths(paths):
+    paths = expand_paths(paths)
+    for path in paths:
         step = _capture_step(path)
         if step is not None:
             steps.setdefault(step, path)
@@ -192,7 +198,18 @@ def read_frames(paths) -> np.ndarray:
                 f"{first[1][1]}×{first[1][0]} {first[2]}: a stack must be one camera setting",
                 source=str(path),
             )
-        stack.append(frames)
-    if not stack:
+        if len(paths) == 1:
+            return frames
+        if stack is None:
+            stack = np.empty((len(paths) * frames.shape[0], *frames.shape[1:]), frames.dtype)
+        elif n + frames.shape[0] > stack.shape[0]:  # a file with more frames than the first
+            grown = np.empty(
+                (n + frames.shape[0] * (len(paths) - 1), *stack.shape[1:]), stack.dtype
+            )
+            grown[:n] = stack[:n]
+            stack = grown
+        stack[n : n + frames.shape[0]] = frames
+        n += frames.shape[0]
+    if stack is None:
         raise InputError("no frames given")
-    return np.concatenate(stack, axis=0)
+    return stack[:n]

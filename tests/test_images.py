@@ -116,3 +116,32 @@ def test_integer_frame_spanning_2_to_the_40_does_not_allocate_by_span():
     mask = np.ones((40, 40), bool)
     (cls,) = measure_classes(frame, {"all": mask})
     assert cls.mean == pytest.approx(2**39 + 1.5)
+
+
+def test_frames_of_several_files_are_read_into_one_stack_without_a_second_copy(tmp_path):
+    """Files of 1, 3 and 2 frames (the second outgrows the first's estimate), then a
+    single file: the same stack as concatenating them, and a peak (numpy's buffers, as
+    tracemalloc sees them) of the stack plus about one file, not twice the stack."""
+    import tracemalloc
+
+    import tifffile
+
+    rng = np.random.default_rng(0)
+    parts = [rng.integers(0, 4096, (k, 300, 400), dtype=np.uint16) for k in (1, 3, 2)]
+    for i, part in enumerate(parts):
+        tifffile.imwrite(tmp_path / f"f{i}.tif", part if len(part) > 1 else part[0])
+    expected = np.concatenate(parts)
+    got = read_frames(sorted(tmp_path.glob("f*.tif")))
+    assert got.dtype == np.uint16 and np.array_equal(got, expected)
+
+    big = rng.integers(0, 4096, (8, 500, 500), dtype=np.uint16)
+    for i, frame in enumerate(big):
+        tifffile.imwrite(tmp_path / f"g{i}.tif", frame)
+    tifffile.imwrite(tmp_path / "stack.tif", big)
+    for frames in (sorted(tmp_path.glob("g*.tif")), [tmp_path / "stack.tif"]):
+        tracemalloc.start()
+        got = read_frames(frames)
+        peak = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+        assert np.array_equal(got, big)
+        assert peak < 1.3 * big.nbytes  # the stack, one frame in flight, the reader's buffers

@@ -28,6 +28,7 @@ the file: that is a measurement to repeat, not a candidate to skip.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -125,11 +126,11 @@ class Prediction(_Combinations):
     fisher_db: np.ndarray
     error_gaussian: np.ndarray
     log_error_gaussian: np.ndarray
-    sample_electrons: (
-        np.ndarray
-    )  # mean μ_e per reflectance sample, before clipping, (L, O, C, S_total)
-    sample_mean: np.ndarray  # DN per reflectance sample, (L, O, C, S_total)
-    sample_variance: np.ndarray  # temporal DN² per sample, (L, O, C, S_total)
+    # Per reflectance sample, (L, O, C, S_total): μ_e before clipping, mean DN, temporal
+    # DN² (``None`` in a sweep's blocks, which compute them for the rows they keep).
+    sample_electrons: np.ndarray | None
+    sample_mean: np.ndarray | None
+    sample_variance: np.ndarray | None
     sample_class: np.ndarray  # class index of each sample, (S_total,)
     valid: np.ndarray  # (L, O, C) bool: False where the combination was skipped (values NaN)
     skipped: tuple[str, ...] = ()  # why combinations were skipped (at most 20 named, then a count)
@@ -279,10 +280,20 @@ def predict(
         lights, optics, cameras, classes, exposure=exposure, grid=grid, comparisons=comparisons
     )
     everything = slice(None)
-    p, n_bad, reasons = _predict_block(chain, everything, everything, everything)
-    if n_bad == p.valid.size:
-        raise InputError("no combination of the scene can be predicted:\n  " + "\n  ".join(reasons))
-    return p
+    block = _predict_block(chain, everything, everything, everything)
+    p = block.prediction
+    if block.n_bad == p.valid.size:
+        raise InputError(
+            "no combination of the scene can be predicted:\n  " + "\n  ".join(block.reasons)
+        )
+    mu_e, mean, var, _ = block.samples(*np.indices(p.valid.shape))
+    blank = p.valid[..., None]
+    return dataclasses.replace(
+        p,
+        sample_electrons=np.where(blank, mu_e, np.nan),
+        sample_mean=np.where(blank, mean, np.nan),
+        sample_variance=np.where(blank, var, np.nan),
+    )
 
 
 def skipped_reasons(reasons, n_bad: int) -> tuple[str, ...]:
@@ -293,26 +304,59 @@ def skipped_reasons(reasons, n_bad: int) -> tuple[str, ...]:
     return listed
 
 
-def _predict_block(
-    chain: _Chain, ls: slice, os: slice, cs: slice, *, mixtures=None
-) -> tuple[Prediction, int, tuple[str, ...]]:
-    """:func:`predict` of the lights ``ls`` × optics ``os`` × cameras ``cs`` of a chain.
+@dataclass(frozen=True, eq=False)
+class _Block:
+    """A block's prediction (no per-sample arrays) and what they are computed from."""
+
+    prediction: Prediction
+    n_bad: int
+    reasons: tuple[str, ...]
+    class_rate: np.ndarray  # mean e⁻/s per class, (l, o, c, K)
+    deviation: np.ndarray  # each sample's e⁻/s minus its class's, (l, o, c, S)
+    exposure_time: np.ndarray  # s, (l, o, c), stand-ins where skipped
+    camera: dict[str, np.ndarray]  # the block's cameras, (c,)
+    sample_class: np.ndarray  # (S,)
+
+    def samples(self, li, oi, ci) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
+        """μ_e (unclipped), clipped mean (DN), temporal variance (DN²) and fraction
+        above saturation (``None``: nowhere near) of every reflectance sample of the
+        combinations at block indices ``li, oi, ci`` (arrays of equal shape)."""
+        rate = self.class_rate[li, oi, ci][..., self.sample_class]
+        mu_e = (rate + self.deviation[li, oi, ci]) * self.exposure_time[li, oi, ci][..., None]
+        cam = {f: v[ci][..., None] for f, v in self.camera.items()}
+        mean = cam["dark_offset"] + cam["gain"] * mu_e
+        var = cam["gain"] ** 2 * (cam["dark_noise"] ** 2 + mu_e) + QUANTISATION_VARIANCE
+        return (mu_e, *_clipped_moments(mean, var, cam["max_dn"]))
+
+
+def _predict_block(chain: _Chain, ls: slice, os: slice, cs: slice, *, mixtures=None) -> _Block:
+    """:func:`predict` of the lights ``ls`` × optics ``os`` × cameras ``cs`` of a chain,
+    without the per-sample arrays (:meth:`_Block.samples` gives them).
 
     ``mixtures``: the group comparisons whose ε (a root search per combination)
     to compute; all by default (see :func:`~inspect_validate.comparisons.gaussian_separation`).
 
-    Returns the prediction, the number of combinations skipped in it, and the
-    reasons (at most :data:`_MAX_REASONS`, then a count).
+    One matrix product gives each sample's signal *relative to its class's mean*
+    (reflectances centred before the product: the spectral spread (39) without
+    the cancellation of a difference of large sums), a small one the class
+    means. Until a combination nears saturation its grey values are affine in
+    the signal, so its class statistics follow from these in closed form; only
+    a combination whose brightest sample may be within 8σ of saturation is
+    clipped sample by sample.
     """
     e, t, q = chain.e[ls], chain.t[os], chain.q[cs]
     cam = {f: v[cs] for f, v in chain.camera.items()}
-    n_l, n_o, n_c, n_s = e.shape[0], t.shape[0], q.shape[0], chain.r_all.shape[0]
-    n_w = chain.grid.size
+    onehot, per_class, sample_class = chain.onehot, chain.per_class, chain.sample_class
+    n_l, n_o, n_c = e.shape[0], t.shape[0], q.shape[0]
+    n_s, n_k, n_w = chain.r_all.shape[0], per_class.size, chain.grid.size
     lo_rows = (e[:, None, :] * t[None, :, :]).reshape(n_l * n_o, n_w)
-    cs_rows = (q[:, None, :] * chain.r_all[None, :, :]).reshape(n_c * n_s, n_w)
-    rate = (lo_rows @ cs_rows.T).reshape(n_l, n_o, n_c, n_s)  # e⁻/s per sample
-    onehot, per_class = chain.onehot, chain.per_class
-    class_rate = rate @ onehot / per_class  # mean e⁻/s per class
+    r_mean = (onehot.T @ chain.r_all) / per_class[:, None]  # (K, W)
+    mean_rows = (q[:, None, :] * r_mean[None, :, :]).reshape(n_c * n_k, n_w)
+    centred = (chain.r_all - r_mean[sample_class])[None, :, :]
+    class_rate = (lo_rows @ mean_rows.T).reshape(n_l, n_o, n_c, n_k)  # e⁻/s
+    deviation = (lo_rows @ (q[:, None, :] * centred).reshape(n_c * n_s, n_w).T).reshape(
+        n_l, n_o, n_c, n_s
+    )
 
     lights, optics, cameras, classes = (
         c[s] for c, s in zip(chain.components, (ls, os, cs, slice(None)), strict=True)
@@ -330,34 +374,48 @@ def _predict_block(
         class_rate,
     )
     if n_bad:
-        # Skipped combinations are computed on a stand-in rate (kept finite so no
+        # Skipped combinations are computed on a stand-in signal (kept finite so no
         # warning or NaN travels through the arithmetic) and blanked at the end.
-        rate = np.where(valid[..., None], rate, 1.0)
         class_rate = np.where(valid[..., None], class_rate, 1.0)
+        deviation = np.where(valid[..., None], deviation, 0.0)
 
     exposure = chain.exposure
     if exposure.mode == "auto":
-        brightest = class_rate.max(axis=-1)
-        t_exp = exposure.target * cam["saturation"][None, None, :] / brightest
+        # The brightest class's *mean* at the target, as the chapter sets its exposure.
+        t_exp = exposure.target * cam["saturation"][None, None, :] / class_rate.max(axis=-1)
         if exposure.max_time:
             t_exp = np.minimum(t_exp, exposure.max_time)
     else:
         t_exp = np.full((n_l, n_o, n_c), exposure.time)
 
-    mu_e = rate
-    mu_e *= t_exp[..., None]  # rate is not used again: scaled in place
-    gain = cam["gain"][None, None, :, None]
-    mean_s = cam["dark_offset"][None, None, :, None] + gain * mu_e
-    var_s = gain**2 * (cam["dark_noise"][None, None, :, None] ** 2 + mu_e) + QUANTISATION_VARIANCE
-    clip_mean, clip_var, above = _clipped_moments(mean_s, var_s, cam["max_dn"][None, None, :, None])
+    gain, dark, offset, ceiling = (
+        cam[f][None, None, :, None] for f in ("gain", "dark_noise", "dark_offset", "max_dn")
+    )
+    squares = np.square(deviation) @ onehot  # Σ (sample − class mean)², (e⁻/s)²
+    signal = class_rate * t_exp[..., None]  # μ_e per class
+    mean = offset + gain * signal
+    spectral = (gain * t_exp[..., None]) ** 2 * squares / np.maximum(per_class - 1, 1)
+    variance = gain**2 * (dark**2 + signal) + QUANTISATION_VARIANCE + spectral
+    saturated = np.zeros_like(mean)
 
-    mean = clip_mean @ onehot / per_class
-    # Spectral spread: unbiased variance (39) of the samples' means within each class.
-    dev2 = (clip_mean - mean @ onehot.T) ** 2
-    spectral = (dev2 @ onehot) / np.maximum(per_class - 1, 1)
-    del dev2
-    variance = clip_var @ onehot / per_class + spectral
-    saturated = above @ onehot / per_class if above is not None else np.zeros_like(mean)
+    # No sample is brighter than its class mean plus √Σ(deviation²): where even that
+    # is 8σ below saturation, clipping changes nothing a double holds (Φc(8) ≈ 6e-16).
+    brightest = ((class_rate + np.sqrt(squares)) * t_exp[..., None]).max(axis=-1)
+    top_mean = offset[..., 0] + gain[..., 0] * brightest
+    top_var = gain[..., 0] ** 2 * (dark[..., 0] ** 2 + brightest) + QUANTISATION_VARIANCE
+    gap = ceiling[..., 0] - top_mean
+    near = valid & ((gap <= 0) | (gap * gap <= 64.0 * top_var))
+    block = _Block(None, n_bad, reasons, class_rate, deviation, t_exp, cam, sample_class)
+    if near.any():
+        idx = np.nonzero(near)
+        _, sample_mean, sample_var, above = block.samples(*idx)
+        m = sample_mean @ onehot / per_class
+        dev2 = (sample_mean - m[:, sample_class]) ** 2
+        sp = (dev2 @ onehot) / np.maximum(per_class - 1, 1)
+        mean[idx], spectral[idx] = m, sp
+        variance[idx] = sample_var @ onehot / per_class + sp
+        if above is not None:
+            saturated[idx] = above @ onehot / per_class
 
     sep = gaussian_separation(mean, variance, chain.comparisons, valid=valid, mixtures=mixtures)
 
@@ -375,7 +433,7 @@ def _predict_block(
         comparison_set=chain.comparisons,
         grid=chain.grid,
         exposure_time=blank(t_exp),
-        electrons=blank(class_rate * t_exp[..., None]),
+        electrons=blank(signal),
         mean=blank(mean),
         variance=blank(variance),
         spectral_variance=blank(spectral),
@@ -385,15 +443,15 @@ def _predict_block(
         fisher_db=blank(sep.fisher_db),
         error_gaussian=blank(sep.error_gaussian),
         log_error_gaussian=blank(sep.log_error_gaussian),
-        sample_electrons=blank(mu_e),
-        sample_mean=blank(clip_mean),
-        sample_variance=blank(clip_var),
-        sample_class=chain.sample_class,
+        sample_electrons=None,
+        sample_mean=None,
+        sample_variance=None,
+        sample_class=sample_class,
         valid=valid,
         skipped=skipped_reasons(reasons, n_bad),
         absolute=chain.absolute[ls],
     )
-    return prediction, n_bad, reasons
+    return dataclasses.replace(block, prediction=prediction)
 
 
 def _irradiance_scale(lights) -> np.ndarray:

@@ -35,6 +35,7 @@ from inspect_validate.model.acquisition import (
     skipped_reasons,
 )
 from inspect_validate.model.ranking import rank_keys
+from inspect_validate.stats.gaussian_error import LOAD_MIN, load_kernel
 
 __all__ = ["Ranking", "sweep"]
 
@@ -162,6 +163,9 @@ def sweep(
     # A group's ε is needed for every combination only when the ranking is by it.
     mixtures = [key_column] if by == "error" and key_column in groups else []
 
+    n_pairs = sum(len(a) == len(b) == 1 for a, b in comparison_set.groups)
+    if n_pairs * int(np.prod(chain.shape)) >= LOAD_MIN:
+        load_kernel()  # ε of the blocks' pairs compiled: its load pays for itself
     kept, reasons, n_bad, n_blocks = None, [], 0, 0
     for block in _blocks(chain, memory=memory):
         rows, bad, why = _block_rows(
@@ -252,7 +256,8 @@ def _block_rows(chain, block, *, by, comparison, top, mixtures):
     """One block's best ``top`` rows and its worst, with their global flat indices and sort
     keys; the number of combinations it skipped, and why."""
     ls, os, cs = block
-    p, n_bad, reasons = _predict_block(chain, ls, os, cs, mixtures=mixtures)
+    computed = _predict_block(chain, ls, os, cs, mixtures=mixtures)
+    p = computed.prediction
     keys, key, column, saturated = rank_keys(p, by=by, comparison=comparison)
     idx = np.flatnonzero(p.valid.ravel())
     order = idx[np.lexsort(tuple(k[idx] for k in keys))]
@@ -269,9 +274,10 @@ def _block_rows(chain, block, *, by, comparison, top, mixtures):
         "column": column[pick],
         "absolute": p.absolute[li],
     }
-    for name in _ROW_FIELDS:
+    for name in _ROW_FIELDS[:-2]:
         rows[name] = getattr(p, name)[li, oi, ci]
-    return rows, n_bad, reasons
+    _, rows["sample_mean"], rows["sample_variance"], _ = computed.samples(li, oi, ci)
+    return rows, computed.n_bad, computed.reasons
 
 
 def _order(rows) -> np.ndarray:

@@ -25,9 +25,16 @@ tests), obtained by:
 
 Below ε ≈ 1e-300 use :func:`log_gaussian_error`, which stays finite far beyond
 (log ε ≈ −1e300 is fine).
+
+For large arrays (see :data:`COMPILED_MIN`, :data:`LOAD_MIN`) the same steps run
+element by element in a compiled kernel
+(:mod:`inspect_validate.stats._gaussian_error_kernel`).
 """
 
 from __future__ import annotations
+
+import importlib
+import sys
 
 import numpy as np
 from scipy import special
@@ -42,7 +49,15 @@ __all__ = [
 _LOG_SQRT_2PI = 0.5 * np.log(2.0 * np.pi)
 _GL_NODES, _GL_WEIGHTS = np.polynomial.legendre.leggauss(20)
 _SPLITTER = 134217729.0  # 2**27 + 1, Dekker's split
+_KERNEL = "inspect_validate.stats._gaussian_error_kernel"
 _LINEAR_FLOOR = 1e-300  # below, terms near the subnormal range lose digits: use logs
+COMPILED_MIN = 2**14
+"""Pairs from which the compiled kernel (the same algorithm in one pass, 4× faster
+on 2 cores) evaluates ε once it is loaded."""
+LOAD_MIN = 2**19
+"""Pairs in one call that pay for loading the kernel (numba's import and cache load,
+≈0.35 s; numpy takes 0.66 µs a pair, the kernel 0.16 µs). A caller with more work
+ahead in smaller calls (a sweep's blocks) loads it itself: :func:`load_kernel`."""
 
 
 def gaussian_error(mean1, var1, mean2, var2) -> np.ndarray:
@@ -295,6 +310,11 @@ def _interval(ah, al, bh, bl):
         return _branches(cases, ah, al, bh, bl)
 
 
+def load_kernel():
+    """Load the compiled kernel (ε of pairs from :data:`COMPILED_MIN` on) and return it."""
+    return importlib.import_module(_KERNEL).error_and_log
+
+
 def _error(mean1, var1, mean2, var2):
     arrays = (np.asarray(a, dtype=float) for a in (mean1, var1, mean2, var2))
     m1, v1, m2, v2 = np.broadcast_arrays(*arrays)
@@ -304,6 +324,11 @@ def _error(mean1, var1, mean2, var2):
         raise ValueError("means and variances must be finite")
     if np.any(v1 < 0) or np.any(v2 < 0):
         raise ValueError("variances must be non-negative")
+    if m1.size >= LOAD_MIN or (m1.size >= COMPILED_MIN and _KERNEL in sys.modules):
+        error_and_log = load_kernel()
+        eps, log_eps = np.empty(m1.size), np.empty(m1.size)
+        error_and_log(*(np.ascontiguousarray(a) for a in (m1, v1, m2, v2)), eps, log_eps)
+        return eps.reshape(shape), log_eps.reshape(shape)
     swap = v1 > v2
     mn, vn = np.where(swap, m2, m1), np.where(swap, v2, v1)
     mw, vw = np.where(swap, m1, m2), np.where(swap, v1, v2)
