@@ -72,7 +72,9 @@ def colour_loop(lights, optics, cameras, classes):
     refl = [sd(c.reflectance, r) for c in classes for r in range(c.reflectance.n_samples)]
     for li, light in enumerate(lights):
         e = sd(light.spd)
-        e = e / np.trapezoid(light.spd.values[0], light.spd.wavelengths)
+        # The irradiance (1 W/m²) is stated over 380–780 nm.
+        band = (e.wavelengths >= 380) & (e.wavelengths <= 780)
+        e = e * (light.irradiance / np.trapezoid(e.values[band], e.wavelengths[band]))
         for oi, o in enumerate(optics):
             eo = e * sd(o.transmission) / (4 * o.f_number**2)
             for ci, cam in enumerate(cameras):
@@ -112,17 +114,18 @@ def rows_speed():
 
 
 _SCALE = """
-import resource, sys, time
+import sys, time
 sys.path.insert(0, {bench!r})
 import numpy as np
 from bench_predict import GRID, components, matmul_seconds
+from machine import peak_rss
 from inspect_validate.model import sweep
 n_l, n_o, n_c = {shape}
 parts = components(n_l, n_o, n_c, np.random.default_rng(0))
 t0 = time.perf_counter()
 r = sweep(*parts, grid=GRID, top=10)
 elapsed = time.perf_counter() - t0
-print(elapsed, matmul_seconds(parts), r.blocks, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024)
+print(elapsed, matmul_seconds(parts), r.blocks, peak_rss())
 """
 
 
