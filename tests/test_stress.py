@@ -34,9 +34,7 @@ from inspect_validate.stats.kde_error import mixture_error
 implementation = importlib.import_module("inspect_validate.stats.gaussian_error")
 STEFAN_BOLTZMANN = 5.670374419e-8  # W·m⁻²·K⁻⁴ (CODATA 2018, exact from h, c, k)
 
-variances = st.one_of(
-    st.just(0.0), st.floats(1e-12, 1e12), st.integers(1, 2**20).map(float)
-)
+variances = st.one_of(st.just(0.0), st.floats(1e-12, 1e12), st.integers(1, 2**20).map(float))
 means = st.one_of(st.floats(-1e6, 1e6), st.integers(-(2**20), 2**20).map(float))
 pairs = st.lists(st.tuples(means, variances, means, variances), min_size=1, max_size=40)
 
@@ -107,9 +105,7 @@ def test_gaussian_error_is_a_probability_symmetric_and_its_log_consistent(cases)
     st.integers(-(2**40), 2**40),
     st.integers(-60, 60),
 )
-def test_separation_is_invariant_under_a_common_offset_and_a_power_of_two_scale(
-    cases, offset, k
-):
+def test_separation_is_invariant_under_a_common_offset_and_a_power_of_two_scale(cases, offset, k):
     """Integer means moved by an integer offset, or means × 2^k and variances × 4^k, are
     exact in floating point: SNR_dB moves by exactly −20·log10(2^k) under the scale
     (its variance denominator is not a standard deviation), CNR, Fisher and ε not at all."""
@@ -119,9 +115,7 @@ def test_separation_is_invariant_under_a_common_offset_and_a_power_of_two_scale(
     shifted = [f(m1 + offset, v1, m2 + offset, v2) for f in (snr_db, cnr_db, fisher_db)]
     for a, b in zip(base, shifted, strict=True):
         np.testing.assert_array_equal(a, b)
-    for a, b in zip(
-        eps, gaussian_error_and_log(m1 + offset, v1, m2 + offset, v2), strict=True
-    ):
+    for a, b in zip(eps, gaussian_error_and_log(m1 + offset, v1, m2 + offset, v2), strict=True):
         np.testing.assert_array_equal(a, b)
     s, s2 = 2.0**k, 4.0**k
     scaled = [f(m1 * s, v1 * s2, m2 * s, v2 * s2) for f in (snr_db, cnr_db, fisher_db)]
