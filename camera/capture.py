@@ -13,7 +13,8 @@ For each illumination (and finally the dark frames, all lights off):
    (sensor noise makes that impossible for a live image with any structure)
    is a stale camera, an error;
 4. save each frame (16-bit TIFF + JSON sidecar, atomically) as soon as it is
-   verified, so a failure later in the step loses none of them.
+   verified, on a writer thread while the next is grabbed, so a failure later
+   in the step loses none of them.
 
 A camera that can restart its stream (GenICam: stop and start the acquisition,
 which discards every queued buffer) does so after the switch; then no frame
@@ -139,7 +140,8 @@ def capture(
 ) -> CaptureResult:
     """Run the station's capture sequence into ``out``.
 
-    ``progress(step, done, total)`` is called after every saved frame.
+    ``progress(step, done, total)`` is called after every verified frame (its
+    save may still be under way; a step is complete only once all are written).
     ``devices`` replaces the station's camera and controller with a context
     manager yielding ``(controller, camera)`` (other setups, tests).
     """
@@ -203,13 +205,17 @@ def capture(
                     )
                     total_mean = 0.0
                     for i, (frame, discarded) in enumerate(frames, start=1):
-                        store.save(name, i, frame, {**info, "discarded_before": discarded})
+                        # Written on the writer thread while the next frame is grabbed.
+                        store.save_later(name, i, frame, {**info, "discarded_before": discarded})
                         total_mean += frame.mean
                         done += 1
                         if progress:
                             progress(name, done, total)
+                    store.flush()
                 except DeviceError as exc:
-                    store.fail(name, str(exc))
+                    unsaved = store.close()  # the frames grabbed before the failure are kept
+                    also = f"; saving its frames failed too: {unsaved}" if unsaved else ""
+                    store.fail(name, f"{exc}{also}")
                     raise
                 store.finish(name)
                 saved[name] = n
@@ -219,6 +225,10 @@ def capture(
                 controller.all_off()
             except DeviceError:
                 pass  # the original error matters more; the frames are saved
+            # An interruption (Ctrl-C) still writes every frame grabbed before it.
+            unsaved = store.close()
+    if unsaved is not None:
+        raise unsaved
     warnings = _unlit_steps(levels, station.brightness_tolerance)
     if warnings:
         store.record("warnings", list(warnings))

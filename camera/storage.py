@@ -9,13 +9,22 @@ Layout of ``--out DIR``::
 
 Each file is written to a temporary name and renamed, so a file that exists is
 complete; a frame counts once its sidecar exists.
+
+Frames are encoded and written on one background thread, in order, while the
+next frames are grabbed (:meth:`CaptureStore.save_later`); at most
+:data:`QUEUED_FRAMES` wait, so a disk that cannot keep up slows the capture
+instead of filling memory. A step is marked complete only after its every frame
+is on disk (:meth:`CaptureStore.flush`), and a failure or an interruption still
+writes every frame grabbed before it.
 """
 
 from __future__ import annotations
 
 import io
 import json
+import threading
 import time
+from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 
 from inspect_validate.camera.frame import Frame
@@ -24,7 +33,10 @@ from inspect_validate import __version__
 from inspect_validate.errors import InputError
 from inspect_validate.files import atomic_write
 
-__all__ = ["CaptureStore"]
+__all__ = ["QUEUED_FRAMES", "CaptureStore"]
+
+QUEUED_FRAMES = 8
+"""Grabbed frames that may wait for the writer thread."""
 
 
 class CaptureStore:
@@ -32,6 +44,9 @@ class CaptureStore:
 
     def __init__(self, folder: Path, *, station_path: Path, station_sha256: str, resume: bool):
         self.folder = Path(folder)
+        self._writer: ThreadPoolExecutor | None = None  # started with the first queued frame
+        self._slots: threading.BoundedSemaphore | None = None
+        self._pending: list[Future] = []
         self.manifest_path = self.folder / "manifest.json"
         if self.manifest_path.exists():
             manifest = json.loads(self.manifest_path.read_text())
@@ -124,6 +139,44 @@ class CaptureStore:
         # written with the step's end, not rewritten (and fsynced) per frame.
         self.manifest["steps"][step]["frames"] = index
         return tif
+
+    def save_later(self, step: str, index: int, frame: Frame, info: dict) -> None:
+        """:meth:`save` on the writer thread, after the frames queued before it; waits
+        while :data:`QUEUED_FRAMES` are queued. A failure is raised by :meth:`flush`."""
+        if self._writer is None:
+            self._writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="frame-writer")
+            self._slots = threading.BoundedSemaphore(QUEUED_FRAMES)
+        self._slots.acquire()
+
+        def write():
+            try:
+                self.save(step, index, frame, info)
+            finally:
+                self._slots.release()
+
+        self._pending.append(self._writer.submit(write))
+
+    def flush(self) -> None:
+        """Wait until every queued frame is on disk; then raise the first failure, if any
+        (every frame is attempted: one unwritable file does not drop the others)."""
+        pending, self._pending = self._pending, []
+        errors = [f.exception() for f in pending]
+        first = next((e for e in errors if e is not None), None)
+        if first is not None:
+            raise first
+
+    def close(self) -> BaseException | None:
+        """Write every queued frame and stop the writer thread; the first failure is
+        returned, not raised (an error already on its way matters more)."""
+        try:
+            self.flush()
+        except Exception as exc:  # returned: the caller decides whether it matters most
+            return exc
+        finally:
+            if self._writer is not None:
+                self._writer.shutdown(wait=True)
+                self._writer = None
+        return None
 
     def finish(self, step: str) -> None:
         self.manifest["steps"][step]["complete"] = True

@@ -77,6 +77,12 @@ def atomic_write(path: str | Path, data: bytes) -> Path:
             os.fchmod(f.fileno(), _FILE_MODE)
             os.fsync(f.fileno())
         os.replace(tmp, path)
+    except OSError as exc:  # a full disk, a vanished mount, a quota
+        Path(tmp).unlink(missing_ok=True)
+        raise InputError(
+            f"cannot write ({exc.strerror or exc}); free space or choose another folder",
+            source=str(path),
+        ) from None
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise

@@ -366,3 +366,67 @@ def test_a_jump_on_the_last_frame_keeps_the_verified_frames(tmp_path, capsys):
     assert "brightness jumps" in capsys.readouterr().err
     assert len(list((out / "one").glob("frame_*.tif"))) == 3
     assert len(list((out / "one").glob("frame_*.json"))) == 3
+
+
+def test_a_frame_that_cannot_be_written_stops_the_capture_naming_the_file(tmp_path):
+    """Saving runs on the writer thread; its failure must still reach the user. A file-size
+    limit below one frame (SIGXFSZ ignored, so the write fails with EFBIG, as a full disk
+    fails with ENOSPC): exit 2 naming the frame file, the step not complete, no
+    half-written file left."""
+    import subprocess
+    import sys
+
+    station = station_copy(tmp_path)
+    out = tmp_path / "cap"
+    script = (
+        "import resource, signal\n"
+        "signal.signal(signal.SIGXFSZ, signal.SIG_IGN)\n"
+        "resource.setrlimit(resource.RLIMIT_FSIZE, (100_000, 100_000))\n"
+        "from inspect_validate.cli import main\n"
+        f"main(['capture', {str(station)!r}, '--out', {str(out)!r}])\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=120
+    )
+    assert done.returncode == 2, done.stderr
+    assert f"{out / 'amber' / 'frame_0001.tif'}: cannot write (File too large)" in done.stderr
+    assert "Traceback" not in done.stderr
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert not manifest["steps"]["amber"]["complete"]
+    assert not list(out.rglob("*.tmp")) and not list(out.rglob("frame_*"))
+
+
+def test_an_interrupted_capture_keeps_every_frame_it_grabbed_complete(tmp_path):
+    """SIGINT once the first frame is on disk: exit 130, and every frame file that exists
+    is whole, with its sidecar (frames queued for the writer thread are written before
+    the process ends); --resume then finishes the capture."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    import tifffile
+
+    station = station_copy(tmp_path)
+    out = tmp_path / "cap"
+    text = station.read_text().replace("frames: 4\n", "frames: 40\n")
+    station.write_text(text)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "inspect_validate", "capture", str(station), "--out", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    deadline = time.monotonic() + 60
+    while not list(out.glob("amber/frame_*.json")) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    tifs = sorted(out.glob("amber/frame_*.tif"))
+    assert tifs and len(tifs) == len(list(out.glob("amber/frame_*.json")))
+    for tif in tifs:
+        assert tifffile.imread(tif).shape == (240, 320)
+    assert not list(out.rglob("*.tmp"))
+    assert run(["capture", station, "--out", out, "--resume"]) == 0
+    assert len(list(out.glob("amber/frame_*.tif"))) == 40

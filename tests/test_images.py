@@ -129,7 +129,9 @@ def test_frames_of_several_files_are_read_into_one_stack_without_a_second_copy(t
     rng = np.random.default_rng(0)
     parts = [rng.integers(0, 4096, (k, 300, 400), dtype=np.uint16) for k in (1, 3, 2)]
     for i, part in enumerate(parts):
-        tifffile.imwrite(tmp_path / f"f{i}.tif", part if len(part) > 1 else part[0])
+        tifffile.imwrite(
+            tmp_path / f"f{i}.tif", part if len(part) > 1 else part[0], photometric="minisblack"
+        )
     expected = np.concatenate(parts)
     got = read_frames(sorted(tmp_path.glob("f*.tif")))
     assert got.dtype == np.uint16 and np.array_equal(got, expected)

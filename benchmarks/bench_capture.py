@@ -1,0 +1,119 @@
+"""Capture: time per saved frame against the bare grab, saving overlapped or not.
+
+Run: ``python benchmarks/bench_capture.py [--size 2048] [--frames 8]`` (about a
+minute on 2 cores).
+
+The built-in simulated station at 2048 × 2048 (4 MP, uint16), 2 illuminations
+and the dark step, ``--frames`` each. Three ways, each on freshly opened
+devices:
+
+* bare grab: the camera's ``grab`` in a loop, nothing verified or saved (the
+  reference: what the camera and its driver cost);
+* capture, saving in line: every frame written (TIFF + sidecar, fsynced) before
+  the next is grabbed, as before this version;
+* capture: the same, written on the writer thread while the next is grabbed.
+
+A capture also grabs the frames it drops after each light switch (the
+pipeline's ``latency``); the ratio is per *grabbed* frame, which is what saving
+can hide behind.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import tempfile
+import time
+from pathlib import Path
+
+import yaml
+from inspect_validate.camera import capture as capture_module
+from inspect_validate.camera.devices import open_devices
+from inspect_validate.camera.station import read_station
+from inspect_validate.camera.storage import CaptureStore
+from machine import machine_line
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def station_copy(folder: Path, size: int, frames: int) -> Path:
+    shutil.copytree(ROOT / "sample_images/station", folder / "station")
+    shutil.copytree(ROOT / "sample_images/scenes", folder / "scenes")
+    path = folder / "station/station.yaml"
+    doc = yaml.safe_load(path.read_text())
+    doc["camera"].update(width=size, height=size)
+    doc.update(frames=frames, dark_frames=frames)
+    path.write_text(yaml.safe_dump(doc, sort_keys=False))
+    return path
+
+
+def bare_grab(station, n: int) -> float:
+    """Seconds per frame of the camera's grab alone."""
+    with open_devices(station) as (controller, camera):
+        camera.configure(exposure_us=station.camera.exposure_us, gain_db=0)
+        controller.apply({1: 100})
+        camera.grab(2)  # the pipeline filled, as after a switch
+        t0 = time.perf_counter()
+        for _ in range(n):
+            camera.grab(1)
+        return (time.perf_counter() - t0) / n
+
+
+def timed_capture(station, out: Path, *, in_line: bool) -> tuple[float, int, int]:
+    """Seconds of a whole capture, the frames saved, and the frames grabbed (saved plus
+    those dropped after each light switch, from the sidecars)."""
+    original = CaptureStore.save_later
+    if in_line:
+        CaptureStore.save_later = CaptureStore.save  # the behaviour before the writer thread
+    try:
+        t0 = time.perf_counter()
+        result = capture_module.capture(station, out)
+        elapsed = time.perf_counter() - t0
+    finally:
+        CaptureStore.save_later = original
+    saved = sum(result.steps.values())
+    dropped = sum(
+        json.loads(sorted((out / step).glob("frame_*.json"))[-1].read_text())["discarded_before"]
+        for step in result.steps
+    )
+    return elapsed, saved, saved + dropped
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--size", type=int, default=2048)
+    parser.add_argument("--frames", type=int, default=8)
+    args = parser.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        station = read_station(station_copy(tmp, args.size, args.frames))
+        grab = bare_grab(station, 3 * args.frames)
+        runs = {
+            label: timed_capture(station, tmp / label, in_line=in_line)
+            for label, in_line in (("in_line", True), ("overlapped", False))
+        }
+        frame = next((tmp / "overlapped" / "amber").glob("frame_*.tif"))
+        size_mb = frame.stat().st_size / 2**20
+    print(machine_line())
+    _, saved, grabbed = runs["overlapped"]
+    print(
+        f"{args.size}×{args.size} uint16 ({size_mb:.1f} MB a frame), {saved} frames saved "
+        f"a capture, {grabbed} grabbed"
+    )
+    print()
+    print("| task | per saved frame | per grabbed frame | bare grab | ratio (grabbed) |")
+    print("|---|---|---|---|---|")
+    for label, key in (
+        ("capture, saving in line (before)", "in_line"),
+        ("capture, saving on the writer thread", "overlapped"),
+    ):
+        elapsed, saved, grabbed = runs[key]
+        print(
+            f"| {label} | {1e3 * elapsed / saved:.0f} ms | {1e3 * elapsed / grabbed:.0f} ms | "
+            f"{1e3 * grab:.0f} ms | {elapsed / grabbed / grab:.2f} |"
+        )
+
+
+if __name__ == "__main__":
+    main()
