@@ -166,7 +166,16 @@ def measure(
     type=_PATH,
     help="Write simulated 16-bit frames of the best and worst combination (Fig. 19) with ROI files.",
 )
-def predict(scene, json_path, top, rank_by, comparison, no_kde, plot_dir, render_dir):
+@click.option(
+    "--dask",
+    "dask_address",
+    is_flag=False,
+    flag_value="local",
+    metavar="[ADDRESS]",
+    help="Predict the blocks of combinations on Dask: a LocalCluster, or the scheduler "
+    "at ADDRESS (tcp://host:8786).",
+)
+def predict(scene, json_path, top, rank_by, comparison, no_kde, plot_dir, render_dir, dask_address):
     """Predict class separation for every light × optics × camera of SCENE and rank them.
 
     Per combination: μ and σ² of every class in DN (reflectance spread plus
@@ -195,7 +204,13 @@ def predict(scene, json_path, top, rank_by, comparison, no_kde, plot_dir, render
             where = "--comparison" if rank_comparison else f"{scene}: rank.comparison"
             raise InputError(str(exc), source=where) from None
     _outputs(files=[json_path], folders=[plot_dir, render_dir])
-    result = sc.sweep(by=by, comparison=comparison, top=top)
+    if dask_address:
+        from inspect_validate.model.sweep import dask_client
+
+        with dask_client(dask_address) as client:
+            result = sc.sweep(by=by, comparison=comparison, top=top, client=client)
+    else:
+        result = sc.sweep(by=by, comparison=comparison, top=top)
     for reason in result.skipped:
         click.echo(f"skipped: {reason}", err=True)
     for work in result.skipped_work:

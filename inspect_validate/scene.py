@@ -345,7 +345,9 @@ class Scene:
             comparisons=self.comparisons,
         )
 
-    def sweep(self, *, by: str, comparison: str | None, top: int, memory: int | None = None):
+    def sweep(
+        self, *, by: str, comparison: str | None, top: int, memory: int | None = None, client=None
+    ):
         """:func:`inspect_validate.model.sweep` of every combination of this scene."""
         from inspect_validate.model import sweep
         from inspect_validate.model.sweep import MEMORY
@@ -362,6 +364,7 @@ class Scene:
             comparison=comparison,
             top=top,
             memory=memory or MEMORY,
+            client=client,
         )
 
     def notes(self) -> list[str]:

@@ -181,3 +181,57 @@ def test_cli_lists_what_the_ranking_did_not_compute(tmp_path, capsys):
     assert doc["skipped_work"] and len(doc["skipped"]) == 15  # the SWIR camera under each
     for row in doc["ranking"]:
         assert all(0 <= c["error_gaussian"] <= 0.5 for c in row["comparisons"])
+
+
+@pytest.fixture(scope="module")
+def dask_cluster():
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, dashboard_address=":0"
+    ) as cluster:
+        yield cluster
+
+
+def test_sweep_on_a_dask_cluster_equals_the_sweep_in_process(dask_cluster):
+    """Two worker processes: the chain pickled to each, blocks merged in completion order;
+    every row the same to the bit, the same skipped reasons in block order."""
+    from distributed import Client
+
+    parts = station(6, 5, 7)
+    here = sweep(*parts, grid=GRID, top=9, memory=20_000, comparison="K0 vs K1,K2")
+    with Client(dask_cluster) as client:
+        there = sweep(
+            *parts, grid=GRID, top=9, memory=20_000, comparison="K0 vs K1,K2", client=client
+        )
+    assert there.blocks == here.blocks > 10
+    assert there.index.tolist() == here.index.tolist() and there.worst == here.worst
+    assert there.skipped == here.skipped and there.predicted == here.predicted
+    for name in (*ROW_FIELDS, "sample_mean", "sample_variance", "key"):
+        np.testing.assert_array_equal(getattr(there, name), getattr(here, name), err_msg=name)
+
+
+def test_cli_predict_on_dask_by_address_and_locally(tmp_path, capsys, dask_cluster):
+    g = np.arange(380, 781, 5)
+    for name, level in (("a", 0.3), ("b", 0.6)):
+        rows = "\n".join(f"{w},{level},{level * 1.02},{level * 0.98}" for w in g)
+        (tmp_path / f"{name}.csv").write_text(rows + "\n")
+    leds = ", ".join(f"{{led: {{peak: {p}, fwhm: 30}}, name: L{p}}}" for p in range(420, 720, 20))
+    scene = tmp_path / "s.yaml"
+    scene.write_text(
+        "classes: {A: {file: a.csv}, B: {file: b.csv}}\n"
+        f"lights: [{leds}]\noptics: [ideal]\ncameras: [cmos-visible, cmos-nir-enhanced]\n"
+    )
+    docs = {}
+    for label, extra in (
+        ("here", []),
+        ("address", [f"--dask={dask_cluster.scheduler_address}"]),
+        ("local", ["--dask"]),
+    ):
+        out = tmp_path / f"{label}.json"
+        assert run(["predict", scene, "--json", out, "--no-kde", *extra]) == 0, label
+        docs[label] = json.loads(out.read_text())
+    assert docs["address"]["ranking"] == docs["here"]["ranking"] == docs["local"]["ranking"]
+    capsys.readouterr()
+    code = run(["predict", scene, "--dask=tcp://127.0.0.1:9"])  # nothing listens on port 9
+    assert code == 3
+    assert "dask scheduler tcp://127.0.0.1:9: cannot connect" in capsys.readouterr().err

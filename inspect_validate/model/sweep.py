@@ -13,10 +13,15 @@ comparison between groups of classes (a Gaussian mixture each side, a root
 search of about 1 ms per combination) is computed for the rows kept, unless
 the ranking is by that comparison's ε. :attr:`Ranking.skipped_work` says what
 was left out and the time it would have taken.
+
+Blocks are independent, so a sweep that outgrows one machine runs them on a
+Dask cluster (``client``, :func:`dask_client`): the components go to each
+worker once, the blocks' kept rows come back and are merged as they arrive.
 """
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import time
 from dataclasses import dataclass
@@ -24,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from inspect_validate.comparisons import Comparisons, gaussian_separation
-from inspect_validate.errors import InputError
+from inspect_validate.errors import DeviceError, InputError
 from inspect_validate.model.acquisition import (
     _MAX_REASONS,
     Exposure,
@@ -37,7 +42,7 @@ from inspect_validate.model.acquisition import (
 from inspect_validate.model.ranking import rank_keys
 from inspect_validate.stats.gaussian_error import LOAD_MIN, load_kernel
 
-__all__ = ["Ranking", "sweep"]
+__all__ = ["Ranking", "dask_client", "sweep"]
 
 MEMORY = 256 * 2**20
 """Default bytes for one block's arrays (the sweep's peak is about this plus the inputs)."""
@@ -125,6 +130,7 @@ def sweep(
     comparison: str | None = None,
     top: int = 10,
     memory: int = MEMORY,
+    client=None,
 ) -> Ranking:
     """Predict every light × optics × camera combination in blocks and rank them.
 
@@ -145,6 +151,10 @@ def sweep(
         Rows to keep.
     memory : int, keyword-only
         Bytes for one block's arrays.
+    client : dask.distributed.Client, keyword-only, optional
+        Compute the blocks on this cluster's workers (each holds one block's
+        arrays at a time); the ranking is merged here as their rows arrive.
+        See :func:`dask_client`.
     """
     chain = _prepare(
         lights,
@@ -164,17 +174,28 @@ def sweep(
     mixtures = [key_column] if by == "error" and key_column in groups else []
 
     n_pairs = sum(len(a) == len(b) == 1 for a, b in comparison_set.groups)
-    if n_pairs * int(np.prod(chain.shape)) >= LOAD_MIN:
-        load_kernel()  # ε of the blocks' pairs compiled: its load pays for itself
-    kept, reasons, n_bad, n_blocks = None, [], 0, 0
-    for block in _blocks(chain, memory=memory):
-        rows, bad, why = _block_rows(
-            chain, block, by=by, comparison=comparison, top=top, mixtures=mixtures
-        )
-        n_blocks += 1
+    options = {
+        "by": by,
+        "comparison": comparison,
+        "top": top,
+        "mixtures": mixtures,
+        # ε of the blocks' pairs compiled where its load pays for itself; decided once for
+        # the sweep, so every block (on any worker) computes it the same way.
+        "compiled": n_pairs * int(np.prod(chain.shape)) >= LOAD_MIN,
+    }
+    blocks = list(_blocks(chain, memory=memory))
+    if client is None:
+        results = ((i, _block_rows(chain, b, **options)) for i, b in enumerate(blocks))
+    else:
+        results = _on_dask(client, chain, blocks, options)
+    kept, why_by_block, n_bad = None, {}, 0
+    for i, (rows, bad, why) in results:  # merged as they arrive: the order cannot matter
         n_bad += bad
-        reasons += why[: max(0, _MAX_REASONS - len(reasons))]
+        if why:
+            why_by_block[i] = why
         kept = rows if kept is None else _merge(kept, rows, top)
+    reasons = [r for i in sorted(why_by_block) for r in why_by_block[i]][:_MAX_REASONS]
+    n_blocks = len(blocks)
     total = int(np.prod(chain.shape))
     if n_bad == total:
         raise InputError(
@@ -252,9 +273,11 @@ def _blocks(chain: _Chain, *, memory: int):
         yield slice(li, li + bl), slice(oi, oi + bo), slice(ci, ci + bc)
 
 
-def _block_rows(chain, block, *, by, comparison, top, mixtures):
+def _block_rows(chain, block, *, by, comparison, top, mixtures, compiled):
     """One block's best ``top`` rows and its worst, with their global flat indices and sort
     keys; the number of combinations it skipped, and why."""
+    if compiled:
+        load_kernel()
     ls, os, cs = block
     computed = _predict_block(chain, ls, os, cs, mixtures=mixtures)
     p = computed.prediction
@@ -278,6 +301,52 @@ def _block_rows(chain, block, *, by, comparison, top, mixtures):
         rows[name] = getattr(p, name)[li, oi, ci]
     _, rows["sample_mean"], rows["sample_variance"], _ = computed.samples(li, oi, ci)
     return rows, computed.n_bad, computed.reasons
+
+
+def _on_dask(client, chain, blocks, options):
+    """``(block index, block rows)`` computed on a Dask cluster, as they complete."""
+    from dask.distributed import as_completed
+
+    remote = client.scatter(chain, broadcast=True)  # the components once per worker
+    futures = [client.submit(_block_rows, remote, b, pure=False, **options) for b in blocks]
+    index = {f.key: i for i, f in enumerate(futures)}
+    for future, result in as_completed(futures, with_results=True):
+        yield index[future.key], result
+        future.release()  # its rows are merged; the worker may forget them
+
+
+@contextlib.contextmanager
+def dask_client(address: str):
+    """A Dask client: ``"local"`` starts a LocalCluster on this machine (a worker
+    process per core), anything else is a scheduler's address (``tcp://host:8786``).
+
+    Raises
+    ------
+    InputError
+        Dask is not installed.
+    DeviceError
+        The scheduler cannot be reached.
+    """
+    try:
+        from dask.distributed import Client, LocalCluster
+    except ImportError:
+        raise InputError(
+            "--dask needs Dask: pip install 'inspect-validate[dask]'", source="--dask"
+        ) from None
+    if address == "local":
+        with LocalCluster(threads_per_worker=1, dashboard_address=":0") as cluster:
+            with Client(cluster) as client:
+                yield client
+        return
+    try:
+        client = Client(address, timeout=5)
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise DeviceError(
+            f"dask scheduler {address}: cannot connect ({exc}); check the address and that "
+            "the scheduler runs"
+        ) from None
+    with client:
+        yield client
 
 
 def _order(rows) -> np.ndarray:
