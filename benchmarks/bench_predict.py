@@ -149,14 +149,18 @@ def _timed(fn) -> float:
     return time.perf_counter() - t0
 
 
-def rows_scale():
-    """sweep from 10³ to 10⁷ combinations, each in a fresh process (peak RSS is the
-    process's): time per combination against 10³'s, memory, the products' share."""
+SHAPES = ((10, 10, 10), (10, 10, 100), (100, 10, 100), (100, 100, 100), (1000, 100, 100))
+
+
+def scale_runs(shapes=SHAPES):
+    """sweep at each (lights, optics, cameras), each in a fresh process (peak RSS is the
+    process's): dicts of combinations, seconds, seconds per combination and its ratio to
+    the first size's, peak bytes, blocks, and the matrix products' share."""
     import subprocess
     import sys
 
     per_first = None
-    for shape in ((10, 10, 10), (10, 10, 100), (100, 10, 100), (100, 100, 100), (1000, 100, 100)):
+    for shape in shapes:
         n = int(np.prod(shape))
         out = subprocess.run(
             [sys.executable, "-c", _SCALE.format(bench=str(Path(__file__).parent), shape=shape)],
@@ -167,14 +171,29 @@ def rows_scale():
         elapsed, matmul, blocks, peak = float(out[0]), float(out[1]), int(out[2]), int(out[3])
         per = elapsed / n
         per_first = per_first or per
+        yield {
+            "combinations": n,
+            "seconds": elapsed,
+            "per": per,
+            "ratio": per / per_first,
+            "peak": peak,
+            "blocks": blocks,
+            "products": matmul / elapsed,
+        }
+
+
+def rows_scale():
+    for run in scale_runs():
+        n = run["combinations"]
         yield (
             f"sweep 10^{int(np.log10(n))} combinations",
             "sweep at 10³",
-            elapsed,
-            per_first * n,
+            run["seconds"],
+            run["per"] / run["ratio"] * n,
             float("nan"),
-            f"{1e6 * per:.2f} µs/combination ({per / per_first:.2f}× 10³'s), peak RSS "
-            f"{peak / 2**20:.0f} MB, {blocks} blocks, matrix products {100 * matmul / elapsed:.0f} %",
+            f"{1e6 * run['per']:.2f} µs/combination ({run['ratio']:.2f}× 10³'s), peak RSS "
+            f"{run['peak'] / 2**20:.0f} MB, {run['blocks']} blocks, matrix products "
+            f"{100 * run['products']:.0f} %",
         )
 
 
