@@ -1,7 +1,7 @@
 """Capture: time per saved frame against the bare grab, saving overlapped or not.
 
-Run: ``python benchmarks/bench_capture.py [--size 2048] [--frames 8]`` (about a
-minute on 2 cores).
+Run: ``python benchmarks/bench_capture.py [--size 2048] [--frames 8]`` (about 25 s
+on 2 cores).
 
 The built-in simulated station at 2048 × 2048 (4 MP, uint16), 2 illuminations
 and the dark step, ``--frames`` each. Three ways, each on freshly opened

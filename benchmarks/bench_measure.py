@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 import tifffile
 import yaml
-from machine import PEAK_LAUNCHER, machine_line
+from machine import PEAK_LAUNCHER, exact_moments, machine_line
 
 PLAIN = """
 import sys, cv2, yaml
@@ -53,14 +53,7 @@ def make_frame(folder: Path):
     (folder / "rois.yaml").write_text(yaml.safe_dump(rois))
     exact = {}
     for name, (x, y, w, h) in ROIS.items():
-        hist = np.bincount(img[y : y + h, x : x + w].ravel())
-        v = np.flatnonzero(hist)
-        n, s1, s2 = (
-            w * h,
-            int((hist[v] * v).sum()),
-            sum(int(c) * int(x) ** 2 for c, x in zip(hist[v], v, strict=True)),
-        )
-        exact[name] = (Fraction(s1, n), Fraction(n * s2 - s1 * s1, n * (n - 1)))
+        exact[name] = exact_moments(img[y : y + h, x : x + w])
     return exact
 
 

@@ -1,10 +1,15 @@
-"""What every benchmark shares: the line naming the machine, and peak memory of a child."""
+"""What every benchmark shares: the line naming the machine, timing, exact moments, and
+the peak memory of a child."""
 
 from __future__ import annotations
 
 import os
 import platform
+import time
+from fractions import Fraction
 from pathlib import Path
+
+import numpy as np
 
 
 def cpu_name() -> str:
@@ -50,3 +55,30 @@ def peak_rss() -> int:
     import resource
 
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+
+
+def best_time(fn, repeat=5) -> float:
+    """The fastest of ``repeat`` calls of ``fn``, s, after one warm-up call."""
+    fn()
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return min(times)
+
+
+def exact_moments(values: np.ndarray) -> tuple[Fraction, Fraction]:
+    """Mean and unbiased variance of integer ``values`` as exact rationals (the reference
+    every moment is measured against), from their histogram."""
+    values = np.ravel(values)
+    if values.dtype.kind == "u":
+        counts = np.bincount(values)
+        v = np.flatnonzero(counts)
+        counts = counts[v]
+    else:
+        v, counts = np.unique(values, return_counts=True)
+    n = int(counts.sum())
+    s1 = sum(int(x) * int(c) for x, c in zip(v, counts, strict=True))
+    s2 = sum(int(x) ** 2 * int(c) for x, c in zip(v, counts, strict=True))
+    return Fraction(s1, n), Fraction(n * s2 - s1 * s1, n * (n - 1))

@@ -17,7 +17,7 @@ Knobs:
 * region statistics, 1–20 MP, uint8/uint16: ours against numpy and
   ``cv2.meanStdDev``, errors against exact rational moments;
 * frames averaged per illumination (1–16) → spread of μ and σ² over repeated
-  captures of the simulated station, against the 64-frame value;
+  captures of the simulated station, against the value from all of them;
 * prediction 10³ … 10⁷ combinations → time per combination and peak memory.
 """
 
@@ -35,7 +35,9 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
-from machine import machine_line  # noqa: E402
+import bench_predict  # noqa: E402
+import bench_stats  # noqa: E402
+from machine import best_time, exact_moments, machine_line  # noqa: E402
 
 
 @dataclass
@@ -53,16 +55,6 @@ class Knob:
     def point(self, series: str, t: float, err: float, label: str) -> None:
         if np.isfinite(t) and np.isfinite(err):
             self.points.setdefault(series, []).append((t, max(err, 1e-17), label))
-
-
-def best_time(fn, repeat=3) -> float:
-    fn()
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
 
 
 def fmt_t(t: float) -> str:
@@ -169,11 +161,8 @@ def lscv(quick: bool) -> Knob:
 
 
 def kde_error(quick: bool) -> Knob:
-    from scipy import integrate
-
     from inspect_validate.stats import as_sample
     from inspect_validate.stats import kde_error as ours
-    from inspect_validate.stats.kde_error import kernel_mixture
 
     knob = Knob(
         "ε KDE",
@@ -188,27 +177,10 @@ def kde_error(quick: bool) -> Knob:
     for n in sizes:
         a = as_sample(np.rint(rng.normal(100, 6, n)).astype(int))
         b = as_sample(np.rint(rng.normal(115, 9, n)).astype(int))
-        t_ours = best_time(lambda a=a, b=b: ours(a, b))
+        t_ours = best_time(lambda a=a, b=b: ours(a, b), 3)
         r = ours(a, b)
-        c1, w1 = kernel_mixture(a, r.bandwidth1.h)
-        c2, w2 = kernel_mixture(b, r.bandwidth2.h)
-        h1, h2 = r.bandwidth1.h, r.bandwidth2.h
-
-        def p(x, c, w, h):
-            return np.sum(w * np.exp(-0.5 * ((x - c) / h) ** 2)) / (h * np.sqrt(2 * np.pi))
-
         t0 = time.perf_counter()
-        ref = 0.5 * sum(
-            integrate.quad(
-                lambda x: min(p(x, c1, w1, h1), p(x, c2, w2, h2)),  # noqa: B023
-                u,
-                v,
-                epsabs=0,
-                epsrel=1e-12,
-                limit=200,
-            )[0]
-            for u, v in itertools.pairwise(np.linspace(0, 230, 400))
-        )
+        ref = bench_stats.kde_error_by_quadrature(a, b, r, 0, 230)
         t_ref = time.perf_counter() - t0
         err = abs(r.error - ref) / ref
         knob.rows.append([f"{n:,}", fmt_t(t_ours), fmt_t(t_ref), ratio(t_ours, t_ref), fmt_e(err)])
@@ -217,8 +189,6 @@ def kde_error(quick: bool) -> Knob:
 
 
 def gaussian_error(quick: bool) -> Knob:
-    import bench_stats
-
     knob = Knob(
         "ε Gauss",
         "10⁶ pairs of unequal variances (σ ratio up to 10); errors against mpmath (60 digits) "
@@ -258,12 +228,8 @@ def region(quick: bool) -> Knob:
         frame = np.clip(np.rint(rng.normal(0.9 * top, 1.5, (h, w))), 0, top).astype(dtype)
         mask = np.zeros(frame.shape, bool)
         mask[h // 20 : h - h // 20, w // 20 : w - w // 20] = True
-        hist = np.bincount(frame[mask])
-        v = np.flatnonzero(hist)
-        n = int(hist.sum())
-        s1 = int((hist[v] * v.astype(np.int64)).sum())
-        s2 = sum(int(c) * int(x) ** 2 for c, x in zip(hist[v], v, strict=True))
-        exact = Fraction(n * s2 - s1 * s1, n * (n - 1))
+        exact = exact_moments(frame[mask])[1]
+        n = int(mask.sum())
 
         def ours(frame=frame, mask=mask):
             return sample_moments(region_statistics(frame, mask).sample).variance
@@ -276,7 +242,7 @@ def region(quick: bool) -> Knob:
         def opencv(frame=frame, mask8=mask8, n=n):
             return float(cv2.meanStdDev(frame, mask=mask8)[1][0, 0]) ** 2 * n / (n - 1)
 
-        times = [best_time(f) for f in (ours, plain, opencv)]
+        times = [best_time(f, 3) for f in (ours, plain, opencv)]
         errs = [abs(float((Fraction(f()) - exact) / exact)) for f in (ours, plain, opencv)]
         label = f"{mp} MP {np.dtype(dtype).name}"
         knob.rows.append([label, *map(fmt_t, times), ratio(times[0], times[2]), *map(fmt_e, errs)])
@@ -297,10 +263,13 @@ def frames_averaged(quick: bool) -> Knob:
         "The simulated station under its amber light, class A. For each number of frames "
         "N, captures of N frames are repeated; the error is the spread (standard "
         "deviation) of the measured μ and σ² over the repeats, relative to the value from "
-        "64 frames. Time is the grab time of N frames. The station default is 4.",
+        "all frames (16 repeats at N = 16; the camera's noise is new each run, so the "
+        "spreads vary by up to 15 % between runs). Time is the grab time of N frames. "
+        "The station default is 4.",
         ["frames", "grab time", "rel. spread of μ", "rel. spread of σ²"],
         y_label="relative spread of σ²",
     )
+    total = 64 if quick else 256  # frames grabbed, split into repeats of N
     station = read_station(HERE.parent / "sample_images/station/station.yaml")
     rois = read_rois(HERE.parent / "sample_images/station/rois.yaml")
     with open_devices(station) as (controller, camera):
@@ -308,8 +277,8 @@ def frames_averaged(quick: bool) -> Knob:
         controller.apply({1: 100})
         camera.grab(4)  # past the pipeline and the switch
         t0 = time.perf_counter()
-        frames = np.stack([f.data for f in camera.grab(64)])
-        per_frame = (time.perf_counter() - t0) / 64
+        frames = np.stack([f.data for f in camera.grab(total)])
+        per_frame = (time.perf_counter() - t0) / total
     mask = class_masks(rois, frames.shape[1:])["A"]
 
     def moments(stack):
@@ -318,7 +287,7 @@ def frames_averaged(quick: bool) -> Knob:
 
     mu_ref, var_ref = moments(frames)
     for n in (1, 2, 4, 8, 16) if not quick else (1, 4):
-        values = np.array([moments(frames[i : i + n]) for i in range(0, 64 - n + 1, n)])
+        values = np.array([moments(frames[i : i + n]) for i in range(0, total - n + 1, n)])
         spread = values.std(axis=0, ddof=1) / np.array([mu_ref, var_ref])
         knob.rows.append([str(n), fmt_t(n * per_frame), fmt_e(spread[0]), fmt_e(spread[1])])
         knob.point("σ²", n * per_frame, spread[1], f"N={n}")
@@ -327,8 +296,6 @@ def frames_averaged(quick: bool) -> Knob:
 
 
 def prediction(quick: bool) -> Knob:
-    import bench_predict
-
     knob = Knob(
         "Prediction size",
         "sweep of 3 classes × 20 samples on a 1 nm grid, each size in a fresh process: "

@@ -225,10 +225,9 @@ def capture(
                 controller.all_off()
             except DeviceError:
                 pass  # the original error matters more; the frames are saved
-            # An interruption (Ctrl-C) still writes every frame grabbed before it.
-            unsaved = store.close()
-    if unsaved is not None:
-        raise unsaved
+            # An interruption (Ctrl-C) or an error still writes every frame grabbed before
+            # it (every step that ended normally flushed its own, with their failures).
+            store.close()
     warnings = _unlit_steps(levels, station.brightness_tolerance)
     if warnings:
         store.record("warnings", list(warnings))

@@ -45,7 +45,7 @@ class CaptureStore:
     def __init__(self, folder: Path, *, station_path: Path, station_sha256: str, resume: bool):
         self.folder = Path(folder)
         self._writer: ThreadPoolExecutor | None = None  # started with the first queued frame
-        self._slots: threading.BoundedSemaphore | None = None
+        self._slots = threading.BoundedSemaphore(QUEUED_FRAMES)
         self._pending: list[Future] = []
         self.manifest_path = self.folder / "manifest.json"
         if self.manifest_path.exists():
@@ -145,7 +145,6 @@ class CaptureStore:
         while :data:`QUEUED_FRAMES` are queued. A failure is raised by :meth:`flush`."""
         if self._writer is None:
             self._writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="frame-writer")
-            self._slots = threading.BoundedSemaphore(QUEUED_FRAMES)
         self._slots.acquire()
 
         def write():

@@ -7,6 +7,7 @@ Exit codes: see :mod:`inspect_validate.errors` and README, "Exit codes".
 
 from __future__ import annotations
 
+import contextlib
 import sys
 import traceback
 from pathlib import Path
@@ -207,10 +208,11 @@ def predict(scene, json_path, top, rank_by, comparison, no_kde, plot_dir, render
     if dask_address:
         from inspect_validate.model.sweep import dask_client
 
-        with dask_client(dask_address) as client:
-            result = sc.sweep(by=by, comparison=comparison, top=top, client=client)
+        cluster = dask_client(dask_address)
     else:
-        result = sc.sweep(by=by, comparison=comparison, top=top)
+        cluster = contextlib.nullcontext()
+    with cluster as client:
+        result = sc.sweep(by=by, comparison=comparison, top=top, client=client)
     for reason in result.skipped:
         click.echo(f"skipped: {reason}", err=True)
     for work in result.skipped_work:
@@ -222,10 +224,10 @@ def predict(scene, json_path, top, rank_by, comparison, no_kde, plot_dir, render
         f"{sc.name}: {n} combinations{f' ({n_skipped} skipped)' if n_skipped else ''}, "
         f"{sc.grid[0]:g}–{sc.grid[-1]:g} nm in {sc.grid[1] - sc.grid[0]:g} nm steps"
     )
-    click.echo(format_prediction(result, rows, by=by, comparison=comparison))
+    click.echo(format_prediction(result, rows))
     if json_path:
         write_json(
-            prediction_document(result, rows, scene=str(scene), by=by, comparison=comparison),
+            prediction_document(result, rows, scene=str(scene)),
             json_path,
         )
         click.echo(f"\nwrote {json_path}")

@@ -190,6 +190,12 @@ class Comparisons:
         )
 
     @property
+    def pairs(self) -> tuple[int, ...]:
+        """Positions of the comparisons of one class against one class (ε in closed form);
+        the others compare a group, a Gaussian mixture."""
+        return tuple(j for j, (a, b) in enumerate(self.groups) if len(a) == len(b) == 1)
+
+    @property
     def labels(self) -> tuple[str, ...]:
         return tuple(label(a, b) for a, b in self.named)
 
@@ -309,8 +315,8 @@ def gaussian_separation(
         for i, j in ((0, 0), (0, 1), (1, 0), (1, 1))
     )
     # The closed form is ε of a Gaussian against a Gaussian: pairs of classes only (a
-    # group's ε is its mixture's, below).
-    pairs = [p for p, (g1, g2) in enumerate(comparisons.groups) if len(g1) == len(g2) == 1]
+    # group's ε is its mixture's, below; NaN where not asked for or not valid).
+    pairs = list(comparisons.pairs)
     eps = np.full(m1.shape, np.nan)
     log_eps = np.full(m1.shape, np.nan)
     if pairs:
@@ -319,24 +325,19 @@ def gaussian_separation(
         )
     valid = np.ones(lead, bool) if valid is None else np.asarray(valid, bool)
     sd = np.sqrt(variances)
-    wanted = range(len(comparisons.groups)) if mixtures is None else set(mixtures)
-    for p, (g1, g2) in enumerate(comparisons.groups):
-        if len(g1) == 1 and len(g2) == 1:
-            continue  # a Gaussian against a Gaussian: the closed form above is exact
-        if p not in wanted:
-            eps[..., p] = log_eps[..., p] = np.nan
-            continue
+    groups = [j for j in range(len(comparisons.groups)) if j not in pairs]
+    for p in groups if mixtures is None else sorted(set(mixtures) & set(groups)):
+        g1, g2 = (list(g) for g in comparisons.groups[p])
         for idx in np.ndindex(lead):
             if not valid[idx]:
-                eps[(*idx, p)] = log_eps[(*idx, p)] = np.nan
                 continue
             e = mixture_error(
-                means[idx][list(g1)],
-                w[list(g1)] / w[list(g1)].sum(),
-                sd[idx][list(g1)],
-                means[idx][list(g2)],
-                w[list(g2)] / w[list(g2)].sum(),
-                sd[idx][list(g2)],
+                means[idx][g1],
+                w[g1] / w[g1].sum(),
+                sd[idx][g1],
+                means[idx][g2],
+                w[g2] / w[g2].sum(),
+                sd[idx][g2],
             )
             eps[(*idx, p)] = e
             with np.errstate(divide="ignore"):

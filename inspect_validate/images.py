@@ -171,13 +171,12 @@ def read_frames(paths) -> np.ndarray:
     (:func:`expand_paths`). All frames must have the same size and data type,
     and frames written by a capture must all come from the same step.
     """
-    # Frames are copied into one preallocated stack as they are read (sized for as many
-    # frames per file as the first has): peak memory is the stack plus one file, not
-    # twice the stack.
+    # Frames are copied into one preallocated stack as they are read: peak memory is the
+    # stack plus one file, not twice the stack.
     stack, n, first = None, 0, None
     steps: dict[str, Path] = {}
     paths = expand_paths(paths)
-    for path in paths:
+    for i, path in enumerate(paths):
         step = _capture_step(path)
         if step is not None:
             steps.setdefault(step, path)
@@ -200,12 +199,12 @@ def read_frames(paths) -> np.ndarray:
             )
         if len(paths) == 1:
             return frames
+        # Room for as many frames in each file still to come as in this one.
+        room = n + frames.shape[0] * (len(paths) - i)
         if stack is None:
-            stack = np.empty((len(paths) * frames.shape[0], *frames.shape[1:]), frames.dtype)
-        elif n + frames.shape[0] > stack.shape[0]:  # a file with more frames than the first
-            grown = np.empty(
-                (n + frames.shape[0] * (len(paths) - 1), *stack.shape[1:]), stack.dtype
-            )
+            stack = np.empty((room, *frames.shape[1:]), frames.dtype)
+        elif n + frames.shape[0] > stack.shape[0]:  # more frames than the files before
+            grown = np.empty((room, *stack.shape[1:]), stack.dtype)
             grown[:n] = stack[:n]
             stack = grown
         stack[n : n + frames.shape[0]] = frames

@@ -331,40 +331,26 @@ class Scene:
     rank_comparison: str | None
     comparisons: Comparisons
 
+    def _model_inputs(self) -> tuple[list, dict]:
+        """The components and options as :func:`~inspect_validate.model.predict` and
+        :func:`~inspect_validate.model.sweep` take them."""
+        parts = [list(self.lights), list(self.optics), list(self.cameras), list(self.classes)]
+        return parts, {"exposure": self.exposure, "comparisons": self.comparisons}
+
     def predict(self, *, grid: np.ndarray | None = None):
         """:func:`inspect_validate.model.predict` for every combination of this scene."""
         from inspect_validate.model import predict
 
-        return predict(
-            list(self.lights),
-            list(self.optics),
-            list(self.cameras),
-            list(self.classes),
-            exposure=self.exposure,
-            grid=self.grid if grid is None else grid,
-            comparisons=self.comparisons,
-        )
+        parts, options = self._model_inputs()
+        return predict(*parts, grid=self.grid if grid is None else grid, **options)
 
-    def sweep(
-        self, *, by: str, comparison: str | None, top: int, memory: int | None = None, client=None
-    ):
+    def sweep(self, *, by: str, comparison: str | None, top: int, client=None):
         """:func:`inspect_validate.model.sweep` of every combination of this scene."""
         from inspect_validate.model import sweep
-        from inspect_validate.model.sweep import MEMORY
 
+        parts, options = self._model_inputs()
         return sweep(
-            list(self.lights),
-            list(self.optics),
-            list(self.cameras),
-            list(self.classes),
-            exposure=self.exposure,
-            grid=self.grid,
-            comparisons=self.comparisons,
-            by=by,
-            comparison=comparison,
-            top=top,
-            memory=memory or MEMORY,
-            client=client,
+            *parts, grid=self.grid, by=by, comparison=comparison, top=top, client=client, **options
         )
 
     def notes(self) -> list[str]:

@@ -2,7 +2,7 @@
 
 ``sweep`` must give ``predict`` + ``rank``'s rows whatever its blocks (the only
 difference allowed is the rounding of a matrix product summed in another
-order: relative 1e-12 here, observed ≤ 5e-13 for ε), and its memory must not
+order: relative 1e-12 here, observed ≤ 1.5e-13 for ε), and its memory must not
 grow with the number of combinations.
 """
 

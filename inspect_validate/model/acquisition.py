@@ -42,7 +42,14 @@ from inspect_validate.constants import C, H
 from inspect_validate.errors import InputError
 from inspect_validate.spectra import Spectrum
 
-__all__ = ["Exposure", "ObjectClass", "Prediction", "predict", "skipped_reasons"]
+__all__ = [
+    "Exposure",
+    "ObjectClass",
+    "Prediction",
+    "nothing_predictable",
+    "predict",
+    "skipped_reasons",
+]
 
 QUANTISATION_VARIANCE = 1.0 / 12.0  # DN²
 _PRESENT = 1e-6  # a component is present where it exceeds this fraction of its peak
@@ -83,13 +90,17 @@ class Exposure:
             raise InputError("exposure target must be a fraction of saturation in (0, 1]")
 
 
+@dataclass(frozen=True, eq=False)
 class _Combinations:
-    """The light × optics × camera axes and the comparisons of a prediction or a ranking."""
+    """The light × optics × camera axes, the classes and the comparisons of a prediction
+    or a ranking."""
 
     lights: tuple[str, ...]
     optics: tuple[str, ...]
     cameras: tuple[str, ...]
+    classes: tuple[str, ...]
     comparison_set: Comparisons
+    grid: np.ndarray
 
     @property
     def comparisons(self) -> tuple[tuple[tuple[str, ...], tuple[str, ...]], ...]:
@@ -109,12 +120,6 @@ class Prediction(_Combinations):
     class (``mean``, ``variance``, ...) or the comparison (``snr_db``, ...).
     """
 
-    lights: tuple[str, ...]
-    optics: tuple[str, ...]
-    cameras: tuple[str, ...]
-    classes: tuple[str, ...]
-    comparison_set: Comparisons
-    grid: np.ndarray
     exposure_time: np.ndarray  # s, (L, O, C)
     electrons: np.ndarray  # mean μ_e per class, (L, O, C, K)
     mean: np.ndarray  # DN, (L, O, C, K)
@@ -156,7 +161,6 @@ def _trapezoid_weights(grid: np.ndarray) -> np.ndarray:
 class _Chain:
     """A sweep's components on its grid: what every block of combinations shares."""
 
-    names: tuple[tuple[str, ...], tuple[str, ...], tuple[str, ...], tuple[str, ...]]
     components: tuple[list, list, list, list]  # lights, optics, cameras, classes
     comparisons: Comparisons
     exposure: Exposure
@@ -164,7 +168,8 @@ class _Chain:
     e: np.ndarray  # W·m⁻²·nm⁻¹ per light, (L, W)
     t: np.ndarray  # transmission / 4N², (O, W)
     q: np.ndarray  # e⁻ per (W/m²·s) per nm bin, QE·A·λ/(hc)·trapezoid weight, (C, W)
-    r_all: np.ndarray  # every class's reflectance samples, (S, W)
+    r_mean: np.ndarray  # each class's mean reflectance, (K, W)
+    r_centred: np.ndarray  # each sample less its class's mean, (S, W)
     sample_class: np.ndarray  # (S,)
     inside: np.ndarray  # where each class is measured, (K, W)
     present: tuple[np.ndarray, np.ndarray, np.ndarray]
@@ -172,10 +177,31 @@ class _Chain:
     onehot: np.ndarray  # (S, K)
     per_class: np.ndarray  # (K,)
     camera: dict[str, np.ndarray]  # gain, dark_noise, saturation, dark_offset, max_dn: (C,)
+    _rows: dict = dataclasses.field(default_factory=dict, repr=False)  # the last cameras'
+
+    @property
+    def names(self) -> tuple[tuple[str, ...], ...]:
+        """Names of the lights, optics, cameras and classes."""
+        return tuple(tuple(x.name for x in c) for c in self.components)
 
     @property
     def shape(self) -> tuple[int, int, int]:
-        return tuple(len(n) for n in self.names[:3])
+        return tuple(len(c) for c in self.components[:3])
+
+    def camera_rows(self, cs: slice) -> tuple[np.ndarray, np.ndarray]:
+        """The cameras ``cs`` times each class's mean reflectance, (c·K, W), and times each
+        centred sample, (c·S, W): the right-hand sides of a block's products. Blocks that
+        differ only in their lights and optics share them (kept for the last ``cs``)."""
+        key = (cs.start, cs.stop)
+        if key not in self._rows:
+            q = self.q[cs][:, None, :]
+            n_w = self.grid.size
+            self._rows.clear()
+            self._rows[key] = (
+                (q * self.r_mean[None]).reshape(-1, n_w),
+                (q * self.r_centred[None]).reshape(-1, n_w),
+            )
+        return self._rows[key]
 
 
 def _prepare(lights, optics, cameras, classes, *, exposure, grid, comparisons) -> _Chain:
@@ -216,6 +242,8 @@ def _prepare(lights, optics, cameras, classes, *, exposure, grid, comparisons) -
 
     onehot = np.zeros((r_all.shape[0], len(classes)))
     onehot[np.arange(r_all.shape[0]), sample_class] = 1.0
+    per_class = onehot.sum(axis=0)
+    r_mean = (onehot.T @ r_all) / per_class[:, None]
     names = tuple(c.name for c in classes)
     comparisons = comparisons or Comparisons.of(names)
     if comparisons.classes != names:
@@ -225,12 +253,6 @@ def _prepare(lights, optics, cameras, classes, *, exposure, grid, comparisons) -
         for f in ("gain", "dark_noise", "saturation", "dark_offset", "max_dn")
     }
     return _Chain(
-        names=(
-            tuple(lt.name for lt in lights),
-            tuple(o.name for o in optics),
-            tuple(c.name for c in cameras),
-            names,
-        ),
         components=(list(lights), list(optics), list(cameras), list(classes)),
         comparisons=comparisons,
         exposure=exposure,
@@ -238,13 +260,14 @@ def _prepare(lights, optics, cameras, classes, *, exposure, grid, comparisons) -
         e=e,
         t=t,
         q=q,
-        r_all=r_all,
+        r_mean=r_mean,
+        r_centred=r_all - r_mean[sample_class],
         sample_class=sample_class,
         inside=inside,
         present=present,
         absolute=absolute,
         onehot=onehot,
-        per_class=onehot.sum(axis=0),
+        per_class=per_class,
         camera=camera,
     )
 
@@ -283,16 +306,22 @@ def predict(
     block = _predict_block(chain, everything, everything, everything)
     p = block.prediction
     if block.n_bad == p.valid.size:
-        raise InputError(
-            "no combination of the scene can be predicted:\n  " + "\n  ".join(block.reasons)
-        )
-    mu_e, mean, var, _ = block.samples(*np.indices(p.valid.shape))
+        raise nothing_predictable(block.reasons, block.n_bad)
+    mu_e, mean, var, _ = block.signal.samples(everything, everything, everything)
     blank = p.valid[..., None]
     return dataclasses.replace(
         p,
         sample_electrons=np.where(blank, mu_e, np.nan),
         sample_mean=np.where(blank, mean, np.nan),
         sample_variance=np.where(blank, var, np.nan),
+    )
+
+
+def nothing_predictable(reasons, n_bad: int) -> InputError:
+    """The error of a scene none of whose combinations can be predicted."""
+    return InputError(
+        "no combination of the scene can be predicted:\n  "
+        + "\n  ".join(skipped_reasons(reasons, n_bad))
     )
 
 
@@ -304,13 +333,19 @@ def skipped_reasons(reasons, n_bad: int) -> tuple[str, ...]:
     return listed
 
 
-@dataclass(frozen=True, eq=False)
-class _Block:
-    """A block's prediction (no per-sample arrays) and what they are computed from."""
+def _grey(mu_e, gain, dark_noise, dark_offset):
+    """Mean (DN) and temporal variance (DN²) of the grey value of μ_e electrons (EMVA 1288,
+    before clipping)."""
+    return (
+        dark_offset + gain * mu_e,
+        gain**2 * (dark_noise**2 + mu_e) + QUANTISATION_VARIANCE,
+    )
 
-    prediction: Prediction
-    n_bad: int
-    reasons: tuple[str, ...]
+
+@dataclass(frozen=True, eq=False)
+class _Signal:
+    """What a block's per-sample statistics are computed from."""
+
     class_rate: np.ndarray  # mean e⁻/s per class, (l, o, c, K)
     deviation: np.ndarray  # each sample's e⁻/s minus its class's, (l, o, c, S)
     exposure_time: np.ndarray  # s, (l, o, c), stand-ins where skipped
@@ -320,18 +355,28 @@ class _Block:
     def samples(self, li, oi, ci) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
         """μ_e (unclipped), clipped mean (DN), temporal variance (DN²) and fraction
         above saturation (``None``: nowhere near) of every reflectance sample of the
-        combinations at block indices ``li, oi, ci`` (arrays of equal shape)."""
+        combinations at block indices (or slices) ``li, oi, ci``."""
         rate = self.class_rate[li, oi, ci][..., self.sample_class]
         mu_e = (rate + self.deviation[li, oi, ci]) * self.exposure_time[li, oi, ci][..., None]
         cam = {f: v[ci][..., None] for f, v in self.camera.items()}
-        mean = cam["dark_offset"] + cam["gain"] * mu_e
-        var = cam["gain"] ** 2 * (cam["dark_noise"] ** 2 + mu_e) + QUANTISATION_VARIANCE
+        mean, var = _grey(mu_e, cam["gain"], cam["dark_noise"], cam["dark_offset"])
         return (mu_e, *_clipped_moments(mean, var, cam["max_dn"]))
+
+
+@dataclass(frozen=True, eq=False)
+class _Block:
+    """A block's prediction (no per-sample arrays: :meth:`_Signal.samples`), skips and
+    their reasons."""
+
+    prediction: Prediction
+    signal: _Signal
+    n_bad: int
+    reasons: tuple[str, ...]
 
 
 def _predict_block(chain: _Chain, ls: slice, os: slice, cs: slice, *, mixtures=None) -> _Block:
     """:func:`predict` of the lights ``ls`` × optics ``os`` × cameras ``cs`` of a chain,
-    without the per-sample arrays (:meth:`_Block.samples` gives them).
+    without the per-sample arrays (:meth:`_Signal.samples` gives them).
 
     ``mixtures``: the group comparisons whose ε (a root search per combination)
     to compute; all by default (see :func:`~inspect_validate.comparisons.gaussian_separation`).
@@ -348,15 +393,10 @@ def _predict_block(chain: _Chain, ls: slice, os: slice, cs: slice, *, mixtures=N
     cam = {f: v[cs] for f, v in chain.camera.items()}
     onehot, per_class, sample_class = chain.onehot, chain.per_class, chain.sample_class
     n_l, n_o, n_c = e.shape[0], t.shape[0], q.shape[0]
-    n_s, n_k, n_w = chain.r_all.shape[0], per_class.size, chain.grid.size
-    lo_rows = (e[:, None, :] * t[None, :, :]).reshape(n_l * n_o, n_w)
-    r_mean = (onehot.T @ chain.r_all) / per_class[:, None]  # (K, W)
-    mean_rows = (q[:, None, :] * r_mean[None, :, :]).reshape(n_c * n_k, n_w)
-    centred = (chain.r_all - r_mean[sample_class])[None, :, :]
-    class_rate = (lo_rows @ mean_rows.T).reshape(n_l, n_o, n_c, n_k)  # e⁻/s
-    deviation = (lo_rows @ (q[:, None, :] * centred).reshape(n_c * n_s, n_w).T).reshape(
-        n_l, n_o, n_c, n_s
-    )
+    lo_rows = (e[:, None, :] * t[None, :, :]).reshape(n_l * n_o, chain.grid.size)
+    mean_rows, centred_rows = chain.camera_rows(cs)
+    class_rate = (lo_rows @ mean_rows.T).reshape(n_l, n_o, n_c, per_class.size)  # e⁻/s
+    deviation = (lo_rows @ centred_rows.T).reshape(n_l, n_o, n_c, sample_class.size)
 
     lights, optics, cameras, classes = (
         c[s] for c, s in zip(chain.components, (ls, os, cs, slice(None)), strict=True)
@@ -388,27 +428,24 @@ def _predict_block(chain: _Chain, ls: slice, os: slice, cs: slice, *, mixtures=N
     else:
         t_exp = np.full((n_l, n_o, n_c), exposure.time)
 
-    gain, dark, offset, ceiling = (
-        cam[f][None, None, :, None] for f in ("gain", "dark_noise", "dark_offset", "max_dn")
-    )
+    gain, dark, offset = (cam[f][None, None, :] for f in ("gain", "dark_noise", "dark_offset"))
     squares = np.square(deviation) @ onehot  # Σ (sample − class mean)², (e⁻/s)²
     signal = class_rate * t_exp[..., None]  # μ_e per class
-    mean = offset + gain * signal
-    spectral = (gain * t_exp[..., None]) ** 2 * squares / np.maximum(per_class - 1, 1)
-    variance = gain**2 * (dark**2 + signal) + QUANTISATION_VARIANCE + spectral
+    mean, variance = _grey(signal, gain[..., None], dark[..., None], offset[..., None])
+    spectral = (gain[..., None] * t_exp[..., None]) ** 2 * squares / np.maximum(per_class - 1, 1)
+    variance += spectral
     saturated = np.zeros_like(mean)
 
     # No sample is brighter than its class mean plus √Σ(deviation²): where even that
     # is 8σ below saturation, clipping changes nothing a double holds (Φc(8) ≈ 6e-16).
     brightest = ((class_rate + np.sqrt(squares)) * t_exp[..., None]).max(axis=-1)
-    top_mean = offset[..., 0] + gain[..., 0] * brightest
-    top_var = gain[..., 0] ** 2 * (dark[..., 0] ** 2 + brightest) + QUANTISATION_VARIANCE
-    gap = ceiling[..., 0] - top_mean
+    top_mean, top_var = _grey(brightest, gain, dark, offset)
+    gap = cam["max_dn"][None, None, :] - top_mean
     near = valid & ((gap <= 0) | (gap * gap <= 64.0 * top_var))
-    block = _Block(None, n_bad, reasons, class_rate, deviation, t_exp, cam, sample_class)
+    per_sample = _Signal(class_rate, deviation, t_exp, cam, sample_class)
     if near.any():
         idx = np.nonzero(near)
-        _, sample_mean, sample_var, above = block.samples(*idx)
+        _, sample_mean, sample_var, above = per_sample.samples(*idx)
         m = sample_mean @ onehot / per_class
         dev2 = (sample_mean - m[:, sample_class]) ** 2
         sp = (dev2 @ onehot) / np.maximum(per_class - 1, 1)
@@ -429,7 +466,7 @@ def _predict_block(chain: _Chain, ls: slice, os: slice, cs: slice, *, mixtures=N
         lights=tuple(lt.name for lt in lights),
         optics=tuple(o.name for o in optics),
         cameras=tuple(c.name for c in cameras),
-        classes=chain.names[3],
+        classes=tuple(c.name for c in classes),
         comparison_set=chain.comparisons,
         grid=chain.grid,
         exposure_time=blank(t_exp),
@@ -451,7 +488,7 @@ def _predict_block(chain: _Chain, ls: slice, os: slice, cs: slice, *, mixtures=N
         skipped=skipped_reasons(reasons, n_bad),
         absolute=chain.absolute[ls],
     )
-    return dataclasses.replace(block, prediction=prediction)
+    return _Block(prediction, per_sample, n_bad, reasons)
 
 
 def _irradiance_scale(lights) -> np.ndarray:

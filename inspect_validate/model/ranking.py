@@ -21,7 +21,7 @@ from inspect_validate.model.acquisition import Prediction
 from inspect_validate.stats import as_sample, lscv_bandwidth
 from inspect_validate.stats.kde_error import mixture_error
 
-__all__ = ["comparison_index", "predicted_kde_error", "rank", "rank_keys"]
+__all__ = ["comparison_index", "predicted_kde_error", "rank", "rank_keys", "ranked"]
 
 _MIN_SAMPLES_FOR_LSCV = 5
 SATURATION_LIMIT = 1e-3
@@ -59,9 +59,7 @@ def rank_keys(prediction: Prediction, *, by: str = "error", comparison: str | No
     if comparison is not None:
         column = np.full(flat_values.shape[0], comparison_index(prediction, comparison))
     else:
-        pairs = np.array(
-            [i for i, (a, b) in enumerate(prediction.comparisons) if len(a) == 1 and len(b) == 1]
-        )
+        pairs = np.array(prediction.comparison_set.pairs)
         # The worst pair: largest ε (ties, e.g. ε underflowing to 0, by log ε), or lowest dB.
         sub = flat_log[:, pairs] if by == "error" else -flat_values[:, pairs]
         column = pairs[np.argmax(np.nan_to_num(sub, nan=-np.inf), axis=1)]
@@ -71,6 +69,13 @@ def rank_keys(prediction: Prediction, *, by: str = "error", comparison: str | No
     saturated = (prediction.saturated_fraction.max(axis=-1) > SATURATION_LIMIT).ravel()
     keys = (tiebreak, key if by == "error" else -key, saturated)
     return keys, key, column, saturated
+
+
+def ranked(keys, valid) -> np.ndarray:
+    """Flat indices of the ``valid`` combinations, best first, from :func:`rank_keys`'s
+    ``keys`` (a stable sort: ties keep the order of the combinations)."""
+    idx = np.flatnonzero(np.ravel(valid))
+    return idx[np.lexsort(tuple(k[idx] for k in keys))]
 
 
 def rank(prediction: Prediction, *, by: str = "error", comparison: str | None = None):
@@ -89,8 +94,7 @@ def rank(prediction: Prediction, *, by: str = "error", comparison: str | None = 
         Some class of the row has more than :data:`SATURATION_LIMIT` saturated.
     """
     keys, key, column, saturated = rank_keys(prediction, by=by, comparison=comparison)
-    idx = np.flatnonzero(prediction.valid.ravel())
-    order = idx[np.lexsort(tuple(k[idx] for k in keys))]
+    order = ranked(keys, prediction.valid)
     combos = np.stack(np.unravel_index(order, prediction.valid.shape), axis=1)
     return combos, key[order], column[order], saturated[order]
 
@@ -99,7 +103,7 @@ def predicted_kde_error(prediction, index, column: int) -> float:
     """Nonparametric ε (37) of one combination and comparison.
 
     ``prediction`` is a :class:`~inspect_validate.model.Prediction` (``index``
-    a (light, optics, camera) tuple) or a :class:`~inspect_validate.model.Sweep`
+    a (light, optics, camera) tuple) or a :class:`~inspect_validate.model.Ranking`
     (``index`` a row).
 
     Each class's density is a mixture over its reflectance samples: a Gaussian

@@ -37,9 +37,10 @@ from inspect_validate.model.acquisition import (
     _Combinations,
     _predict_block,
     _prepare,
+    nothing_predictable,
     skipped_reasons,
 )
-from inspect_validate.model.ranking import rank_keys
+from inspect_validate.model.ranking import rank_keys, ranked
 from inspect_validate.stats.gaussian_error import LOAD_MIN, load_kernel
 
 __all__ = ["Ranking", "dask_client", "sweep"]
@@ -52,6 +53,8 @@ MEMORY = 256 * 2**20
 # passes (per comparison); the class moments (per class).
 _VALUES_PER_SAMPLE, _VALUES_PER_COMPARISON, _VALUES_PER_CLASS = 8, 48, 16
 
+# A prediction's arrays that a ranking keeps for its rows (with the per-sample mean and
+# variance, which a block computes for those rows only).
 _ROW_FIELDS = (
     "exposure_time",
     "electrons",
@@ -64,8 +67,6 @@ _ROW_FIELDS = (
     "fisher_db",
     "error_gaussian",
     "log_error_gaussian",
-    "sample_mean",
-    "sample_variance",
 )
 
 
@@ -79,12 +80,6 @@ class Ranking(_Combinations):
     (light, optics, camera).
     """
 
-    lights: tuple[str, ...]
-    optics: tuple[str, ...]
-    cameras: tuple[str, ...]
-    classes: tuple[str, ...]
-    comparison_set: Comparisons
-    grid: np.ndarray
     by: str
     comparison: str | None
     index: np.ndarray  # (N, 3) int
@@ -136,9 +131,9 @@ def sweep(
 
     The same numbers as :func:`~inspect_validate.model.predict` followed by
     :func:`~inspect_validate.model.rank`, up to rounding (a block's matrix
-    product may sum in another order: relative differences of 1e-15 in μ, which
-    a small ε's conditioning turns into about 1e-13), in memory bounded by
-    ``memory`` whatever the number of combinations.
+    product may sum in another order: relative differences of about 1e-15 in μ
+    and σ², which a small ε's conditioning turns into about 1e-13), in memory
+    bounded by ``memory`` whatever the number of combinations.
 
     Parameters
     ----------
@@ -167,13 +162,10 @@ def sweep(
     )
     comparison_set = chain.comparisons
     key_column = comparison_set.index(comparison) if comparison is not None else None
-    groups = [
-        j for j, (a, b) in enumerate(comparison_set.groups) if not (len(a) == 1 and len(b) == 1)
-    ]
+    groups = [j for j in range(len(comparison_set.groups)) if j not in comparison_set.pairs]
     # A group's ε is needed for every combination only when the ranking is by it.
     mixtures = [key_column] if by == "error" and key_column in groups else []
-
-    n_pairs = sum(len(a) == len(b) == 1 for a, b in comparison_set.groups)
+    total = int(np.prod(chain.shape))
     options = {
         "by": by,
         "comparison": comparison,
@@ -181,7 +173,7 @@ def sweep(
         "mixtures": mixtures,
         # ε of the blocks' pairs compiled where its load pays for itself; decided once for
         # the sweep, so every block (on any worker) computes it the same way.
-        "compiled": n_pairs * int(np.prod(chain.shape)) >= LOAD_MIN,
+        "compiled": len(comparison_set.pairs) * total >= LOAD_MIN,
     }
     blocks = list(_blocks(chain, memory=memory))
     if client is None:
@@ -195,34 +187,29 @@ def sweep(
             why_by_block[i] = why
         kept = rows if kept is None else _merge(kept, rows, top)
     reasons = [r for i in sorted(why_by_block) for r in why_by_block[i]][:_MAX_REASONS]
-    n_blocks = len(blocks)
-    total = int(np.prod(chain.shape))
     if n_bad == total:
-        raise InputError(
-            "no combination of the scene can be predicted:\n  "
-            + "\n  ".join(skipped_reasons(reasons, n_bad))
-        )
+        raise nothing_predictable(reasons, n_bad)
     order = _order(kept)
     best = order[:top]
     worst = int(kept["flat"][order[-1]])
     rows = {name: values[best] for name, values in kept.items()}
 
-    # The rows' group ε: the same function on the same moments as a full prediction.
+    # The rows' other group ε: the same function on the same moments as a full prediction.
     left = [j for j in groups if j not in mixtures]
     skipped_work = ()
     if left:
         started = time.perf_counter()
-        sep = gaussian_separation(rows["mean"], rows["variance"], comparison_set)
+        sep = gaussian_separation(rows["mean"], rows["variance"], comparison_set, mixtures=left)
         per = (time.perf_counter() - started) / max(1, best.size * len(left))
-        rows["error_gaussian"] = sep.error_gaussian
-        rows["log_error_gaussian"] = sep.log_error_gaussian
-        n_skip = (total - n_bad - best.size) * len(left)
-        if n_skip > 0:
+        rows["error_gaussian"][:, left] = sep.error_gaussian[:, left]
+        rows["log_error_gaussian"][:, left] = sep.log_error_gaussian[:, left]
+        n_other = total - n_bad - best.size
+        if n_other > 0:
             labels = ", ".join(comparison_set.labels[j] for j in left)
             skipped_work = (
                 f"ε Gauss of {labels} (a Gaussian mixture each side) for the {best.size} rows "
-                f"listed only, not for {total - n_bad - best.size} other combinations: "
-                f"{n_skip} root searches, about {_duration(n_skip * per)} at "
+                f"listed only, not for {n_other} other combinations: {n_other * len(left)} "
+                f"root searches, about {_duration(n_other * len(left) * per)} at "
                 f"{1e3 * per:.2g} ms each (rank by one of them to compute it everywhere)",
             )
     names = chain.names
@@ -240,12 +227,12 @@ def sweep(
         column=rows["column"],
         saturated=rows["saturated"],
         absolute=rows["absolute"],
-        **{name: rows[name] for name in _ROW_FIELDS},
+        **{name: rows[name] for name in (*_ROW_FIELDS, "sample_mean", "sample_variance")},
         sample_class=chain.sample_class,
         worst=tuple(int(i) for i in np.unravel_index(worst, chain.shape)),
         predicted=total - n_bad,
         skipped=skipped_reasons(reasons, n_bad),
-        blocks=n_blocks,
+        blocks=len(blocks),
         skipped_work=skipped_work,
     )
 
@@ -262,7 +249,7 @@ def _blocks(chain: _Chain, *, memory: int):
     """(lights, optics, cameras) slices whose block arrays fit ``memory`` bytes; cameras
     are split only when one light × optics row of them does not fit, and so on."""
     n_l, n_o, n_c = chain.shape
-    n_s, n_k = chain.r_all.shape[0], len(chain.names[3])
+    n_s, n_k = chain.sample_class.size, chain.per_class.size
     n_p = len(chain.comparisons.groups)
     per = 8 * (_VALUES_PER_SAMPLE * n_s + _VALUES_PER_COMPARISON * n_p + _VALUES_PER_CLASS * n_k)
     fit = max(1, memory // per)  # combinations in a block
@@ -282,9 +269,7 @@ def _block_rows(chain, block, *, by, comparison, top, mixtures, compiled):
     computed = _predict_block(chain, ls, os, cs, mixtures=mixtures)
     p = computed.prediction
     keys, key, column, saturated = rank_keys(p, by=by, comparison=comparison)
-    idx = np.flatnonzero(p.valid.ravel())
-    order = idx[np.lexsort(tuple(k[idx] for k in keys))]
-    pick = np.unique(np.concatenate([order[:top], order[-1:]]))
+    pick = _kept(ranked(keys, p.valid), top)
     li, oi, ci = np.unravel_index(pick, p.valid.shape)
     _, n_o, n_c = chain.shape
     flat = ((li + ls.start) * n_o + (oi + os.start)) * n_c + (ci + cs.start)
@@ -297,9 +282,9 @@ def _block_rows(chain, block, *, by, comparison, top, mixtures, compiled):
         "column": column[pick],
         "absolute": p.absolute[li],
     }
-    for name in _ROW_FIELDS[:-2]:
+    for name in _ROW_FIELDS:
         rows[name] = getattr(p, name)[li, oi, ci]
-    _, rows["sample_mean"], rows["sample_variance"], _ = computed.samples(li, oi, ci)
+    _, rows["sample_mean"], rows["sample_variance"], _ = computed.signal.samples(li, oi, ci)
     return rows, computed.n_bad, computed.reasons
 
 
@@ -358,6 +343,10 @@ def _order(rows) -> np.ndarray:
 def _merge(a: dict, b: dict, top: int) -> dict:
     """Two blocks' kept rows as one: the best ``top`` and the worst of both."""
     both = {name: np.concatenate([a[name], b[name]]) for name in a}
-    order = _order(both)
-    pick = np.unique(np.concatenate([order[:top], order[-1:]]))
+    pick = _kept(_order(both), top)
     return {name: values[pick] for name, values in both.items()}
+
+
+def _kept(order: np.ndarray, top: int) -> np.ndarray:
+    """Positions of the best ``top`` and the worst of rows ranked ``order``, ascending."""
+    return np.unique(np.concatenate([order[:top], order[-1:]]))

@@ -21,14 +21,13 @@ PREDICTION_SCHEMA_VERSION = 2
 additively, ``skipped_work`` (what the ranking did not need computed, and its cost)."""
 
 
-def prediction_rows(ranking: Ranking, *, kde: bool = True) -> list[dict]:
+def prediction_rows(p: Ranking, *, kde: bool = True) -> list[dict]:
     """The ranking's rows as dictionaries of plain numbers (the JSON ``ranking``).
 
     Every row lists every comparison; ``key_comparison`` indexes the one the row
     is ranked by. ε KDE is computed for that comparison only: it is the costly
     one, and the one the ranking is about.
     """
-    p = ranking
     rows = []
     for r, (li, oi, ci) in enumerate(p.index):
         absolute = bool(p.absolute[r])
@@ -73,7 +72,8 @@ def prediction_rows(ranking: Ranking, *, kde: bool = True) -> list[dict]:
     return rows
 
 
-def format_prediction(p: Ranking, rows: list[dict], *, by: str, comparison: str | None) -> str:
+def format_prediction(p: Ranking, rows: list[dict]) -> str:
+    by, comparison = p.by, p.comparison
     header = ["#", "light", "optics", "camera", "t_exp"]
     header += [f"μ {c}" for c in p.classes] + [f"σ² {c}" for c in p.classes]
     header += ["comparison", "SNR_dB (36)", "CNR_dB", "ε Gauss", "ε KDE", "sat"]
@@ -120,9 +120,7 @@ def format_prediction(p: Ranking, rows: list[dict], *, by: str, comparison: str 
     return "\n".join(lines)
 
 
-def prediction_document(
-    p: Ranking, rows: list[dict], *, scene: str, by: str, comparison: str | None
-) -> dict:
+def prediction_document(p: Ranking, rows: list[dict], *, scene: str) -> dict:
     return {
         "schema": "inspect-validate/prediction",
         "schema_version": PREDICTION_SCHEMA_VERSION,
@@ -137,8 +135,8 @@ def prediction_document(
         "optics": list(p.optics),
         "cameras": list(p.cameras),
         "classes": list(p.classes),
-        "rank_by": by,
-        "rank_comparison": comparison,
+        "rank_by": p.by,
+        "rank_comparison": p.comparison,
         "combinations": p.combinations,
         "skipped": list(p.skipped),
         "skipped_work": list(p.skipped_work),

@@ -56,8 +56,9 @@ COMPILED_MIN = 2**14
 on 2 cores) evaluates ε once it is loaded."""
 LOAD_MIN = 2**19
 """Pairs in one call that pay for loading the kernel (numba's import and cache load,
-≈0.35 s; numpy takes 0.66 µs a pair, the kernel 0.16 µs). A caller with more work
-ahead in smaller calls (a sweep's blocks) loads it itself: :func:`load_kernel`."""
+≈0.3 s, 0.5 s from a cold disk; numpy takes 0.68 µs a pair, the kernel 0.16 µs). A
+caller with more work ahead in smaller calls (a sweep's blocks) loads it itself:
+:func:`load_kernel`."""
 
 
 def gaussian_error(mean1, var1, mean2, var2) -> np.ndarray:
