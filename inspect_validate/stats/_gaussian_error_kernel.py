@@ -1,221 +1,32 @@
-"""Compiled ε_tot (37) of two Gaussians: :mod:`~inspect_validate.stats.gaussian_error`'s
-algorithm element by element, in one pass instead of about thirty array passes.
+"""Compiled ε_tot (37) of two Gaussians: the functions of
+:mod:`~inspect_validate.stats._gaussian_error_scalar` compiled by numba as they stand,
+in one parallel pass instead of the numpy implementation's thirty array passes.
 
 Loaded only for large arrays (a sweep's blocks): numba's import and cache load
-cost about 0.3 s, what numpy spends on some 500,000 pairs. Every step mirrors the
-numpy implementation (same branches, same error-free transformations), so the
-two agree to rounding; the tests hold them to 2e-14 relative (their logs to
-2e-15), and both to mpmath at 1e-13.
-
-Special functions: the tails need erfcx(x) and Φ for x ≥ 0 only. erfcx(x) is
-exp(x²)·erfc(x) with x² carried as a double-double (erfc is the C library's,
-≈3e-16 relative down to 1e-300), and beyond x = 12 its asymptotic series (12
-terms: the first omitted, (25)!!/(2x²)¹³, is below 1e-19).
+cost about 0.3 s, what numpy spends on some 500,000 pairs.
 """
 
-import math
+import types
 
 import numba as nb
-import numpy as np
 
-_SPLITTER = 134217729.0  # 2**27 + 1, Dekker's split
-_LOG_SQRT_2PI = 0.5 * math.log(2.0 * math.pi)
-_SQRT_2PI = math.sqrt(2.0 * math.pi)
-_SQRT2 = math.sqrt(2.0)
-_LAMBDA = math.sqrt(2.0 / math.pi)
-_LOG2 = math.log(2.0)
-_GL_NODES, _GL_WEIGHTS = np.polynomial.legendre.leggauss(20)
-_ASYMPTOTIC_FROM = 12.0
-_ASYMPTOTIC_TERMS = 12
-
-_jit = nb.njit(cache=True, error_model="numpy")
+from inspect_validate.stats import _gaussian_error_scalar as _scalar
 
 
-@_jit
-def _two_sum(a, b):
-    s = a + b
-    bb = s - a
-    return s, (a - (s - bb)) + (b - bb)
+def _compiled(module) -> dict:
+    """``module``'s namespace with each of its functions compiled. Each function is
+    rebuilt on that namespace, so a compiled function calls the compiled versions of
+    the others (numba resolves globals when it compiles)."""
+    namespace = dict(vars(module))
+    for name, fn in vars(module).items():
+        if isinstance(fn, types.FunctionType) and fn.__module__ == module.__name__:
+            rebuilt = types.FunctionType(fn.__code__, namespace, name, fn.__defaults__)
+            namespace[name] = nb.njit(rebuilt, cache=True, error_model="numpy")
+    return namespace
 
 
-@_jit
-def _split(a):
-    t = _SPLITTER * a
-    hi = t - (t - a)
-    return hi, a - hi
-
-
-@_jit
-def _two_prod(a, b):
-    p = a * b
-    ah, al = _split(a)
-    bh, bl = _split(b)
-    return p, ((ah * bh - p) + ah * bl + al * bh) + al * bl
-
-
-@_jit
-def _two_square(a):
-    p = a * a
-    ah, al = _split(a)
-    return p, ((ah * ah - p) + 2.0 * ah * al) + al * al
-
-
-@_jit
-def _dd_sqrt(v):
-    hi = math.sqrt(v)
-    p, e = _two_square(hi)
-    return hi, ((v - p) - e) / (2.0 * hi)
-
-
-@_jit
-def _dd_div(nh, nl, dh, dl):
-    q = nh / dh
-    p, e = _two_prod(q, dh)
-    return q, (((nh - p) - e) + nl - q * dl) / dh
-
-
-@_jit
-def _logaddexp(x, y):
-    """numpy's logaddexp for scalars (−inf with −inf gives −inf)."""
-    if x == y:
-        return x + _LOG2
-    d = x - y
-    if d > 0:
-        return x + math.log1p(math.exp(-d))
-    if d <= 0:
-        return y + math.log1p(math.exp(d))
-    return d  # NaN
-
-
-@_jit
-def _maximum(a, b):
-    """numpy's maximum: NaN if either is NaN."""
-    if a != a or b != b:
-        return math.nan
-    return a if a > b else b
-
-
-@_jit
-def _erfcx(x):
-    """exp(x²)·erfc(x) for x ≥ 0 (and +inf → 0)."""
-    if x < _ASYMPTOTIC_FROM:
-        p, e = _two_square(x)
-        return math.exp(p) * (1.0 + e) * math.erfc(x)
-    # 1/(x√π) · Σ (−1)ⁿ (2n−1)!! / (2x²)ⁿ
-    if math.isinf(x):
-        return 0.0
-    u = 1.0 / (2.0 * x * x)
-    term, total = 1.0, 1.0
-    for n in range(1, _ASYMPTOTIC_TERMS + 1):
-        term *= -(2.0 * n - 1.0) * u
-        total += term
-    return total / (x * math.sqrt(math.pi))
-
-
-@_jit
-def _upper_tail(z, lo):
-    """Q(z) = P(Z > z) and log Q(z) for z + lo (double-double)."""
-    if z > 0.0:
-        p, e = _two_square(z)
-        if not math.isfinite(e):
-            e = 0.0
-        scaled = 0.5 * _erfcx(z / _SQRT2)
-        shift = 0.0 if lo == 0.0 else lo * 0.5 / (_SQRT_2PI * scaled)
-        log_q = math.log(scaled) - 0.5 * p - 0.5 * e - shift
-        return scaled * math.exp(-0.5 * p) * (1.0 - 0.5 * e) * math.exp(-shift), log_q
-    # z ≤ 0 (or NaN): Q(z) = Φ(−z) ≥ ½, Φ(x) = 1 − ½·erfc(x/√2) without cancellation.
-    tail = 0.5 * math.erfc(-z / _SQRT2)
-    q = 1.0 - tail
-    log_q = math.log1p(-tail)
-    shift = 0.0 if lo == 0.0 else math.exp(-0.5 * z * z - _LOG_SQRT_2PI - log_q) * lo
-    return q * math.exp(-shift), log_q - shift
-
-
-@_jit
-def _log_tail_ratio(ah, al, bh, bl):
-    """log(Q(b)/Q(a)) for 0 ≤ a ≤ b."""
-    ea_, eb_ = _erfcx(ah / _SQRT2), _erfcx(bh / _SQRT2)
-    pa, ea = _two_square(ah)
-    pb, eb = _two_square(bh)
-    sq, se = _two_sum(pb, -pa)
-    diff_sq = sq + (se + (eb - ea))
-    shift = (0.0 if bl == 0.0 else _LAMBDA / eb_ * bl) - (0.0 if al == 0.0 else _LAMBDA / ea_ * al)
-    if not math.isfinite(bh):
-        return -math.inf
-    return math.log(eb_ / ea_) - 0.5 * diff_sq - shift
-
-
-@_jit
-def _interval(ah, al, bh, bl, nodes, weights):
-    """Φ(b) − Φ(a) and its log for a < b as double-doubles."""
-    width = (bh - ah) + (bl - al)
-    reach = _maximum(1.0, _maximum(abs(ah), abs(bh)))
-    if math.isfinite(width) and width * reach < 1.0:
-        # φ(a)·∫₀ʷ exp(−a s − s²/2) ds by Gauss–Legendre.
-        j = 0.0
-        for i in range(nodes.size):
-            s = 0.5 * width * (1.0 + nodes[i])
-            j += weights[i] * math.exp(-ah * s - 0.5 * s * s)
-        j *= 0.5 * width
-        p, e = _two_square(ah)
-        low = 0.5 * e + ah * al
-        value = math.exp(-0.5 * p) * math.exp(-low) * j / _SQRT_2PI
-        return value, -0.5 * p - low - _LOG_SQRT_2PI + math.log(j)
-    if ah < 0.0 and bh > 0.0:
-        middle = 1.0 - _upper_tail(bh, bl)[0] - _upper_tail(-ah, -al)[0]
-        return middle, math.log(middle)
-    if ah >= 0.0:
-        near_h, near_l, far_h, far_l = ah, al, bh, bl
-    else:
-        near_h, near_l, far_h, far_l = -bh, -bl, -ah, -al
-    q_near, log_q_near = _upper_tail(near_h, near_l)
-    ratio = -math.expm1(_log_tail_ratio(near_h, near_l, far_h, far_l))
-    return q_near * ratio, log_q_near + math.log(ratio)
-
-
-@_jit
-def _wide(t, snh, snl, dh, dl, swh, swl):
-    """Class w's argument (t·σ_n − Δ)/σ_w as a double-double."""
-    ph, pl = _two_prod(t, snh)
-    sh, sl = _two_sum(ph, -dh)
-    uh, ul = _dd_div(sh, sl + (pl + t * snl) - dl, swh, swl)
-    if not math.isfinite(t):
-        return t, 0.0
-    return uh, ul if math.isfinite(ul) else 0.0
-
-
-@_jit
-def _one(m1, v1, m2, v2, nodes, weights):
-    if v1 > v2:
-        mn, vn, mw, vw = m2, v2, m1, v1
-    else:
-        mn, vn, mw, vw = m1, v1, m2, v2
-    identical = mn == mw and vn == vw
-    if vn == 0.0 or identical:
-        fixed = 0.5 if identical else 0.0
-        return fixed, math.log(fixed) if fixed > 0 else -math.inf
-    dh, dl = _two_sum(mw, -mn)
-    if dh < 0.0:
-        dh, dl = -dh, -dl
-    snh, snl = _dd_sqrt(vn)
-    swh, swl = _dd_sqrt(vw)
-    # Crossings along t = ±(x − μ_n)/σ_n (cancellation-free; t_far → −inf at equal variances).
-    d = dh / snh
-    r2 = vn / vw
-    k = (vw - vn) / vw
-    big_l = math.log1p((vw - vn) / vn)
-    sqrt_disc = math.sqrt(r2 * d * d + k * big_l)
-    t_near = (r2 * d * d + big_l) / (sqrt_disc + r2 * d)
-    t_far = -(r2 * d + sqrt_disc) / k
-    if not math.isfinite(t_far):
-        t_far = -math.inf
-    above, log_above = _upper_tail(t_near, 0.0)
-    below, log_below = _upper_tail(-t_far, 0.0)
-    fh, fl = _wide(t_far, snh, snl, dh, dl, swh, swl)
-    nh, nl = _wide(t_near, snh, snl, dh, dl, swh, swl)
-    inside, log_inside = _interval(fh, fl, nh, nl, nodes, weights)
-    eps = 0.5 * (below + above + inside)
-    return eps, _logaddexp(_logaddexp(log_below, log_above), log_inside) - _LOG2
+_one = _compiled(_scalar)["_one"]
+_GL_NODES, _GL_WEIGHTS = _scalar._GL_NODES, _scalar._GL_WEIGHTS
 
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
