@@ -74,7 +74,15 @@ def cli():
     show_default=True,
     help="Largest acceptable fraction of zero (underexposed) pixels per class.",
 )
-@click.option("--no-kde", is_flag=True, help="Skip the nonparametric (kernel density) error.")
+@click.option(
+    "--kde",
+    type=click.Choice(["auto", "always", "never"]),
+    default="auto",
+    show_default=True,
+    help="The nonparametric (kernel density) error: auto computes it only where the classes' "
+    "Gaussians do not fit the pixels (their rule's counted error differs from ε Gauss).",
+)
+@click.option("--no-kde", is_flag=True, help="Same as --kde never.")
 @click.option(
     "--comparison",
     "comparison_texts",
@@ -97,6 +105,7 @@ def measure(
     saturation_level,
     max_saturated,
     max_zero,
+    kde,
     no_kde,
     comparison_texts,
     weights,
@@ -122,9 +131,11 @@ def measure(
         comparisons=spec,
         saturation_level=saturation_level,
         limits=limits,
-        kde=not no_kde,
+        kde="never" if no_kde else kde,
     )
     click.echo(format_measurement(result, saturation_limit=max_saturated))
+    for reason in result.skipped:
+        click.echo(f"skipped: {reason}", err=True)
     if json_path:
         write_json(measurement_document(result, limits=limits), json_path)
         click.echo(f"\nwrote {json_path}")

@@ -37,8 +37,10 @@ from inspect_validate.errors import InputError
 __all__ = [
     "Comparisons",
     "ComparisonsSpec",
+    "CountedSeparation",
     "GaussianSeparation",
     "KdeSeparation",
+    "counted_separation",
     "default_groups",
     "find_comparison",
     "gaussian_separation",
@@ -356,6 +358,79 @@ def gaussian_separation(
 
 
 @dataclass(frozen=True)
+class CountedSeparation:
+    """How well the classes' Gaussians describe each comparison's overlap.
+
+    ``error`` is the counted error of the Gaussians' Bayes rule: the fraction of
+    each side's pixels that falls where the other side's Gaussian (mixture) is the
+    higher density, ½·(side 1's + side 2's), each side a weighted mixture of its
+    classes' fractions. Were the classes Gaussian, it would be ε Gauss up to
+    counting noise: ``expected`` (ε Gauss of the same regions, from the Gaussians)
+    with ``standard_error`` (binomial, ½·√Σ w² π(1 − π)/n over the classes).
+    NaN for a comparison with a constant class (no Gaussian to check).
+    """
+
+    error: np.ndarray
+    expected: np.ndarray
+    standard_error: np.ndarray
+
+    def fits(self, *, relative: float, sigmas: float = 3.0) -> np.ndarray:
+        """Where the counted error agrees with the Gaussians' within ``relative`` of it,
+        or within ``sigmas`` standard errors (where counts cannot tell more)."""
+        gap = np.abs(self.error - self.expected)
+        with np.errstate(invalid="ignore"):
+            return (gap <= relative * self.expected) | (gap <= sigmas * self.standard_error)
+
+
+def counted_separation(
+    samples, means, variances, comparisons: Comparisons, *, pixels=None
+) -> CountedSeparation:
+    """:class:`CountedSeparation` of every comparison.
+
+    Parameters
+    ----------
+    samples : sequence of LatticeSample or ndarray
+        Grey values of each class, DN.
+    means, variances : sequence of float
+        Per-class μ (38), DN, and σ² (39), DN².
+    comparisons : Comparisons
+    pixels : array_like, keyword-only, optional
+        Per-class pixel counts (for ``pixels`` weighting).
+    """
+    from inspect_validate.stats.gaussian_error import _interval
+    from inspect_validate.stats.kde_error import misclassified_regions
+    from inspect_validate.stats.sample import fraction_between
+
+    means, sd = np.asarray(means, float), np.sqrt(np.asarray(variances, float))
+    n = np.array([s.n if hasattr(s, "n") else np.size(s) for s in samples], float)
+    w = comparisons.class_weights(pixels)
+    out = np.full((3, len(comparisons.groups)), np.nan)
+    for p, groups in enumerate(comparisons.groups):
+        sides = [list(g) for g in groups]
+        if any(sd[g].min() == 0 for g in sides):
+            continue
+        shares = [w[g] / w[g].sum() for g in sides]
+        regions = misclassified_regions(
+            means[sides[0]], shares[0], sd[sides[0]], means[sides[1]], shares[1], sd[sides[1]]
+        )
+        counted = expected = variance = 0.0
+        for g, share, ends in zip(sides, shares, regions, strict=True):
+            if not ends:
+                continue
+            a, b = np.array(ends).T
+            for k, wk in zip(g, share, strict=True):
+                za, zb = (a - means[k]) / sd[k], (b - means[k]) / sd[k]
+                mass = min(
+                    float(_interval(za, np.zeros_like(za), zb, np.zeros_like(zb))[0].sum()), 1.0
+                )
+                counted += 0.5 * wk * float(fraction_between(samples[k], a, b).sum())
+                expected += 0.5 * wk * mass
+                variance += 0.25 * wk * wk * mass * (1.0 - mass) / n[k]
+        out[:, p] = counted, expected, np.sqrt(variance)
+    return CountedSeparation(*out)
+
+
+@dataclass(frozen=True)
 class KdeSeparation:
     """ε KDE (37) of each comparison and the LSCV bandwidth of each class (DN)."""
 
@@ -365,7 +440,12 @@ class KdeSeparation:
 
 
 def kde_separation(
-    samples, comparisons: Comparisons, *, pixels=None, quantum: float | None = None
+    samples,
+    comparisons: Comparisons,
+    *,
+    pixels=None,
+    quantum: float | None = None,
+    only=None,
 ) -> KdeSeparation:
     """ε KDE (37) of every comparison: each side the weighted mixture of its classes'
     kernel density estimates (41), one LSCV bandwidth (42)–(43) per class.
@@ -379,18 +459,25 @@ def kde_separation(
         Per-class pixel counts (for ``pixels`` weighting).
     quantum : float, keyword-only, optional
         Quantisation step, the bandwidth floor.
+    only : iterable of int, keyword-only, optional
+        The comparisons to compute (the others' ε is NaN, and a class in none of
+        them gets no bandwidth); every one by default.
     """
     from inspect_validate.stats import lscv_bandwidth
     from inspect_validate.stats.kde_error import kernel_mixture, mixture_error
 
     w = comparisons.class_weights(pixels)
-    used = sorted({k for pair in comparisons.groups for g in pair for k in g})
+    wanted = set(range(len(comparisons.groups)) if only is None else only)
+    used = sorted({k for p in wanted for g in comparisons.groups[p] for k in g})
     bandwidths, kernels = {}, {}
     for k in used:  # one bandwidth per class, shared by every comparison it is in
         bandwidths[k] = lscv_bandwidth(samples[k], quantum=quantum)
         kernels[k] = kernel_mixture(samples[k], bandwidths[k].h)
     errors = []
-    for g1, g2 in comparisons.groups:
+    for p, (g1, g2) in enumerate(comparisons.groups):
+        if p not in wanted:
+            errors.append(np.nan)
+            continue
         parts = []
         for g in (g1, g2):
             share = w[list(g)] / w[list(g)].sum()

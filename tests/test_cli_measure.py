@@ -40,6 +40,8 @@ def test_reproduces_tables_3_and_4(paperboard, tmp_path, setting, capsys):
             out,
             "--weights",
             "pixels",  # the chapter pools the pixels of a group
+            "--kde",
+            "always",
         ]
     )
     assert code == 0
@@ -175,15 +177,17 @@ def test_cli_start_up_does_not_load_the_numerics():
     )
 
 
-def test_measure_without_kde_loads_neither_scipy_nor_numba(paperboard, tmp_path):
+@pytest.mark.parametrize("flags", [["--no-kde"], []])
+def test_measure_without_kde_loads_neither_scipy_nor_numba(paperboard, flags):
     """A heavy import on a path that does not use it is most of what a user waits for
-    (scipy.special alone is 0.25 s of a 0.3 s command)."""
+    (scipy.special alone is 0.25 s of a 0.3 s command). The paperboard classes are
+    Gaussian, so the default (``--kde auto``) computes no ε KDE either."""
     code = (
         "import sys\n"
         "from inspect_validate.cli import main\n"
         "try:\n"
         f"    main(['measure', {str(paperboard / 'optimized.png')!r}, '--rois', "
-        f"{str(paperboard / 'rois.yaml')!r}, '--no-kde'])\n"
+        f"{str(paperboard / 'rois.yaml')!r}, *{flags!r}])\n"
         "except SystemExit:\n"
         "    pass\n"
         "print(sorted(m for m in ('scipy', 'numba', 'matplotlib') if m in sys.modules))"
@@ -191,3 +195,70 @@ def test_measure_without_kde_loads_neither_scipy_nor_numba(paperboard, tmp_path)
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert "A vs B" in done.stdout
     assert done.stdout.strip().splitlines()[-1] == "[]", done.stderr
+
+
+def _shaped_frame(seed):
+    """A 1 × 300 × 400 uint16 frame of four 100 × 150 classes: Gaussian, Gaussian,
+    skewed (gamma) and bimodal, overlapping, with their masks."""
+    rng = np.random.default_rng(seed)
+    shape = (100, 150)
+    classes = {
+        "G1": rng.normal(2000, 60, shape),
+        "G2": rng.normal(2100 + 20 * seed, 80, shape),
+        "S": rng.gamma(3.0, 40.0, shape) + 1900,
+        "M": np.where(
+            rng.random(shape) < 0.5, rng.normal(1950, 25, shape), rng.normal(2200, 30, shape)
+        ),
+    }
+    frame = np.zeros((1, 300, 400), np.uint16)
+    masks = {}
+    for i, (name, values) in enumerate(classes.items()):
+        y, x = 150 * (i // 2), 200 * (i % 2)
+        frame[0, y : y + 100, x : x + 150] = np.round(values)
+        masks[name] = np.zeros((300, 400), bool)
+        masks[name][y : y + 100, x : x + 150] = True
+    return frame, masks
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_kde_auto_skips_only_where_the_gaussians_fit(seed):
+    """Where ``--kde auto`` skips ε KDE, computing it (``always``) gives ε Gauss within
+    GAUSSIAN_AGREEMENT; where it computes it, the value is ``always``'s."""
+    from inspect_validate.measure import GAUSSIAN_AGREEMENT, compare, measure_classes
+
+    frame, masks = _shaped_frame(seed)
+    classes = measure_classes(frame, masks)
+    auto, always = compare(classes, kde="auto"), compare(classes, kde="always")
+    skipped = [c.label for c in auto.comparisons if c.error_kde is None]
+    assert skipped == ["G1 vs G2"]  # every other comparison has a skewed or bimodal class
+    assert "G1 vs G2" in auto.skipped[0]
+    for a, b in zip(auto.comparisons, always.comparisons, strict=True):
+        if a.error_kde is None:
+            assert b.error_kde == pytest.approx(a.error_gaussian, rel=GAUSSIAN_AGREEMENT)
+        else:
+            assert a.error_kde == b.error_kde
+    never = compare(classes, kde="never")
+    assert all(c.error_kde is None for c in never.comparisons)
+    assert never.skipped == ("ε KDE: not asked for (--kde never)",)
+    assert classes[0].gaussian_misfit < 0.02 < classes[2].gaussian_misfit
+
+
+def test_kde_auto_from_the_cli_lists_what_it_skipped(tmp_path):
+    import tifffile
+
+    frame, masks = _shaped_frame(0)
+    tifffile.imwrite(tmp_path / "f.tif", frame[0])
+    rois = "classes:\n" + "".join(
+        f"  {name}: [{{rect: [{200 * (i % 2)}, {150 * (i // 2)}, 150, 100]}}]\n"
+        for i, name in enumerate(masks)
+    )
+    (tmp_path / "r.yaml").write_text(rois)
+    out = tmp_path / "m.json"
+    cmd = ["inspect-validate", "measure", tmp_path / "f.tif", "--rois", tmp_path / "r.yaml"]
+    done = subprocess.run([*map(str, cmd), "--json", str(out)], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert "skipped: ε KDE of G1 vs G2: the Gaussians fit" in done.stderr
+    doc = json.loads(out.read_text())
+    by_label = {f"{','.join(c['first'])} vs {','.join(c['second'])}": c for c in doc["comparisons"]}
+    assert by_label["G1 vs G2"]["error_kde"] is None and by_label["G1 vs S"]["error_kde"] > 0
+    assert doc["skipped"] and all(0 <= c["error_counted"] <= 0.5 for c in doc["comparisons"])

@@ -25,7 +25,9 @@ __all__ = [
 ]
 
 SCHEMA_VERSION = 2
-"""Measurement JSON: 2 moved the KDE bandwidth to the classes and added ``weights``."""
+"""Measurement JSON: 2 moved the KDE bandwidth to the classes and added ``weights``;
+later, additively, each class's ``gaussian_misfit``, each comparison's ``error_counted``
+and ``error_counted_se`` and the top-level ``skipped`` (``error_kde`` is null where it was not computed)."""
 
 
 def json_number(x):
@@ -51,6 +53,7 @@ def measurement_document(m: Measurement, *, limits) -> dict:
             "zero_fraction": c.zero_fraction,
             "temporal_variance": c.temporal_variance,
             "spatial_variance": c.spatial_variance,
+            "gaussian_misfit": c.gaussian_misfit,
             "kde_bandwidth": c.kde_bandwidth,
             "kde_bandwidth_at_floor": c.kde_bandwidth_at_floor,
         }
@@ -66,6 +69,8 @@ def measurement_document(m: Measurement, *, limits) -> dict:
             "error_gaussian": c.error_gaussian,
             "log_error_gaussian": c.log_error_gaussian,
             "error_kde": c.error_kde,
+            "error_counted": c.error_counted,
+            "error_counted_se": c.error_counted_se,
         }
         for c in m.comparisons
     ]
@@ -82,6 +87,7 @@ def measurement_document(m: Measurement, *, limits) -> dict:
         "weights": m.weighting,
         "classes": classes,
         "comparisons": comparisons,
+        "skipped": list(m.skipped),
     }
 
 

@@ -16,7 +16,7 @@ def format_error(value: float | None, log_value: float | None = None) -> str:
     if value == 0.0 and log_value is not None and math.isfinite(log_value):
         return f"1e{log_value / math.log(10):.0f}"
     if value >= 1e-4:
-        return f"{100 * value:.3g} %"
+        return f"{100 * value:#.3g} %"
     return f"{value:.2e}"
 
 
@@ -63,7 +63,7 @@ def format_measurement(m: Measurement, *, saturation_limit: float | None = None)
             row += ["-" if h is None else f"{h:.3g}{'*' if c.kde_bandwidth_at_floor else ''}"]
         rows.append(row)
     out = ["Classes (chapter Table 4: μ (38), σ² (39))", render_table(header, rows), ""]
-    header = ["classes", "SNR_dB (36)", "CNR_dB", "Fisher_dB", "ε Gauss", "ε KDE"]
+    header = ["classes", "SNR_dB (36)", "CNR_dB", "Fisher_dB", "ε Gauss", "ε counted", "ε KDE"]
     rows = [
         [
             c.label,
@@ -71,6 +71,7 @@ def format_measurement(m: Measurement, *, saturation_limit: float | None = None)
             f"{c.cnr_db:.2f}",
             f"{c.fisher_db:.2f}",
             format_error(c.error_gaussian, c.log_error_gaussian),
+            format_error(None if math.isnan(c.error_counted) else c.error_counted),
             format_error(c.error_kde),
         ]
         for c in m.comparisons

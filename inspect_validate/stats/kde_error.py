@@ -29,6 +29,7 @@ __all__ = [
     "kde_error",
     "kernel_density",
     "kernel_mixture",
+    "misclassified_regions",
     "mixture_error",
     "mixture_error_gradient",
 ]
@@ -227,6 +228,29 @@ def mixture_error_gradient(centres1, weights1, sigma1, centres2, weights2, sigma
     return _densities_error(centres1, weights1, sigma1, centres2, weights2, sigma2, gradient=True)
 
 
+def misclassified_regions(centres1, weights1, sigma1, centres2, weights2, sigma2):
+    """Where each of two Gaussian mixtures (every σ > 0) is the lower density: the
+    intervals whose samples of that side the Bayes rule assigns to the other side.
+
+    Returns
+    -------
+    regions1, regions2 : list of (float, float)
+        The intervals (a, b), DN, of side 1 and of side 2; a may be −inf, b +inf.
+    """
+    c = [np.asarray(x, float) for x in (centres1, centres2)]
+    w = [np.asarray(x, float) for x in (weights1, weights2)]
+    s = [
+        np.broadcast_to(np.asarray(x, float), ci.shape)
+        for x, ci in zip((sigma1, sigma2), c, strict=True)
+    ]
+    order = [np.argsort(ci, kind="stable") for ci in c]
+    cs, ws, ss = ([x[o] for x, o in zip(arr, order, strict=True)] for arr in (c, w, s))
+    regions = ([], [])
+    for a, b, lower_is_1 in _lower_regions(cs[0], ss[0], cs[1], ss[1], ws[0], ws[1]):
+        regions[0 if lower_is_1 else 1].append((a, b))
+    return regions
+
+
 def _densities_error(centres1, weights1, sigma1, centres2, weights2, sigma2, *, gradient=False):
     """ε of two mixtures of components with σ > 0 (:func:`mixture_error_gradient`'s value,
     and with ``gradient`` its gradient): the one place the regions are integrated."""
@@ -241,9 +265,7 @@ def _densities_error(centres1, weights1, sigma1, centres2, weights2, sigma2, *, 
     order = [np.argsort(ci, kind="stable") for ci in c]
     cs, ws, ss = ([x[o] for x, o in zip(arr, order, strict=True)] for arr in (c, w, s))
     grads = [[np.zeros(ci.size), np.zeros(ci.size)] for ci in c]
-    ends = [[], []]
-    for a, b, lower_is_1 in _lower_regions(cs[0], ss[0], cs[1], ss[1], ws[0], ws[1]):
-        ends[0 if lower_is_1 else 1].append((a, b))
+    ends = misclassified_regions(cs[0], ws[0], ss[0], cs[1], ws[1], ss[1])
     total = 0.0
     for side, limits in enumerate(ends):
         if not limits:

@@ -163,7 +163,7 @@ def train(station, captures: list[Path], *, regions=None) -> Golden:
     rois, comparisons = regions or station_regions(station)
     limits = station.acceptance.limits()
     runs = [
-        measure_capture(station, f, rois=rois, comparisons=comparisons, limits=limits, kde=True)
+        measure_capture(station, f, rois=rois, comparisons=comparisons, limits=limits, kde="always")
         for f in captures
     ]
 

@@ -136,7 +136,7 @@ def station_regions(station):
     return rois, comparisons
 
 
-def measure_capture(station, folder: Path, *, rois, comparisons, limits, kde: bool) -> Capture:
+def measure_capture(station, folder: Path, *, rois, comparisons, limits, kde) -> Capture:
     """Measure every illumination (and the darks) of a capture folder of ``station``
     with :func:`~inspect_validate.measure.measure_files`, the one measuring path.
 
@@ -154,7 +154,9 @@ def measure_capture(station, folder: Path, *, rois, comparisons, limits, kde: bo
         for name, paths in files.items()
     }
     dark = (
-        measure_files(dark_files, rois, comparisons=comparisons, kde=False) if dark_files else None
+        measure_files(dark_files, rois, comparisons=comparisons, kde="never")
+        if dark_files
+        else None
     )
     return Capture(files, dark_files, manifest, measurements, dark)
 
@@ -261,7 +263,12 @@ def verify(station, frames_dir: Path, *, plan: Plan | None = None) -> Verificati
         skipped.append("ε KDE: no check asks for it (acceptance.separation[].max_error_kde)")
     limits = acc.limits()
     capture = measure_capture(
-        station, frames_dir, rois=rois, comparisons=comparisons, limits=limits, kde=need_kde
+        station,
+        frames_dir,
+        rois=rois,
+        comparisons=comparisons,
+        limits=limits,
+        kde="always" if need_kde else "never",
     )
     files, dark_files, manifest = capture.files, capture.dark_files, capture.manifest
     measurements, dark = capture.measurements, capture.dark
