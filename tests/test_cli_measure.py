@@ -15,7 +15,7 @@ TABLE3 = {  # chapter Table 3, whole dB
     "optimized": {"A vs B": -15, "A vs C": -21, "A vs B,C": -18},
     "non_optimized": {"A vs B": -30, "A vs C": -21, "A vs B,C": -26},
 }
-FROM_TABLE4 = {  # (36) applied to Table 4 (SPEC §4)
+FROM_TABLE4 = {  # (36) applied to the chapter's Table 4
     "optimized": {"A vs B": -14.55, "A vs C": -21.35},
     "non_optimized": {"A vs B": -30.70, "A vs C": -21.02},
 }
@@ -59,7 +59,7 @@ def test_reproduces_tables_3_and_4(paperboard, tmp_path, setting, capsys):
         assert by_label[label]["snr_db"] == pytest.approx(expected, abs=0.05)
     for label, chapter in TABLE3[setting].items():
         # The chapter rounds to whole dB; its −30 sits 0.7 dB from what its own
-        # Table 4 gives (SPEC §4), so 1 dB is the honest tolerance.
+        # Table 4 gives, so 1 dB is the honest tolerance.
         assert abs(by_label[label]["snr_db"] - chapter) <= 1.0
         assert 0 < by_label[label]["error_gaussian"] < 0.5
         assert 0 < by_label[label]["error_kde"] < 0.5

@@ -13,7 +13,7 @@ TABLE4 = {  # chapter Table 4
 
 @pytest.mark.parametrize(
     ("setting", "pair", "expected"),
-    [  # SPEC §4: (36) applied to Table 4, to the printed two decimals
+    [  # (36) applied to the chapter's Table 4, to the printed two decimals
         ("optimized", "AB", -14.55),
         ("non_optimized", "AB", -30.70),
         ("optimized", "AC", -21.35),

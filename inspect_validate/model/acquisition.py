@@ -8,7 +8,7 @@ mean number of photo-electrons in a pixel is
 (E_l the irradiance at the object, A the pixel area, N the f-number; a Lambertian
 object of reflectance R imaged by an aberration-free lens, cos⁴ fall-off
 neglected) — the chapter's (32) with its constant C made explicit so that
-camera noise can be added (SPEC §1). Grey values follow the EMVA 1288 model
+camera noise can be added. Grey values follow the EMVA 1288 model
 (:mod:`inspect_validate.components.cameras`) and are clipped at saturation.
 
 All combinations are computed at once: light×optics products form the rows of

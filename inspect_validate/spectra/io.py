@@ -194,7 +194,7 @@ def normalise_reflectance(
 
     ``R_norm = (R − R_black) / (R_white − R_black)`` where the compensated white
     is > 0; elsewhere the value is invalid (NaN) and the range is noted. The
-    chapter's printed (34) subtracts; its text and SPEC §2 divide.
+    chapter's printed (34) subtracts (a misprint); its text divides.
 
     Parameters
     ----------
