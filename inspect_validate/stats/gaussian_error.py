@@ -196,7 +196,9 @@ def _dd_sqrt(v):
 def _erfcx(x):
     """erfcx(x) = exp(x²)·erfc(x) of an array of x ≥ 0."""
     if x.size <= SCALAR_MAX:
-        return _ERFCX(x).astype(float)
+        # Beyond x ≈ 1e154, x² overflows to inf in the series, harmlessly (1/(2x²) → 0).
+        with np.errstate(over="ignore", invalid="ignore"):
+            return _ERFCX(x).astype(float)
     from scipy import special
 
     return special.erfcx(x)
