@@ -93,8 +93,9 @@ def planck(wavelength, temperature) -> np.ndarray:
     t = np.asarray(temperature, dtype=float)
     if np.any(lam <= 0) or np.any(t <= 0):
         raise ValueError("wavelength and temperature must be positive")
-    x = H * C / (lam * K_B * t)
-    with np.errstate(over="ignore", under="ignore"):
+    # λkT underflows to 0 below about 1e-290 K: x = inf, and the radiance is 0.
+    with np.errstate(over="ignore", under="ignore", divide="ignore"):
+        x = H * C / (lam * K_B * t)
         return 2.0 * H * C**2 / lam**5 * np.exp(-x) / -np.expm1(-x) * 1e-9
 
 
