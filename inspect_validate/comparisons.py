@@ -397,12 +397,11 @@ def counted_separation(
     pixels : array_like, keyword-only, optional
         Per-class pixel counts (for ``pixels`` weighting).
     """
-    from inspect_validate.stats.gaussian_error import _interval
     from inspect_validate.stats.kde_error import misclassified_regions
-    from inspect_validate.stats.sample import fraction_between
+    from inspect_validate.stats.sample import empirical_cdf
 
     means, sd = np.asarray(means, float), np.sqrt(np.asarray(variances, float))
-    n = np.array([s.n if hasattr(s, "n") else np.size(s) for s in samples], float)
+    cdfs = [empirical_cdf(s) for s in samples]  # once per class: a float sample is sorted
     w = comparisons.class_weights(pixels)
     out = np.full((3, len(comparisons.groups)), np.nan)
     for p, groups in enumerate(comparisons.groups):
@@ -414,18 +413,14 @@ def counted_separation(
             means[sides[0]], shares[0], sd[sides[0]], means[sides[1]], shares[1], sd[sides[1]]
         )
         counted = expected = variance = 0.0
-        for g, share, ends in zip(sides, shares, regions, strict=True):
+        for g, share, (ends, masses) in zip(sides, shares, regions, strict=True):
             if not ends:
                 continue
             a, b = np.array(ends).T
-            for k, wk in zip(g, share, strict=True):
-                za, zb = (a - means[k]) / sd[k], (b - means[k]) / sd[k]
-                mass = min(
-                    float(_interval(za, np.zeros_like(za), zb, np.zeros_like(zb))[0].sum()), 1.0
-                )
-                counted += 0.5 * wk * float(fraction_between(samples[k], a, b).sum())
+            for k, wk, mass in zip(g, share, np.minimum(masses, 1.0), strict=True):
+                counted += 0.5 * wk * float(cdfs[k].fraction_between(a, b).sum())
                 expected += 0.5 * wk * mass
-                variance += 0.25 * wk * wk * mass * (1.0 - mass) / n[k]
+                variance += 0.25 * wk * wk * mass * (1.0 - mass) / cdfs[k].n
         out[:, p] = counted, expected, np.sqrt(variance)
     return CountedSeparation(*out)
 

@@ -43,14 +43,14 @@ GAUSSIAN_AGREEMENT = 0.1
 error (the Gaussians' decision rule applied to the pixels) agrees with ε Gauss
 within this fraction of it or within 3 standard errors of a count, and every class
 in it is within :data:`MISFIT_MAX` of its Gaussian. ε KDE then repeats ε Gauss
-within about this fraction (tested on Gaussian, skewed, bimodal and uniform
-classes), and it costs most of a measurement's run time."""
+within about this fraction (tested on Gaussian, skewed and bimodal classes), and it
+costs most of a measurement's run time."""
 MISFIT_MAX = 0.02
 """Largest Kolmogorov distance of a class from its Gaussian
 (:func:`~inspect_validate.stats.sample.gaussian_misfit`) for ``kde="auto"`` to trust
-the Gaussian: 2 % of the class's pixels anywhere. A Gaussian class of n pixels is at
-about 0.9/√n, so classes of fewer than about 2,000 pixels always get ε KDE (it is
-cheap there)."""
+the Gaussian: 2 % of the class's pixels anywhere. A Gaussian class of n pixels is on
+average at 0.87/√n, so classes of fewer than about 2,000 pixels mostly get ε KDE
+(it is cheap there)."""
 
 
 @dataclass(frozen=True)
@@ -217,17 +217,10 @@ def compare(
             f"the regions of {', '.join(names)}"
         )
     pixels = [c.n_pixels for c in classes]
-    g = gaussian_separation(
-        [c.mean for c in classes], [c.variance for c in classes], comparisons, pixels=pixels
-    )
+    means, variances = [c.mean for c in classes], [c.variance for c in classes]
+    g = gaussian_separation(means, variances, comparisons, pixels=pixels)
     samples = [c.region.sample for c in classes]
-    counted = counted_separation(
-        samples,
-        [c.mean for c in classes],
-        [c.variance for c in classes],
-        comparisons,
-        pixels=pixels,
-    )
+    counted = counted_separation(samples, means, variances, comparisons, pixels=pixels)
     wanted = {"always": range(len(comparisons.groups)), "never": ()}.get(kde)
     if wanted is None:
         shaped = np.array([c.gaussian_misfit <= MISFIT_MAX for c in classes])

@@ -1,12 +1,14 @@
 """ε_tot (37) of one pair of Gaussians, and the special functions it needs, on floats:
 :mod:`~inspect_validate.stats.gaussian_error`'s algorithm element by element.
 
-Plain Python on :mod:`math`, so it runs without numba (the array code's special
-functions on small arrays use :func:`erfcx` and :func:`lower_tail` from here) and
-is compiled as it stands by :mod:`~inspect_validate.stats._gaussian_error_kernel`
-for large arrays. Every step mirrors the numpy implementation (same branches, same
-error-free transformations), so the two agree to rounding; the tests hold them to
-2e-14 relative (their logs to 2e-15), and both to mpmath at 1e-13.
+Plain Python on :mod:`math` and numpy's ufuncs, so it runs without numba (the
+array code's special functions on small arrays use :func:`erfcx` and
+:func:`lower_tail` from here) and is compiled as it stands by
+:mod:`~inspect_validate.stats._gaussian_error_kernel` for large arrays. The
+double-double helpers and the crossings are the numpy implementation's too; the
+rest mirrors it step by step (its masks are branches here), so the two agree to
+rounding; the tests hold them to 2e-14 relative (their logs to 2e-15), and both to
+mpmath at 1e-13.
 
 Special functions: the tails need erfcx(x) and Φ for x ≥ 0 only. erfcx(x) is
 exp(x²)·erfc(x) with x² carried as a double-double (erfc is the C library's,
@@ -34,8 +36,8 @@ _ASYMPTOTIC_FROM = 12.0
 _ASYMPTOTIC_TERMS = 12
 
 
-# The error-free transformations are arithmetic only: the numpy implementation uses
-# them on arrays.
+# From here to _crossings, arithmetic and numpy's ufuncs only: numba compiles them on
+# floats, and the numpy implementation uses them as they stand on arrays.
 
 
 def _two_sum(a, b):
@@ -64,7 +66,7 @@ def _two_square(a):
 
 
 def _dd_sqrt(v):
-    hi = math.sqrt(v)
+    hi = np.sqrt(v)
     p, e = _two_square(hi)
     return hi, ((v - p) - e) / (2.0 * hi)
 
@@ -73,6 +75,19 @@ def _dd_div(nh, nl, dh, dl):
     q = nh / dh
     p, e = _two_prod(q, dh)
     return q, (((nh - p) - e) + nl - q * dl) / dh
+
+
+def _crossings(d, vn, vw):
+    """Where N(μ_n, σ_n²) and N(μ_w, σ_w²) cross, σ_n ≤ σ_w, along t = ±(x − μ_n)/σ_n
+    pointing from μ_n to μ_w (μ_w at t = d ≥ 0): t_near towards μ_w, without
+    cancellation, and t_far, −inf (or NaN) as the variances become equal (no
+    division by σ_w² − σ_n² in t_near)."""
+    r2 = vn / vw
+    k = (vw - vn) / vw
+    big_l = np.log1p((vw - vn) / vn)
+    sqrt_disc = np.sqrt(r2 * d * d + k * big_l)
+    t_near = (r2 * d * d + big_l) / (sqrt_disc + r2 * d)
+    return t_near, -(r2 * d + sqrt_disc) / k
 
 
 def _logaddexp(x, y):
@@ -196,14 +211,7 @@ def _one(m1, v1, m2, v2, nodes, weights):
         dh, dl = -dh, -dl
     snh, snl = _dd_sqrt(vn)
     swh, swl = _dd_sqrt(vw)
-    # Crossings along t = ±(x − μ_n)/σ_n (cancellation-free; t_far → −inf at equal variances).
-    d = dh / snh
-    r2 = vn / vw
-    k = (vw - vn) / vw
-    big_l = math.log1p((vw - vn) / vn)
-    sqrt_disc = math.sqrt(r2 * d * d + k * big_l)
-    t_near = (r2 * d * d + big_l) / (sqrt_disc + r2 * d)
-    t_far = -(r2 * d + sqrt_disc) / k
+    t_near, t_far = _crossings(dh / snh, vn, vw)
     if not math.isfinite(t_far):
         t_far = -math.inf
     above, log_above = _upper_tail(t_near, 0.0)

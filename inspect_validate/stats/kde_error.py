@@ -229,53 +229,72 @@ def mixture_error_gradient(centres1, weights1, sigma1, centres2, weights2, sigma
 
 
 def misclassified_regions(centres1, weights1, sigma1, centres2, weights2, sigma2):
-    """Where each of two Gaussian mixtures (every σ > 0) is the lower density: the
-    intervals whose samples of that side the Bayes rule assigns to the other side.
+    """Where each of two Gaussian mixtures (every σ > 0) is the lower density — the
+    intervals whose values of that side the Bayes rule assigns to the other side —
+    and each component's probability mass there.
 
     Returns
     -------
-    regions1, regions2 : list of (float, float)
-        The intervals (a, b), DN, of side 1 and of side 2; a may be −inf, b +inf.
+    (regions1, masses1), (regions2, masses2)
+        Per side: the intervals (a, b), DN (a may be −inf, b +inf), and for each of
+        its components, in the order given, the mass of N(centre, σ²) in them.
     """
+    order, cs, ws, ss = _sorted_components(centres1, weights1, sigma1, centres2, weights2, sigma2)
+    out = []
+    for side, regions in enumerate(_split_regions(cs, ws, ss)):
+        masses = np.zeros(cs[side].size)
+        if regions:
+            masses[order[side]] = _region_masses(regions, cs[side], ss[side])[0].sum(axis=0)
+        out.append((regions, masses))
+    return tuple(out)
+
+
+def _sorted_components(centres1, weights1, sigma1, centres2, weights2, sigma2):
+    """Both mixtures' components as float arrays sorted by centre, and the orders that
+    sort them: (orders, centres, weights, sigmas), each a pair."""
     c = [np.asarray(x, float) for x in (centres1, centres2)]
     w = [np.asarray(x, float) for x in (weights1, weights2)]
     s = [
         np.broadcast_to(np.asarray(x, float), ci.shape)
         for x, ci in zip((sigma1, sigma2), c, strict=True)
     ]
+    if not all(np.all(si > 0) for si in s):
+        raise ValueError("a mixture's regions need every component's σ > 0")
     order = [np.argsort(ci, kind="stable") for ci in c]
-    cs, ws, ss = ([x[o] for x, o in zip(arr, order, strict=True)] for arr in (c, w, s))
+    return order, *([x[o] for x, o in zip(arr, order, strict=True)] for arr in (c, w, s))
+
+
+def _split_regions(cs, ws, ss) -> tuple[list, list]:
+    """The regions where side 1's density is the lower one, and those where side 2's
+    is (sorted components)."""
     regions = ([], [])
     for a, b, lower_is_1 in _lower_regions(cs[0], ss[0], cs[1], ss[1], ws[0], ws[1]):
         regions[0 if lower_is_1 else 1].append((a, b))
     return regions
 
 
+def _region_masses(regions, centres, sigmas):
+    """Mass of each component N(centre, σ²) in each region, (regions, components), and
+    the regions' ends in each component's z."""
+    a, b = np.array(regions).T
+    za, zb = (a[:, None] - centres) / sigmas, (b[:, None] - centres) / sigmas
+    zero = np.zeros(za.size)
+    value, _ = _interval(za.ravel(), zero, zb.ravel(), zero)
+    return value.reshape(za.shape), za, zb
+
+
 def _densities_error(centres1, weights1, sigma1, centres2, weights2, sigma2, *, gradient=False):
     """ε of two mixtures of components with σ > 0 (:func:`mixture_error_gradient`'s value,
-    and with ``gradient`` its gradient): the one place the regions are integrated."""
-    c = [np.asarray(x, float) for x in (centres1, centres2)]
-    w = [np.asarray(x, float) for x in (weights1, weights2)]
-    s = [
-        np.broadcast_to(np.asarray(x, float), ci.shape).copy()
-        for x, ci in zip((sigma1, sigma2), c, strict=True)
-    ]
-    if not all(np.all(si > 0) for si in s):
-        raise ValueError("mixture_error_gradient needs every component's σ > 0")
-    order = [np.argsort(ci, kind="stable") for ci in c]
-    cs, ws, ss = ([x[o] for x, o in zip(arr, order, strict=True)] for arr in (c, w, s))
-    grads = [[np.zeros(ci.size), np.zeros(ci.size)] for ci in c]
-    ends = misclassified_regions(cs[0], ws[0], ss[0], cs[1], ws[1], ss[1])
+    and with ``gradient`` its gradient)."""
+    order, cs, ws, ss = _sorted_components(centres1, weights1, sigma1, centres2, weights2, sigma2)
+    grads = [[np.zeros(ci.size), np.zeros(ci.size)] for ci in cs]
     total = 0.0
-    for side, limits in enumerate(ends):
+    for side, limits in enumerate(_split_regions(cs, ws, ss)):
         if not limits:
             continue
         mu, wt, sg = cs[side], ws[side], ss[side]
-        a, b = np.array(limits).T
-        za, zb = (a[:, None] - mu) / sg, (b[:, None] - mu) / sg  # (regions, components)
-        zero = np.zeros(za.size)
-        value, _ = _interval(za.ravel(), zero, zb.ravel(), zero)
-        total += float(np.sum(wt * value.reshape(za.shape)))
+        value, za, zb = _region_masses(limits, mu, sg)
+        total += float(np.sum(wt * value))
         if not gradient:
             continue
         pa, pb = np.exp(-0.5 * za * za), np.exp(-0.5 * zb * zb)

@@ -15,12 +15,16 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from inspect_validate.errors import InputError
 from inspect_validate.verification.checks import Check, at_least, at_most
 from inspect_validate.verification.golden import drift_checks
+
+if TYPE_CHECKING:
+    from inspect_validate.measure import KdeMode
 
 __all__ = [
     "Capture",
@@ -136,7 +140,7 @@ def station_regions(station):
     return rois, comparisons
 
 
-def measure_capture(station, folder: Path, *, rois, comparisons, limits, kde) -> Capture:
+def measure_capture(station, folder: Path, *, rois, comparisons, limits, kde: KdeMode) -> Capture:
     """Measure every illumination (and the darks) of a capture folder of ``station``
     with :func:`~inspect_validate.measure.measure_files`, the one measuring path.
 
