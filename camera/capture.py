@@ -32,14 +32,15 @@ first unfinished step.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
 from inspect_validate.camera.station import Station, station_hash
+from inspect_validate.camera.stopping import Known, SequentialStop
 from inspect_validate.camera.storage import CaptureStore
 
-from inspect_validate.errors import DeviceError
+from inspect_validate.errors import DeviceError, InputError
 
 __all__ = ["CaptureResult", "capture", "verified_frames"]
 
@@ -51,6 +52,7 @@ class CaptureResult:
     skipped: tuple[str, ...]  # steps already complete (resume)
     not_applied: tuple[str, ...] = ()  # station settings the camera has no node for
     warnings: tuple[str, ...] = ()  # e.g. a step no brighter than dark
+    known: dict[str, Known] = field(default_factory=dict)  # step → precision (precision:)
 
 
 def verified_frames(
@@ -153,8 +155,9 @@ def capture(
     steps = [(i.name, dict(i.channels), station.frames) for i in station.illuminations]
     if station.dark_frames:
         steps.append(("dark", {}, station.dark_frames))
-    saved, skipped = {}, []
+    saved, skipped, known = {}, [], {}
     levels: dict[str, float] = {}  # mean grey value of each step captured in this run
+    rois = _precision_rois(station)
     total = sum(n for _, _, n in steps)
     done = 0
     with devices if devices is not None else open_devices(station) as (controller, camera):
@@ -203,23 +206,37 @@ def capture(
                         timeout_s=cam.timeout_s,
                         flush=0 if fresh else max(cam.flush_frames, camera.pipeline_frames),
                     )
-                    total_mean = 0.0
+                    stop = None
+                    if rois is not None and name != "dark":
+                        p = station.precision
+                        stop = SequentialStop(
+                            rois, mean=p.mean, variance=p.variance, min_frames=p.min_frames
+                        )
+                    total_mean, i = 0.0, 0
                     for i, (frame, discarded) in enumerate(frames, start=1):
                         # Written on the writer thread while the next frame is grabbed.
                         store.save_later(name, i, frame, {**info, "discarded_before": discarded})
                         total_mean += frame.mean
                         done += 1
+                        if stop is not None and stop.add(frame.data):
+                            break
                         if progress:
                             progress(name, done, total)
                     store.flush()
-                except DeviceError as exc:
+                    if stop is not None:
+                        known[name] = stop.known()
+                        store.note(name, "precision", asdict(known[name]))
+                        done += n - i  # frames the step did not need
+                        if progress:
+                            progress(name, done, total)
+                except (DeviceError, InputError) as exc:  # InputError: ROIs outside the frame
                     unsaved = store.close()  # the frames grabbed before the failure are kept
                     also = f"; saving its frames failed too: {unsaved}" if unsaved else ""
                     store.fail(name, f"{exc}{also}")
                     raise
                 store.finish(name)
-                saved[name] = n
-                levels[name] = total_mean / n
+                saved[name] = i
+                levels[name] = total_mean / i
         finally:
             try:
                 controller.all_off()
@@ -231,7 +248,17 @@ def capture(
     warnings = _unlit_steps(levels, station.brightness_tolerance)
     if warnings:
         store.record("warnings", list(warnings))
-    return CaptureResult(Path(out), saved, tuple(skipped), not_applied, warnings)
+    return CaptureResult(Path(out), saved, tuple(skipped), not_applied, warnings, known)
+
+
+def _precision_rois(station: Station):
+    """The station's ROI set when its steps stop on precision (read before any device
+    opens, so a bad ROI file costs no capture), else None."""
+    if station.precision is None:
+        return None
+    from inspect_validate.roi import read_rois
+
+    return read_rois(station.resolve(station.rois))
 
 
 def _unlit_steps(levels: dict[str, float], tolerance: float) -> tuple[str, ...]:

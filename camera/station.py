@@ -21,7 +21,8 @@ what the station must achieve (``acceptance``). Example (README, "Station files"
     illuminations:
       - {name: amber, channels: {1: 100}}
       - {name: red, channels: {2: 100}}
-    frames: 4
+    frames: 4                       # per illumination (the most, with precision:)
+    precision: {mean: 0.001, variance: 0.01}   # optional: stop once μ and σ² are known
     dark_frames: 4
 """
 
@@ -47,6 +48,7 @@ from inspect_validate.verification.acceptance import Acceptance, Calibration
 
 __all__ = [
     "ChannelLight",
+    "Precision",
     "Station",
     "World",
     "WorldChange",
@@ -360,12 +362,23 @@ class Illumination(_Strict):
     channels: dict[Channel, Annotated[float, Field(ge=0, le=100, allow_inf_nan=False)]]
 
 
+class Precision(_Strict):
+    """Sequential stopping (:mod:`~inspect_validate.camera.stopping`): ``frames`` becomes
+    the most an illumination gets; it ends once every class's μ and σ² are known to
+    these relative standard errors."""
+
+    mean: Annotated[float, Field(gt=0, lt=1, allow_inf_nan=False)]
+    variance: Annotated[float, Field(gt=0, lt=1, allow_inf_nan=False)]
+    min_frames: Annotated[int, Field(ge=3, le=100_000)] = 3
+
+
 class Station(_Strict):
     name: str = "station"
     camera: CameraSpec
     controller: ControllerSpec
     illuminations: list[Illumination] = Field(min_length=1)
     frames: int = Field(default=4, ge=1, le=100_000)
+    precision: Precision | None = None
     dark_frames: int = Field(default=4, ge=0, le=100_000)
     discard_max: int = Field(default=20, ge=0, le=100_000)
     brightness_tolerance: float = Field(default=0.02, gt=0, le=1)
@@ -394,6 +407,14 @@ class Station(_Strict):
             raise ValueError(
                 f"channels: channel {mapped[0]} is not on the controller (controller.channels: {n})"
             )
+        if self.precision is not None:
+            if not self.rois:
+                raise ValueError("precision: stopping on the classes' precision needs 'rois'")
+            if self.frames < self.precision.min_frames:
+                raise ValueError(
+                    f"frames ({self.frames}) is the most an illumination gets with 'precision'; "
+                    f"it must be at least precision.min_frames ({self.precision.min_frames})"
+                )
         if self.renders and not (self.scene and self.channels):
             raise ValueError(
                 "a simulated camera renders the station's scene: give 'scene' and 'channels' "

@@ -387,7 +387,7 @@ def capture(station, out, resume):
     for warning in result.warnings:
         click.echo(f"warning: {warning}", err=True)
     for step, n in result.steps.items():
-        click.echo(f"{step}: {n} frames in {out / step}")
+        click.echo(f"{step}: {n} frames in {out / step}{_precision_note(result, step, st)}")
     for step in result.skipped:
         click.echo(f"{step}: already complete, skipped")
     click.echo(f"manifest: {out / 'manifest.json'}")
@@ -1040,6 +1040,19 @@ def _capture(station, out, *, resume=False):
             last[0] = done
 
         return capture(station, out, resume=resume, progress=progress)
+
+
+def _precision_note(result, step, station) -> str:
+    """What sequential stopping did in ``step``: the frames it saved, or that the
+    precision was not reached within the station's ``frames``."""
+    known = result.known.get(step)
+    if known is None:
+        return ""
+    if not known.reached:
+        return f" (the most; precision not reached: {known.describe()})"
+    if known.frames == station.frames:
+        return f" ({known.describe()})"
+    return f" (stopped early, {known.describe()}; the most is {station.frames})"
 
 
 def _new_folder(command: str, source) -> Path:

@@ -363,6 +363,44 @@ def test_station_files_are_validated_not_crashed_on(
         assert_clean(code, out, err, allowed=(0, 2, 3))
 
 
+@settings(SETTINGS, max_examples=15)
+@given(
+    precision=rarely_junk(
+        st.fixed_dictionaries(
+            {
+                "mean": rarely_junk(st.floats(1e-9, 0.5)),
+                "variance": rarely_junk(st.floats(1e-9, 0.5)),
+            },
+            optional={"min_frames": rarely_junk(st.integers(3, 6))},
+        )
+    ),
+    frames=rarely_junk(st.integers(1, 6)),
+    rois=st.sampled_from(["rois.yaml", "missing.yaml", "outside.yaml"]),
+)
+@example(precision={"mean": 0.01, "variance": 0.1}, frames=5, rois="rois.yaml")
+@example(precision={"mean": 1e-9, "variance": 0.1, "min_frames": 4}, frames=4, rois="rois.yaml")
+@example(precision={"mean": 0.01, "variance": 0.1}, frames=5, rois="outside.yaml")
+@example(precision={"mean": 0.01, "variance": 0.1}, frames=5, rois="missing.yaml")
+def test_sequential_stopping_settings(capsys, precision, frames, rois):
+    """The simulated station with hostile precision:, frames and ROIs: a clean refusal or
+    a capture whose steps hold between min_frames and frames."""
+    with tempfile.TemporaryDirectory() as tmp:
+        from conftest import copy_station
+
+        tmp = Path(tmp)
+        path = copy_station(tmp, precision=precision, frames=frames, rois=rois)
+        (tmp / "outside.yaml").write_text("classes: {A: [{rect: [300, 200, 50, 50]}]}\n")
+        code, out, err = run(["capture", path, "--out", tmp / "o"], capsys)
+        assert_clean(code, out, err)
+        event(f"exit {code}")
+        if code == 0:
+            saved = len(list((tmp / "o" / "amber").glob("frame_*.tif")))
+            least = frames if precision is None else min(precision.get("min_frames", 3), frames)
+            assert least <= saved <= frames
+        elif rois == "outside.yaml" and (tmp / "o" / "manifest.json").exists():
+            assert "outside.yaml" in err
+
+
 @pytest.mark.parametrize(
     "args",
     [
