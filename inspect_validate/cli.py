@@ -419,7 +419,13 @@ def capture(station, out, resume):
     type=_PATH,
     help="A history 'watch' keeps of this station: its trends go into report.html.",
 )
-def verify(station, frames_dir, out, report_dir, history_path):
+@click.option(
+    "--all-illuminations",
+    is_flag=True,
+    help="Capture every illumination, also those the prediction shows clearly worse than "
+    "another where no check needs them (skipped by default, and listed).",
+)
+def verify(station, frames_dir, out, report_dir, history_path, all_illuminations):
     """Verify STATION: measure its frames, predict it as built, calibrate, compare and check.
 
     Captures every illumination and the darks through the station's camera and
@@ -442,7 +448,14 @@ def verify(station, frames_dir, out, report_dir, history_path):
         log = _station_history(history_path, st)
     if frames_dir is None and out is None:
         out = report_dir / "frames" if report_dir else _new_folder("verify", station)
-    result = _verify_station(st, frames_dir=frames_dir, out=out, report_dir=report_dir, history=log)
+    result = _verify_station(
+        st,
+        frames_dir=frames_dir,
+        out=out,
+        report_dir=report_dir,
+        history=log,
+        skip_dominated=not all_illuminations,
+    )
     if not result.passed:
         sys.exit(EXIT_CHECK_FAILED)
 
@@ -462,10 +475,10 @@ def _station_history(path, st):
     return log
 
 
-def _verify_station(st, *, frames_dir, out, report_dir, history=None):
-    """Plan, capture into ``out`` unless ``frames_dir`` is given, verify, print the verdict
-    and write the reports into ``report_dir`` (with ``history``'s trends); the
-    :class:`Verification`."""
+def _verify_station(st, *, frames_dir, out, report_dir, history=None, skip_dominated=False):
+    """Plan, capture into ``out`` unless ``frames_dir`` is given (with ``skip_dominated``,
+    not the illuminations the plan finds dominated), verify, print the verdict and write
+    the reports into ``report_dir`` (with ``history``'s trends); the :class:`Verification`."""
     from inspect_validate.report import write_json
     from inspect_validate.report.html import write_verification_html
     from inspect_validate.report.verification import (
@@ -478,6 +491,11 @@ def _verify_station(st, *, frames_dir, out, report_dir, history=None):
 
     plan = plan_verification(st)  # a mistake in the station file costs no capture
     if frames_dir is None:
+        if skip_dominated and plan.dominated:
+            kept = [i for i in st.illuminations if i.name not in plan.dominated]
+            st = st.model_copy(update={"illuminations": kept})
+            for name in plan.dominated:
+                click.echo(f"not capturing {name!r}: predicted dominated (see skipped:)", err=True)
         _capture(st, out)
         click.echo(f"frames: {out}")
         frames_dir = out

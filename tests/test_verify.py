@@ -259,3 +259,55 @@ def test_fit_calibrates_a_stated_irradiance_that_would_saturate(cli, tmp_path):
     assert amber["irradiance"] == pytest.approx(5.0, rel=0.01)
     nominal = [r["nominal"]["mean"] for r in doc["classes"] if r["illumination"] == "amber"]
     assert max(nominal) > 254  # the stated irradiance would saturate
+
+
+def candidates(tmp_path, **acceptance):
+    """The shipped station with the ranking check off (and ``acceptance`` changed): the
+    red LED is then only a candidate no check needs."""
+    doc = yaml.safe_load((STATION / "station.yaml").read_text())
+    return station(tmp_path, acceptance={**doc["acceptance"], "ranking": False, **acceptance})
+
+
+def test_a_dominated_candidate_is_not_captured_and_is_listed(cli, tmp_path):
+    code, out, err, doc = verify(cli, tmp_path, candidates(tmp_path))
+    assert code == 0, out + err
+    frames = tmp_path / "report" / "frames"
+    assert (frames / "amber").is_dir() and not (frames / "red").exists()
+    assert "not capturing 'red'" in err
+    (line,) = [s for s in doc["skipped"] if s.startswith("illumination 'red'")]
+    assert "dominated by 'amber'" in line and "--all-illuminations" in line
+    kept = {c["comparison"]: c for c in doc["comparisons"] if c["illumination"] == "amber"}
+
+    # Asked for, red is captured — and measures as clearly worse as predicted: on every
+    # comparison where either is above the floor, amber leads by more than the agreement
+    # tolerance (the skip's margin is twice that).
+    all_dir = tmp_path / "all"
+    all_dir.mkdir()
+    code, out, err, every = verify(cli, all_dir, candidates(all_dir), "--all-illuminations")
+    assert code == 0, out + err
+    assert not any(s.startswith("illumination") for s in every["skipped"])
+    rows = {(c["illumination"], c["comparison"]): c["measured"] for c in every["comparisons"]}
+    for label in kept:
+        amber, red = rows["amber", label]["snr_db"], rows["red", label]["snr_db"]
+        assert amber - red > 1.0 or max(amber, red) < -20, label
+        # Amber's own numbers agree between the runs within the agreement tolerance (1 dB).
+        assert kept[label]["measured"]["snr_db"] == pytest.approx(amber, abs=1.0)
+    verdicts = lambda d: {c["name"]: c["verdict"] for c in d["checks"] if "amber" in c["name"]}  # noqa: E731
+    assert verdicts(doc) == verdicts(every)
+
+
+@pytest.mark.parametrize(
+    "acceptance",
+    [
+        {"ranking": True},  # the ranking needs every illumination
+        {"illumination": None},  # separation checked on every illumination
+        {"illumination": "red"},  # the production light is needed; amber is not dominated
+    ],
+)
+def test_every_needed_illumination_is_captured(tmp_path, acceptance):
+    from inspect_validate.camera.station import read_station
+
+    from inspect_validate.verification.verify import plan_verification
+
+    plan = plan_verification(read_station(candidates(tmp_path, **acceptance)))
+    assert plan.dominated == {}

@@ -30,6 +30,7 @@ __all__ = [
     "Capture",
     "Plan",
     "Verification",
+    "dominated_illuminations",
     "measure_capture",
     "plan_verification",
     "read_capture",
@@ -175,6 +176,9 @@ class Plan:
     comparisons: object
     model: object  # StationModel
     golden: object | None  # Golden, for acceptance.drift
+    dominated: dict[str, str] = field(default_factory=dict)
+    """Illuminations no check needs that the prediction shows clearly worse than another
+    (:func:`dominated_illuminations`): name → why."""
 
 
 def plan_verification(station) -> Plan:
@@ -242,8 +246,62 @@ def plan_verification(station) -> Plan:
             source=str(station.resolve(acc.drift.golden)),
         )
     # Only the ROI classes are predicted.
-    scene = replace(model.scene, classes=tuple(scene_classes[n] for n in names))
-    return Plan(rois, comparisons, replace(model, scene=scene), golden)
+    model = replace(
+        model, scene=replace(model.scene, classes=tuple(scene_classes[n] for n in names))
+    )
+    dominated = dominated_illuminations(station, model, comparisons)
+    return Plan(rois, comparisons, model, golden, dominated)
+
+
+def dominated_illuminations(station, model, comparisons) -> dict[str, str]:
+    """Illuminations that need not be captured: no acceptance check needs them, and the
+    prediction shows another illumination clearly better on every comparison.
+
+    Illumination X is dominated by Y when, on every comparison, Y's predicted SNR_dB
+    exceeds X's by at least twice the agreement tolerance ``acceptance.agreement.snr_db``
+    (3 dB if not given) — so even if each measures that far from its prediction, in
+    opposite directions, Y still measures better — or both are below
+    ``snr_floor_db``, where SNR_dB says nothing (as in the agreement check); and on at
+    least one comparison Y is ahead. Every illumination is needed (nothing is
+    dominated) when the acceptance ranks them (``ranking``), compares them with a golden
+    file (``drift``) or checks separation on all of them (no ``illumination``);
+    ``acceptance.illumination`` itself is always needed.
+
+    Returns
+    -------
+    dict
+        Name → why, in station order.
+    """
+    from inspect_validate.verification.acceptance import Agreement
+
+    acc = station.acceptance
+    names = [i.name for i in station.illuminations]
+    if len(names) < 2 or acc.ranking or acc.drift or (acc.separation and not acc.illumination):
+        return {}
+    agreement = acc.agreement or Agreement()
+    margin = 2.0 * (agreement.snr_db or 3.0)
+    floor = agreement.snr_floor_db
+    if comparisons.weights == "pixels":  # no regions yet: pairs do not depend on weights
+        comparisons = replace(comparisons, weights="equal")
+    snr = model.predict(station, comparisons=comparisons).snr_db[:, 0, 0, :]
+    out: dict[str, str] = {}
+    for x, name in enumerate(names):
+        if name == acc.illumination:
+            continue
+        for y, other in enumerate(names):
+            if y == x or other in out:
+                continue
+            lead = snr[y] - snr[x]
+            ahead = lead >= margin
+            silent = (snr[x] < floor) & (snr[y] < floor)
+            if np.all(ahead | silent) and np.any(ahead):
+                out[name] = (
+                    f"predicted dominated by {other!r}: its SNR_dB is at least "
+                    f"{lead[ahead].min():.1f} dB higher on every comparison above {floor:g} dB "
+                    f"(margin {margin:g} dB, twice the agreement tolerance)"
+                )
+                break
+    return out
 
 
 def verify(station, frames_dir: Path, *, plan: Plan | None = None) -> Verification:
@@ -262,7 +320,12 @@ def verify(station, frames_dir: Path, *, plan: Plan | None = None) -> Verificati
     acc = station.acceptance
     rois, comparisons, model, golden = plan.rois, plan.comparisons, plan.model, plan.golden
     need_kde = acc.needs_kde
-    skipped = []
+    here = {i.name for i in station.illuminations}
+    skipped = [
+        f"illumination {name!r}: {why}; not captured (verify --all-illuminations captures it)"
+        for name, why in plan.dominated.items()
+        if name not in here
+    ]
     if not need_kde:
         skipped.append("ε KDE: no check asks for it (acceptance.separation[].max_error_kde)")
     limits = acc.limits()
