@@ -8,7 +8,8 @@ above 2¹⁴ values). With equal priors
     ε_tot = ½ ∫ min(p̂1, p̂2) dx,
 
 computed without quadrature error: the crossings of p̂1 and p̂2 are located on a
-grid of log-densities and refined by root finding, and between crossings the mass
+grid of log-densities (binned by FFT where that is certain of the sign, exact near
+the crossings) and refined by root finding inside the bracketing cells, and between crossings the mass
 of the lower density is summed in closed form from the kernels' normal CDFs
 (stable interval probabilities, so tiny errors keep their relative accuracy).
 """
@@ -43,6 +44,9 @@ _WINDOW_REACH = 20.0  # in h, beyond the nearest component
 _WINDOW_WIDTHS_MAX = 16  # distinct kernel widths (classes in a group) summed part by part
 _WINDOW_CHUNK = 64  # grid points per window (16 h at the crossing grid's step)
 _LOG_SQRT_2PI = 0.5 * np.log(2.0 * np.pi)
+_BINNED_FLOOR = 1e-10  # a tilt's FFT is used above this fraction of its maximum
+_BINNED_MARGIN = 0.5  # nats: a binned log-density difference trusted for its sign
+_TILT_STEP = 6.0  # kernel widths between the peaks of successive tilts
 
 
 @dataclass(frozen=True)
@@ -408,6 +412,85 @@ def _log_density_slope(x, parts):
     return top[:, 0] + np.log(total), (e * slope).sum(axis=1) / total
 
 
+def _grid_difference(grid, p1, p2):
+    """log p1 − log p2 on a regular ``grid``: binned where that is certain of the sign,
+    exact (:func:`_log_density`) elsewhere.
+
+    The binned densities (:func:`_binned_log_density`) cost a few FFTs instead of grid
+    points × nearby components. Their error is binning's bias, about
+    t(1 − t)(g/σ)² z²/2 at z kernel widths from the peak of the tilt used (g the grid
+    step, at most 0.25 of the narrowest σ; z ≤ 3 with tilts 6σ apart): at most 0.16
+    nats on the 5 MP benchmark frame's mixtures. Only where the binned difference is
+    at least :data:`_BINNED_MARGIN` nats from 0 is its sign taken; every other grid
+    point, the crossings' neighbours among them, is evaluated exactly. So the brackets,
+    and the crossings polished in them, are those of the exact grid.
+    """
+    binned = [_binned_log_density(grid, parts) for parts in (p1, p2)]
+    if binned[0] is None or binned[1] is None:
+        return _log_density(grid, p1) - _log_density(grid, p2)
+    d = binned[0] - binned[1]
+    exact = ~(np.abs(d) >= _BINNED_MARGIN)  # NaN (not held by any tilt) included
+    if exact.any():
+        x = grid[exact]
+        d[exact] = _log_density(x, p1) - _log_density(x, p2)
+    return d
+
+
+def _binned_log_density(grid, parts):
+    """log p (as :func:`_log_density`) of linearly binned ``parts`` on the regular ``grid``,
+    NaN where no tilt (below) holds it above :data:`_BINNED_FLOOR` of its maximum; None
+    when a part has a width per component (no single kernel to convolve with).
+
+    Each part's components are put on their two neighbouring grid points (linear
+    binning) and convolved with the kernel sampled on the grid by FFT. An FFT is
+    accurate only relative to its largest value, so the tails, which decide small
+    errors, are computed tilted: e^{θ(x − x0)} p(x) = Σ_i w_i e^{θ(c_i − x0)} ·
+    K(x − c_i) e^{θ(x − c_i)}, reweighted components convolved with the kernel shifted
+    by θσ², whose peak lies out in the tail. Tilts θ = k · _TILT_STEP / σ place peaks
+    about every 6σ out to the grid's ends; each grid point takes the tilt that holds it
+    highest relative to that tilt's maximum, and the tilts are transformed together.
+    """
+    step = (grid[-1] - grid[0]) / (grid.size - 1)
+    x0 = 0.5 * (grid[0] + grid[-1])
+    logs = []
+    for centres, log_w, sigma in parts:
+        if np.ndim(sigma):
+            return None
+        pos = (centres - grid[0]) / step
+        j = np.clip(np.floor(pos).astype(np.int64), 0, grid.size - 2)
+        t = pos - j
+        beyond = max(centres.min() - grid[0], grid[-1] - centres.max()) / sigma
+        tilts = int(np.ceil(beyond / _TILT_STEP)) + 1
+        reach = min(int(np.ceil((tilts * _TILT_STEP + _TAIL_REACH) * sigma / step)), grid.size - 1)
+        u = np.arange(-reach, reach + 1) * step
+        size = 1 << int(np.ceil(np.log2(grid.size + u.size - 1)))
+        theta = np.arange(-tilts, tilts + 1)[:, None] * (_TILT_STEP / sigma)  # (tilts, 1)
+        a = log_w + theta * (centres - x0)
+        a_max = a.max(axis=1, keepdims=True)
+        w = np.exp(a - a_max)
+        rows = np.arange(theta.size)[:, None] * grid.size + j  # flat (tilt, grid point)
+        binned = np.bincount(rows.ravel(), (w * (1.0 - t)).ravel(), theta.size * grid.size)
+        binned += np.bincount(rows.ravel() + 1, (w * t).ravel(), theta.size * grid.size)
+        lk = theta * u - 0.5 * (u / sigma) ** 2
+        lk_max = lk.max(axis=1, keepdims=True)
+        spectrum = np.fft.rfft(binned.reshape(theta.size, grid.size), size)
+        spectrum *= np.fft.rfft(np.exp(lk - lk_max), size)
+        full = np.fft.irfft(spectrum, size)
+        tilted = full[:, reach : reach + grid.size]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            # The FFT rounds relative to a tilt's largest value, which may lie off the grid.
+            relative = np.log(tilted / full.max(axis=1, keepdims=True))
+            floor = np.log(_BINNED_FLOOR)
+            k = np.argmax(np.where(relative > floor, relative, -np.inf), axis=0)
+            at = np.arange(grid.size)
+            value = np.log(tilted[k, at]) + a_max[k, 0] + lk_max[k, 0] - theta[k, 0] * (grid - x0)
+        logs.append(np.where(relative[k, at] > floor, value, np.nan))
+    if len(logs) > 1:
+        with np.errstate(invalid="ignore"):  # NaN (not held by any tilt) stays NaN
+            return np.logaddexp.reduce(np.stack(logs), axis=0) - _LOG_SQRT_2PI
+    return logs[0] - _LOG_SQRT_2PI
+
+
 def _crossings(p1, p2, c1, s1, c2, s2) -> np.ndarray:
     step = _GRID_STEP * min(s1.min(), s2.min())
     hmax = max(s1.max(), s2.max())
@@ -416,7 +499,7 @@ def _crossings(p1, p2, c1, s1, c2, s2) -> np.ndarray:
     count = int(min(np.ceil((hi - lo) / step), 2**18)) + 1
     grid = np.linspace(lo, hi, count)
 
-    d = _log_density(grid, p1) - _log_density(grid, p2)
+    d = _grid_difference(grid, p1, p2)
     sign = np.sign(d)
     idx = np.flatnonzero(sign[:-1] * sign[1:] < 0)
     xtol = 1e-13 * hmax
