@@ -217,19 +217,20 @@ def capture(
                         # Written on the writer thread while the next frame is grabbed.
                         store.save_later(name, i, frame, {**info, "discarded_before": discarded})
                         total_mean += frame.mean
-                        done += 1
-                        if stop is not None and stop.add(frame.data):
-                            break
+                        enough = stop is not None and stop.add(frame.data)
+                        done += 1 + (n - i if enough else 0)  # the frames not needed count as done
                         if progress:
                             progress(name, done, total)
+                        if enough:
+                            break
                     store.flush()
                     if stop is not None:
                         known[name] = stop.known()
                         store.note(name, "precision", asdict(known[name]))
-                        done += n - i  # frames the step did not need
-                        if progress:
-                            progress(name, done, total)
-                except (DeviceError, InputError) as exc:  # InputError: ROIs outside the frame
+                except (
+                    DeviceError,
+                    InputError,
+                ) as exc:  # InputError: ROIs off the frame, a full disk
                     unsaved = store.close()  # the frames grabbed before the failure are kept
                     also = f"; saving its frames failed too: {unsaved}" if unsaved else ""
                     store.fail(name, f"{exc}{also}")

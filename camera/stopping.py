@@ -71,11 +71,15 @@ class SequentialStop:
         InputError
             A class outside the frame (on the first frame).
         """
+        from inspect_validate.stats import region_statistics, sample_moments
+
         if self._masks is None:
             from inspect_validate.roi import class_masks
 
             self._masks = class_masks(self._rois, data.shape[-2:])
-        self._rows.append(np.array([_moments(data, m) for m in self._masks.values()]))
+        # measure's own statistics (exact for integer frames), class by class.
+        moments = [sample_moments(region_statistics(data, m).sample) for m in self._masks.values()]
+        self._rows.append(np.array([(m.mean, m.variance) for m in moments]))
         known = self.known()
         return known is not None and known.reached and len(self._rows) >= self._min
 
@@ -89,8 +93,3 @@ class SequentialStop:
         relative = rows.std(axis=0, ddof=1) / np.sqrt(k) / scale
         mean, variance = (float(x) for x in relative.max(axis=0))
         return Known(k, mean, variance, mean <= self._target[0] and variance <= self._target[1])
-
-
-def _moments(data: np.ndarray, mask: np.ndarray) -> tuple[float, float]:
-    values = data[mask].astype(np.float64)
-    return float(values.mean()), float(values.var(ddof=1)) if values.size > 1 else 0.0

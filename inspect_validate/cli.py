@@ -479,6 +479,8 @@ def _verify_station(st, *, frames_dir, out, report_dir, history=None, skip_domin
     """Plan, capture into ``out`` unless ``frames_dir`` is given (with ``skip_dominated``,
     not the illuminations the plan finds dominated), verify, print the verdict and write
     the reports into ``report_dir`` (with ``history``'s trends); the :class:`Verification`."""
+    from dataclasses import replace
+
     from inspect_validate.report import write_json
     from inspect_validate.report.html import write_verification_html
     from inspect_validate.report.verification import (
@@ -486,15 +488,19 @@ def _verify_station(st, *, frames_dir, out, report_dir, history=None, skip_domin
         verification_document,
         write_junit,
     )
-    from inspect_validate.verification.verify import plan_verification
+    from inspect_validate.verification.verify import dominated_illuminations, plan_verification
     from inspect_validate.verification.verify import verify as run_verify
 
     plan = plan_verification(st)  # a mistake in the station file costs no capture
     if frames_dir is None:
-        if skip_dominated and plan.dominated:
-            kept = [i for i in st.illuminations if i.name not in plan.dominated]
+        dominated = (
+            dominated_illuminations(st, plan.model, plan.comparisons) if skip_dominated else {}
+        )
+        if dominated:
+            kept = [i for i in st.illuminations if i.name not in dominated]
             st = st.model_copy(update={"illuminations": kept})
-            for name in plan.dominated:
+            plan = replace(plan, dominated=dominated)
+            for name in dominated:
                 click.echo(f"not capturing {name!r}: predicted dominated (see skipped:)", err=True)
         _capture(st, out)
         click.echo(f"frames: {out}")

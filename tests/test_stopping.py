@@ -65,7 +65,8 @@ def test_stops_where_the_precision_is_first_reached_and_not_before_min_frames():
 
 
 def capture(cli, tmp_path, name, **top):
-    station = copy_station(tmp_path / name, **top) if (tmp_path / name).mkdir() is None else None
+    (tmp_path / name).mkdir()
+    station = copy_station(tmp_path / name, **top)
     out = tmp_path / name / "cap"
     code, stdout, err = cli(["capture", station, "--out", out])
     assert code == 0, err

@@ -307,7 +307,8 @@ def test_a_dominated_candidate_is_not_captured_and_is_listed(cli, tmp_path):
 def test_every_needed_illumination_is_captured(tmp_path, acceptance):
     from inspect_validate.camera.station import read_station
 
-    from inspect_validate.verification.verify import plan_verification
+    from inspect_validate.verification.verify import dominated_illuminations, plan_verification
 
-    plan = plan_verification(read_station(candidates(tmp_path, **acceptance)))
-    assert plan.dominated == {}
+    st = read_station(candidates(tmp_path, **acceptance))
+    plan = plan_verification(st)
+    assert dominated_illuminations(st, plan.model, plan.comparisons) == {}

@@ -47,6 +47,7 @@ _LOG_SQRT_2PI = 0.5 * np.log(2.0 * np.pi)
 _BINNED_FLOOR = 1e-10  # a tilt's FFT is used above this fraction of its maximum
 _BINNED_MARGIN = 0.5  # nats: a binned log-density difference trusted for its sign
 _TILT_STEP = 6.0  # kernel widths between the peaks of successive tilts
+_BINNED_ELEMENTS_MAX = 2**22  # tilts × FFT size (32 MB an array), else the exact grid
 
 
 @dataclass(frozen=True)
@@ -439,7 +440,9 @@ def _grid_difference(grid, p1, p2):
 def _binned_log_density(grid, parts):
     """log p (as :func:`_log_density`) of linearly binned ``parts`` on the regular ``grid``,
     NaN where no tilt (below) holds it above :data:`_BINNED_FLOOR` of its maximum; None
-    when a part has a width per component (no single kernel to convolve with).
+    when a part has a width per component (no single kernel to convolve with) or its
+    tilts would exceed :data:`_BINNED_ELEMENTS_MAX` (classes hundreds of kernel widths
+    apart, where the grid is long and the exact sums near each point are few).
 
     Each part's components are put on their two neighbouring grid points (linear
     binning) and convolved with the kernel sampled on the grid by FFT. An FFT is
@@ -464,6 +467,8 @@ def _binned_log_density(grid, parts):
         reach = min(int(np.ceil((tilts * _TILT_STEP + _TAIL_REACH) * sigma / step)), grid.size - 1)
         u = np.arange(-reach, reach + 1) * step
         size = 1 << int(np.ceil(np.log2(grid.size + u.size - 1)))
+        if (2 * tilts + 1) * size > _BINNED_ELEMENTS_MAX:
+            return None  # classes far apart: the exact windowed sums are cheaper
         theta = np.arange(-tilts, tilts + 1)[:, None] * (_TILT_STEP / sigma)  # (tilts, 1)
         a = log_w + theta * (centres - x0)
         a_max = a.max(axis=1, keepdims=True)
@@ -491,18 +496,23 @@ def _binned_log_density(grid, parts):
     return logs[0] - _LOG_SQRT_2PI
 
 
-def _crossings(p1, p2, c1, s1, c2, s2) -> np.ndarray:
+def _crossing_grid(c1, s1, c2, s2) -> np.ndarray:
+    """The regular grid :func:`_crossings` looks for sign changes on: a quarter of the
+    narrowest kernel apart, reaching 40 of the widest beyond the outermost components
+    (at most 2¹⁸ + 1 points)."""
     step = _GRID_STEP * min(s1.min(), s2.min())
     hmax = max(s1.max(), s2.max())
     lo = min(c1.min(), c2.min()) - _TAIL_REACH * hmax
     hi = max(c1.max(), c2.max()) + _TAIL_REACH * hmax
-    count = int(min(np.ceil((hi - lo) / step), 2**18)) + 1
-    grid = np.linspace(lo, hi, count)
+    return np.linspace(lo, hi, int(min(np.ceil((hi - lo) / step), 2**18)) + 1)
 
+
+def _crossings(p1, p2, c1, s1, c2, s2) -> np.ndarray:
+    grid = _crossing_grid(c1, s1, c2, s2)
     d = _grid_difference(grid, p1, p2)
     sign = np.sign(d)
     idx = np.flatnonzero(sign[:-1] * sign[1:] < 0)
-    xtol = 1e-13 * hmax
+    xtol = 1e-13 * max(s1.max(), s2.max())
     # Every bracket is polished at once; for large mixtures in groups of brackets that keep
     # the (brackets × components) arrays near 32 MB.
     per = max(1, 2**22 // sum(c.size for c, _, _ in p1 + p2))

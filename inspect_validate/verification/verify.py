@@ -177,8 +177,8 @@ class Plan:
     model: object  # StationModel
     golden: object | None  # Golden, for acceptance.drift
     dominated: dict[str, str] = field(default_factory=dict)
-    """Illuminations no check needs that the prediction shows clearly worse than another
-    (:func:`dominated_illuminations`): name → why."""
+    """Illuminations left out of the capture as dominated (:func:`dominated_illuminations`):
+    name → why; listed as skipped."""
 
 
 def plan_verification(station) -> Plan:
@@ -246,11 +246,8 @@ def plan_verification(station) -> Plan:
             source=str(station.resolve(acc.drift.golden)),
         )
     # Only the ROI classes are predicted.
-    model = replace(
-        model, scene=replace(model.scene, classes=tuple(scene_classes[n] for n in names))
-    )
-    dominated = dominated_illuminations(station, model, comparisons)
-    return Plan(rois, comparisons, model, golden, dominated)
+    scene = replace(model.scene, classes=tuple(scene_classes[n] for n in names))
+    return Plan(rois, comparisons, replace(model, scene=scene), golden)
 
 
 def dominated_illuminations(station, model, comparisons) -> dict[str, str]:
@@ -281,7 +278,7 @@ def dominated_illuminations(station, model, comparisons) -> dict[str, str]:
     agreement = acc.agreement or Agreement()
     margin = 2.0 * (agreement.snr_db or 3.0)
     floor = agreement.snr_floor_db
-    if comparisons.weights == "pixels":  # no regions yet: pairs do not depend on weights
+    if comparisons.weights == "pixels":  # no regions yet; only the groups' SNR_dB depend on it
         comparisons = replace(comparisons, weights="equal")
     snr = model.predict(station, comparisons=comparisons).snr_db[:, 0, 0, :]
     out: dict[str, str] = {}
@@ -320,11 +317,9 @@ def verify(station, frames_dir: Path, *, plan: Plan | None = None) -> Verificati
     acc = station.acceptance
     rois, comparisons, model, golden = plan.rois, plan.comparisons, plan.model, plan.golden
     need_kde = acc.needs_kde
-    here = {i.name for i in station.illuminations}
     skipped = [
         f"illumination {name!r}: {why}; not captured (verify --all-illuminations captures it)"
         for name, why in plan.dominated.items()
-        if name not in here
     ]
     if not need_kde:
         skipped.append("ε KDE: no check asks for it (acceptance.separation[].max_error_kde)")
