@@ -2,8 +2,7 @@
 :mod:`~inspect_validate.stats.gaussian_error`'s algorithm element by element.
 
 Plain Python on :mod:`math` and numpy's ufuncs, so it runs without numba (the
-array code's special functions on small arrays use :func:`erfcx` and
-:func:`lower_tail` from here) and is compiled as it stands by
+array code's erfcx interpolates :func:`erfcx` from here) and is compiled as it stands by
 :mod:`~inspect_validate.stats._gaussian_error_kernel` for large arrays. The
 double-double helpers and the crossings are the numpy implementation's too; the
 rest mirrors it step by step (its masks are branches here), so the two agree to
@@ -17,8 +16,8 @@ terms: the first omitted, (25)!!/(2x²)¹³, is below 1e-19). Φ(x) for x ≥ 0 
 1 − ½·erfc(x/√2), without cancellation (the subtracted part is at most ½).
 
 Uncompiled, a function here raises where numba's numpy error model returns inf or
-NaN (``math.exp`` of a large argument, ``math.log(0)``); only :func:`erfcx` and
-:func:`lower_tail`, which cannot, are called uncompiled.
+NaN (``math.exp`` of a large argument, ``math.log(0)``); only :func:`erfcx`, which
+cannot, is called uncompiled.
 """
 
 import math
