@@ -30,7 +30,7 @@ from inspect_validate.camera.frame import Frame
 from inspect_validate.camera.grabbers.base import Grabber
 
 from inspect_validate.errors import DeviceError
-from inspect_validate.model.render import class_bands, expose
+from inspect_validate.model.render import class_bands, expected_grey, expose
 
 __all__ = ["SimulatedCamera"]
 
@@ -223,6 +223,18 @@ class SimulatedCamera(Grabber):
 
     def render(self, state: dict[int, float]) -> np.ndarray:
         """One noisy frame (uint16 DN) under ``state`` (channel → %), EMVA 1288 model."""
+        return expose(self._electrons(state), self.camera, rng=self.noise, gain=self._gain())
+
+    def expected(self, state: dict[int, float]) -> tuple[np.ndarray, np.ndarray]:
+        """The truth behind :meth:`render`: each pixel's expected grey value (DN) and
+        temporal variance (DN²) under ``state`` (:func:`expected_grey`)."""
+        return expected_grey(self._electrons(state), self.camera, gain=self._gain())
+
+    def _gain(self) -> float:
+        return self.camera.gain * 10 ** (self.gain_db / 20)
+
+    def _electrons(self, state: dict[int, float]) -> np.ndarray:
+        """Mean photo-electrons of each pixel (e⁻) under ``state``, world deviations included."""
         percent = np.array([100.0 if ch == 0 else state.get(ch, 0.0) for ch in self.channels])
         rate = percent / 100.0 @ self.rates  # e⁻/s per reflectance sample
         electrons = np.zeros((self.height, self.width))
@@ -233,12 +245,7 @@ class SimulatedCamera(Grabber):
             from scipy import ndimage
 
             electrons = ndimage.gaussian_filter(electrons, self.world.blur_px, mode="nearest")
-        return expose(
-            electrons,
-            self.camera,
-            rng=self.noise,
-            gain=self.camera.gain * 10 ** (self.gain_db / 20),
-        )
+        return electrons
 
     def _render(self, state: dict[int, float], stamp: int) -> Frame:
         if self.world.frozen:  # a hung driver hands out its last buffer again
