@@ -488,10 +488,15 @@ def _verify_station(st, *, frames_dir, out, report_dir, history=None, skip_domin
         verification_document,
         write_junit,
     )
-    from inspect_validate.verification.verify import dominated_illuminations, plan_verification
+    from inspect_validate.verification.verify import (
+        dominance_unconfirmed,
+        dominated_illuminations,
+        plan_verification,
+    )
     from inspect_validate.verification.verify import verify as run_verify
 
     plan = plan_verification(st)  # a mistake in the station file costs no capture
+    full = st
     if frames_dir is None:
         dominated = (
             dominated_illuminations(st, plan.model, plan.comparisons) if skip_dominated else {}
@@ -506,6 +511,21 @@ def _verify_station(st, *, frames_dir, out, report_dir, history=None, skip_domin
         click.echo(f"frames: {out}")
         frames_dir = out
     result = run_verify(st, frames_dir, plan=plan)
+    misses = dominance_unconfirmed(result) if plan.dominated else []
+    if misses:
+        # The skip rested on the prediction, which the captured lights contradict: the
+        # left-out ones are added to the same capture (its complete steps are kept).
+        names = ", ".join(repr(n) for n in plan.dominated)
+        them = "them" if len(plan.dominated) > 1 else "it"
+        why = (
+            f"captured {names} after all: the prediction that left {them} out does not hold here "
+            f"({misses[0]}{f', and {len(misses) - 1} more' if len(misses) > 1 else ''})"
+        )
+        click.echo(why, err=True)
+        st, plan = full, replace(plan, dominated={})
+        _capture(st, out, resume=True)
+        result = run_verify(st, out, plan=plan)
+        result = replace(result, notes=(*result.notes, why))
     click.echo(
         f"{st.name}: {len(st.illuminations)} illumination(s), calibration {st.calibration.method}"
     )

@@ -264,8 +264,7 @@ def test_fit_calibrates_a_stated_irradiance_that_would_saturate(cli, tmp_path):
 def candidates(tmp_path, **acceptance):
     """The shipped station with the ranking check off (and ``acceptance`` changed): the
     red LED is then only a candidate no check needs."""
-    doc = yaml.safe_load((STATION / "station.yaml").read_text())
-    return station(tmp_path, acceptance={**doc["acceptance"], "ranking": False, **acceptance})
+    return station(tmp_path, acceptance=candidates_acceptance(**acceptance))
 
 
 def test_a_dominated_candidate_is_not_captured_and_is_listed(cli, tmp_path):
@@ -273,7 +272,7 @@ def test_a_dominated_candidate_is_not_captured_and_is_listed(cli, tmp_path):
     assert code == 0, out + err
     frames = tmp_path / "report" / "frames"
     assert (frames / "amber").is_dir() and not (frames / "red").exists()
-    assert "not capturing 'red'" in err
+    assert "not capturing 'red'" in err and "after all" not in err
     (line,) = [s for s in doc["skipped"] if s.startswith("illumination 'red'")]
     assert "dominated by 'amber'" in line and "--all-illuminations" in line
     kept = {c["comparison"]: c for c in doc["comparisons"] if c["illumination"] == "amber"}
@@ -294,6 +293,40 @@ def test_a_dominated_candidate_is_not_captured_and_is_listed(cli, tmp_path):
         assert kept[label]["measured"]["snr_db"] == pytest.approx(amber, abs=1.0)
     verdicts = lambda d: {c["name"]: c["verdict"] for c in d["checks"] if "amber" in c["name"]}  # noqa: E731
     assert verdicts(doc) == verdicts(every)
+
+
+def test_a_left_out_candidate_is_captured_when_the_prediction_fails(cli, tmp_path):
+    """A world the prediction does not know: amber's LED 20 nm off its datasheet, red's
+    40 nm off the other way, so red is really the better light. Red is left out first
+    (predicted 12 dB behind), amber then misses its predicted SNR_dB by far more than
+    the 1 dB the skip assumed, and verify captures red after all, into the same folder,
+    where it measures best. A deviation of the left-out light alone leaves no trace in
+    amber: red stays out, and only --all-illuminations shows it."""
+    shifted = {"peak_shift_nm": {1: 20, 2: -40}}
+    path = station(tmp_path, world=shifted, acceptance=candidates_acceptance())
+    code, out, err, doc = verify(cli, tmp_path, path)
+    assert code == 1, out + err  # amber misses its prediction: the verdict fails
+    assert "not capturing 'red'" in err and "captured 'red' after all" in err
+    assert "amber: A vs C measured" in err
+    frames = tmp_path / "report" / "frames"
+    assert (frames / "amber").is_dir() and (frames / "red").is_dir()
+    assert not any(s.startswith("illumination 'red'") for s in doc["skipped"])
+    assert any("captured 'red' after all" in n for n in doc["notes"])
+    assert doc["ranking"]["predicted_best"] == "amber"
+    assert doc["ranking"]["measured_best"] == "red"
+
+    alone = tmp_path / "alone"
+    alone.mkdir()
+    path = station(alone, world={"peak_shift_nm": {2: -40}}, acceptance=candidates_acceptance())
+    code, out, err, doc = verify(cli, alone, path)
+    assert code == 0, out + err
+    assert "after all" not in err and not (alone / "report" / "frames" / "red").exists()
+    assert any(s.startswith("illumination 'red'") for s in doc["skipped"])
+
+
+def candidates_acceptance(**changes):
+    doc = yaml.safe_load((STATION / "station.yaml").read_text())
+    return {**doc["acceptance"], "ranking": False, **changes}
 
 
 @pytest.mark.parametrize(

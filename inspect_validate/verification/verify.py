@@ -30,6 +30,7 @@ __all__ = [
     "Capture",
     "Plan",
     "Verification",
+    "dominance_unconfirmed",
     "dominated_illuminations",
     "measure_capture",
     "plan_verification",
@@ -269,15 +270,12 @@ def dominated_illuminations(station, model, comparisons) -> dict[str, str]:
     dict
         Name → why, in station order.
     """
-    from inspect_validate.verification.acceptance import Agreement
-
     acc = station.acceptance
     names = [i.name for i in station.illuminations]
     if len(names) < 2 or acc.ranking or acc.drift or (acc.separation and not acc.illumination):
         return {}
-    agreement = acc.agreement or Agreement()
-    margin = 2.0 * (agreement.snr_db or 3.0)
-    floor = agreement.snr_floor_db
+    tolerance, floor = _dominance_tolerance(acc)
+    margin = 2.0 * tolerance
     if comparisons.weights == "pixels":  # no regions yet; only the groups' SNR_dB depend on it
         comparisons = replace(comparisons, weights="equal")
     snr = model.predict(station, comparisons=comparisons).snr_db[:, 0, 0, :]
@@ -299,6 +297,46 @@ def dominated_illuminations(station, model, comparisons) -> dict[str, str]:
                 )
                 break
     return out
+
+
+def _dominance_tolerance(acc) -> tuple[float, float]:
+    """How far (dB) each illumination's SNR_dB may miss its prediction for a dominance to
+    stand (the agreement tolerance, 3 dB if none), and the floor below which SNR_dB says
+    nothing."""
+    from inspect_validate.verification.acceptance import Agreement
+
+    agreement = acc.agreement or Agreement()
+    return agreement.snr_db or 3.0, agreement.snr_floor_db
+
+
+def dominance_unconfirmed(result: Verification) -> list[str]:
+    """Where the captured illuminations miss their predicted SNR_dB by more than the
+    tolerance :func:`dominated_illuminations` assumed when it left others out.
+
+    The dominance is a prediction; the captured illuminations are the only evidence of
+    how far the prediction holds on this station. When one of them misses by more than
+    the tolerance, the margin no longer guarantees the order, and what was left out has
+    to be captured after all. (A deviation of a left-out light alone leaves no trace
+    in the others: only ``--all-illuminations`` shows it.)
+
+    Returns
+    -------
+    list of str
+        "illumination: comparison measured … dB from its prediction", worst first;
+        empty when every captured comparison is within the tolerance (or both
+        predicted and measured are below the floor).
+    """
+    tolerance, floor = _dominance_tolerance(result.station.acceptance)
+    misses = [
+        (abs(r["snr_db_difference"]), f"{r['illumination']}: {r['comparison']}")
+        for r in result.comparisons
+        if max(r["predicted"]["snr_db"], r["measured"]["snr_db"]) >= floor
+        and abs(r["snr_db_difference"]) > tolerance
+    ]
+    return [
+        f"{where} measured {miss:.1f} dB from its prediction (more than {tolerance:g} dB)"
+        for miss, where in sorted(misses, reverse=True)
+    ]
 
 
 def verify(station, frames_dir: Path, *, plan: Plan | None = None) -> Verification:
