@@ -364,7 +364,121 @@ def prediction(quick: bool) -> Knob:
     return knob
 
 
-KNOBS = (grid_step, lscv, kde_error, gaussian_error, region, frames_averaged, prediction)
+def skipped_work(quick: bool) -> Knob:
+    """What two of the skips save, measured with and without them, and what the
+    results lose (sequential stopping: the frames knob's last row)."""
+    import tempfile
+
+    import yaml
+    from inspect_validate.camera.capture import capture
+    from inspect_validate.camera.station import read_station
+
+    from inspect_validate.measure import measure_files
+    from inspect_validate.verification.verify import (
+        dominated_illuminations,
+        plan_verification,
+        verify,
+    )
+
+    knob = Knob(
+        "Skipped work",
+        "Each skip against the same work done in full, in this process. ε KDE: measure "
+        "of the paperboard sample frame (Gaussian classes), --kde auto against --kde "
+        "always, best of 5 warm runs; the difference is the largest |ε KDE − ε Gauss| "
+        "relative to ε KDE over the comparisons, what auto reports in place of the KDE. "
+        "Dominated candidate: verify's capture of the simulated station with the ranking "
+        "off, without the red LED (predicted dominated) against with it "
+        "(--all-illuminations), each once; the difference is amber's largest |Δ SNR_dB| "
+        "between the two runs (new noise in each) and whether every amber verdict is the "
+        "same.",
+        ["skip", "with the skip", "without", "ratio", "difference in results"],
+        x_label="run time [s]",
+        y_label="difference in results",
+    )
+    sample = HERE.parent / "sample_images" / "paperboard"
+    frame, rois = [sample / "optimized.png"], sample / "rois.yaml"
+    results = {}
+    times = {}
+    for mode in ("auto", "always"):
+
+        def run(mode=mode):
+            results[mode] = measure_files(frame, rois, kde=mode)
+
+        times[mode] = best_time(run)
+    auto, always = results["auto"], results["always"]
+    assert all(c.error_kde is None for c in auto.comparisons)
+    worst = max(
+        abs(g.error_gaussian - k.error_kde) / k.error_kde
+        for g, k in zip(auto.comparisons, always.comparisons, strict=True)
+        if k.error_kde
+    )
+    knob.rows.append(
+        [
+            "ε KDE where the Gaussians fit (measure --kde auto)",
+            fmt_t(times["auto"]),
+            fmt_t(times["always"]),
+            ratio(times["auto"], times["always"]),
+            f"ε {worst:.1e} relative",
+        ]
+    )
+    knob.point("ε KDE skipped", times["auto"], worst, "auto")
+
+    station_dir = HERE.parent / "sample_images" / "station"
+    doc = yaml.safe_load((station_dir / "station.yaml").read_text())
+    doc["scene"] = str((station_dir / doc["scene"]).resolve())
+    doc["rois"] = str(station_dir / doc["rois"])
+    doc["acceptance"]["ranking"] = False
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        path = tmp / "station.yaml"
+        path.write_text(yaml.safe_dump(doc, sort_keys=False))
+        full = read_station(path)
+        plan = plan_verification(full)
+        dominated = dominated_illuminations(full, plan.model, plan.comparisons)
+        kept = full.model_copy(
+            update={"illuminations": [i for i in full.illuminations if i.name not in dominated]}
+        )
+        runs = {}
+        for label, st in (("skip", kept), ("all", full)):
+            t0 = time.perf_counter()
+            capture(st, tmp / label)
+            runs[label] = (time.perf_counter() - t0, verify(st, tmp / label, plan=plan))
+    (t_skip, v_skip), (t_all, v_all) = runs["skip"], runs["all"]
+
+    def amber(v):
+        snr = {
+            r["comparison"]: r["measured"]["snr_db"]
+            for r in v.comparisons
+            if r["illumination"] == "amber"
+        }
+        verdicts = {c.name: c.passed for c in v.checks if c.name.startswith("amber")}
+        return snr, verdicts
+
+    (snr_skip, verdicts_skip), (snr_all, verdicts_all) = amber(v_skip), amber(v_all)
+    delta = max(abs(snr_skip[k] - snr_all[k]) for k in snr_skip)
+    same = "same" if verdicts_skip == verdicts_all else "DIFFERENT"
+    knob.rows.append(
+        [
+            f"dominated candidate ({', '.join(dominated)}) not captured (verify)",
+            fmt_t(t_skip),
+            fmt_t(t_all),
+            ratio(t_skip, t_all),
+            f"amber SNR_dB within {delta:.2f} dB, verdicts {same}",
+        ]
+    )
+    return knob
+
+
+KNOBS = (
+    grid_step,
+    lscv,
+    kde_error,
+    gaussian_error,
+    region,
+    frames_averaged,
+    prediction,
+    skipped_work,
+)
 
 
 def plot(knob: Knob, path: Path) -> None:

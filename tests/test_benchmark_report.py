@@ -27,6 +27,7 @@ def test_report_writes_every_knob_with_its_plot(tmp_path):
         ("Region statistics", "region"),
         ("Frames per illumination", "frames_averaged"),
         ("Prediction size", "prediction"),
+        ("Skipped work", "skipped_work"),
     ):
         section = text.split(f"## {title}\n", 1)[1].split("\n## ", 1)[0]
         table = [line for line in section.splitlines() if line.startswith("| ")]
@@ -34,3 +35,4 @@ def test_report_writes_every_knob_with_its_plot(tmp_path):
         assert f"]({png}.png)" in section
         assert plt.imread(tmp_path / f"{png}.png").shape[:2] == (400, 600)
     assert not re.search(r"\b(nan|inf|infinity)\b", text, re.IGNORECASE)
+    assert "verdicts same" in text  # the dominated skip changes none of amber's verdicts
