@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from inspect_validate import __version__
-from inspect_validate.model.acquisition import Prediction
+from inspect_validate.model.acquisition import Prediction, _grey
 
 __all__ = ["class_bands", "expected_grey", "expose", "render_frame", "write_rendered"]
 
@@ -51,7 +51,7 @@ def expected_grey(
     """Expected grey value and temporal variance of each pixel that :func:`expose` renders.
 
     μ = offset + K μ_e and σ² = K² (μ_e + σ_d²) + 1/12 DN², the last term the
-    rounding to DN (Sheppard's correction). It holds where the dark noise smooths
+    rounding to DN (Sheppard's correction): the prediction's own grey-value model. It holds where the dark noise smooths
     the distribution over a DN: its error is of order exp(−2π² (K σ_d)²), 3e-9 at
     K σ_d = 1 DN, 7e-3 at 0.5 DN (below, the Poisson lattice shows through).
     Clipping is not modelled: valid where a pixel stays many σ inside [0, max DN].
@@ -71,8 +71,7 @@ def expected_grey(
         DN and DN², the shape of ``electrons``.
     """
     k = camera.gain if gain is None else gain
-    lam = np.maximum(electrons, 0.0)
-    return camera.dark_offset + k * lam, k * k * (lam + camera.dark_noise**2) + 1.0 / 12.0
+    return _grey(np.maximum(electrons, 0.0), k, camera.dark_noise, camera.dark_offset)
 
 
 def render_frame(

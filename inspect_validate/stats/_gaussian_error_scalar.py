@@ -113,14 +113,19 @@ def erfcx(x):
     if x < _ASYMPTOTIC_FROM:
         p, e = _two_square(x)
         return math.exp(p) * (1.0 + e) * math.erfc(x)
-    # 1/(x√π) · Σ (−1)ⁿ (2n−1)!! / (2x²)ⁿ
-    if math.isinf(x):
-        return 0.0
+    return erfcx_asymptotic(x)
+
+
+def erfcx_asymptotic(x):
+    """erfcx(x) for x ≥ 12: 1/(x√π) · Σ (−1)ⁿ (2n−1)!! / (2x²)ⁿ, 12 terms. Arithmetic only,
+    so it serves arrays as it stands; +inf gives 0 (2x² overflowing beyond 1e154 is
+    harmless: the terms vanish), NaN gives NaN."""
     u = 1.0 / (2.0 * x * x)
-    term, total = 1.0, 1.0
+    term = 1.0
+    total = 1.0
     for n in range(1, _ASYMPTOTIC_TERMS + 1):
-        term *= -(2.0 * n - 1.0) * u
-        total += term
+        term = term * (-(2.0 * n - 1.0) * u)
+        total = total + term
     return total / (x * math.sqrt(math.pi))
 
 

@@ -301,12 +301,13 @@ def dominated_illuminations(station, model, comparisons) -> dict[str, str]:
 
 def _dominance_tolerance(acc) -> tuple[float, float]:
     """How far (dB) each illumination's SNR_dB may miss its prediction for a dominance to
-    stand (the agreement tolerance, 3 dB if none), and the floor below which SNR_dB says
-    nothing."""
+    stand (the agreement tolerance; its default when the station sets none), and the
+    floor below which SNR_dB says nothing."""
     from inspect_validate.verification.acceptance import Agreement
 
     agreement = acc.agreement or Agreement()
-    return agreement.snr_db or 3.0, agreement.snr_floor_db
+    default = Agreement.model_fields["snr_db"].default
+    return agreement.snr_db or default, agreement.snr_floor_db
 
 
 def dominance_unconfirmed(result: Verification) -> list[str]:
