@@ -179,9 +179,9 @@ def test_cli_start_up_does_not_load_the_numerics():
 
 @pytest.mark.parametrize("flags", [["--no-kde"], [], ["--kde", "always"]])
 def test_measure_loads_neither_scipy_nor_numba(paperboard, flags):
-    """A heavy import is most of what a user waits for (scipy.special's was 0.2 s of a
-    0.4 s command). The paperboard classes are Gaussian, so the default (``--kde
-    auto``) computes no ε KDE; ``--kde always`` does, on numpy alone."""
+    """A heavy import is much of what a user waits for (scipy.special's import was 0.18 s
+    of a 0.51 s ``measure --no-kde``). The paperboard classes are Gaussian, so the
+    default (``--kde auto``) computes no ε KDE; ``--kde always`` does, on numpy alone."""
     code = (
         "import sys\n"
         "from inspect_validate.cli import main\n"
