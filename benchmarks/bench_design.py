@@ -28,7 +28,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from machine import machine_line
+from machine import compile_package, machine_line
 
 from inspect_validate.components import led
 from inspect_validate.design.catalogue import choose_channels
@@ -113,6 +113,7 @@ def main():
         )
     )
 
+    compile_package()
     cmd = [sys.executable, "-m", "inspect_validate", "design", str(SCENE)]
     _, t1 = timed(lambda: subprocess.run(cmd, check=True, capture_output=True))
     rows.append(

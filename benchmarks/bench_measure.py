@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 import tifffile
 import yaml
-from machine import PEAK_LAUNCHER, exact_moments, machine_line
+from machine import PEAK_LAUNCHER, compile_package, exact_moments, machine_line
 
 PLAIN = """
 import sys, cv2, yaml
@@ -88,6 +88,7 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--runs", type=int, default=5)
     args = parser.parse_args()
+    compile_package()
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         exact = make_frame(tmp)
