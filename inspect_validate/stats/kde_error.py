@@ -104,7 +104,8 @@ def _density_parts(centres, weights, sigma) -> list:
     its cost no longer grows as components × grid points. Anything else (a few
     Gaussians of their own widths) is one part summed in full.
     """
-    widths = np.unique(sigma)
+    # With return_counts np.unique does not import numpy.ma to look for a mask (7 ms).
+    widths = np.unique(sigma, return_counts=True)[0]
     if centres.size <= _WINDOW_MIN or widths.size > _WINDOW_WIDTHS_MAX:
         return [(centres, np.log(weights) - np.log(sigma), sigma)]
     parts = []
