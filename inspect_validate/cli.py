@@ -226,7 +226,7 @@ def predict(scene, json_path, top, rank_by, comparison, no_kde, plot_dir, render
         result = sc.sweep(by=by, comparison=comparison, top=top, client=client)
     for reason in result.skipped:
         click.echo(f"skipped: {reason}", err=True)
-    for work in result.skipped_work:
+    for work in (*sc.skipped, *result.skipped_work):
         click.echo(f"not computed: {work}", err=True)
     rows = prediction_rows(result, kde=not no_kde)
     n = result.combinations
@@ -238,7 +238,7 @@ def predict(scene, json_path, top, rank_by, comparison, no_kde, plot_dir, render
     click.echo(format_prediction(result, rows))
     if json_path:
         write_json(
-            prediction_document(result, rows, scene=str(scene)),
+            prediction_document(result, rows, scene=str(scene), skipped_work=sc.skipped),
             json_path,
         )
         click.echo(f"\nwrote {json_path}")

@@ -330,6 +330,7 @@ class Scene:
     rank_by: str
     rank_comparison: str | None
     comparisons: Comparisons
+    skipped: tuple[str, ...] = ()  # work the scene's declarations leave out, and why
 
     def _model_inputs(self) -> tuple[list, dict]:
         """The components and options as :func:`~inspect_validate.model.predict` and
@@ -408,7 +409,7 @@ def read_scene(path: str | Path) -> Scene:
         comparisons.class_weights()
     except InputError as exc:
         raise InputError(str(exc), source=f"{path}: comparisons.weights") from None
-    grid = _grid(model.wavelength, classes, lights, optics, cameras, path)
+    grid, skipped = _grid(model.wavelength, classes, lights, optics, cameras, path)
     return Scene(
         model.name or path.stem,
         str(path),
@@ -421,18 +422,37 @@ def read_scene(path: str | Path) -> Scene:
         model.rank.by,
         model.rank.comparison,
         comparisons,
+        skipped,
     )
 
 
-def _grid(wl, classes, lights, optics, cameras, path) -> np.ndarray:
+def _grid(wl, classes, lights, optics, cameras, path) -> tuple[np.ndarray, tuple[str, ...]]:
+    """The integration grid, and what its default range leaves out.
+
+    Undeclared, ``start``/``stop`` span where a light, a lens and a camera can all be
+    non-zero (each kind's supports joined, the kinds intersected): outside it every
+    combination's integrand has a zero factor, so leaving it out changes no integral
+    (the trapezoid's last interval onto a spectrum's end then stops at that end
+    instead of falling to 0 over one step). The classes do not narrow it: a
+    reflectance that misses a light's band must be reported, not cut away. If no
+    wavelength has all three, the spectra's joined ranges are kept, and the
+    combinations are skipped with their reasons.
+    """
     spectra = (
         [c.reflectance for c in classes]
         + [x.spd for x in lights]
         + [x.transmission for x in optics]
         + [x.qe for x in cameras]
     )
-    start = wl.start if wl.start is not None else min(s.range[0] for s in spectra)
-    stop = wl.stop if wl.stop is not None else max(s.range[1] for s in spectra)
+    joined = min(s.range[0] for s in spectra), max(s.range[1] for s in spectra)
+    kinds = [[x.spd for x in lights], [x.transmission for x in optics], [x.qe for x in cameras]]
+    response = (
+        max(min(s.support[0] for s in kind) for kind in kinds),
+        min(max(s.support[1] for s in kind) for kind in kinds),
+    )
+    default = response if response[1] > response[0] else joined
+    start = default[0] if wl.start is None else wl.start
+    stop = default[1] if wl.stop is None else wl.stop
     if stop <= start:
         raise InputError(
             f"wavelength: stop {stop:g} nm is not above start {start:g} nm", source=str(path)
@@ -445,7 +465,17 @@ def _grid(wl, classes, lights, optics, cameras, path) -> np.ndarray:
             "or a narrower range",
             source=str(path),
         )
-    return np.arange(start, stop + wl.step / 2, wl.step)
+    skipped = ()
+    lo = joined[0] if wl.start is None else wl.start
+    hi = joined[1] if wl.stop is None else wl.stop
+    if (lo, hi) != (start, stop):
+        left_out = round((hi - lo) / wl.step) - round((stop - start) / wl.step)
+        skipped = (
+            f"wavelengths {lo:g}–{hi:g} nm (the spectra's ranges) narrowed to {start:g}–"
+            f"{stop:g} nm, where a light, a lens and a camera all respond: {left_out} grid "
+            "points with nothing to integrate",
+        )
+    return np.arange(start, stop + wl.step / 2, wl.step), skipped
 
 
 def _object_class(name, spec, base, geometry):

@@ -216,3 +216,39 @@ def test_irradiance_is_bounded_like_in_station_files(tmp_path):
     )
     with pytest.raises(InputError, match=r"lights\[0\]\.irradiance: Input should be less than"):
         read_scene(path)
+
+
+def test_default_grid_leaves_out_what_no_light_lens_and_camera_see(tmp_path, capsys):
+    """Undeclared, the grid spans where a light, a lens and a camera can all be non-zero
+    (a lens file with zeros outside 400–700 nm bounds it), says what it left out, and the
+    prediction is the one on the spectra's whole joined range: the integrand is zero
+    there. Tolerance 1e-12 relative (summation order)."""
+    lens = "\n".join(f"{w},{0.9 if 400 < w < 700 else 0.0}" for w in range(300, 1001, 50))
+    (tmp_path / "t.csv").write_text(lens + "\n")
+    path = write(tmp_path, scene(optics="[{file: t.csv}]"))
+    sc = read_scene(path)
+    assert (sc.grid[0], sc.grid[-1]) == (400, 700)
+    assert len(sc.skipped) == 1 and "narrowed to 400–700 nm" in sc.skipped[0]
+    spectra = [c.reflectance for c in sc.classes]
+    spectra += [sc.lights[0].spd, sc.optics[0].transmission, sc.cameras[0].qe]
+    joined = np.arange(min(s.range[0] for s in spectra), max(s.range[1] for s in spectra) + 1)
+    assert joined.size > 2 * sc.grid.size
+    narrow, full = sc.predict(), sc.predict(grid=joined)
+    np.testing.assert_allclose(narrow.mean, full.mean, rtol=1e-12)
+    np.testing.assert_allclose(narrow.variance, full.variance, rtol=1e-12)
+    np.testing.assert_allclose(narrow.snr_db, full.snr_db, rtol=0, atol=1e-9)
+
+    assert run(["predict", path, "--json", tmp_path / "p.json"]) in (0, None)
+    assert (
+        f"not computed: wavelengths {joined[0]:g}–{joined[-1]:g} nm (the spectra's ranges) "
+        "narrowed to 400–700 nm" in capsys.readouterr().err
+    )
+    import json
+
+    doc = json.loads((tmp_path / "p.json").read_text())
+    assert doc["skipped_work"][0] == sc.skipped[0]
+    assert doc["wavelength_nm"]["start"] == 400
+
+    declared = scene(optics="[{file: t.csv}]", extra="wavelength: {start: 380, stop: 780}")
+    declared = read_scene(write(tmp_path, declared))
+    assert (declared.grid[0], declared.grid[-1], declared.skipped) == (380, 780, ())

@@ -18,7 +18,8 @@ PREDICTION_SCHEMA_VERSION = 2
 """2: ``key_comparison`` (the row's ranking comparison, an index into its complete
 ``comparisons``) replaces ``worst_comparison``; ``saturated``, ``exposure``
 (``"absolute"``/``"relative"``) and the top-level ``skipped`` were added; later,
-additively, ``skipped_work`` (what the ranking did not need computed, and its cost)."""
+additively, ``skipped_work`` (what the scene and the ranking did not need computed: a
+narrowed wavelength range, the cost of what the ranking left out)."""
 
 
 def prediction_rows(p: Ranking, *, kde: bool = True) -> list[dict]:
@@ -120,7 +121,9 @@ def format_prediction(p: Ranking, rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def prediction_document(p: Ranking, rows: list[dict], *, scene: str) -> dict:
+def prediction_document(p: Ranking, rows: list[dict], *, scene: str, skipped_work=()) -> dict:
+    """The prediction JSON; ``skipped_work`` adds the scene's own (a narrowed wavelength
+    range) before the ranking's."""
     return {
         "schema": "inspect-validate/prediction",
         "schema_version": PREDICTION_SCHEMA_VERSION,
@@ -139,6 +142,6 @@ def prediction_document(p: Ranking, rows: list[dict], *, scene: str) -> dict:
         "rank_comparison": p.comparison,
         "combinations": p.combinations,
         "skipped": list(p.skipped),
-        "skipped_work": list(p.skipped_work),
+        "skipped_work": [*skipped_work, *p.skipped_work],
         "ranking": rows,
     }

@@ -84,6 +84,17 @@ class Spectrum:
         """First and last wavelength, nm."""
         return float(self.wavelengths[0]), float(self.wavelengths[-1])
 
+    @property
+    def support(self) -> tuple[float, float]:
+        """The range less its leading and trailing zeros, nm: where the spectrum can be
+        non-zero between samples (the bounding zero samples are kept). A NaN counts as
+        non-zero (unknown); an all-zero spectrum's support is its range."""
+        nonzero = np.flatnonzero(np.any(self.values != 0, axis=0))
+        if nonzero.size == 0:
+            return self.range
+        lo, hi = max(nonzero[0] - 1, 0), min(nonzero[-1] + 1, self.wavelengths.size - 1)
+        return float(self.wavelengths[lo]), float(self.wavelengths[hi])
+
     def resample(self, grid: np.ndarray) -> np.ndarray:
         """Values on ``grid`` (nm) by linear interpolation, shape (S, len(grid)).
 
