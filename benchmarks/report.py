@@ -18,7 +18,10 @@ Knobs:
   ``cv2.meanStdDev``, errors against exact rational moments;
 * frames averaged per illumination (1–16) → error of μ and σ² over repeated
   captures of the simulated station, against the simulator's own truth;
-* prediction 10³ … 10⁷ combinations → time per combination and peak memory.
+* prediction 10³ … 10⁷ combinations → time per combination and peak memory;
+* skipped work: each skip against the same work done in full (ε KDE where the
+  Gaussians fit, wavelengths nothing responds at, comparisons not named, a blind
+  camera, a dominated candidate not captured).
 """
 
 from __future__ import annotations
@@ -366,8 +369,8 @@ def prediction(quick: bool) -> Knob:
 
 
 def skipped_work(quick: bool) -> Knob:
-    """What two of the skips save, measured with and without them, and what the
-    results lose (sequential stopping: the frames knob's last row)."""
+    """What the skips save, measured with and without them, and what the results lose
+    (sequential stopping: the frames knob's last row)."""
     import tempfile
 
     import yaml
@@ -387,6 +390,13 @@ def skipped_work(quick: bool) -> Knob:
         "of the paperboard sample frame (Gaussian classes), --kde auto against --kde "
         "always, best of 5 warm runs; the difference is the largest |ε KDE − ε Gauss| "
         "relative to ε KDE over the comparisons, what auto reports in place of the KDE. "
+        "predict's skips on the shipped inks scene (3 LEDs, 3 classes), best of 5 warm "
+        "runs: its wavelength: line removed, the grid where a light, a lens and a camera "
+        "all respond against the spectra's joined range (the difference is the joined "
+        "grid's last trapezoid interval falling to 0 past the camera's QE ends); the one "
+        "comparison named against all six (pairs, and each class against the rest: root "
+        "searches); a camera blind to some lights in the sweep, its combinations skipped "
+        "with their reasons, against the scene without it (the others' numbers). "
         "Dominated candidate: verify's capture of the simulated station with the ranking "
         "off, without the red LED (predicted dominated) against with it "
         "(--all-illuminations), each once; the difference is amber's largest |Δ SNR_dB| "
@@ -423,6 +433,7 @@ def skipped_work(quick: bool) -> Knob:
         ]
     )
     knob.point("ε KDE skipped", times["auto"], worst, "auto")
+    knob.rows += _prediction_skips(knob)
 
     station_dir = HERE.parent / "sample_images" / "station"
     doc = yaml.safe_load((station_dir / "station.yaml").read_text())
@@ -468,6 +479,97 @@ def skipped_work(quick: bool) -> Knob:
         ]
     )
     return knob
+
+
+def _prediction_skips(knob: Knob) -> list[list[str]]:
+    """predict's skips on the shipped inks scene (3 LEDs, 3 classes), best of 5 warm runs:
+    the wavelength range (its ``wavelength:`` line removed), named comparisons, a blind
+    camera."""
+    import dataclasses
+    import tempfile
+
+    from inspect_validate.scene import read_scene
+
+    mix = HERE.parent / "sample_images" / "scenes" / "mix"
+    text = (mix / "scene.yaml").read_text().replace("file: ", f"file: {mix}/")
+    undeclared = "".join(
+        line for line in text.splitlines(True) if not line.startswith("wavelength:")
+    )
+    blind = text.replace("cameras:\n", "cameras:\n  - ingaas-swir\n")
+    with tempfile.TemporaryDirectory() as tmp:
+        scenes = {}
+        for name, body in (("shipped", text), ("undeclared", undeclared), ("blind", blind)):
+            (Path(tmp) / f"{name}.yaml").write_text(body)
+            scenes[name] = read_scene(Path(tmp) / f"{name}.yaml")
+    results = {}
+
+    def timed(label, scene, grid=None):
+        def run():
+            results[label] = scene.predict(grid=grid)
+
+        return best_time(run)
+
+    def relative(a, b):
+        return float(np.nanmax(np.abs(a / b - 1)))
+
+    def absolute(a, b):
+        return float(np.nanmax(np.abs(a - b)))
+
+    rows = []
+    sc = scenes["undeclared"]
+    spectra = [c.reflectance for c in sc.classes] + [x.spd for x in sc.lights]
+    spectra += [x.transmission for x in sc.optics] + [x.qe for x in sc.cameras]
+    joined = np.arange(
+        min(s.range[0] for s in spectra), max(s.range[1] for s in spectra) + 0.5, 1.0
+    )
+    t_narrow, t_joined = timed("narrow", sc), timed("joined", sc, joined)
+    narrow, full = results["narrow"], results["joined"]
+    mean = relative(narrow.mean, full.mean)
+    rows.append(
+        [
+            f"wavelengths no light, lens and camera all see (predict: {sc.grid[0]:g}–"
+            f"{sc.grid[-1]:g} nm of {joined[0]:g}–{joined[-1]:g})",
+            fmt_t(t_narrow),
+            fmt_t(t_joined),
+            ratio(t_narrow, t_joined),
+            f"μ {mean:.1e} relative, SNR_dB within {absolute(narrow.snr_db, full.snr_db):.1e} dB",
+        ]
+    )
+    knob.point("wavelength range", t_narrow, mean, "narrowed")
+
+    sc = scenes["shipped"]
+    named = dataclasses.replace(sc, comparisons=sc.comparisons.subset(["A vs B"]))
+    t_named, t_all = timed("named", named), timed("all", sc)
+    one, every = results["named"], results["all"]
+    column = sc.comparisons.index("A vs B")
+    snr = absolute(one.snr_db[..., 0], every.snr_db[..., column])
+    eps = relative(one.error_gaussian[..., 0], every.error_gaussian[..., column])
+    rows.append(
+        [
+            f"comparisons not named (predict 'A vs B' of {len(sc.comparisons.groups)})",
+            fmt_t(t_named),
+            fmt_t(t_all),
+            ratio(t_named, t_all),
+            f"A vs B: SNR_dB within {snr:.1e} dB, ε {eps:.1e} relative",
+        ]
+    )
+    knob.point("named comparisons", t_named, max(snr, eps), "A vs B")
+
+    t_blind = timed("blind", scenes["blind"])
+    p = results["blind"]
+    keep = [p.cameras.index(name) for name in every.cameras]
+    rows.append(
+        [
+            f"a camera blind to some lights (ingaas-swir) skipped with its reasons, not the "
+            f"sweep stopped (predict, {int((~p.valid).sum())} of {p.valid.size} combinations)",
+            fmt_t(t_blind),
+            f"{fmt_t(t_all)} (without the camera)",
+            ratio(t_blind, t_all),
+            f"the others' μ {relative(p.mean[:, :, keep], every.mean):.1e} relative, "
+            f"SNR_dB within {absolute(p.snr_db[:, :, keep], every.snr_db):.1e} dB",
+        ]
+    )
+    return rows
 
 
 KNOBS = (

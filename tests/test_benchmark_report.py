@@ -36,3 +36,6 @@ def test_report_writes_every_knob_with_its_plot(tmp_path):
         assert plt.imread(tmp_path / f"{png}.png").shape[:2] == (400, 600)
     assert not re.search(r"\b(nan|inf|infinity)\b", text, re.IGNORECASE)
     assert "verdicts same" in text  # the dominated skip changes none of amber's verdicts
+    skips = text.split("## Skipped work\n", 1)[1]
+    for row in ("| wavelengths no light", "| comparisons not named", "| a camera blind"):
+        assert row in skips

@@ -86,6 +86,13 @@ def test_blind_camera_is_skipped_and_the_rest_ranked():
     order = rank(p)[0]
     assert order.tolist() == [[0, 0, 0]]
     assert np.isnan(p.mean[0, 0, 1]).all()
+    # The skip costs the others nothing: their numbers are those of a sweep without it
+    # (to 1e-12 relative: the products are summed in other blocks).
+    alone = predict(
+        [led(550, 30)], [ideal_lens()], [builtin_camera("cmos-visible")], classes, grid=GRID
+    )
+    np.testing.assert_allclose(p.mean[:, :, :1], alone.mean, rtol=1e-12)
+    np.testing.assert_allclose(p.error_gaussian[:, :, :1], alone.error_gaussian, rtol=1e-12)
 
 
 def test_class_that_misses_the_light_band_is_not_a_perfect_separation():
