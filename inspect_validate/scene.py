@@ -431,12 +431,10 @@ def _grid(wl, classes, lights, optics, cameras, path) -> tuple[np.ndarray, tuple
 
     Undeclared, ``start``/``stop`` span where a light, a lens and a camera can all be
     non-zero (each kind's supports joined, the kinds intersected): outside it every
-    combination's integrand has a zero factor, so leaving it out changes no integral
-    (the trapezoid's last interval onto a spectrum's end then stops at that end
-    instead of falling to 0 over one step). The classes do not narrow it: a
-    reflectance that misses a light's band must be reported, not cut away. If no
-    wavelength has all three, the spectra's joined ranges are kept, and the
-    combinations are skipped with their reasons.
+    combination's integrand has a zero factor, so leaving it out changes no integral.
+    The classes do not narrow it: a reflectance that misses a light's band must be
+    reported, not cut away. If no wavelength has all three, the spectra's joined
+    ranges are kept, and the combinations are skipped with their reasons.
     """
     spectra = (
         [c.reflectance for c in classes]
@@ -450,7 +448,15 @@ def _grid(wl, classes, lights, optics, cameras, path) -> tuple[np.ndarray, tuple
         max(min(s.support[0] for s in kind) for kind in kinds),
         min(max(s.support[1] for s in kind) for kind in kinds),
     )
-    default = response if response[1] > response[0] else joined
+    default = joined
+    if response[1] > response[0]:
+        # On the joined range's lattice, one step beyond the response on each side: the
+        # ends then hold zeros, and every point inside keeps its trapezoid weight, so
+        # each integral is the joined grid's, term for term.
+        last = np.floor((joined[1] - joined[0]) / wl.step + 0.5)
+        first_k = max(np.floor((response[0] - joined[0]) / wl.step) - 1, 0)
+        last_k = min(np.ceil((response[1] - joined[0]) / wl.step) + 1, last)
+        default = joined[0] + first_k * wl.step, joined[0] + last_k * wl.step
     start = default[0] if wl.start is None else wl.start
     stop = default[1] if wl.stop is None else wl.stop
     if stop <= start:

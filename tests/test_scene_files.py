@@ -220,15 +220,16 @@ def test_irradiance_is_bounded_like_in_station_files(tmp_path):
 
 def test_default_grid_leaves_out_what_no_light_lens_and_camera_see(tmp_path, capsys):
     """Undeclared, the grid spans where a light, a lens and a camera can all be non-zero
-    (a lens file with zeros outside 400–700 nm bounds it), says what it left out, and the
-    prediction is the one on the spectra's whole joined range: the integrand is zero
-    there. Tolerance 1e-12 relative (summation order)."""
+    (a lens file with zeros outside 400–700 nm bounds it; one step more each side), says
+    what it left out, and the prediction is the one on the spectra's whole joined range:
+    the integrand is zero there. Tolerance 1e-12 relative (summation order). A 5 nm step
+    on a 1 nm-wide band keeps that band's full trapezoid weight."""
     lens = "\n".join(f"{w},{0.9 if 400 < w < 700 else 0.0}" for w in range(300, 1001, 50))
     (tmp_path / "t.csv").write_text(lens + "\n")
     path = write(tmp_path, scene(optics="[{file: t.csv}]"))
     sc = read_scene(path)
-    assert (sc.grid[0], sc.grid[-1]) == (400, 700)
-    assert len(sc.skipped) == 1 and "narrowed to 400–700 nm" in sc.skipped[0]
+    assert (sc.grid[0], sc.grid[-1]) == (399, 701)
+    assert len(sc.skipped) == 1 and "narrowed to 399–701 nm" in sc.skipped[0]
     spectra = [c.reflectance for c in sc.classes]
     spectra += [sc.lights[0].spd, sc.optics[0].transmission, sc.cameras[0].qe]
     joined = np.arange(min(s.range[0] for s in spectra), max(s.range[1] for s in spectra) + 1)
@@ -241,13 +242,20 @@ def test_default_grid_leaves_out_what_no_light_lens_and_camera_see(tmp_path, cap
     assert run(["predict", path, "--json", tmp_path / "p.json"]) in (0, None)
     assert (
         f"not computed: wavelengths {joined[0]:g}–{joined[-1]:g} nm (the spectra's ranges) "
-        "narrowed to 400–700 nm" in capsys.readouterr().err
+        "narrowed to 399–701 nm" in capsys.readouterr().err
     )
     import json
 
     doc = json.loads((tmp_path / "p.json").read_text())
     assert doc["skipped_work"][0] == sc.skipped[0]
-    assert doc["wavelength_nm"]["start"] == 400
+    assert doc["wavelength_nm"]["start"] == 399
+
+    (tmp_path / "t.csv").write_text("300,0\n600,0\n650,1\n651,0\n1000,0\n")
+    lens = scene(optics="[{file: t.csv}]", extra="wavelength: {step: 5}")
+    coarse = read_scene(write(tmp_path, lens))
+    assert coarse.grid[0] < 650 < coarse.grid[-1]
+    on_joined = coarse.predict(grid=np.arange(joined[0], joined[-1] + 1, 5.0))
+    np.testing.assert_allclose(coarse.predict().mean, on_joined.mean, rtol=1e-12)
 
     declared = scene(optics="[{file: t.csv}]", extra="wavelength: {start: 380, stop: 780}")
     declared = read_scene(write(tmp_path, declared))
