@@ -436,14 +436,9 @@ def _grid(wl, classes, lights, optics, cameras, path) -> tuple[np.ndarray, tuple
     reported, not cut away. If no wavelength has all three, the spectra's joined
     ranges are kept, and the combinations are skipped with their reasons.
     """
-    spectra = (
-        [c.reflectance for c in classes]
-        + [x.spd for x in lights]
-        + [x.transmission for x in optics]
-        + [x.qe for x in cameras]
-    )
-    joined = min(s.range[0] for s in spectra), max(s.range[1] for s in spectra)
     kinds = [[x.spd for x in lights], [x.transmission for x in optics], [x.qe for x in cameras]]
+    spectra = [c.reflectance for c in classes] + [s for kind in kinds for s in kind]
+    joined = min(s.range[0] for s in spectra), max(s.range[1] for s in spectra)
     response = (
         max(min(s.support[0] for s in kind) for kind in kinds),
         min(max(s.support[1] for s in kind) for kind in kinds),
@@ -457,8 +452,13 @@ def _grid(wl, classes, lights, optics, cameras, path) -> tuple[np.ndarray, tuple
         first_k = max(np.floor((response[0] - joined[0]) / wl.step) - 1, 0)
         last_k = min(np.ceil((response[1] - joined[0]) / wl.step) + 1, last)
         default = joined[0] + first_k * wl.step, joined[0] + last_k * wl.step
-    start = default[0] if wl.start is None else wl.start
-    stop = default[1] if wl.stop is None else wl.stop
+
+    def declared_or(bounds):
+        return tuple(
+            b if d is None else d for b, d in zip(bounds, (wl.start, wl.stop), strict=True)
+        )
+
+    start, stop = declared_or(default)
     if stop <= start:
         raise InputError(
             f"wavelength: stop {stop:g} nm is not above start {start:g} nm", source=str(path)
@@ -472,8 +472,7 @@ def _grid(wl, classes, lights, optics, cameras, path) -> tuple[np.ndarray, tuple
             source=str(path),
         )
     skipped = ()
-    lo = joined[0] if wl.start is None else wl.start
-    hi = joined[1] if wl.stop is None else wl.stop
+    lo, hi = declared_or(joined)
     if (lo, hi) != (start, stop):
         left_out = round((hi - lo) / wl.step) - round((stop - start) / wl.step)
         skipped = (

@@ -5,6 +5,7 @@ code 2, the file and field named, no traceback. And the fields that used to be
 ignored now take effect (a built-in camera's gain).
 """
 
+import json
 import re
 
 import numpy as np
@@ -244,8 +245,6 @@ def test_default_grid_leaves_out_what_no_light_lens_and_camera_see(tmp_path, cap
         f"not computed: wavelengths {joined[0]:g}–{joined[-1]:g} nm (the spectra's ranges) "
         "narrowed to 399–701 nm" in capsys.readouterr().err
     )
-    import json
-
     doc = json.loads((tmp_path / "p.json").read_text())
     assert doc["skipped_work"][0] == sc.skipped[0]
     assert doc["wavelength_nm"]["start"] == 399

@@ -121,7 +121,9 @@ def format_prediction(p: Ranking, rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def prediction_document(p: Ranking, rows: list[dict], *, scene: str, skipped_work=()) -> dict:
+def prediction_document(
+    p: Ranking, rows: list[dict], *, scene: str, skipped_work: tuple[str, ...] = ()
+) -> dict:
     """The prediction JSON; ``skipped_work`` adds the scene's own (a narrowed wavelength
     range) before the ranking's."""
     return {
