@@ -679,6 +679,8 @@ def design(source, json_path, check, out_dir, choose, objective, auto_exposure):
         out_dir = _new_folder("design", source)
     _outputs(files=[json_path], folders=[out_dir])
     problem = design_problem(source, auto_exposure=auto_exposure)
+    for work in problem.skipped:
+        click.echo(f"not computed: {work}", err=True)
     objective = objective or ("cnr" if problem.rank_by == "cnr_db" else "error")
     if check and problem.station is None:
         raise InputError(

@@ -223,6 +223,20 @@ def test_design_cli_on_the_example_scene(cli, tmp_path):
     assert worst_mix < worst_single / 10
     assert len(doc["drive_tolerance"]) == 6
     assert all(c["saturated_fraction"] < 1e-3 for c in doc["mix"]["classes"])
+    assert doc["skipped_work"] == [] and "not computed" not in err
+
+
+def test_design_cli_lists_a_narrowed_wavelength_range(cli, tmp_path):
+    import json
+
+    path = write_mix_scene(
+        tmp_path / "s.yaml", lambda t: t.replace("{start: 380, stop: 780, step: 1}", "{step: 1}")
+    )
+    code, _, err = cli(["design", path, "--json", tmp_path / "d.json"])
+    assert code == 0, err
+    (work,) = json.loads((tmp_path / "d.json").read_text())["skipped_work"]
+    assert work.startswith("wavelengths ") and "narrowed to" in work
+    assert f"not computed: {work}" in err
 
 
 def test_design_cli_cnr_auto_exposure_and_plots(cli, tmp_path):

@@ -192,6 +192,22 @@ def test_gain_is_skipped_with_a_reason_when_darks_clip_at_zero(cli, tmp_path):
     assert any("clipped at 0" in s for s in doc["skipped"])
 
 
+def test_a_scene_without_a_wavelength_range_lists_the_narrowed_grid(cli, tmp_path):
+    # Without `wavelength: {start, stop}` the grid spans where the LEDs, the lens and the
+    # camera all respond; verify says so, as predict does, and the station still passes.
+    base = ROOT / "sample_images" / "scenes" / "paperboard"
+    scene = yaml.safe_load((base / "scene.yaml").read_text())
+    scene["wavelength"] = {"step": 1}
+    for spec in scene["classes"].values():
+        spec["file"] = str(base / spec["file"])
+    scene["cameras"][0]["file"] = str((base / scene["cameras"][0]["file"]).resolve())
+    (tmp_path / "scene.yaml").write_text(yaml.safe_dump(scene, sort_keys=False))
+    code, out, err, doc = verify(cli, tmp_path, station(tmp_path, scene="scene.yaml"))
+    assert code == 0, out + err
+    (line,) = [s for s in doc["skipped"] if s.startswith("wavelengths ")]
+    assert "narrowed to" in line and f"skipped: {line}" in out
+
+
 @pytest.mark.parametrize(
     ("name", "expected", "failing"),
     [

@@ -40,6 +40,7 @@ class DesignProblem:
     auto_exposure: bool = False
     max_exposure_time: float = MAX_EXPOSURE_TIME  # s
     rank_by: str = "error"  # what the scene ranks by (error, snr_db, cnr_db)
+    skipped: tuple[str, ...] = ()  # work the scene's declarations leave out (Scene.skipped)
 
 
 def design_problem(path: str | Path, *, auto_exposure: bool = False) -> DesignProblem:
@@ -108,6 +109,7 @@ def _from_station(path: Path, auto_exposure: bool) -> DesignProblem:
         camera=model.camera,
         classes=classes,
         grid=model.scene.grid,
+        skipped=model.scene.skipped,
         exposure_time=model.exposure_time,
         comparisons=comparisons,
         objective=objective,
@@ -159,4 +161,5 @@ def _from_scene(path: Path, auto_exposure: bool) -> DesignProblem:
         auto_exposure=auto,
         max_exposure_time=max(longest, float(sc.exposure.time or 0.0)),
         rank_by=sc.rank_by,
+        skipped=sc.skipped,
     )

@@ -77,6 +77,7 @@ def design_document(d) -> dict:
             "exhaustive": d.choice.exhaustive,
             "lower_bound_error": d.choice.bound,
         },
+        "skipped_work": list(p.skipped),
     }
 
 

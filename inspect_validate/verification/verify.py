@@ -356,7 +356,7 @@ def verify(station, frames_dir: Path, *, plan: Plan | None = None) -> Verificati
     acc = station.acceptance
     rois, comparisons, model, golden = plan.rois, plan.comparisons, plan.model, plan.golden
     need_kde = acc.needs_kde
-    skipped = [
+    skipped = [*model.scene.skipped] + [
         f"illumination {name!r}: {why}; not captured (verify --all-illuminations captures it)"
         for name, why in plan.dominated.items()
     ]
