@@ -109,7 +109,9 @@ class SerialAscii:
             reply = bytearray()
             deadline = time.monotonic() + self.timeout
             while time.monotonic() < deadline:
-                reply += self._serial.read(256)
+                # What has arrived, or wait for one byte: a fixed-size read would sit out
+                # the port's whole 50 ms timeout on every short reply.
+                reply += self._serial.read(self._serial.in_waiting or 1)
                 if self._complete(reply):
                     break
             else:
