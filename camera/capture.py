@@ -14,11 +14,14 @@ For each illumination (and finally the dark frames, all lights off):
    is a stale camera, an error;
 4. save each frame (16-bit TIFF + JSON sidecar, atomically) as soon as it is
    verified, on a writer thread while the next is grabbed, so a failure later
-   in the step loses none of them.
+   in the step loses none of them. A step is marked complete once its last
+   frame is on disk, which the capture waits for after the next switch, while
+   the camera exposes that step's first frame.
 
-A camera that can restart its stream (GenICam: stop and start the acquisition,
-which discards every queued buffer) does so after the switch; then no frame
-from before the switch can arrive, however many buffers the driver queues.
+A camera that can restart its stream (GenICam and pylon: stop and start the
+acquisition, which discards every queued buffer) does so after the switch; then
+no frame from before the switch can arrive, however many buffers the driver
+queues.
 
 After the dark frames, a step no brighter than dark is reported as a warning
 (manifest ``warnings``): its light never reached the camera.
@@ -173,6 +176,28 @@ def capture(
             "camera",
             {"name": camera.name, "missing": sorted(camera.missing), "not_applied": not_applied},
         )
+        pending = None  # a step whose frames are grabbed; their saves may still run
+
+        def complete(step):
+            """Mark ``step`` complete once all its frames are on disk; a failed save fails it."""
+            nonlocal pending
+            pending = None
+            try:
+                store.flush()
+            except InputError as exc:
+                store.fail(step, str(exc))
+                raise
+            store.finish(step)
+
+        def abort(step, exc):
+            """Record why ``step`` failed once every frame grabbed before is written."""
+            nonlocal pending
+            unsaved = store.close()  # the frames grabbed before the failure are kept
+            if unsaved is not None:
+                pending = None  # which step's frame failed is in the message, not known here
+            also = f"; saving its frames failed too: {unsaved}" if unsaved else ""
+            store.fail(step, f"{exc}{also}")
+
         try:
             for name, setting, n in steps:
                 if store.is_complete(name):
@@ -180,13 +205,19 @@ def capture(
                     done += n
                     continue
                 as_json = {str(k): v for k, v in setting.items()}  # JSON keys are strings
-                store.begin(name, {"channels": as_json})
                 try:
                     controller.apply(setting)
                     switched = time.monotonic_ns()
                     # A camera that can restart its stream drops every queued buffer:
                     # nothing exposed before the switch can arrive after it.
                     fresh = camera.restart_stream()
+                except (DeviceError, InputError) as exc:
+                    abort(name, exc)
+                    raise
+                if pending is not None:
+                    complete(pending)  # its last saves end while this step's first frame exposes
+                try:
+                    store.begin(name, {"channels": as_json})
                     status = controller.status()
                     if status:
                         store.note(name, "controller_status", status)
@@ -223,7 +254,6 @@ def capture(
                             progress(name, done, total)
                         if enough:
                             break
-                    store.flush()
                     if stop is not None:
                         known[name] = stop.known()
                         store.note(name, "precision", asdict(known[name]))
@@ -231,21 +261,22 @@ def capture(
                     DeviceError,
                     InputError,
                 ) as exc:  # InputError: ROIs off the frame, a full disk
-                    unsaved = store.close()  # the frames grabbed before the failure are kept
-                    also = f"; saving its frames failed too: {unsaved}" if unsaved else ""
-                    store.fail(name, f"{exc}{also}")
+                    abort(name, exc)
                     raise
-                store.finish(name)
+                pending = name
                 saved[name] = i
                 levels[name] = total_mean / i
+            if pending is not None:
+                complete(pending)
         finally:
             try:
                 controller.all_off()
             except DeviceError:
                 pass  # the original error matters more; the frames are saved
             # An interruption (Ctrl-C) or an error still writes every frame grabbed before
-            # it (every step that ended normally flushed its own, with their failures).
-            store.close()
+            # it; a step whose every frame was grabbed is then complete.
+            if store.close() is None and pending is not None:
+                store.finish(pending)
     warnings = _unlit_steps(levels, station.brightness_tolerance)
     if warnings:
         store.record("warnings", list(warnings))

@@ -73,7 +73,7 @@ class _CameraCommon(_Strict):
     gain_db: Annotated[float, Field(ge=-60, le=100, allow_inf_nan=False)] | None = None
     pixel_format: str | None = None
     timeout_s: Seconds = 2.0
-    # dropped after a switch when timestamps cannot prove the exposure time
+    # dropped after a switch by a camera that cannot restart its stream (v4l2, replay)
     flush_frames: Annotated[int, Field(ge=0, le=1000)] = 4
 
     @field_validator("pixel_format")

@@ -392,7 +392,10 @@ def test_a_frame_that_cannot_be_written_stops_the_capture_naming_the_file(tmp_pa
     assert f"{out / 'amber' / 'frame_0001.tif'}: cannot write (File too large)" in done.stderr
     assert "Traceback" not in done.stderr
     manifest = json.loads((out / "manifest.json").read_text())
+    # Found while the next light's first frame exposes, the failure is still amber's.
     assert not manifest["steps"]["amber"]["complete"]
+    assert "File too large" in manifest["steps"]["amber"]["error"]
+    assert [s for s, v in manifest["steps"].items() if "error" in v] == ["amber"]
     assert not list(out.rglob("*.tmp")) and not list(out.rglob("frame_*"))
 
 

@@ -76,6 +76,31 @@ def test_emulator_errors(tmp_path):
     assert "timeout: " in out and "no frame within 0.2 s" in out
 
 
+def test_restart_drops_the_frames_pylon_queued_before_the_switch(tmp_path):
+    # While the capture saves, a free-running camera fills pylon's MaxNumBuffer buffers
+    # with frames exposed under the old light; a fixed flush of 4 would keep six of them.
+    out = run_with_emulator(
+        """
+        import time
+        from inspect_validate.camera.grabbers.pylon import PylonCamera
+        with PylonCamera() as cam:
+            cam.configure(region=(0, 0, 64, 64))
+            cam.nodes.AcquisitionFrameRateEnable.Value = True
+            cam.nodes.AcquisitionFrameRate.Value = 50
+            last = cam.grab(1)[0].frame_id
+            time.sleep(0.5)
+            print("queued", cam.nodes.NumReadyBuffers.Value, cam.nodes.MaxNumBuffer.Value)
+            print("restarted", cam.restart_stream(), cam.nodes.NumReadyBuffers.Value)
+            print("skipped", cam.grab(1)[0].frame_id - last - 1)
+        """,
+        tmp_path,
+    )
+    queued, restarted, skipped = (line.split() for line in out.splitlines())
+    assert queued[1] == queued[2] == "10"
+    assert restarted[1:] == ["True", "0"]
+    assert int(skipped[1]) >= 10  # pylon counts the dropped buffers in the frame IDs
+
+
 def test_full_capture_through_the_emulator_matches_the_simulated_station(tmp_path):
     """The simulated station's capture, every frame through pylon's grab engine."""
     from conftest import ROOT
@@ -109,10 +134,10 @@ def test_full_capture_through_the_emulator_matches_the_simulated_station(tmp_pat
     )
     assert done.returncode == 0, done.stdout + done.stderr
     meta = json.loads((out / "red" / "frame_0001.json").read_text())
-    # The emulator stamps no time (TimeStamp 0): arrival clock, so the station's flush applies.
+    # The emulator stamps no time (TimeStamp 0), but the restarted stream needs no flush.
     assert meta["device"].startswith("Basler Emulation") and meta["clock"] == "arrival"
     assert meta["pixel_format"] == "Mono16" and meta["exposure_us"] == 8000
-    assert meta["discarded_before"] >= 4
+    assert meta["stream_restarted"] and meta["discarded_before"] == 0
 
     # The same station on the simulated camera: class means agree within noise.
     sim = tmp_path / "sim"

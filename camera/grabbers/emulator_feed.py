@@ -72,6 +72,9 @@ class EmulatorFeed(Grabber):
         self.camera.serve_files(folder)
         self._served = state
 
+    def restart_stream(self) -> bool:
+        return self.camera.restart_stream()
+
     def grab(self, n: int, *, timeout_s: float = 2.0) -> list[Frame]:
         frames = []
         for _ in range(n):

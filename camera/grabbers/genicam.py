@@ -139,9 +139,19 @@ class GenICamCamera(Grabber):
             self._ia.stop()
             self._acquiring = False
 
+    def _start(self):
+        if not self._acquiring:
+            try:
+                self._ia.start()
+            except Exception as exc:  # GenTL raises several types when it cannot arm
+                raise DeviceError(f"{self.name}: cannot start the acquisition ({exc})") from None
+            self._acquiring = True
+
     def restart_stream(self) -> bool:
-        """Stop and restart the acquisition: harvesters flushes every queued buffer on stop."""
+        """Stop and restart the acquisition: harvesters flushes every queued buffer on stop.
+        Started here, the first frame exposes while the capture finishes the last step."""
         self._stop()
+        self._start()
         return True
 
     def configure(self, *, exposure_us=None, gain_db=None, pixel_format=None, region=None) -> None:
@@ -181,12 +191,7 @@ class GenICamCamera(Grabber):
     def grab(self, n: int, *, timeout_s: float = 2.0) -> list[Frame]:
         from genicam.gentl import TimeoutException
 
-        if not self._acquiring:
-            try:
-                self._ia.start()
-            except Exception as exc:  # GenTL raises several types when it cannot arm
-                raise DeviceError(f"{self.name}: cannot start the acquisition ({exc})") from None
-            self._acquiring = True
+        self._start()
         exposure, gain = self._read(_EXPOSURE_NODES), self._read(_GAIN_NODES)
         frames = []
         for k in range(n):

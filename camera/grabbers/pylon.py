@@ -110,10 +110,23 @@ class PylonCamera(Grabber):
         self._cam.ImageFileMode.Value = "On"
         self._cam.ImageFilename.Value = str(folder)
 
+    def _start(self):
+        if not self._cam.IsGrabbing():
+            self._cam.StartGrabbing(self._pylon.GrabStrategy_OneByOne)
+
+    def restart_stream(self) -> bool:
+        """Stop and start the grab: pylon executes AcquisitionStop and drops every buffer
+        in its queues (up to ``MaxNumBuffer``, ten by default, wait there while the
+        capture saves). Started here, the first frame exposes while the capture finishes
+        the last step."""
+        if self._cam.IsGrabbing():
+            self._cam.StopGrabbing()
+        self._start()
+        return True
+
     def grab(self, n: int, *, timeout_s: float = 2.0) -> list[Frame]:
         pylon = self._pylon
-        if not self._cam.IsGrabbing():
-            self._cam.StartGrabbing(pylon.GrabStrategy_OneByOne)
+        self._start()
         fmt = self._cam.PixelFormat.Value
         exposure = float(self._cam.ExposureTime.Value) if "exposure" not in self.missing else None
         gain = float(self._cam.Gain.Value) if "gain" not in self.missing else None
