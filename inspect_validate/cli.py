@@ -145,6 +145,21 @@ def measure(
         sys.exit(EXIT_CHECK_FAILED)
 
 
+def _scheduler_address(value):
+    """``--dask``'s value: "local", or a scheduler address (``tcp://host:8786``,
+    ``host:8786``). Anything else is the SCENE, taken as the address when ``--dask``
+    comes first."""
+    import re
+
+    if value is None or value == "local" or re.match(r"^(\w+://.+|[\w.\-\[\]:]+:\d+)$", value):
+        return value
+    raise click.BadParameter(
+        f"{value!r} is not a scheduler address (tcp://host:8786); for a LocalCluster put "
+        "--dask after SCENE, or write --dask=local",
+        param_hint="--dask",
+    )
+
+
 @cli.command()
 @click.argument("scene", type=_PATH)
 @click.option(
@@ -184,6 +199,7 @@ def measure(
     is_flag=False,
     flag_value="local",
     metavar="[ADDRESS]",
+    callback=lambda ctx, param, value: _scheduler_address(value),
     help="Predict the blocks of combinations on Dask: a LocalCluster, or the scheduler "
     "at ADDRESS (tcp://host:8786).",
 )

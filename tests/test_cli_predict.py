@@ -112,3 +112,18 @@ def test_masked_wavelengths_are_reported(tmp_path, capsys):
         "note: A (" in err
         and "1 wavelengths invalid (white reference ≤ black) between 700 and 700 nm" in err
     )
+
+
+def test_dask_before_the_scene_is_named_not_taken_as_its_address(capsys):
+    from conftest import ROOT
+
+    from inspect_validate.cli import _scheduler_address
+
+    scene = ROOT / "sample_images/scenes/mix/scene.yaml"
+    # `predict --dask SCENE`: click gives SCENE to --dask; the message says what happened.
+    assert run(["predict", "--dask", scene]) == 2
+    err = capsys.readouterr().err
+    assert f"'{scene}' is not a scheduler address" in err and "put --dask after SCENE" in err
+    assert "Missing argument" not in err
+    for address in ("tcp://10.0.0.5:8786", "scheduler:8786", "[::1]:8786", "local"):
+        assert _scheduler_address(address) == address  # what Dask's Client takes passes
