@@ -464,6 +464,12 @@ def _grid(wl, classes, lights, optics, cameras, path) -> tuple[np.ndarray, tuple
             f"wavelength: stop {stop:g} nm is not above start {start:g} nm", source=str(path)
         )
     count = (stop - start) / wl.step + 1
+    if count < 2:
+        raise InputError(
+            f"wavelength: {start:g}–{stop:g} nm is narrower than one {wl.step:g} nm step: one "
+            "point cannot be integrated; widen the range or give a finer step",
+            source=str(path),
+        )
     if count > MAX_GRID_POINTS:
         raise InputError(
             f"wavelength: {start:g}–{stop:g} nm in {wl.step:g} nm steps is {count:.3g} points "

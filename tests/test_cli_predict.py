@@ -84,6 +84,10 @@ def test_predict_table2_top_and_rank_by(capsys):
             "classes: {A: {file: a.csv}, B: {file: a.csv}}\nlights: [{cie: D65}]\noptics: [ideal]\ncameras: [cmos-visible]\nexposure: {mode: fixed, time: 0.01}\n",
             "relative SPD",
         ),
+        (
+            "classes: {A: {file: a.csv}, B: {file: a.csv}}\nlights: [{led: {peak: 500, fwhm: 20}}]\noptics: [ideal]\ncameras: [cmos-visible]\nwavelength: {start: 500, stop: 500.5, step: 1}\n",
+            "wavelength: 500–500.5 nm is narrower than one 1 nm step",
+        ),
     ],
 )
 def test_bad_scenes_exit_2(tmp_path, capsys, scene, message):
