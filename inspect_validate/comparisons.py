@@ -389,8 +389,9 @@ def counted_separation(
 
     Parameters
     ----------
-    samples : sequence of LatticeSample or ndarray
-        Grey values of each class, DN.
+    samples : sequence of LatticeSample, ndarray or EmpiricalCdf
+        Grey values of each class, DN (or their distribution functions, made once:
+        :attr:`RegionStatistics.cdf <inspect_validate.stats.RegionStatistics.cdf>`).
     means, variances : sequence of float
         Per-class μ (38), DN, and σ² (39), DN².
     comparisons : Comparisons

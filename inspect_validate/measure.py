@@ -181,7 +181,7 @@ def measure_classes(
                 temporal_variance=region.temporal_variance,
                 spatial_variance=region.spatial_variance,
                 region=region,
-                gaussian_misfit=gaussian_misfit(region.sample, m.mean, m.variance),
+                gaussian_misfit=gaussian_misfit(region.cdf, m.mean, m.variance),
             )
         )
     return tuple(out)
@@ -219,8 +219,8 @@ def compare(
     pixels = [c.n_pixels for c in classes]
     means, variances = [c.mean for c in classes], [c.variance for c in classes]
     g = gaussian_separation(means, variances, comparisons, pixels=pixels)
-    samples = [c.region.sample for c in classes]
-    counted = counted_separation(samples, means, variances, comparisons, pixels=pixels)
+    cdfs = [c.region.cdf for c in classes]  # the misfit's: a float sample sorted once
+    counted = counted_separation(cdfs, means, variances, comparisons, pixels=pixels)
     wanted = {"always": range(len(comparisons.groups)), "never": ()}.get(kde)
     if wanted is None:
         shaped = np.array([c.gaussian_misfit <= MISFIT_MAX for c in classes])
@@ -231,6 +231,7 @@ def compare(
     skipped = _kde_skipped(kde, comparisons, wanted)
     k = None
     if len(wanted):
+        samples = [c.region.sample for c in classes]
         k = kde_separation(samples, comparisons, pixels=pixels, quantum=quantum, only=wanted)
         classes = tuple(
             c

@@ -17,13 +17,19 @@ result stays on the lattice ``1/n_dark`` DN, so every number remains exact.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from fractions import Fraction
 
 import numpy as np
 
 from inspect_validate.errors import InputError
-from inspect_validate.stats.sample import LatticeSample, _converted_moments
+from inspect_validate.stats.sample import (
+    EmpiricalCdf,
+    LatticeSample,
+    _converted_moments,
+    empirical_cdf,
+)
 
 __all__ = ["RegionStatistics", "region_statistics"]
 
@@ -61,6 +67,12 @@ class RegionStatistics:
     spatial_variance: float | None
     saturated: int
     zero: int
+
+    @functools.cached_property
+    def cdf(self) -> EmpiricalCdf:
+        """The pooled values' distribution function, made once (a float sample is
+        sorted) for the misfit check and the counted error alike."""
+        return empirical_cdf(self.sample)
 
     @property
     def saturated_fraction(self) -> float:

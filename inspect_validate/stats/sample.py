@@ -90,11 +90,13 @@ class LatticeSample:
 @dataclass(frozen=True)
 class EmpiricalCdf:
     """A sample's distribution function: ``cumulative[i + 1]`` of its ``n`` values are
-    at or below ``points[i]`` DN (``cumulative[0]`` is 0). Made once per sample by
+    at or below ``points[i]`` DN (``cumulative[0]`` is 0); ``step`` is a lattice
+    sample's spacing, DN (None for a float sample). Made once per sample by
     :func:`empirical_cdf` (a float sample is sorted), read many times."""
 
     points: np.ndarray
     cumulative: np.ndarray
+    step: float | None = None
 
     @property
     def n(self) -> int:
@@ -111,9 +113,13 @@ class EmpiricalCdf:
 
 
 def empirical_cdf(sample) -> EmpiricalCdf:
-    """:class:`EmpiricalCdf` of a :class:`LatticeSample` or float sample."""
+    """:class:`EmpiricalCdf` of a :class:`LatticeSample` or float sample (an
+    :class:`EmpiricalCdf` is returned as it is)."""
+    if isinstance(sample, EmpiricalCdf):
+        return sample
     if isinstance(sample, LatticeSample):
-        return EmpiricalCdf(sample.points, np.concatenate([[0], np.cumsum(sample.counts)]))
+        cumulative = np.concatenate([[0], np.cumsum(sample.counts)])
+        return EmpiricalCdf(sample.points, cumulative, 1.0 / sample.denominator)
     points = np.sort(np.asarray(sample, dtype=np.float64).ravel())
     return EmpiricalCdf(points, np.arange(points.size + 1))
 
@@ -122,8 +128,9 @@ _MISFIT_GRID = np.linspace(-6.0, 6.0, 241)  # z, in steps of 0.05σ
 
 
 def gaussian_misfit(sample, mean: float, variance: float) -> float:
-    """Kolmogorov distance between a sample and its Gaussian N(μ, σ²): the largest
-    difference of their cumulative distributions over μ ± 6σ, on a 0.05σ grid.
+    """Kolmogorov distance between a sample (or its :class:`EmpiricalCdf`) and its
+    Gaussian N(μ, σ²): the largest difference of their cumulative distributions over
+    μ ± 6σ, on a 0.05σ grid.
 
     A quantised sample (:class:`LatticeSample`) is compared with its Gaussian
     quantised alike: P(X ≤ x) against Φ((x + q/2 − μ)/σ) at lattice points x, q the
@@ -135,14 +142,12 @@ def gaussian_misfit(sample, mean: float, variance: float) -> float:
     if not variance > 0:
         return math.nan
     sd = math.sqrt(variance)
-    x = mean + sd * _MISFIT_GRID
-    z = (x - mean) / sd
-    if isinstance(sample, LatticeSample):
-        step = 1.0 / sample.denominator
-        x = np.floor(x / step) * step
-        z = (x + 0.5 * step - mean) / sd
-    model = _upper_tail(-z, np.zeros_like(z))[0]  # Φ(z) = Q(−z)
     cdf = empirical_cdf(sample)
+    x, z = mean + sd * _MISFIT_GRID, _MISFIT_GRID
+    if cdf.step is not None:
+        x = np.floor(x / cdf.step) * cdf.step
+        z = (x + 0.5 * cdf.step - mean) / sd
+    model = _upper_tail(-z, np.zeros_like(z))[0]  # Φ(z) = Q(−z)
     return float(np.max(np.abs(cdf.fraction_between(-np.inf, x) - model)))
 
 

@@ -356,9 +356,12 @@ def verify(station, frames_dir: Path, *, plan: Plan | None = None) -> Verificati
     acc = station.acceptance
     rois, comparisons, model, golden = plan.rois, plan.comparisons, plan.model, plan.golden
     need_kde = acc.needs_kde
-    skipped = [*model.scene.skipped] + [
-        f"illumination {name!r}: {why}; not captured (verify --all-illuminations captures it)"
-        for name, why in plan.dominated.items()
+    skipped = [
+        *model.scene.skipped,
+        *(
+            f"illumination {name!r}: {why}; not captured (verify --all-illuminations captures it)"
+            for name, why in plan.dominated.items()
+        ),
     ]
     if not need_kde:
         skipped.append("ε KDE: no check asks for it (acceptance.separation[].max_error_kde)")
