@@ -460,31 +460,22 @@ def kde_separation(
         them gets no bandwidth); every one by default.
     """
     from inspect_validate.stats import lscv_bandwidth
-    from inspect_validate.stats.kde_error import kernel_mixture, mixture_error
+    from inspect_validate.stats.kde_error import kernel_mixture, mixture_errors
 
     w = comparisons.class_weights(pixels)
-    wanted = set(range(len(comparisons.groups)) if only is None else only)
+    wanted = sorted(set(range(len(comparisons.groups)) if only is None else only))
     used = sorted({k for p in wanted for g in comparisons.groups[p] for k in g})
     bandwidths, kernels = {}, {}
     for k in used:  # one bandwidth per class, shared by every comparison it is in
         bandwidths[k] = lscv_bandwidth(samples[k], quantum=quantum)
-        kernels[k] = kernel_mixture(samples[k], bandwidths[k].h)
-    errors = []
-    for p, (g1, g2) in enumerate(comparisons.groups):
-        if p not in wanted:
-            errors.append(np.nan)
-            continue
-        parts = []
-        for g in (g1, g2):
-            share = w[list(g)] / w[list(g)].sum()
-            parts += [
-                np.concatenate([kernels[k][0] for k in g]),
-                np.concatenate([kernels[k][1] * s for k, s in zip(g, share, strict=True)]),
-                np.concatenate([np.full(kernels[k][0].size, bandwidths[k].h) for k in g]),
-            ]
-        errors.append(float(mixture_error(*parts)))
+        kernels[k] = (*kernel_mixture(samples[k], bandwidths[k].h), bandwidths[k].h)
+    errors = np.full(len(comparisons.groups), np.nan)
+    errors[wanted] = mixture_errors(
+        kernels,
+        [[(list(g), w[list(g)] / w[list(g)].sum()) for g in comparisons.groups[p]] for p in wanted],
+    )
     return KdeSeparation(
-        tuple(errors),
+        tuple(errors.tolist()),
         tuple(bandwidths[k].h if k in bandwidths else np.nan for k in range(len(samples))),
         tuple(
             bool(bandwidths[k].at_floor) if k in bandwidths else False for k in range(len(samples))

@@ -33,6 +33,7 @@ __all__ = [
     "misclassified_regions",
     "mixture_error",
     "mixture_error_gradient",
+    "mixture_errors",
 ]
 
 _EXACT_POINTS_MAX = 2**14
@@ -48,6 +49,7 @@ _BINNED_FLOOR = 1e-10  # a tilt's FFT is used above this fraction of its maximum
 _BINNED_MARGIN = 0.5  # nats: a binned log-density difference trusted for its sign
 _TILT_STEP = 6.0  # kernel widths between the peaks of successive tilts
 _BINNED_ELEMENTS_MAX = 2**22  # tilts × FFT size (32 MB an array), else the exact grid
+_DIP_HALVINGS = 30  # a dip's extremum to 2⁻³⁰ of two grid cells (crossings are polished after)
 
 
 @dataclass(frozen=True)
@@ -216,6 +218,123 @@ def mixture_error(centres1, weights1, sigma1, centres2, weights2, sigma2) -> flo
     return min(0.5 * total, 0.5)  # the parts' masses may sum to 1 + 1 ulp
 
 
+def mixture_errors(mixtures, comparisons) -> np.ndarray:
+    """ε_tot (37) of several comparisons among one set of classes' kernel density
+    estimates (41), each side a weighted mixture of classes.
+
+    The same as :func:`mixture_error` of each comparison's concatenated components,
+    but the classes share one crossing grid (a quarter of the narrowest bandwidth
+    apart, over all of them) on which each class's binned density is computed once,
+    not once in every comparison it is in (a 5 MP frame's three classes, their pairs
+    and each against the rest: 3 FFT passes instead of 15). Sides are summed from
+    their classes' log-densities; the sign near crossings, the polishing and the
+    masses are exact as in :func:`mixture_error`. A comparison whose own grid would
+    have fewer than half the shared grid's points (its classes far narrower or
+    wider apart than the others) is computed by :func:`mixture_error` instead.
+
+    Parameters
+    ----------
+    mixtures : sequence or mapping of (ndarray, ndarray, float)
+        Indexed by class: its kernel centres (DN) and weights (:func:`kernel_mixture`) and its
+        bandwidth h ≥ 0, DN (0: point masses).
+    comparisons : sequence of ((sequence of int, array_like), (sequence of int, array_like))
+        Each side's class indices into ``mixtures`` and their shares of the side (> 0,
+        summing to 1).
+
+    Returns
+    -------
+    ndarray
+        ε of each comparison.
+    """
+    used = sorted({k for sides in comparisons for g, _ in sides for k in g})
+    spread = [k for k in used if mixtures[k][2] > 0]
+    classes, parts, binned, grid = {}, {}, {}, None
+    if spread:
+        # One frame for all: units of the widest kernel, as in _lower_regions.
+        shift = min(float(np.min(mixtures[k][0])) for k in spread)
+        unit = max(float(mixtures[k][2]) for k in spread)
+        for k in spread:
+            c, w, h = mixtures[k]
+            o = np.argsort(c, kind="stable")
+            classes[k] = (
+                (np.asarray(c, float)[o] - shift) / unit,
+                np.asarray(w, float)[o],
+                h / unit,
+            )
+        grid = _crossing_grid(
+            np.array([x for u, _, _ in classes.values() for x in (u[0], u[-1])]),
+            np.array([v for _, _, v in classes.values()]),
+        )
+        # One part of one width a class, small ones too: binnable, and summed in full
+        # by _log_density where small.
+        parts = {k: [(u, np.log(w) - np.log(v), v)] for k, (u, w, v) in classes.items()}
+
+    def own_points(own) -> int:
+        ends = np.array([x for k in own for x in (classes[k][0][0], classes[k][0][-1])])
+        return _crossing_span(ends, np.array([classes[k][2] for k in own]))[2]
+
+    errors = np.empty(len(comparisons))
+    for i, sides in enumerate(comparisons):
+        own = [k for g, _ in sides for k in g]
+        if any(mixtures[k][2] <= 0 for k in own) or 2 * own_points(own) < grid.size:
+            # A constant class (point masses, as mixture_error takes them), or classes
+            # whose own grid is less than half the shared one (finer or longer for
+            # others' sake): searched on their own grid.
+            errors[i] = mixture_error(
+                *(
+                    np.concatenate(a)
+                    for g, share in sides
+                    for a in (
+                        [mixtures[k][0] for k in g],
+                        [mixtures[k][1] * s for k, s in zip(g, share, strict=True)],
+                        [np.full(np.size(mixtures[k][0]), float(mixtures[k][2])) for k in g],
+                    )
+                )
+            )
+            continue
+        side_parts, side_binned = [], []
+        for g, share in sides:
+            log_share = np.log(np.asarray(share, float))
+            side_parts.append(
+                [
+                    (u, lw + ls, v)
+                    for k, ls in zip(g, log_share, strict=True)
+                    for u, lw, v in parts[k]
+                ]
+            )
+            for k in g:
+                if k not in binned:
+                    binned[k] = _binned_log_density(grid, parts[k])
+            if any(binned[k] is None for k in g):
+                side_binned.append(None)
+                continue
+            logs = [binned[k] + ls for k, ls in zip(g, log_share, strict=True)]
+            with np.errstate(invalid="ignore"):  # NaN (not held by any tilt) stays NaN
+                side_binned.append(np.logaddexp.reduce(np.stack(logs), axis=0))
+        p1, p2 = side_parts
+        d = _grid_difference(grid, p1, p2, binned=side_binned)
+        (u1, v1, w1), (u2, v2, w2) = (
+            (
+                np.concatenate([classes[k][0] for k in g]),
+                np.concatenate([np.full(classes[k][0].size, classes[k][2]) for k in g]),
+                np.concatenate([classes[k][1] * s for k, s in zip(g, share, strict=True)]),
+            )
+            for g, share in sides
+        )
+        xtol = 1e-13 * max(v1.max(), v2.max())
+        crossings = _crossings(grid, d, p1, p2, xtol)
+        limits: tuple[list, list] = ([], [])
+        for a, b, lower_is_1 in _labelled_regions(crossings, p1, p2, u1, v1, u2, v2):
+            limits[0 if lower_is_1 else 1].append((a, b))
+        total = sum(
+            float(np.sum(w * _region_masses(ends, u, v)[0]))
+            for ends, u, v, w in zip(limits, (u1, u2), (v1, v2), (w1, w2), strict=True)
+            if ends
+        )
+        errors[i] = min(0.5 * total, 0.5)  # the regions' masses may sum to 1 + 1 ulp
+    return errors
+
+
 def mixture_error_gradient(centres1, weights1, sigma1, centres2, weights2, sigma2):
     """ε_tot (37) of two Gaussian mixtures (every σ > 0) and its gradient.
 
@@ -329,13 +448,20 @@ def _lower_regions(c1, s1, c2, s2, w1, w2):
     if u1.size == 1 and u2.size == 1:
         crossings = _gaussian_crossings(u1[0], v1[0], u2[0], v2[0])
     else:
-        crossings = _crossings(p1, p2, u1, v1, u2, v2)
+        grid = _crossing_grid(np.concatenate([u1, u2]), np.concatenate([v1, v2]))
+        crossings = _crossings(grid, _grid_difference(grid, p1, p2), p1, p2, 1e-13)
+    for a, b, lower_is_1 in _labelled_regions(crossings, p1, p2, u1, v1, u2, v2):
+        yield shift + unit * a, shift + unit * b, lower_is_1
+
+
+def _labelled_regions(crossings, p1, p2, u1, v1, u2, v2):
+    """(a, b, density 1 is the lower) for the regions between ``crossings``."""
     edges = np.concatenate([[-np.inf], crossings, [np.inf]])
     regions = list(itertools.pairwise(edges))
     probes = np.concatenate([_probe(a, b, u1, u2, v1.max(), v2.max()) for a, b in regions])
     lower = _log_density(probes, p1) <= _log_density(probes, p2)
     for (a, b), lower_is_1 in zip(regions, lower, strict=True):
-        yield shift + unit * a, shift + unit * b, bool(lower_is_1)
+        yield a, b, bool(lower_is_1)
 
 
 def _point_masses(centres, weights) -> dict[float, float]:
@@ -379,9 +505,7 @@ def _polish(lo, hi, f_lo, p1, p2, xtol):
     x = 0.5 * (lo + hi)
     active = np.ones(x.shape, dtype=bool)
     for _ in range(200):
-        f1, g1 = _log_density_slope(x[active], p1)
-        f2, g2 = _log_density_slope(x[active], p2)
-        f, g = f1 - f2, g1 - g2
+        f, g = _slope(x[active], p1, p2)
         xa, la, ha = x[active], lo[active], hi[active]
         same = np.sign(f) == np.sign(f_lo[active])
         la, ha = np.where(same, xa, la), np.where(same, ha, xa)
@@ -414,7 +538,7 @@ def _log_density_slope(x, parts):
     return top[:, 0] + np.log(total), (e * slope).sum(axis=1) / total
 
 
-def _grid_difference(grid, p1, p2):
+def _grid_difference(grid, p1, p2, *, binned=None):
     """log p1 − log p2 on a regular ``grid``: binned where that is certain of the sign,
     exact (:func:`_log_density`) elsewhere.
 
@@ -425,9 +549,11 @@ def _grid_difference(grid, p1, p2):
     nats on the 5 MP benchmark frame's mixtures. Only where the binned difference is
     at least :data:`_BINNED_MARGIN` nats from 0 is its sign taken; every other grid
     point, the crossings' neighbours among them, is evaluated exactly. So the brackets,
-    and the crossings polished in them, are those of the exact grid.
+    and the crossings polished in them, are those of the exact grid. ``binned``: the two
+    binned log-densities on ``grid`` where they are known already (None: not binned).
     """
-    binned = [_binned_log_density(grid, parts) for parts in (p1, p2)]
+    if binned is None:
+        binned = [_binned_log_density(grid, parts) for parts in (p1, p2)]
     if binned[0] is None or binned[1] is None:
         return _log_density(grid, p1) - _log_density(grid, p2)
     d = binned[0] - binned[1]
@@ -497,32 +623,81 @@ def _binned_log_density(grid, parts):
     return logs[0] - _LOG_SQRT_2PI
 
 
-def _crossing_grid(c1, s1, c2, s2) -> np.ndarray:
+def _crossing_grid(centres, sigmas) -> np.ndarray:
     """The regular grid :func:`_crossings` looks for sign changes on: a quarter of the
     narrowest kernel apart, reaching 40 of the widest beyond the outermost components
     (at most 2¹⁸ + 1 points)."""
-    step = _GRID_STEP * min(s1.min(), s2.min())
-    hmax = max(s1.max(), s2.max())
-    lo = min(c1.min(), c2.min()) - _TAIL_REACH * hmax
-    hi = max(c1.max(), c2.max()) + _TAIL_REACH * hmax
-    return np.linspace(lo, hi, int(min(np.ceil((hi - lo) / step), 2**18)) + 1)
+    return np.linspace(*_crossing_span(centres, sigmas))
 
 
-def _crossings(p1, p2, c1, s1, c2, s2) -> np.ndarray:
-    grid = _crossing_grid(c1, s1, c2, s2)
-    d = _grid_difference(grid, p1, p2)
+def _crossing_span(centres, sigmas) -> tuple[float, float, int]:
+    """:func:`_crossing_grid`'s ends and number of points."""
+    step = _GRID_STEP * sigmas.min()
+    lo = centres.min() - _TAIL_REACH * sigmas.max()
+    hi = centres.max() + _TAIL_REACH * sigmas.max()
+    return lo, hi, int(min(np.ceil((hi - lo) / step), 2**18)) + 1
+
+
+def _crossings(grid, d, p1, p2, xtol) -> np.ndarray:
+    """The crossings of two mixtures' log-densities bracketed by the sign changes of their
+    difference ``d`` on ``grid`` (:func:`_grid_difference`) or split by its dips
+    (:func:`_dip_brackets`), polished to ``xtol``."""
     sign = np.sign(d)
     idx = np.flatnonzero(sign[:-1] * sign[1:] < 0)
-    xtol = 1e-13 * max(s1.max(), s2.max())
     # Every bracket is polished at once; for large mixtures in groups of brackets that keep
     # the (brackets × components) arrays near 32 MB.
     per = max(1, 2**22 // sum(c.size for c, _, _ in p1 + p2))
+    dips = _dips(d)
+    dips = [_dip_brackets(grid, d, p1, p2, x) for x in np.array_split(dips, 1 + dips.size // per)]
+    lo = np.concatenate([grid[idx], *(b[0] for b in dips)])
+    hi = np.concatenate([grid[idx + 1], *(b[1] for b in dips)])
+    f_lo = np.concatenate([d[idx], *(b[2] for b in dips)])
     roots = [
         x
-        for i in range(0, idx.size, per)
-        for x in _polish(
-            grid[idx[i : i + per]], grid[idx[i : i + per] + 1], d[idx[i : i + per]], p1, p2, xtol
-        )
+        for i in range(0, lo.size, per)
+        for x in _polish(lo[i : i + per], hi[i : i + per], f_lo[i : i + per], p1, p2, xtol)
     ]
     roots += list(grid[np.flatnonzero(sign == 0)])
     return np.sort(np.array(roots, dtype=float))
+
+
+def _dips(d) -> np.ndarray:
+    """Grid points where |d| has a local minimum below :data:`_BINNED_MARGIN` between
+    neighbours of its sign: where two crossings may lie within a cell of each other."""
+    a, s = np.abs(d), np.sign(d)
+    inner = (a[1:-1] < a[:-2]) & (a[1:-1] <= a[2:]) & (a[1:-1] < _BINNED_MARGIN)
+    inner &= (s[1:-1] != 0) & (s[:-2] == s[1:-1]) & (s[1:-1] == s[2:])
+    return np.flatnonzero(inner) + 1
+
+
+def _dip_brackets(grid, d, p1, p2, i):
+    """Brackets (lo, hi, d at lo) of the crossing pairs at the dips ``i`` (:func:`_dips`),
+    which the grid's sign changes miss: d's extremum between the dip's neighbours is
+    found (a root of its slope, by bisection); where d has the other sign there, each
+    side of it holds one crossing."""
+    s = np.sign(d[i])
+    lo, hi = grid[i - 1], grid[i + 1]
+    # Toward 0 from sign s, d's slope passes from −s to s.
+    if i.size:
+        turn = (np.sign(_slope(lo, p1, p2)[1]) == -s) & (np.sign(_slope(hi, p1, p2)[1]) == s)
+        i, s, lo, hi = i[turn], s[turn], lo[turn], hi[turn]
+    for _ in range(_DIP_HALVINGS if i.size else 0):
+        mid = 0.5 * (lo + hi)
+        before = np.sign(_slope(mid, p1, p2)[1]) == -s
+        lo, hi = np.where(before, mid, lo), np.where(before, hi, mid)
+    x = 0.5 * (lo + hi)
+    dx = _slope(x, p1, p2)[0]
+    split = np.sign(dx) == -s
+    i, x, dx = i[split], x[split], dx[split]
+    return (
+        np.concatenate([grid[i - 1], x]),
+        np.concatenate([x, grid[i + 1]]),
+        np.concatenate([d[i - 1], dx]),
+    )
+
+
+def _slope(x, p1, p2):
+    """log p1 − log p2 at ``x`` and its slope."""
+    f1, g1 = _log_density_slope(x, p1)
+    f2, g2 = _log_density_slope(x, p2)
+    return f1 - f2, g1 - g2
