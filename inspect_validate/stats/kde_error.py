@@ -9,9 +9,12 @@ above 2¹⁴ values). With equal priors
 
 computed without quadrature error: the crossings of p̂1 and p̂2 are located on a
 grid of log-densities (binned by FFT where that is certain of the sign, exact near
-the crossings) and refined by root finding inside the bracketing cells, and between crossings the mass
-of the lower density is summed in closed form from the kernels' normal CDFs
-(stable interval probabilities, so tiny errors keep their relative accuracy).
+the crossings; a pair of crossings inside one cell where the difference dips toward
+0) and refined by root finding inside the bracketing cells, and between crossings
+the mass of the lower density is summed in closed form from the kernels' normal
+CDFs (stable interval probabilities, so tiny errors keep their relative accuracy).
+Several comparisons among the same classes (:func:`mixture_errors`) share one grid
+and each class's binned density.
 """
 
 from __future__ import annotations
