@@ -257,10 +257,8 @@ def capture(
                     if stop is not None:
                         known[name] = stop.known()
                         store.note(name, "precision", asdict(known[name]))
-                except (
-                    DeviceError,
-                    InputError,
-                ) as exc:  # InputError: ROIs off the frame, a full disk
+                # InputError: ROIs off the frame, a full disk.
+                except (DeviceError, InputError) as exc:
                     abort(name, exc)
                     raise
                 pending = name

@@ -145,10 +145,10 @@ def measure(
         sys.exit(EXIT_CHECK_FAILED)
 
 
-def _scheduler_address(value):
-    """``--dask``'s value: "local", or a scheduler address (``tcp://host:8786``,
-    ``host:8786``). Anything else is the SCENE, taken as the address when ``--dask``
-    comes first."""
+def _scheduler_address(_ctx, _param, value):
+    """``--dask``'s value (a click callback): "local", or a scheduler address
+    (``tcp://host:8786``, ``host:8786``). Anything else is the SCENE, taken as the
+    address when ``--dask`` comes first."""
     import re
 
     if value is None or value == "local" or re.match(r"^(\w+://.+|[\w.\-\[\]:]+:\d+)$", value):
@@ -199,7 +199,7 @@ def _scheduler_address(value):
     is_flag=False,
     flag_value="local",
     metavar="[ADDRESS]",
-    callback=lambda ctx, param, value: _scheduler_address(value),
+    callback=_scheduler_address,
     help="Predict the blocks of combinations on Dask: a LocalCluster, or the scheduler "
     "at ADDRESS (tcp://host:8786).",
 )
@@ -242,7 +242,7 @@ def predict(scene, json_path, top, rank_by, comparison, no_kde, plot_dir, render
         result = sc.sweep(by=by, comparison=comparison, top=top, client=client)
     for reason in result.skipped:
         click.echo(f"skipped: {reason}", err=True)
-    for work in (*sc.skipped, *result.skipped_work):
+    for work in result.skipped_work:
         click.echo(f"not computed: {work}", err=True)
     rows = prediction_rows(result, kde=not no_kde)
     n = result.combinations
@@ -254,7 +254,7 @@ def predict(scene, json_path, top, rank_by, comparison, no_kde, plot_dir, render
     click.echo(format_prediction(result, rows))
     if json_path:
         write_json(
-            prediction_document(result, rows, scene=str(scene), skipped_work=sc.skipped),
+            prediction_document(result, rows, scene=str(scene)),
             json_path,
         )
         click.echo(f"\nwrote {json_path}")

@@ -35,7 +35,7 @@ physical range or a wrong type is an error naming the file and the field.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -346,13 +346,15 @@ class Scene:
         return predict(*parts, grid=self.grid if grid is None else grid, **options)
 
     def sweep(self, *, by: str, comparison: str | None, top: int, client=None):
-        """:func:`inspect_validate.model.sweep` of every combination of this scene."""
+        """:func:`inspect_validate.model.sweep` of every combination of this scene; its
+        ``skipped_work`` begins with the scene's own (:attr:`skipped`)."""
         from inspect_validate.model import sweep
 
         parts, options = self._model_inputs()
-        return sweep(
+        ranking = sweep(
             *parts, grid=self.grid, by=by, comparison=comparison, top=top, client=client, **options
         )
+        return replace(ranking, skipped_work=(*self.skipped, *ranking.skipped_work))
 
     def notes(self) -> list[str]:
         """What was noticed while reading the spectra: masked wavelengths, clipped noise."""
@@ -516,8 +518,6 @@ def _object_class(name, spec, base, geometry):
 
 
 def _light(spec, base):
-    from dataclasses import replace
-
     from inspect_validate.components import (
         blackbody,
         cie_daylight,
@@ -569,8 +569,6 @@ def _optics(spec, base):
 
 
 def _camera(spec, base):
-    from dataclasses import replace
-
     from inspect_validate.components import Camera, builtin_camera
     from inspect_validate.spectra import SpectrumKind, read_spectrum_csv
 

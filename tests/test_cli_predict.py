@@ -130,4 +130,4 @@ def test_dask_before_the_scene_is_named_not_taken_as_its_address(capsys):
     assert f"'{scene}' is not a scheduler address" in err and "put --dask after SCENE" in err
     assert "Missing argument" not in err
     for address in ("tcp://10.0.0.5:8786", "scheduler:8786", "[::1]:8786", "local"):
-        assert _scheduler_address(address) == address  # what Dask's Client takes passes
+        assert _scheduler_address(None, None, address) == address  # what Dask's Client takes

@@ -121,11 +121,7 @@ def format_prediction(p: Ranking, rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def prediction_document(
-    p: Ranking, rows: list[dict], *, scene: str, skipped_work: tuple[str, ...] = ()
-) -> dict:
-    """The prediction JSON; ``skipped_work`` adds the scene's own (a narrowed wavelength
-    range) before the ranking's."""
+def prediction_document(p: Ranking, rows: list[dict], *, scene: str) -> dict:
     return {
         "schema": "inspect-validate/prediction",
         "schema_version": PREDICTION_SCHEMA_VERSION,
@@ -144,6 +140,6 @@ def prediction_document(
         "rank_comparison": p.comparison,
         "combinations": p.combinations,
         "skipped": list(p.skipped),
-        "skipped_work": [*skipped_work, *p.skipped_work],
+        "skipped_work": list(p.skipped_work),
         "ranking": rows,
     }

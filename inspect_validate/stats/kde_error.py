@@ -283,17 +283,8 @@ def mixture_errors(mixtures, comparisons) -> np.ndarray:
             # A constant class (point masses, as mixture_error takes them), or classes
             # whose own grid is less than half the shared one (finer or longer for
             # others' sake): searched on their own grid.
-            errors[i] = mixture_error(
-                *(
-                    np.concatenate(a)
-                    for g, share in sides
-                    for a in (
-                        [mixtures[k][0] for k in g],
-                        [mixtures[k][1] * s for k, s in zip(g, share, strict=True)],
-                        [np.full(np.size(mixtures[k][0]), float(mixtures[k][2])) for k in g],
-                    )
-                )
-            )
+            (c1, w1, s1), (c2, w2, s2) = (_side(mixtures, g, share) for g, share in sides)
+            errors[i] = mixture_error(c1, w1, s1, c2, w2, s2)
             continue
         side_parts, side_binned = [], []
         for g, share in sides:
@@ -316,14 +307,7 @@ def mixture_errors(mixtures, comparisons) -> np.ndarray:
                 side_binned.append(np.logaddexp.reduce(np.stack(logs), axis=0))
         p1, p2 = side_parts
         d = _grid_difference(grid, p1, p2, binned=side_binned)
-        (u1, v1, w1), (u2, v2, w2) = (
-            (
-                np.concatenate([classes[k][0] for k in g]),
-                np.concatenate([np.full(classes[k][0].size, classes[k][2]) for k in g]),
-                np.concatenate([classes[k][1] * s for k, s in zip(g, share, strict=True)]),
-            )
-            for g, share in sides
-        )
+        (u1, w1, v1), (u2, w2, v2) = (_side(classes, g, share) for g, share in sides)
         xtol = 1e-13 * max(v1.max(), v2.max())
         crossings = _crossings(grid, d, p1, p2, xtol)
         limits: tuple[list, list] = ([], [])
@@ -336,6 +320,17 @@ def mixture_errors(mixtures, comparisons) -> np.ndarray:
         )
         errors[i] = min(0.5 * total, 0.5)  # the regions' masses may sum to 1 + 1 ulp
     return errors
+
+
+def _side(mixtures, classes, shares):
+    """One side of a comparison as one mixture: its classes' (centres, weights, h)
+    concatenated, each class's weights times its share, a σ per component."""
+    members = [mixtures[k] for k in classes]
+    return (
+        np.concatenate([c for c, _, _ in members]),
+        np.concatenate([w * share for (_, w, _), share in zip(members, shares, strict=True)]),
+        np.concatenate([np.full(np.size(c), float(h)) for c, _, h in members]),
+    )
 
 
 def mixture_error_gradient(centres1, weights1, sigma1, centres2, weights2, sigma2):
@@ -650,8 +645,8 @@ def _crossings(grid, d, p1, p2, xtol) -> np.ndarray:
     # Every bracket is polished at once; for large mixtures in groups of brackets that keep
     # the (brackets × components) arrays near 32 MB.
     per = max(1, 2**22 // sum(c.size for c, _, _ in p1 + p2))
-    dips = _dips(d)
-    dips = [_dip_brackets(grid, d, p1, p2, x) for x in np.array_split(dips, 1 + dips.size // per)]
+    at = _dips(d)
+    dips = [_dip_brackets(grid, d, p1, p2, at[i : i + per]) for i in range(0, at.size, per)]
     lo = np.concatenate([grid[idx], *(b[0] for b in dips)])
     hi = np.concatenate([grid[idx + 1], *(b[1] for b in dips)])
     f_lo = np.concatenate([d[idx], *(b[2] for b in dips)])
@@ -681,9 +676,8 @@ def _dip_brackets(grid, d, p1, p2, i):
     s = np.sign(d[i])
     lo, hi = grid[i - 1], grid[i + 1]
     # Toward 0 from sign s, d's slope passes from −s to s.
-    if i.size:
-        turn = (np.sign(_slope(lo, p1, p2)[1]) == -s) & (np.sign(_slope(hi, p1, p2)[1]) == s)
-        i, s, lo, hi = i[turn], s[turn], lo[turn], hi[turn]
+    turn = (np.sign(_slope(lo, p1, p2)[1]) == -s) & (np.sign(_slope(hi, p1, p2)[1]) == s)
+    i, s, lo, hi = i[turn], s[turn], lo[turn], hi[turn]
     for _ in range(_DIP_HALVINGS if i.size else 0):
         mid = 0.5 * (lo + hi)
         before = np.sign(_slope(mid, p1, p2)[1]) == -s
