@@ -129,3 +129,24 @@ def test_empty_imagej_set_is_refused(tmp_path):
     zipfile.ZipFile(path, "w").close()
     with pytest.raises(InputError, match=r"RoiSet\.zip: the ImageJ file holds no ROI"):
         read_rois(path)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_ellipse_rasterised_in_its_box_equals_the_whole_frame_test(seed):
+    # The ellipse is tested on its bounding box only; the reference tests every
+    # pixel centre of the frame with the same formula. Fractional centres and
+    # semi-axes, and ellipses touching the frame's edges.
+    rng = np.random.default_rng(seed)
+    height, width = 97, 131
+    for _ in range(50):
+        rx, ry = rng.uniform(0.3, 30, 2)
+        cx = rng.uniform(rx, width - rx)
+        cy = rng.uniform(ry, height - ry)
+        if rng.random() < 0.3:
+            cx, cy = rx, height - ry  # at the edges
+        ys, xs = np.mgrid[:height, :width]
+        want = ((xs + 0.5 - cx) / rx) ** 2 + ((ys + 0.5 - cy) / ry) ** 2 <= 1.0
+        if not want.any():
+            continue
+        got = rasterise(Ellipse(cx, cy, rx, ry), (height, width), where="t")
+        np.testing.assert_array_equal(got, want)

@@ -189,9 +189,11 @@ def class_masks(rois: RoiSet, frame_shape: tuple[int, int]) -> dict[str, np.ndar
     """
     masks: dict[str, np.ndarray] = {}
     for cls in rois.classes:
-        union = np.zeros(frame_shape, dtype=bool)
+        # A one-shape class keeps its shape's mask: no second frame-sized array.
+        union = np.zeros(frame_shape, dtype=bool) if len(cls.shapes) != 1 else None
         for shape, where in cls.shapes:
-            union |= rasterise(shape, frame_shape, where=where)
+            mask = rasterise(shape, frame_shape, where=where)
+            union = mask if union is None else np.logical_or(union, mask, out=union)
         if cls.erode:
             union = _erode(union, cls.erode)
             if not union.any():

@@ -106,8 +106,12 @@ def rasterise(shape: Shape, frame_shape: tuple[int, int], *, where: str) -> np.n
             v = np.asarray(shape.vertices, dtype=float) - 0.5  # to pixel-centre coordinates
             mask = polygon2mask((height, width), v[:, ::-1])
         else:
-            ys, xs = np.ogrid[:height, :width]
-            mask = ((xs + 0.5 - shape.cx) / shape.rx) ** 2 + (
+            # Only the bounding box's pixels can be inside: an ellipse's test costs its
+            # box, not the frame (pixel indices kept absolute, so the arithmetic is the same).
+            r0, r1 = int(np.floor(y0)), min(height, int(np.ceil(y1)) + 1)
+            c0, c1 = int(np.floor(x0)), min(width, int(np.ceil(x1)) + 1)
+            ys, xs = np.ogrid[r0:r1, c0:c1]
+            mask[r0:r1, c0:c1] = ((xs + 0.5 - shape.cx) / shape.rx) ** 2 + (
                 (ys + 0.5 - shape.cy) / shape.ry
             ) ** 2 <= 1.0
     if not mask.any():
