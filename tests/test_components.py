@@ -52,6 +52,18 @@ def test_ohno_led_matches_colour_science_and_has_the_stated_fwhm():
     assert half[-1] - half[0] == pytest.approx(30, abs=0.02)
 
 
+def test_ohno_half_maximum_constant_is_the_quintics_root():
+    # Independent references: scipy's brentq and a 40-digit mpmath root.
+    import mpmath
+    from scipy.optimize import brentq
+
+    g = lights_module._G_HALF
+    assert g == brentq(lambda g: g + 2 * g**5 - 1.5, 0.5, 1.0, xtol=1e-15)
+    with mpmath.workdps(40):
+        exact = mpmath.findroot(lambda g: g + 2 * g**5 - mpmath.mpf(3) / 2, 0.8)
+        assert abs(mpmath.mpf(g) - exact) <= mpmath.mpf(2) ** -53 * exact
+
+
 def test_cie_illuminants_come_from_colour_science():
     d65 = cie_illuminant("D65")
     assert np.array_equal(d65.spd.values[0], colour.SDS_ILLUMINANTS["D65"].values)

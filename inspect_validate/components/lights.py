@@ -111,7 +111,11 @@ def blackbody(temperature: float, *, grid=DEFAULT_GRID, irradiance: float | None
     return Light(spd.name, spd, irradiance)
 
 
-_G_HALF = None
+# The root in (½, 1) of g + 2g⁵ = 3/2, where the Ohno LED is at half its peak. A
+# constant rather than brentq at first use, whose scipy.optimize import was a fifth of
+# a predict on the paperboard scene. tests/test_components.py checks it against brentq
+# and mpmath.
+_G_HALF = 0.8086092632090856
 
 
 def ohno_led_spd(wavelength, peak: float, fwhm: float) -> np.ndarray:
@@ -120,11 +124,6 @@ def ohno_led_spd(wavelength, peak: float, fwhm: float) -> np.ndarray:
     Δ is chosen so that the full width at half maximum equals ``fwhm`` (nm):
     S = ½ where g + 2g⁵ = 3/2.
     """
-    global _G_HALF
-    if _G_HALF is None:
-        from scipy.optimize import brentq
-
-        _G_HALF = brentq(lambda g: g + 2 * g**5 - 1.5, 0.5, 1.0, xtol=1e-15)
     if fwhm <= 0:
         raise ValueError("FWHM must be positive")
     delta = fwhm / (2.0 * np.sqrt(-np.log(_G_HALF)))
