@@ -202,8 +202,6 @@ def plot_class_histograms(classes, target, *, title: str, kde_bandwidths=None):
     ``classes`` are :class:`~inspect_validate.measure.ClassMeasurement`;
     ``kde_bandwidths`` (DN per class, optional) default to each class's own.
     """
-    from scipy import stats
-
     from inspect_validate.stats import LatticeSample
     from inspect_validate.stats.kde_error import kernel_density
 
@@ -229,7 +227,8 @@ def plot_class_histograms(classes, target, *, title: str, kde_bandwidths=None):
         hi = max(edges[-1], c.mean + 4 * sd)
         x = np.linspace(lo, hi, 400)
         if sd > 0:
-            ax.plot(x, stats.norm.pdf(x, c.mean, sd), color=_colour(k), ls="--", lw=1.2)
+            gauss = np.exp(-0.5 * ((x - c.mean) / sd) ** 2) / (sd * np.sqrt(2 * np.pi))
+            ax.plot(x, gauss, color=_colour(k), ls="--", lw=1.2)
         h = (kde_bandwidths or {}).get(c.name, c.kde_bandwidth)
         if h is not None and h > 0:
             ax.plot(x, kernel_density(sample, h, x), color=_colour(k), lw=1.4)

@@ -9,6 +9,7 @@ Shared by measurement (from images) and prediction (from spectra).
 :func:`gaussian_error`     exact two-Gaussian ε_tot (37) from (38)–(40)
 :func:`lscv_bandwidth`     LSCV bandwidth (42)–(43) with a quantisation floor
 :func:`kde_error`          ε_tot (37) of two kernel density estimates (41)
+:func:`kendall_tau`        agreement of two rankings (predicted against measured)
 =======================  ==========================================================
 """
 
@@ -19,6 +20,7 @@ from inspect_validate.stats.gaussian_error import (
     log_gaussian_error,
 )
 from inspect_validate.stats.kde_error import KdeError, kde_error
+from inspect_validate.stats.ranking import kendall_tau
 from inspect_validate.stats.region import RegionStatistics, region_statistics
 from inspect_validate.stats.sample import (
     LatticeSample,
@@ -41,6 +43,7 @@ __all__ = [
     "gaussian_error",
     "gaussian_error_and_log",
     "kde_error",
+    "kendall_tau",
     "log_gaussian_error",
     "lscv_bandwidth",
     "lscv_objective",

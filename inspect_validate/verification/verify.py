@@ -535,7 +535,7 @@ def _compare(measurements, p, nominal, dark_means, offset, *, need_kde):
 
 def _ranking(measurements, p, scene, acc, comparisons, skipped):
     """The illuminations ranked by the key comparison, measured against predicted."""
-    from scipy import stats
+    from inspect_validate.stats.ranking import kendall_tau
 
     if len(measurements) < 2:
         skipped.append("ranking: one illumination, nothing to rank")
@@ -560,7 +560,7 @@ def _ranking(measurements, p, scene, acc, comparisons, skipped):
         predicted = np.array([getattr(p, by)[i, 0, 0, j] for i in range(len(names))])
         measured = np.array([getattr(measurements[n].comparisons[j], by) for n in names])
         best_p, best_m = names[int(np.argmax(predicted))], names[int(np.argmax(measured))]
-    tau = float(stats.kendalltau(predicted, measured).statistic)
+    tau = kendall_tau(predicted, measured)
     return {
         "comparison": comparisons.labels[j],
         "by": "log_error_gaussian" if by == "error" else by,
