@@ -1,5 +1,6 @@
 """Region statistics over frame stacks, against Fraction arithmetic (exact) and numpy float64."""
 
+import sys
 from fractions import Fraction
 
 import numpy as np
@@ -79,3 +80,65 @@ def test_errors():
         region_statistics(frame, np.ones((4, 5), bool))
     with pytest.raises(InputError, match="dark frame shape"):
         region_statistics(frame, np.ones((4, 4), bool), dark=np.zeros((5, 4), np.uint8))
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_numpy_blocks_equal_the_compiled_kernels(seed):
+    # Both are exact int64 arithmetic: every output must be identical, for unsigned
+    # and signed frames, with and without darks, masks with holes and empty rows,
+    # and frames wide enough that a block holds a part of a row's worth of pixels.
+    from inspect_validate.stats import _region_blocks as blocks
+    from inspect_validate.stats import _region_kernels as compiled
+
+    rng = np.random.default_rng(seed)
+    dtype = [np.uint8, np.uint16, np.int16, np.uint32][seed % 4]
+    n, h, w = int(rng.integers(2, 6)), int(rng.integers(1, 60)), int(rng.integers(1, 9000))
+    info = np.iinfo(dtype)
+    lo_v, hi_v = max(int(info.min), -3000), min(int(info.max), 70000)
+    frames = rng.integers(lo_v, hi_v, (n, h, w), endpoint=True).astype(dtype)
+    frames[:, 0, :2] = hi_v  # saturated values
+    mask = rng.random((h, w)) < 0.4
+    mask[h // 2] = False
+    mask[0, 0] = True
+    n_dark = int(rng.integers(0, 4))
+    if n_dark:
+        dark = rng.integers(0, 50, (n_dark, h, w)).astype(dtype)
+        scale, dark_sum = n_dark, dark.sum(axis=0, dtype=np.int64)
+    else:
+        scale, dark_sum = 1, np.zeros((1, 1), np.int64)
+    lo, hi = compiled.masked_code_range(frames, mask, dark_sum, scale)
+    assert blocks.masked_code_range(frames, mask, dark_sum, scale) == (lo, hi)
+    args = (frames, mask, dark_sum, scale, lo, hi - lo + 1, (lo + hi) // 2, np.int64(hi_v))
+    for got, want in zip(blocks.accumulate(*args), compiled.accumulate(*args), strict=True):
+        np.testing.assert_array_equal(got, want)
+    if not n_dark:
+        np.testing.assert_array_equal(
+            blocks.histogram(frames, mask, lo, hi - lo + 1),
+            compiled.histogram(frames, mask, lo, hi - lo + 1),
+        )
+
+
+def test_the_compiled_kernels_take_over_once_numpy_has_spent_their_load(monkeypatch):
+    from inspect_validate.stats import region
+
+    rng = np.random.default_rng(3)
+    frames = rng.integers(0, 4096, (4, 64, 80)).astype(np.uint16)
+    mask = np.zeros((64, 80), bool)
+    mask[5:50, 3:70] = True
+    values = int(mask.sum()) * 4
+    monkeypatch.setattr(region, "_blocks_values", 0)
+    monkeypatch.setattr(region, "_compiled", False)
+    monkeypatch.setattr(region, "BLOCKS_VALUES_MAX", values)
+    monkeypatch.delitem(sys.modules, "numba", raising=False)  # as if no part had loaded it
+    with_numpy = region_statistics(frames, mask)
+    assert region._blocks_values == values and not region._compiled  # numpy measured it
+    compiled = region_statistics(frames, mask)
+    assert region._blocks_values == values and region._compiled  # the budget was spent
+    monkeypatch.setattr(region, "_blocks_values", 0)
+    assert region._kernels(1).__name__.endswith("_region_kernels")  # bought: they stay
+    np.testing.assert_array_equal(with_numpy.sample.counts, compiled.sample.counts)
+    assert sample_moments(with_numpy.sample) == sample_moments(compiled.sample)
+    assert (with_numpy.temporal_variance, with_numpy.spatial_variance) == (
+        compiled.temporal_variance,
+        compiled.spatial_variance,
+    )

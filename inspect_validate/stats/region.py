@@ -18,6 +18,7 @@ result stays on the lattice ``1/n_dark`` DN, so every number remains exact.
 from __future__ import annotations
 
 import functools
+import sys
 from dataclasses import dataclass
 from fractions import Fraction
 
@@ -154,8 +155,7 @@ def _integer_region(frames, mask, dark, saturation_level, n_pixels) -> RegionSta
         return _histogram_region(
             _masked_histogram(frames[0], mask, 1 << (8 * frames.dtype.itemsize)), 0, sat, n_pixels
         )
-    from inspect_validate.stats import _region_kernels as kern
-
+    kern = _kernels(n_pixels * n_frames)
     if dark is None:
         scale, dark_sum = 1, np.zeros((1, 1), np.int64)
         if narrow:
@@ -195,6 +195,32 @@ def _integer_region(frames, mask, dark, saturation_level, n_pixels) -> RegionSta
     elif mean_image_var is not None:
         spatial = float(mean_image_var)
     return RegionStatistics(sample, n_pixels, n_frames, temporal, spatial, int(n_sat), int(n_zero))
+
+
+BLOCKS_VALUES_MAX = 2**25
+"""Values (pixels × frames, summed over a process's regions) measured with numpy before
+the compiled kernels take over. Loading numba costs about 0.5 s; numpy spends about as
+long on 2²⁵ values (17 ns a value against 2 ns compiled, on this project's 2-core
+benchmark machine). Renting until the rent reaches the price of buying keeps any
+process within twice its best choice in hindsight: a ``verify`` of small frames never
+loads numba, a long ``watch`` of large ones soon does."""
+
+_blocks_values = 0  # values measured with numpy so far in this process
+_compiled = False  # bought: the compiled kernels from now on
+
+
+def _kernels(values: int):
+    """The module whose kernels measure a region of ``values`` values (same results)."""
+    global _blocks_values, _compiled
+    # numba already loaded by another part (ε Gauss sweeps) leaves only the kernels' cache.
+    _compiled = _compiled or "numba" in sys.modules or _blocks_values + values > BLOCKS_VALUES_MAX
+    if _compiled:
+        from inspect_validate.stats import _region_kernels as kern
+    else:
+        from inspect_validate.stats import _region_blocks as kern
+
+        _blocks_values += values
+    return kern
 
 
 def _masked_histogram(frame, mask, nbins) -> np.ndarray:
