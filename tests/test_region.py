@@ -129,6 +129,9 @@ def test_the_compiled_kernels_take_over_once_numpy_has_spent_their_load(monkeypa
     monkeypatch.setattr(region, "_blocks_values", 0)
     monkeypatch.setattr(region, "_compiled", False)
     monkeypatch.setattr(region, "BLOCKS_VALUES_MAX", values)
+    # Loaded before numba is hidden, so that the hand-over does not import numba again.
+    from inspect_validate.stats import _region_kernels  # noqa: F401
+
     monkeypatch.delitem(sys.modules, "numba", raising=False)  # as if no part had loaded it
     with_numpy = region_statistics(frames, mask)
     assert region._blocks_values == values and not region._compiled  # numpy measured it
