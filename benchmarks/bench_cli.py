@@ -51,21 +51,18 @@ def commands(out: Path) -> dict[str, list[str]]:
     }
 
 
-def run_command(args: list[str], runs: int, out: Path) -> tuple[float, float, str]:
+def run_command(args: list[str], runs: int) -> tuple[float, float, str]:
     """Median time and peak RSS over ``runs`` fresh processes; the libraries it loaded."""
-    counter = iter(range(10**6))
     # Each run needs fresh output folders: verify refuses to overwrite a report.
-    fresh = [[a.replace("{run}", str(next(counter))) for a in args] for _ in range(runs)]
+    fresh = [[a.replace("{run}", str(r)) for a in args] for r in range(runs)]
     times, peaks = [], []
     for argv in fresh:
         t, peak, _ = timed([sys.executable, "-m", "inspect_validate", *argv], 1)
         times.append(t)
         peaks.append(peak)
-    probe = out / "probe.py"
-    probe.write_text(PROBE)
     argv = [a.replace("{run}", "probe") for a in args]
     proc = subprocess.run(
-        [sys.executable, str(probe), ",".join(HEAVY), *argv],
+        [sys.executable, "-c", PROBE, ",".join(HEAVY), *argv],
         capture_output=True,
         text=True,
     )
@@ -92,7 +89,7 @@ def main() -> None:
         print("|---|---|---|---|---|")
         print(f"| import numpy (floor) | {floor:.2f} s | 1.00 | {floor_peak:.0f} MB | — |")
         for label, argv in commands(out).items():
-            t, peak, loaded = run_command(argv, args.runs, out)
+            t, peak, loaded = run_command(argv, args.runs)
             print(f"| {label} | {t:.2f} s | {t / floor:.2f} | {peak:.0f} MB | {loaded} |")
 
 

@@ -171,7 +171,7 @@ def stack_memory(tmp: Path):
     compiled = tmp / "compiled.py"
     compiled.write_text(
         "import runpy, sys\n"
-        "import numba  # noqa: F401\n"
+        "import numba\n"
         "sys.argv = ['inspect_validate', *sys.argv[1:]]\n"
         "runpy.run_module('inspect_validate', run_name='__main__', alter_sys=True)\n"
     )

@@ -2,9 +2,10 @@
 
 The same results, exactly (int64 throughout), from blocks of rows: a few hundred
 thousand values at a time, so memory stays bounded. The compiled kernels are
-faster per value, but loading numba costs about 0.5 s per process, more than a
-small stack takes here (the shipped station's 4 × 320 × 240 frames: 1 ms); see
-:data:`~inspect_validate.stats.region.BLOCKS_VALUES_MAX` for where the choice falls.
+faster per value, but loading numba costs about 0.5 s per process, far more than a
+small stack takes here (a 280 × 80 px region of 4 frames of 320 × 240, the shipped
+station's size: 1.7 ms); see :data:`~inspect_validate.stats.region.BLOCKS_VALUES_MAX`
+for where the choice falls.
 """
 
 from __future__ import annotations

@@ -223,29 +223,22 @@ def _erfcx(x):
     return out
 
 
-def _normal_tail(x):
-    """1 − Φ(x) = ½·erfc(x/√2) of an array of x ≥ 0, to full relative precision:
-    erfc(x/√2) = erfcx(x/√2)·exp(−x²/2) with x² exact."""
+def _lower_tail(x):
+    """Φ(x) and log Φ(x) of an array of x ≥ 0: 1 − ½·erfc(x/√2), the subtracted tail
+    at most ½ (no cancellation), erfc(x/√2) = erfcx(x/√2)·exp(−x²/2) with x² exact."""
     with np.errstate(all="ignore"):
         p, e = _two_square(x)
         e = np.where(np.isfinite(e), e, 0.0)
-        return 0.5 * _erfcx(x / np.sqrt(2.0)) * np.exp(-0.5 * p) * (1.0 - 0.5 * e)
-
-
-def _lower_tail(x):
-    """Φ(x) and log Φ(x) of an array of x ≥ 0: the subtracted tail is at most ½ (no
-    cancellation)."""
-    tail = _normal_tail(x)
+        tail = 0.5 * _erfcx(x / np.sqrt(2.0)) * np.exp(-0.5 * p) * (1.0 - 0.5 * e)
     return 1.0 - tail, np.log1p(-tail)
 
 
 def normal_cdf_pair(z) -> tuple[np.ndarray, np.ndarray]:
-    """Φ(z) and Φ(−z) of an array, each to full relative precision (the smaller one
-    from :func:`_normal_tail`, the larger as one minus it), without scipy.special."""
+    """Φ(z) and Φ(−z) of a 1-d array, each to full relative precision, without
+    scipy.special: Q(−z) and Q(z) by :func:`_upper_tail`."""
     z = np.asarray(z, dtype=float)
-    tail = _normal_tail(np.abs(z))
-    upper = z >= 0
-    return np.where(upper, 1.0 - tail, tail), np.where(upper, tail, 1.0 - tail)
+    zero = np.zeros_like(z)
+    return _upper_tail(-z, zero)[0], _upper_tail(z, zero)[0]
 
 
 _ERFCX = np.frompyfunc(_scalar.erfcx, 1, 1)

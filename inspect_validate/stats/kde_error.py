@@ -310,9 +310,7 @@ def mixture_errors(mixtures, comparisons) -> np.ndarray:
         (u1, w1, v1), (u2, w2, v2) = (_side(classes, g, share) for g, share in sides)
         xtol = 1e-13 * max(v1.max(), v2.max())
         crossings = _crossings(grid, d, p1, p2, xtol)
-        limits: tuple[list, list] = ([], [])
-        for a, b, lower_is_1 in _labelled_regions(crossings, p1, p2, u1, v1, u2, v2):
-            limits[0 if lower_is_1 else 1].append((a, b))
+        limits = _by_lower(_labelled_regions(crossings, p1, p2, u1, v1, u2, v2))
         total = sum(
             float(np.sum(w * _region_masses(ends, u, v)[0]))
             for ends, u, v, w in zip(limits, (u1, u2), (v1, v2), (w1, w2), strict=True)
@@ -390,8 +388,14 @@ def _sorted_components(centres1, weights1, sigma1, centres2, weights2, sigma2):
 def _split_regions(cs, ws, ss) -> tuple[list, list]:
     """The regions where side 1's density is the lower one, and those where side 2's
     is (sorted components)."""
+    return _by_lower(_lower_regions(cs[0], ss[0], cs[1], ss[1], ws[0], ws[1]))
+
+
+def _by_lower(labelled) -> tuple[list, list]:
+    """(a, b, density 1 is the lower) triples as the regions where side 1's density is
+    the lower one, and those where side 2's is."""
     regions = ([], [])
-    for a, b, lower_is_1 in _lower_regions(cs[0], ss[0], cs[1], ss[1], ws[0], ws[1]):
+    for a, b, lower_is_1 in labelled:
         regions[0 if lower_is_1 else 1].append((a, b))
     return regions
 

@@ -51,7 +51,7 @@ def ewma_arl(limit: float, *, lam: float = LAMBDA, shift: float = 0.0, states: i
     """Average run length of an asymptotic-limit EWMA chart of unit-variance normal data
     whose mean is ``shift`` σ off target (Brook & Evans' Markov chain, ``states`` states
     across the in-control band ± ``limit`` σ_z)."""
-    from scipy.special import ndtr  # the normal CDF; scipy.stats's import alone is 0.3 s
+    from scipy.special import ndtr  # the normal CDF; scipy.stats would add 0.4 s of import
 
     h = limit * math.sqrt(lam / (2.0 - lam))
     width = 2.0 * h / states
