@@ -102,6 +102,25 @@ def test_controller_vanishing_keeps_frames_and_resume_finishes(tmp_path, capsys)
     assert all(manifest["steps"][s]["complete"] for s in ("amber", "red", "dark"))
 
 
+def test_controller_over_tcp_captures_and_a_dropped_connection_keeps_frames(tmp_path, capsys):
+    """The simulated controller on 127.0.0.1 (an Ethernet controller's socket:// port):
+    a full capture, then one whose connection drops after the amber step."""
+    out = tmp_path / "cap"
+    assert run(["capture", station_copy(tmp_path, simulator_args=["--tcp"]), "--out", out]) == 0
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert all(manifest["steps"][s]["complete"] for s in ("amber", "red", "dark"))
+
+    station = station_copy(tmp_path, simulator_args=["--tcp", "--drop-after", "3"])
+    out = tmp_path / "dropped"
+    assert run(["capture", station, "--out", out]) == 3
+    err = capsys.readouterr().err
+    assert re.search(r"error: socket://127\.0\.0\.1:\d+: the connection failed", err), err
+    assert "network connection was lost" in err
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["steps"]["amber"]["complete"] and "error" in manifest["steps"]["red"]
+    assert len(list((out / "amber").glob("frame_*.tif"))) == 4
+
+
 def test_err_reply_names_the_command_and_keeps_frames(tmp_path, capsys):
     station = station_copy(tmp_path, simulator_args=["--error", "RS2,100:3"])
     out = tmp_path / "cap"

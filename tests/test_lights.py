@@ -142,3 +142,38 @@ def test_generic_controller_with_gardasoft_templates(simulator):
         # The RT simulator's range error (channel 5 of 4) comes back through the generic patterns.
         with pytest.raises(DeviceError, match=r"answered 'Err 3' to 'RS5,10'"):
             c.link.query("RS5,10")
+
+
+def test_controller_over_tcp_speaks_the_same_protocol(simulator):
+    """An Ethernet controller is a port setting: pyserial's socket:// URL."""
+    port, state, _ = simulator("--tcp")
+    assert port.startswith("socket://127.0.0.1:")
+    with GardasoftController(port, channels=4) as c:
+        assert "simulated" in c.version()
+        c.apply({2: 60})
+        assert "CH2 continuous 60%" in c.status()
+    # The controller keeps its state across connections, as a networked one does.
+    with GardasoftController(port, channels=4) as c:
+        assert "CH2 continuous 60%" in c.status()
+    assert json.loads(state.read_text())["channels"]["2"] == 60.0
+
+
+def test_dropped_tcp_connection_names_the_network(simulator):
+    port, _, _ = simulator("--tcp", "--drop-after", "2")
+    with GardasoftController(port, timeout=0.5) as c:
+        c.set_intensity(1, 10)
+        c.set_intensity(1, 20)
+        with pytest.raises(DeviceError) as info:
+            c.set_intensity(1, 30)
+    assert str(info.value).startswith(f"{port}: the connection failed while sending 'RS1,30'")
+    assert "the network connection was lost" in str(info.value)
+
+
+def test_unreachable_tcp_controller_names_the_address(simulator):
+    port, _, proc = simulator("--tcp")
+    proc.kill()
+    proc.wait()
+    with pytest.raises(DeviceError, match=r"cannot connect to the controller; check its IP"):
+        GardasoftController(port)
+    with pytest.raises(DeviceError, match=r"socket://nowhere: cannot connect"):
+        GardasoftController("socket://nowhere")

@@ -1,7 +1,9 @@
-"""Gardasoft RT-series LED controllers over RS232 (pyserial).
+"""Gardasoft RT-series LED controllers over RS232 or Ethernet (pyserial).
 
 Protocol (RT-series user manual, "Command configuration"): 115200 baud 8N1, no
-handshake; a command line ends with CR; several commands may be joined by ``;``;
+handshake; Ethernet models take the same command lines on TCP port 30313, which
+pyserial opens from a URL (``port: socket://192.168.1.20:30313``). A command line
+ends with CR; several commands may be joined by ``;``;
 the controller's reply ends with ``>`` once the command line is done, and
 contains ``Err n`` when a command failed. Commands used here:
 
@@ -45,7 +47,9 @@ class SerialAscii:
     Parameters
     ----------
     port : str
-        Serial device (``/dev/ttyUSB0``, ``COM3``, a pseudo-terminal path).
+        Serial device (``/dev/ttyUSB0``, ``COM3``, a pseudo-terminal path) or a
+        pyserial URL: ``socket://host:port`` for a controller on Ethernet (the
+        baud rate is then ignored).
     baudrate : int
     terminator : bytes
         Appended to every command.
@@ -84,13 +88,20 @@ class SerialAscii:
         self.error = re.compile(error)
         self.error_codes = error_codes or {}
         try:
-            self._serial = serial.Serial(
+            # serial_for_url opens a device path as serial.Serial would, and a URL
+            # (socket://host:port) as a TCP connection with the same read/write calls.
+            self._serial = serial.serial_for_url(
                 port, baudrate=baudrate, timeout=0.05, write_timeout=timeout
             )
-        except (serial.SerialException, *_PORT_ERRORS) as exc:
-            raise DeviceError(
-                f"{port}: cannot open the controller's serial port ({exc}); check the port name and that no other program holds it"
-            ) from None
+        except (serial.SerialException, ValueError, *_PORT_ERRORS) as exc:
+            what = (
+                "cannot connect to the controller; check its IP address, that it is on the "
+                "network and that port 30313 (Gardasoft) or the one given is the controller's"
+                if "://" in port
+                else "cannot open the controller's serial port; check the port name and that "
+                "no other program holds it"
+            )
+            raise DeviceError(f"{port}: {what} ({exc})") from None
         self._serial.reset_input_buffer()
 
     def _complete(self, reply: bytes) -> bool:
@@ -124,8 +135,9 @@ class SerialAscii:
                     f"{self.port}: no answer to {command!r} within {self.timeout:g} s; check the cable, the port and that the controller is powered"
                 )
         except (serial.SerialException, *_PORT_ERRORS) as exc:
+            lost = "the network connection was lost" if "://" in self.port else "the device may have been unplugged"
             raise DeviceError(
-                f"{self.port}: the connection failed while sending {command!r} ({exc}); the device may have been unplugged"
+                f"{self.port}: the connection failed while sending {command!r} ({exc}); {lost}"
             ) from None
         text = bytes(reply).strip()
         if self.reply_end.strip():

@@ -14,7 +14,15 @@ the first line on stdout is the device path. Faults for tests:
 * ``--slow SECONDS``: answer late;
 * ``--mute-after N``: stop answering after N command lines;
 * ``--garbage-after N``: answer with non-ASCII bytes and no prompt after N;
-* ``--vanish-after N``: exit (the port disappears) after N command lines.
+* ``--vanish-after N``: exit (the port disappears) after N command lines;
+* ``--drop-after N``: with ``--tcp``, close the connection after N command lines
+  and wait for the next (a network glitch; the controller itself stays up).
+
+``--tcp [PORT]`` listens on 127.0.0.1 instead of a pseudo-terminal, as an
+Ethernet controller does on its port (Gardasoft: 30313; default here: a free
+one), and prints ``socket://127.0.0.1:PORT``, the URL pyserial opens. One
+connection at a time; when it closes the controller waits for the next, keeping
+its channel state.
 
 Its own error codes: 1 unknown command, 2 malformed parameters, 3 value out of range.
 
@@ -29,6 +37,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import socket
 import sys
 import time
 import tty
@@ -123,6 +132,8 @@ class Controller:
 
 
 def serve(master: int, controller: Controller, args) -> None:
+    """Answer command lines on the file descriptor ``master`` (a pseudo-terminal's
+    master side or a connected socket) until it closes."""
     pending = b""
     lines = 0
     while True:
@@ -142,6 +153,8 @@ def serve(master: int, controller: Controller, args) -> None:
             lines += 1
             if args.vanish_after is not None and lines > args.vanish_after:
                 os._exit(0)
+            if args.drop_after is not None and lines > args.drop_after:
+                return
             if args.mute_after is not None and lines > args.mute_after:
                 continue
             if args.garbage_after is not None and lines > args.garbage_after:
@@ -167,15 +180,24 @@ def main(argv=None) -> None:
     parser.add_argument("--mute-after", type=int)
     parser.add_argument("--garbage-after", type=int)
     parser.add_argument("--vanish-after", type=int)
+    parser.add_argument("--drop-after", type=int)
     parser.add_argument("--dialect", choices=("gardasoft", "line"), default="gardasoft")
+    parser.add_argument("--tcp", type=int, nargs="?", const=0, metavar="PORT")
     args = parser.parse_args(argv)
     errors = {}
     for item in args.error:
         prefix, code = item.rsplit(":", 1)
         errors[prefix.upper()] = int(code)
+    controller = Controller(args.channels, args.state, errors)
+    if args.tcp is not None:
+        with socket.create_server(("127.0.0.1", args.tcp)) as server:
+            print(f"socket://127.0.0.1:{server.getsockname()[1]}", flush=True)
+            while True:
+                conn, _ = server.accept()
+                with conn:
+                    serve(conn.fileno(), controller, args)
     master, slave = os.openpty()
     tty.setraw(slave)  # no echo, no line editing: bytes pass as a serial line would
-    controller = Controller(args.channels, args.state, errors)
     print(os.ttyname(slave), flush=True)
     serve(master, controller, args)
 
