@@ -135,7 +135,11 @@ class SerialAscii:
                     f"{self.port}: no answer to {command!r} within {self.timeout:g} s; check the cable, the port and that the controller is powered"
                 )
         except (serial.SerialException, *_PORT_ERRORS) as exc:
-            lost = "the network connection was lost" if "://" in self.port else "the device may have been unplugged"
+            lost = (
+                "the network connection was lost"
+                if "://" in self.port
+                else "the device may have been unplugged"
+            )
             raise DeviceError(
                 f"{self.port}: the connection failed while sending {command!r} ({exc}); {lost}"
             ) from None
