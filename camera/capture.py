@@ -35,6 +35,7 @@ first unfinished step.
 from __future__ import annotations
 
 import time
+from collections import Counter
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -67,6 +68,8 @@ def verified_frames(
     tolerance: float,
     timeout_s: float,
     flush: int = 4,
+    next_frame=None,
+    chunk=None,
 ):
     """Yield ``n`` frames exposed after ``switched_ns`` with stable brightness, each once verified.
 
@@ -79,47 +82,99 @@ def verified_frames(
     locked — both are yielded — and every later frame is yielded as it agrees;
     a disagreeing frame is then a jump: an error, never recorded.
 
-    Yields ``(frame, discarded)``: the frame and the frames dropped so far.
+    ``next_frame()`` returns ``(frame, trigger_ns, untriggered)``: a triggered frame
+    must be exposed after its trigger and carry a frame id not seen before, and
+    ``untriggered`` counts frames drained before the trigger (default: the camera's
+    next free-running frame, no trigger). ``chunk`` maps chunk names
+    (``ExposureTime``, ``Gain``) to ``(requested, increment)``: a frame whose chunk
+    differs by more than the increment is dropped; so, with chunks, is a frame
+    whose brightness leaves the locked level though its chunk agrees (a chunk that
+    lags a frame must not pass a frame exposed otherwise).
+
+    Yields ``(frame, discarded)``: the frame and the frames dropped so far, by reason.
     """
-    discarded = 0
+    if next_frame is None:
+
+        def next_frame():
+            return camera.grab(1, timeout_s=timeout_s)[0], None, 0
+
+    discarded: Counter = Counter()
     kept: list = []
     flushed = 0
     done = 0
     previous = None
+    seen_id = None
+    off_level = False  # this frame was off the level though its chunk agreed
     while done < n:
-        frame = camera.grab(1, timeout_s=timeout_s)[0]
+        frame, sent, untriggered = next_frame()
+        if untriggered:
+            discarded["arrived untriggered (drained before the trigger)"] += untriggered
         if _repeats(frame, previous):
             raise DeviceError(
                 f"{camera.name}: frame {frame.frame_id} is identical to the one before: the "
                 "camera hands out a stale image (a hung driver or a stopped sensor) — restart it"
             )
         previous = frame
-        if frame.clock == "exposure" and frame.timestamp_ns < switched_ns:
-            discarded += 1  # exposed before the switch (camera pipeline)
-        elif frame.clock != "exposure" and flushed < flush:
+        was_off, off_level = off_level, False
+        wrong = _chunk_disagrees(frame, chunk)
+        if sent is not None and frame.clock == "exposure" and frame.timestamp_ns < sent:
+            discarded["exposed before its trigger"] += 1
+        elif sent is not None and seen_id is not None and frame.frame_id <= seen_id:
+            discarded["not the triggered frame (frame id seen before)"] += 1
+        elif frame.clock == "exposure" and frame.timestamp_ns < switched_ns:
+            discarded["exposed before the switch"] += 1  # camera pipeline
+        elif sent is None and frame.clock != "exposure" and flushed < flush:
             flushed += 1
-            discarded += 1  # may still be in the pipeline from before the switch
+            discarded["flushed after the switch"] += 1  # may predate the switch
+        elif wrong:
+            # A lagging chunk shows as a pair: a frame off the level with a chunk as
+            # requested, then a frame on the level carrying the first one's values.
+            lag = was_off and len(kept) >= 2 and _agrees(frame, kept, tolerance)
+            discarded[f"{wrong}{_LAG if lag else ''}"] += 1
         elif not kept or _agrees(frame, kept, tolerance):
             kept.append(frame)
             # One frame alone is verified only when one is all that was asked for.
             ready = kept[done:] if len(kept) >= 2 or n == 1 else []
             for f in ready[: n - done]:
-                yield f, discarded
+                yield f, dict(discarded)
                 done += 1
         elif len(kept) == 1:
-            discarded += 1  # still settling: start again from this frame
+            discarded["settling (brightness changed)"] += 1  # start again from this frame
             kept = [frame]
+        elif chunk:
+            discarded["brightness off the step's level, chunk as requested"] += 1
+            off_level = True
         else:
             means = [round(f.mean, 1) for f in (*kept[-3:], frame)]
             raise DeviceError(
                 f"{camera.name}: brightness jumps within a step (frame means {means}); "
                 "the light or exposure is unstable — check the controller and the ambient light"
             )
-        if discarded > discard_max:
+        if sent is not None:
+            seen_id = frame.frame_id if seen_id is None else max(seen_id, frame.frame_id)
+        total = sum(discarded.values())
+        if total > discard_max:
+            why = ", ".join(f"{k}: {v}" for k, v in discarded.items())
             raise DeviceError(
-                f"{camera.name}: {discarded} frames were exposed before the light switch or while it settled; "
-                "nothing stable arrived — check that the controller really switches this light and the camera's frame rate"
+                f"{camera.name}: {total} frames were discarded ({why}); nothing stable arrived "
+                "— check that the controller really switches this light, the camera's frame "
+                "rate and its settings"
             )
+
+
+_LAG = " (its brightness agrees, the frame before's did not: the camera's chunks lag a frame)"
+
+
+def _chunk_disagrees(frame, chunk) -> str | None:
+    """Why ``frame``'s chunk values are not the requested settings, or None."""
+    values = frame.extra.get("chunk") if chunk else None
+    if not values:
+        return None
+    for name, (want, increment) in chunk.items():
+        got = values.get(name)
+        if got is not None and abs(float(got) - want) > max(increment, 1e-9 * abs(want)):
+            return f"chunk {name} {float(got):g}, not the {want:g} requested"
+    return None
 
 
 def _repeats(frame, previous) -> bool:
@@ -170,12 +225,23 @@ def capture(
         )
         asked = {"exposure": cam.exposure_us, "gain": cam.gain_db, "pixel_format": cam.pixel_format}
         not_applied = tuple(sorted(m for m in camera.missing if asked.get(m) is not None))
+        mode, chunk = _arm(station, camera)  # refuses what the camera lacks, lights untouched
+        pulse = station.controller.pulse if cam.strobe_line or mode == "hardware-trigger" else None
         # The manifest is written only now: a camera that fails to open leaves
         # nothing that would block a plain rerun.
         store.record(
             "camera",
-            {"name": camera.name, "missing": sorted(camera.missing), "not_applied": not_applied},
+            {
+                "name": camera.name,
+                "missing": sorted(camera.missing),
+                "not_applied": not_applied,
+                "acquisition": mode,
+                "chunks": sorted(chunk or ()),
+                "strobe_line": cam.strobe_line,
+                "trigger_line": cam.trigger_line if mode == "hardware-trigger" else None,
+            },
         )
+        next_frame = _frame_source(camera, controller, mode, pulse, cam.timeout_s)
         pending = None  # a step whose frames are grabbed; their saves may still run
 
         def complete(step):
@@ -206,11 +272,17 @@ def capture(
                     continue
                 as_json = {str(k): v for k, v in setting.items()}  # JSON keys are strings
                 try:
-                    controller.apply(setting)
+                    if pulse is not None:
+                        controller.apply_pulsed(
+                            setting, width_us=pulse.width_us, delay_us=pulse.delay_us
+                        )
+                    else:
+                        controller.apply(setting)
                     switched = time.monotonic_ns()
                     # A camera that can restart its stream drops every queued buffer:
-                    # nothing exposed before the switch can arrive after it.
-                    fresh = camera.restart_stream()
+                    # nothing exposed before the switch can arrive after it. A triggered
+                    # camera exposes nothing until triggered after the switch.
+                    fresh = mode != "free-run" or camera.restart_stream()
                 except (DeviceError, InputError) as exc:
                     abort(name, exc)
                     raise
@@ -225,9 +297,16 @@ def capture(
                         "step": name,
                         "light_setting": as_json,
                         "light_switched_ns": switched,
-                        "stream_restarted": fresh,
+                        "acquisition": mode,
+                        # Triggered after the switch, or the stream restarted: no frame
+                        # from before it can arrive (by construction, not by a check).
+                        "stale_frames_possible": not fresh,
+                        "stream_restarted": mode == "free-run" and fresh,
+                        "light_pulsed": pulse is not None,
                         "controller": controller.name,
                     }
+                    if mode != "free-run" and cam.settle_ms:
+                        time.sleep(cam.settle_ms / 1000)
                     frames = verified_frames(
                         camera,
                         n,
@@ -236,6 +315,8 @@ def capture(
                         tolerance=station.brightness_tolerance,
                         timeout_s=cam.timeout_s,
                         flush=0 if fresh else max(cam.flush_frames, camera.pipeline_frames),
+                        next_frame=next_frame,
+                        chunk=chunk,
                     )
                     stop = None
                     if rois is not None and name != "dark":
@@ -243,10 +324,19 @@ def capture(
                         stop = SequentialStop(
                             rois, mean=p.mean, variance=p.variance, min_frames=p.min_frames
                         )
-                    total_mean, i = 0.0, 0
+                    total_mean, i, discarded = 0.0, 0, {}
                     for i, (frame, discarded) in enumerate(frames, start=1):
                         # Written on the writer thread while the next frame is grabbed.
-                        store.save_later(name, i, frame, {**info, "discarded_before": discarded})
+                        store.save_later(
+                            name,
+                            i,
+                            frame,
+                            {
+                                **info,
+                                "discarded_before": sum(discarded.values()),
+                                "discarded": discarded,
+                            },
+                        )
                         total_mean += frame.mean
                         enough = stop is not None and stop.add(frame.data)
                         done += 1 + (n - i if enough else 0)  # the frames not needed count as done
@@ -254,6 +344,8 @@ def capture(
                             progress(name, done, total)
                         if enough:
                             break
+                    store.note(name, "acquisition", mode)
+                    store.note(name, "discarded", discarded)
                     if stop is not None:
                         known[name] = stop.known()
                         store.note(name, "precision", asdict(known[name]))
@@ -279,6 +371,81 @@ def capture(
     if warnings:
         store.record("warnings", list(warnings))
     return CaptureResult(Path(out), saved, tuple(skipped), not_applied, warnings, known)
+
+
+def _arm(station: Station, camera) -> tuple[str, dict | None]:
+    """Resolve the station's acquisition mode on ``camera`` and arm it.
+
+    Returns the mode and the chunk check (chunk name → (requested, increment)), or
+    None without chunks. Refuses, before any light is switched, a mode, line or
+    chunk the camera lacks, naming the feature and the camera.
+    """
+    cam = station.camera
+    has = camera.features()
+    mode = cam.acquisition
+    if mode == "auto":
+        mode = "software-trigger" if has.software_trigger or cam.strobe_line else "free-run"
+    lacks = []
+    if mode == "software-trigger" and not has.software_trigger:
+        why = "camera.strobe_line needs triggered frames" if cam.strobe_line else ""
+        lacks.append(f"TriggerSoftware (camera.acquisition: software-trigger{why and '; ' + why})")
+    if mode == "hardware-trigger" and cam.trigger_line not in has.trigger_lines:
+        offered = ", ".join(has.trigger_lines) or "none"
+        lacks.append(f"TriggerSource {cam.trigger_line} (camera.trigger_line; it offers {offered})")
+    if cam.strobe_line and cam.strobe_line not in has.strobe_lines:
+        offered = ", ".join(has.strobe_lines) or "none"
+        lacks.append(
+            f"LineSource ExposureActive on {cam.strobe_line} (camera.strobe_line; it offers {offered})"
+        )
+    if cam.chunks and not {"ExposureTime", "Gain"} & set(has.chunks):
+        lacks.append("exposure or gain chunks (camera.chunks: true)")
+    if lacks:
+        raise InputError(
+            f"{camera.name} lacks {'; '.join(lacks)}. Nothing was switched: choose what the "
+            "camera has (camera.acquisition: free-run runs on every camera)",
+            source=f"{station.path}: camera",
+        )
+    use_chunks = bool(has.chunks) if cam.chunks is None else cam.chunks
+    camera.arm(
+        mode,
+        trigger_line=cam.trigger_line if mode == "hardware-trigger" else None,
+        strobe_line=cam.strobe_line,
+        chunks=use_chunks,
+        trigger_delay_us=cam.trigger_delay_us,
+    )
+    if not use_chunks:
+        return mode, None
+    step = camera.increments()
+    chunk = {}
+    if cam.exposure_us is not None and "ExposureTime" in has.chunks:
+        chunk["ExposureTime"] = (cam.exposure_us, step.get("exposure_us", 0.0))
+    if cam.gain_db is not None and "Gain" in has.chunks:
+        chunk["Gain"] = (cam.gain_db, step.get("gain_db", 0.0))
+    return mode, chunk
+
+
+def _frame_source(camera, controller, mode: str, pulse, timeout_s: float):
+    """``next_frame()`` for :func:`verified_frames`: the camera's next frame, triggered
+    as ``mode`` says, spaced so that a pulsed light keeps its duty cycle."""
+    if mode == "free-run":
+        return lambda: (camera.grab(1, timeout_s=timeout_s)[0], None, 0)
+    period_ns = pulse.width_us / pulse.max_duty * 1e3 if pulse is not None else 0.0
+    last = [0]
+
+    def next_frame():
+        wait = last[0] + period_ns - time.monotonic_ns()
+        if wait > 0:
+            time.sleep(wait / 1e9)
+        untriggered = camera.drain()  # a queued frame was not triggered by what follows
+        if mode == "software-trigger":
+            sent = camera.trigger()
+        else:
+            sent = time.monotonic_ns()
+            controller.trigger(pulse.trigger_channel)
+        last[0] = sent
+        return camera.grab(1, timeout_s=timeout_s)[0], sent, untriggered
+
+    return next_frame
 
 
 def _precision_rois(station: Station):

@@ -49,6 +49,7 @@ from inspect_validate.verification.acceptance import Acceptance, Calibration
 __all__ = [
     "ChannelLight",
     "Precision",
+    "Pulse",
     "Station",
     "World",
     "WorldChange",
@@ -65,6 +66,8 @@ class _Strict(BaseModel):
 
 Seconds = Annotated[float, Field(gt=0, le=3600, allow_inf_nan=False)]
 Channel = Annotated[int, Field(ge=1, le=64)]
+Microseconds = Annotated[float, Field(ge=0, le=1e8, allow_inf_nan=False)]
+Line = Annotated[str, Field(pattern=r"^Line[0-9]{1,2}$")]
 
 
 class _CameraCommon(_Strict):
@@ -75,6 +78,22 @@ class _CameraCommon(_Strict):
     timeout_s: Seconds = 2.0
     # dropped after a switch by a camera that cannot restart its stream (v4l2, replay)
     flush_frames: Annotated[int, Field(ge=0, le=1000)] = 4
+    acquisition: Literal["auto", "free-run", "software-trigger", "hardware-trigger"] = "auto"
+    """How frames start (README, "Real stations"); ``auto``: ``software-trigger`` where
+    the camera has ``TriggerSoftware``, else ``free-run``."""
+    settle_ms: Annotated[float, Field(ge=0, le=60_000, allow_inf_nan=False)] = 0.0
+    """Triggered: wait this long after the controller confirms a switch, before the
+    first trigger (a light that takes time to reach its level)."""
+    trigger_line: Line | None = None
+    """``hardware-trigger``: the input line the controller's trigger output drives."""
+    trigger_delay_us: Microseconds = 0.0
+    """``hardware-trigger``: the camera's ``TriggerDelay``, from the pulse to the exposure."""
+    strobe_line: Line | None = None
+    """The output line that carries ``ExposureActive`` to the controller's trigger
+    input; the illuminations' channels then flash (``controller.pulse``)."""
+    chunks: bool | None = None
+    """Append exposure, gain, timestamp and frame id to every frame and check them;
+    default: where the camera offers chunks. ``true`` refuses a camera without."""
 
     @field_validator("pixel_format")
     @classmethod
@@ -159,6 +178,11 @@ class World(_Strict):
     """The camera delivers no frame."""
     frozen: bool = False
     """The camera repeats its first frame."""
+    exposure_glitch_every: Annotated[int, Field(ge=0, le=1000)] = 0
+    """Every n-th frame is exposed at half the set exposure (a setting applied late),
+    its chunk saying so; 0: never."""
+    chunk_lag: bool = False
+    """Chunks carry the previous frame's values (a known firmware fault)."""
     changes: list[WorldChange] = []
     """Changes over the cycles of ``watch`` (:meth:`at`)."""
 
@@ -264,7 +288,7 @@ class AsciiProtocol(BaseModel):
     """A generic ASCII controller's protocol (:mod:`inspect_validate.camera.lights.generic`)."""
 
     model_config = ConfigDict(extra="forbid")
-    commands: dict[Literal["set", "off", "pulse", "status", "init"], str | list[str]]
+    commands: dict[Literal["set", "off", "pulse", "trigger", "status", "init"], str | list[str]]
     baudrate: int = Field(default=115200, gt=0)
     terminator: str = Field(default="\r", min_length=1)
     reply_end: str = Field(default="\r\n", min_length=1)
@@ -304,10 +328,27 @@ class AsciiProtocol(BaseModel):
         return v
 
 
+class Pulse(_Strict):
+    """The controller's pulse (strobe) mode: Gardasoft ``RTc,width,delay,%``, the generic
+    protocol's ``pulse`` template. Each trigger lights the channel ``width_us`` long,
+    ``delay_us`` after the trigger."""
+
+    width_us: Annotated[float, Field(gt=0, le=1e7, allow_inf_nan=False)]
+    delay_us: Microseconds = 0.0
+    max_duty: Annotated[float, Field(gt=0, le=1, allow_inf_nan=False)] = 1.0
+    """The most the light may be on (width / trigger period; an overdriven LED's
+    datasheet limit): the capture spaces triggers at least ``width_us / max_duty``."""
+    trigger_channel: Channel = 1
+    """``hardware-trigger``: the channel whose trigger (Gardasoft ``TRc``, the generic
+    ``trigger`` template) fires the lights and, through the controller's trigger
+    output, the camera's ``trigger_line``."""
+
+
 class _ControllerCommon(_Strict):
     channels: Annotated[int, Field(ge=1, le=64)] = 4
     timeout_s: Seconds = 1.0
     error_codes: dict[int, str] = {}
+    pulse: Pulse | None = None
 
 
 class SimulatedControllerSpec(_ControllerCommon):
@@ -420,7 +461,68 @@ class Station(_Strict):
                 "a simulated camera renders the station's scene: give 'scene' and 'channels' "
                 "(controller channel → scene light)"
             )
+        self._check_timing()
         return self
+
+    def _check_timing(self) -> None:
+        """Triggered lights cover the exposure; every part a mode needs is given.
+
+        The prediction integrates the light over ``exposure_us``: a pulse that ends
+        early or starts late would make every frame darker than predicted, so such a
+        station is refused when read, before any device is opened.
+        """
+        cam, ctl = self.camera, self.controller
+        pulse = getattr(ctl, "pulse", None)
+        hardware = cam.acquisition == "hardware-trigger"
+        if hardware and cam.trigger_line is None:
+            raise ValueError(
+                "camera.acquisition: hardware-trigger needs camera.trigger_line, the input "
+                "the controller's trigger output drives (e.g. Line1)"
+            )
+        if cam.strobe_line is not None and cam.acquisition in ("free-run", "hardware-trigger"):
+            raise ValueError(
+                f"camera.strobe_line: a strobed light needs camera.acquisition: "
+                f"software-trigger, not {cam.acquisition} (free-running frames are not paced "
+                "to the light's duty cycle; a hardware trigger already comes with its pulse)"
+            )
+        if not (hardware or cam.strobe_line):
+            if pulse is not None:
+                raise ValueError(
+                    "controller.pulse is used with camera.acquisition: hardware-trigger or "
+                    "camera.strobe_line; give one of them or leave out the pulse"
+                )
+            return
+        what = "hardware-trigger" if hardware else "camera.strobe_line"
+        if ctl.backend == "manual":
+            raise ValueError(f"{what}: a manual controller cannot pulse its lights")
+        if pulse is None:
+            raise ValueError(
+                f"{what} needs controller.pulse: {{width_us: …}}, the light's pulse per frame"
+            )
+        if cam.exposure_us is None:
+            raise ValueError(f"{what} needs camera.exposure_us, which the pulse must cover")
+        commands = ctl.protocol.commands if getattr(ctl, "protocol", None) else None
+        needed = ("pulse", "trigger") if hardware else ("pulse",)
+        for key in needed:
+            if commands is not None and key not in commands:
+                raise ValueError(f"{what}: controller.protocol.commands needs a '{key}' template")
+        if hardware and pulse.trigger_channel > ctl.channels:
+            raise ValueError(
+                f"controller.pulse.trigger_channel {pulse.trigger_channel} is not on the "
+                f"controller (controller.channels: {ctl.channels})"
+            )
+        # Both intervals from the trigger: the exposure starts at the camera's own delay
+        # (a strobe's trigger is the exposure start itself).
+        start = cam.trigger_delay_us if hardware else 0.0
+        end = start + cam.exposure_us
+        if pulse.delay_us > start or pulse.delay_us + pulse.width_us < end:
+            need = "camera.trigger_delay_us" if hardware else "0 (the exposure's start)"
+            raise ValueError(
+                f"controller.pulse lights {pulse.delay_us:g}–{pulse.delay_us + pulse.width_us:g} µs "
+                f"after the trigger, the exposure runs {start:g}–{end:g} µs: the pulse must "
+                f"cover it (delay_us ≤ {need}, delay_us + width_us ≥ that + "
+                f"camera.exposure_us = {end:g} µs)"
+            )
 
     @property
     def renders(self) -> bool:

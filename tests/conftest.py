@@ -106,3 +106,46 @@ def golden(tmp_path_factory):
     path = copy_station(folder)
     assert run_cli(["train", path, "--out", folder / "golden.json", "--repeats", 5]) == 0
     return folder / "golden.json"
+
+
+@pytest.fixture(scope="session")
+def tlsimu_cti(tmp_path_factory) -> Path:
+    """TLSimu, the GenTL producer with a software trigger that the genicam 1.5.0 wheel
+    ships (1.6 ships only viky, which free-runs): fetched from PyPI once per machine into
+    ~/.cache/inspect-validate, or taken from IV_TLSIMU_CTI. Skips where neither works."""
+    import os
+    import zipfile
+
+    given = os.environ.get("IV_TLSIMU_CTI")
+    if given:
+        return Path(given)
+    cache = Path.home() / ".cache" / "inspect-validate" / "genicam-1.5.0"
+    cti = cache / "TLSimu.cti"
+    if not cti.is_file():
+        download = tmp_path_factory.mktemp("genicam-wheel")
+        fetched = subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "pip",
+                "download",
+                "-q",
+                "--no-deps",
+                "--only-binary",
+                ":all:",
+                "genicam==1.5.0",
+                "-d",
+                str(download),
+            ],
+            capture_output=True,
+            text=True,
+        )
+        wheels = list(download.glob("genicam-1.5.0-*.whl"))
+        if fetched.returncode or not wheels:
+            pytest.skip(f"cannot fetch the genicam 1.5.0 wheel for TLSimu: {fetched.stderr[-300:]}")
+        cache.mkdir(parents=True, exist_ok=True)
+        with zipfile.ZipFile(wheels[0]) as wheel:
+            for name in wheel.namelist():  # the producer and the library it loads beside it
+                if name.endswith(("/TLSimu.cti", "/libVirtualFG.so")):
+                    (cache / Path(name).name).write_bytes(wheel.read(name))
+    return cti

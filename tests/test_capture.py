@@ -22,13 +22,19 @@ def run(argv):
     return info.value.code
 
 
-def station_copy(tmp_path, **controller_extra):
-    """The shipped station, copied with its scene reference made absolute, plus controller options."""
+def station_copy(tmp_path, camera=None, **controller_extra):
+    """The shipped station, copied with its scene reference made absolute, plus camera
+    (a dict) and controller options."""
     text = (
         (STATION / "station.yaml")
         .read_text()
         .replace("../scenes/", f"{ROOT / 'sample_images' / 'scenes'}/")
     )
+    if camera:
+        extra = "".join(f"  {k}: {json.dumps(v)}\n" for k, v in camera.items())
+        text = text.replace(
+            "camera:\n  backend: simulated\n", "camera:\n  backend: simulated\n" + extra
+        )
     if controller_extra:
         extra = "".join(f"  {k}: {json.dumps(v)}\n" for k, v in controller_extra.items())
         text = text.replace(
@@ -40,11 +46,22 @@ def station_copy(tmp_path, **controller_extra):
     return path
 
 
-def test_capture_then_measure_on_the_simulated_station(tmp_path, capsys):
+@pytest.mark.parametrize("acquisition", [None, "free-run"])
+def test_capture_then_measure_on_the_simulated_station(tmp_path, capsys, acquisition):
+    """By default the simulated camera, which has TriggerSoftware, is software-triggered:
+    nothing from before a switch can arrive. Free-running, its 2-frame pipeline holds
+    frames from before every switch, which the capture must discard."""
     out = tmp_path / "cap"
-    assert run(["capture", STATION / "station.yaml", "--out", out]) == 0
+    station = (
+        station_copy(tmp_path, camera={"acquisition": acquisition})
+        if acquisition
+        else STATION / "station.yaml"
+    )
+    assert run(["capture", station, "--out", out]) == 0
     manifest = json.loads((out / "manifest.json").read_text())
     assert all(manifest["steps"][s]["complete"] for s in ("amber", "red", "dark"))
+    mode = acquisition or "software-trigger"
+    assert manifest["camera"]["acquisition"] == mode
     for step, lights in (
         ("amber", {"1": 100.0, "2": 0.0}),
         ("red", {"1": 0.0, "2": 100.0}),
@@ -59,9 +76,16 @@ def test_capture_then_measure_on_the_simulated_station(tmp_path, capsys):
                 meta["extra"]["lights"] == lights
                 and meta["station_sha256"] == manifest["station_sha256"]
             )
-        assert json.loads(sidecars[0].read_text())["discarded_before"] >= (
-            2 if step != "amber" else 0
-        )
+            assert meta["acquisition"] == mode
+            assert meta["stale_frames_possible"] is (mode == "free-run")
+        first = json.loads(sidecars[0].read_text())
+        if mode == "free-run":
+            assert first["discarded_before"] >= (2 if step != "amber" else 0)
+            if step != "amber":
+                assert first["discarded"]["exposed before the switch"] >= 2
+        else:
+            assert first["discarded_before"] == 0 and first["discarded"] == {}
+            assert manifest["steps"][step]["discarded"] == {}
     # The camera's pipeline holds 2 frames: a capture that did not discard would have recorded them.
     doc = tmp_path / "m.json"
     assert (
@@ -275,7 +299,8 @@ def test_verification_discards_stale_and_settling_frames():
     frames, discarded = _verified(
         cam, 3, switched_ns=10, discard_max=5, tolerance=0.02, timeout_s=1
     )
-    assert [f.data.mean() for f in frames] == [100, 100, 100] and discarded == 3
+    assert [f.data.mean() for f in frames] == [100, 100, 100]
+    assert discarded == {"exposed before the switch": 2, "settling (brightness changed)": 1}
 
 
 def test_frames_are_handed_out_as_soon_as_verified():
@@ -291,7 +316,9 @@ def test_frames_are_handed_out_as_soon_as_verified():
 
 def test_verification_fails_loudly():
     stale = FakeCamera([(1, 10)] * 10)
-    with pytest.raises(DeviceError, match="exposed before the light switch"):
+    with pytest.raises(
+        DeviceError, match=r"4 frames were discarded \(exposed before the switch: 4\)"
+    ):
         _verified(stale, 2, switched_ns=10, discard_max=3, tolerance=0.02, timeout_s=1)
     jumpy = FakeCamera([(20, 100), (21, 100), (22, 160), (23, 100), (24, 100)])
     with pytest.raises(DeviceError, match="brightness jumps within a step"):
@@ -304,7 +331,8 @@ def test_frames_without_exposure_timestamps_are_flushed():
     frames, discarded = _verified(
         cam, 2, switched_ns=10, discard_max=5, tolerance=0.02, timeout_s=1, flush=3
     )
-    assert [f.data.mean() for f in frames] == [100, 100] and discarded == 4
+    assert [f.data.mean() for f in frames] == [100, 100]
+    assert discarded == {"flushed after the switch": 3, "settling (brightness changed)": 1}
 
 
 def test_illumination_on_a_missing_channel_is_refused_when_read(tmp_path, capsys):

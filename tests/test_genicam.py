@@ -141,3 +141,73 @@ def test_no_frame_from_before_the_switch_survives_a_deep_queue(tmp_path, capsys)
             assert after_switch_ms >= 25, (
                 f"{step}: a frame arrived {after_switch_ms:.2f} ms after the switch"
             )
+
+
+def _capture(tmp_path, station_text):
+    from inspect_validate.cli import main
+
+    station = tmp_path / "station.yaml"
+    station.write_text(station_text)
+    out = tmp_path / "cap"
+    with pytest.raises(SystemExit) as info:
+        main(["capture", str(station), "--out", str(out)])
+    return info.value.code, out
+
+
+def test_software_trigger_on_tlsimu(tmp_path, capsys, tlsimu_cti):
+    """TLSimu (genicam 1.5.0) has TriggerSoftware: the default acquisition triggers one
+    frame per verified frame after each switch; nothing untriggered arrives."""
+    import json
+
+    with GenICamCamera(str(tlsimu_cti), serial="SN_InterfaceA_0") as cam:
+        has = cam.features()
+        assert has.software_trigger and not has.trigger_lines and not has.chunks
+        cam.configure(pixel_format="Mono8")
+        cam.arm("software-trigger")
+        with pytest.raises(DeviceError, match=r"no frame within 0\.2 s"):
+            cam.grab(1, timeout_s=0.2)  # armed, not triggered: no frame
+        cam.trigger()
+        assert cam.grab(1, timeout_s=2)[0].data.shape == (512, 512)
+    code, out = _capture(
+        tmp_path,
+        f"camera: {{backend: genicam, cti: '{tlsimu_cti}', serial: SN_InterfaceA_0,"
+        " pixel_format: Mono8}\n"
+        "controller: {backend: simulated, channels: 2}\n"
+        "illuminations:\n  - {name: one, channels: {1: 100}}\n  - {name: two, channels: {2: 50}}\n"
+        "frames: 3\ndark_frames: 2\n",
+    )
+    assert code == 0, capsys.readouterr().err
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["camera"]["acquisition"] == "software-trigger"
+    for step, n in (("one", 3), ("two", 3), ("dark", 2)):
+        metas = [json.loads(p.read_text()) for p in sorted((out / step).glob("frame_*.json"))]
+        assert len(metas) == n and manifest["steps"][step]["discarded"] == {}
+        assert all(m["acquisition"] == "software-trigger" for m in metas)
+        assert not any(m["stale_frames_possible"] or m["stream_restarted"] for m in metas)
+        ids = [m["frame_id"] for m in metas]
+        assert ids == list(range(ids[0], ids[0] + n))  # one frame per trigger, none lost
+
+
+def test_a_mode_the_camera_lacks_is_refused_before_any_light(tmp_path, capsys):
+    """viky free-runs only: asking it for a software trigger, a trigger line or a strobe
+    line is refused naming the feature and the camera, with no light switched and no
+    capture folder left behind to block a rerun."""
+    for camera, feature in (
+        ("acquisition: software-trigger", "TriggerSoftware"),
+        ("acquisition: hardware-trigger, trigger_line: Line1", "TriggerSource Line1"),
+        ("acquisition: software-trigger, strobe_line: Line2", "ExposureActive on Line2"),
+        ("chunks: true", "exposure or gain chunks"),
+    ):
+        pulse = ", pulse: {width_us: 6000}" if "Line" in camera else ""
+        code, out = _capture(
+            tmp_path,
+            f"camera: {{backend: genicam, cti: '{CTI}', serial: '0', pixel_format: Mono8,"
+            f" exposure_us: 5000, {camera}}}\n"
+            f"controller: {{backend: simulated, channels: 2{pulse}}}\n"
+            "illuminations:\n  - {name: one, channels: {1: 100}}\nframes: 2\ndark_frames: 0\n",
+        )
+        err = capsys.readouterr().err
+        assert code == 2, err
+        assert "Viky (serial 0) lacks " in err and feature in err, err
+        assert "Nothing was switched" in err
+        assert not (out / "manifest.json").exists()  # no step began

@@ -101,8 +101,11 @@ def test_restart_drops_the_frames_pylon_queued_before_the_switch(tmp_path):
     assert int(skipped[1]) >= 10  # pylon counts the dropped buffers in the frame IDs
 
 
-def test_full_capture_through_the_emulator_matches_the_simulated_station(tmp_path):
-    """The simulated station's capture, every frame through pylon's grab engine."""
+@pytest.mark.parametrize("acquisition", ["software-trigger", "free-run"])
+def test_full_capture_through_the_emulator_matches_the_simulated_station(tmp_path, acquisition):
+    """The simulated station's capture, every frame through pylon's grab engine:
+    software-triggered (the default on a camera with TriggerSoftware), or free-running
+    with the stream restarted after each switch."""
     from conftest import ROOT
 
     from inspect_validate.cli import main
@@ -110,7 +113,9 @@ def test_full_capture_through_the_emulator_matches_the_simulated_station(tmp_pat
     station = ROOT / "sample_images" / "station"
     text = (station / "station.yaml").read_text()
     text = text.replace(
-        "backend: simulated\n", "backend: pylon\n  simulate: true\n  pixel_format: Mono16\n", 1
+        "backend: simulated\n",
+        f"backend: pylon\n  simulate: true\n  pixel_format: Mono16\n  acquisition: {acquisition}\n",
+        1,
     )
     text = text.replace("../scenes/", f"{ROOT / 'sample_images' / 'scenes'}/")
     pylon_station = tmp_path / "pylon.yaml"
@@ -134,10 +139,13 @@ def test_full_capture_through_the_emulator_matches_the_simulated_station(tmp_pat
     )
     assert done.returncode == 0, done.stdout + done.stderr
     meta = json.loads((out / "red" / "frame_0001.json").read_text())
-    # The emulator stamps no time (TimeStamp 0), but the restarted stream needs no flush.
+    # The emulator stamps no time (TimeStamp 0), but neither a triggered frame nor the
+    # restarted stream needs a flush.
     assert meta["device"].startswith("Basler Emulation") and meta["clock"] == "arrival"
     assert meta["pixel_format"] == "Mono16" and meta["exposure_us"] == 8000
-    assert meta["stream_restarted"] and meta["discarded_before"] == 0
+    assert meta["acquisition"] == acquisition and meta["discarded_before"] == 0
+    assert meta["stream_restarted"] is (acquisition == "free-run")
+    assert meta["stale_frames_possible"] is False
 
     # The same station on the simulated camera: class means agree within noise.
     sim = tmp_path / "sim"

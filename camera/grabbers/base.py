@@ -3,10 +3,41 @@
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from dataclasses import dataclass
 
 from inspect_validate.camera.frame import Frame
 
-__all__ = ["Grabber"]
+from inspect_validate.errors import DeviceError
+
+__all__ = ["ACQUISITIONS", "Features", "Grabber"]
+
+#: How frames are started: by the camera's own clock, by ``TriggerSoftware`` from the
+#: capture, or by a pulse on one of the camera's input lines.
+ACQUISITIONS = ("free-run", "software-trigger", "hardware-trigger")
+
+
+@dataclass(frozen=True)
+class Features:
+    """What a camera offers beyond free-running, read from its node map.
+
+    Attributes
+    ----------
+    software_trigger : bool
+        ``TriggerMode`` and ``TriggerSoftware`` (``TriggerSelector=FrameStart`` where
+        the selector exists).
+    trigger_lines : tuple of str
+        Input lines ``TriggerSource`` can take (``Line1`` …).
+    strobe_lines : tuple of str
+        Lines that can output ``ExposureActive`` (``LineSelector``/``LineSource``).
+    chunks : tuple of str
+        Chunk values the camera can append to a frame (``ExposureTime``, ``Gain``,
+        ``Timestamp``, ``FrameID``), empty without ``ChunkModeActive``.
+    """
+
+    software_trigger: bool = False
+    trigger_lines: tuple[str, ...] = ()
+    strobe_lines: tuple[str, ...] = ()
+    chunks: tuple[str, ...] = ()
 
 
 class Grabber(ABC):
@@ -46,6 +77,48 @@ class Grabber(ABC):
         default) means the capture must flush ``pipeline_frames``.
         """
         return False
+
+    def features(self) -> Features:
+        """What the camera offers beyond free-running (default: nothing)."""
+        return Features()
+
+    def arm(
+        self,
+        acquisition: str,
+        *,
+        trigger_line: str | None = None,
+        strobe_line: str | None = None,
+        chunks: bool = False,
+        trigger_delay_us: float = 0.0,
+    ) -> None:
+        """Set the camera up for ``acquisition`` (one of :data:`ACQUISITIONS`).
+
+        Triggered: ``TriggerSelector=FrameStart``, ``TriggerMode=On`` and
+        ``TriggerSource`` ``Software`` or ``trigger_line``, the stream's buffers handed
+        out oldest first, and the stream restarted so that no frame from before
+        arrives. ``strobe_line`` outputs ``ExposureActive`` (the light controller's
+        trigger input). ``chunks`` appends exposure, gain, timestamp and frame id to
+        every frame (``Frame.extra["chunk"]``). The capture checks :meth:`features`
+        first; a backend refuses what it lacks with a :class:`DeviceError`.
+        """
+        if acquisition != "free-run" or strobe_line or chunks:
+            raise DeviceError(f"{self.name}: free-runs only (no trigger, lines or chunks)")
+
+    def drain(self) -> int:
+        """Drop frames already delivered and not yet fetched; returns how many (a
+        triggered capture calls it before each trigger, so the frame it fetches next
+        is the one it triggered)."""
+        return 0
+
+    def trigger(self) -> int:
+        """Start one frame (``TriggerSoftware``); returns the host monotonic time (ns)
+        just before the command, which the frame's exposure cannot precede."""
+        raise DeviceError(f"{self.name}: has no software trigger")
+
+    def increments(self) -> dict[str, float]:
+        """The smallest step of ``exposure_us`` and ``gain_db`` the camera applies (a
+        chunk value within it of the request is the request)."""
+        return {}
 
     def close(self) -> None:  # noqa: B027 - optional for backends without a connection
         """Release the device."""

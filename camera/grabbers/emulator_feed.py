@@ -44,6 +44,7 @@ class EmulatorFeed(Grabber):
         self._folder = tempfile.TemporaryDirectory(prefix="iv-emulator-")
         self._served: dict[int, float] | None = None
         self._sets = 0
+        self._triggered = False
 
     def configure(self, *, exposure_us=None, gain_db=None, pixel_format=None, region=None) -> None:
         if pixel_format not in (None, "Mono16"):
@@ -75,12 +76,32 @@ class EmulatorFeed(Grabber):
     def restart_stream(self) -> bool:
         return self.camera.restart_stream()
 
+    def features(self):
+        return self.camera.features()
+
+    def arm(self, acquisition, **options) -> None:
+        self.camera.arm(acquisition, **options)
+        # The renderer lights a pulsed channel as the station's wiring would.
+        self.renderer.arm(acquisition, **options)
+        self._triggered = acquisition != "free-run"
+
+    def drain(self) -> int:
+        return self.camera.drain()
+
+    def _serve_current(self) -> None:
+        state = self.renderer.light_state()
+        if state != self._served:
+            self._serve(state)  # stops the emulator's grab: before a trigger, not after
+
+    def trigger(self) -> int:
+        self._serve_current()
+        return self.camera.trigger()
+
     def grab(self, n: int, *, timeout_s: float = 2.0) -> list[Frame]:
         frames = []
         for _ in range(n):
-            state = self.renderer.light_state()
-            if state != self._served:
-                self._serve(state)
+            if not self._triggered:
+                self._serve_current()
             frames += self.camera.grab(1, timeout_s=timeout_s)
         return frames
 

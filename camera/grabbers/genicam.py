@@ -15,6 +15,13 @@
   buffer count for callers that do not restart.
 * The pixel format is read from each buffer, not assumed from the setting: a
   buffer in another format than the one asked for is an error naming the device.
+* Triggered acquisition (:meth:`GenICamCamera.arm`) by SFNC names:
+  ``TriggerSelector=FrameStart``, ``TriggerMode``, ``TriggerSource``
+  (``Software`` or ``LineN``), ``TriggerSoftware``, ``TriggerDelay``; a strobe
+  output by ``LineSelector``/``LineMode``/``LineSource=ExposureActive``; the data
+  stream's ``StreamBufferHandlingMode=OldestFirst`` where offered. Chunks
+  (``ChunkModeActive``, ``ChunkSelector``/``ChunkEnable``) are read from the node
+  map, where harvesters attaches each fetched buffer's chunk data.
 """
 
 from __future__ import annotations
@@ -24,7 +31,7 @@ import time
 from pathlib import Path
 
 from inspect_validate.camera.frame import Frame
-from inspect_validate.camera.grabbers.base import Grabber
+from inspect_validate.camera.grabbers.base import Features, Grabber
 from inspect_validate.camera.pixelformats import BIT_DEPTH, packed_size, unpack
 
 from inspect_validate.errors import DeviceError
@@ -33,6 +40,15 @@ __all__ = ["GenICamCamera", "find_producers"]
 
 _EXPOSURE_NODES = ("ExposureTime", "ExposureTimeAbs")
 _GAIN_NODES = ("Gain", "GainAbs")
+_CHUNKS = ("ExposureTime", "Gain", "Timestamp", "FrameID")
+
+
+def _symbolics(node) -> tuple[str, ...]:
+    """An enumeration's entries, or () where the node is absent or not readable now."""
+    try:
+        return tuple(node.symbolics) if node is not None else ()
+    except Exception:  # GenICam raises several types for unavailable nodes
+        return ()
 
 
 def find_producers(cti: str | None = None) -> list[Path]:
@@ -112,6 +128,7 @@ class GenICamCamera(Grabber):
         self.pipeline_frames = int(self._ia.num_buffers) + 1
         self._requested_format = None
         self._acquiring = False
+        self._chunked = False
         self._nodes = self._ia.remote_device.node_map
         self.missing = {
             label
@@ -146,6 +163,101 @@ class GenICamCamera(Grabber):
             except Exception as exc:  # GenTL raises several types when it cannot arm
                 raise DeviceError(f"{self.name}: cannot start the acquisition ({exc})") from None
             self._acquiring = True
+
+    def features(self) -> Features:
+        nm = self._nodes
+        sources = _symbolics(getattr(nm, "TriggerSource", None))
+        software = hasattr(nm, "TriggerMode") and hasattr(nm, "TriggerSoftware")
+        strobe = ()
+        if "ExposureActive" in _symbolics(getattr(nm, "LineSource", None)):
+            strobe = _symbolics(getattr(nm, "LineSelector", None))
+        chunks = ()
+        if hasattr(nm, "ChunkModeActive"):
+            offered = _symbolics(getattr(nm, "ChunkSelector", None))
+            chunks = tuple(c for c in _CHUNKS if c in offered)
+        return Features(
+            software_trigger=software and (not sources or "Software" in sources),
+            trigger_lines=tuple(s for s in sources if s.startswith("Line")),
+            strobe_lines=strobe,
+            chunks=chunks,
+        )
+
+    def arm(
+        self,
+        acquisition,
+        *,
+        trigger_line=None,
+        strobe_line=None,
+        chunks=False,
+        trigger_delay_us=0.0,
+    ) -> None:
+        self._stop()  # trigger and chunk settings are locked while acquiring on many cameras
+        nm = self._nodes
+        if "FrameStart" in _symbolics(getattr(nm, "TriggerSelector", None)):
+            self._set(("TriggerSelector",), "FrameStart", "trigger")
+        triggered = acquisition != "free-run"
+        if hasattr(nm, "TriggerMode"):
+            self._set(("TriggerMode",), "On" if triggered else "Off", "trigger")
+        if triggered:
+            self._set(("TriggerSource",), trigger_line or "Software", "trigger")
+            if trigger_delay_us:
+                self._set(("TriggerDelay", "TriggerDelayAbs"), float(trigger_delay_us), "trigger")
+        if strobe_line:
+            self._set(("LineSelector",), strobe_line, "strobe")
+            if hasattr(nm, "LineMode"):
+                self._set(("LineMode",), "Output", "strobe")
+            self._set(("LineSource",), "ExposureActive", "strobe")
+        if chunks:  # left as it is otherwise: some producers' chunk mode is fixed
+            self._set(("ChunkModeActive",), True, "chunks")
+            for name in self.features().chunks:
+                self._set(("ChunkSelector",), name, "chunks")
+                self._set(("ChunkEnable",), True, "chunks")
+        # Triggered frames are fetched in the order they were triggered.
+        stream = self._ia.data_streams[0].node_map
+        handling = getattr(stream, "StreamBufferHandlingMode", None)
+        if "OldestFirst" in _symbolics(handling):
+            handling.value = "OldestFirst"
+        self._chunked = bool(chunks)
+        self._start()
+
+    def trigger(self) -> int:
+        self._start()
+        sent = time.monotonic_ns()
+        try:
+            self._nodes.TriggerSoftware.execute()
+        except Exception as exc:  # GenICam raises several types for access errors
+            raise DeviceError(f"{self.name}: TriggerSoftware failed ({exc})") from None
+        return sent
+
+    def drain(self) -> int:
+        if not self._acquiring:
+            return 0
+        drained = 0
+        while (buf := self._ia.try_fetch(timeout=1e-6)) is not None:
+            buf.queue()
+            drained += 1
+        return drained
+
+    def increments(self) -> dict[str, float]:
+        steps = {}
+        for label, names in (("exposure_us", _EXPOSURE_NODES), ("gain_db", _GAIN_NODES)):
+            _, node = _node(self._nodes, names)
+            try:
+                steps[label] = float(node.inc)
+            except Exception:  # no node, or a float without an increment
+                pass
+        return steps
+
+    def _chunk_values(self) -> dict[str, float]:
+        """The fetched buffer's chunk values (harvesters attached them to the node map)."""
+        values = {}
+        for name in _CHUNKS:
+            node = getattr(self._nodes, f"Chunk{name}", None)
+            try:
+                values[name] = float(node.value)
+            except Exception:  # not enabled, not in this buffer
+                continue
+        return values
 
     def restart_stream(self) -> bool:
         """Stop and restart the acquisition: harvesters flushes every queued buffer on stop.
@@ -211,6 +323,7 @@ class GenICamCamera(Grabber):
                         stamp, clock = int(buf.timestamp_ns), "device"
                     except Exception:  # producers without timestamps raise NotAvailableException
                         stamp, clock = arrived, "arrival"
+                    chunk = self._chunk_values() if self._chunked else {}
                     frames.append(
                         Frame(
                             data,
@@ -222,6 +335,7 @@ class GenICamCamera(Grabber):
                             BIT_DEPTH.get(fmt, 8),
                             self.name,
                             clock,
+                            {"chunk": chunk} if chunk else {},
                         )
                     )
             except TimeoutException:

@@ -10,12 +10,14 @@ from __future__ import annotations
 import time
 
 from inspect_validate.camera.frame import Frame
-from inspect_validate.camera.grabbers.base import Grabber
+from inspect_validate.camera.grabbers.base import Features, Grabber
 from inspect_validate.camera.pixelformats import BIT_DEPTH
 
 from inspect_validate.errors import DeviceError
 
 __all__ = ["PylonCamera"]
+
+_CHUNKS = ("ExposureTime", "Gain", "Timestamp", "FrameID")
 
 
 class PylonCamera(Grabber):
@@ -48,6 +50,7 @@ class PylonCamera(Grabber):
             raise DeviceError(f"pylon camera index {index} does not exist; {len(devices)} found")
         self._cam = pylon.InstantCamera(factory.CreateDevice(device))
         self._cam.Open()
+        self._chunked = False
         self.name = f"Basler {device.GetModelName()} (serial {device.GetSerialNumber()})"
         self.missing = {
             label
@@ -110,6 +113,97 @@ class PylonCamera(Grabber):
         self._cam.ImageFileMode.Value = "On"
         self._cam.ImageFilename.Value = str(folder)
 
+    def _symbolics(self, node: str) -> tuple[str, ...]:
+        try:
+            return tuple(getattr(self._cam, node).Symbolics)
+        except (AttributeError, self._genicam.GenericException):  # absent or unavailable now
+            return ()
+
+    def features(self) -> Features:
+        sources = self._symbolics("TriggerSource")
+        strobe = (
+            self._symbolics("LineSelector")
+            if "ExposureActive" in self._symbolics("LineSource")
+            else ()
+        )
+        offered = self._symbolics("ChunkSelector")
+        return Features(
+            software_trigger=hasattr(self._cam, "TriggerSoftware") and "Software" in sources,
+            trigger_lines=tuple(s for s in sources if s.startswith("Line")),
+            strobe_lines=strobe,
+            chunks=tuple(c for c in _CHUNKS if c in offered),
+        )
+
+    def arm(
+        self,
+        acquisition,
+        *,
+        trigger_line=None,
+        strobe_line=None,
+        chunks=False,
+        trigger_delay_us=0.0,
+    ) -> None:
+        if self._cam.IsGrabbing():
+            self._cam.StopGrabbing()
+        if "FrameStart" in self._symbolics("TriggerSelector"):
+            self._set("TriggerSelector", "FrameStart", "trigger")
+        triggered = acquisition != "free-run"
+        self._set("TriggerMode", "On" if triggered else "Off", "trigger")
+        if triggered:
+            self._set("TriggerSource", trigger_line or "Software", "trigger")
+            if trigger_delay_us:
+                self._set("TriggerDelay", float(trigger_delay_us), "trigger")
+        if strobe_line:
+            self._set("LineSelector", strobe_line, "strobe")
+            self._set("LineMode", "Output", "strobe")
+            self._set("LineSource", "ExposureActive", "strobe")
+        if chunks:
+            self._set("ChunkModeActive", True, "chunks")
+            for name in self.features().chunks:
+                self._set("ChunkSelector", name, "chunks")
+                self._set("ChunkEnable", True, "chunks")
+        self._chunked = bool(chunks)
+        self._start()
+
+    def trigger(self) -> int:
+        self._start()
+        # A trigger the camera is not ready for is dropped without a word (the emulator
+        # right after StartGrabbing, a camera still reading out): wait until it is.
+        if not self._cam.WaitForFrameTriggerReady(5000, self._pylon.TimeoutHandling_Return):
+            raise DeviceError(
+                f"{self.name}: not ready for a frame trigger within 5 s; check TriggerMode "
+                "and that no exposure is still under way"
+            )
+        sent = time.monotonic_ns()
+        try:
+            self._cam.TriggerSoftware.Execute()
+        except self._genicam.GenericException as exc:
+            raise DeviceError(
+                f"{self.name}: TriggerSoftware failed ({exc.GetDescription()})"
+            ) from None
+        return sent
+
+    def drain(self) -> int:
+        drained = 0
+        while self._cam.IsGrabbing():
+            result = self._cam.RetrieveResult(0, self._pylon.TimeoutHandling_Return)
+            if not result.IsValid():
+                break
+            result.Release()
+            drained += 1
+        return drained
+
+    def increments(self) -> dict[str, float]:
+        steps = {}
+        for label, node in (("exposure_us", "ExposureTime"), ("gain_db", "Gain")):
+            try:
+                feature = getattr(self._cam, node)
+                if feature.HasInc():
+                    steps[label] = float(feature.Inc)
+            except (AttributeError, self._genicam.GenericException):
+                pass
+        return steps
+
     def _start(self):
         if not self._cam.IsGrabbing():
             self._cam.StartGrabbing(self._pylon.GrabStrategy_OneByOne)
@@ -144,6 +238,12 @@ class PylonCamera(Grabber):
                 if not result.GrabSucceeded():
                     raise DeviceError(f"{self.name}: grab failed ({result.GetErrorDescription()})")
                 data = result.Array.copy()  # copy before the buffer returns to pylon
+                chunk = {}
+                for name in _CHUNKS if self._chunked else ():
+                    try:
+                        chunk[name] = float(getattr(result, f"Chunk{name}").Value)
+                    except (AttributeError, self._genicam.GenericException):
+                        pass
                 frames.append(
                     Frame(
                         data,
@@ -155,6 +255,7 @@ class PylonCamera(Grabber):
                         BIT_DEPTH.get(fmt, 8),
                         self.name,
                         "device" if result.TimeStamp else "arrival",
+                        {"chunk": chunk} if chunk else {},
                     )
                 )
             finally:

@@ -16,6 +16,16 @@ a gain error (:func:`world_components`), an exposure factor and defocus blur,
 so that verification has a reality to notice; and faults: a camera that
 times out, or one that repeats a frame. ``watch`` evolves the world over its
 cycles (:meth:`~inspect_validate.camera.station.World.at`).
+
+It triggers as a GenICam camera does (:meth:`SimulatedCamera.arm`): free-running
+through its pipeline, one frame per :meth:`~SimulatedCamera.trigger` exposed at
+the trigger, or one per pulse of the controller (each ``TR`` command counts in the
+controller's state) on ``Line1``. A channel in pulse mode lights a frame only when
+it fires — on that trigger, or on the camera's ``ExposureActive`` strobe output
+(``Line2``) — and only for the part of the exposure its pulse covers. With chunks
+on, each frame carries the exposure, gain, timestamp and frame id it was made with
+(``Frame.extra["chunk"]``); the world's ``exposure_glitch_every`` and
+``chunk_lag`` make them disagree as faulty firmware does.
 """
 
 from __future__ import annotations
@@ -27,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 from inspect_validate.camera.frame import Frame
-from inspect_validate.camera.grabbers.base import Grabber
+from inspect_validate.camera.grabbers.base import Features, Grabber
 
 from inspect_validate.errors import DeviceError
 from inspect_validate.model.render import class_bands, expected_grey, expose
@@ -178,6 +188,46 @@ class SimulatedCamera(Grabber):
         self.world = world
         self._frozen = None  # the frame a frozen camera repeats
         self.pipeline: deque = deque()
+        self.acquisition, self.strobe_line, self.chunks = "free-run", None, False
+        self.trigger_delay_us = 0.0
+        self._triggered: deque = deque()  # software triggers not yet delivered
+        self._pulses_seen = 0  # the controller's trigger count already exposed
+        self._last_chunk = None  # a lagging chunk's values (world.chunk_lag)
+
+    _TRIGGER_LINE, _STROBE_LINE = "Line1", "Line2"
+
+    def features(self) -> Features:
+        return Features(
+            software_trigger=True,
+            trigger_lines=(self._TRIGGER_LINE,),
+            strobe_lines=(self._STROBE_LINE,),
+            chunks=("ExposureTime", "Gain", "Timestamp", "FrameID"),
+        )
+
+    def arm(
+        self,
+        acquisition,
+        *,
+        trigger_line=None,
+        strobe_line=None,
+        chunks=False,
+        trigger_delay_us=0.0,
+    ) -> None:
+        self.acquisition, self.strobe_line, self.chunks = acquisition, strobe_line, chunks
+        self.trigger_delay_us = float(trigger_delay_us)
+        self.pipeline.clear()
+        self._triggered.clear()
+        self._pulses_seen = self._controller_state().get("triggers", 0)
+
+    def trigger(self) -> int:
+        sent = time.monotonic_ns()
+        if self.acquisition != "software-trigger":
+            raise DeviceError(f"{self.name}: TriggerSoftware while not armed for it")
+        self._triggered.append(self._expose(fired="strobe" if self.strobe_line else None))
+        return sent
+
+    def increments(self) -> dict[str, float]:
+        return {"exposure_us": 1.0, "gain_db": 0.01}
 
     def configure(self, *, exposure_us=None, gain_db=None, pixel_format=None, region=None) -> None:
         if exposure_us is not None:
@@ -196,17 +246,39 @@ class SimulatedCamera(Grabber):
             )
         self.pipeline.clear()  # a settings change restarts the pipeline, as on real cameras
 
-    def light_state(self) -> dict[int, float]:
-        """The channels the controller has on now (channel → %), from its state file."""
+    def _controller_state(self) -> dict:
         try:
             doc = json.loads(self.state_path.read_text())
         except (OSError, ValueError):
             return {}
-        return {int(c): float(v) for c, v in doc.get("channels", {}).items()}
+        return doc if isinstance(doc, dict) else {}
 
-    def _expose(self) -> tuple[dict[int, float], int]:
+    def light_state(self, *, fired: str | None = None) -> dict[int, float]:
+        """The channels' light during an exposure starting now (channel → % of full output),
+        from the controller's state file.
+
+        A channel in pulse mode lights the exposure only when it fires — ``"strobe"``:
+        on this camera's exposure-active output, ``"controller"``: on the controller's
+        trigger, which also started the exposure ``trigger_delay_us`` later — and then
+        in proportion to the part of the exposure its pulse covers.
+        """
+        doc = self._controller_state()
+        levels = {int(c): float(v) for c, v in doc.get("channels", {}).items()}
+        if not fired and self.strobe_line:
+            fired = "strobe"
+        for c, mode in doc.get("mode", {}).items():
+            if mode != "pulse":
+                continue
+            width, delay = doc.get("pulse", {}).get(c, (0.0, 0.0))
+            start = self.trigger_delay_us if fired == "controller" else 0.0
+            end = start + self.exposure_us
+            covered = max(0.0, min(end, delay + width) - max(start, delay))
+            levels[int(c)] *= covered / self.exposure_us if fired else 0.0
+        return levels
+
+    def _expose(self, *, fired: str | None = None) -> tuple[dict[int, float], int]:
         time.sleep(self.interval)
-        return self.light_state(), time.monotonic_ns()
+        return self.light_state(fired=fired), time.monotonic_ns()
 
     def grab(self, n: int, *, timeout_s: float = 2.0) -> list[Frame]:
         if self.world.camera_timeout:
@@ -214,16 +286,42 @@ class SimulatedCamera(Grabber):
             raise DeviceError(f"{self.name}: no frame within {timeout_s:g} s (timeout)")
         frames = []
         while len(frames) < n:
-            self.pipeline.append(self._expose())
-            if len(self.pipeline) <= self.latency:
-                continue
-            state, stamp = self.pipeline.popleft()
+            if self.acquisition == "free-run":
+                self.pipeline.append(self._expose())
+                if len(self.pipeline) <= self.latency:
+                    continue
+                state, stamp = self.pipeline.popleft()
+            elif self.acquisition == "software-trigger":
+                if not self._triggered:
+                    time.sleep(timeout_s)
+                    raise DeviceError(
+                        f"{self.name}: no frame within {timeout_s:g} s; it waits for TriggerSoftware"
+                    )
+                state, stamp = self._triggered.popleft()
+            else:
+                state, stamp = self._wait_for_pulse(timeout_s)
             frames.append(self._render(state, stamp))
         return frames
 
-    def render(self, state: dict[int, float]) -> np.ndarray:
+    def _wait_for_pulse(self, timeout_s: float) -> tuple[dict[int, float], int]:
+        """Expose on the controller's next trigger pulse (its state's trigger count)."""
+        deadline = time.monotonic() + timeout_s
+        while self._controller_state().get("triggers", 0) <= self._pulses_seen:
+            if time.monotonic() > deadline:
+                raise DeviceError(
+                    f"{self.name}: no frame within {timeout_s:g} s; no pulse arrived on "
+                    f"{self._TRIGGER_LINE} (check the controller's trigger output wiring)"
+                )
+            time.sleep(0.001)
+        self._pulses_seen += 1
+        return self._expose(fired="controller")
+
+    def render(self, state: dict[int, float], *, exposure_us: float | None = None) -> np.ndarray:
         """One noisy frame (uint16 DN) under ``state`` (channel → %), EMVA 1288 model."""
-        return expose(self._electrons(state), self.camera, rng=self.noise, gain=self._gain())
+        electrons = self._electrons(state)
+        if exposure_us is not None and exposure_us != self.exposure_us:
+            electrons *= exposure_us / self.exposure_us
+        return expose(electrons, self.camera, rng=self.noise, gain=self._gain())
 
     def expected(self, state: dict[int, float]) -> tuple[np.ndarray, np.ndarray]:
         """The truth behind :meth:`render`: each pixel's expected grey value (DN) and
@@ -248,13 +346,28 @@ class SimulatedCamera(Grabber):
         return electrons
 
     def _render(self, state: dict[int, float], stamp: int) -> Frame:
+        self.frame_id += 1
+        exposure = self.exposure_us
+        every = self.world.exposure_glitch_every
+        if every and self.frame_id % every == 0:  # a stale setting applied to this frame
+            exposure *= 0.5
         if self.world.frozen:  # a hung driver hands out its last buffer again
             if self._frozen is None:
                 self._frozen = self.render(state)
             data = self._frozen.copy()
         else:
-            data = self.render(state)
-        self.frame_id += 1
+            data = self.render(state, exposure_us=exposure)
+        extra = {"lights": state}
+        if self.chunks:
+            chunk = {
+                "ExposureTime": exposure,
+                "Gain": self.gain_db,
+                "Timestamp": stamp,
+                "FrameID": self.frame_id,
+            }
+            if self.world.chunk_lag:  # firmware that appends the previous frame's values
+                chunk, self._last_chunk = self._last_chunk or chunk, chunk
+            extra["chunk"] = chunk
         cam = self.camera
         return Frame(
             data,
@@ -266,5 +379,5 @@ class SimulatedCamera(Grabber):
             cam.bit_depth,
             self.name,
             "exposure",
-            {"lights": state},
+            extra,
         )

@@ -41,7 +41,22 @@ class LedController(ABC):
 
     def pulse(self, channel: int, *, width_us: float, delay_us: float, percent: float) -> None:
         """Strobe ``channel`` on each trigger: ``width_us`` long after ``delay_us``."""
-        raise NotImplementedError(f"{self.name} has no pulse mode")
+        raise DeviceError(f"{self.name}: has no pulse mode")
+
+    def trigger(self, channel: int) -> None:
+        """Fire ``channel``'s trigger once, as a pulse on its trigger input would."""
+        raise DeviceError(f"{self.name}: cannot be triggered by a command")
+
+    def apply_pulsed(self, setting: dict[int, float], *, width_us: float, delay_us: float) -> None:
+        """Put the given channels in pulse mode at their percentages, every other channel off:
+        each trigger (the camera's strobe, :meth:`trigger`) then flashes them."""
+        for ch in range(1, self.channels + 1):
+            percent = float(setting.get(ch, 0.0))
+            if percent:
+                self.pulse(ch, width_us=width_us, delay_us=delay_us, percent=percent)
+            else:
+                self.set_intensity(ch, 0.0)
+        self.applied = {c: float(v) for c, v in setting.items() if v}
 
     def status(self) -> str:
         """The controller's own status text."""

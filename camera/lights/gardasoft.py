@@ -9,7 +9,8 @@ contains ``Err n`` when a command failed. Commands used here:
 
 =========  =======================================================
 ``RSc,s``  channel c continuous at s % (0 switches it off)
-``RTc,p,d,s``  pulse mode: width p µs after delay d µs at s %
+``RTc,p,d,s``  pulse mode: width p after delay d at s % (times in ms unless
+           suffixed: sent as ``…us``)
 ``TRc``    simulate a trigger on channel c
 ``ST``     status report
 ``VR``     firmware version
@@ -199,7 +200,8 @@ class GardasoftController(LedController):
 
     def pulse(self, channel: int, *, width_us: float, delay_us: float, percent: float) -> None:
         self.check(channel, percent)
-        self.link.query(f"RT{channel},{width_us:g},{delay_us:g},{percent:g}")
+        # The RT series reads a bare time as milliseconds: the unit goes with the number.
+        self.link.query(f"RT{channel},{width_us:g}us,{delay_us:g}us,{percent:g}")
 
     def trigger(self, channel: int) -> None:
         self.check(channel)

@@ -5,7 +5,8 @@ the terminator appended to commands, what ends a reply, and regular expressions
 for success and error replies. Templates are Python format strings with the
 fields ``{channel}``, ``{percent}`` (0–100) and ``{value}`` (the intensity in the
 controller's own units: ``percent / 100 * max_value``), plus ``{width_us}`` and
-``{delay_us}`` for pulses. Example, for a controller taking 8-bit levels::
+``{delay_us}`` for pulses; ``trigger`` fires a channel once (hardware-triggered
+stations). Example, for a controller taking 8-bit levels::
 
     controller:
       backend: generic
@@ -108,6 +109,11 @@ class GenericAsciiController(LedController):
         if "pulse" not in self.commands:
             raise DeviceError(f"{self.name}: the station file gives no 'pulse' command template")
         self._send(self.commands["pulse"], channel, percent, width_us=width_us, delay_us=delay_us)
+
+    def trigger(self, channel: int) -> None:
+        if "trigger" not in self.commands:
+            raise DeviceError(f"{self.name}: the station file gives no 'trigger' command template")
+        self._send(self.commands["trigger"], channel, 0.0)
 
     def status(self) -> str:
         return self.link.query(self.commands["status"]) if "status" in self.commands else ""

@@ -44,6 +44,13 @@ import tty
 from pathlib import Path
 
 UNKNOWN, MALFORMED, RANGE = 1, 2, 3
+_TIME_UNITS_US = {"US": 1.0, "MS": 1e3, "S": 1e6, "": 1e3}  # RT series: a bare time is ms
+
+
+def _time_us(arg: str) -> float:
+    """A time parameter of the RT protocol (``200us``, ``0.1``, ``0.1s``) in µs."""
+    number = arg.rstrip("USM")
+    return float(number) * _TIME_UNITS_US[arg[len(number) :]]
 
 
 class Controller:
@@ -53,6 +60,8 @@ class Controller:
         self.errors = errors
         self.level = dict.fromkeys(range(1, channels + 1), 0.0)
         self.mode = dict.fromkeys(range(1, channels + 1), "continuous")
+        self.pulse: dict[int, list[float]] = {}  # channel → [width µs, delay µs]
+        self.triggers = 0  # TR commands so far: a hardware-triggered camera exposes on each
         self.sequence = 0
         self.save()
 
@@ -61,6 +70,8 @@ class Controller:
         doc = {
             "channels": {str(c): v for c, v in self.level.items()},
             "mode": {str(c): m for c, m in self.mode.items()},
+            "pulse": {str(c): p for c, p in self.pulse.items()},
+            "triggers": self.triggers,
             "sequence": self.sequence,
             "time_ns": time.time_ns(),
         }
@@ -75,8 +86,14 @@ class Controller:
                 return f"Err {code}"
         head, args = cmd[:2], cmd[2:]
         try:
-            values = [float(a) for a in args.split(",")] if args else []
-        except ValueError:
+            if head == "RT":  # width and delay are times with optional units
+                raw = args.split(",")
+                if len(raw) != 4:
+                    return f"Err {MALFORMED}"
+                values = [float(raw[0]), _time_us(raw[1]), _time_us(raw[2]), float(raw[3])]
+            else:
+                values = [float(a) for a in args.split(",")] if args else []
+        except (ValueError, KeyError):
             return f"Err {MALFORMED}"
         if head in ("RS", "RW"):
             if len(values) != 2:
@@ -91,15 +108,24 @@ class Controller:
             if len(values) != 4:
                 return f"Err {MALFORMED}"
             ch = int(values[0])
-            if ch not in self.level or not 0 <= values[3] <= 100:
+            if ch not in self.level or not 0 <= values[3] <= 100 or values[1] <= 0:
                 return f"Err {RANGE}"
             self.level[ch], self.mode[ch] = values[3], "pulse"
+            self.pulse[ch] = [values[1], values[2]]
             self.save()
             return ""
         if head == "TR":
-            return "" if values and int(values[0]) in self.level else f"Err {RANGE}"
+            if len(values) != 1 or int(values[0]) not in self.level:
+                return f"Err {RANGE}"
+            self.triggers += 1
+            self.save()
+            return ""
         if cmd == "ST" or head == "ST":
-            return "\r\n".join(f"CH{c} {self.mode[c]} {self.level[c]:g}%" for c in self.level)
+            return "\r\n".join(
+                f"CH{c} {self.mode[c]} {self.level[c]:g}%"
+                + (" {:g}us {:g}us".format(*self.pulse[c]) if self.mode[c] == "pulse" else "")
+                for c in self.level
+            )
         if cmd == "VR":
             return "RT-simulated (inspect-validate) 1.0"
         return f"Err {UNKNOWN}"
