@@ -40,6 +40,29 @@ def test_shipped_station_passes_with_reports(cli, tmp_path):
     assert len(list((tmp_path / "report" / "frames" / "amber").glob("frame_*.tif"))) == 4
 
 
+def test_the_report_says_how_each_steps_frames_were_taken(cli, tmp_path):
+    """Per step: the acquisition mode, the exposure the frames verifiably had (their
+    chunks) and what was discarded and why — here every third frame exposed at half
+    the setting, which the chunks catch."""
+    code, out, err, doc = verify(
+        cli, tmp_path, station(tmp_path, world={"exposure_glitch_every": 3})
+    )
+    assert code == 0, out + err
+    steps = {a["step"]: a for a in doc["acquisition"]}
+    assert set(steps) == {"amber", "red", "dark"}
+    for a in steps.values():
+        assert a["mode"] == "software-trigger" and a["frames"] == 4
+        assert a["exposure_us"] == [8000.0] and a["exposure_source"] == "chunk"
+    reason = "chunk ExposureTime 4000, not the 8000 requested"
+    assert sum(a["discarded"].get(reason, 0) for a in steps.values()) == 5
+    assert (
+        f"frames: amber: software-trigger, 4 frames at 8000 µs (chunk); discarded: 1 {reason}"
+        in out
+    )
+    html = (tmp_path / "report" / "report.html").read_text()
+    assert "<h2>Frames</h2>" in html and reason in html
+
+
 def test_fit_recovers_a_dimmer_light_and_still_passes(cli, tmp_path):
     code, out, err, doc = verify(cli, tmp_path, station(tmp_path, world={"irradiance": {1: 0.4}}))
     assert code == 0, out + err

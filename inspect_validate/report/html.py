@@ -76,6 +76,12 @@ def verification_html(v, *, history=None) -> str:
     ]
     parts += [f"<p>skipped: {e(s)}</p>" for s in v.skipped]
     parts += [f"<p>note: {e(n)}</p>" for n in v.notes]
+    if v.acquisition:
+        from inspect_validate.report.verification import describe_acquisition
+
+        parts += ["<h2>Frames</h2>", "<ul>"]
+        parts += [f"<li>{e(describe_acquisition(a))}</li>" for a in v.acquisition]
+        parts += ["</ul>"]
     parts += ["<h2>Calibration</h2>", _calibration(v)]
     parts += _illuminations(v)
     parts += [

@@ -71,6 +71,7 @@ def format_verdict(v) -> str:
         out.append(f"skipped: {s}")
     for n in v.notes:
         out.append(f"note: {n}")
+    out += [f"frames: {describe_acquisition(a)}" for a in v.acquisition]
     failed = sum(not c.passed for c in v.checks)
     out.append("")
     out.append(
@@ -134,6 +135,7 @@ def verification_document(v) -> dict:
         ],
         "skipped": list(v.skipped),
         "notes": list(v.notes),
+        "acquisition": list(v.acquisition),
         "measurements": {
             ill: measurement_document(m, limits=v.limits) for ill, m in v.measurements.items()
         },
@@ -176,3 +178,11 @@ def write_junit(v, path: str | Path) -> Path:
     ET.indent(root)
     text = ET.tostring(root, encoding="unicode", xml_declaration=True)
     return atomic_write(path, (text + "\n").encode())
+
+
+def describe_acquisition(a: dict) -> str:
+    """``amber: software-trigger, 4 frames at 8000 µs (chunk); discarded: none``."""
+    exposure = "/".join(f"{x:g}" for x in a["exposure_us"])
+    at = f" at {exposure} µs ({a['exposure_source']})" if exposure else ""
+    why = ", ".join(f"{n} {reason}" for reason, n in a["discarded"].items()) or "none"
+    return f"{a['step']}: {a['mode']}, {a['frames']} frames{at}; discarded: {why}"

@@ -72,6 +72,7 @@ class Verification:
     checks: tuple[Check, ...]
     skipped: tuple[str, ...] = ()
     notes: tuple[str, ...] = field(default=())
+    acquisition: tuple[dict, ...] = ()  # per step: how its frames were taken (acquisition_steps)
 
     @property
     def passed(self) -> bool:
@@ -436,6 +437,7 @@ def verify(station, frames_dir: Path, *, plan: Plan | None = None) -> Verificati
         "golden": str(station.resolve(acc.drift.golden)) if golden else None,
         "scene": str(station.resolve(station.scene)),
     }
+    acquisition = acquisition_steps(manifest, {**files, "dark": dark_files})
     notes = []
     if manifest.get("station_sha256") not in (None, inputs["station_sha256"]):
         notes.append(
@@ -460,7 +462,43 @@ def verify(station, frames_dir: Path, *, plan: Plan | None = None) -> Verificati
         checks=tuple(checks),
         skipped=tuple(skipped),
         notes=tuple(notes),
+        acquisition=acquisition,
     )
+
+
+def acquisition_steps(manifest: dict, files: dict[str, list[Path]]) -> tuple[dict, ...]:
+    """How each step's frames were taken, from the manifest and the frames' sidecars:
+    the acquisition mode, the exposure the frames verifiably had (their chunk values
+    where the camera sent chunks, else the setting read back), and the frames discarded
+    before them, by reason. Steps captured before modes were recorded say ``free-run``."""
+    rows = []
+    for step, paths in files.items():
+        if not paths:
+            continue
+        entry = manifest.get("steps", {}).get(step, {})
+        exposures, source = set(), "read back"
+        for path in paths:
+            try:
+                meta = json.loads(path.with_suffix(".json").read_text())
+            except (OSError, ValueError):
+                continue  # a frame without its sidecar: the exposure is not known for it
+            chunk = (meta.get("extra") or {}).get("chunk") or {}
+            if "ExposureTime" in chunk:
+                exposures.add(float(chunk["ExposureTime"]))
+                source = "chunk"
+            elif meta.get("exposure_us") is not None:
+                exposures.add(float(meta["exposure_us"]))
+        rows.append(
+            {
+                "step": step,
+                "mode": entry.get("acquisition", "free-run"),
+                "frames": len(paths),
+                "exposure_us": sorted(exposures),
+                "exposure_source": source if exposures else None,
+                "discarded": dict(entry.get("discarded") or {}),
+            }
+        )
+    return tuple(rows)
 
 
 def _compare(measurements, p, nominal, dark_means, offset, *, need_kde):
