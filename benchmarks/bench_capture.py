@@ -1,6 +1,6 @@
 """Capture: time per saved frame against the bare grab, saving overlapped or not.
 
-Run: ``python benchmarks/bench_capture.py [--size 2048] [--frames 8]`` (about 25 s
+Run: ``python benchmarks/bench_capture.py [--size 2048] [--frames 8]`` (about 40 s
 on 2 cores).
 
 The built-in simulated station at 2048 × 2048 (4 MP, uint16), 2 illuminations
@@ -25,6 +25,12 @@ pypylon's camera emulator paced at ``--fps`` (AcquisitionFrameRate): its grab
 waits for the next frame as a real camera's does, and the emulator's test
 pattern replaces the scene (times only). Its captures restart the stream
 after each switch (pylon drops its queued buffers) and drop no frame.
+
+A second table times a whole capture step (switch, frames verified and saved) in
+each acquisition mode the camera has, against free-run in the same run:
+software-trigger (one ``TriggerSoftware`` per frame, waited for), and on the
+simulated station hardware-trigger (one controller ``TR`` command per frame over
+the pseudo-terminal, the pulse firing the camera).
 """
 
 from __future__ import annotations
@@ -47,12 +53,17 @@ from machine import machine_line
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def station_copy(folder: Path, size: int, frames: int, *, emulator: bool = False) -> Path:
-    shutil.copytree(ROOT / "sample_images/station", folder / "station")
-    shutil.copytree(ROOT / "sample_images/scenes", folder / "scenes")
-    path = folder / "station/station.yaml"
-    doc = yaml.safe_load(path.read_text())
-    doc["camera"].update(width=size, height=size)
+def station_copy(
+    folder: Path, size: int, frames: int, *, emulator: bool = False, acquisition="free-run"
+) -> Path:
+    shutil.copytree(ROOT / "sample_images/station", folder / "station", dirs_exist_ok=True)
+    shutil.copytree(ROOT / "sample_images/scenes", folder / "scenes", dirs_exist_ok=True)
+    path = folder / f"station/{acquisition}.yaml"
+    doc = yaml.safe_load((folder / "station/station.yaml").read_text())
+    doc["camera"].update(width=size, height=size, acquisition=acquisition)
+    if acquisition == "hardware-trigger":
+        doc["camera"]["trigger_line"] = "Line1"
+        doc["controller"]["pulse"] = {"width_us": doc["camera"]["exposure_us"] + 100}
     if emulator:
         doc["camera"].update(backend="pylon", pixel_format="Mono16")
         del doc["camera"]["latency"]
@@ -139,6 +150,13 @@ def main():
             label: timed_capture(station, tmp / label, in_line=in_line)
             for label, in_line in (("in_line", True), ("overlapped", False))
         }
+        modes = ["free-run", "software-trigger"] + ([] if emulator else ["hardware-trigger"])
+        by_mode = {}
+        for mode in modes:
+            moded = read_station(
+                station_copy(tmp, args.size, args.frames, emulator=emulator, acquisition=mode)
+            )
+            by_mode[mode] = timed_capture(moded, tmp / mode, in_line=False)
         frame = next((tmp / "overlapped" / "amber").glob("frame_*.tif"))
         size_mb = frame.stat().st_size / 2**20
     print(machine_line())
@@ -164,6 +182,14 @@ def main():
             f"| {label} | {elapsed:.2f} s | {opening:.2f} s | {1e3 * elapsed / saved:.0f} ms | "
             f"{1e3 * steps:.0f} ms | {1e3 * grab:.0f} ms | {steps / grab:.2f} |"
         )
+    print()
+    print("| acquisition | per step, devices open | frames grabbed a step | ratio to free-run |")
+    print("|---|---|---|---|")
+    reference = None
+    for mode, (elapsed, opening, _, grabbed) in by_mode.items():
+        step = (elapsed - opening) / 3  # two illuminations and the darks
+        reference = reference or step
+        print(f"| {mode} | {1e3 * step:.0f} ms | {grabbed / 3:.1f} | {step / reference:.2f} |")
 
 
 if __name__ == "__main__":
