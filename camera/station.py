@@ -511,6 +511,12 @@ class Station(_Strict):
                 f"controller.pulse.trigger_channel {pulse.trigger_channel} is not on the "
                 f"controller (controller.channels: {ctl.channels})"
             )
+        period_s = pulse.width_us / pulse.max_duty / 1e6
+        if period_s > 60:
+            raise ValueError(
+                f"controller.pulse: width_us / max_duty spaces frames {period_s:.3g} s apart; "
+                "a capture would take hours — check the units (µs) and the duty limit (0–1)"
+            )
         # Both intervals from the trigger: the exposure starts at the camera's own delay
         # (a strobe's trigger is the exposure start itself).
         start = cam.trigger_delay_us if hardware else 0.0

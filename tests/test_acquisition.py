@@ -110,6 +110,11 @@ def test_strobe_from_the_camera_lights_each_exposure(tmp_path, capsys):
         ({"acquisition": "free-run", "strobe_line": "Line2"}, {"width_us": 9000}, r"not free-run"),
         ({}, {"width_us": 9000}, r"controller.pulse is used with"),
         (
+            {"acquisition": "hardware-trigger", "trigger_line": "Line1"},
+            {"width_us": 9000, "max_duty": 1e-6},
+            r"spaces frames 9e\+03 s apart",
+        ),
+        (
             {"acquisition": "hardware-trigger", "trigger_line": "Line 1"},
             {"width_us": 9000},
             r"trigger_line",
