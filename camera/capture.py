@@ -103,7 +103,7 @@ def verified_frames(
     flushed = 0
     done = 0
     previous = None
-    seen_id = None
+    seen_ids: set[int] = set()
     off_level = False  # this frame was off the level though its chunk agreed
     while done < n:
         frame, sent, untriggered = next_frame()
@@ -119,7 +119,7 @@ def verified_frames(
         wrong = _chunk_disagrees(frame, chunk)
         if sent is not None and frame.clock == "exposure" and frame.timestamp_ns < sent:
             discarded["exposed before its trigger"] += 1
-        elif sent is not None and seen_id is not None and frame.frame_id <= seen_id:
+        elif sent is not None and frame.frame_id in seen_ids:
             discarded["not the triggered frame (frame id seen before)"] += 1
         elif frame.clock == "exposure" and frame.timestamp_ns < switched_ns:
             discarded["exposed before the switch"] += 1  # camera pipeline
@@ -150,8 +150,8 @@ def verified_frames(
                 f"{camera.name}: brightness jumps within a step (frame means {means}); "
                 "the light or exposure is unstable — check the controller and the ambient light"
             )
-        if sent is not None:
-            seen_id = frame.frame_id if seen_id is None else max(seen_id, frame.frame_id)
+        # Ids seen, not the largest: a GigE Vision block id wraps at 16 bits.
+        seen_ids.add(frame.frame_id)
         total = sum(discarded.values())
         if total > discard_max:
             why = ", ".join(f"{k}: {v}" for k, v in discarded.items())

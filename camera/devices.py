@@ -165,6 +165,16 @@ def _open_camera(station: Station, state_path: Path | None, controller):
                 frames_per_light=per_light,
             )
         return PylonCamera(serial=spec.serial, index=spec.index)
+    if spec.backend == "aravis":
+        from inspect_validate.camera.grabbers.aravis import AravisCamera
+
+        return AravisCamera(
+            serial=spec.serial,
+            device_id=spec.device_id,
+            index=spec.index,
+            num_buffers=spec.num_buffers,
+            gain_raw=spec.gain_raw,
+        )
     if spec.backend == "replay":
         if not spec.folder:
             raise InputError(

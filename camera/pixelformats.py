@@ -25,7 +25,7 @@ import numpy as np
 
 from inspect_validate.errors import DeviceError
 
-__all__ = ["BIT_DEPTH", "MONO_FORMATS", "packed_size", "unpack"]
+__all__ = ["BIT_DEPTH", "MONO_FORMATS", "PFNC_CODES", "packed_size", "unpack"]
 
 BIT_DEPTH = {
     "Mono8": 8,
@@ -39,6 +39,18 @@ BIT_DEPTH = {
     "Mono12Packed": 12,
 }
 MONO_FORMATS = tuple(BIT_DEPTH)
+#: The 32-bit PFNC code a GigE Vision stream (GVSP) or a GenTL buffer carries → format name.
+PFNC_CODES = {
+    0x01080001: "Mono8",
+    0x01100003: "Mono10",
+    0x01100005: "Mono12",
+    0x01100025: "Mono14",
+    0x01100007: "Mono16",
+    0x010A0046: "Mono10p",
+    0x010C0047: "Mono12p",
+    0x010C0004: "Mono10Packed",
+    0x010C0006: "Mono12Packed",
+}
 _BITS_STORED = {"Mono8": 8, "Mono10p": 10, "Mono12p": 12, "Mono10Packed": 12, "Mono12Packed": 12}
 
 

@@ -12,7 +12,7 @@ what the station must achieve (``acceptance``). Example (README, "Station files"
       1: {light: amber LED, irradiance: 5.0}    # W/m² at the object at 100 %
       2: red LED
     camera:
-      backend: simulated            # simulated | genicam | pylon | v4l2 | replay
+      backend: simulated            # simulated | genicam | pylon | aravis | v4l2 | replay
       exposure_us: 20000
       gain_db: 0
     controller:
@@ -251,6 +251,15 @@ class PylonCameraSpec(_CameraCommon, _Rendered):
     simulate: bool = False
 
 
+class AravisCameraSpec(_CameraCommon):
+    backend: Literal["aravis"]
+    serial: str | None = None
+    device_id: str | None = None  # Aravis' id, e.g. Aravis-Fake-TEST1 (arv-tool-0.8 lists them)
+    index: Annotated[int, Field(ge=0)] = 0
+    num_buffers: Annotated[int, Field(ge=1, le=1000)] = 8
+    gain_raw: Annotated[int, Field(ge=0, le=1_000_000)] | None = None  # GainRaw, camera units
+
+
 class V4l2CameraSpec(_CameraCommon):
     backend: Literal["v4l2"]
     device: str | int | None = None
@@ -267,6 +276,7 @@ CameraSpec = one_of(
         "simulated": SimulatedCameraSpec,
         "genicam": GenicamCameraSpec,
         "pylon": PylonCameraSpec,
+        "aravis": AravisCameraSpec,
         "v4l2": V4l2CameraSpec,
         "replay": ReplayCameraSpec,
     },

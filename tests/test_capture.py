@@ -480,3 +480,27 @@ def test_an_interrupted_capture_keeps_every_frame_it_grabbed_complete(tmp_path):
     assert not list(out.rglob("*.tmp"))
     assert run(["capture", station, "--out", out, "--resume"]) == 0
     assert len(list(out.glob("amber/frame_*.tif"))) == 40
+
+
+def test_triggered_frames_are_the_ones_triggered_across_an_id_wrap():
+    """A triggered frame must carry an id not seen before in the step: a frame handed out
+    twice is dropped, while a GigE Vision block id wrapping at 16 bits is not."""
+    ids = iter([65534, 65535, 65535, 1, 2])
+
+    def next_frame():
+        frame = Frame(
+            np.full((4, 4), 100, np.uint16), next(ids), 50, None, None, "Mono16", 16, "f", "device"
+        )
+        return frame, 20, 0
+
+    frames, discarded = _verified(
+        FakeCamera([]),
+        4,
+        switched_ns=10,
+        discard_max=3,
+        tolerance=0.02,
+        timeout_s=1,
+        next_frame=next_frame,
+    )
+    assert [f.frame_id for f in frames] == [65534, 65535, 1, 2]
+    assert discarded == {"not the triggered frame (frame id seen before)": 1}

@@ -1,0 +1,391 @@
+"""GenICam cameras through Aravis (GigE Vision and USB3 Vision), via PyGObject.
+
+Aravis speaks GVCP/GVSP itself, so a GigE Vision camera needs no vendor GenTL
+producer. It comes from the system: Debian's ``gir1.2-aravis-0.8`` (the library and
+its introspection data), and PyGObject in the Python environment
+(``pip install 'inspect-validate[aravis]'``; PyGObject below 3.51 builds against
+Debian 12's GLib with ``libgirepository1.0-dev``, ``libcairo2-dev`` and ``pkg-config``).
+
+* The camera is chosen by serial number, Aravis device id (``Aravis-Fake-TEST1``,
+  ``Basler-21234567``) or index in Aravis' discovery list.
+* Nodes by SFNC name first, then the legacy names GigE cameras of the GenICam 1.x
+  era still carry: ``ExposureTimeAbs`` for ``ExposureTime``, ``GainAbs`` for
+  ``Gain``. ``GainRaw`` is in the camera's own units, not dB: a camera with only
+  ``GainRaw`` lists gain in ``missing`` (set ``camera.gain_raw`` to write it).
+* Buffers are popped with a timeout, copied (packed formats unpacked) and pushed
+  back; the pixel format is read from each buffer's PFNC code. A buffer that did
+  not arrive whole (missing packets, a timeout inside the frame) is an error naming
+  its status, never a frame.
+* Triggers, strobe lines and chunks as :mod:`~inspect_validate.camera.grabbers.genicam`.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from inspect_validate.camera.frame import Frame
+from inspect_validate.camera.grabbers.base import Features, Grabber
+from inspect_validate.camera.pixelformats import BIT_DEPTH, PFNC_CODES, packed_size, unpack
+
+from inspect_validate.errors import DeviceError
+
+__all__ = ["AravisCamera", "import_aravis"]
+
+_EXPOSURE_NODES = ("ExposureTime", "ExposureTimeAbs")
+_GAIN_NODES = ("Gain", "GainAbs")
+_CHUNKS = ("ExposureTime", "Gain", "Timestamp", "FrameID")
+
+
+def import_aravis():
+    """The ``Aravis`` and ``GLib`` modules, or a DeviceError saying what to install."""
+    try:
+        import gi
+
+        gi.require_version("Aravis", "0.8")
+        from gi.repository import Aravis, GLib
+    except (ImportError, ValueError) as exc:
+        raise DeviceError(
+            f"Aravis is not available ({exc}): install Debian's gir1.2-aravis-0.8 and "
+            "pip install 'inspect-validate[aravis]' (PyGObject)"
+        ) from None
+    return Aravis, GLib
+
+
+class AravisCamera(Grabber):
+    """A camera Aravis discovers, chosen by serial number, device id or index.
+
+    Parameters
+    ----------
+    serial : str, optional
+    device_id : str, optional
+        Aravis' id for the device (``arv-tool-0.8`` lists them).
+    index : int
+        Position in Aravis' discovery list, when neither is given.
+    num_buffers : int
+        Buffers pushed to the stream.
+    gain_raw : int, optional
+        Written to ``GainRaw`` (the camera's own units) on :meth:`configure`.
+    """
+
+    def __init__(
+        self,
+        *,
+        serial: str | None = None,
+        device_id: str | None = None,
+        index: int = 0,
+        num_buffers: int = 8,
+        gain_raw: int | None = None,
+    ):
+        self._aravis, self._glib = import_aravis()
+        Aravis = self._aravis
+        Aravis.update_device_list()
+        found = [
+            (Aravis.get_device_id(i), Aravis.get_device_serial_nbr(i))
+            for i in range(Aravis.get_n_devices())
+        ]
+        listing = ", ".join(f"{d} (serial {s})" for d, s in found) or "none"
+        if serial is not None:
+            ids = [d for d, s in found if s == str(serial)]
+            if not ids:
+                raise DeviceError(f"no Aravis camera with serial {serial}; found: {listing}")
+            device_id = ids[0]
+        elif device_id is None:
+            if index >= len(found):
+                raise DeviceError(
+                    f"Aravis camera index {index} does not exist; found: {listing} — check "
+                    "power, cable, the network interface's address and the firewall (GVCP, UDP 3956)"
+                )
+            device_id = found[index][0]
+        try:
+            self._cam = Aravis.Camera.new(device_id)
+        except self._glib.Error as exc:
+            raise DeviceError(f"cannot open Aravis camera {device_id} ({exc.message})") from None
+        self._dev = self._cam.get_device()
+        self.name = (
+            f"{self._cam.get_vendor_name()} {self._cam.get_model_name()} "
+            f"(serial {self._cam.get_device_serial_number()})"
+        )
+        self._num_buffers = num_buffers
+        self._gain_raw = gain_raw
+        self._stream = None
+        self._chunked = False
+        self._requested_format = None
+        self.missing = {
+            label
+            for label, names in (
+                ("exposure", _EXPOSURE_NODES),
+                ("gain", _GAIN_NODES),
+                ("pixel_format", ("PixelFormat",)),
+            )
+            if self._feature(names) is None
+        }
+
+    # -- nodes ---------------------------------------------------------------------------
+
+    def _feature(self, names) -> str | None:
+        return next((n for n in names if self._dev.get_feature(n) is not None), None)
+
+    def _symbolics(self, name: str) -> tuple[str, ...]:
+        if self._dev.get_feature(name) is None:
+            return ()
+        try:
+            return tuple(self._dev.dup_available_enumeration_feature_values_as_strings(name))
+        except self._glib.Error:
+            return ()
+
+    def _set(self, names, value, label: str):
+        name = self._feature(names)
+        if name is None:
+            self.missing.add(label)
+            return None
+        node = type(self._dev.get_feature(name)).__name__
+        try:
+            if isinstance(value, bool) or node == "GcBoolean":
+                self._dev.set_boolean_feature_value(name, bool(value))
+            elif node in ("GcFloatNode", "GcConverter", "GcFloatRegNode"):
+                self._dev.set_float_feature_value(name, float(value))
+            elif node in ("GcIntegerNode", "GcIntReg", "GcMaskedIntReg", "GcIntConverter"):
+                self._dev.set_integer_feature_value(name, int(value))
+            else:
+                self._dev.set_string_feature_value(name, str(value))
+        except self._glib.Error as exc:
+            raise DeviceError(
+                f"{self.name}: cannot set {name} to {value!r} ({exc.message})"
+            ) from None
+        return value
+
+    def _read(self, names) -> float | None:
+        name = self._feature(names)
+        try:
+            return self._dev.get_float_feature_value(name) if name else None
+        except self._glib.Error:
+            return None
+
+    # -- stream --------------------------------------------------------------------------
+
+    def _start(self):
+        if self._stream is not None:
+            return
+        try:
+            stream = self._cam.create_stream(None, None)
+            payload = self._cam.get_payload()
+            for _ in range(self._num_buffers):
+                stream.push_buffer(self._aravis.Buffer.new_allocate(payload))
+            self._cam.start_acquisition()
+        except self._glib.Error as exc:
+            raise DeviceError(
+                f"{self.name}: cannot start the acquisition ({exc.message})"
+            ) from None
+        self._stream = stream
+
+    def _stop(self):
+        if self._stream is None:
+            return
+        try:
+            self._cam.stop_acquisition()
+        except self._glib.Error:
+            pass  # a camera that vanished: the stream is dropped all the same
+        self._stream = None  # its queued buffers go with it
+
+    def restart_stream(self) -> bool:
+        """Stop the acquisition and drop the stream with every buffer it queued."""
+        self._stop()
+        self._start()
+        return True
+
+    def configure(self, *, exposure_us=None, gain_db=None, pixel_format=None, region=None) -> None:
+        self._stop()  # Width/Height/PixelFormat are locked while acquiring
+        if pixel_format is not None:
+            offered = self._symbolics("PixelFormat")
+            if pixel_format not in BIT_DEPTH or (offered and pixel_format not in offered):
+                raise DeviceError(
+                    f"{self.name}: pixel format {pixel_format} not offered as monochrome; "
+                    f"it has {', '.join(offered)}"
+                )
+            self._set(("PixelFormat",), pixel_format, "pixel_format")
+            self._requested_format = pixel_format
+        if region is not None:
+            x, y, w, h = region
+            for node, value in (("OffsetX", 0), ("OffsetY", 0), ("Width", w), ("Height", h)):
+                self._set((node,), int(value), "region")
+            self._set(("OffsetX",), int(x), "region")
+            self._set(("OffsetY",), int(y), "region")
+        if exposure_us is not None:
+            self._set(_EXPOSURE_NODES, float(exposure_us), "exposure")
+        if gain_db is not None:
+            self._set(_GAIN_NODES, float(gain_db), "gain")
+        if self._gain_raw is not None:
+            self._set(("GainRaw",), int(self._gain_raw), "gain_raw")
+
+    # -- triggers ------------------------------------------------------------------------
+
+    def features(self) -> Features:
+        sources = self._symbolics("TriggerSource")
+        strobe = ()
+        if "ExposureActive" in self._symbolics("LineSource"):
+            strobe = self._symbolics("LineSelector")
+        offered = self._symbolics("ChunkSelector")
+        return Features(
+            software_trigger=self._feature(("TriggerSoftware",)) is not None
+            and "Software" in sources,
+            trigger_lines=tuple(s for s in sources if s.startswith("Line")),
+            strobe_lines=strobe,
+            chunks=tuple(c for c in _CHUNKS if c in offered),
+        )
+
+    def arm(
+        self,
+        acquisition,
+        *,
+        trigger_line=None,
+        strobe_line=None,
+        chunks=False,
+        trigger_delay_us=0.0,
+    ) -> None:
+        self._stop()
+        if "FrameStart" in self._symbolics("TriggerSelector"):
+            self._set(("TriggerSelector",), "FrameStart", "trigger")
+        triggered = acquisition != "free-run"
+        if self._feature(("TriggerMode",)):
+            self._set(("TriggerMode",), "On" if triggered else "Off", "trigger")
+        if triggered:
+            self._set(("TriggerSource",), trigger_line or "Software", "trigger")
+            if trigger_delay_us:
+                self._set(("TriggerDelay", "TriggerDelayAbs"), float(trigger_delay_us), "trigger")
+        if strobe_line:
+            self._set(("LineSelector",), strobe_line, "strobe")
+            if self._feature(("LineMode",)):
+                self._set(("LineMode",), "Output", "strobe")
+            self._set(("LineSource",), "ExposureActive", "strobe")
+        if chunks:
+            self._set(("ChunkModeActive",), True, "chunks")
+            for name in self.features().chunks:
+                self._set(("ChunkSelector",), name, "chunks")
+                self._set(("ChunkEnable",), True, "chunks")
+        self._chunked = bool(chunks)
+        self._start()
+
+    def trigger(self) -> int:
+        self._start()
+        sent = time.monotonic_ns()
+        try:
+            self._dev.execute_command("TriggerSoftware")
+        except self._glib.Error as exc:
+            raise DeviceError(f"{self.name}: TriggerSoftware failed ({exc.message})") from None
+        return sent
+
+    def drain(self) -> int:
+        drained = 0
+        while self._stream is not None and (buf := self._stream.try_pop_buffer()) is not None:
+            self._stream.push_buffer(buf)
+            drained += 1
+        return drained
+
+    def increments(self) -> dict[str, float]:
+        steps = {}
+        for label, names in (("exposure_us", _EXPOSURE_NODES), ("gain_db", _GAIN_NODES)):
+            name = self._feature(names)
+            try:
+                # Aravis reports the smallest double for a float without an increment.
+                if name and (inc := self._dev.get_float_feature_increment(name)) > 1e-12:
+                    steps[label] = inc
+            except self._glib.Error:
+                pass
+        return steps
+
+    # -- frames --------------------------------------------------------------------------
+
+    def grab(self, n: int, *, timeout_s: float = 2.0) -> list[Frame]:
+        self._start()
+        exposure, gain = self._read(_EXPOSURE_NODES), self._read(_GAIN_NODES)
+        success = self._aravis.BufferStatus.SUCCESS
+        frames = []
+        for k in range(n):
+            buf = self._stream.timeout_pop_buffer(max(1, int(timeout_s * 1e6)))
+            if buf is None:
+                raise DeviceError(
+                    f"{self.name}: no frame within {timeout_s:g} s (frame {k + 1} of {n}); check "
+                    "trigger mode, frame rate, exposure time, the cable and that the camera is "
+                    "still powered"
+                )
+            try:
+                status = buf.get_status()
+                if status != success:
+                    raise DeviceError(
+                        f"{self.name}: frame {buf.get_frame_id()} arrived incomplete "
+                        f"({status.value_nick}); check the network (packet size, bandwidth, "
+                        "a switch dropping packets)"
+                    )
+                frames.append(self._frame(buf, exposure, gain))
+            finally:
+                self._stream.push_buffer(buf)
+        return frames
+
+    def _frame(self, buf, exposure, gain) -> Frame:
+        code = buf.get_image_pixel_format()
+        fmt = PFNC_CODES.get(code)
+        if fmt is None:
+            raise DeviceError(
+                f"{self.name}: delivers pixel format 0x{code:08x}, not a supported monochrome "
+                f"format; set camera.pixel_format in the station file to one of {', '.join(BIT_DEPTH)}"
+            )
+        if self._requested_format is not None and fmt != self._requested_format:
+            raise DeviceError(
+                f"{self.name}: asked for {self._requested_format}, the buffer holds {fmt}"
+            )
+        w, h = buf.get_image_width(), buf.get_image_height()
+        raw = np.frombuffer(buf.get_data(), np.uint8)  # PyGObject's bytes: read-only
+        if fmt == "Mono8":
+            data = raw[: w * h].reshape(h, w).copy()
+        elif fmt in ("Mono10", "Mono12", "Mono14", "Mono16"):
+            data = raw[: 2 * w * h].view("<u2").reshape(h, w).astype(np.uint16)
+        else:
+            data = unpack(raw[: packed_size(fmt, w * h)], fmt, w, h)
+        chunk = {}
+        if self._chunked:
+            for name in _CHUNKS:
+                try:
+                    chunk[name] = float(buf.get_chunk_data_as_float(name))  # not in every build
+                except (AttributeError, self._glib.Error, TypeError):
+                    pass
+        return Frame(
+            data,
+            int(buf.get_frame_id()),
+            int(buf.get_timestamp()),
+            exposure,
+            gain,
+            fmt,
+            BIT_DEPTH[fmt],
+            self.name,
+            "device",
+            {"chunk": chunk} if chunk else {},
+        )
+
+    def close(self) -> None:
+        self._stop()
+        self._cam = self._dev = None
+
+
+def main(argv=None) -> None:
+    """Run Aravis' GigE Vision fake camera until killed: ``python -m
+    inspect_validate.camera.grabbers.aravis SERIAL [--interface lo]``. It answers GVCP
+    and streams GVSP on the interface like a real camera (discovered as
+    ``Aravis-Fake-SERIAL``); prints ``ready`` once it listens."""
+    import argparse
+    import signal
+
+    parser = argparse.ArgumentParser(description=main.__doc__.splitlines()[0])
+    parser.add_argument("serial")
+    parser.add_argument("--interface", default="lo")
+    args = parser.parse_args(argv)
+    Aravis, _ = import_aravis()
+    camera = Aravis.GvFakeCamera.new(args.interface, args.serial)
+    if not camera.is_running():
+        raise SystemExit(f"the fake camera could not start on {args.interface}")
+    print("ready", flush=True)
+    signal.sigwait({signal.SIGTERM, signal.SIGINT})
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,159 @@
+"""Aravis (GigE Vision through PyGObject) against Aravis' own fake camera on the loopback
+interface: a real GVCP/GVSP implementation over UDP, started in a process of its own.
+
+Needs Debian's gir1.2-aravis-0.8 and PyGObject (``.ci/run`` installs both where it can);
+skipped, saying why, where Aravis cannot be imported.
+"""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+import uuid
+
+import pytest
+from test_capture import run
+
+from inspect_validate.errors import DeviceError
+
+try:
+    from inspect_validate.camera.grabbers.aravis import AravisCamera, import_aravis
+
+    import_aravis()
+except DeviceError as exc:  # no Aravis on this machine
+    pytest.skip(str(exc), allow_module_level=True)
+
+
+@pytest.fixture
+def fake_gige():
+    """``start() -> (serial, process)``: a GigE Vision fake camera on ``lo``."""
+    procs = []
+
+    def start():
+        serial = f"IV{uuid.uuid4().hex[:6].upper()}"
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "inspect_validate.camera.grabbers.aravis", serial],
+            stdout=subprocess.PIPE,
+            text=True,
+        )
+        procs.append(proc)
+        assert proc.stdout.readline().strip() == "ready"
+        return serial, proc
+
+    yield start
+    for proc in procs:
+        proc.kill()
+        proc.wait()
+        proc.stdout.close()
+
+
+def test_configure_trigger_grab_by_legacy_names(fake_gige):
+    serial, _ = fake_gige()
+    with AravisCamera(serial=serial) as cam:
+        assert cam.name == f"Aravis Fake (serial {serial})"
+        # ExposureTimeAbs stands in for ExposureTime; GainRaw is not dB, so gain is missing.
+        assert cam.missing == {"gain"}
+        has = cam.features()
+        assert has.software_trigger and has.trigger_lines == ("Line0",) and not has.chunks
+        for fmt, dtype in (("Mono8", "uint8"), ("Mono16", "uint16")):
+            cam.configure(pixel_format=fmt, exposure_us=5000)
+            cam.arm("software-trigger")
+            with pytest.raises(DeviceError, match=r"no frame within 0\.2 s \(frame 1 of 1\)"):
+                cam.grab(1, timeout_s=0.2)  # armed, not triggered
+            cam.trigger()
+            (frame,) = cam.grab(1, timeout_s=2)
+            assert frame.pixel_format == fmt and str(frame.data.dtype) == dtype
+            assert frame.data.shape == (512, 512) and frame.exposure_us == 5000
+            assert frame.data.flags.writeable
+        with pytest.raises(DeviceError, match="pixel format Mono12 not offered"):
+            cam.configure(pixel_format="Mono12")
+
+
+def test_selection_errors_name_what_was_found(fake_gige):
+    serial, _ = fake_gige()
+    with pytest.raises(DeviceError, match=rf"no Aravis camera with serial NOPE; found: .*{serial}"):
+        AravisCamera(serial="NOPE")
+    with pytest.raises(DeviceError, match="cannot open Aravis camera Nowhere-1"):
+        AravisCamera(device_id="Nowhere-1")
+
+
+def _station(tmp_path, serial, camera="", controller="", frames=3):
+    path = tmp_path / "aravis.yaml"
+    path.write_text(
+        f"camera: {{backend: aravis, serial: {serial}, pixel_format: Mono16, exposure_us: 4000,"
+        f" gain_db: 0, timeout_s: 1{camera}}}\n"
+        f"controller: {{backend: simulated, channels: 2{controller}}}\n"
+        "illuminations:\n  - {name: one, channels: {1: 100}}\n  - {name: two, channels: {2: 100}}\n"
+        f"frames: {frames}\ndark_frames: 2\nbrightness_tolerance: 0.05\n"
+    )
+    return path
+
+
+@pytest.mark.parametrize("acquisition", ["software-trigger", "free-run"])
+def test_capture_from_the_cli(tmp_path, capsys, fake_gige, acquisition):
+    serial, _ = fake_gige()
+    out = tmp_path / "cap"
+    code = run(
+        ["capture", _station(tmp_path, serial, f", acquisition: {acquisition}"), "--out", out]
+    )
+    err = capsys.readouterr().err
+    assert code == 0, err
+    assert "warning: the camera has no gain setting" in err  # only GainRaw, not dB
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["camera"]["acquisition"] == acquisition
+    assert manifest["camera"]["not_applied"] == ["gain"]
+    for step, n in (("one", 3), ("two", 3), ("dark", 2)):
+        metas = [json.loads(p.read_text()) for p in sorted((out / step).glob("frame_*.json"))]
+        assert len(metas) == n and manifest["steps"][step]["complete"]
+        assert all(m["pixel_format"] == "Mono16" and m["exposure_us"] == 4000 for m in metas)
+        assert len({m["frame_id"] for m in metas}) == n
+        assert all(m["stale_frames_possible"] is False for m in metas)
+
+
+def test_a_hardware_trigger_nobody_fires_times_out(tmp_path, capsys, fake_gige):
+    """Line0 is wired to nothing here: the first frame never comes (exit 3, named)."""
+    serial, _ = fake_gige()
+    station = _station(
+        tmp_path,
+        serial,
+        ", acquisition: hardware-trigger, trigger_line: Line0",
+        ", pulse: {width_us: 4500}",
+    )
+    assert run(["capture", station, "--out", tmp_path / "cap"]) == 3
+    assert f"Aravis Fake (serial {serial}): no frame within 1 s" in capsys.readouterr().err
+
+
+def test_camera_killed_mid_capture_keeps_every_grabbed_frame(tmp_path, fake_gige):
+    """The camera's process dies during the first step: exit 3 naming it, every frame
+    already saved kept, and the step marked failed, not complete."""
+    serial, proc = fake_gige()
+    out = tmp_path / "cap"
+    capture = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "inspect_validate",
+            "capture",
+            str(_station(tmp_path, serial, frames=400)),
+            "--out",
+            str(out),
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    deadline = time.monotonic() + 60
+    while not (out / "one" / "frame_0005.json").exists():
+        assert capture.poll() is None and time.monotonic() < deadline, capture.communicate()
+        time.sleep(0.05)
+    os.kill(proc.pid, signal.SIGKILL)
+    _, err = capture.communicate(timeout=60)
+    assert capture.returncode == 3, err
+    assert f"Aravis Fake (serial {serial})" in err
+    manifest = json.loads((out / "manifest.json").read_text())
+    step = manifest["steps"]["one"]
+    assert not step["complete"] and "error" in step
+    saved = sorted((out / "one").glob("frame_*.tif"))
+    assert len(saved) >= 5 and len(saved) == len(list((out / "one").glob("frame_*.json")))
