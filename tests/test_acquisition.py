@@ -9,9 +9,12 @@ test_genicam.py (TLSimu, viky) and test_pylon.py (pylon's emulator).
 
 import json
 import re
+import sqlite3
 
 import numpy as np
 import pytest
+import yaml
+from conftest import copy_station
 from test_capture import run, station_copy
 
 
@@ -181,3 +184,47 @@ def test_a_lagging_chunk_does_not_pass_a_wrong_frame(tmp_path, capsys):
         assert max(means) / min(means) < 1.02  # no half-exposed frame was kept
     assert "brightness off the step's level, chunk as requested" in reasons
     assert any("the camera's chunks lag a frame" in r for r in reasons), reasons
+
+
+_MODES = {
+    "free-run": ({"acquisition": "free-run"}, None),
+    "software-trigger": ({"acquisition": "software-trigger"}, None),
+    "hardware-trigger": (
+        {"acquisition": "hardware-trigger", "trigger_line": "Line1"},
+        {"width_us": 8200, "delay_us": 0},
+    ),
+    "strobe": ({"acquisition": "software-trigger", "strobe_line": "Line2"}, {"width_us": 8100}),
+}
+
+
+def _moded_station(tmp_path, mode, world=None):
+    path = copy_station(tmp_path, world=world)
+    doc = yaml.safe_load(path.read_text())
+    camera, pulse = _MODES[mode]
+    doc["camera"].update(camera)
+    if pulse:
+        doc["controller"]["pulse"] = pulse
+    path.write_text(yaml.safe_dump(doc, sort_keys=False))
+    return path
+
+
+@pytest.mark.parametrize("mode", list(_MODES))
+def test_verify_and_watch_in_every_mode(cli, tmp_path, golden, mode):
+    """verify passes the shipped station in each mode (the pulsed light covers the
+    exposure, so the prediction holds), and watch keeps it in control against a golden
+    file trained software-triggered — then flags the amber LED at 80 % from cycle 2."""
+    code, out, err = cli(["verify", _moded_station(tmp_path, mode), "--report", tmp_path / "r"])
+    assert code == 0, out + err
+    assert f"frames: amber: {_MODES[mode][0]['acquisition']}, 4 frames" in out
+    world = {"changes": [{"start": 2, "irradiance": {1: 0.8}}]}
+    (tmp_path / "w").mkdir()
+    station = _moded_station(tmp_path / "w", mode, world=world)
+    db = tmp_path / "w" / "history.sqlite"
+    code, out, err = cli(
+        ["watch", station, "--golden", golden, "--db", db, "--interval", 0, "--cycles", 3]
+    )
+    assert code == 1, out + err
+    with sqlite3.connect(db) as con:
+        rows = con.execute("SELECT cycle, status, cause FROM cycles ORDER BY cycle").fetchall()
+    assert [r[1] for r in rows[:2]] == ["pass", "pass"], rows
+    assert rows[2][1] != "pass" and "amber dimmer" in (rows[2][2] or ""), rows
