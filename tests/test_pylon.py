@@ -213,3 +213,43 @@ def test_verify_through_the_emulator_recovers_a_dimmer_light(tmp_path):
     meta = json.loads((report / "frames" / "amber" / "frame_0001.json").read_text())
     assert meta["device"].startswith("Basler Emulation")
     assert (report / "report.html").stat().st_size > 0
+
+
+def test_legacy_node_names_and_software_trigger(tmp_path):
+    """A GigE camera of the GenICam 1.x era has ExposureTimeAbs, not ExposureTime: with
+    the SFNC name made unknown, the emulator's legacy node is used and read back. The
+    software trigger gives one frame per TriggerSoftware, none without."""
+    out = run_with_emulator(
+        """
+        from inspect_validate.camera.grabbers import pylon as backend
+        from inspect_validate.errors import DeviceError
+        backend._EXPOSURE_NODES = ("NoSuchExposureNode", "ExposureTimeAbs")
+        with backend.PylonCamera(index=0) as cam:
+            cam.configure(pixel_format="Mono8", exposure_us=5000)
+            has = cam.features()
+            cam.arm("software-trigger")
+            try:
+                cam.grab(1, timeout_s=0.3)
+                print("untriggered frame")
+            except DeviceError:
+                pass
+            cam.trigger()
+            frame = cam.grab(1, timeout_s=2)[0]
+            print(cam._exposure, frame.exposure_us, has.software_trigger, has.trigger_lines,
+                  has.strobe_lines, has.chunks, cam.increments().get("exposure_us"))
+        """,
+        tmp_path,
+    )
+    assert out.split() == [
+        "ExposureTimeAbs",
+        "5000.0",
+        "True",
+        "('Line1',",
+        "'Line2',",
+        "'Line3')",
+        "('Line1',",
+        "'Line2',",
+        "'Line3')",
+        "()",
+        "None",  # ExposureTimeAbs has no increment on the emulator
+    ]

@@ -18,6 +18,9 @@ from inspect_validate.errors import DeviceError
 __all__ = ["PylonCamera"]
 
 _CHUNKS = ("ExposureTime", "Gain", "Timestamp", "FrameID")
+# SFNC names first, then those of GenICam 1.x-era GigE cameras (ace classic, scout).
+_EXPOSURE_NODES = ("ExposureTime", "ExposureTimeAbs")
+_GAIN_NODES = ("Gain", "GainAbs")
 
 
 class PylonCamera(Grabber):
@@ -52,10 +55,12 @@ class PylonCamera(Grabber):
         self._cam.Open()
         self._chunked = False
         self.name = f"Basler {device.GetModelName()} (serial {device.GetSerialNumber()})"
+        self._exposure = next((n for n in _EXPOSURE_NODES if self._has(n)), None)
+        self._gain = next((n for n in _GAIN_NODES if self._has(n)), None)
         self.missing = {
             label
-            for label, node in (("exposure", "ExposureTime"), ("gain", "Gain"))
-            if not hasattr(self._cam, node)
+            for label, node in (("exposure", self._exposure), ("gain", self._gain))
+            if node is None
         }
 
     @property
@@ -63,16 +68,19 @@ class PylonCamera(Grabber):
         """The camera's node map (for settings this interface does not cover)."""
         return self._cam
 
-    def _set(self, node: str, value, label: str):
-        if not hasattr(self._cam, node):
+    def _has(self, node: str) -> bool:
+        """The camera has ``node`` now (pypylon answers any name with a placeholder, so
+        ``hasattr`` cannot tell)."""
+        return bool(self._genicam.IsAvailable(self._cam.GetNodeMap().GetNode(node)))
+
+    def _set(self, node: str | None, value, label: str):
+        if node is None or not self._has(node):
             self.missing.add(label)
             return
         try:
             getattr(self._cam, node).Value = value
         except self._genicam.GenericException as exc:
-            raise DeviceError(
-                f"{self.name}: cannot set {node} to {value!r} ({exc.GetDescription()})"
-            ) from None
+            raise DeviceError(f"{self.name}: cannot set {node} to {value!r} ({exc})") from None
 
     def configure(self, *, exposure_us=None, gain_db=None, pixel_format=None, region=None) -> None:
         if self._cam.IsGrabbing():
@@ -92,9 +100,9 @@ class PylonCamera(Grabber):
             self._set("OffsetX", int(x), "region")
             self._set("OffsetY", int(y), "region")
         if exposure_us is not None:
-            self._set("ExposureTime", float(exposure_us), "exposure")
+            self._set(self._exposure, float(exposure_us), "exposure")
         if gain_db is not None:
-            self._set("Gain", float(gain_db), "gain")
+            self._set(self._gain, float(gain_db), "gain")
 
     def serve_files(self, folder) -> None:
         """Make pylon's camera emulator serve the images in ``folder``, cycling through them.
@@ -102,13 +110,13 @@ class PylonCamera(Grabber):
         The emulator reads the files when acquisition starts, so a grab in
         progress is stopped; the next :meth:`grab` starts it again.
         """
-        if not hasattr(self._cam, "ImageFileMode"):
+        if not self._has("ImageFileMode"):
             raise DeviceError(
                 f"{self.name}: only pylon's camera emulator serves image files (PYLON_CAMEMU=1)"
             )
         if self._cam.IsGrabbing():
             self._cam.StopGrabbing()
-        if hasattr(self._cam, "TestImageSelector"):
+        if self._has("TestImageSelector"):
             self._cam.TestImageSelector.Value = "Off"  # a test image would take precedence
         self._cam.ImageFileMode.Value = "On"
         self._cam.ImageFilename.Value = str(folder)
@@ -128,7 +136,7 @@ class PylonCamera(Grabber):
         )
         offered = self._symbolics("ChunkSelector")
         return Features(
-            software_trigger=hasattr(self._cam, "TriggerSoftware") and "Software" in sources,
+            software_trigger=self._has("TriggerSoftware") and "Software" in sources,
             trigger_lines=tuple(s for s in sources if s.startswith("Line")),
             strobe_lines=strobe,
             chunks=tuple(c for c in _CHUNKS if c in offered),
@@ -178,9 +186,7 @@ class PylonCamera(Grabber):
         try:
             self._cam.TriggerSoftware.Execute()
         except self._genicam.GenericException as exc:
-            raise DeviceError(
-                f"{self.name}: TriggerSoftware failed ({exc.GetDescription()})"
-            ) from None
+            raise DeviceError(f"{self.name}: TriggerSoftware failed ({exc})") from None
         return sent
 
     def drain(self) -> int:
@@ -195,7 +201,9 @@ class PylonCamera(Grabber):
 
     def increments(self) -> dict[str, float]:
         steps = {}
-        for label, node in (("exposure_us", "ExposureTime"), ("gain_db", "Gain")):
+        for label, node in (("exposure_us", self._exposure), ("gain_db", self._gain)):
+            if node is None:
+                continue
             try:
                 feature = getattr(self._cam, node)
                 if feature.HasInc():
@@ -222,8 +230,8 @@ class PylonCamera(Grabber):
         pylon = self._pylon
         self._start()
         fmt = self._cam.PixelFormat.Value
-        exposure = float(self._cam.ExposureTime.Value) if "exposure" not in self.missing else None
-        gain = float(self._cam.Gain.Value) if "gain" not in self.missing else None
+        exposure = float(getattr(self._cam, self._exposure).Value) if self._exposure else None
+        gain = float(getattr(self._cam, self._gain).Value) if self._gain else None
         frames = []
         for k in range(n):
             try:
