@@ -26,6 +26,9 @@ waits for the next frame as a real camera's does, and the emulator's test
 pattern replaces the scene (times only). Its captures restart the stream
 after each switch (pylon drops its queued buffers) and drop no frame.
 
+``--camera aravis-fake`` grabs from Aravis' fake GigE Vision camera on the loopback
+interface (its own 512 × 512 Mono16 pattern at its default 25 fps, over GVCP/GVSP).
+
 A second table times a whole capture step (switch, frames verified and saved) in
 each acquisition mode the camera has, against free-run in the same run:
 software-trigger (one ``TriggerSoftware`` per frame, waited for), and on the
@@ -41,6 +44,7 @@ import shutil
 import tempfile
 import time
 from contextlib import contextmanager
+from functools import partial
 from pathlib import Path
 
 import yaml
@@ -54,7 +58,13 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def station_copy(
-    folder: Path, size: int, frames: int, *, emulator: bool = False, acquisition="free-run"
+    folder: Path,
+    size: int,
+    frames: int,
+    *,
+    emulator: bool = False,
+    aravis: str | None = None,
+    acquisition="free-run",
 ) -> Path:
     shutil.copytree(ROOT / "sample_images/station", folder / "station", dirs_exist_ok=True)
     shutil.copytree(ROOT / "sample_images/scenes", folder / "scenes", dirs_exist_ok=True)
@@ -67,6 +77,17 @@ def station_copy(
     if emulator:
         doc["camera"].update(backend="pylon", pixel_format="Mono16")
         del doc["camera"]["latency"]
+    if aravis:  # Aravis' fake GigE camera: its own test pattern at its own 512 × 512
+        doc["camera"] = {
+            "backend": "aravis",
+            "serial": aravis,
+            "pixel_format": "Mono16",
+            "exposure_us": doc["camera"]["exposure_us"],
+            "acquisition": acquisition,
+            **({"trigger_line": "Line0"} if acquisition == "hardware-trigger" else {}),
+        }
+        doc.pop("scene", None)
+        doc.pop("channels", None)
     doc.update(frames=frames, dark_frames=frames)
     path.write_text(yaml.safe_dump(doc, sort_keys=False))
     return path
@@ -114,6 +135,25 @@ def timed_capture(station, out: Path, *, in_line: bool) -> tuple[float, float, i
     return elapsed, opening[0], saved, saved + dropped
 
 
+def fake_gige() -> str:
+    """Start Aravis' fake GigE Vision camera in a process of its own (ended with this
+    one); its serial number."""
+    import atexit
+    import subprocess
+    import sys
+
+    serial = "BENCH1"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "inspect_validate.camera.grabbers.aravis", serial],
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    if proc.stdout.readline().strip() != "ready":
+        raise SystemExit("Aravis' fake camera did not start (is gir1.2-aravis-0.8 installed?)")
+    atexit.register(proc.kill)
+    return serial
+
+
 def pace_emulator(size: int, fps: float) -> None:
     """Every PylonCamera configured from now on grabs ``size``² frames at ``fps``: the
     emulator's frame rate, so that its grab waits like a real camera's."""
@@ -136,34 +176,42 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--size", type=int, default=2048)
     parser.add_argument("--frames", type=int, default=8)
-    parser.add_argument("--camera", choices=("simulated", "pylon-emulator"), default="simulated")
+    parser.add_argument(
+        "--camera", choices=("simulated", "pylon-emulator", "aravis-fake"), default="simulated"
+    )
     parser.add_argument("--fps", type=float, default=20.0, help="the emulator's frame rate")
     args = parser.parse_args()
     emulator = args.camera == "pylon-emulator"
     if emulator:
         pace_emulator(args.size, args.fps)
+    aravis = fake_gige() if args.camera == "aravis-fake" else None
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        station = read_station(station_copy(tmp, args.size, args.frames, emulator=emulator))
+        copy = partial(station_copy, emulator=emulator, aravis=aravis)
+        station = read_station(copy(tmp, args.size, args.frames))
         grab = bare_grab(station, 3 * args.frames)
         runs = {
             label: timed_capture(station, tmp / label, in_line=in_line)
             for label, in_line in (("in_line", True), ("overlapped", False))
         }
-        modes = ["free-run", "software-trigger"] + ([] if emulator else ["hardware-trigger"])
+        # Only the simulated station's controller drives a camera's trigger line.
+        hardware = [] if emulator or aravis else ["hardware-trigger"]
         by_mode = {}
-        for mode in modes:
-            moded = read_station(
-                station_copy(tmp, args.size, args.frames, emulator=emulator, acquisition=mode)
-            )
+        for mode in ["free-run", "software-trigger", *hardware]:
+            moded = read_station(copy(tmp, args.size, args.frames, acquisition=mode))
             by_mode[mode] = timed_capture(moded, tmp / mode, in_line=False)
         frame = next((tmp / "overlapped" / "amber").glob("frame_*.tif"))
         size_mb = frame.stat().st_size / 2**20
+        height, width = json.loads(frame.with_suffix(".json").read_text())["shape"]
     print(machine_line())
     _, _, saved, grabbed = runs["overlapped"]
-    camera = f"pypylon's emulator at {args.fps:g} fps" if emulator else "the simulated camera"
+    camera = {
+        "simulated": "the simulated camera",
+        "pylon-emulator": f"pypylon's emulator at {args.fps:g} fps",
+        "aravis-fake": "Aravis' fake GigE Vision camera on lo",
+    }[args.camera]
     print(
-        f"{camera}, {args.size}×{args.size} uint16 ({size_mb:.1f} MB a frame), {saved} frames "
+        f"{camera}, {width}×{height} uint16 ({size_mb:.1f} MB a frame), {saved} frames "
         f"saved a capture, {grabbed} grabbed"
     )
     print()
