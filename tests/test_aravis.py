@@ -69,6 +69,9 @@ def test_configure_trigger_grab_by_legacy_names(fake_gige):
             assert frame.data.flags.writeable
         with pytest.raises(DeviceError, match="pixel format Mono12 not offered"):
             cam.configure(pixel_format="Mono12")
+    with AravisCamera(serial=serial, gain_raw=3) as cam:  # the camera's own gain units
+        cam.configure()
+        assert cam._dev.get_integer_feature_value("GainRaw") == 3
 
 
 def test_selection_errors_name_what_was_found(fake_gige):
