@@ -186,6 +186,18 @@ def test_software_trigger_on_tlsimu(tmp_path, capsys, tlsimu_cti):
         assert not any(m["stale_frames_possible"] or m["stream_restarted"] for m in metas)
         ids = [m["frame_id"] for m in metas]
         assert ids == list(range(ids[0], ids[0] + n))  # one frame per trigger, none lost
+    # TLSimu has ChunkModeActive but no exposure or gain chunk to select: asking for
+    # chunks is refused before any light, naming what it lacks.
+    (tmp_path / "chunks").mkdir()
+    code, out = _capture(
+        tmp_path / "chunks",
+        f"camera: {{backend: genicam, cti: '{tlsimu_cti}', serial: SN_InterfaceA_0,"
+        " pixel_format: Mono8, chunks: true}\n"
+        "controller: {backend: simulated, channels: 2}\n"
+        "illuminations:\n  - {name: one, channels: {1: 100}}\nframes: 2\ndark_frames: 0\n",
+    )
+    err = capsys.readouterr().err
+    assert code == 2 and "TLSimuMono (serial SN_InterfaceA_0) lacks exposure or gain chunks" in err
 
 
 def test_a_mode_the_camera_lacks_is_refused_before_any_light(tmp_path, capsys):
