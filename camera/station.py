@@ -170,6 +170,14 @@ class World(_Strict):
     """W/m² of equal-energy light over 380–780 nm at the object, always on (also in darks)."""
     gain_error: Annotated[float, Field(gt=-0.9, lt=10, allow_inf_nan=False)] = 0.0
     """Relative error of the system gain K against the camera's declared one."""
+    black_level: Annotated[float, Field(ge=0, le=60_000, allow_inf_nan=False)] | None = None
+    """The sensor's real black level (dark offset), DN; default the declared one."""
+    dark_current: Annotated[float, Field(ge=0, le=1e7, allow_inf_nan=False)] | None = None
+    """The sensor's real dark current, e⁻/s; default the declared one."""
+    dsnu: Annotated[float, Field(ge=0, le=1e5, allow_inf_nan=False)] | None = None
+    """The sensor's real dark signal non-uniformity, e⁻ rms; default the declared one."""
+    prnu: Annotated[float, Field(ge=0, le=0.5, allow_inf_nan=False)] | None = None
+    """The sensor's real photo-response non-uniformity, relative rms; default the declared."""
     exposure: Factor = 1.0
     """Factor on the light every frame collects (the exposure the camera really uses)."""
     blur_px: BlurPx = 0.0

@@ -15,7 +15,7 @@ import numpy as np
 
 from inspect_validate.errors import InputError
 
-__all__ = ["expand_paths", "read_frames", "read_image"]
+__all__ = ["expand_paths", "read_frames", "read_image", "recorded_bit_depth"]
 
 _TIFF = (".tif", ".tiff")
 _OPENCV = (".png", ".pgm", ".pnm", ".bmp", ".jpg", ".jpeg")
@@ -79,6 +79,28 @@ def read_image(path: str | Path) -> np.ndarray:
             )
         image = image.astype(np.int64)  # uint64 below 2⁶² converts exactly
     return _monochrome(image, path)
+
+
+def recorded_bit_depth(path: str | Path) -> int | None:
+    """The bit depth a captured frame was recorded with (Mono12 → 12, stored in uint16),
+    from its sidecar (``frame_0001.json``) or its TIFF description; None where the file
+    says nothing (a frame from elsewhere)."""
+    path = Path(path)
+    sidecar = path.with_suffix(".json")
+    try:
+        if sidecar.is_file():
+            meta = json.loads(sidecar.read_text())
+        elif path.suffix.lower() in _TIFF:
+            import tifffile
+
+            with tifffile.TiffFile(path) as tif:
+                meta = json.loads(tif.pages[0].description or "{}")
+        else:
+            return None
+        bits = meta.get("bit_depth") if isinstance(meta, dict) else None
+    except (OSError, ValueError, IndexError):
+        return None
+    return int(bits) if isinstance(bits, int) and 1 <= bits <= 32 else None
 
 
 def _read_tiff(path: Path) -> np.ndarray:

@@ -295,7 +295,9 @@ def measure_files(
     comparisons : Comparisons or ComparisonsSpec, keyword-only, optional
         What to compare; default every pair and each class against the rest.
     saturation_level : float, keyword-only, optional
-        Raw value counted as saturated, DN; default the data type's maximum.
+        Raw value counted as saturated, DN; default 2^bits − 1 of the bit depth the
+        frames were captured with (their sidecar or TIFF description: a Mono12 frame
+        stored in uint16 saturates at 4095), else the data type's maximum.
     limits : Limits, keyword-only
         Saturated and zero fractions; exceeded ones are listed in ``violations``.
     kde : {"auto", "always", "never"}, keyword-only
@@ -308,10 +310,14 @@ def measure_files(
         the frame (each message names the file).
     """
     from inspect_validate.comparisons import ComparisonsSpec
-    from inspect_validate.images import read_frames
+    from inspect_validate.images import expand_paths, read_frames, recorded_bit_depth
     from inspect_validate.roi import class_masks, read_rois
 
     stack = read_frames(frames)
+    if saturation_level is None and stack.dtype.kind in "ui":
+        bits = recorded_bit_depth(expand_paths(frames)[0])
+        if bits is not None and bits < 8 * stack.dtype.itemsize:
+            saturation_level = 2**bits - 1
     dark = list(dark)
     dark_stack = read_frames(dark) if dark else None
     if dark_stack is not None and dark_stack.shape[1:] != stack.shape[1:]:

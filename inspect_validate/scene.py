@@ -187,6 +187,9 @@ class _EmvaOverrides(_Strict):
     bit_depth: Annotated[int, Field(ge=1, le=32)] | None = None
     dark_offset: NonNegative | None = None  # DN
     pixel_pitch: Annotated[float, Field(gt=0, le=1000, allow_inf_nan=False)] | None = None  # µm
+    dark_current: Annotated[float, Field(ge=0, le=1e9, allow_inf_nan=False)] | None = None  # e⁻/s
+    dsnu: Annotated[float, Field(ge=0, le=1e6, allow_inf_nan=False)] | None = None  # e⁻ rms
+    prnu: Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)] | None = None  # relative rms
 
 
 class _Builtin(_EmvaOverrides):

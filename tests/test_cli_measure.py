@@ -262,3 +262,32 @@ def test_kde_auto_from_the_cli_lists_what_it_skipped(tmp_path):
     by_label = {f"{','.join(c['first'])} vs {','.join(c['second'])}": c for c in doc["comparisons"]}
     assert by_label["G1 vs G2"]["error_kde"] is None and by_label["G1 vs S"]["error_kde"] > 0
     assert doc["skipped"] and all(0 <= c["error_counted"] <= 0.5 for c in doc["comparisons"])
+
+
+def test_saturation_comes_from_the_recorded_bit_depth(tmp_path, capsys):
+    """Mono12 frames stored in uint16, as capture stores them: a region at 4095 is fully
+    saturated, though far below the storage type's 65535. The bit depth comes from the
+    sidecar; without one the storage type decides unless --saturation-level says."""
+    import tifffile
+
+    frame = np.full((40, 40), 1000, np.uint16)
+    frame[:, 20:] = 4095
+    frames = tmp_path / "frames"
+    frames.mkdir()
+    for i in (1, 2):
+        noisy = frame + np.arange(40, dtype=np.uint16)[:, None] % (i + 1) * (frame < 4095)
+        tifffile.imwrite(frames / f"frame_{i:04d}.tif", noisy)
+    rois = tmp_path / "rois.yaml"
+    rois.write_text("classes:\n  A: [{rect: [0, 0, 20, 40]}]\n  B: [{rect: [20, 0, 20, 40]}]\n")
+
+    def saturated(*extra):
+        out = tmp_path / "m.json"
+        run(["measure", frames, "--rois", rois, "--json", out, "--no-kde", *extra])
+        capsys.readouterr()
+        return {c["name"]: c["saturated_fraction"] for c in json.loads(out.read_text())["classes"]}
+
+    assert saturated() == {"A": 0.0, "B": 0.0}  # nothing says it is a 12-bit frame
+    assert saturated("--saturation-level", 4095) == {"A": 0.0, "B": 1.0}
+    for i in (1, 2):
+        (frames / f"frame_{i:04d}.json").write_text(json.dumps({"bit_depth": 12}))
+    assert saturated() == {"A": 0.0, "B": 1.0}

@@ -182,7 +182,7 @@ def test_photon_transfer_recovers_a_gain_error_within_2_percent(cli, tmp_path):
     scene = scene.replace("file: C.csv", f"file: {base / 'paperboard' / 'C.csv'}")
     scene = scene.replace(
         "file: ../chapter_table2/camera1_qe.csv, name: mono 8-bit, gain: 0.0255, dark_noise: 12, "
-        "saturation: 10000, bit_depth: 8",
+        "saturation: 10000, bit_depth: 8, dark_offset: 4",
         f"file: {base / 'chapter_table2' / 'camera1_qe.csv'}, name: mono 12-bit, gain: 0.1, "
         "dark_noise: 12, saturation: 30000, bit_depth: 12, dark_offset: 20",
     )
@@ -205,14 +205,47 @@ def test_photon_transfer_recovers_a_gain_error_within_2_percent(cli, tmp_path):
     assert [c["kind"] for c in report["checks"] if c["verdict"] == "fail"] == ["gain"]
 
 
-def test_gain_is_skipped_with_a_reason_when_darks_clip_at_zero(cli, tmp_path):
-    # The shipped 8-bit camera has no black level: its darks sit at 0.
+def test_a_gain_check_that_cannot_run_is_not_a_pass(cli, tmp_path):
+    """A sensor without a black level: its darks sit at 0, so photon transfer has no
+    point. The K check the station asks for is NOT RUN, saying why, and fails verify
+    (text, JSON, JUnit); without the check, the estimate is only a skip."""
+    world = {"black_level": 0}
     code, out, err, doc = verify(
-        cli, tmp_path, station(tmp_path, acceptance={"gain_relative": 0.1, "agreement": None})
+        cli,
+        tmp_path,
+        station(tmp_path, world=world, acceptance={"gain_relative": 0.1, "agreement": None}),
+    )
+    assert code == 1, out + err
+    assert doc["calibration"]["gain"] is None
+    (check,) = [c for c in doc["checks"] if c["kind"] == "gain"]
+    assert check["verdict"] == "not run" and check["value"] is None
+    assert "could not run: no photon-transfer point: dark frames clipped at 0" in check["detail"]
+    assert "FAIL: 1 of" in out and "(1 could not run)" in out and "NOT RUN" in out
+    suite = ET.parse(tmp_path / "report" / "junit.xml").getroot().find("testsuite")
+    (failure,) = suite.iter("failure")
+    assert failure.get("message").startswith("could not run: no photon-transfer point")
+
+    plain = tmp_path / "without the check"
+    plain.mkdir()
+    code, out, err, doc = verify(
+        cli, plain, station(plain, world=world, acceptance={"agreement": None})
     )
     assert code == 0, out + err
-    assert doc["calibration"]["gain"] is None
-    assert any("clipped at 0" in s for s in doc["skipped"])
+    assert any(s.startswith("system gain K: no photon-transfer point") for s in doc["skipped"])
+
+
+def test_the_shipped_station_with_a_wrong_gain_fails_the_k_check(cli, tmp_path):
+    """The sensor's K 12 % above the declared one: with a black level the darks do not
+    clip, photon transfer estimates K, and a 5 % limit fails reporting the ratio."""
+    code, out, err, doc = verify(
+        cli,
+        tmp_path,
+        station(tmp_path, world={"gain_error": 0.12}, acceptance={"gain_relative": 0.05}),
+    )
+    assert code == 1, out + err
+    gain = doc["calibration"]["gain"]
+    assert gain["value"] / gain["declared"] == pytest.approx(1.12, abs=0.03)
+    assert [c["kind"] for c in doc["checks"] if c["verdict"] == "fail"] == ["gain"]
 
 
 def test_a_scene_without_a_wavelength_range_lists_the_narrowed_grid(cli, tmp_path):

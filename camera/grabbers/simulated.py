@@ -40,7 +40,7 @@ from inspect_validate.camera.frame import Frame
 from inspect_validate.camera.grabbers.base import Features, Grabber
 
 from inspect_validate.errors import DeviceError
-from inspect_validate.model.render import class_bands, expected_grey, expose
+from inspect_validate.model.render import class_bands, expected_grey, expose, sensor_pattern
 
 __all__ = ["SimulatedCamera"]
 
@@ -49,7 +49,8 @@ def world_components(model, world) -> tuple[dict, object, object, list]:
     """The simulated world: the station's components with ``world``'s deviations.
 
     Returns the channel lights (with an always-on ambient light as channel 0
-    when ``world.ambient`` > 0), the optics, the camera (gain error applied)
+    when ``world.ambient`` > 0), the optics, the camera (gain error applied, and the
+    world's black level, dark current, DSNU and PRNU where it gives them)
     and the object classes (another draw of the reflectance samples when
     ``world.reflectance_seed`` is set).
     """
@@ -83,7 +84,19 @@ def world_components(model, world) -> tuple[dict, object, object, list]:
         model.optics,
         transmission=replace(t, values=np.minimum(t.values * world.transmission, 1.0)),
     )
-    camera = replace(model.scene_camera, gain=model.scene_camera.gain * (1.0 + world.gain_error))
+    sensor = {  # the real sensor's values where the world gives them
+        field: getattr(world, name)
+        for field, name in (
+            ("dark_offset", "black_level"),
+            ("dark_current", "dark_current"),
+            ("dsnu", "dsnu"),
+            ("prnu", "prnu"),
+        )
+        if getattr(world, name) is not None
+    }
+    camera = replace(
+        model.scene_camera, gain=model.scene_camera.gain * (1.0 + world.gain_error), **sensor
+    )
     classes = list(model.scene.classes)
     if world.reflectance_seed is not None:
         rng = np.random.default_rng(world.reflectance_seed)
@@ -180,6 +193,8 @@ class SimulatedCamera(Grabber):
             self._objects.append(
                 ((slice(y, y + h), slice(x, x + w)), objects.choice(samples, size=(h, w)))
             )
+        # The sensor's own fixed pattern (PRNU, DSNU), as fixed as the objects.
+        self._pattern = sensor_pattern(self.camera, (height, width), rng=objects)
         yy, xx = np.mgrid[0:height, 0:width]
         r2 = ((yy - (height - 1) / 2) ** 2 + (xx - (width - 1) / 2) ** 2) / (
             ((height - 1) / 2) ** 2 + ((width - 1) / 2) ** 2
@@ -317,16 +332,31 @@ class SimulatedCamera(Grabber):
         return self._expose(fired="controller")
 
     def render(self, state: dict[int, float], *, exposure_us: float | None = None) -> np.ndarray:
-        """One noisy frame (uint16 DN) under ``state`` (channel → %), EMVA 1288 model."""
+        """One noisy frame (uint16 DN) under ``state`` (channel → %), EMVA 1288 model with
+        the sensor's dark current and fixed pattern."""
         electrons = self._electrons(state)
-        if exposure_us is not None and exposure_us != self.exposure_us:
+        exposure_us = self.exposure_us if exposure_us is None else exposure_us
+        if exposure_us != self.exposure_us:
             electrons *= exposure_us / self.exposure_us
-        return expose(electrons, self.camera, rng=self.noise, gain=self._gain())
+        return expose(
+            electrons,
+            self.camera,
+            rng=self.noise,
+            gain=self._gain(),
+            exposure_s=exposure_us * 1e-6,
+            pattern=self._pattern,
+        )
 
     def expected(self, state: dict[int, float]) -> tuple[np.ndarray, np.ndarray]:
         """The truth behind :meth:`render`: each pixel's expected grey value (DN) and
         temporal variance (DN²) under ``state`` (:func:`expected_grey`)."""
-        return expected_grey(self._electrons(state), self.camera, gain=self._gain())
+        return expected_grey(
+            self._electrons(state),
+            self.camera,
+            gain=self._gain(),
+            exposure_s=self.exposure_us * 1e-6,
+            pattern=self._pattern,
+        )
 
     def _gain(self) -> float:
         return self.camera.gain * 10 ** (self.gain_db / 20)

@@ -5,6 +5,13 @@ what multiplies the irradiance in (32). With the EMVA 1288 parameters a camera
 turns a mean number of photo-electrons μ_e into grey values:
 
     μ_y = μ_y.dark + K·μ_e,   σ_y² = K²(σ_d² + μ_e) + σ_q²,  σ_q² = 1/12 DN².
+
+Beyond the temporal model a real sensor has a dark current I_d (e⁻/s: its electrons
+add to the signal and to its shot noise over the exposure t) and spatial
+non-uniformities that are the same in every frame: the dark signal's (DSNU, e⁻ rms
+over the pixels) and the photo-response's (PRNU, relative rms of the gain), which
+add K²(DSNU² + PRNU²·μ_e²) to a region's spatial variance (EMVA 1288 release 4.0,
+§8).
 """
 
 from __future__ import annotations
@@ -40,6 +47,12 @@ class Camera:
         Mean dark value μ_y.dark, DN.
     pixel_pitch : float
         Pixel pitch, µm (the pixel area A = pitch²).
+    dark_current : float
+        I_d, e⁻/s.
+    dsnu : float
+        Dark signal non-uniformity, e⁻ rms over the pixels.
+    prnu : float
+        Photo-response non-uniformity, relative rms of the gain (0.01 = 1 %).
     """
 
     name: str
@@ -50,17 +63,31 @@ class Camera:
     bit_depth: int = 12
     dark_offset: float = 0.0
     pixel_pitch: float = 3.45
+    dark_current: float = 0.0
+    dsnu: float = 0.0
+    prnu: float = 0.0
 
     def __post_init__(self):
-        for field in ("gain", "saturation", "pixel_pitch", "dark_noise", "dark_offset"):
+        for field in (
+            "gain",
+            "saturation",
+            "pixel_pitch",
+            "dark_noise",
+            "dark_offset",
+            "dark_current",
+            "dsnu",
+            "prnu",
+        ):
             if not np.isfinite(getattr(self, field)):
                 raise InputError(f"camera {self.name!r}: {field} must be a finite number")
         for field in ("gain", "saturation", "pixel_pitch"):
             if not getattr(self, field) > 0:
                 raise InputError(f"camera {self.name!r}: {field} must be positive")
-        if self.dark_noise < 0 or self.dark_offset < 0 or not 1 <= self.bit_depth <= 32:
+        negative = min(self.dark_noise, self.dark_offset, self.dark_current, self.dsnu, self.prnu)
+        if negative < 0 or not 1 <= self.bit_depth <= 32:
             raise InputError(
-                f"camera {self.name!r}: dark_noise, dark_offset ≥ 0 and bit_depth 1..32"
+                f"camera {self.name!r}: dark_noise, dark_offset, dark_current, dsnu, prnu ≥ 0 "
+                "and bit_depth 1..32"
             )
 
     @property

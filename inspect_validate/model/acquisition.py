@@ -130,8 +130,9 @@ class Prediction(_Combinations):
     fisher_db: np.ndarray
     error_gaussian: np.ndarray
     log_error_gaussian: np.ndarray
-    # Per reflectance sample, (L, O, C, S_total): μ_e before clipping, mean DN, temporal
-    # DN² (``None`` in a sweep's blocks, which compute them for the rows they keep).
+    # Per reflectance sample, (L, O, C, S_total): photo-electrons μ_e before clipping, mean
+    # DN, and the variance of its pixels, DN²: temporal and the sensor's fixed pattern
+    # (``None`` in a sweep's blocks, which compute them for the rows they keep).
     sample_electrons: np.ndarray | None
     sample_mean: np.ndarray | None
     sample_variance: np.ndarray | None
@@ -175,7 +176,8 @@ class _Chain:
     absolute: np.ndarray  # (L,)
     onehot: np.ndarray  # (S, K)
     per_class: np.ndarray  # (K,)
-    camera: dict[str, np.ndarray]  # gain, dark_noise, saturation, dark_offset, max_dn: (C,)
+    camera: dict[str, np.ndarray]  # gain, dark_noise, saturation, dark_offset, max_dn,
+    # dark_current, dsnu, prnu: (C,)
     _rows: dict = dataclasses.field(default_factory=dict, repr=False)  # the last cameras'
 
     @property
@@ -249,7 +251,16 @@ def _prepare(lights, optics, cameras, classes, *, exposure, grid, comparisons) -
         raise InputError(f"the comparisons are of classes {comparisons.classes}, not {names}")
     camera = {
         f: np.array([getattr(c, f) for c in cameras], dtype=float)
-        for f in ("gain", "dark_noise", "saturation", "dark_offset", "max_dn")
+        for f in (
+            "gain",
+            "dark_noise",
+            "saturation",
+            "dark_offset",
+            "max_dn",
+            "dark_current",
+            "dsnu",
+            "prnu",
+        )
     }
     return _Chain(
         components=(list(lights), list(optics), list(cameras), list(classes)),
@@ -332,6 +343,17 @@ def skipped_reasons(reasons, n_bad: int) -> tuple[str, ...]:
     return listed
 
 
+def _temporal(cam):
+    """The camera fields :func:`_grey` takes, from a chain's camera dict."""
+    return cam["gain"], cam["dark_noise"], cam["dark_offset"]
+
+
+def _fixed_pattern(mu_e, cam):
+    """The spatial variance the sensor's non-uniformities add over a region, DN²:
+    K²(DSNU² + PRNU²·μ_e²) (EMVA 1288, §8)."""
+    return cam["gain"] ** 2 * (cam["dsnu"] ** 2 + (cam["prnu"] * mu_e) ** 2)
+
+
 def _grey(mu_e, gain, dark_noise, dark_offset):
     """Mean (DN) and temporal variance (DN²) of the grey value of μ_e electrons (EMVA 1288,
     before clipping)."""
@@ -356,9 +378,12 @@ class _Signal:
         above saturation (``None``: nowhere near) of every reflectance sample of the
         combinations at block indices (or slices) ``li, oi, ci``."""
         rate = self.class_rate[li, oi, ci][..., self.sample_class]
-        mu_e = (rate + self.deviation[li, oi, ci]) * self.exposure_time[li, oi, ci][..., None]
+        t = self.exposure_time[li, oi, ci][..., None]
+        mu_e = (rate + self.deviation[li, oi, ci]) * t
         cam = {f: v[ci][..., None] for f, v in self.camera.items()}
-        mean, var = _grey(mu_e, cam["gain"], cam["dark_noise"], cam["dark_offset"])
+        mean, var = _grey(mu_e + cam["dark_current"] * t, *_temporal(cam))
+        # A sample's pixels spread by the non-uniformities too (clipped as if Gaussian).
+        var = var + _fixed_pattern(mu_e, cam)
         return (mu_e, *_clipped_moments(mean, var, cam["max_dn"]))
 
 
@@ -428,17 +453,24 @@ def _predict_block(chain: _Chain, ls: slice, os: slice, cs: slice, *, mixtures=N
         t_exp = np.full((n_l, n_o, n_c), exposure.time)
 
     gain, dark, offset = (cam[f][None, None, :] for f in ("gain", "dark_noise", "dark_offset"))
+    dark_e = cam["dark_current"][None, None, :] * t_exp  # e⁻ of dark current per exposure
     squares = np.square(deviation) @ onehot  # Σ (sample − class mean)², (e⁻/s)²
     signal = class_rate * t_exp[..., None]  # μ_e per class
-    mean, variance = _grey(signal, gain[..., None], dark[..., None], offset[..., None])
+    mean, variance = _grey(
+        signal + dark_e[..., None], gain[..., None], dark[..., None], offset[..., None]
+    )
     spectral = (gain[..., None] * t_exp[..., None]) ** 2 * squares / np.maximum(per_class - 1, 1)
-    variance += spectral
+    # The spectral spread and the sensor's own fixed pattern: both spatial, independent.
+    variance += spectral + _fixed_pattern(
+        signal, {f: v[None, None, :, None] for f, v in cam.items()}
+    )
     saturated = np.zeros_like(mean)
 
     # No sample is brighter than its class mean plus √Σ(deviation²): where even that
     # is 8σ below saturation, clipping changes nothing a double holds (Φc(8) ≈ 6e-16).
-    brightest = ((class_rate + np.sqrt(squares)) * t_exp[..., None]).max(axis=-1)
+    brightest = ((class_rate + np.sqrt(squares)) * t_exp[..., None]).max(axis=-1) + dark_e
     top_mean, top_var = _grey(brightest, gain, dark, offset)
+    top_var = top_var + _fixed_pattern(brightest, {f: v[None, None, :] for f, v in cam.items()})
     gap = cam["max_dn"][None, None, :] - top_mean
     near = valid & ((gap <= 0) | (gap * gap <= 64.0 * top_var))
     per_sample = _Signal(class_rate, deviation, t_exp, cam, sample_class)

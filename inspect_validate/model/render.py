@@ -19,7 +19,14 @@ import numpy as np
 from inspect_validate import __version__
 from inspect_validate.model.acquisition import Prediction, _grey
 
-__all__ = ["class_bands", "expected_grey", "expose", "render_frame", "write_rendered"]
+__all__ = [
+    "class_bands",
+    "expected_grey",
+    "expose",
+    "render_frame",
+    "sensor_pattern",
+    "write_rendered",
+]
 
 BAND_GAP = 8  # pixels of dark background between class bands
 
@@ -31,39 +38,74 @@ def class_bands(classes, *, height: int, width: int, gap: int = BAND_GAP) -> dic
     return {name: (0, gap + c * (band_h + gap), width, band_h) for c, name in enumerate(classes)}
 
 
-def expose(electrons: np.ndarray, camera, *, rng, gain: float | None = None) -> np.ndarray:
+def sensor_pattern(camera, shape, *, rng) -> tuple[np.ndarray, np.ndarray] | None:
+    """The camera's fixed pattern over a frame of ``shape``: each pixel's gain factor
+    1 + PRNU·N(0, 1) and dark signal DSNU·N(0, 1), e⁻ (EMVA 1288 release 4.0, §8); the
+    same in every frame of one camera. None for a camera without non-uniformities."""
+    if not (camera.prnu or camera.dsnu):
+        return None
+    return (
+        1.0 + camera.prnu * rng.standard_normal(shape),
+        camera.dsnu * rng.standard_normal(shape),
+    )
+
+
+def expose(
+    electrons: np.ndarray,
+    camera,
+    *,
+    rng,
+    gain: float | None = None,
+    exposure_s: float = 0.0,
+    pattern=None,
+) -> np.ndarray:
     """Grey values of pixels with mean photo-electrons ``electrons``, EMVA 1288 noise model.
 
-    DN = offset + K (Poisson(μ_e) + N(0, σ_d)), rounded and clipped to
-    [0, max DN] (uint16); K is ``gain`` (DN/e⁻), by default the camera's.
+    DN = offset + K (Poisson(μ_e·g + I_d·t) + d + N(0, σ_d)), rounded and clipped to
+    [0, max DN] (uint16): g and d are the pixels' fixed gain factor and dark signal
+    (``pattern``, :func:`sensor_pattern`), I_d the camera's dark current over the
+    exposure ``exposure_s``; K is ``gain`` (DN/e⁻), by default the camera's.
     """
     k = camera.gain if gain is None else gain
-    e = rng.poisson(np.maximum(electrons, 0.0)) + rng.normal(
+    photo = electrons if pattern is None else electrons * pattern[0]
+    e = rng.poisson(np.maximum(photo + camera.dark_current * exposure_s, 0.0)) + rng.normal(
         0.0, camera.dark_noise, electrons.shape
     )
+    if pattern is not None:
+        e = e + pattern[1]
     top = min(camera.max_dn, 2**16 - 1)
     return np.clip(np.floor(camera.dark_offset + k * e + 0.5), 0, top).astype(np.uint16)
 
 
 def expected_grey(
-    electrons: np.ndarray, camera, *, gain: float | None = None
+    electrons: np.ndarray,
+    camera,
+    *,
+    gain: float | None = None,
+    exposure_s: float = 0.0,
+    pattern=None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Expected grey value and temporal variance of each pixel that :func:`expose` renders.
 
-    μ = offset + K μ_e and σ² = K² (μ_e + σ_d²) + 1/12 DN², the last term the
-    rounding to DN (Sheppard's correction): the prediction's own grey-value model. It holds where the dark noise smooths
-    the distribution over a DN: its error is of order exp(−2π² (K σ_d)²), 3e-9 at
-    K σ_d = 1 DN, 7e-3 at 0.5 DN (below, the Poisson lattice shows through).
-    Clipping is not modelled: valid where a pixel stays many σ inside [0, max DN].
+    μ = offset + K (μ_e·g + I_d·t + d) and σ² = K² (μ_e·g + I_d·t + σ_d²) + 1/12 DN²,
+    the last term the rounding to DN (Sheppard's correction): the prediction's own
+    grey-value model. It holds where the dark noise smooths the distribution over a
+    DN: its error is of order exp(−2π² (K σ_d)²), 3e-9 at K σ_d = 1 DN, 7e-3 at 0.5 DN
+    (below, the Poisson lattice shows through). Clipping is not modelled: valid where
+    a pixel stays many σ inside [0, max DN].
 
     Parameters
     ----------
     electrons : ndarray
         Mean photo-electrons μ_e per pixel, e⁻.
     camera : Camera
-        Dark offset (DN), dark noise σ_d (e⁻) and gain K (DN/e⁻).
+        Dark offset (DN), dark noise σ_d (e⁻), dark current (e⁻/s) and gain K (DN/e⁻).
     gain : float, keyword-only, optional
         K in DN/e⁻, by default the camera's.
+    exposure_s : float, keyword-only
+        The exposure time the dark current runs for, s.
+    pattern : tuple of ndarray, keyword-only, optional
+        The pixels' gain factors and dark signals (:func:`sensor_pattern`).
 
     Returns
     -------
@@ -71,7 +113,15 @@ def expected_grey(
         DN and DN², the shape of ``electrons``.
     """
     k = camera.gain if gain is None else gain
-    return _grey(np.maximum(electrons, 0.0), k, camera.dark_noise, camera.dark_offset)
+    photo = np.maximum(electrons, 0.0)
+    if pattern is not None:
+        photo = photo * pattern[0]
+    mean, variance = _grey(
+        photo + camera.dark_current * exposure_s, k, camera.dark_noise, camera.dark_offset
+    )
+    if pattern is not None:
+        mean = mean + k * pattern[1]
+    return mean, variance
 
 
 def render_frame(
@@ -91,7 +141,7 @@ def render_frame(
     t = p.exposure_time[index]
     bands = class_bands(p.classes, height=height, width=width)
     electrons = np.zeros((height, width))
-    rate = (p.sample_mean[index] - cam.dark_offset) / cam.gain / t  # e⁻/s per sample, unclipped
+    rate = p.sample_electrons[index] / t  # photo-e⁻/s per sample, unclipped
     for c, (x, y, w, h) in enumerate(bands.values()):
         # The model's spectral variance is the unbiased (39) spread of the S
         # samples: widen their deviations by sqrt(S/(S−1)) so the frame has it.
@@ -99,7 +149,13 @@ def render_frame(
         if r.size > 1:
             r = r.mean() + (r - r.mean()) * np.sqrt(r.size / (r.size - 1))
         electrons[y : y + h, x : x + w] = r[rng.integers(0, r.size, size=(h, w))] * t
-    frame = expose(electrons, cam, rng=rng)
+    frame = expose(
+        electrons,
+        cam,
+        rng=rng,
+        exposure_s=t,
+        pattern=sensor_pattern(cam, electrons.shape, rng=rng),
+    )
     return frame, bands
 
 

@@ -51,23 +51,17 @@ def verification_html(v, *, history=None) -> str:
     ``history``, a :class:`~inspect_validate.watch.history.HistoryLog` of the station,
     adds its trends."""
     from inspect_validate.report.plots import plot_agreement
+    from inspect_validate.report.verification import count_failed, describe_acquisition
 
     e = html.escape
     verdict = "pass" if v.passed else "fail"
-    failed = sum(not c.passed for c in v.checks)
     parts = [
         "<!DOCTYPE html>",
         '<html lang="en"><head><meta charset="utf-8">',
         f"<title>verify {e(v.station.name)}: {verdict.upper()}</title>",
         f"<style>{_STYLE}</style></head><body>",
         f"<h1>{e(v.station.name)}</h1>",
-        f'<div class="verdict {verdict}">{verdict.upper()}: '
-        + (
-            f"all {len(v.checks)} checks passed"
-            if not failed
-            else f"{failed} of {len(v.checks)} checks failed"
-        )
-        + "</div>",
+        f'<div class="verdict {verdict}">{verdict.upper()}: {e(count_failed(v.checks))}</div>',
         f'<p class="meta">station {e(str(v.inputs["station"]))} (SHA-256 '
         f"{e(str(v.inputs['station_sha256'])[:16])}…), capture {e(str(v.inputs['capture']))}, "
         f"inspect-validate {e(__version__)}</p>",
@@ -77,8 +71,6 @@ def verification_html(v, *, history=None) -> str:
     parts += [f"<p>skipped: {e(s)}</p>" for s in v.skipped]
     parts += [f"<p>note: {e(n)}</p>" for n in v.notes]
     if v.acquisition:
-        from inspect_validate.report.verification import describe_acquisition
-
         parts += ["<h2>Frames</h2>", "<ul>"]
         parts += [f"<li>{e(describe_acquisition(a))}</li>" for a in v.acquisition]
         parts += ["</ul>"]

@@ -72,17 +72,25 @@ def format_verdict(v) -> str:
     for n in v.notes:
         out.append(f"note: {n}")
     out += [f"frames: {describe_acquisition(a)}" for a in v.acquisition]
-    failed = sum(not c.passed for c in v.checks)
     out.append("")
-    out.append(
-        f"PASS: all {len(v.checks)} checks passed"
-        if not failed
-        else f"FAIL: {failed} of {len(v.checks)} checks failed"
-    )
+    out.append(f"{'PASS' if v.passed else 'FAIL'}: {count_failed(v.checks)}")
     return "\n".join(out)
 
 
+def count_failed(checks) -> str:
+    """``all 12 checks passed`` or ``2 of 12 checks failed (1 could not run)``."""
+    failed = sum(not c.passed for c in checks)
+    if not failed:
+        return f"all {len(checks)} checks passed"
+    not_run = sum(not c.ran for c in checks)
+    return f"{failed} of {len(checks)} checks failed" + (
+        f" ({not_run} could not run)" if not_run else ""
+    )
+
+
 def _number(c) -> str:
+    if not c.ran:
+        return "—"
     if c.kind == "ranking":
         return "yes" if c.value >= 1 else "no"
     if c.unit == "" and c.kind == "separation":  # ε, a fraction
@@ -159,14 +167,14 @@ def write_junit(v, path: str | Path) -> Path:
     for c in v.checks:
         case = ET.SubElement(suite, "testcase", classname=f"{v.station.name}.{c.kind}", name=c.name)
         if not c.passed:
-            fail = ET.SubElement(
-                case,
-                "failure",
-                message=f"{c.value:.6g} {c.unit} is not {c.relation} {c.limit:.6g} {c.unit}".replace(
+            message = (
+                f"{c.value:.6g} {c.unit} is not {c.relation} {c.limit:.6g} {c.unit}".replace(
                     "  ", " "
-                ),
-                type=c.kind,
+                )
+                if c.ran
+                else c.detail
             )
+            fail = ET.SubElement(case, "failure", message=message, type=c.kind)
             fail.text = c.detail
         elif c.detail:
             ET.SubElement(case, "system-out").text = c.detail

@@ -25,7 +25,7 @@ import numpy as np
 
 from inspect_validate.errors import InputError
 
-__all__ = ["Gain", "IrradianceScale", "fit_scales", "photon_transfer_gain"]
+__all__ = ["Gain", "IrradianceScale", "fit_scales", "photon_transfer", "photon_transfer_gain"]
 
 MIN_SIGNAL_DN = 1.0  # a point needs at least this much signal above dark to count
 
@@ -45,7 +45,14 @@ class Gain:
         return (self.value - self.declared) / self.declared
 
 
-def photon_transfer_gain(measurements, dark, *, declared: float, max_saturated: float = 1e-3):
+def photon_transfer_gain(
+    measurements,
+    dark,
+    *,
+    declared: float,
+    max_saturated: float = 1e-3,
+    saturation_level: float | None = None,
+):
     """K from the temporal variance against the mean over classes and illuminations.
 
     Parameters
@@ -58,32 +65,82 @@ def photon_transfer_gain(measurements, dark, *, declared: float, max_saturated: 
         The camera's K (DN/e⁻), for comparison.
     max_saturated : float, keyword-only
         Classes with more clipped pixels than this fraction are left out.
+    saturation_level : float, keyword-only, optional
+        The grey value of a saturated pixel (2^bits − 1 of the camera's pixel format),
+        DN. Points above 70 % of it are left out, as EMVA 1288 (release 4.0, §6.3) fits
+        the photon transfer there; so are points beyond the temporal variance's
+        maximum, where the noise is already clipped.
 
     Returns
     -------
     Gain or None
-        None when no usable point exists (single frames, no signal, or dark
-        frames clipped at zero: photon transfer needs a black-level offset).
+        None when no usable point exists: :func:`photon_transfer` says why.
     """
+    return photon_transfer(
+        measurements,
+        dark,
+        declared=declared,
+        max_saturated=max_saturated,
+        saturation_level=saturation_level,
+    )[0]
+
+
+def photon_transfer(
+    measurements,
+    dark,
+    *,
+    declared: float,
+    max_saturated: float = 1e-3,
+    saturation_level: float | None = None,
+) -> tuple[Gain | None, dict[str, int]]:
+    """:func:`photon_transfer_gain`, and the points left out by reason (class and
+    illumination pairs), which say why K could not be estimated when it is None."""
     dark_by = {c.name: c for c in dark.classes}
-    points = []
+    left_out: dict[str, int] = {}
+
+    def leave(reason):
+        left_out[reason] = left_out.get(reason, 0) + 1
+
+    candidates = []
     for m in measurements:
         for c in m.classes:
             d = dark_by.get(c.name)
-            if d is None or c.temporal_variance is None or d.temporal_variance is None:
-                continue
-            if c.saturated_fraction > max_saturated or c.zero_fraction > max_saturated:
-                continue
-            if d.zero_fraction > max_saturated:
+            if d is None:
+                leave("no dark frames for the region")
+            elif c.temporal_variance is None or d.temporal_variance is None:
+                leave("a single frame (no temporal variance)")
+            elif c.saturated_fraction > max_saturated or c.zero_fraction > max_saturated:
+                leave("clipped pixels in the region")
+            elif d.zero_fraction > max_saturated:
                 # Darks clipped at 0 (no black-level offset) understate σ²_dark and
                 # overstate μ_dark: K would come out biased (+2 % at 1.3 DN dark noise).
-                continue
-            x = c.mean - d.mean
-            if x < MIN_SIGNAL_DN:
-                continue
-            points.append((x, c.temporal_variance - d.temporal_variance, c, d))
+                leave("dark frames clipped at 0 (the camera needs a black-level offset)")
+            elif c.mean - d.mean < MIN_SIGNAL_DN:
+                leave(f"signal below {MIN_SIGNAL_DN:g} DN above dark")
+            elif saturation_level is not None and c.mean - d.mean > 0.7 * (
+                saturation_level - d.mean
+            ):
+                leave("above 70 % of saturation")
+            else:
+                candidates.append(
+                    (c.mean - d.mean, c.temporal_variance - d.temporal_variance, c, d)
+                )
+    # Beyond the variance's maximum the brightest pixels clip and the variance falls:
+    # a brighter point whose variance lies significantly (3 sampling errors) below
+    # the largest one's is left out, as emva1288 ends its fit at the maximum.
+    candidates.sort(key=lambda p: p[0])
+    points, peak, peak_se = [], -np.inf, 0.0
+    for point in candidates:
+        variance, c = point[1], point[2]
+        se = np.sqrt(2 * c.temporal_variance**2 / (c.n_pixels * (c.n_frames - 1)))
+        if variance < peak - 3 * np.hypot(se, peak_se):
+            leave("beyond the temporal variance's maximum")
+            continue
+        if variance > peak:
+            peak, peak_se = variance, se
+        points.append(point)
     if not points:
-        return None
+        return None, left_out
     x = np.array([p[0] for p in points])
     y = np.array([p[1] for p in points])
     k = float(x @ y / (x @ x))
@@ -101,9 +158,10 @@ def photon_transfer_gain(measurements, dark, *, declared: float, max_saturated: 
             ]
         )
         se = float(np.sqrt((x**2) @ var_y) / (x @ x))
-    return Gain(
+    gain = Gain(
         k, se, float(declared), tuple((float(a), float(b)) for a, b in zip(x, y, strict=True))
     )
+    return gain, left_out
 
 
 @dataclass(frozen=True)

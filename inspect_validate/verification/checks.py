@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-__all__ = ["Check", "at_least", "at_most"]
+__all__ = ["Check", "at_least", "at_most", "not_run"]
 
 
 @dataclass(frozen=True)
@@ -39,8 +39,13 @@ class Check:
     detail: str = ""
 
     @property
+    def ran(self) -> bool:
+        """False for a check that could not be evaluated (no value): not a pass."""
+        return math.isfinite(self.value)
+
+    @property
     def verdict(self) -> str:
-        return "pass" if self.passed else "FAIL"
+        return "pass" if self.passed else ("FAIL" if self.ran else "NOT RUN")
 
 
 def _check(name, kind, value, limit, unit, relation, detail):
@@ -49,6 +54,12 @@ def _check(name, kind, value, limit, unit, relation, detail):
     if not math.isfinite(value) and not detail:
         detail = "no value: the quantity could not be computed from these frames"
     return Check(name, kind, value, float(limit), unit, relation, bool(ok), detail)
+
+
+def not_run(name: str, kind: str, limit, unit: str, relation: str, why: str) -> Check:
+    """A check the acceptance section asks for that these frames cannot evaluate: it
+    fails, saying why (a check asked for is never passed by not being done)."""
+    return Check(name, kind, math.nan, float(limit), unit, relation, False, f"could not run: {why}")
 
 
 def at_least(name: str, kind: str, value, limit, unit: str = "", detail: str = "") -> Check:

@@ -102,7 +102,7 @@ def paperboard(rng):
         "classes:\n  A: {file: A.csv}\n  B: {file: B.csv}\n  C: {file: C.csv}\n"
         "lights:\n  - {led: {peak: 590, fwhm: 15}, name: amber LED}\n  - {led: {peak: 630, fwhm: 18}, name: red LED}\n"
         "optics:\n  - {lens: visible}\n"
-        "cameras:\n  - {file: ../chapter_table2/camera1_qe.csv, name: mono 8-bit, gain: 0.0255, dark_noise: 12, saturation: 10000, bit_depth: 8}\n"
+        "cameras:\n  - {file: ../chapter_table2/camera1_qe.csv, name: mono 8-bit, gain: 0.0255, dark_noise: 12, saturation: 10000, bit_depth: 8, dark_offset: 4}\n"
         "exposure: {mode: auto, target: 0.5}\n"
         'rank: {by: error, comparison: "A vs B,C"}\n'
     )
