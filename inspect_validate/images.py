@@ -33,9 +33,10 @@ def read_image(path: str | Path) -> np.ndarray:
     if not path.is_file():
         raise InputError("image file not found", source=str(path))
     suffix = path.suffix.lower()
+    colour = None  # known from the file where it says (samples per pixel), else by shape
     try:
         if suffix in _TIFF:
-            image = _read_tiff(path)
+            image, colour = _read_tiff(path)
         elif suffix == ".npy":
             image = np.load(path, allow_pickle=False)
         elif suffix in _OPENCV:
@@ -44,6 +45,7 @@ def read_image(path: str | Path) -> np.ndarray:
             image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
             if image is None:
                 raise ValueError("OpenCV could not decode it")
+            colour = image.ndim == 3
         else:
             raise InputError(
                 f"unknown image type '{suffix}': use TIFF, PNG, PGM, BMP or NPY", source=str(path)
@@ -78,7 +80,7 @@ def read_image(path: str | Path) -> np.ndarray:
                 source=str(path),
             )
         image = image.astype(np.int64)  # uint64 below 2⁶² converts exactly
-    return _monochrome(image, path)
+    return _monochrome(image, path, colour=colour)
 
 
 def recorded_bit_depth(path: str | Path) -> int | None:
@@ -103,8 +105,10 @@ def recorded_bit_depth(path: str | Path) -> int | None:
     return int(bits) if isinstance(bits, int) and 1 <= bits <= 32 else None
 
 
-def _read_tiff(path: Path) -> np.ndarray:
-    """Every page of a TIFF: one frame, or a stack (N, H, W) of pages of one size and type.
+def _read_tiff(path: Path) -> tuple[np.ndarray, bool]:
+    """Every page of a TIFF: one frame, or a stack (N, H, W) of pages of one size and
+    type; and whether its pixels are colour (more than one sample per pixel), which the
+    shape cannot tell for a stack of frames 3 or 4 pixels wide.
 
     A stack written page by page is a series per page to tifffile, whose
     ``imread`` returns the first only; pages are therefore read one by one.
@@ -113,8 +117,9 @@ def _read_tiff(path: Path) -> np.ndarray:
 
     with tifffile.TiffFile(path) as tif:
         pages = list(tif.pages)
+        colour = pages[0].samplesperpixel > 1
         if len(pages) == 1 or (len(tif.series) == 1 and tif.series[0].ndim <= 3):
-            return tif.asarray()
+            return tif.asarray(), colour
         first = pages[0].asarray()
         stack = np.empty((len(pages), *first.shape), first.dtype)  # no list of pages to copy
         stack[0] = first
@@ -127,7 +132,7 @@ def _read_tiff(path: Path) -> np.ndarray:
                     source=str(path),
                 )
             stack[i] = data
-        return stack
+        return stack, colour
 
 
 def _capture_step(path: Path) -> str | None:
@@ -141,9 +146,11 @@ def _capture_step(path: Path) -> str | None:
         return None
 
 
-def _monochrome(image: np.ndarray, path: Path) -> np.ndarray:
-    # Trailing axis of 3 or 4 is colour (RGB[A]) in every reader used here.
-    if image.ndim >= 3 and image.shape[-1] in (3, 4):
+def _monochrome(image: np.ndarray, path: Path, *, colour: bool | None = None) -> np.ndarray:
+    # Where the file does not say (NPY), a trailing axis of 3 or 4 is colour (RGB[A]).
+    if colour is None:
+        colour = image.ndim >= 3 and image.shape[-1] in (3, 4)
+    if colour:
         colour = image[..., :3]
         if np.all(colour == colour[..., :1]):
             return np.ascontiguousarray(colour[..., 0])

@@ -161,11 +161,23 @@ def measure_classes(
     dark: np.ndarray | None = None,
     saturation_level: float | None = None,
 ) -> tuple[ClassMeasurement, ...]:
-    """Per-class statistics of a frame stack (N, H, W) under class masks."""
+    """Per-class statistics of a frame stack (N, H, W) under class masks.
+
+    With ``dark`` (M frames), each pixel's dark mean carries its own temporal noise,
+    σ²_dark/M, the same in every frame: it would pass for spatial variance. The
+    spatial variance is corrected by it (σ²_dark the dark stack's temporal variance
+    in the region); σ² (39), the variance of the dark-subtracted values a classifier
+    sees, keeps it.
+    """
     out = []
     for name, mask in masks.items():
         try:
             region = region_statistics(frames, mask, dark=dark, saturation_level=saturation_level)
+            if dark is not None and dark.shape[0] > 1 and region.spatial_variance is not None:
+                noise = region_statistics(dark, mask).temporal_variance
+                region = replace(
+                    region, spatial_variance=region.spatial_variance - noise / dark.shape[0]
+                )
         except InputError as exc:
             raise InputError(f"class {name}: {exc}", source=exc.source) from None
         m = sample_moments(region.sample)
@@ -224,9 +236,10 @@ def compare(
     wanted = {"always": range(len(comparisons.groups)), "never": ()}.get(kde)
     if wanted is None:
         shaped = np.array([c.gaussian_misfit <= MISFIT_MAX for c in classes])
-        fits = counted.fits(relative=GAUSSIAN_AGREEMENT) & [
-            all(shaped[list(g1 + g2)]) for g1, g2 in comparisons.groups
-        ]
+        # Typed: one class has no comparison, and an empty list would be float.
+        fits = counted.fits(relative=GAUSSIAN_AGREEMENT) & np.array(
+            [all(shaped[list(g1 + g2)]) for g1, g2 in comparisons.groups], dtype=bool
+        )
         wanted = np.flatnonzero(~fits).tolist()
     skipped = _kde_skipped(kde, comparisons, wanted)
     k = None

@@ -291,3 +291,49 @@ def test_saturation_comes_from_the_recorded_bit_depth(tmp_path, capsys):
     for i in (1, 2):
         (frames / f"frame_{i:04d}.json").write_text(json.dumps({"bit_depth": 12}))
     assert saturated() == {"A": 0.0, "B": 1.0}
+
+
+def test_one_class_and_one_pixel_classes_measure_without_a_traceback(tmp_path, capsys):
+    """One class has nothing to compare; a one-pixel class on a stack has a temporal
+    variance but no spatial one: both are reported, not crashed on."""
+    import tifffile
+
+    rng = np.random.default_rng(9)
+    frames = []
+    for i in range(3):
+        frames.append(tmp_path / f"f{i}.tif")
+        tifffile.imwrite(frames[-1], rng.integers(100, 200, (20, 30)).astype(np.uint16))
+    one = tmp_path / "one.yaml"
+    one.write_text("classes:\n  A: [{rect: [0, 0, 10, 10]}]\n")
+    pixel = tmp_path / "pixel.yaml"
+    pixel.write_text("classes:\n  A: [{rect: [0, 0, 10, 10]}]\n  B: [{rect: [15, 15, 1, 1]}]\n")
+    for rois in (one, pixel):
+        out = tmp_path / f"{rois.stem}.json"
+        assert run(["measure", *frames, "--rois", rois, "--json", out]) == 0
+        captured = capsys.readouterr()
+        assert "Traceback" not in captured.err
+        if rois is one:
+            assert "one class, nothing to compare" in captured.out
+        classes = {c["name"]: c for c in json.loads(out.read_text())["classes"]}
+        assert classes["A"]["n_pixels"] == 100
+    assert classes["B"]["spatial_variance"] is None and classes["B"]["temporal_variance"] > 0
+
+
+@pytest.mark.parametrize("n_dark", [2, 4, 16])
+def test_spatial_variance_with_darks_leaves_out_the_dark_means_noise(n_dark):
+    """Each pixel's dark mean over M frames carries σ²_dark/M of temporal noise, fixed
+    in every frame: uncorrected it is read as spatial variance (the bias followed it
+    exactly for M = 1…16). A known fixed pattern (variance 4 DN²) is recovered within
+    5 standard errors whatever M."""
+    from inspect_validate.measure import measure_classes
+
+    rng = np.random.default_rng(n_dark)
+    shape = (200, 200)
+    pattern = 2.0 * rng.standard_normal(shape)  # spatial variance 4 DN²
+    frames = 1000.0 + pattern + 3.0 * rng.standard_normal((8, *shape))  # temporal 9 DN²
+    dark = 100.0 + 4.0 * rng.standard_normal((n_dark, *shape))  # temporal 16 DN²
+    mask = np.ones(shape, bool)
+    (c,) = measure_classes(frames, {"A": mask}, dark=dark)
+    se = np.sqrt(2 / mask.sum()) * (4 + 9 / 8 + 16 / n_dark)
+    assert c.spatial_variance == pytest.approx(4.0, abs=5 * se)
+    assert abs(c.spatial_variance + 16 / n_dark - 4.0) > 5 * se  # the bias it had

@@ -147,3 +147,23 @@ def test_frames_of_several_files_are_read_into_one_stack_without_a_second_copy(t
         tracemalloc.stop()
         assert np.array_equal(got, big)
         assert peak < 1.3 * big.nbytes  # the stack, one frame in flight, the reader's buffers
+
+
+@pytest.mark.parametrize("identical_columns", [False, True])
+def test_a_stack_of_narrow_frames_is_a_stack_not_colour(tmp_path, identical_columns):
+    """Frames 3 or 4 pixels wide: a stack's trailing axis looks like RGB(A), but the
+    TIFF says one sample per pixel. Identical columns once made it read as one frame."""
+    import tifffile
+
+    rng = np.random.default_rng(5)
+    for width in (3, 4):
+        stack = rng.integers(100, 200, (5, 10, width)).astype(np.uint16)
+        if identical_columns:
+            stack[:] = stack[..., :1]
+        path = tmp_path / f"narrow{width}.tif"
+        tifffile.imwrite(path, stack, photometric="minisblack")
+        assert np.array_equal(read_image(path), stack)
+    rgb = tmp_path / "rgb.tif"
+    tifffile.imwrite(rgb, rng.integers(0, 255, (10, 4, 3)).astype(np.uint8), photometric="rgb")
+    with pytest.raises(InputError, match="colour image"):
+        read_image(rgb)

@@ -56,8 +56,10 @@ def format_measurement(m: Measurement, *, saturation_limit: float | None = None)
             f"{c.n_pixels}",
             f"{100 * c.saturated_fraction:.2f} %{flag}",
         ]
-        if stack:
-            row += [f"{c.temporal_variance:.2f}", f"{c.spatial_variance:.2f}"]
+        if stack:  # a one-pixel region has a temporal variance but no spatial one
+            row += [
+                "-" if v is None else f"{v:.2f}" for v in (c.temporal_variance, c.spatial_variance)
+            ]
         if kde:
             h = c.kde_bandwidth
             row += ["-" if h is None else f"{h:.3g}{'*' if c.kde_bandwidth_at_floor else ''}"]
@@ -76,6 +78,9 @@ def format_measurement(m: Measurement, *, saturation_limit: float | None = None)
         ]
         for c in m.comparisons
     ]
+    if not rows:
+        out.append("Separation: one class, nothing to compare (give the ROIs of two or more)")
+        return "\n".join(out)
     groups = {"equal": "equal weights", "pixels": "weighted by pixels", "priors": "class priors"}
     out += [
         "Separation (chapter Table 3; ε_tot (37) with equal priors between the sides; "
