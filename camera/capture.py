@@ -46,7 +46,7 @@ from inspect_validate.camera.storage import CaptureStore
 
 from inspect_validate.errors import DeviceError, InputError
 
-__all__ = ["CaptureResult", "capture", "verified_frames"]
+__all__ = ["CaptureResult", "Step", "capture", "station_steps", "verified_frames"]
 
 
 @dataclass(frozen=True)
@@ -195,28 +195,55 @@ def _agrees(frame, kept, tolerance) -> bool:
     return abs(frame.mean - ref) <= tolerance * max(abs(ref), 1.0)
 
 
+@dataclass(frozen=True)
+class Step:
+    """One step of a capture: a light setting (channel → %), the frames to keep, and the
+    exposure to take them at (µs; None: the station's ``camera.exposure_us``)."""
+
+    name: str
+    channels: dict
+    frames: int
+    exposure_us: float | None = None
+
+
+def station_steps(station: Station) -> list[Step]:
+    """The station's illuminations, then its dark frames: what ``capture`` takes."""
+    steps = [Step(i.name, dict(i.channels), station.frames) for i in station.illuminations]
+    if station.dark_frames:
+        steps.append(Step("dark", {}, station.dark_frames))
+    return steps
+
+
 def capture(
-    station: Station, out: Path, *, resume: bool = False, progress=None, devices=None
+    station: Station,
+    out: Path,
+    *,
+    resume: bool = False,
+    progress=None,
+    devices=None,
+    steps: list[Step] | None = None,
 ) -> CaptureResult:
     """Run the station's capture sequence into ``out``.
 
     ``progress(step, done, total)`` is called after every verified frame (its
     save may still be under way; a step is complete only once all are written).
     ``devices`` replaces the station's camera and controller with a context
-    manager yielding ``(controller, camera)`` (other setups, tests).
+    manager yielding ``(controller, camera)`` (other setups, tests). ``steps``
+    replaces :func:`station_steps` (``characterize``'s exposure series).
     """
     from inspect_validate.camera.devices import open_devices
 
     store = CaptureStore(
         out, station_path=station.path, station_sha256=station_hash(station.path), resume=resume
     )
-    steps = [(i.name, dict(i.channels), station.frames) for i in station.illuminations]
-    if station.dark_frames:
-        steps.append(("dark", {}, station.dark_frames))
+    steps = [
+        (s.name, s.channels, s.frames, s.exposure_us)
+        for s in (station_steps(station) if steps is None else steps)
+    ]
     saved, skipped, known = {}, [], {}
     levels: dict[str, float] = {}  # mean grey value of each step captured in this run
     rois = _precision_rois(station)
-    total = sum(n for _, _, n in steps)
+    total = sum(s[2] for s in steps)
     done = 0
     with devices if devices is not None else open_devices(station) as (controller, camera):
         cam = station.camera
@@ -265,12 +292,19 @@ def capture(
             store.fail(step, f"{exc}{also}")
 
         try:
-            for name, setting, n in steps:
+            exposure = cam.exposure_us
+            for name, setting, n, step_exposure in steps:
                 if store.is_complete(name):
                     skipped.append(name)
                     done += n
                     continue
                 as_json = {str(k): v for k, v in setting.items()}  # JSON keys are strings
+                want = cam.exposure_us if step_exposure is None else step_exposure
+                if want != exposure:  # an exposure series: set before the light switches
+                    camera.configure(exposure_us=want)
+                    exposure = want
+                    if chunk and "ExposureTime" in chunk:
+                        chunk = {**chunk, "ExposureTime": (want, chunk["ExposureTime"][1])}
                 try:
                     if pulse is not None:
                         controller.apply_pulsed(

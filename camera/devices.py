@@ -55,8 +55,10 @@ def _simulated_controller(station: Station):
 
 
 @contextlib.contextmanager
-def open_devices(station: Station):
-    """Yield (controller, camera) for the station, closing both afterwards."""
+def open_devices(station: Station, *, target: str = "scene"):
+    """Yield (controller, camera) for the station, closing both afterwards. ``target``:
+    what a camera that renders the scene shows (``"uniform"``: a white target filling
+    the frame, as for ``characterize``; real cameras see what is there)."""
     spec = station.controller
     with contextlib.ExitStack() as stack:
         state_path = None
@@ -84,7 +86,7 @@ def open_devices(station: Station):
             from inspect_validate.camera.lights.manual import ManualController
 
             controller = stack.enter_context(ManualController(channels=spec.channels))
-        camera = stack.enter_context(_open_camera(station, state_path, controller))
+        camera = stack.enter_context(_open_camera(station, state_path, controller, target))
         yield controller, camera
 
 
@@ -114,7 +116,7 @@ def _generic_controller(station: Station, port: str | None):
     )
 
 
-def _scene_renderer(station: Station, state_path: Path | None):
+def _scene_renderer(station: Station, state_path: Path | None, target: str = "scene"):
     """The simulated camera of the station's scene, lit by the simulated controller's state."""
     spec = station.camera
     if state_path is None:
@@ -134,13 +136,14 @@ def _scene_renderer(station: Station, state_path: Path | None):
         width=spec.width,
         height=spec.height,
         latency=spec.latency,
+        target=target,
     )
 
 
-def _open_camera(station: Station, state_path: Path | None, controller):
+def _open_camera(station: Station, state_path: Path | None, controller, target="scene"):
     spec = station.camera
     if spec.backend == "simulated":
-        return _scene_renderer(station, state_path)
+        return _scene_renderer(station, state_path, target)
     if spec.backend == "genicam":
         from inspect_validate.camera.grabbers.genicam import GenICamCamera
 
@@ -154,7 +157,7 @@ def _open_camera(station: Station, state_path: Path | None, controller):
         if spec.simulate:  # the simulated station through pylon's camera emulator
             from inspect_validate.camera.grabbers.emulator_feed import EmulatorFeed
 
-            renderer = _scene_renderer(station, state_path)
+            renderer = _scene_renderer(station, state_path, target)
             # Enough noise realisations that no step's frames repeat, even after discards.
             per_light = (
                 max(station.frames, station.dark_frames) + station.discard_max + spec.flush_frames

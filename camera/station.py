@@ -94,6 +94,9 @@ class _CameraCommon(_Strict):
     chunks: bool | None = None
     """Append exposure, gain, timestamp and frame id to every frame and check them;
     default: where the camera offers chunks. ``true`` refuses a camera without."""
+    measured: str | None = None
+    """A camera file written by ``characterize``: its EMVA 1288 values replace the scene
+    camera's in every prediction of this station (the QE stays the scene's)."""
 
     @field_validator("pixel_format")
     @classmethod
@@ -431,6 +434,26 @@ class Precision(_Strict):
     min_frames: Annotated[int, Field(ge=3, le=100_000)] = 3
 
 
+class Characterize(_Strict):
+    """How ``characterize`` measures the camera (EMVA 1288): the light of the exposure
+    series, its points, the frames of the spatial stacks and the analysed region."""
+
+    illumination: str | None = None
+    """The station's illumination that lights the series (default: its first)."""
+    points: Annotated[int, Field(ge=8, le=1000)] = 50
+    frames_spatial: Annotated[int, Field(ge=2, le=10_000)] = 16
+    region: (
+        tuple[
+            Annotated[int, Field(ge=0)],
+            Annotated[int, Field(ge=0)],
+            Annotated[int, Field(ge=1)],
+            Annotated[int, Field(ge=1)],
+        ]
+        | None
+    ) = None
+    """x, y, width, height of the uniformly lit area analysed (default: the frame)."""
+
+
 class Station(_Strict):
     name: str = "station"
     camera: CameraSpec
@@ -448,6 +471,7 @@ class Station(_Strict):
     comparisons: ComparisonsSpec = ComparisonsSpec()
     calibration: Calibration = Calibration()
     acceptance: Acceptance = Acceptance()
+    characterize: Characterize = Characterize()
     path: Path | None = None
 
     @model_validator(mode="after")
@@ -480,6 +504,12 @@ class Station(_Strict):
                 "(controller channel → scene light)"
             )
         self._check_timing()
+        wanted = self.characterize.illumination
+        if wanted is not None and wanted not in {i.name for i in self.illuminations}:
+            raise ValueError(
+                f"characterize.illumination: no illumination {wanted!r} "
+                f"(the station has {', '.join(i.name for i in self.illuminations)})"
+            )
         return self
 
     def _check_timing(self) -> None:
@@ -590,7 +620,7 @@ def write_station(station: Station, path: str | Path, *, comment: str = "") -> S
     for key in ("scene", "rois"):
         if doc.get(key):
             doc[key] = str(station.resolve(doc[key]).resolve())
-    for key in ("cti", "folder"):
+    for key in ("cti", "folder", "measured"):
         if doc["camera"].get(key):
             doc["camera"][key] = str(station.resolve(doc["camera"][key]).resolve())
     drift = doc.get("acceptance", {}).get("drift")

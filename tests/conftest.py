@@ -86,6 +86,21 @@ def copy_station(tmp_path, *, world=None, **top):
     return path
 
 
+def on_pylon_emulator(path: Path) -> Path:
+    """The station file at ``path`` with its simulated camera served through pypylon's
+    camera emulator (``backend: pylon, simulate: true``, Mono16), rewritten in place."""
+    doc = yaml.safe_load(path.read_text())
+    keep = ("exposure_us", "gain_db", "width", "height", "world")
+    doc["camera"] = {
+        "backend": "pylon",
+        "simulate": True,
+        "pixel_format": "Mono16",
+        **{k: doc["camera"][k] for k in keep if k in doc["camera"]},
+    }
+    path.write_text(yaml.safe_dump(doc, sort_keys=False))
+    return path
+
+
 @pytest.fixture
 def cli(capsys):
     """Run the CLI in-process: ``cli(args) -> (exit code, stdout, stderr)``."""
@@ -149,3 +164,26 @@ def tlsimu_cti(tmp_path_factory) -> Path:
                 if name.endswith(("/TLSimu.cti", "/libVirtualFG.so")):
                     (cache / Path(name).name).write_bytes(wheel.read(name))
     return cti
+
+
+@pytest.fixture(scope="session")
+def emva1288_python() -> Path:
+    """A Python with the ``emva1288`` reference implementation, in an environment of its
+    own (it needs numpy < 1.24, which this project's cannot have): made once per machine
+    in ~/.cache/inspect-validate/emva1288-venv from PyPI. Skips where that fails."""
+    venv = Path.home() / ".cache" / "inspect-validate" / "emva1288-venv"
+    python = venv / "bin" / "python"
+    check = [str(python), "-c", "import emva1288.process"]
+    if python.is_file() and subprocess.run(check, capture_output=True).returncode == 0:
+        return python
+    made = subprocess.run([sys.executable, "-m", "venv", "--clear", str(venv)], capture_output=True)
+    pins = ["emva1288==1.0.2", "numpy<1.24", "scipy<1.12", "matplotlib<3.9"]
+    installed = made.returncode == 0 and (
+        subprocess.run(
+            [str(python), "-m", "pip", "install", "-q", *pins], capture_output=True, text=True
+        ).returncode
+        == 0
+    )
+    if not installed or subprocess.run(check, capture_output=True).returncode:
+        pytest.skip("cannot make an environment with the emva1288 package (needs PyPI)")
+    return python

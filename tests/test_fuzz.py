@@ -821,3 +821,97 @@ def test_history_never_refuses_what_watch_writes(capsys, steps, plot):
         code, out, err = run([*args, *(["--plot", tmp / "p"] if plot else [])], capsys)
         assert_clean(code, out, err, allowed=(0,))
         assert len((tmp / "h.csv").read_text().splitlines()) == 1 + len(steps)
+
+
+@settings(SETTINGS, max_examples=20)
+@given(
+    camera=st.dictionaries(
+        st.sampled_from(
+            [
+                "acquisition",
+                "trigger_line",
+                "strobe_line",
+                "trigger_delay_us",
+                "settle_ms",
+                "chunks",
+                "exposure_us",
+            ]
+        ),
+        st.one_of(
+            junk,
+            st.sampled_from(
+                ["auto", "free-run", "software-trigger", "hardware-trigger", "Line1", "Line2"]
+            ),
+            st.floats(0, 2e4),
+        ),
+        max_size=5,
+    ),
+    pulse=maybe(
+        st.dictionaries(
+            st.sampled_from(["width_us", "delay_us", "max_duty", "trigger_channel"]),
+            st.one_of(junk, st.floats(0, 2e4), st.integers(-1, 70)),
+            max_size=4,
+        )
+    ),
+)
+@example(
+    camera={"acquisition": "hardware-trigger", "trigger_line": "Line1"}, pulse={"width_us": 9e3}
+)
+@example(
+    camera={"acquisition": "software-trigger", "strobe_line": "Line2"}, pulse={"width_us": 9e3}
+)
+@example(camera={"acquisition": "free-run", "chunks": True}, pulse=None)
+def test_acquisition_settings_are_validated_not_crashed_on(capsys, camera, pulse):
+    """Hostile trigger, strobe, chunk and pulse settings on the simulated station: refused
+    naming the field (2), captured (0), or a device's clear failure (3)."""
+    doc = yaml.safe_load((ROOT / "sample_images" / "station" / "station.yaml").read_text())
+    doc["scene"] = str(SCENE)
+    doc.update(frames=1, dark_frames=1)
+    doc["camera"].update(camera, timeout_s=0.3)
+    if pulse is not None:
+        doc["controller"]["pulse"] = pulse
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        (tmp / "rois.yaml").write_text(
+            (ROOT / "sample_images" / "station" / "rois.yaml").read_text()
+        )
+        (tmp / "st.yaml").write_text(yaml.safe_dump(doc))
+        code, out, err = run(["capture", tmp / "st.yaml", "--out", tmp / "o"], capsys)
+        event(f"exit {code}")
+        assert_clean(code, out, err, allowed=(0, 2, 3))
+
+
+@settings(SETTINGS, max_examples=20)
+@given(
+    values=st.dictionaries(
+        st.sampled_from(
+            ["gain", "dark_noise", "saturation", "bit_depth", "dark_offset", "dsnu", "prnu", "x"]
+        ),
+        st.one_of(junk, st.floats(-1, 1e5), st.integers(-5, 40)),
+        max_size=6,
+    ),
+    measured=st.one_of(junk, st.dictionaries(st.just("gain_db"), junk, max_size=1)),
+    raw=st.sampled_from(["", "[1, 2]", "camera: 3", "{{", None]),
+)
+@example(values={"gain": 0.03, "dark_noise": 10.0, "saturation": 9000.0}, measured={}, raw=None)
+@example(values={"gain": 0.03, "prnu": 0.02, "dsnu": 3.0}, measured={"gain_db": 6}, raw=None)
+def test_measured_camera_files_are_validated_not_crashed_on(
+    capsys, verified_capture, values, measured, raw
+):
+    """A hostile camera file named by camera.measured: verify refuses it naming the file
+    and the field (2), or predicts with it (0/1); never a traceback."""
+    path, frames, _ = verified_capture
+    doc = yaml.safe_load(path.read_text())
+    doc.pop("acceptance", None)
+    with tempfile.TemporaryDirectory(dir=path.parent) as tmp:
+        tmp = Path(tmp)
+        text = raw if raw is not None else yaml.safe_dump({"camera": values, "measured": measured})
+        (tmp / "camera.yaml").write_text(text)
+        doc["camera"]["measured"] = "camera.yaml"
+        (tmp / "rois.yaml").write_text((path.parent / "rois.yaml").read_text())
+        (tmp / "st.yaml").write_text(yaml.safe_dump(doc))
+        code, out, err = run(["verify", tmp / "st.yaml", "--frames", frames], capsys)
+        event(f"exit {code}")
+        assert_clean(code, out, err, allowed=(0, 1, 2))
+        if code == 2:
+            assert "camera.yaml" in err or "st.yaml" in err

@@ -184,18 +184,9 @@ def test_full_capture_through_the_emulator_matches_the_simulated_station(tmp_pat
 def test_verify_through_the_emulator_recovers_a_dimmer_light(tmp_path):
     """`verify` end to end on pylon's grab engine and the simulated controller process on a
     pseudo-terminal, against a world whose amber light gives 40 % of its stated irradiance."""
-    import yaml
-    from conftest import copy_station
+    from conftest import copy_station, on_pylon_emulator
 
-    path = copy_station(tmp_path, world={"irradiance": {1: 0.4}})
-    doc = yaml.safe_load(path.read_text())
-    doc["camera"] = {
-        "backend": "pylon",
-        "simulate": True,
-        "pixel_format": "Mono16",
-        **{k: doc["camera"][k] for k in ("exposure_us", "gain_db", "width", "height", "world")},
-    }
-    path.write_text(yaml.safe_dump(doc, sort_keys=False))
+    path = on_pylon_emulator(copy_station(tmp_path, world={"irradiance": {1: 0.4}}))
     report = tmp_path / "report"
     done = subprocess.run(
         [sys.executable, "-m", "inspect_validate", "verify", str(path), "--report", str(report)],

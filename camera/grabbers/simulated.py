@@ -135,6 +135,9 @@ class SimulatedCamera(Grabber):
         Which reflectance sample each object pixel shows (the parts themselves).
     noise_seed : int, optional
         The sensor noise; default new entropy for every camera opened.
+    target : {"scene", "uniform"}
+        What is in front of the camera: the scene's objects, or a white diffuse target
+        filling the frame (``characterize``'s uniform field).
     """
 
     def __init__(
@@ -149,10 +152,12 @@ class SimulatedCamera(Grabber):
         frame_interval_s: float = 0.01,
         seed: int = 0,
         noise_seed: int | None = None,
+        target: str = "scene",
     ):
         from inspect_validate.camera.station import World
 
-        from inspect_validate.model import Exposure, predict
+        from inspect_validate.model import Exposure, ObjectClass, predict
+        from inspect_validate.spectra import Spectrum, SpectrumKind
 
         world = world or World()
         self.name = f"simulated camera ({model.scene_camera.name})"
@@ -172,17 +177,27 @@ class SimulatedCamera(Grabber):
         self.frame_id = 0
         self.channels = lights
         # Electrons per second per reflectance sample for each light alone at 100 %.
+        # A white diffuse target (R = 1) rides along: what a uniform field shows.
+        grid = model.scene.grid
+        white = ObjectClass(
+            "white target",
+            Spectrum(grid, np.ones((1, grid.size)), SpectrumKind.REFLECTANCE, "white", "target"),
+        )
         p = predict(
             list(lights.values()),
             [optics],
             [self.camera],
-            classes,
+            [*classes, white],
             exposure=Exposure("fixed", time=1.0),
-            grid=model.scene.grid,
+            grid=grid,
         )
-        self.rates = p.sample_electrons[:, 0, 0]  # (channels, samples), e⁻/s at 100 %, unclipped
-        self.sample_class = p.sample_class
-        self.classes = p.classes
+        rates = p.sample_electrons[:, 0, 0]  # (channels, samples), e⁻/s at 100 %, unclipped
+        scene = p.sample_class < len(classes)
+        self.rates = rates[:, scene]
+        self.white_rate = rates[:, ~scene][:, 0]  # (channels,)
+        self.sample_class = p.sample_class[scene]
+        self.classes = p.classes[:-1]
+        self.target = target
         # 6-pixel gaps: the shipped station's rois.yaml is drawn for this layout.
         self.bands = class_bands(self.classes, height=height, width=width, gap=6)
         # Each object pixel shows one of its class's reflectance samples, fixed
@@ -364,10 +379,14 @@ class SimulatedCamera(Grabber):
     def _electrons(self, state: dict[int, float]) -> np.ndarray:
         """Mean photo-electrons of each pixel (e⁻) under ``state``, world deviations included."""
         percent = np.array([100.0 if ch == 0 else state.get(ch, 0.0) for ch in self.channels])
-        rate = percent / 100.0 @ self.rates  # e⁻/s per reflectance sample
-        electrons = np.zeros((self.height, self.width))
-        for where, pick in self._objects:
-            electrons[where] = rate[pick] * (self.exposure_us * 1e-6)
+        if self.target == "uniform":
+            white = percent / 100.0 @ self.white_rate * (self.exposure_us * 1e-6)
+            electrons = np.full((self.height, self.width), white)
+        else:
+            rate = percent / 100.0 @ self.rates  # e⁻/s per reflectance sample
+            electrons = np.zeros((self.height, self.width))
+            for where, pick in self._objects:
+                electrons[where] = rate[pick] * (self.exposure_us * 1e-6)
         electrons *= self._falloff
         if self.world.blur_px > 0:
             from scipy import ndimage

@@ -157,6 +157,12 @@ def station_model(station, scene=None) -> StationModel:
     camera = scene_camera = _pick(
         scene.cameras, station.camera.model, what="cameras", field="camera.model", source=source
     )
+    if station.camera.measured:
+        # What characterize measured replaces the declared values in the model; the
+        # scene camera stays what a simulated camera renders (the world's sensor).
+        from inspect_validate.characterization.camera_file import measured_camera
+
+        camera = measured_camera(scene_camera, station.resolve(station.camera.measured))
     if station.camera.gain_db:
         gain = camera.gain * 10 ** (station.camera.gain_db / 20)
         camera = replace(camera, gain=gain, name=f"{camera.name} at {station.camera.gain_db:g} dB")

@@ -1,0 +1,134 @@
+"""The measured camera: what ``characterize`` found, as a file a station reads.
+
+A YAML file with the EMVA 1288 values the model uses (``camera:``, the scene's camera
+keys) and where they came from (``measured:``: the station, its SHA-256, the capture
+folder, the exposure gain in dB, the date, the tool, each value's standard error)::
+
+    camera:
+      gain: 0.02856            # DN/e⁻ at the gain it was measured at
+      dark_noise: 12.1         # e⁻
+      saturation: 9960         # e⁻
+      ...
+    measured: {station: ..., gain_db: 0, standard_errors: {gain: 6.1e-05, ...}}
+
+A station names it with ``camera.measured``; :func:`measured_camera` then replaces the
+scene camera's values (its QE curve stays: the series measures no absolute QE).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import replace
+from pathlib import Path
+
+__all__ = ["MODEL_KEYS", "measured_camera", "read_camera_file", "write_camera_file"]
+
+#: The camera keys the file gives: the scene's EMVA 1288 values.
+MODEL_KEYS = (
+    "gain",
+    "dark_noise",
+    "saturation",
+    "bit_depth",
+    "dark_offset",
+    "dark_current",
+    "dsnu",
+    "prnu",
+)
+
+
+def write_camera_file(path, result, *, name: str, gain_db: float, provenance: dict) -> Path:
+    """Write :class:`~.analysis.Characterization` ``result`` as a camera file at ``path``.
+
+    Values that could not be measured (NaN: no dark current without an exposure
+    series, no DSNU/PRNU without stacks) are left out, so the scene's stay.
+    """
+    import yaml
+
+    from inspect_validate.files import atomic_write
+
+    values = {
+        "gain": result.gain,
+        "dark_noise": result.dark_noise,
+        "saturation": result.saturation,
+        "bit_depth": result.bit_depth,
+        "dark_offset": max(result.dark_offset, 0.0),
+        "dark_current": max(result.dark_current, 0.0),
+        "dsnu": result.dsnu,
+        "prnu": result.prnu,
+    }
+    camera = {"name": name}
+    for key, value in values.items():
+        if isinstance(value, int) or math.isfinite(value):
+            camera[key] = value if isinstance(value, int) else float(f"{value:.6g}")
+    errors = {
+        key: float(f"{getattr(result, key + '_se'):.3g}")
+        for key in ("gain", "dark_noise", "saturation", "dark_current", "dsnu", "prnu")
+        if math.isfinite(getattr(result, key + "_se"))
+    }
+    doc = {
+        "camera": camera,
+        "measured": {
+            **provenance,
+            "gain_db": float(gain_db),
+            "date": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+            "standard_errors": errors,
+            "saturation_reached": result.saturation_reached,
+            "qe": "not measured (the irradiance at the sensor is not known): the scene's",
+        },
+    }
+    head = "# The camera as `inspect-validate characterize` measured it (EMVA 1288).\n"
+    text = head + yaml.safe_dump(doc, sort_keys=False, allow_unicode=True)
+    return atomic_write(path, text.encode())
+
+
+def _file_model():
+    """The camera file's validation model (built on first use: pydantic is not needed to
+    write one)."""
+    from typing import Annotated, Any
+
+    from pydantic import BaseModel, ConfigDict, Field
+
+    Positive = Annotated[float, Field(gt=0, le=1e9, allow_inf_nan=False)]
+    NonNegative = Annotated[float, Field(ge=0, le=1e9, allow_inf_nan=False)]
+
+    class MeasuredValues(BaseModel):
+        model_config = ConfigDict(extra="forbid")
+        name: str | None = None
+        gain: Positive | None = None
+        dark_noise: NonNegative | None = None
+        saturation: Positive | None = None
+        bit_depth: Annotated[int, Field(ge=1, le=32)] | None = None
+        dark_offset: NonNegative | None = None
+        dark_current: NonNegative | None = None
+        dsnu: NonNegative | None = None
+        prnu: Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)] | None = None
+
+    class CameraFile(BaseModel):
+        model_config = ConfigDict(extra="forbid")
+        camera: MeasuredValues
+        measured: dict[str, Any] = {}
+
+    return CameraFile
+
+
+def read_camera_file(path) -> dict:
+    """The ``camera:`` values of a camera file and its ``measured:`` provenance, checked
+    (errors name the file and the field)."""
+    from inspect_validate.config import load_yaml
+
+    doc = load_yaml(path, _file_model(), what="camera file")
+    values = doc.camera.model_dump(exclude={"name"}, exclude_none=True)
+    return {"values": values, "name": doc.camera.name, "measured": doc.measured}
+
+
+def measured_camera(scene_camera, path):
+    """``scene_camera`` with the values of the camera file at ``path`` (K brought back
+    to 0 dB: the station applies its own ``gain_db``)."""
+    doc = read_camera_file(path)
+    values = dict(doc["values"])
+    gain_db = doc["measured"].get("gain_db", 0.0)
+    if "gain" in values and isinstance(gain_db, (int, float)):
+        values["gain"] /= 10 ** (gain_db / 20)
+    name = f"{scene_camera.name} (measured: {Path(path).name})"
+    return replace(scene_camera, name=name, **values)

@@ -1,0 +1,335 @@
+"""The EMVA 1288 capture of ``characterize``: an exposure series from dark to past
+saturation, dark pairs at every exposure, and spatial stacks.
+
+Through the station's own camera and controller, with the capture machinery of
+``capture`` (verified frames, sidecars, resumable):
+
+1. a probe: one lit and one dark pair at the station's exposure, shortened by 4×
+   until the lit pair is below 90 % of the bit depth's range, gives the exposure that
+   would saturate (linear in the exposure above dark);
+2. ``points`` exposures evenly spaced up to 1.2 × that, each a lit pair ``b_NNN``
+   and a dark pair ``d_NNN``; then ten more between the neighbours of the point
+   where σ²_y peaks (the 1288 saturation, found to a tenth of a step: a full well
+   may clip well below the bit depth's range);
+3. ``frames_spatial`` frames lit at half the saturation signal (``b_spatial``) and as
+   many dark (``d_spatial``) for DSNU and PRNU.
+
+A camera without an exposure setting gets a series of LED levels instead (0–100 % of
+the illumination's channels at the station's exposure); its dark signal does not
+change along it, so no dark current is measured. The plan is written to
+``characterize.json`` in the capture folder before the series starts, so a resumed
+run takes the same points.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from inspect_validate.errors import DeviceError, InputError
+
+__all__ = ["Plan", "capture_series", "read_series"]
+
+PLAN_FILE = "characterize.json"
+_PROBES = 6  # each 4× shorter: 4096× the station's exposure at most
+_NEAR_SATURATION = 10  # extra exposures between 90 % and 110 % of the saturating one
+
+
+@dataclass(frozen=True)
+class Plan:
+    """The series: each point's exposure (µs) and light level (0–1 of the illumination),
+    the spatial stacks' exposure, the bit depth, and which it varies."""
+
+    exposure_us: tuple[float, ...]
+    level: tuple[float, ...]
+    spatial_exposure_us: float
+    spatial_level: float
+    bits: int
+    varies: str  # "exposure" or "level"
+    illumination: str
+    refined: bool = False  # the points near saturation and the spatial stacks are planned
+
+    def abscissa(self) -> np.ndarray:
+        """What the signal is linear in: the exposure, or the LED level (%)."""
+        if self.varies == "exposure":
+            return np.array(self.exposure_us)
+        return 100 * np.array(self.level)
+
+
+def _channels(station, level: float) -> dict:
+    ill = _illumination(station)
+    return {ch: pct * level for ch, pct in ill.channels.items()}
+
+
+def _illumination(station):
+    wanted = station.characterize.illumination or station.illuminations[0].name
+    return next(i for i in station.illuminations if i.name == wanted)
+
+
+def _mean(folder: Path, mask) -> float:
+    from inspect_validate.images import read_frames
+
+    frames = read_frames([folder])
+    return float(frames[:, mask].mean())
+
+
+def capture_series(
+    station, out: Path, *, resume: bool = False, progress=None, devices=None
+) -> Plan:
+    """Probe, plan and capture the series into ``out`` (module docstring); the plan."""
+    from inspect_validate.camera.capture import Step, capture
+    from inspect_validate.camera.devices import open_devices
+    from inspect_validate.images import recorded_bit_depth
+
+    def run(steps):
+        opened = devices() if devices else open_devices(station, target="uniform")
+        return capture(
+            station,
+            out,
+            resume=resume or (out / "manifest.json").exists(),
+            steps=steps,
+            devices=opened,
+            progress=progress,
+        )
+
+    if not resume and (out / "manifest.json").exists():
+        raise InputError(
+            "this folder already holds a capture: add --resume to continue its series, or "
+            "give a new --out",
+            source=str(out),
+        )
+    plan_path = out / PLAN_FILE
+    if resume and plan_path.is_file():
+        plan = _read_plan(plan_path)
+    else:
+        t0 = station.camera.exposure_us or 10_000.0
+        first = run(
+            [Step("probe_b_0", _channels(station, 1.0), 2, t0), Step("probe_d_0", {}, 2, t0)]
+        )
+        fixed = "exposure" in first.not_applied or station.camera.exposure_us is None
+        bits = recorded_bit_depth(next((out / "probe_b_0").glob("frame_*.tif")))
+        if bits is None:
+            from inspect_validate.model.illumination import station_model
+
+            bits = station_model(station).camera.bit_depth
+        top = 2**bits - 1
+        if station.scene:  # a full well below the format's range: the declared camera's
+            from inspect_validate.model.illumination import station_model
+
+            top = min(top, station_model(station).camera.max_dn)
+        mask = region_mask(station, out / "probe_b_0")
+        t, k = t0, 0
+        lit, dark = _mean(out / "probe_b_0", mask), _mean(out / "probe_d_0", mask)
+        while not fixed and lit > 0.9 * top and k < _PROBES:
+            k, t = k + 1, t / 4
+            run(
+                [
+                    Step(f"probe_b_{k}", _channels(station, 1.0), 2, t),
+                    Step(f"probe_d_{k}", {}, 2, t),
+                ]
+            )
+            lit, dark = _mean(out / f"probe_b_{k}", mask), _mean(out / f"probe_d_{k}", mask)
+        if lit - dark < 1.0:
+            raise InputError(
+                f"the illumination {_illumination(station).name!r} gives {lit - dark:.2g} DN above "
+                "dark at the station's exposure: nothing to characterise with — check that its "
+                "light reaches the camera, or choose another with characterize.illumination",
+                source=str(station.path),
+            )
+        if lit > 0.9 * top:
+            raise DeviceError(
+                f"the camera saturates even at {t:.3g} µs: lower the illumination's level"
+            )
+        n = station.characterize.points
+        if fixed:
+            levels = tuple(float(x) for x in np.linspace(0, 1, n + 1)[1:])
+            exposures = (t0,) * n
+            spatial = (t0, 0.5 * min(1.0, (top - dark) / (lit - dark)))
+        else:
+            # The bit depth's range bounds the saturating exposure from above (a full
+            # well may clip first): evenly spaced to 1.2× that.
+            t_sat = t * (top - dark) / (lit - dark)
+            exposures = tuple(float(x) for x in np.linspace(0, 1.2 * t_sat, n + 1)[1:])
+            levels = (1.0,) * n
+            spatial = (0.5 * t_sat, 1.0)
+        plan = Plan(
+            exposures,
+            levels,
+            spatial[0],
+            spatial[1],
+            int(bits),
+            "level" if fixed else "exposure",
+            _illumination(station).name,
+        )
+        _write_plan(plan_path, plan)
+    run(_pair_steps(station, plan))
+    while not plan.refined:
+        plan = _refine(station, out, plan)
+        _write_plan(plan_path, plan)
+        run(_pair_steps(station, plan))
+    l_frames = station.characterize.frames_spatial
+    run(
+        [
+            Step(
+                "b_spatial",
+                _channels(station, plan.spatial_level),
+                l_frames,
+                plan.spatial_exposure_us,
+            ),
+            Step("d_spatial", {}, l_frames, plan.spatial_exposure_us),
+        ]
+    )
+    return plan
+
+
+def _pair_steps(station, plan: Plan) -> list:
+    """A lit and a dark pair at every point of ``plan``."""
+    from inspect_validate.camera.capture import Step
+
+    steps = []
+    for i, (t, level) in enumerate(zip(plan.exposure_us, plan.level, strict=True)):
+        steps += [
+            Step(f"b_{i:03d}", _channels(station, level), 2, t),
+            Step(f"d_{i:03d}", {}, 2, t),
+        ]
+    return steps
+
+
+def _refine(station, out: Path, plan: Plan) -> Plan:
+    """``plan`` with ten more points between the measured saturation point's neighbours
+    (so the peak of σ²_y, the 1288 saturation, is found to a tenth of a step), and the
+    spatial stacks at half the measured saturation signal."""
+    from dataclasses import replace as replaced
+
+    from inspect_validate.characterization.analysis import _saturation_index, pair_statistics
+    from inspect_validate.images import read_frames
+
+    mask = region_mask(station, out / "b_000")
+    pairs = []
+    for i in range(len(plan.exposure_us)):
+        b = read_frames([out / f"b_{i:03d}"])[:, mask]
+        pairs.append(pair_statistics(b[0], b[1]))
+    x = plan.abscissa()
+    variance = np.array([p.variance for p in pairs])
+    sat = _saturation_index(variance)
+    grown = len(x) > station.characterize.points
+    if plan.varies == "exposure" and sat == len(x) - 1 and not grown:
+        # Not saturated yet (the camera's full well is above what its file declares):
+        # half as many points again, up to twice the longest exposure, once.
+        more = np.linspace(x[-1], 2 * x[-1], station.characterize.points // 2 + 1)[1:]
+        return replaced(
+            plan,
+            exposure_us=(*plan.exposure_us, *map(float, more)),
+            level=(*plan.level, *([1.0] * len(more))),
+        )
+    lo, hi = x[max(sat - 1, 0)], x[min(sat + 1, len(x) - 1)]
+    near = np.linspace(lo, hi, _NEAR_SATURATION + 2)[1:-1]
+    dark = float(read_frames([out / "d_000"])[:, mask].mean())
+    signal = np.array([p.mean for p in pairs]) - dark
+    # Half the saturation signal, interpolated on the rising part (made monotonic: noise
+    # must not send the interpolation outside the series).
+    rising = np.maximum.accumulate(signal[: sat + 1])
+    middle = float(np.interp(0.5 * signal[sat], rising, x[: sat + 1]))
+    middle = min(max(middle, x[0]), x[sat])
+    if plan.varies == "exposure":
+        return replaced(
+            plan,
+            exposure_us=(*plan.exposure_us, *map(float, near)),
+            level=(*plan.level, *([1.0] * len(near))),
+            spatial_exposure_us=middle,
+            refined=True,
+        )
+    return replaced(
+        plan,
+        exposure_us=(*plan.exposure_us, *([plan.exposure_us[0]] * len(near))),
+        level=(*plan.level, *(float(v) / 100 for v in near)),
+        spatial_level=middle / 100,
+        refined=True,
+    )
+
+
+def _write_plan(path: Path, plan: Plan) -> None:
+    from dataclasses import asdict
+
+    from inspect_validate.files import atomic_write
+
+    atomic_write(path, json.dumps(asdict(plan), indent=2).encode())
+
+
+def _read_plan(path: Path) -> Plan:
+    try:
+        doc = json.loads(path.read_text())
+        return Plan(**{k: tuple(v) if isinstance(v, list) else v for k, v in doc.items()})
+    except (OSError, ValueError, TypeError) as exc:
+        raise InputError(
+            f"the characterization plan cannot be read ({exc}); start again without --resume",
+            source=str(path),
+        ) from None
+
+
+def region_mask(station, folder: Path) -> np.ndarray:
+    """The analysed pixels: ``characterize.region`` or the whole frame (checked against
+    the frames' size)."""
+    from inspect_validate.images import read_frames
+
+    h, w = read_frames([folder]).shape[1:]
+    mask = np.zeros((h, w), bool)
+    region = station.characterize.region
+    if region is None:
+        mask[:] = True
+        return mask
+    x, y, rw, rh = region
+    if x + rw > w or y + rh > h:
+        raise InputError(
+            f"characterize.region {list(region)} lies outside the {w}×{h} frame",
+            source=str(station.path),
+        )
+    mask[y : y + rh, x : x + rw] = True
+    return mask
+
+
+def read_series(station, out: Path):
+    """The :class:`~.analysis.Characterization` of a captured series in ``out``."""
+    from inspect_validate.characterization.analysis import (
+        analyse,
+        pair_statistics,
+        stack_statistics,
+    )
+    from inspect_validate.images import read_frames
+
+    plan = _read_plan(out / PLAN_FILE)
+    mask = region_mask(station, out / "b_000")
+
+    def frames(step):
+        folder = out / step
+        if not folder.is_dir():
+            raise InputError(
+                f"step {step} was not captured; rerun characterize with --resume", source=str(out)
+            )
+        return read_frames([folder])[:, mask]
+
+    bright, dark = [], []
+    for i in range(len(plan.exposure_us)):
+        b, d = frames(f"b_{i:03d}"), frames(f"d_{i:03d}")
+        bright.append(pair_statistics(b[0], b[1]))
+        dark.append(pair_statistics(d[0], d[1]))
+    bs, ds = read_frames([out / "b_spatial"]), read_frames([out / "d_spatial"])
+    region = station.characterize.region
+    if region is not None:
+        x, y, w, h = region
+        bs, ds = bs[:, y : y + h, x : x + w], ds[:, y : y + h, x : x + w]
+    result = analyse(
+        plan.abscissa(),
+        bright,
+        dark,
+        bright_stack=stack_statistics(bs),
+        dark_stack=stack_statistics(ds),
+        bits=plan.bits,
+    )
+    if plan.varies == "level":  # one exposure throughout: no dark current to see
+        result = replace(result, dark_current=math.nan, dark_current_se=math.nan)
+    return plan, result

@@ -1,0 +1,263 @@
+"""`inspect-validate characterize`: EMVA 1288 on the station's own camera.
+
+Against the simulated camera's known truth (a 12-bit sensor with a gain error, dark
+current, DSNU and PRNU), against the ``emva1288`` reference implementation reading the
+same frames, through pylon's grab engine, and the run's refusals and resumption.
+"""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from conftest import ROOT, copy_station, on_pylon_emulator, run_cli
+
+TRUTH = {"gain": 0.1 * 1.12, "dark_noise": 12.0, "full_well": 30000.0}
+WORLD = {"gain_error": 0.12, "dark_current": 2000.0, "dsnu": 8.0, "prnu": 0.01}
+
+
+def saturation_1288(*, gain, dark_noise, full_well, prnu, dark_electrons=0.0, offset=20.0):
+    """The saturation capacity as EMVA 1288 defines it, for the simulated sensor: the
+    signal (e⁻) where the pixels' mean temporal variance peaks. Each pixel (gain factor
+    1 + PRNU·z, Gauss–Hermite over z) is a normal of variance K²(μ_e + σ_d²) clipped at
+    the full well, with the clipped normal's closed-form moments; independent of the
+    analysis it checks. ``dark_electrons`` (the dark current's, at that exposure) fill
+    the well too, and are not signal."""
+    from scipy.stats import norm
+
+    clip = offset + gain * full_well
+    offset += gain * dark_electrons
+    full_well -= dark_electrons
+    z, w = np.polynomial.hermite_e.hermegauss(41)
+    w = w / w.sum()
+    mu_e = np.linspace(0.8, 1.05, 20001) * full_well
+    m = offset + gain * np.outer(mu_e, 1 + prnu * z)
+    s = gain * np.sqrt(np.outer(mu_e, 1 + prnu * z) + dark_noise**2)
+    a = (clip - m) / s
+    phi, cdf = norm.pdf(a), norm.cdf(a)
+    mean = m * cdf - s * phi + clip * (1 - cdf)
+    second = (m**2 + s**2) * cdf - s * (m + clip) * phi + clip**2 * (1 - cdf)
+    variance = (second - mean**2) @ w
+    peak = int(np.argmax(variance))
+    return float((mean[peak] @ w - offset) / gain)
+
+
+def twelve_bit_station(tmp_path, *, world=WORLD, **top):
+    """The shipped station with a 12-bit camera (K 0.1 DN/e⁻ declared, σ_d 12 e⁻,
+    30,000 e⁻, 20 DN black level) whose real sensor is ``world``."""
+    base = ROOT / "sample_images" / "scenes" / "paperboard"
+    scene = yaml.safe_load((base / "scene.yaml").read_text())
+    for spec in scene["classes"].values():
+        spec["file"] = str(base / spec["file"])
+    scene["cameras"] = [
+        {
+            "file": str((base / "../chapter_table2/camera1_qe.csv").resolve()),
+            "name": "mono 12-bit",
+            "gain": 0.1,
+            "dark_noise": 12,
+            "saturation": 30000,
+            "bit_depth": 12,
+            "dark_offset": 20,
+        }
+    ]
+    (tmp_path / "scene.yaml").write_text(yaml.safe_dump(scene, sort_keys=False))
+    path = copy_station(tmp_path, world=world, **top)
+    doc = yaml.safe_load(path.read_text())
+    doc["scene"] = str(tmp_path / "scene.yaml")
+    path.write_text(yaml.safe_dump(doc, sort_keys=False))
+    return path
+
+
+@pytest.fixture(scope="module")
+def characterized(tmp_path_factory):
+    """One characterization of the 12-bit station, shared by the checks below."""
+    folder = tmp_path_factory.mktemp("characterize")
+    station = twelve_bit_station(folder)
+    code = run_cli(
+        ["characterize", station, "--out", folder / "cap", "--report", folder / "report"]
+    )
+    assert code == 0
+    return folder
+
+
+def test_the_simulated_sensor_is_measured_within_emva_tolerances(characterized):
+    sheet = json.loads((characterized / "report" / "characterization.json").read_text())
+    values = {k: v["value"] for k, v in sheet["datasheet"].items() if isinstance(v, dict)}
+    assert values["system_gain"] == pytest.approx(TRUTH["gain"], rel=0.01)
+    assert values["dark_noise"] == pytest.approx(TRUTH["dark_noise"], rel=0.05)
+    # EMVA 1288's saturation is where the variance peaks: below the full well by the
+    # clipping of noise and PRNU (3.4 % here), which the reference computes.
+    series = sheet["series"]
+    peak = int(np.argmax(series["variance"]))
+    truth = saturation_1288(
+        gain=TRUTH["gain"],
+        dark_noise=TRUTH["dark_noise"],
+        full_well=TRUTH["full_well"],
+        prnu=WORLD["prnu"],
+        dark_electrons=WORLD["dark_current"] * series["abscissa"][peak] * 1e-6,
+    )
+    assert truth == pytest.approx(0.966 * TRUTH["full_well"], rel=0.005)
+    assert values["saturation_capacity"] == pytest.approx(truth, rel=0.02)
+    assert values["dsnu"] == pytest.approx(WORLD["dsnu"], rel=0.10)
+    assert values["prnu"] == pytest.approx(WORLD["prnu"], rel=0.10)
+    assert values["dark_current"] == pytest.approx(WORLD["dark_current"], rel=0.10)
+    assert values["linearity_error"] < 0.01
+    for name in ("photon_transfer", "snr", "linearity", "dark_signal", "nonuniformity"):
+        assert (characterized / "report" / f"{name}.png").stat().st_size > 10_000
+    camera = yaml.safe_load((characterized / "cap" / "camera.yaml").read_text())
+    assert camera["camera"]["gain"] == pytest.approx(values["system_gain"], rel=1e-5)
+    assert camera["measured"]["standard_errors"]["gain"] > 0
+
+
+def test_the_emva1288_reference_reads_the_same_run_alike(characterized, emva1288_python):
+    """The run's descriptor file through the emva1288 package (its own environment):
+    K and σ_d within 1 % of ours, saturation, DSNU and PRNU within 2 %."""
+    script = """
+import json, sys
+from emva1288.process import Data1288, LoadImageData, ParseEmvaDescriptorFile, Results1288
+parsed = ParseEmvaDescriptorFile(sys.argv[1])
+r = Results1288(Data1288(LoadImageData(parsed.images).data).data)
+print(json.dumps({"K": r.K, "sigma_d": r.sigma_d, "u_e_sat": r.u_e_sat,
+                  "DSNU": r.DSNU1288, "PRNU": r.PRNU1288}))
+"""
+    descriptor = characterized / "cap" / "emva1288_descriptor.txt"
+    done = subprocess.run(
+        [str(emva1288_python), "-c", script, str(descriptor)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert done.returncode == 0, done.stderr
+    theirs = json.loads(done.stdout.strip().splitlines()[-1])
+    sheet = json.loads((characterized / "report" / "characterization.json").read_text())
+    ours = {k: v["value"] for k, v in sheet["datasheet"].items() if isinstance(v, dict)}
+    assert ours["system_gain"] == pytest.approx(theirs["K"], rel=0.01)
+    assert ours["dark_noise"] == pytest.approx(theirs["sigma_d"], rel=0.01)
+    assert ours["saturation_capacity"] == pytest.approx(theirs["u_e_sat"], rel=0.02)
+    assert ours["dsnu"] == pytest.approx(theirs["DSNU"], rel=0.02)
+    assert 100 * ours["prnu"] == pytest.approx(theirs["PRNU"], rel=0.02)  # theirs in %
+
+
+def test_characterize_then_verify_with_the_measured_camera(tmp_path, capsys):
+    """The shipped station whose sensor's K is 12 % above the declared one fails a 5 %
+    K check; characterised, and verified with the measured camera file, it passes, and
+    the calibration no longer mistakes the gain for the lights (scales near 1)."""
+    world = {"gain_error": 0.12}
+    station = copy_station(tmp_path, world=world, acceptance={"gain_relative": 0.05})
+    report = tmp_path / "before"
+    assert run_cli(["verify", station, "--report", report]) == 1
+    before = json.loads((report / "verification.json").read_text())
+    assert before["calibration"]["illuminations"]["amber"]["scale"] == pytest.approx(1.12, abs=0.03)
+
+    assert run_cli(["characterize", station, "--out", tmp_path / "series"]) == 0
+    out = capsys.readouterr().out
+    assert f"camera file: {tmp_path / 'series' / 'camera.yaml'}" in out
+    doc = yaml.safe_load(station.read_text())
+    doc["camera"]["measured"] = str(tmp_path / "series" / "camera.yaml")
+    station.write_text(yaml.safe_dump(doc, sort_keys=False))
+    report = tmp_path / "after"
+    code = run_cli(["verify", station, "--report", report])
+    after = json.loads((report / "verification.json").read_text())
+    assert code == 0, [c for c in after["checks"] if c["verdict"] != "pass"]
+    gain = after["calibration"]["gain"]
+    measured = yaml.safe_load((tmp_path / "series" / "camera.yaml").read_text())["camera"]
+    assert gain["declared"] == pytest.approx(measured["gain"], rel=1e-9)
+    assert after["calibration"]["illuminations"]["amber"]["scale"] == pytest.approx(1.0, abs=0.03)
+
+
+def test_a_series_interrupted_by_the_controller_resumes_with_the_same_plan(tmp_path, capsys):
+    """The controller vanishes mid-series: exit 3, every frame kept; --resume finishes
+    with the plan it wrote, and gives the run's camera file."""
+    station = copy_station(
+        tmp_path,
+        characterize={"points": 8, "frames_spatial": 4},
+    )
+    doc = yaml.safe_load(station.read_text())
+    doc["controller"]["simulator_args"] = ["--vanish-after", "30"]
+    station.write_text(yaml.safe_dump(doc, sort_keys=False))
+    out = tmp_path / "series"
+    assert run_cli(["characterize", station, "--out", out]) == 3
+    assert "the device may have been unplugged" in capsys.readouterr().err
+    plan = json.loads((out / "characterize.json").read_text())
+    saved = sorted(out.glob("*/frame_*.tif"))
+    assert saved
+    for _ in range(12):  # each resumed run's simulator vanishes after 30 commands again
+        code = run_cli(["characterize", station, "--out", out, "--resume"])
+        if code == 0:
+            break
+        assert code == 3
+    assert code == 0
+    final = json.loads((out / "characterize.json").read_text())
+    n = len(plan["exposure_us"])  # the even series; refining adds points near saturation
+    assert final["exposure_us"][:n] == plan["exposure_us"] and final["refined"]
+    assert all(p.exists() for p in saved)  # nothing captured before was lost
+    assert (out / "camera.yaml").is_file()
+    assert run_cli(["characterize", station, "--out", out]) == 2  # exists: needs --resume
+
+
+def test_a_camera_that_does_not_see_the_light_is_refused(tmp_path, capsys):
+    """viky renders its own picture whatever the lights: lit and dark agree, and there is
+    nothing to characterise with. A GenTL producer run end to end up to that refusal."""
+    genicam = pytest.importorskip("genicam")
+    cti = next(iter(Path(genicam.__file__).parent.glob("*.cti")), None)
+    if cti is None:
+        pytest.skip("this genicam wheel ships no simulated producer")
+    station = tmp_path / "viky.yaml"
+    station.write_text(
+        f"camera: {{backend: genicam, cti: '{cti}', serial: '0', pixel_format: Mono8}}\n"
+        "controller: {backend: simulated, channels: 2}\n"
+        "illuminations:\n  - {name: one, channels: {1: 100}}\nbrightness_tolerance: 0.05\n"
+    )
+    assert run_cli(["characterize", station, "--out", tmp_path / "series"]) == 2
+    err = capsys.readouterr().err
+    assert "the illumination 'one' gives" in err and "nothing to characterise with" in err
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        (
+            {"characterize": {"illumination": "blue"}},
+            "characterize.illumination: no illumination 'blue'",
+        ),
+        ({"characterize": {"points": 3}}, "characterize.points"),
+        (
+            {"characterize": {"region": [0, 0, 5000, 10]}},
+            "characterize.region [0, 0, 5000, 10] lies outside",
+        ),
+    ],
+)
+def test_bad_characterize_sections_are_refused(tmp_path, capsys, change, message):
+    station = copy_station(tmp_path, **change)
+    assert run_cli(["characterize", station, "--out", tmp_path / "series"]) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_characterize_through_pylons_grab_engine(tmp_path):
+    """The simulated station on pypylon's camera emulator: the series runs end to end
+    through pylon (software-triggered), the bit depth its Mono16 format's."""
+    pytest.importorskip("pypylon")
+    import os
+
+    station = on_pylon_emulator(
+        copy_station(tmp_path, characterize={"points": 8, "frames_spatial": 3})
+    )
+    out = tmp_path / "series"
+    done = subprocess.run(
+        [sys.executable, "-m", "inspect_validate", "characterize", str(station), "--out", str(out)],
+        env={**os.environ, "PYLON_CAMEMU": "1"},
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert done.returncode == 0, done.stderr
+    assert "16-bit" in done.stdout and "system gain K" in done.stdout
+    meta = json.loads(next((out / "b_000").glob("frame_*.json")).read_text())
+    assert (
+        meta["device"].startswith("Basler Emulation") and meta["acquisition"] == "software-trigger"
+    )
+    camera = yaml.safe_load((out / "camera.yaml").read_text())["camera"]
+    assert camera["gain"] == pytest.approx(0.0255, rel=0.05)  # 8-bit data: quantised darks
