@@ -435,10 +435,16 @@ def characterize(station, out, report_dir, resume):
     errors, and writes the measured camera file: name it in the station as
     camera.measured and every prediction uses it.
     """
+    from dataclasses import replace
+
     from inspect_validate.camera.station import read_station, station_hash
     from inspect_validate.characterization.camera_file import write_camera_file
     from inspect_validate.characterization.descriptor import write_descriptor
-    from inspect_validate.characterization.series import capture_series, read_series
+    from inspect_validate.characterization.series import (
+        capture_series,
+        expected_rate,
+        read_series,
+    )
     from inspect_validate.images import read_frames
     from inspect_validate.report.characterization import (
         format_characterization,
@@ -462,6 +468,9 @@ def characterize(station, out, report_dir, resume):
 
         plan = capture_series(st, out, resume=resume, progress=progress)
     plan, result = read_series(st, out)
+    expected = expected_rate(st, plan) if st.scene else None
+    if expected:
+        result = replace(result, qe_scale=result.responsivity / expected)
     click.echo(format_characterization(result, plan))
     h, w = read_frames([out / "b_000"]).shape[1:]
     descriptor = write_descriptor(out, plan, result, width=w, height=h)

@@ -16,7 +16,7 @@ import yaml
 from conftest import ROOT, copy_station, on_pylon_emulator, run_cli
 
 TRUTH = {"gain": 0.1 * 1.12, "dark_noise": 12.0, "full_well": 30000.0}
-WORLD = {"gain_error": 0.12, "dark_current": 2000.0, "dsnu": 8.0, "prnu": 0.01}
+WORLD = {"gain_error": 0.12, "dark_current": 2000.0, "dsnu": 8.0, "prnu": 0.01, "transmission": 0.9}
 
 
 def saturation_1288(*, gain, dark_noise, full_well, prnu, dark_electrons=0.0, offset=20.0):
@@ -105,6 +105,9 @@ def test_the_simulated_sensor_is_measured_within_emva_tolerances(characterized):
     assert values["prnu"] == pytest.approx(WORLD["prnu"], rel=0.10)
     assert values["dark_current"] == pytest.approx(WORLD["dark_current"], rel=0.10)
     assert values["linearity_error"] < 0.01
+    # A lens transmitting 90 % of what the scene says: the series sees 0.9 × the QE the
+    # stated irradiance, optics and camera predict (QE and lens are one product to it).
+    assert values["quantum_efficiency_scale"] == pytest.approx(0.9, rel=0.02)
     for name in ("photon_transfer", "snr", "linearity", "dark_signal", "nonuniformity"):
         assert (characterized / "report" / f"{name}.png").stat().st_size > 10_000
     camera = yaml.safe_load((characterized / "cap" / "camera.yaml").read_text())

@@ -148,6 +148,10 @@ class Characterization:
     saturation_index: int = 0
     dark_image: np.ndarray | None = field(default=None, repr=False)
     bright_image: np.ndarray | None = field(default=None, repr=False)
+    qe_scale: float = math.nan
+    """Measured responsivity / the model's for a white target: the camera's QE (times the
+    lens transmission) relative to the declared curves; NaN where the light's irradiance
+    is not stated."""
 
     @property
     def snr(self) -> np.ndarray:
@@ -179,10 +183,11 @@ class Characterization:
             "dsnu": {"value": self.dsnu, "se": self.dsnu_se, "unit": "e-"},
             "prnu": {"value": self.prnu, "se": self.prnu_se, "unit": "relative"},
             "dynamic_range": {"value": self.dynamic_range, "db": self.dynamic_range_db},
-            "responsivity": {
-                "value": self.responsivity,
-                "unit": "e-/us",
-                "note": "relative quantum efficiency: the irradiance at the sensor is not known",
+            "responsivity": {"value": self.responsivity, "unit": "e-/us"},
+            "quantum_efficiency_scale": {
+                "value": self.qe_scale,
+                "note": "measured / the scene's QE curve (times the lens transmission): "
+                "absolute where the illumination's irradiance is stated, else null",
             },
             "bit_depth": self.bit_depth,
             "photon_transfer_points": self.fit_points,

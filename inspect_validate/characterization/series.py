@@ -32,7 +32,7 @@ import numpy as np
 
 from inspect_validate.errors import DeviceError, InputError
 
-__all__ = ["Plan", "capture_series", "read_series"]
+__all__ = ["Plan", "capture_series", "expected_rate", "read_series"]
 
 PLAN_FILE = "characterize.json"
 _PROBES = 6  # each 4× shorter: 4096× the station's exposure at most
@@ -333,3 +333,35 @@ def read_series(station, out: Path):
     if plan.varies == "level":  # one exposure throughout: no dark current to see
         result = replace(result, dark_current=math.nan, dark_current_se=math.nan)
     return plan, result
+
+
+def expected_rate(station, plan: Plan) -> float | None:
+    """Photo-electrons per µs the station's model expects from a white target (R = 1)
+    under the series' illumination at its level, through the scene's optics and camera
+    QE: what the measured responsivity is held against for an absolute QE. None where
+    an illumination's channel has no stated irradiance (its light is then nominal)."""
+    from inspect_validate.model import Exposure, ObjectClass, predict
+    from inspect_validate.model.illumination import station_model
+    from inspect_validate.spectra import Spectrum, SpectrumKind
+
+    model = station_model(station)
+    ill = _illumination(station)
+    if any(ch in model.nominal for ch in ill.channels) or plan.varies != "exposure":
+        return None
+    light = next(lt for lt in model.lights(station) if lt.name == ill.name)
+    grid = model.scene.grid
+    flat = [
+        ObjectClass(
+            name, Spectrum(grid, np.full((1, grid.size), r), SpectrumKind.REFLECTANCE, name, "flat")
+        )
+        for name, r in (("white", 1.0), ("grey", 0.5))
+    ]
+    p = predict(
+        [light],
+        [model.optics],
+        [model.scene_camera],
+        flat,
+        exposure=Exposure("fixed", time=1e-6),
+        grid=grid,
+    )
+    return float(p.electrons[0, 0, 0, 0]) * plan.level[0]
