@@ -190,6 +190,7 @@ class _EmvaOverrides(_Strict):
     dark_current: Annotated[float, Field(ge=0, le=1e9, allow_inf_nan=False)] | None = None  # e⁻/s
     dsnu: Annotated[float, Field(ge=0, le=1e6, allow_inf_nan=False)] | None = None  # e⁻ rms
     prnu: Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)] | None = None  # relative rms
+    measured: Name | None = None  # a camera file from `characterize`: its values win
 
 
 class _Builtin(_EmvaOverrides):
@@ -202,7 +203,7 @@ class _CameraFile(_EmvaOverrides):
     @model_validator(mode="after")
     def _emva(self):
         missing = [f for f in ("gain", "dark_noise", "saturation") if getattr(self, f) is None]
-        if missing:
+        if missing and self.measured is None:
             raise ValueError(
                 f"a camera from a QE file needs its EMVA 1288 parameters: {', '.join(missing)}"
             )
@@ -577,9 +578,13 @@ def _camera(spec, base):
 
     given = {
         k: v
-        for k, v in spec.model_dump(exclude={"builtin", "file", "name"}).items()
+        for k, v in spec.model_dump(exclude={"builtin", "file", "name", "measured"}).items()
         if v is not None
     }
+    if spec.measured is not None:  # what characterize measured, over what the file states
+        from inspect_validate.characterization.camera_file import measured_values
+
+        given.update(measured_values(base / spec.measured))
     if isinstance(spec, _Builtin):
         cam = builtin_camera(spec.builtin)
         changed = f"{cam.name}, {', '.join(f'{k} {v:g}' for k, v in given.items())}"

@@ -264,3 +264,28 @@ def test_characterize_through_pylons_grab_engine(tmp_path):
     )
     camera = yaml.safe_load((out / "camera.yaml").read_text())["camera"]
     assert camera["gain"] == pytest.approx(0.0255, rel=0.05)  # 8-bit data: quantised darks
+
+
+def test_a_scene_camera_takes_its_values_from_a_camera_file(tmp_path):
+    """A scene's camera may name a measured camera file too: its values (K brought back to
+    0 dB) replace the stated ones; a hostile file is refused naming the file and field."""
+    from inspect_validate.errors import InputError
+    from inspect_validate.scene import read_scene
+
+    base = ROOT / "sample_images" / "scenes" / "paperboard"
+    scene = yaml.safe_load((base / "scene.yaml").read_text())
+    for spec in scene["classes"].values():
+        spec["file"] = str(base / spec["file"])
+    scene["cameras"][0]["file"] = str((base / scene["cameras"][0]["file"]).resolve())
+    scene["cameras"][0]["measured"] = "camera.yaml"
+    (tmp_path / "scene.yaml").write_text(yaml.safe_dump(scene, sort_keys=False))
+    camera_file = tmp_path / "camera.yaml"
+    camera_file.write_text(
+        "camera: {gain: 0.0572, dark_noise: 13.5, saturation: 9100}\nmeasured: {gain_db: 6.0}\n"
+    )
+    (camera,) = read_scene(tmp_path / "scene.yaml").cameras
+    assert camera.gain == pytest.approx(0.0572 / 10 ** (6 / 20), rel=1e-12)
+    assert (camera.dark_noise, camera.saturation, camera.bit_depth) == (13.5, 9100, 8)
+    camera_file.write_text("camera: {gain: -1}\n")
+    with pytest.raises(InputError, match=r"camera.yaml: camera.gain: Input should be greater"):
+        read_scene(tmp_path / "scene.yaml")

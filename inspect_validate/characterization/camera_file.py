@@ -22,7 +22,13 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
-__all__ = ["MODEL_KEYS", "measured_camera", "read_camera_file", "write_camera_file"]
+__all__ = [
+    "MODEL_KEYS",
+    "measured_camera",
+    "measured_values",
+    "read_camera_file",
+    "write_camera_file",
+]
 
 #: The camera keys the file gives: the scene's EMVA 1288 values.
 MODEL_KEYS = (
@@ -85,7 +91,7 @@ def write_camera_file(path, result, *, name: str, gain_db: float, provenance: di
 def _file_model():
     """The camera file's validation model (built on first use: pydantic is not needed to
     write one)."""
-    from typing import Annotated, Any
+    from typing import Annotated
 
     from pydantic import BaseModel, ConfigDict, Field
 
@@ -104,10 +110,14 @@ def _file_model():
         dsnu: NonNegative | None = None
         prnu: Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)] | None = None
 
+    class Provenance(BaseModel):
+        model_config = ConfigDict(extra="allow")  # station, date, standard errors, …
+        gain_db: Annotated[float, Field(ge=-60, le=100, allow_inf_nan=False)] = 0.0
+
     class CameraFile(BaseModel):
         model_config = ConfigDict(extra="forbid")
         camera: MeasuredValues
-        measured: dict[str, Any] = {}
+        measured: Provenance = Provenance()
 
     return CameraFile
 
@@ -119,16 +129,21 @@ def read_camera_file(path) -> dict:
 
     doc = load_yaml(path, _file_model(), what="camera file")
     values = doc.camera.model_dump(exclude={"name"}, exclude_none=True)
-    return {"values": values, "name": doc.camera.name, "measured": doc.measured}
+    return {"values": values, "name": doc.camera.name, "measured": doc.measured.model_dump()}
+
+
+def measured_values(path) -> dict:
+    """The camera file's model values, K brought back to 0 dB (the station or scene
+    applies its own gain)."""
+    doc = read_camera_file(path)
+    values = dict(doc["values"])
+    if "gain" in values:
+        values["gain"] /= 10 ** (doc["measured"]["gain_db"] / 20)
+    return values
 
 
 def measured_camera(scene_camera, path):
-    """``scene_camera`` with the values of the camera file at ``path`` (K brought back
-    to 0 dB: the station applies its own ``gain_db``)."""
-    doc = read_camera_file(path)
-    values = dict(doc["values"])
-    gain_db = doc["measured"].get("gain_db", 0.0)
-    if "gain" in values and isinstance(gain_db, (int, float)):
-        values["gain"] /= 10 ** (gain_db / 20)
+    """``scene_camera`` with the values of the camera file at ``path``
+    (:func:`measured_values`)."""
     name = f"{scene_camera.name} (measured: {Path(path).name})"
-    return replace(scene_camera, name=name, **values)
+    return replace(scene_camera, name=name, **measured_values(path))
