@@ -216,7 +216,12 @@ class GenICamCamera(Grabber):
         stream = self._ia.data_streams[0].node_map
         handling = getattr(stream, "StreamBufferHandlingMode", None)
         if "OldestFirst" in _symbolics(handling):
-            handling.value = "OldestFirst"
+            try:
+                handling.value = "OldestFirst"
+            except Exception as exc:  # GenTL raises several types for access errors
+                raise DeviceError(
+                    f"{self.name}: cannot set StreamBufferHandlingMode to OldestFirst ({exc})"
+                ) from None
         self._chunked = bool(chunks)
         self._start()
 
