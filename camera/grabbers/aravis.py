@@ -25,7 +25,7 @@ import time
 
 import numpy as np
 from inspect_validate.camera.frame import Frame
-from inspect_validate.camera.grabbers.base import Features, Grabber
+from inspect_validate.camera.grabbers.base import NodeMapGrabber
 from inspect_validate.camera.pixelformats import BIT_DEPTH, PFNC_CODES, packed_size, unpack
 
 from inspect_validate.errors import DeviceError
@@ -34,7 +34,6 @@ __all__ = ["AravisCamera", "import_aravis"]
 
 _EXPOSURE_NODES = ("ExposureTime", "ExposureTimeAbs")
 _GAIN_NODES = ("Gain", "GainAbs")
-_CHUNKS = ("ExposureTime", "Gain", "Timestamp", "FrameID")
 
 
 def import_aravis():
@@ -52,7 +51,7 @@ def import_aravis():
     return Aravis, GLib
 
 
-class AravisCamera(Grabber):
+class AravisCamera(NodeMapGrabber):
     """A camera Aravis discovers, chosen by serial number, device id or index.
 
     Parameters
@@ -220,19 +219,11 @@ class AravisCamera(Grabber):
 
     # -- triggers ------------------------------------------------------------------------
 
-    def features(self) -> Features:
-        sources = self._symbolics("TriggerSource")
-        strobe = ()
-        if "ExposureActive" in self._symbolics("LineSource"):
-            strobe = self._symbolics("LineSelector")
-        offered = self._symbolics("ChunkSelector")
-        return Features(
-            software_trigger=self._feature(("TriggerSoftware",)) is not None
-            and "Software" in sources,
-            trigger_lines=tuple(s for s in sources if s.startswith("Line")),
-            strobe_lines=strobe,
-            chunks=tuple(c for c in _CHUNKS if c in offered),
-        )
+    def _has(self, name: str) -> bool:
+        return self._dev.get_feature(name) is not None
+
+    def _write(self, name: str, value, label: str) -> None:
+        self._set((name,), value, label)
 
     def arm(
         self,
@@ -244,25 +235,13 @@ class AravisCamera(Grabber):
         trigger_delay_us=0.0,
     ) -> None:
         self._stop()
-        if "FrameStart" in self._symbolics("TriggerSelector"):
-            self._set(("TriggerSelector",), "FrameStart", "trigger")
-        triggered = acquisition != "free-run"
-        if self._feature(("TriggerMode",)):
-            self._set(("TriggerMode",), "On" if triggered else "Off", "trigger")
-        if triggered:
-            self._set(("TriggerSource",), trigger_line or "Software", "trigger")
-            if trigger_delay_us:
-                self._set(("TriggerDelay", "TriggerDelayAbs"), float(trigger_delay_us), "trigger")
-        if strobe_line:
-            self._set(("LineSelector",), strobe_line, "strobe")
-            if self._feature(("LineMode",)):
-                self._set(("LineMode",), "Output", "strobe")
-            self._set(("LineSource",), "ExposureActive", "strobe")
-        if chunks:
-            self._set(("ChunkModeActive",), True, "chunks")
-            for name in self.features().chunks:
-                self._set(("ChunkSelector",), name, "chunks")
-                self._set(("ChunkEnable",), True, "chunks")
+        self._arm_nodes(
+            acquisition,
+            trigger_line=trigger_line,
+            strobe_line=strobe_line,
+            chunks=chunks,
+            trigger_delay_us=trigger_delay_us,
+        )
         self._chunked = bool(chunks)
         self._start()
 
@@ -344,7 +323,7 @@ class AravisCamera(Grabber):
             data = unpack(raw[: packed_size(fmt, w * h)], fmt, w, h)
         chunk = {}
         if self._chunked:
-            for name in _CHUNKS:
+            for name in self._CHUNKS:
                 try:
                     chunk[name] = float(buf.get_chunk_data_as_float(name))  # not in every build
                 except (AttributeError, self._glib.Error, TypeError):

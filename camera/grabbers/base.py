@@ -9,7 +9,7 @@ from inspect_validate.camera.frame import Frame
 
 from inspect_validate.errors import DeviceError
 
-__all__ = ["ACQUISITIONS", "Features", "Grabber"]
+__all__ = ["ACQUISITIONS", "Features", "Grabber", "NodeMapGrabber"]
 
 #: How frames are started: by the camera's own clock, by ``TriggerSoftware`` from the
 #: capture, or by a pulse on one of the camera's input lines.
@@ -128,3 +128,70 @@ class Grabber(ABC):
 
     def __exit__(self, *exc):
         self.close()
+
+
+class NodeMapGrabber(Grabber):
+    """A camera with a GenICam node map: its triggers, lines and chunks are found and set
+    by their SFNC names the same way whatever reaches them (harvesters, pylon, Aravis).
+
+    A backend gives three small accessors — :meth:`_has`, :meth:`_symbolics` and
+    :meth:`_write` — and calls :meth:`_arm_nodes` from :meth:`arm` with its stream
+    stopped.
+    """
+
+    _CHUNKS = ("ExposureTime", "Gain", "Timestamp", "FrameID")
+
+    @abstractmethod
+    def _has(self, name: str) -> bool:
+        """The node ``name`` exists and is available now."""
+
+    @abstractmethod
+    def _symbolics(self, name: str) -> tuple[str, ...]:
+        """An enumeration's entries, () where it is absent or not readable."""
+
+    @abstractmethod
+    def _write(self, name: str, value, label: str) -> None:
+        """Set ``name``; record ``label`` in :attr:`missing` where the node is absent."""
+
+    def features(self) -> Features:
+        sources = self._symbolics("TriggerSource")
+        strobe = ()
+        if "ExposureActive" in self._symbolics("LineSource"):
+            strobe = self._symbolics("LineSelector")
+        chunks = ()
+        if self._has("ChunkModeActive"):
+            offered = self._symbolics("ChunkSelector")
+            chunks = tuple(c for c in self._CHUNKS if c in offered)
+        software = self._has("TriggerMode") and self._has("TriggerSoftware")
+        return Features(
+            # A producer whose TriggerSource lists nothing (TLSimu) still triggers by software.
+            software_trigger=software and (not sources or "Software" in sources),
+            trigger_lines=tuple(s for s in sources if s.startswith("Line")),
+            strobe_lines=strobe,
+            chunks=chunks,
+        )
+
+    def _arm_nodes(
+        self, acquisition, *, trigger_line, strobe_line, chunks, trigger_delay_us
+    ) -> None:
+        """The SFNC settings of :meth:`Grabber.arm`, in the order cameras accept them."""
+        if "FrameStart" in self._symbolics("TriggerSelector"):
+            self._write("TriggerSelector", "FrameStart", "trigger")
+        triggered = acquisition != "free-run"
+        if self._has("TriggerMode"):
+            self._write("TriggerMode", "On" if triggered else "Off", "trigger")
+        if triggered:
+            self._write("TriggerSource", trigger_line or "Software", "trigger")
+            if trigger_delay_us:
+                delay = next((n for n in ("TriggerDelay", "TriggerDelayAbs") if self._has(n)), None)
+                self._write(delay or "TriggerDelay", float(trigger_delay_us), "trigger")
+        if strobe_line:
+            self._write("LineSelector", strobe_line, "strobe")
+            if self._has("LineMode"):
+                self._write("LineMode", "Output", "strobe")
+            self._write("LineSource", "ExposureActive", "strobe")
+        if chunks:  # left as it is otherwise: some producers' chunk mode is fixed
+            self._write("ChunkModeActive", True, "chunks")
+            for name in self.features().chunks:
+                self._write("ChunkSelector", name, "chunks")
+                self._write("ChunkEnable", True, "chunks")

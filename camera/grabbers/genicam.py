@@ -31,7 +31,7 @@ import time
 from pathlib import Path
 
 from inspect_validate.camera.frame import Frame
-from inspect_validate.camera.grabbers.base import Features, Grabber
+from inspect_validate.camera.grabbers.base import NodeMapGrabber
 from inspect_validate.camera.pixelformats import BIT_DEPTH, packed_size, unpack
 
 from inspect_validate.errors import DeviceError
@@ -40,10 +40,9 @@ __all__ = ["GenICamCamera", "find_producers"]
 
 _EXPOSURE_NODES = ("ExposureTime", "ExposureTimeAbs")
 _GAIN_NODES = ("Gain", "GainAbs")
-_CHUNKS = ("ExposureTime", "Gain", "Timestamp", "FrameID")
 
 
-def _symbolics(node) -> tuple[str, ...]:
+def _entries(node) -> tuple[str, ...]:
     """An enumeration's entries, or () where the node is absent or not readable now."""
     try:
         return tuple(node.symbolics) if node is not None else ()
@@ -77,7 +76,7 @@ def _node(node_map, names):
     return None, None
 
 
-class GenICamCamera(Grabber):
+class GenICamCamera(NodeMapGrabber):
     """A GenICam camera chosen by serial number or index."""
 
     def __init__(
@@ -164,23 +163,14 @@ class GenICamCamera(Grabber):
                 raise DeviceError(f"{self.name}: cannot start the acquisition ({exc})") from None
             self._acquiring = True
 
-    def features(self) -> Features:
-        nm = self._nodes
-        sources = _symbolics(getattr(nm, "TriggerSource", None))
-        software = hasattr(nm, "TriggerMode") and hasattr(nm, "TriggerSoftware")
-        strobe = ()
-        if "ExposureActive" in _symbolics(getattr(nm, "LineSource", None)):
-            strobe = _symbolics(getattr(nm, "LineSelector", None))
-        chunks = ()
-        if hasattr(nm, "ChunkModeActive"):
-            offered = _symbolics(getattr(nm, "ChunkSelector", None))
-            chunks = tuple(c for c in _CHUNKS if c in offered)
-        return Features(
-            software_trigger=software and (not sources or "Software" in sources),
-            trigger_lines=tuple(s for s in sources if s.startswith("Line")),
-            strobe_lines=strobe,
-            chunks=chunks,
-        )
+    def _has(self, name: str) -> bool:
+        return hasattr(self._nodes, name)
+
+    def _symbolics(self, name: str) -> tuple[str, ...]:
+        return _entries(getattr(self._nodes, name, None))
+
+    def _write(self, name: str, value, label: str) -> None:
+        self._set((name,), value, label)
 
     def arm(
         self,
@@ -192,30 +182,17 @@ class GenICamCamera(Grabber):
         trigger_delay_us=0.0,
     ) -> None:
         self._stop()  # trigger and chunk settings are locked while acquiring on many cameras
-        nm = self._nodes
-        if "FrameStart" in _symbolics(getattr(nm, "TriggerSelector", None)):
-            self._set(("TriggerSelector",), "FrameStart", "trigger")
-        triggered = acquisition != "free-run"
-        if hasattr(nm, "TriggerMode"):
-            self._set(("TriggerMode",), "On" if triggered else "Off", "trigger")
-        if triggered:
-            self._set(("TriggerSource",), trigger_line or "Software", "trigger")
-            if trigger_delay_us:
-                self._set(("TriggerDelay", "TriggerDelayAbs"), float(trigger_delay_us), "trigger")
-        if strobe_line:
-            self._set(("LineSelector",), strobe_line, "strobe")
-            if hasattr(nm, "LineMode"):
-                self._set(("LineMode",), "Output", "strobe")
-            self._set(("LineSource",), "ExposureActive", "strobe")
-        if chunks:  # left as it is otherwise: some producers' chunk mode is fixed
-            self._set(("ChunkModeActive",), True, "chunks")
-            for name in self.features().chunks:
-                self._set(("ChunkSelector",), name, "chunks")
-                self._set(("ChunkEnable",), True, "chunks")
+        self._arm_nodes(
+            acquisition,
+            trigger_line=trigger_line,
+            strobe_line=strobe_line,
+            chunks=chunks,
+            trigger_delay_us=trigger_delay_us,
+        )
         # Triggered frames are fetched in the order they were triggered.
         stream = self._ia.data_streams[0].node_map
         handling = getattr(stream, "StreamBufferHandlingMode", None)
-        if "OldestFirst" in _symbolics(handling):
+        if "OldestFirst" in _entries(handling):
             try:
                 handling.value = "OldestFirst"
             except Exception as exc:  # GenTL raises several types for access errors
@@ -256,7 +233,7 @@ class GenICamCamera(Grabber):
     def _chunk_values(self) -> dict[str, float]:
         """The fetched buffer's chunk values (harvesters attached them to the node map)."""
         values = {}
-        for name in _CHUNKS:
+        for name in self._CHUNKS:
             node = getattr(self._nodes, f"Chunk{name}", None)
             try:
                 values[name] = float(node.value)

@@ -10,20 +10,19 @@ from __future__ import annotations
 import time
 
 from inspect_validate.camera.frame import Frame
-from inspect_validate.camera.grabbers.base import Features, Grabber
+from inspect_validate.camera.grabbers.base import NodeMapGrabber
 from inspect_validate.camera.pixelformats import BIT_DEPTH
 
 from inspect_validate.errors import DeviceError
 
 __all__ = ["PylonCamera"]
 
-_CHUNKS = ("ExposureTime", "Gain", "Timestamp", "FrameID")
 # SFNC names first, then those of GenICam 1.x-era GigE cameras (ace classic, scout).
 _EXPOSURE_NODES = ("ExposureTime", "ExposureTimeAbs")
 _GAIN_NODES = ("Gain", "GainAbs")
 
 
-class PylonCamera(Grabber):
+class PylonCamera(NodeMapGrabber):
     """A pylon camera chosen by serial number or index."""
 
     def __init__(self, *, serial: str | None = None, index: int = 0):
@@ -127,20 +126,8 @@ class PylonCamera(Grabber):
         except (AttributeError, self._genicam.GenericException):  # absent or unavailable now
             return ()
 
-    def features(self) -> Features:
-        sources = self._symbolics("TriggerSource")
-        strobe = (
-            self._symbolics("LineSelector")
-            if "ExposureActive" in self._symbolics("LineSource")
-            else ()
-        )
-        offered = self._symbolics("ChunkSelector")
-        return Features(
-            software_trigger=self._has("TriggerSoftware") and "Software" in sources,
-            trigger_lines=tuple(s for s in sources if s.startswith("Line")),
-            strobe_lines=strobe,
-            chunks=tuple(c for c in _CHUNKS if c in offered),
-        )
+    def _write(self, name: str, value, label: str) -> None:
+        self._set(name, value, label)
 
     def arm(
         self,
@@ -153,23 +140,13 @@ class PylonCamera(Grabber):
     ) -> None:
         if self._cam.IsGrabbing():
             self._cam.StopGrabbing()
-        if "FrameStart" in self._symbolics("TriggerSelector"):
-            self._set("TriggerSelector", "FrameStart", "trigger")
-        triggered = acquisition != "free-run"
-        self._set("TriggerMode", "On" if triggered else "Off", "trigger")
-        if triggered:
-            self._set("TriggerSource", trigger_line or "Software", "trigger")
-            if trigger_delay_us:
-                self._set("TriggerDelay", float(trigger_delay_us), "trigger")
-        if strobe_line:
-            self._set("LineSelector", strobe_line, "strobe")
-            self._set("LineMode", "Output", "strobe")
-            self._set("LineSource", "ExposureActive", "strobe")
-        if chunks:
-            self._set("ChunkModeActive", True, "chunks")
-            for name in self.features().chunks:
-                self._set("ChunkSelector", name, "chunks")
-                self._set("ChunkEnable", True, "chunks")
+        self._arm_nodes(
+            acquisition,
+            trigger_line=trigger_line,
+            strobe_line=strobe_line,
+            chunks=chunks,
+            trigger_delay_us=trigger_delay_us,
+        )
         self._chunked = bool(chunks)
         self._start()
 
@@ -247,7 +224,7 @@ class PylonCamera(Grabber):
                     raise DeviceError(f"{self.name}: grab failed ({result.GetErrorDescription()})")
                 data = result.Array.copy()  # copy before the buffer returns to pylon
                 chunk = {}
-                for name in _CHUNKS if self._chunked else ():
+                for name in self._CHUNKS if self._chunked else ():
                     try:
                         chunk[name] = float(getattr(result, f"Chunk{name}").Value)
                     except (AttributeError, self._genicam.GenericException):
