@@ -214,7 +214,7 @@ def test_legacy_node_names_and_software_trigger(tmp_path):
         """
         from inspect_validate.camera.grabbers import pylon as backend
         from inspect_validate.errors import DeviceError
-        backend._EXPOSURE_NODES = ("NoSuchExposureNode", "ExposureTimeAbs")
+        backend.PylonCamera._EXPOSURE_NODES = ("NoSuchExposureNode", "ExposureTimeAbs")
         with backend.PylonCamera(index=0) as cam:
             cam.configure(pixel_format="Mono8", exposure_us=5000)
             has = cam.features()

@@ -32,9 +32,6 @@ from inspect_validate.errors import DeviceError
 
 __all__ = ["AravisCamera", "import_aravis"]
 
-_EXPOSURE_NODES = ("ExposureTime", "ExposureTimeAbs")
-_GAIN_NODES = ("Gain", "GainAbs")
-
 
 def import_aravis():
     """The ``Aravis`` and ``GLib`` modules, or a DeviceError saying what to install."""
@@ -109,12 +106,11 @@ class AravisCamera(NodeMapGrabber):
         self._gain_raw = gain_raw
         self._stream = None
         self._chunked = False
-        self._requested_format = None
         self.missing = {
             label
             for label, names in (
-                ("exposure", _EXPOSURE_NODES),
-                ("gain", _GAIN_NODES),
+                ("exposure", self._EXPOSURE_NODES),
+                ("gain", self._GAIN_NODES),
                 ("pixel_format", ("PixelFormat",)),
             )
             if self._feature(names) is None
@@ -187,63 +183,18 @@ class AravisCamera(NodeMapGrabber):
             pass  # a camera that vanished: the stream is dropped all the same
         self._stream = None  # its queued buffers go with it
 
-    def restart_stream(self) -> bool:
-        """Stop the acquisition and drop the stream with every buffer it queued."""
-        self._stop()
-        self._start()
-        return True
-
     def configure(self, *, exposure_us=None, gain_db=None, pixel_format=None, region=None) -> None:
-        self._stop()  # Width/Height/PixelFormat are locked while acquiring
-        if pixel_format is not None:
-            offered = self._symbolics("PixelFormat")
-            if pixel_format not in BIT_DEPTH or (offered and pixel_format not in offered):
-                raise DeviceError(
-                    f"{self.name}: pixel format {pixel_format} not offered as monochrome; "
-                    f"it has {', '.join(offered)}"
-                )
-            self._set(("PixelFormat",), pixel_format, "pixel_format")
-            self._requested_format = pixel_format
-        if region is not None:
-            x, y, w, h = region
-            for node, value in (("OffsetX", 0), ("OffsetY", 0), ("Width", w), ("Height", h)):
-                self._set((node,), int(value), "region")
-            self._set(("OffsetX",), int(x), "region")
-            self._set(("OffsetY",), int(y), "region")
-        if exposure_us is not None:
-            self._set(_EXPOSURE_NODES, float(exposure_us), "exposure")
-        if gain_db is not None:
-            self._set(_GAIN_NODES, float(gain_db), "gain")
+        super().configure(
+            exposure_us=exposure_us, gain_db=gain_db, pixel_format=pixel_format, region=region
+        )
         if self._gain_raw is not None:
             self._set(("GainRaw",), int(self._gain_raw), "gain_raw")
-
-    # -- triggers ------------------------------------------------------------------------
 
     def _has(self, name: str) -> bool:
         return self._dev.get_feature(name) is not None
 
     def _write(self, name: str, value, label: str) -> None:
         self._set((name,), value, label)
-
-    def arm(
-        self,
-        acquisition,
-        *,
-        trigger_line=None,
-        strobe_line=None,
-        chunks=False,
-        trigger_delay_us=0.0,
-    ) -> None:
-        self._stop()
-        self._arm_nodes(
-            acquisition,
-            trigger_line=trigger_line,
-            strobe_line=strobe_line,
-            chunks=chunks,
-            trigger_delay_us=trigger_delay_us,
-        )
-        self._chunked = bool(chunks)
-        self._start()
 
     def trigger(self) -> int:
         self._start()
@@ -263,7 +214,7 @@ class AravisCamera(NodeMapGrabber):
 
     def increments(self) -> dict[str, float]:
         steps = {}
-        for label, names in (("exposure_us", _EXPOSURE_NODES), ("gain_db", _GAIN_NODES)):
+        for label, names in (("exposure_us", self._EXPOSURE_NODES), ("gain_db", self._GAIN_NODES)):
             name = self._feature(names)
             try:
                 # Aravis reports the smallest double for a float without an increment.
@@ -277,7 +228,7 @@ class AravisCamera(NodeMapGrabber):
 
     def grab(self, n: int, *, timeout_s: float = 2.0) -> list[Frame]:
         self._start()
-        exposure, gain = self._read(_EXPOSURE_NODES), self._read(_GAIN_NODES)
+        exposure, gain = self._read(self._EXPOSURE_NODES), self._read(self._GAIN_NODES)
         success = self._aravis.BufferStatus.SUCCESS
         frames = []
         for k in range(n):

@@ -6,6 +6,7 @@ from abc import ABC, abstractmethod
 from dataclasses import dataclass
 
 from inspect_validate.camera.frame import Frame
+from inspect_validate.camera.pixelformats import BIT_DEPTH
 
 from inspect_validate.errors import DeviceError
 
@@ -135,11 +136,14 @@ class NodeMapGrabber(Grabber):
     by their SFNC names the same way whatever reaches them (harvesters, pylon, Aravis).
 
     A backend gives three small accessors — :meth:`_has`, :meth:`_symbolics` and
-    :meth:`_write` — and calls :meth:`_arm_nodes` from :meth:`arm` with its stream
-    stopped.
+    :meth:`_write` — and :meth:`_stop` and :meth:`_start` for its acquisition.
     """
 
     _CHUNKS = ("ExposureTime", "Gain", "Timestamp", "FrameID")
+    # SFNC names first, then those of GenICam 1.x-era GigE cameras (ace classic, scout).
+    _EXPOSURE_NODES = ("ExposureTime", "ExposureTimeAbs")
+    _GAIN_NODES = ("Gain", "GainAbs")
+    _requested_format: str | None = None  # the pixel format configure() asked for
 
     @abstractmethod
     def _has(self, name: str) -> bool:
@@ -170,6 +174,73 @@ class NodeMapGrabber(Grabber):
             strobe_lines=strobe,
             chunks=chunks,
         )
+
+    @abstractmethod
+    def _stop(self) -> None:
+        """Stop the acquisition (trigger and chunk settings are locked while it runs)."""
+
+    @abstractmethod
+    def _start(self) -> None:
+        """Start the acquisition."""
+
+    def _first(self, names) -> str | None:
+        """The first of ``names`` the camera has."""
+        return next((n for n in names if self._has(n)), None)
+
+    def restart_stream(self) -> bool:
+        """Stop and restart the acquisition, which drops every buffer queued or in flight.
+        Started here, the first frame exposes while the capture finishes the last step."""
+        self._stop()
+        self._start()
+        return True
+
+    def configure(self, *, exposure_us=None, gain_db=None, pixel_format=None, region=None) -> None:
+        self._stop()  # Width/Height/PixelFormat are locked while acquiring
+        if pixel_format is not None:
+            offered = self._symbolics("PixelFormat")
+            if pixel_format not in BIT_DEPTH or (offered and pixel_format not in offered):
+                raise DeviceError(
+                    f"{self.name}: pixel format {pixel_format} not offered as monochrome; "
+                    f"it has {', '.join(offered) or 'none listed'}"
+                )
+            self._write("PixelFormat", pixel_format, "pixel_format")
+            self._requested_format = pixel_format
+        if region is not None:
+            x, y, w, h = region  # offsets to 0 first: a larger size may not fit at them
+            for node, value in (("OffsetX", 0), ("OffsetY", 0), ("Width", w), ("Height", h)):
+                self._write(node, int(value), "region")
+            self._write("OffsetX", int(x), "region")
+            self._write("OffsetY", int(y), "region")
+        for names, value, label in (
+            (self._EXPOSURE_NODES, exposure_us, "exposure"),
+            (self._GAIN_NODES, gain_db, "gain"),
+        ):
+            if value is not None:
+                self._write(self._first(names) or names[0], float(value), label)
+
+    def _arm_stream(self) -> None:
+        """Settings of the data stream, where it has its own (buffer handling)."""
+
+    def arm(
+        self,
+        acquisition,
+        *,
+        trigger_line=None,
+        strobe_line=None,
+        chunks=False,
+        trigger_delay_us=0.0,
+    ) -> None:
+        self._stop()
+        self._arm_nodes(
+            acquisition,
+            trigger_line=trigger_line,
+            strobe_line=strobe_line,
+            chunks=chunks,
+            trigger_delay_us=trigger_delay_us,
+        )
+        self._arm_stream()
+        self._chunked = bool(chunks)
+        self._start()
 
     def _arm_nodes(
         self, acquisition, *, trigger_line, strobe_line, chunks, trigger_delay_us

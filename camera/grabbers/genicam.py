@@ -38,9 +38,6 @@ from inspect_validate.errors import DeviceError
 
 __all__ = ["GenICamCamera", "find_producers"]
 
-_EXPOSURE_NODES = ("ExposureTime", "ExposureTimeAbs")
-_GAIN_NODES = ("Gain", "GainAbs")
-
 
 def _entries(node) -> tuple[str, ...]:
     """An enumeration's entries, or () where the node is absent or not readable now."""
@@ -125,15 +122,14 @@ class GenICamCamera(NodeMapGrabber):
                 ) from None
         # Every announced buffer may hold a frame from before a change, plus one in flight.
         self.pipeline_frames = int(self._ia.num_buffers) + 1
-        self._requested_format = None
         self._acquiring = False
         self._chunked = False
         self._nodes = self._ia.remote_device.node_map
         self.missing = {
             label
             for label, names in (
-                ("exposure", _EXPOSURE_NODES),
-                ("gain", _GAIN_NODES),
+                ("exposure", self._EXPOSURE_NODES),
+                ("gain", self._GAIN_NODES),
                 ("pixel_format", ("PixelFormat",)),
             )
             if _node(self._nodes, names)[0] is None
@@ -172,23 +168,7 @@ class GenICamCamera(NodeMapGrabber):
     def _write(self, name: str, value, label: str) -> None:
         self._set((name,), value, label)
 
-    def arm(
-        self,
-        acquisition,
-        *,
-        trigger_line=None,
-        strobe_line=None,
-        chunks=False,
-        trigger_delay_us=0.0,
-    ) -> None:
-        self._stop()  # trigger and chunk settings are locked while acquiring on many cameras
-        self._arm_nodes(
-            acquisition,
-            trigger_line=trigger_line,
-            strobe_line=strobe_line,
-            chunks=chunks,
-            trigger_delay_us=trigger_delay_us,
-        )
+    def _arm_stream(self) -> None:
         # Triggered frames are fetched in the order they were triggered.
         stream = self._ia.data_streams[0].node_map
         handling = getattr(stream, "StreamBufferHandlingMode", None)
@@ -199,8 +179,6 @@ class GenICamCamera(NodeMapGrabber):
                 raise DeviceError(
                     f"{self.name}: cannot set StreamBufferHandlingMode to OldestFirst ({exc})"
                 ) from None
-        self._chunked = bool(chunks)
-        self._start()
 
     def trigger(self) -> int:
         self._start()
@@ -222,7 +200,7 @@ class GenICamCamera(NodeMapGrabber):
 
     def increments(self) -> dict[str, float]:
         steps = {}
-        for label, names in (("exposure_us", _EXPOSURE_NODES), ("gain_db", _GAIN_NODES)):
+        for label, names in (("exposure_us", self._EXPOSURE_NODES), ("gain_db", self._GAIN_NODES)):
             _, node = _node(self._nodes, names)
             try:
                 steps[label] = float(node.inc)
@@ -241,40 +219,6 @@ class GenICamCamera(NodeMapGrabber):
                 continue
         return values
 
-    def restart_stream(self) -> bool:
-        """Stop and restart the acquisition: harvesters flushes every queued buffer on stop.
-        Started here, the first frame exposes while the capture finishes the last step."""
-        self._stop()
-        self._start()
-        return True
-
-    def configure(self, *, exposure_us=None, gain_db=None, pixel_format=None, region=None) -> None:
-        self._stop()  # Width/Height/PixelFormat are locked while acquiring
-        if pixel_format is not None:
-            if pixel_format not in BIT_DEPTH:
-                raise DeviceError(
-                    f"{self.name}: {pixel_format!r} is not a monochrome format this tool unpacks"
-                )
-            symbolics = getattr(self._nodes.PixelFormat, "symbolics", ())
-            if symbolics and pixel_format not in symbolics:
-                raise DeviceError(
-                    f"{self.name}: pixel format {pixel_format} not offered; it has {', '.join(symbolics)}"
-                )
-            self._set(("PixelFormat",), pixel_format, "pixel_format")
-            self._requested_format = pixel_format
-        if region is not None:
-            x, y, w, h = region
-            self._set(("OffsetX",), 0, "region")
-            self._set(("OffsetY",), 0, "region")
-            self._set(("Width",), int(w), "region")
-            self._set(("Height",), int(h), "region")
-            self._set(("OffsetX",), int(x), "region")
-            self._set(("OffsetY",), int(y), "region")
-        if exposure_us is not None:
-            self._set(_EXPOSURE_NODES, float(exposure_us), "exposure")
-        if gain_db is not None:
-            self._set(_GAIN_NODES, float(gain_db), "gain")
-
     def _read(self, names):
         _, node = _node(self._nodes, names)
         try:
@@ -286,7 +230,7 @@ class GenICamCamera(NodeMapGrabber):
         from genicam.gentl import TimeoutException
 
         self._start()
-        exposure, gain = self._read(_EXPOSURE_NODES), self._read(_GAIN_NODES)
+        exposure, gain = self._read(self._EXPOSURE_NODES), self._read(self._GAIN_NODES)
         frames = []
         for k in range(n):
             try:

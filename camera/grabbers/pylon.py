@@ -17,10 +17,6 @@ from inspect_validate.errors import DeviceError
 
 __all__ = ["PylonCamera"]
 
-# SFNC names first, then those of GenICam 1.x-era GigE cameras (ace classic, scout).
-_EXPOSURE_NODES = ("ExposureTime", "ExposureTimeAbs")
-_GAIN_NODES = ("Gain", "GainAbs")
-
 
 class PylonCamera(NodeMapGrabber):
     """A pylon camera chosen by serial number or index."""
@@ -54,8 +50,8 @@ class PylonCamera(NodeMapGrabber):
         self._cam.Open()
         self._chunked = False
         self.name = f"Basler {device.GetModelName()} (serial {device.GetSerialNumber()})"
-        self._exposure = next((n for n in _EXPOSURE_NODES if self._has(n)), None)
-        self._gain = next((n for n in _GAIN_NODES if self._has(n)), None)
+        self._exposure = self._first(self._EXPOSURE_NODES)
+        self._gain = self._first(self._GAIN_NODES)
         self.missing = {
             label
             for label, node in (("exposure", self._exposure), ("gain", self._gain))
@@ -80,28 +76,6 @@ class PylonCamera(NodeMapGrabber):
             getattr(self._cam, node).Value = value
         except self._genicam.GenericException as exc:
             raise DeviceError(f"{self.name}: cannot set {node} to {value!r} ({exc})") from None
-
-    def configure(self, *, exposure_us=None, gain_db=None, pixel_format=None, region=None) -> None:
-        if self._cam.IsGrabbing():
-            self._cam.StopGrabbing()  # Width/Height/PixelFormat are locked while grabbing
-        if pixel_format is not None:
-            if pixel_format not in BIT_DEPTH or pixel_format not in self._cam.PixelFormat.Symbolics:
-                raise DeviceError(
-                    f"{self.name}: pixel format {pixel_format} not offered as monochrome; it has {', '.join(self._cam.PixelFormat.Symbolics)}"
-                )
-            self._set("PixelFormat", pixel_format, "pixel_format")
-        if region is not None:
-            x, y, w, h = region
-            self._set("OffsetX", 0, "region")
-            self._set("OffsetY", 0, "region")
-            self._set("Width", int(w), "region")
-            self._set("Height", int(h), "region")
-            self._set("OffsetX", int(x), "region")
-            self._set("OffsetY", int(y), "region")
-        if exposure_us is not None:
-            self._set(self._exposure, float(exposure_us), "exposure")
-        if gain_db is not None:
-            self._set(self._gain, float(gain_db), "gain")
 
     def serve_files(self, folder) -> None:
         """Make pylon's camera emulator serve the images in ``folder``, cycling through them.
@@ -129,26 +103,9 @@ class PylonCamera(NodeMapGrabber):
     def _write(self, name: str, value, label: str) -> None:
         self._set(name, value, label)
 
-    def arm(
-        self,
-        acquisition,
-        *,
-        trigger_line=None,
-        strobe_line=None,
-        chunks=False,
-        trigger_delay_us=0.0,
-    ) -> None:
+    def _stop(self):
         if self._cam.IsGrabbing():
             self._cam.StopGrabbing()
-        self._arm_nodes(
-            acquisition,
-            trigger_line=trigger_line,
-            strobe_line=strobe_line,
-            chunks=chunks,
-            trigger_delay_us=trigger_delay_us,
-        )
-        self._chunked = bool(chunks)
-        self._start()
 
     def trigger(self) -> int:
         self._start()
@@ -192,16 +149,6 @@ class PylonCamera(NodeMapGrabber):
     def _start(self):
         if not self._cam.IsGrabbing():
             self._cam.StartGrabbing(self._pylon.GrabStrategy_OneByOne)
-
-    def restart_stream(self) -> bool:
-        """Stop and start the grab: pylon executes AcquisitionStop and drops every buffer
-        in its queues (up to ``MaxNumBuffer``, ten by default, wait there while the
-        capture saves). Started here, the first frame exposes while the capture finishes
-        the last step."""
-        if self._cam.IsGrabbing():
-            self._cam.StopGrabbing()
-        self._start()
-        return True
 
     def grab(self, n: int, *, timeout_s: float = 2.0) -> list[Frame]:
         pylon = self._pylon
