@@ -42,6 +42,7 @@ from typing import Annotated, Any, Literal
 import numpy as np
 from pydantic import (
     BaseModel,
+    BeforeValidator,
     ConfigDict,
     Field,
     field_validator,
@@ -148,8 +149,13 @@ class _Lens(_OpticsCommon):
     lens: Literal["visible", "uv", "swir"]
 
 
+def _no_options(v):
+    """An option-less component written with an empty mapping (``ideal: {}``) has none."""
+    return None if v == {} else v
+
+
 class _Ideal(_OpticsCommon):
-    ideal: None = None
+    ideal: Annotated[None, BeforeValidator(_no_options)] = None
 
 
 class _Material(_OpticsCommon):

@@ -202,6 +202,16 @@ def test_builtin_camera_overrides_take_effect(tmp_path):
     assert sc.cameras[0].bit_depth == 8 and "bit_depth 8" in sc.cameras[0].name
 
 
+def test_an_empty_option_mapping_for_an_ideal_lens_is_accepted(tmp_path):
+    """``{ideal: {}, f_number: 5.6}``: valid YAML a user writes for an option-less lens."""
+    sc = read_scene(write(tmp_path, scene(optics="[{ideal: {}, f_number: 5.6}]")))
+    assert sc.optics[0].f_number == 5.6
+    from inspect_validate.errors import InputError
+
+    with pytest.raises(InputError, match=r"optics\[0\]\.ideal"):
+        read_scene(write(tmp_path, scene(optics="[{ideal: {x: 1}}]")))
+
+
 def test_yaml_1_1_booleans_stay_strings(tmp_path):
     """``off:``/``yes``/``on`` are not booleans (YAML 1.2): a name 'on' stays 'on'."""
     sc = read_scene(write(tmp_path, scene(lights="[{led: {peak: 550, fwhm: 30}, name: on}]")))
