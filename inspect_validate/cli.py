@@ -94,8 +94,8 @@ def cli():
     type=click.Choice(["equal", "pixels"]),
     default="equal",
     show_default=True,
-    help="How a group of several classes is weighted: equally, or by pixel count (pooled pixels, "
-    "as the chapter's Table 3).",
+    help="How a group of several classes is weighted: equally, or by pixel count (the "
+    "mixture with weights n_i/N, as the chapter's Table 3; README: 'Comparisons').",
 )
 def measure(
     frames,
