@@ -289,3 +289,57 @@ def test_a_scene_camera_takes_its_values_from_a_camera_file(tmp_path):
     camera_file.write_text("camera: {gain: -1}\n")
     with pytest.raises(InputError, match=r"camera.yaml: camera.gain: Input should be greater"):
         read_scene(tmp_path / "scene.yaml")
+
+
+EMVA_SIMULATOR = """
+import sys, numpy as np
+from emva1288.camera import Camera
+out, u_esat = sys.argv[1], float(sys.argv[2])
+cam = Camera(bit_depth=12, K=0.1, width=160, height=120, blackoffset=40, u_esat=u_esat, seed=7)
+sat = cam.get_radiance_for()
+for i, f in enumerate([0.1, 0.25, 0.4, 0.55, 0.7, 0.85, 1.3, 2.0]):
+    np.save(f"{out}/lit_{i}.npy", np.stack([cam.grab(sat * f) for _ in range(4)]).astype(np.uint16))
+np.save(f"{out}/dark.npy", np.stack([cam.grab(0) for _ in range(4)]).astype(np.uint16))
+print(cam.K, cam.img_max)
+"""
+
+
+@pytest.mark.parametrize("u_esat", [20_000, 60_000])
+def test_photon_transfer_on_the_emva1288_simulators_frames(tmp_path, emva1288_python, u_esat):
+    """Frames of the emva1288 package's own camera simulator (12-bit in uint16, K known,
+    black level 40 DN), from dark to twice saturation: a full well that clips at 2040 DN,
+    or the bit depth at 4095. K within 1 % of the simulator's: the clipped points, whose
+    variance collapses, are left out (fitting every point is far off); and a frame
+    clipped at 4095 counts as saturated at the 12-bit level, not at uint16's 65535."""
+    from types import SimpleNamespace
+
+    from inspect_validate.measure import measure_classes
+    from inspect_validate.verification.calibration import photon_transfer
+
+    done = subprocess.run(
+        [str(emva1288_python), "-c", EMVA_SIMULATOR, str(tmp_path), str(u_esat)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert done.returncode == 0, done.stderr
+    k_true, top = (float(x) for x in done.stdout.split()[-2:])
+    mask = {"A": np.ones((120, 160), bool)}
+
+    def measured(name, level):
+        return SimpleNamespace(
+            classes=measure_classes(np.load(tmp_path / name), mask, saturation_level=level)
+        )
+
+    dark = measured("dark.npy", top)
+    lit = [measured(f"lit_{i}.npy", top) for i in range(8)]
+    gain, left_out = photon_transfer(lit, dark, declared=k_true, saturation_level=top)
+    assert gain.value == pytest.approx(k_true, rel=0.01)
+    assert sum(left_out.values()) >= 3  # the points at and past saturation
+    x = np.array([m.classes[0].mean - dark.classes[0].mean for m in lit])
+    y = np.array([m.classes[0].temporal_variance - dark.classes[0].temporal_variance for m in lit])
+    assert abs(x @ y / (x @ x) / k_true - 1) > 0.1  # every point: the bias this avoids
+    clipped = measured("lit_7.npy", top).classes[0].saturated_fraction
+    as_uint16 = measured("lit_7.npy", None).classes[0].saturated_fraction
+    if u_esat == 60_000:  # the bit depth clips: every pixel at 4095
+        assert clipped == 1.0 and as_uint16 == 0.0
