@@ -35,6 +35,10 @@ def _simulated_controller(station: Station):
             ],
             stdout=subprocess.PIPE,
             text=True,
+            # Its own session: a Ctrl-C or SIGTERM to the terminal's process group reaches
+            # the tool, which ends the cycle and then the controller, not the controller
+            # first (which would read as an unplugged device).
+            start_new_session=True,
         )
         try:
             port = proc.stdout.readline().strip()

@@ -504,3 +504,58 @@ def test_triggered_frames_are_the_ones_triggered_across_an_id_wrap():
     )
     assert [f.frame_id for f in frames] == [65534, 65535, 1, 2]
     assert discarded == {"not the triggered frame (frame id seen before)": 1}
+
+
+def test_the_simulated_controller_ends_with_a_killed_capture(tmp_path):
+    """kill -9 of capture: its simulated controller (in a session of its own, so a
+    terminal's Ctrl-C reaches the tool first) exits with it and removes its temporary
+    folder, instead of living on as an orphan."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+    from pathlib import Path
+
+    station = station_copy(tmp_path, simulator_args=["--slow", "0.05"])
+    doc = station.read_text().replace("frames: 4\n", "frames: 400\n")
+    station.write_text(doc)
+    capture = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "inspect_validate",
+            "capture",
+            str(station),
+            "--out",
+            str(tmp_path / "o"),
+        ],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    deadline = time.monotonic() + 60
+    child = None
+    while child is None and time.monotonic() < deadline:
+        children = Path(f"/proc/{capture.pid}/task/{capture.pid}/children")
+        pids = children.read_text().split() if children.exists() else []
+        child = int(pids[0]) if pids else None
+        time.sleep(0.05)
+    assert child is not None, "the simulated controller did not start"
+    argv = Path(f"/proc/{child}/cmdline").read_bytes().split(b"\0")
+    folder = Path(argv[argv.index(b"--state") + 1].decode()).parent
+    assert os.getsid(child) != os.getsid(capture.pid)  # its own session
+    while not (tmp_path / "o" / "amber" / "frame_0002.tif").exists():
+        assert time.monotonic() < deadline and capture.poll() is None
+        time.sleep(0.05)
+    os.kill(capture.pid, signal.SIGKILL)
+    capture.wait()
+    for _ in range(100):
+        if (
+            not Path(f"/proc/{child}").exists()
+            or b"Z" in Path(f"/proc/{child}/stat").read_bytes().split(b" ")[2]
+        ):
+            break
+        time.sleep(0.05)
+    stat = Path(f"/proc/{child}/stat")
+    assert not stat.exists() or stat.read_bytes().split(b" ")[2] == b"Z"  # gone (or a zombie)
+    assert not folder.exists()

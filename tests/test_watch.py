@@ -12,6 +12,7 @@ import time
 
 import numpy as np
 import pytest
+import yaml
 from conftest import copy_station, run_cli
 
 from inspect_validate.watch.drift import LAMBDA, Chart, ewma_arl, ewma_limit
@@ -330,3 +331,37 @@ def test_cause_without_signal_above_dark(golden):
     monitor = DriftMonitor(read_golden(golden), dark_offset=1e9)
     assert monitor.relative_signal() == {}
     assert monitor.cause([("amber", "class", "A", "mean")]).startswith("drift of amber")
+
+
+def test_ctrl_c_to_the_process_group_is_not_a_device_fault(tmp_path, golden):
+    """A terminal's Ctrl-C goes to the whole process group. The simulated controller runs
+    in a session of its own, so it is not interrupted first: the cycle in flight is
+    committed as it ends, never as an error 'the device may have been unplugged'. A
+    slow controller (0.3 s a command) makes the interrupt land while it answers."""
+    path = copy_station(tmp_path)
+    doc = yaml.safe_load(path.read_text())
+    doc["controller"]["simulator_args"] = ["--slow", "0.3"]
+    doc["controller"]["timeout_s"] = 2
+    path.write_text(yaml.safe_dump(doc, sort_keys=False))
+    db = tmp_path / "w" / "history.sqlite"
+    args = [sys.executable, "-m", "inspect_validate", "watch", str(path), "--golden", str(golden)]
+    proc = subprocess.Popen(
+        [*args, "--db", str(db), "--interval", "0"],
+        stdout=subprocess.PIPE,
+        text=True,
+        start_new_session=True,  # a group of its own to signal, as a terminal's
+    )
+    try:
+        line = proc.stdout.readline()
+        while "cycle 0:" not in line:
+            assert line, "watch ended before its first cycle"
+            line = proc.stdout.readline()
+        time.sleep(0.45)  # into the next cycle's controller commands
+        os.killpg(proc.pid, signal.SIGINT)
+        proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    assert proc.returncode == 130
+    with sqlite3.connect(db) as con:
+        rows = con.execute("SELECT status, reason FROM cycles").fetchall()
+    assert rows and all(status != "error" for status, _ in rows), rows

@@ -197,6 +197,29 @@ def serve(master: int, controller: Controller, args) -> None:
             os.write(master, (text + "\r\n" if text else "").encode() + b">")
 
 
+def end_with_parent(state_folder: Path | None = None) -> None:
+    """Exit when the process that started this one dies, even by ``kill -9`` (Linux:
+    ``PR_SET_PDEATHSIG``), removing ``state_folder`` — the parent's temporary folder,
+    which it can no longer remove — so no orphan or litter outlives it."""
+    import signal
+
+    def leave(*_):
+        if state_folder is not None and state_folder.name.startswith("iv-sim-"):
+            import shutil
+
+            shutil.rmtree(state_folder, ignore_errors=True)
+        os._exit(0)
+
+    signal.signal(signal.SIGTERM, leave)
+    if sys.platform.startswith("linux"):
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
+        if os.getppid() == 1:  # the parent died before the request was made
+            leave()
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--state", type=Path, required=True)
@@ -210,6 +233,7 @@ def main(argv=None) -> None:
     parser.add_argument("--dialect", choices=("gardasoft", "line"), default="gardasoft")
     parser.add_argument("--tcp", type=int, nargs="?", const=0, metavar="PORT")
     args = parser.parse_args(argv)
+    end_with_parent(args.state.parent)
     errors = {}
     for item in args.error:
         prefix, code = item.rsplit(":", 1)
