@@ -1223,8 +1223,20 @@ def _outputs(*, files=(), folders=()):
             output_folder(d)
 
 
+def _terminated(signum, frame):
+    """SIGTERM (a service manager, ``kill``) ends the tool as Ctrl-C does: saved frames
+    kept, exit 130 with a message — not the bare 143 of the default action."""
+    raise KeyboardInterrupt
+
+
 def main(argv=None):
     """Console entry point: run the CLI and map errors to documented exit codes."""
+    import signal
+
+    try:
+        signal.signal(signal.SIGTERM, _terminated)
+    except ValueError:  # not the main thread (an embedding program): its own handling
+        pass
     try:
         cli.main(args=argv, prog_name="inspect-validate", standalone_mode=False)
     except (click.exceptions.Abort, KeyboardInterrupt):

@@ -559,3 +559,33 @@ def test_the_simulated_controller_ends_with_a_killed_capture(tmp_path):
     stat = Path(f"/proc/{child}/stat")
     assert not stat.exists() or stat.read_bytes().split(b" ")[2] == b"Z"  # gone (or a zombie)
     assert not folder.exists()
+
+
+def test_sigterm_ends_a_capture_as_ctrl_c_does(tmp_path):
+    """SIGTERM (kill, systemd) mid-capture: exit 130 with the interruption message and
+    every frame already grabbed on disk — not the default action's silent 143."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    station = station_copy(tmp_path, simulator_args=["--slow", "0.05"])
+    station.write_text(station.read_text().replace("frames: 4\n", "frames: 400\n"))
+    out = tmp_path / "o"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "inspect_validate", "capture", str(station), "--out", str(out)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    deadline = time.monotonic() + 60
+    while not (out / "amber" / "frame_0002.json").exists():
+        assert time.monotonic() < deadline and proc.poll() is None
+        time.sleep(0.05)
+    os.kill(proc.pid, signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert "interrupted; frames saved so far are kept" in err
+    tifs = sorted((out / "amber").glob("frame_*.tif"))
+    assert len(tifs) >= 2 and len(tifs) == len(list((out / "amber").glob("frame_*.json")))
