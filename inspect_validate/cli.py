@@ -459,11 +459,9 @@ def characterize(station, out, report_dir, resume):
     series = st.characterize
     total = 2 * 2 * (series.points + 10) + 2 * series.frames_spatial  # 10 near saturation
     with click.progressbar(length=total, label="characterizing", file=sys.stderr) as bar:
-        seen = {}
 
-        def progress(step, done, _total):
+        def progress(step, _done, _total):
             bar.label = f"characterizing {step}"
-            seen[step] = done
             bar.update(1)
 
         plan = capture_series(st, out, resume=resume, progress=progress)

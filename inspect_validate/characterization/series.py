@@ -77,16 +77,14 @@ def _mean(folder: Path, mask) -> float:
     return float(frames[:, mask].mean())
 
 
-def capture_series(
-    station, out: Path, *, resume: bool = False, progress=None, devices=None
-) -> Plan:
+def capture_series(station, out: Path, *, resume: bool = False, progress=None) -> Plan:
     """Probe, plan and capture the series into ``out`` (module docstring); the plan."""
     from inspect_validate.camera.capture import Step, capture
     from inspect_validate.camera.devices import open_devices
     from inspect_validate.images import recorded_bit_depth
 
     def run(steps):
-        opened = devices() if devices else open_devices(station, target="uniform")
+        opened = open_devices(station, target="uniform")
         return capture(
             station,
             out,
