@@ -5,6 +5,7 @@ trends into its report, and a history that is missing, foreign or damaged is ref
 import csv
 import io
 import math
+import shutil
 import sqlite3
 from contextlib import redirect_stdout
 from datetime import datetime
@@ -244,3 +245,65 @@ def test_history_with_no_cycle_yet(cli, tmp_path):
     code, out, err = cli(["history", tmp_path / "h.sqlite", "--plot", tmp_path / "p"])
     assert code == 0, err
     assert "no cycles yet" in out and "plots: none" in out
+
+
+def _history_with_cycles(path, n=3):
+    from inspect_validate.watch.history import CycleRecord, History
+
+    history = History(path, station="st.yaml", golden=None)
+    for cycle in range(n):
+        record = CycleRecord(cycle, 1.7e9 + cycle, 0.5, "pass", True, None, None, None)
+        history.commit(record, {("amber", "class", "A", "mean"): (100.0, 100.0, 99.0, 101.0)})
+    return history
+
+
+def test_committed_cycles_survive_the_loss_of_the_wal(tmp_path):
+    """Each committed cycle is checkpointed into the main file: a crash that loses the
+    -wal (deleted, or never synced) keeps every cycle. Without the checkpoint a history
+    this small lived in its -wal alone."""
+    from inspect_validate.watch.history import read_history
+
+    db = tmp_path / "history.sqlite"
+    history = _history_with_cycles(db)  # still open: the -wal is there, as in a crash
+    assert (tmp_path / "history.sqlite-wal").exists()
+    survivor = tmp_path / "copy" / "history.sqlite"
+    survivor.parent.mkdir()
+    shutil.copyfile(db, survivor)  # the main file alone
+    assert [c.cycle for c in read_history(survivor).cycles] == [0, 1, 2]
+    history.close()
+
+
+def test_reading_a_history_changes_nothing(tmp_path):
+    """`history` is read-only: reading a database a crashed watch left with its -wal keeps
+    the main file and the -wal byte for byte (it used to checkpoint and remove the -wal,
+    and so failed on read-only media)."""
+    import hashlib
+
+    from inspect_validate.watch.history import read_history
+
+    history = _history_with_cycles(tmp_path / "history.sqlite")
+    crashed = tmp_path / "crashed"
+    crashed.mkdir()
+    for suffix in ("", "-wal"):  # the files as a kill -9 leaves them
+        shutil.copyfile(tmp_path / f"history.sqlite{suffix}", crashed / f"history.sqlite{suffix}")
+    history.close()
+    db, wal = crashed / "history.sqlite", crashed / "history.sqlite-wal"
+
+    def digest():
+        return [hashlib.sha256(p.read_bytes()).hexdigest() for p in (db, wal)]
+
+    before = digest()
+    assert len(read_history(db).cycles) == 3
+    assert wal.exists() and digest() == before
+
+
+def test_a_cycle_killed_twice_within_a_second_is_set_aside_twice(tmp_path):
+    from inspect_validate.watch.loop import set_aside
+
+    frames = tmp_path / "cycle-000004"
+    kept = []
+    for _ in range(2):
+        frames.mkdir()
+        (frames / "frame.tif").write_bytes(b"x")
+        kept.append(set_aside(frames))
+    assert len(set(kept)) == 2 and all((p / "frame.tif").exists() for p in kept)

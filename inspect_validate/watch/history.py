@@ -160,6 +160,10 @@ class History:
             self.db.execute("ROLLBACK")
             raise
         self.db.execute("COMMIT")
+        # Into the main file now: a history this small never reaches SQLite's automatic
+        # checkpoint, so every cycle would live in the -wal alone, and losing or damaging
+        # that file would lose them all. (PASSIVE: a reader open on it is not waited for.)
+        self.db.execute("PRAGMA wal_checkpoint(PASSIVE)")
 
     def chart_states(self) -> dict:
         """Per series its last smoothed value and how many cycles it has seen."""
@@ -240,12 +244,7 @@ def read_history(path: str | Path, *, last: int | None = None) -> HistoryLog:
     todo = "give the --db file 'watch' wrote"
     if not path.is_file():
         raise InputError(f"no such history database; {todo}", source=str(path))
-    # mode=rw: never creates a file, and reads a WAL database that watch is writing.
-    uri = path.resolve().as_uri() + "?mode=rw"
-    try:
-        db = sqlite3.connect(uri, uri=True, timeout=10.0)
-    except sqlite3.DatabaseError as exc:
-        raise _not_history(path, exc, todo) from None
+    db = _read_only(path, todo)
     try:
         meta = dict(db.execute("SELECT key, value FROM meta"))
         (total,) = db.execute("SELECT COUNT(*) FROM cycles").fetchone()
@@ -284,6 +283,25 @@ def read_history(path: str | Path, *, last: int | None = None) -> HistoryLog:
         charts=_chart_series(path, rows),
         total=int(total),
     )
+
+
+def _read_only(path: Path, todo: str) -> sqlite3.Connection:
+    """A connection that cannot change the file: read-only, so closing it neither
+    checkpoints nor removes a running watch's -wal; on read-only media (no -shm can be
+    made) the file is read as immutable."""
+    base = path.resolve().as_uri()
+    for query in ("?mode=ro", "?mode=ro&immutable=1"):
+        try:
+            db = sqlite3.connect(base + query, uri=True, timeout=10.0)
+            db.execute("SELECT 1 FROM sqlite_master LIMIT 1").fetchall()
+            return db
+        except sqlite3.OperationalError as exc:
+            last = exc
+            if "unable to open" not in str(exc) and "readonly" not in str(exc):
+                break
+        except sqlite3.DatabaseError as exc:
+            raise _not_history(path, exc, todo) from None
+    raise _not_history(path, last, todo) from None
 
 
 def _damaged(path, what: str) -> InputError:

@@ -144,6 +144,17 @@ def _sleep(seconds: float, stop: list) -> None:
         time.sleep(min(0.05, max(end - time.monotonic(), 0.0)))
 
 
+def set_aside(frames: Path) -> Path:
+    """Rename the folder of a cycle that never committed to ``…-uncommitted-<time>``,
+    numbered when one of that second exists (killed twice within it); the new path."""
+    stamp = time.strftime("%Y%m%dT%H%M%S")
+    aside, k = frames.with_name(f"{frames.name}-uncommitted-{stamp}"), 1
+    while aside.exists():
+        k += 1
+        aside = frames.with_name(f"{frames.name}-uncommitted-{stamp}-{k}")
+    return frames.rename(aside)
+
+
 def _cycle(station, plan, history, monitor, folder, settings, failures):
     from inspect_validate.camera.capture import capture
     from inspect_validate.camera.station import simulated_at
@@ -154,7 +165,7 @@ def _cycle(station, plan, history, monitor, folder, settings, failures):
     n = history.next_cycle()
     frames = folder / f"cycle-{n:06d}"
     if frames.exists():  # a cycle that never committed (killed): keep its frames aside
-        frames.rename(frames.with_name(f"{frames.name}-uncommitted-{int(time.time())}"))
+        set_aside(frames)
     when, t0 = time.time(), time.monotonic()
     state = verification = None
     try:
