@@ -307,3 +307,55 @@ def test_a_cycle_killed_twice_within_a_second_is_set_aside_twice(tmp_path):
         (frames / "frame.tif").write_bytes(b"x")
         kept.append(set_aside(frames))
     assert len(set(kept)) == 2 and all((p / "frame.tif").exists() for p in kept)
+
+
+def test_a_second_watch_on_one_history_is_refused_naming_the_holder(tmp_path):
+    from inspect_validate.errors import InputError
+    from inspect_validate.watch.history import History
+
+    db = tmp_path / "history.sqlite"
+    first = History(db, station="st.yaml", golden=None)
+    with pytest.raises(InputError, match=r"another watch \(pid \d+\) is writing this history"):
+        History(db, station="st.yaml", golden=None)
+    first.close()
+    History(db, station="st.yaml", golden=None).close()  # free again once closed
+
+
+def test_a_history_damaged_from_outside_is_not_continued(tmp_path):
+    """A chart renamed and a value changed behind watch's back, or pages overwritten:
+    watch refuses to append to it (history refuses to print it alike)."""
+    from inspect_validate.errors import InputError
+    from inspect_validate.watch.history import History
+
+    db = tmp_path / "history.sqlite"
+    _history_with_cycles(db).close()
+    with sqlite3.connect(db) as con:
+        con.execute("UPDATE points SET quantity = 'claqs' WHERE cycle = 1")
+    with pytest.raises(InputError, match=r"history\.sqlite: .*'claqs'.* is not one watch keeps"):
+        History(db, station="st.yaml", golden=None)
+    assert run_cli(["history", db]) == 2
+
+    broken = tmp_path / "broken.sqlite"
+    _history_with_cycles(broken).close()
+    data = bytearray(broken.read_bytes())
+    data[4096 : 4096 + 64] = b"\xff" * 64  # a page header overwritten
+    broken.write_bytes(bytes(data))
+    with pytest.raises(InputError, match=r"broken.sqlite: (the history is damaged|not a watch)"):
+        History(broken, station="st.yaml", golden=None)
+
+
+def test_a_history_that_cannot_be_written_is_a_clear_error(tmp_path):
+    """A cycle the database cannot take — a cycle number beyond SQLite's integers, a
+    database gone read-only — is an error naming the file, not a traceback."""
+    from inspect_validate.errors import InputError
+    from inspect_validate.watch.history import CycleRecord
+
+    history = _history_with_cycles(tmp_path / "history.sqlite", n=1)
+    huge = CycleRecord(2**63, 1.7e9, 0.5, "pass", True, None, None, "cycle-x")
+    with pytest.raises(InputError, match=r"history.sqlite: cycle number \d+ does not fit"):
+        history.commit(huge, {})
+    history.db.execute("PRAGMA query_only = ON")  # as a file turned read-only would
+    record = CycleRecord(1, 1.7e9, 0.5, "pass", True, None, None, "cycle-000001")
+    with pytest.raises(InputError, match=r"cannot write cycle 1 to the history .*cycle-000001"):
+        history.commit(record, {})
+    history.close()

@@ -100,6 +100,19 @@ class History:
 
     def __init__(self, path: str | Path, *, station: str, golden: str | None):
         self.path = Path(path)
+        self._lock = _exclusive(self.path)
+        try:
+            self._open(station, golden)
+        except BaseException:
+            self._lock.close()
+            raise
+
+    def _open(self, station: str, golden: str | None) -> None:
+        if self.path.is_file() and self.path.stat().st_size:
+            # Damage from outside is refused before a cycle is appended to it: the same
+            # checks `history` makes, and SQLite's own page check.
+            read_history(self.path)
+            _quick_check(self.path)
         try:
             self.db = sqlite3.connect(self.path, timeout=10.0, isolation_level=None)
             self.db.execute("PRAGMA journal_mode=WAL")
@@ -107,7 +120,8 @@ class History:
             self.db.executescript(_SCHEMA)
             meta = dict(self.db.execute("SELECT key, value FROM meta"))
         except sqlite3.DatabaseError as exc:
-            raise _not_history(path, exc, "give another --db") from None
+            raise _not_history(self.path, exc, "give another --db") from None
+        path = self.path
         if not meta:
             meta = {
                 "schema_version": str(HISTORY_SCHEMA_VERSION),
@@ -131,6 +145,7 @@ class History:
 
     def close(self) -> None:
         self.db.close()
+        self._lock.close()
 
     def next_cycle(self) -> int:
         (last,) = self.db.execute("SELECT MAX(cycle) FROM cycles").fetchone()
@@ -140,6 +155,21 @@ class History:
         """Store ``record`` and its chart ``points`` (key → value, ewma, low, high) in one
         transaction."""
         rows = [(record.cycle, *key, *values) for key, values in points.items()]
+        try:
+            self._insert(record, rows)
+        except sqlite3.DatabaseError as exc:  # disk full, read-only, damaged since opened
+            raise InputError(
+                f"cannot write cycle {record.cycle} to the history ({exc}); its frames are "
+                f"kept in {record.frames or 'the watch folder'} — free space or give another --db",
+                source=str(self.path),
+            ) from None
+        except OverflowError:
+            raise InputError(
+                f"cycle number {record.cycle} does not fit the history; start a new --db",
+                source=str(self.path),
+            ) from None
+
+    def _insert(self, record: CycleRecord, rows) -> None:
         self.db.execute("BEGIN IMMEDIATE")
         try:
             self.db.execute(
@@ -174,6 +204,52 @@ class History:
             "ORDER BY cycle DESC LIMIT 1) FROM points p GROUP BY illumination, kind, name, quantity"
         )
         return {tuple(r[:4]): (r[5], r[4]) for r in rows}
+
+
+def _exclusive(path: Path):
+    """An exclusive lock on ``<db>.lock`` for as long as the history is open: a second
+    watch on the same database is refused at once, naming the holder's process."""
+    import fcntl
+    import os
+
+    lock_path = path.with_name(path.name + ".lock")
+    try:
+        handle = open(lock_path, "a+")
+    except OSError as exc:
+        raise InputError(f"cannot lock the history ({exc.strerror})", source=str(path)) from None
+    try:
+        fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        handle.seek(0)
+        holder = handle.read().strip() or "another process"
+        handle.close()
+        raise InputError(
+            f"another watch ({holder}) is writing this history; stop it first, or give "
+            "another --db",
+            source=str(path),
+        ) from None
+    handle.seek(0)
+    handle.truncate()
+    handle.write(f"pid {os.getpid()}")
+    handle.flush()
+    return handle
+
+
+def _quick_check(path: Path) -> None:
+    """SQLite's quick_check of the file (corrupt pages), read-only."""
+    db = _read_only(path, "give another --db")
+    try:
+        result = [r[0] for r in db.execute("PRAGMA quick_check")]
+    except sqlite3.DatabaseError as exc:
+        raise _not_history(path, exc, "give another --db") from None
+    finally:
+        db.close()
+    if result != ["ok"]:
+        raise InputError(
+            f"the history is damaged ({'; '.join(map(str, result[:3]))}); give another --db "
+            "(the frames of its cycles are kept beside it)",
+            source=str(path),
+        )
 
 
 def _not_history(path, exc, todo: str) -> InputError:
@@ -333,10 +409,16 @@ def _cycle_record(path, row) -> CycleRecord:
     )
 
 
+#: What watch charts (watch.drift.series_of): a chart of anything else was not written by it.
+_CHARTED = {"class": ("mean", "variance"), "comparison": ("snr_db", "log_error")}
+
+
 def _chart_series(path, rows) -> dict[tuple, ChartSeries]:
     """Rows sorted by chart key then cycle → the charts."""
     charts = {}
     for key, group in itertools.groupby(rows, key=lambda r: tuple(r[:4])):
+        if key[3] not in _CHARTED.get(key[1], ()):
+            raise _damaged(path, f"chart {key!r} is not one watch keeps")
         try:
             if not all(isinstance(k, str) for k in key):
                 raise ValueError
