@@ -162,3 +162,38 @@ def test_a_controller_failure_while_training_exits_3_and_keeps_the_captures(cli,
     assert code == 3, out + err
     assert not (tmp_path / "g.json").exists()
     assert (tmp_path / "g-frames" / "repeat_01" / "manifest.json").exists()
+
+
+def test_a_golden_file_is_a_bounded_regular_file_of_possible_values(tmp_path, trained):
+    """/dev/zero (read without end), a FIFO (blocks forever), a 100,000-deep JSON, and
+    goldens no measurement can give — a negative variance, ε above ½ — are refused
+    naming the file, at once."""
+    import os
+
+    from inspect_validate.errors import InputError
+    from inspect_validate.verification.golden import read_golden
+
+    with pytest.raises(InputError, match=r"/dev/zero: not a regular file"):
+        read_golden("/dev/zero")
+    fifo = tmp_path / "golden.fifo"
+    os.mkfifo(fifo)
+    with pytest.raises(InputError, match="not a regular file"):
+        read_golden(fifo)
+    deep = tmp_path / "deep.json"
+    deep.write_text("[" * 100_000 + "]" * 100_000)
+    with pytest.raises(InputError, match="nested too deeply"):
+        read_golden(deep)
+    doc = json.loads(trained[1].read_text())
+    ill = next(iter(doc["illuminations"].values()))
+    cls = next(iter(ill["classes"].values()))
+    cls["variance"]["values"][0] = -1.0
+    bad = tmp_path / "negative.json"
+    bad.write_text(json.dumps(doc))
+    with pytest.raises(InputError, match=r"a variance of -1\.0 is impossible"):
+        read_golden(bad)
+    cls["variance"]["values"][0] = 1.0
+    comp = next(iter(ill["comparisons"].values()))
+    comp["error_gaussian"]["values"][0] = 0.7
+    bad.write_text(json.dumps(doc))
+    with pytest.raises(InputError, match=r"a classification error of 0\.7 is impossible"):
+        read_golden(bad)

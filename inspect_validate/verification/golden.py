@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import Annotated, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from inspect_validate.errors import InputError
 from inspect_validate.verification.checks import Check, at_most
@@ -89,15 +89,36 @@ class Spread(BaseModel):
         }
 
 
+def _within(spread, lo: float, hi: float, what: str) -> None:
+    """Refuse a golden value no measurement can give (a negative variance, ε above ½)."""
+    if spread is None:
+        return
+    for x in spread.values:
+        if x is not None and not (lo <= x <= hi):
+            raise ValueError(f"{what} {x!r} is impossible (it lies in [{lo:g}, {hi:g}])")
+
+
 class GoldenClass(_Frozen):
     mean: Spread  # DN
     variance: Spread  # DN²
+
+    @model_validator(mode="after")
+    def _physical(self):
+        _within(self.mean, 0.0, 2.0**62, "a mean grey value of")
+        _within(self.variance, 0.0, 2.0**124, "a variance of")
+        return self
 
 
 class GoldenComparison(_Frozen):
     snr_db: Spread
     error_gaussian: Spread
     error_kde: Spread | None = None
+
+    @model_validator(mode="after")
+    def _physical(self):
+        _within(self.error_gaussian, 0.0, 0.5, "a classification error of")
+        _within(self.error_kde, 0.0, 0.5, "a classification error of")
+        return self
 
 
 class GoldenIllumination(_Frozen):
@@ -205,6 +226,9 @@ def _spread(values) -> Spread:
     return Spread(values=[None if x is None or math.isnan(x) else float(x) for x in values])
 
 
+GOLDEN_MAX_BYTES = 64 * 2**20  # a golden file of thousands of classes is a few MB
+
+
 def read_golden(path: str | Path) -> Golden:
     """Read and validate ``golden.json``.
 
@@ -219,15 +243,26 @@ def read_golden(path: str | Path) -> Golden:
     from inspect_validate.config import explain
 
     path = Path(path)
-    try:
-        doc = json.loads(path.read_text())
-    except FileNotFoundError:
+    if not path.exists():
         raise InputError(
             "golden file not found; make it with 'inspect-validate train STATION --out FILE'",
             source=str(path),
-        ) from None
+        )
+    # A regular file of bounded size: /dev/zero or a FIFO would read forever or block.
+    if not path.is_file():
+        raise InputError("not a regular file; give the golden.json 'train' wrote", source=str(path))
+    if path.stat().st_size > GOLDEN_MAX_BYTES:
+        raise InputError(
+            f"{path.stat().st_size / 2**20:.0f} MB is no golden file (they are kilobytes); "
+            "give the golden.json 'train' wrote",
+            source=str(path),
+        )
+    try:
+        doc = json.loads(path.read_text())
     except (OSError, UnicodeDecodeError, ValueError) as exc:
         raise InputError(f"not a golden JSON file ({exc})", source=str(path)) from None
+    except RecursionError:
+        raise InputError("not a golden JSON file (nested too deeply)", source=str(path)) from None
     if not isinstance(doc, dict) or doc.get("schema") != "inspect-validate/golden":
         raise InputError(
             "not a golden file (schema is not 'inspect-validate/golden')", source=str(path)
