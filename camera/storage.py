@@ -39,6 +39,24 @@ QUEUED_FRAMES = 8
 """Grabbed frames that may wait for the writer thread."""
 
 
+def _read_manifest(path: Path) -> dict:
+    """A capture's manifest, checked enough to resume from (a damaged one is refused
+    naming the file: the frames beside it stay as they are)."""
+    try:
+        manifest = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, ValueError, RecursionError) as exc:
+        manifest = exc
+    steps = manifest.get("steps") if isinstance(manifest, dict) else None
+    if not isinstance(steps, dict) or not all(isinstance(v, dict) for v in steps.values()):
+        why = manifest if isinstance(manifest, Exception) else "no steps mapping of step records"
+        raise InputError(
+            f"the capture's manifest is damaged ({why}); its frames are kept — capture into a "
+            "new --out folder (measure and verify still read the frames' sidecars)",
+            source=str(path),
+        )
+    return manifest
+
+
 class CaptureStore:
     """The output folder of one capture of one station file."""
 
@@ -49,7 +67,7 @@ class CaptureStore:
         self._pending: list[Future] = []
         self.manifest_path = self.folder / "manifest.json"
         if self.manifest_path.exists():
-            manifest = json.loads(self.manifest_path.read_text())
+            manifest = _read_manifest(self.manifest_path)
             if manifest.get("station_sha256") != station_sha256:
                 raise InputError(
                     "this folder holds a capture of a different station file; use a new --out folder or the original station file",
@@ -105,9 +123,19 @@ class CaptureStore:
     def begin(self, step: str, info: dict) -> Path:
         """Start (or restart) a step; frames of an earlier, unfinished attempt are moved aside."""
         folder = self.folder / step
+        if folder.exists() and not folder.is_dir():
+            raise InputError(
+                f"{folder.name} is a file where the capture keeps that step's frames; move it "
+                "away, or capture into a new --out folder",
+                source=str(folder),
+            )
         old = sorted(folder.glob("frame_*")) if folder.exists() else []
         if old:
             aside = folder / f"partial-{time.strftime('%Y%m%dT%H%M%S')}"
+            k = 1
+            while aside.exists():  # resumed twice within a second
+                k += 1
+                aside = folder / f"partial-{time.strftime('%Y%m%dT%H%M%S')}-{k}"
             aside.mkdir()
             for p in old:
                 p.rename(aside / p.name)

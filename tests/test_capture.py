@@ -589,3 +589,31 @@ def test_sigterm_ends_a_capture_as_ctrl_c_does(tmp_path):
     assert "interrupted; frames saved so far are kept" in err
     tifs = sorted((out / "amber").glob("frame_*.tif"))
     assert len(tifs) >= 2 and len(tifs) == len(list((out / "amber").glob("frame_*.json")))
+
+
+@pytest.mark.parametrize(
+    "damage",
+    ["{not json", "", '{"steps": [1, 2]}', '{"steps": {"amber": 3}}', "step file"],
+)
+def test_resume_on_a_damaged_capture_is_refused_naming_the_file(tmp_path, capsys, damage):
+    """A manifest that is not JSON, empty, or without a mapping of step records, or a
+    file where a step's folder was: exit 2 naming the file, frames left as they are."""
+    station = station_copy(tmp_path, simulator_args=["--vanish-after", "3"])
+    out = tmp_path / "cap"
+    assert run(["capture", station, "--out", out]) == 3
+    saved = sorted(out.glob("*/frame_*.tif"))
+    manifest = out / "manifest.json"
+    if damage == "step file":
+        shutil.rmtree(out / "red", ignore_errors=True)
+        (out / "red").write_text("not a folder")
+        where = out / "red"
+    else:
+        doc = json.loads(manifest.read_text())
+        text = damage if "amber" not in damage else json.dumps({**doc, "steps": {"amber": 3}})
+        manifest.write_text(text)
+        where = manifest
+    capsys.readouterr()
+    assert run(["capture", station, "--out", out, "--resume"]) == 2
+    err = capsys.readouterr().err
+    assert f"error: {where}: " in err and "Traceback" not in err
+    assert all(p.exists() for p in saved if p.parent.name == "amber")
