@@ -107,6 +107,8 @@ def verified_frames(
     off_level = False  # this frame was off the level though its chunk agreed
     while done < n:
         frame, sent, untriggered = next_frame()
+        if sent is not None:  # recorded with the frame: when it was triggered (host ns)
+            frame.extra["trigger_ns"] = sent
         if untriggered:
             discarded["arrived untriggered (drained before the trigger)"] += untriggered
         if _repeats(frame, previous):
