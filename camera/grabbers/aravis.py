@@ -254,16 +254,7 @@ class AravisCamera(NodeMapGrabber):
 
     def _frame(self, buf, exposure, gain) -> Frame:
         code = buf.get_image_pixel_format()
-        fmt = PFNC_CODES.get(code)
-        if fmt is None:
-            raise DeviceError(
-                f"{self.name}: delivers pixel format 0x{code:08x}, not a supported monochrome "
-                f"format; set camera.pixel_format in the station file to one of {', '.join(BIT_DEPTH)}"
-            )
-        if self._requested_format is not None and fmt != self._requested_format:
-            raise DeviceError(
-                f"{self.name}: asked for {self._requested_format}, the buffer holds {fmt}"
-            )
+        fmt = self._checked_format(PFNC_CODES.get(code), f"pixel format 0x{code:08x}")
         w, h = buf.get_image_width(), buf.get_image_height()
         raw = np.frombuffer(buf.get_data(), np.uint8)  # PyGObject's bytes: read-only
         if fmt == "Mono8":

@@ -183,6 +183,21 @@ class NodeMapGrabber(Grabber):
     def _start(self) -> None:
         """Start the acquisition."""
 
+    def _checked_format(self, fmt: str | None, reported: str) -> str:
+        """The pixel format a buffer reports (None: not one this tool knows; ``reported``
+        is how the buffer named it), checked against what :meth:`configure` asked for."""
+        if fmt not in BIT_DEPTH:
+            raise DeviceError(
+                f"{self.name}: delivers {reported} frames, not a supported monochrome format; "
+                f"set camera.pixel_format in the station file to one of {', '.join(BIT_DEPTH)}"
+            )
+        if self._requested_format is not None and fmt != self._requested_format:
+            raise DeviceError(
+                f"{self.name}: asked for {self._requested_format}, the buffer holds {fmt}; "
+                "the device did not apply the pixel format (check it is not locked or overridden)"
+            )
+        return fmt
+
     def _first(self, names) -> str | None:
         """The first of ``names`` the camera has."""
         return next((n for n in names if self._has(n)), None)

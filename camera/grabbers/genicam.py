@@ -277,17 +277,7 @@ class GenICamCamera(NodeMapGrabber):
             fmt = str(comp.data_format)
         except Exception:  # a producer that reports no format: the node's value
             fmt = str(self._nodes.PixelFormat.value)
-        if fmt not in BIT_DEPTH:
-            raise DeviceError(
-                f"{self.name}: delivers {fmt} frames, not a supported monochrome format; set "
-                f"camera.pixel_format in the station file to one of {', '.join(BIT_DEPTH)}"
-            )
-        if self._requested_format is not None and fmt != self._requested_format:
-            raise DeviceError(
-                f"{self.name}: asked for {self._requested_format}, the buffer holds {fmt}; "
-                "the device did not apply the pixel format (check it is not locked or overridden)"
-            )
-        return fmt
+        return self._checked_format(fmt, fmt)
 
     def close(self) -> None:
         try:

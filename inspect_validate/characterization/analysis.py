@@ -272,13 +272,13 @@ def analyse(
             s2_light = max(bright_stack.spatial - s2, 0.0)
             level = bright_stack.mean - dark_stack.mean
             prnu = math.sqrt(s2_light) / level if level > 0 else math.nan
-            prnu_se = prnu / math.sqrt(2 * (bright_stack.pixels - 1)) + (
-                math.sqrt(2 / (bright_stack.pixels - 1))
-                * bright_stack.temporal
-                / bright_stack.frames
-                / max(2 * s2_light, 1e-300)
-                * prnu
+            # Each spatial variance over N pixels has the sampling error s²·√(2/(N−1));
+            # PRNU ∝ √(s²_50 − s²_dark): half the relative error of their difference.
+            spread = math.hypot(
+                bright_stack.spatial * math.sqrt(2 / (bright_stack.pixels - 1)),
+                s2 * math.sqrt(2 / (dark_stack.pixels - 1)),
             )
+            prnu_se = 0.5 * prnu * spread / s2_light if s2_light > 0 else math.nan
     dynamic_range = saturation / (math.sqrt(s2_dark) / k + 0.5)
     return Characterization(
         gain=k,
