@@ -23,24 +23,11 @@ from dataclasses import replace
 from pathlib import Path
 
 __all__ = [
-    "MODEL_KEYS",
     "measured_camera",
     "measured_values",
     "read_camera_file",
     "write_camera_file",
 ]
-
-#: The camera keys the file gives: the scene's EMVA 1288 values.
-MODEL_KEYS = (
-    "gain",
-    "dark_noise",
-    "saturation",
-    "bit_depth",
-    "dark_offset",
-    "dark_current",
-    "dsnu",
-    "prnu",
-)
 
 
 def write_camera_file(path, result, *, name: str, gain_db: float, provenance: dict) -> Path:
