@@ -144,7 +144,7 @@ def fake_gige() -> str:
 
     serial = "BENCH1"
     proc = subprocess.Popen(
-        [sys.executable, "-m", "inspect_validate.camera.grabbers.aravis", serial],
+        [sys.executable, "-m", "inspect_validate.camera.grabbers.fake_gige", serial],
         stdout=subprocess.PIPE,
         text=True,
     )

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import os
 import subprocess
 import sys
 import tempfile
@@ -12,7 +13,7 @@ from inspect_validate.camera.station import Station
 
 from inspect_validate.errors import DeviceError, InputError
 
-__all__ = ["open_devices"]
+__all__ = ["open_devices", "scene_renderer"]
 
 
 @contextlib.contextmanager
@@ -120,7 +121,7 @@ def _generic_controller(station: Station, port: str | None):
     )
 
 
-def _scene_renderer(station: Station, state_path: Path | None, target: str = "scene"):
+def scene_renderer(station: Station, state_path: Path | None, target: str = "scene"):
     """The simulated camera of the station's scene, lit by the simulated controller's state."""
     spec = station.camera
     if state_path is None:
@@ -144,10 +145,68 @@ def _scene_renderer(station: Station, state_path: Path | None, target: str = "sc
     )
 
 
+@contextlib.contextmanager
+def _fake_gige(station: Station, state_path: Path | None, target: str):
+    """Aravis' fake GigE Vision camera in a process of its own on ``lo``, streaming the
+    station's scene under the simulated controller's lights, opened through Aravis."""
+    from inspect_validate.camera.grabbers.aravis import AravisCamera
+    from inspect_validate.camera.grabbers.fake_gige import SENSOR as FAKE_SENSOR
+
+    scene_renderer(station, state_path, target)  # refuses a station it cannot render
+    spec = station.camera
+    if spec.width > FAKE_SENSOR or spec.height > FAKE_SENSOR:
+        raise InputError(
+            f"camera.width/height {spec.width}×{spec.height} exceed the fake GigE camera's "
+            f"{FAKE_SENSOR}×{FAKE_SENSOR} sensor",
+            source=str(station.path),
+        )
+    if spec.acquisition == "hardware-trigger":
+        raise InputError(
+            "camera.acquisition: hardware-trigger cannot run on Aravis' fake camera: its Line0 "
+            "has no wire from the simulated controller's trigger output; use software-trigger "
+            "or free-run (or camera.backend: simulated, which models the wiring)",
+            source=str(station.path),
+        )
+    # One per tool process at a time, and the same on each opening: a capture is resumed,
+    # and characterize's series continued, only with the camera that began it.
+    serial = f"IV{os.getpid()}"
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "inspect_validate.camera.grabbers.fake_gige",
+            serial,
+            "--station",
+            str(station.path),
+            "--state",
+            str(state_path),
+            "--target",
+            target,
+            # the world as it is now (watch schedules changes per cycle), not as filed
+            "--world",
+            station.camera.world.model_dump_json(),
+        ],
+        stdout=subprocess.PIPE,
+        text=True,
+        start_new_session=True,  # as the simulated controller: the tool takes Ctrl-C
+    )
+    try:
+        if proc.stdout.readline().strip() != "ready":
+            raise DeviceError(
+                "Aravis' fake GigE Vision camera did not start (is libaravis-0.8 installed?)"
+            )
+        with AravisCamera(serial=serial, num_buffers=spec.num_buffers) as camera:
+            yield camera
+    finally:
+        proc.kill()
+        proc.wait()
+        proc.stdout.close()
+
+
 def _open_camera(station: Station, state_path: Path | None, controller, target="scene"):
     spec = station.camera
     if spec.backend == "simulated":
-        return _scene_renderer(station, state_path, target)
+        return scene_renderer(station, state_path, target)
     if spec.backend == "genicam":
         from inspect_validate.camera.grabbers.genicam import GenICamCamera
 
@@ -161,7 +220,7 @@ def _open_camera(station: Station, state_path: Path | None, controller, target="
         if spec.simulate:  # the simulated station through pylon's camera emulator
             from inspect_validate.camera.grabbers.emulator_feed import EmulatorFeed
 
-            renderer = _scene_renderer(station, state_path, target)
+            renderer = scene_renderer(station, state_path, target)
             # Enough noise realisations that no step's frames repeat, even after discards.
             per_light = (
                 max(station.frames, station.dark_frames) + station.discard_max + spec.flush_frames
@@ -175,6 +234,8 @@ def _open_camera(station: Station, state_path: Path | None, controller, target="
     if spec.backend == "aravis":
         from inspect_validate.camera.grabbers.aravis import AravisCamera
 
+        if spec.simulate:
+            return _fake_gige(station, state_path, target)
         return AravisCamera(
             serial=spec.serial,
             device_id=spec.device_id,

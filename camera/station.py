@@ -234,7 +234,8 @@ class World(_Strict):
 
 
 class _Rendered(_Strict):
-    """A camera that renders the station's scene (simulated, or fed into pylon's emulator)."""
+    """A camera that renders the station's scene (simulated, fed into pylon's emulator, or
+    streamed by Aravis' fake GigE Vision camera)."""
 
     width: Annotated[int, Field(ge=16, le=20000)] = 320
     height: Annotated[int, Field(ge=16, le=20000)] = 240
@@ -262,8 +263,10 @@ class PylonCameraSpec(_CameraCommon, _Rendered):
     simulate: bool = False
 
 
-class AravisCameraSpec(_CameraCommon):
+class AravisCameraSpec(_CameraCommon, _Rendered):
     backend: Literal["aravis"]
+    # stream the station's scene from Aravis' fake GigE Vision camera on lo
+    simulate: bool = False
     serial: str | None = None
     device_id: str | None = None  # Aravis' id, e.g. Aravis-Fake-TEST1 (arv-tool-0.8 lists them)
     index: Annotated[int, Field(ge=0)] = 0

@@ -86,16 +86,19 @@ def copy_station(tmp_path, *, world=None, **top):
     return path
 
 
-def on_pylon_emulator(path: Path) -> Path:
-    """The station file at ``path`` with its simulated camera served through pypylon's
-    camera emulator (``backend: pylon, simulate: true``, Mono16), rewritten in place."""
+def through_sdk(path: Path, backend: str = "pylon", **camera) -> Path:
+    """The station file at ``path`` with its simulated camera's frames served through a
+    real camera stack, rewritten in place (Mono16 unless ``camera`` says otherwise):
+    ``"pylon"``, pypylon's camera emulator; ``"aravis"``, Aravis' fake GigE Vision camera
+    over GVCP/GVSP on ``lo`` (``simulate: true``)."""
     doc = yaml.safe_load(path.read_text())
     keep = ("exposure_us", "gain_db", "width", "height", "world")
     doc["camera"] = {
-        "backend": "pylon",
+        "backend": backend,
         "simulate": True,
         "pixel_format": "Mono16",
         **{k: doc["camera"][k] for k in keep if k in doc["camera"]},
+        **camera,
     }
     path.write_text(yaml.safe_dump(doc, sort_keys=False))
     return path

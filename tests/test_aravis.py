@@ -7,6 +7,7 @@ skipped, saying why, where Aravis cannot be imported.
 
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -34,7 +35,7 @@ def fake_gige():
     def start():
         serial = f"IV{uuid.uuid4().hex[:6].upper()}"
         proc = subprocess.Popen(
-            [sys.executable, "-m", "inspect_validate.camera.grabbers.aravis", serial],
+            [sys.executable, "-m", "inspect_validate.camera.grabbers.fake_gige", serial],
             stdout=subprocess.PIPE,
             text=True,
         )
@@ -160,3 +161,86 @@ def test_camera_killed_mid_capture_keeps_every_grabbed_frame(tmp_path, fake_gige
     assert not step["complete"] and "error" in step
     saved = sorted((out / "one").glob("frame_*.tif"))
     assert len(saved) >= 5 and len(saved) == len(list((out / "one").glob("frame_*.json")))
+
+
+# -- the simulated station streamed by the fake camera (camera.simulate) ------------------
+
+
+@pytest.mark.parametrize(
+    ("acquisition", "pixel_format"), [("software-trigger", "Mono16"), ("free-run", "Mono8")]
+)
+def test_verify_over_gige_recovers_a_dimmer_light(cli, tmp_path, acquisition, pixel_format):
+    """`verify` end to end with every frame through GVCP/GVSP: the fake camera streams the
+    scene under the simulated controller's lights, in a world whose amber light gives
+    40 % of its stated irradiance; the fitted calibration finds the 40 %."""
+    from conftest import copy_station, through_sdk
+
+    path = through_sdk(
+        copy_station(tmp_path, world={"irradiance": {1: 0.4}}),
+        "aravis",
+        acquisition=acquisition,
+        pixel_format=pixel_format,
+    )
+    code, out, err = cli(["verify", path, "--report", tmp_path / "report"])
+    assert code == 0, out + err
+    result = json.loads((tmp_path / "report" / "verification.json").read_text())
+    assert result["verdict"] == "pass"
+    meta = json.loads((tmp_path / "report" / "frames" / "amber" / "frame_0001.json").read_text())
+    assert meta["device"].startswith("Aravis Fake") and meta["pixel_format"] == pixel_format
+    assert meta["acquisition"] == acquisition
+    assert f"amber: {acquisition}, 4 frames at 8000 µs" in out
+    scale = re.search(r"amber: irradiance scale ([0-9.]+)", out)
+    assert abs(float(scale[1]) - 0.4) < 0.01, out
+
+
+def test_watch_over_gige_names_a_brighter_light(cli, tmp_path, golden):
+    """`watch` on the fake camera: the red LED 5 % brighter from cycle 2 is flagged and
+    attributed by the next cycle, the cycles before it pass."""
+    import sqlite3
+
+    from conftest import copy_station, through_sdk
+
+    path = through_sdk(
+        copy_station(tmp_path, world={"changes": [{"start": 2, "irradiance": {2: 1.05}}]}),
+        "aravis",
+    )
+    db = tmp_path / "w" / "history.sqlite"
+    code, out, err = cli(
+        ["watch", path, "--golden", golden, "--db", db, "--interval", 0, "--cycles", 4]
+    )
+    assert code == 1, out + err
+    with sqlite3.connect(db) as con:
+        rows = con.execute("SELECT cycle, status, cause FROM cycles ORDER BY cycle").fetchall()
+    assert [r[1] for r in rows[:2]] == ["pass", "pass"], rows
+    assert rows[-1][1] != "pass" and "illumination red brighter" in rows[-1][2], rows
+
+
+def test_simulated_fake_camera_refuses_a_hardware_trigger(cli, tmp_path):
+    from conftest import copy_station, through_sdk
+
+    controller = {"backend": "simulated", "channels": 2, "pulse": {"width_us": 9000}}
+    path = through_sdk(
+        copy_station(tmp_path, controller=controller),
+        "aravis",
+        acquisition="hardware-trigger",
+        trigger_line="Line0",
+    )
+    code, _, err = cli(["capture", path, "--out", tmp_path / "cap"])
+    assert code == 2 and "hardware-trigger cannot run on Aravis' fake camera" in err
+    assert str(path) in err and not (tmp_path / "cap" / "manifest.json").exists()
+
+
+def test_characterize_over_gige(cli, tmp_path):
+    """The EMVA 1288 series through the fake camera (a uniform target at each exposure
+    set over GVCP): the camera file's system gain within 5 % of the scene camera's
+    0.0255 DN/e⁻ (its 8-bit quantisation biases K by about +2.5 %), 16-bit as streamed."""
+    import yaml
+    from conftest import copy_station, through_sdk
+
+    path = through_sdk(
+        copy_station(tmp_path, characterize={"points": 8, "frames_spatial": 3}), "aravis"
+    )
+    code, out, err = cli(["characterize", path, "--out", tmp_path / "series"])
+    assert code == 0, out + err
+    camera = yaml.safe_load((tmp_path / "series" / "camera.yaml").read_text())["camera"]
+    assert abs(camera["gain"] / 0.0255 - 1) < 0.05 and camera["bit_depth"] == 16, camera

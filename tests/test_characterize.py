@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from conftest import ROOT, copy_station, on_pylon_emulator, run_cli
+from conftest import ROOT, copy_station, run_cli, through_sdk
 
 TRUTH = {"gain": 0.1 * 1.12, "dark_noise": 12.0, "full_well": 30000.0}
 WORLD = {"gain_error": 0.12, "dark_current": 2000.0, "dsnu": 8.0, "prnu": 0.01, "transmission": 0.9}
@@ -245,9 +245,7 @@ def test_characterize_through_pylons_grab_engine(tmp_path):
     pytest.importorskip("pypylon")
     import os
 
-    station = on_pylon_emulator(
-        copy_station(tmp_path, characterize={"points": 8, "frames_spatial": 3})
-    )
+    station = through_sdk(copy_station(tmp_path, characterize={"points": 8, "frames_spatial": 3}))
     out = tmp_path / "series"
     done = subprocess.run(
         [sys.executable, "-m", "inspect_validate", "characterize", str(station), "--out", str(out)],

@@ -184,9 +184,9 @@ def test_full_capture_through_the_emulator_matches_the_simulated_station(tmp_pat
 def test_verify_through_the_emulator_recovers_a_dimmer_light(tmp_path):
     """`verify` end to end on pylon's grab engine and the simulated controller process on a
     pseudo-terminal, against a world whose amber light gives 40 % of its stated irradiance."""
-    from conftest import copy_station, on_pylon_emulator
+    from conftest import copy_station, through_sdk
 
-    path = on_pylon_emulator(copy_station(tmp_path, world={"irradiance": {1: 0.4}}))
+    path = through_sdk(copy_station(tmp_path, world={"irradiance": {1: 0.4}}))
     report = tmp_path / "report"
     done = subprocess.run(
         [sys.executable, "-m", "inspect_validate", "verify", str(path), "--report", str(report)],

@@ -286,27 +286,3 @@ class AravisCamera(NodeMapGrabber):
     def close(self) -> None:
         self._stop()
         self._cam = self._dev = None
-
-
-def main(argv=None) -> None:
-    """Run Aravis' GigE Vision fake camera until killed: ``python -m
-    inspect_validate.camera.grabbers.aravis SERIAL [--interface lo]``. It answers GVCP
-    and streams GVSP on the interface like a real camera (discovered as
-    ``Aravis-Fake-SERIAL``); prints ``ready`` once it listens."""
-    import argparse
-    import signal
-
-    parser = argparse.ArgumentParser(description=main.__doc__.splitlines()[0])
-    parser.add_argument("serial")
-    parser.add_argument("--interface", default="lo")
-    args = parser.parse_args(argv)
-    Aravis, _ = import_aravis()
-    camera = Aravis.GvFakeCamera.new(args.interface, args.serial)
-    if not camera.is_running():
-        raise SystemExit(f"the fake camera could not start on {args.interface}")
-    print("ready", flush=True)
-    signal.sigwait({signal.SIGTERM, signal.SIGINT})
-
-
-if __name__ == "__main__":
-    main()
