@@ -1041,7 +1041,14 @@ def watch(
     if http_port is not None:
         from inspect_validate.watch.serve import StatusServer
 
-        server = StatusServer(http_port)
+        try:
+            server = StatusServer(http_port)
+        except OSError as exc:
+            history.close()
+            raise InputError(
+                f"--http {http_port}: cannot serve the status on 127.0.0.1:{http_port} "
+                f"({exc.strerror or exc}); choose a free port, or 0 for any"
+            ) from None
         click.echo(f"status on http://127.0.0.1:{server.port}/status and /metrics")
     live = sys.stdout.isatty()
     click.echo(

@@ -303,6 +303,81 @@ def test_status_over_http_and_prometheus():
         server.close()
 
 
+def _http(port, request: bytes) -> bytes:
+    import socket
+
+    with socket.create_connection(("127.0.0.1", port), timeout=10) as sock:
+        sock.sendall(request)
+        chunks = []
+        while chunk := sock.recv(65536):
+            chunks.append(chunk)
+    return b"".join(chunks)
+
+
+def test_status_server_answers_only_its_own_host_and_bounds_clients(capfd):
+    """DNS rebinding: a foreign ``Host`` is refused; a query string is the same path; the
+    ``Server`` header names no Python; idle and half-sent connections are cut after
+    TIMEOUT_S, more than MAX_CONNECTIONS at once are closed, a request's bytes are
+    bounded; clients that leave early print nothing on watch's terminal."""
+    import socket
+    import threading
+
+    from inspect_validate.watch import serve
+
+    server = serve.StatusServer(0)
+    server.doc = {"cycle": 1, "status": "pass", "consecutive_failures": 0, "values": []}
+    port = server.port
+    try:
+        ok = _http(port, f"GET /status?x=1 HTTP/1.1\r\nHost: localhost:{port}\r\n\r\n".encode())
+        assert ok.startswith(b"HTTP/1.0 200") and b'"cycle": 1' in ok
+        assert b"Server: inspect-validate\r\n" in ok and b"Python" not in ok
+        evil = _http(port, b"GET /status HTTP/1.1\r\nHost: attacker.example:80\r\n\r\n")
+        assert evil.startswith(b"HTTP/1.0 403") and b"cycle" not in evil
+        other_port = _http(port, b"GET /metrics HTTP/1.1\r\nHost: 127.0.0.1:1\r\n\r\n")
+        assert other_port.startswith(b"HTTP/1.0 403")
+
+        # Half-sent requests with huge headers, then idle ones: bounded in threads and time.
+        before = threading.active_count()
+        socks = []
+        for _ in range(3 * serve.MAX_CONNECTIONS):
+            s = socket.create_connection(("127.0.0.1", port))
+            s.sendall(b"GET /status HTTP/1.1\r\nX: " + b"a" * 60000)
+            socks.append(s)
+        time.sleep(0.5)
+        assert threading.active_count() - before <= serve.MAX_CONNECTIONS
+        for s in socks:  # every one is closed by the server within its time
+            s.settimeout(serve.TIMEOUT_S + 5)
+            try:  # cut at the byte budget, or dropped when full
+                answer = s.recv(65536)
+            except ConnectionResetError:  # closed with our unread bytes in its buffer
+                answer = b""
+            assert answer == b"" or answer.startswith(b"HTTP/1.0 431"), answer
+            s.close()
+        assert threading.active_count() - before <= 1
+        # A request larger than the budget is cut, not read on.
+        big = _http(port, b"GET /status HTTP/1.1\r\n" + b"X: b\r\n" * 4000 + b"\r\n")
+        assert big.startswith(b"HTTP/1.0 431"), big
+        # Clients that close before the answer: nothing on stderr.
+        for _ in range(20):
+            s = socket.create_connection(("127.0.0.1", port))
+            s.sendall(f"GET /status HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n\r\n".encode())
+            s.close()
+        assert _http(port, b"GET /status HTTP/1.0\r\n\r\n").startswith(b"HTTP/1.0 200")
+    finally:
+        server.close()
+    assert capfd.readouterr().err == ""
+
+
+def test_watch_on_a_busy_port_is_a_clear_error(cli, tmp_path, golden):
+    import socket
+
+    with socket.create_server(("127.0.0.1", 0)) as busy:
+        port = busy.getsockname()[1]
+        code, _, err, _ = _watch(cli, tmp_path, golden, [], "--cycles", 1, "--http", port)
+    assert code == 2 and f"--http {port}: cannot serve the status on 127.0.0.1:{port}" in err
+    assert "Traceback" not in err
+
+
 def test_world_schedule_compounds_per_cycle_and_per_hour():
     from inspect_validate.camera.station import World
 

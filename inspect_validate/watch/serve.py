@@ -1,13 +1,28 @@
 """The latest verdict over HTTP on localhost, for the plant's monitoring: ``/status``
-(the status file's JSON) and ``/metrics`` (the Prometheus text format)."""
+(the status file's JSON) and ``/metrics`` (the Prometheus text format).
+
+Only what a local scraper needs, and bounded against a hostile client: requests whose
+``Host`` is not this machine's loopback address are refused (a page in the operator's
+browser could otherwise read ``/status`` through DNS rebinding); a connection gets
+:data:`TIMEOUT_S` to send at most :data:`MAX_REQUEST_BYTES` of request, and at most
+:data:`MAX_CONNECTIONS` are served at once (more are closed at once), so idle or
+half-sent requests hold neither threads nor memory; a client that leaves early is
+not an error on ``watch``'s terminal.
+"""
 
 from __future__ import annotations
 
 import json
 import threading
+import time
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+from urllib.parse import urlsplit
 
-__all__ = ["StatusServer", "prometheus_text"]
+__all__ = ["MAX_CONNECTIONS", "MAX_REQUEST_BYTES", "TIMEOUT_S", "StatusServer", "prometheus_text"]
+
+TIMEOUT_S = 5.0
+MAX_REQUEST_BYTES = 16 * 1024
+MAX_CONNECTIONS = 16
 
 
 def prometheus_text(doc: dict) -> str:
@@ -55,22 +70,88 @@ def prometheus_text(doc: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+class _Budget:
+    """The request stream, ending (as if the client had closed) once the request has
+    used its bytes or its time: the standard library alone allows 100 header lines of
+    64 KB, sent as slowly as the client likes."""
+
+    def __init__(self, raw):
+        self.raw, self.left = raw, MAX_REQUEST_BYTES
+        self.deadline = time.monotonic() + TIMEOUT_S
+        self.cut: int | None = None  # the HTTP status for a request cut short
+
+    def readline(self, limit=-1):
+        if self.left <= 0 or time.monotonic() > self.deadline:
+            self.cut = 431 if self.left <= 0 else 408
+            return b""
+        line = self.raw.readline(min(self.left, limit) if limit >= 0 else self.left)
+        self.left -= len(line)
+        return line
+
+    def __getattr__(self, name):
+        return getattr(self.raw, name)
+
+
+class _Server(ThreadingHTTPServer):
+    daemon_threads = True
+
+    def __init__(self, address, handler):
+        self.slots = threading.BoundedSemaphore(MAX_CONNECTIONS)
+        super().__init__(address, handler)
+
+    def process_request(self, request, client_address):
+        if not self.slots.acquire(blocking=False):
+            self.shutdown_request(request)  # full: closed at once, no thread
+            return
+        super().process_request(request, client_address)
+
+    def process_request_thread(self, request, client_address):
+        try:
+            super().process_request_thread(request, client_address)
+        finally:
+            self.slots.release()
+
+    def handle_error(self, request, client_address):
+        pass  # a client that left early or timed out; the scraper retries
+
+
 class StatusServer:
     """Serve the latest status document on ``127.0.0.1:port`` from a daemon thread
-    (port 0: any free one, see :attr:`port`)."""
+    (port 0: any free one, see :attr:`port`).
+
+    Raises
+    ------
+    OSError
+        The port cannot be bound (in use, or privileged).
+    """
 
     def __init__(self, port: int):
         self.doc: dict | None = None
         server = self
 
         class Handler(BaseHTTPRequestHandler):
+            timeout = TIMEOUT_S  # an idle connection is closed after this
+
+            def setup(self):
+                super().setup()
+                self.rfile = _Budget(self.rfile)
+
+            def version_string(self):
+                return "inspect-validate"  # not the Python version
+
             def do_GET(self):
                 doc = server.doc
-                if self.path.rstrip("/") not in ("/status", "/metrics"):
+                path = urlsplit(self.path).path.rstrip("/")
+                host = self.headers.get("Host")
+                if self.rfile.cut:
+                    self._send(self.rfile.cut, "text/plain", "refused: request too large or slow\n")
+                elif host is not None and host.lower() not in server.hosts:
+                    self._send(403, "text/plain", "refused: Host must be this machine's loopback\n")
+                elif path not in ("/status", "/metrics"):
                     self._send(404, "text/plain", "not found: /status or /metrics\n")
                 elif doc is None:
                     self._send(503, "text/plain", "no cycle committed yet\n")
-                elif self.path.rstrip("/") == "/status":
+                elif path == "/status":
                     from inspect_validate.report.jsonfile import json_ready
 
                     self._send(200, "application/json", json.dumps(json_ready(doc)) + "\n")
@@ -88,8 +169,9 @@ class StatusServer:
             def log_message(self, *args):  # the watch's own output is the log
                 pass
 
-        self.httpd = ThreadingHTTPServer(("127.0.0.1", port), Handler)
+        self.httpd = _Server(("127.0.0.1", port), Handler)
         self.port = self.httpd.server_address[1]
+        self.hosts = {f"{name}:{self.port}" for name in ("127.0.0.1", "localhost")}
         threading.Thread(target=self.httpd.serve_forever, daemon=True).start()
 
     def close(self) -> None:
