@@ -8,7 +8,10 @@ Layout of ``--out DIR``::
     <step>/partial-<time>/      frames of an interrupted step, kept, never deleted
 
 Each file is written to a temporary name and renamed, so a file that exists is
-complete; a frame counts once its sidecar exists.
+complete; a frame counts once its sidecar exists. The manifest records each step's
+frame count and every frame file's SHA-256, so that :func:`audit_capture` can tell
+a capture as written from one changed since (a frame deleted, added, duplicated,
+replaced by another step's, or edited).
 
 Frames are encoded and written on one background thread, in order, while the
 next frames are grabbed (:meth:`CaptureStore.save_later`); at most
@@ -20,6 +23,7 @@ writes every frame grabbed before it.
 
 from __future__ import annotations
 
+import hashlib
 import io
 import json
 import threading
@@ -33,15 +37,15 @@ from inspect_validate import __version__
 from inspect_validate.errors import InputError
 from inspect_validate.files import atomic_write
 
-__all__ = ["QUEUED_FRAMES", "CaptureStore"]
+__all__ = ["QUEUED_FRAMES", "CaptureStore", "audit_capture", "file_sha256", "read_manifest"]
 
 QUEUED_FRAMES = 8
 """Grabbed frames that may wait for the writer thread."""
 
 
-def _read_manifest(path: Path) -> dict:
-    """A capture's manifest, checked enough to resume from (a damaged one is refused
-    naming the file: the frames beside it stay as they are)."""
+def read_manifest(path: Path) -> dict:
+    """A capture's manifest, checked enough to resume or measure from (a damaged one is
+    refused naming the file: the frames beside it stay as they are)."""
     try:
         manifest = json.loads(path.read_text())
     except (OSError, UnicodeDecodeError, ValueError, RecursionError) as exc:
@@ -50,8 +54,8 @@ def _read_manifest(path: Path) -> dict:
     if not isinstance(steps, dict) or not all(isinstance(v, dict) for v in steps.values()):
         why = manifest if isinstance(manifest, Exception) else "no steps mapping of step records"
         raise InputError(
-            f"the capture's manifest is damaged ({why}); its frames are kept — capture into a "
-            "new --out folder (measure and verify still read the frames' sidecars)",
+            f"the capture's manifest is damaged ({why}); its frames are kept — capture again "
+            "into a new --out folder ('measure' still reads the frames themselves)",
             source=str(path),
         )
     return manifest
@@ -64,10 +68,11 @@ class CaptureStore:
         self.folder = Path(folder)
         self._writer: ThreadPoolExecutor | None = None  # started with the first queued frame
         self._slots = threading.BoundedSemaphore(QUEUED_FRAMES)
+        self._lock = threading.Lock()  # the writer thread adds frames while steps are saved
         self._pending: list[Future] = []
         self.manifest_path = self.folder / "manifest.json"
         if self.manifest_path.exists():
-            manifest = _read_manifest(self.manifest_path)
+            manifest = read_manifest(self.manifest_path)
             if manifest.get("station_sha256") != station_sha256:
                 raise InputError(
                     "this folder holds a capture of a different station file; use a new --out folder or the original station file",
@@ -94,7 +99,9 @@ class CaptureStore:
             }
 
     def _save_manifest(self) -> None:
-        atomic_write(self.manifest_path, json.dumps(self.manifest, indent=2).encode())
+        with self._lock:
+            text = json.dumps(self.manifest, indent=2)
+        atomic_write(self.manifest_path, text.encode())
 
     def record(self, key: str, value) -> None:
         """Add ``key`` to the manifest (e.g. the camera and the settings it lacks).
@@ -140,7 +147,7 @@ class CaptureStore:
             for p in old:
                 p.rename(aside / p.name)
         folder.mkdir(parents=True, exist_ok=True)
-        self.manifest["steps"][step] = {"complete": False, "frames": 0, **info}
+        self.manifest["steps"][step] = {"complete": False, "frames": 0, "sha256": {}, **info}
         self._save_manifest()
         return folder
 
@@ -161,11 +168,15 @@ class CaptureStore:
         tifffile.imwrite(
             encoded, frame.data, photometric="minisblack", description=json.dumps(meta)
         )
-        atomic_write(tif, encoded.getvalue())
+        data = encoded.getvalue()
+        atomic_write(tif, data)
         atomic_write(tif.with_suffix(".json"), json.dumps(meta, indent=2).encode())
-        # The sidecar is the record of a saved frame; the manifest's count is
-        # written with the step's end, not rewritten (and fsynced) per frame.
-        self.manifest["steps"][step]["frames"] = index
+        # The sidecar is the record of a saved frame; the manifest's count and hashes
+        # are written with the step's end, not rewritten (and fsynced) per frame.
+        with self._lock:
+            record = self.manifest["steps"][step]
+            record["frames"] = index
+            record.setdefault("sha256", {})[tif.name] = hashlib.sha256(data).hexdigest()
         return tif
 
     def save_later(self, step: str, index: int, frame: Frame, info: dict) -> None:
@@ -212,3 +223,106 @@ class CaptureStore:
     def fail(self, step: str, message: str) -> None:
         self.manifest["steps"].setdefault(step, {})["error"] = message
         self._save_manifest()
+
+
+def file_sha256(path: Path) -> str:
+    """The SHA-256 of a file's bytes, read in blocks (a 20 MP frame is 40 MB)."""
+    with open(path, "rb") as f:
+        return hashlib.file_digest(f, "sha256").hexdigest()
+
+
+def audit_capture(folder: Path, manifest: dict, steps) -> dict[str, str]:
+    """Check that the frames of ``steps`` in a capture ``folder`` are the ones written.
+
+    Each step's frame files must be those its manifest record counts and hashes, each
+    with its sidecar, both naming the step and the file, the TIFF's own description
+    agreeing with the sidecar (frame id, time, step, light), and no frame twice (by
+    its bytes, or by its camera frame id and timestamp). Captures written before
+    hashes were recorded are checked for all but the hashes.
+
+    Returns
+    -------
+    dict
+        Each frame file's SHA-256 (``"step/frame_0001.tif"`` → hex), for comparing
+        captures with each other.
+
+    Raises
+    ------
+    InputError
+        Naming the capture folder and every disagreement found, and what to do.
+    """
+    import tifffile
+
+    problems, hashes, seen, stamps = [], {}, {}, {}
+    for step in steps:
+        record = manifest.get("steps", {}).get(step, {})
+        recorded = record.get("sha256")
+        files = sorted((folder / step).glob("frame_*.tif"))
+        names = [p.name for p in files]
+        count = record.get("frames")
+        if isinstance(count, int) and count != len(files):
+            problems.append(
+                f"{step}: the manifest records {count} frames, the folder holds {len(files)}"
+            )
+        if isinstance(recorded, dict) and recorded:
+            missing = sorted(set(recorded) - set(names))
+            extra = sorted(set(names) - set(recorded))
+            if missing:
+                problems.append(f"{step}: {', '.join(missing)} recorded but missing")
+            if extra:
+                problems.append(f"{step}: {', '.join(extra)} not written by this capture")
+        for path in files:
+            where = f"{step}/{path.name}"
+            digest = file_sha256(path)
+            hashes[where] = digest
+            if isinstance(recorded, dict) and recorded.get(path.name) not in (None, digest):
+                problems.append(f"{where} changed since it was written (SHA-256 differs)")
+            if digest in seen:
+                problems.append(f"{where} is the same frame as {seen[digest]} (identical bytes)")
+            seen.setdefault(digest, where)
+            sidecar = path.with_suffix(".json")
+            try:
+                meta = json.loads(sidecar.read_text())
+            except (OSError, UnicodeDecodeError, ValueError, RecursionError):
+                problems.append(f"{where}: its sidecar {sidecar.name} is missing or not JSON")
+                continue
+            if not isinstance(meta, dict):
+                problems.append(f"{where}: its sidecar is not a JSON object")
+                continue
+            if meta.get("step", step) != step or meta.get("file", path.name) != path.name:
+                problems.append(f"{where}: its sidecar is of {meta.get('step')}/{meta.get('file')}")
+            try:
+                with tifffile.TiffFile(path) as tif:
+                    text = tif.pages[0].description
+                described = json.loads(text) if text.startswith("{") else None
+            except Exception:  # tifffile raises many kinds on a damaged file
+                problems.append(f"{where} is not a readable TIFF")
+                continue
+            if isinstance(described, dict):
+                differ = [
+                    k
+                    for k in ("step", "frame_id", "timestamp_ns", "light_setting")
+                    if k in described and described.get(k) != meta.get(k)
+                ]
+                if differ:
+                    problems.append(
+                        f"{where}: the TIFF's description and the sidecar disagree on "
+                        f"{', '.join(differ)} (the TIFF says step {described.get('step')!r})"
+                    )
+            stamp = (meta.get("device"), meta.get("frame_id"), meta.get("timestamp_ns"))
+            if stamp[1] is not None and stamp[2] and stamp in stamps:
+                problems.append(
+                    f"{where} is the same camera frame as {stamps[stamp]} (frame id {stamp[1]}, "
+                    f"timestamp {stamp[2]})"
+                )
+            stamps.setdefault(stamp, where)
+    if problems:
+        shown = "; ".join(problems[:8]) + (
+            f"; and {len(problems) - 8} more" if len(problems) > 8 else ""
+        )
+        raise InputError(
+            f"the capture is not as it was written: {shown}. Measure only what the camera "
+            "wrote: capture again (or restore the folder from its copy)",
+            source=str(folder),
+        )
+    return hashes

@@ -187,6 +187,17 @@ def train(station, captures: list[Path], *, regions=None) -> Golden:
         measure_capture(station, f, rois=rois, comparisons=comparisons, limits=limits, kde="always")
         for f in captures
     ]
+    first_seen = {}
+    for folder, run in zip(captures, runs, strict=True):
+        for where, digest in run.sha256.items():
+            other = first_seen.setdefault(digest, (folder, where))
+            if other[0] != folder:
+                raise InputError(
+                    f"{where} here is the same frame as {other[1]} in {other[0]}: the same "
+                    "capture given twice would train a spread of zero; train on independent "
+                    "captures (--repeats N captures them)",
+                    source=str(folder),
+                )
 
     illuminations = {}
     for ill in station.illuminations:

@@ -50,6 +50,7 @@ class Capture:
     measurements: dict  # illumination → Measurement
     dark: object | None  # Measurement of the dark stack, or None
     saturation_level: float | None = None  # DN, :func:`saturation_level`
+    sha256: dict = field(default_factory=dict)  # "step/frame_0001.tif" → hex, as audited
 
 
 @dataclass(frozen=True)
@@ -80,14 +81,21 @@ class Verification:
         return all(c.passed for c in self.checks)
 
 
-def read_capture(folder: Path, station) -> tuple[dict[str, list[Path]], list[Path], dict]:
-    """Frame files of each illumination and of the darks in a capture folder, and its manifest.
+def read_capture(
+    folder: Path, station
+) -> tuple[dict[str, list[Path]], list[Path], dict, dict[str, str]]:
+    """Frame files of each illumination and of the darks in a capture folder, its
+    manifest, and each frame file's SHA-256 — after checking that the frames are those
+    the capture wrote (:func:`~inspect_validate.camera.storage.audit_capture`).
 
     Raises
     ------
     InputError
-        No manifest, or an illumination of the station missing or incomplete.
+        No manifest, an illumination of the station missing or incomplete, or frames
+        changed since they were written (each disagreement named).
     """
+    from inspect_validate.camera.storage import audit_capture, read_manifest
+
     folder = Path(folder)
     manifest_path = folder / "manifest.json"
     if not manifest_path.is_file():
@@ -96,11 +104,8 @@ def read_capture(folder: Path, station) -> tuple[dict[str, list[Path]], list[Pat
             "or leave out --frames to capture now",
             source=str(folder),
         )
-    try:
-        manifest = json.loads(manifest_path.read_text())
-    except ValueError as exc:
-        raise InputError(f"manifest.json is not JSON ({exc})", source=str(folder)) from None
-    steps = manifest.get("steps", {}) if isinstance(manifest, dict) else {}
+    manifest = read_manifest(manifest_path)
+    steps = manifest["steps"]
     frames = {}
     for ill in station.illuminations:
         files = sorted((folder / ill.name).glob("frame_*.tif"))
@@ -116,7 +121,8 @@ def read_capture(folder: Path, station) -> tuple[dict[str, list[Path]], list[Pat
         if steps.get("dark", {}).get("complete")
         else []
     )
-    return frames, dark, manifest
+    hashes = audit_capture(folder, manifest, [*frames, *(["dark"] if dark else [])])
+    return frames, dark, manifest, hashes
 
 
 def station_regions(station):
@@ -160,7 +166,7 @@ def measure_capture(
     """
     from inspect_validate.measure import measure_files
 
-    files, dark_files, manifest = read_capture(folder, station)
+    files, dark_files, manifest, hashes = read_capture(folder, station)
     level = saturation_level(next(iter(files.values()))[0], camera)
     measurements = {
         name: measure_files(
@@ -180,7 +186,7 @@ def measure_capture(
         if dark_files
         else None
     )
-    return Capture(files, dark_files, manifest, measurements, dark, level)
+    return Capture(files, dark_files, manifest, measurements, dark, level, hashes)
 
 
 def saturation_level(frame: Path, camera=None) -> float | None:

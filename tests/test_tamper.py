@@ -1,0 +1,119 @@
+"""Captures changed after they were written: `verify` and `train` refuse them (exit 2),
+naming the folder and what disagrees, instead of giving a verdict on other frames
+than the camera's. Each frame's SHA-256 is in the manifest; sidecars, the TIFFs' own
+descriptions and the counts are cross-checked."""
+
+import json
+import shutil
+
+import pytest
+from conftest import copy_station, run_cli
+
+
+@pytest.fixture(scope="module")
+def captured(tmp_path_factory):
+    """A station copy and one complete capture of it."""
+    folder = tmp_path_factory.mktemp("tamper")
+    path = copy_station(folder)
+    assert run_cli(["capture", path, "--out", folder / "cap"]) == 0
+    return path, folder / "cap"
+
+
+def _copy(captured, tmp_path):
+    path, cap = captured
+    shutil.copytree(cap, tmp_path / "cap")
+    return path, tmp_path / "cap"
+
+
+def _delete(cap):
+    (cap / "amber" / "frame_0003.tif").unlink()
+    (cap / "amber" / "frame_0003.json").unlink()
+
+
+def _recount(cap):  # a step marked complete with fewer frames, its manifest edited to match
+    _delete(cap)
+    manifest = json.loads((cap / "manifest.json").read_text())
+    manifest["steps"]["amber"]["frames"] = 3
+    (cap / "manifest.json").write_text(json.dumps(manifest))
+
+
+def _duplicate(cap):
+    for ext in ("tif", "json"):
+        shutil.copy(cap / "amber" / f"frame_0001.{ext}", cap / "amber" / f"frame_0002.{ext}")
+
+
+def _red_in_amber(cap):  # the TIFF alone: its sidecar still says amber
+    shutil.copy(cap / "red" / "frame_0002.tif", cap / "amber" / "frame_0002.tif")
+
+
+def _red_with_sidecar(cap):
+    for ext in ("tif", "json"):
+        shutil.copy(cap / "red" / f"frame_0002.{ext}", cap / "amber" / f"frame_0002.{ext}")
+
+
+def _flip(cap):
+    frame = cap / "dark" / "frame_0004.tif"
+    data = bytearray(frame.read_bytes())
+    data[-100] ^= 0x10
+    frame.write_bytes(bytes(data))
+
+
+def _added(cap):
+    for ext in ("tif", "json"):
+        shutil.copy(cap / "amber" / f"frame_0004.{ext}", cap / "amber" / f"frame_0005.{ext}")
+
+
+@pytest.mark.parametrize(
+    ("tamper", "named"),
+    [
+        (_delete, "amber: the manifest records 4 frames, the folder holds 3"),
+        (_recount, "amber: frame_0003.tif recorded but missing"),
+        (_duplicate, "amber/frame_0002.tif is the same frame as amber/frame_0001.tif"),
+        (_red_in_amber, "amber/frame_0002.tif: the TIFF's description and the sidecar disagree"),
+        (_red_with_sidecar, "amber/frame_0002.tif: its sidecar is of red/frame_0002.tif"),
+        (_flip, "dark/frame_0004.tif changed since it was written"),
+        (_added, "amber: frame_0005.tif not written by this capture"),
+    ],
+)
+def test_verify_refuses_a_tampered_capture_naming_what_disagrees(
+    cli, tmp_path, captured, tamper, named
+):
+    path, cap = _copy(captured, tmp_path)
+    tamper(cap)
+    code, out, err = cli(["verify", path, "--frames", cap])
+    assert code == 2, out + err
+    assert named in err and str(cap) in err and "PASS" not in out
+
+
+def test_the_untouched_capture_and_one_without_hashes_pass(cli, tmp_path, captured):
+    """A capture made before hashes were recorded (no ``sha256`` in the manifest) is
+    still read: a valid capture is never refused."""
+    path, cap = _copy(captured, tmp_path)
+    code, out, err = cli(["verify", path, "--frames", cap])
+    assert code == 0, out + err
+    manifest = json.loads((cap / "manifest.json").read_text())
+    assert all(len(step["sha256"]) == step["frames"] for step in manifest["steps"].values())
+    for step in manifest["steps"].values():
+        del step["sha256"]
+    (cap / "manifest.json").write_text(json.dumps(manifest))
+    code, out, err = cli(["verify", path, "--frames", cap])
+    assert code == 0, out + err
+
+
+def test_train_refuses_the_same_capture_twice(cli, tmp_path, captured):
+    path, cap = _copy(captured, tmp_path)
+    shutil.copytree(cap, tmp_path / "again")
+    code, out, err = cli(
+        [
+            "train",
+            path,
+            "--out",
+            tmp_path / "g.json",
+            "--frames",
+            cap,
+            "--frames",
+            tmp_path / "again",
+        ]
+    )
+    assert code == 2 and "the same capture given twice" in err, out + err
+    assert not (tmp_path / "g.json").exists()
