@@ -117,18 +117,26 @@ def measure(
     classification error ε_tot (37), parametric and kernel-density (Table 3).
     Exits 1 when a class has more saturated or zero pixels than allowed.
     """
-    from inspect_validate.comparisons import ComparisonsSpec
+    from inspect_validate.comparisons import Comparisons, ComparisonsSpec
     from inspect_validate.measure import Limits, measure_files
     from inspect_validate.report import format_measurement, measurement_document, write_json
+    from inspect_validate.roi import read_rois
 
     _outputs(files=[json_path])
     spec = ComparisonsSpec(groups=list(comparison_texts) or "default", weights=weights)
+    roi_set = read_rois(rois)
+    # Checked against the ROI file's classes here, so that a mistake names the option.
+    comparisons = Comparisons.of(
+        [c.name for c in roi_set.classes],
+        spec,
+        source="--comparison" if comparison_texts else "--weights",
+    )
     limits = Limits(max_saturated=max_saturated, max_zero=max_zero)
     result = measure_files(
         frames,
-        rois,
+        roi_set,
         dark=dark,
-        comparisons=spec,
+        comparisons=comparisons,
         saturation_level=saturation_level,
         limits=limits,
         kde="never" if no_kde else kde,
@@ -136,6 +144,8 @@ def measure(
     click.echo(format_measurement(result, saturation_limit=max_saturated))
     for reason in result.skipped:
         click.echo(f"skipped: {reason}", err=True)
+    for warning in result.warnings:
+        click.echo(f"warning: {warning}", err=True)
     if json_path:
         write_json(measurement_document(result, limits=limits), json_path)
         click.echo(f"\nwrote {json_path}")
@@ -1240,6 +1250,9 @@ def main(argv=None):
 
     try:
         signal.signal(signal.SIGTERM, _terminated)
+        # Ctrl-C too, even where it was inherited as ignored (a job started with '&' from
+        # a script): an interrupted capture writes every grabbed frame and its manifest.
+        signal.signal(signal.SIGINT, signal.default_int_handler)
     except ValueError:  # not the main thread (an embedding program): its own handling
         pass
     try:

@@ -201,4 +201,28 @@ def load_yaml(path: str | Path, model: type[M], *, what: str) -> M:
     try:
         return model.model_validate(doc)
     except ValidationError as exc:
-        raise InputError(explain(exc), source=str(path)) from None
+        other = _other_kind(doc, model, what)
+        raise InputError(other or explain(exc), source=str(path)) from None
+
+
+# Top-level keys that only one kind of file has: a file of another kind given in its
+# place is named as such, rather than explained as a dozen wrong fields.
+_SIGNATURES = (
+    ("station file", ("controller", "illuminations")),
+    ("scene file", ("lights", "cameras", "optics")),
+    ("camera file", ("measured",)),
+)
+
+
+def _other_kind(doc: dict, model, what: str) -> str | None:
+    for kind, keys in _SIGNATURES:
+        found = [k for k in keys if k in doc and k not in model.model_fields]
+        if kind != what and found:
+            hint = ""
+            if kind == "station file" and isinstance(doc.get("scene"), str):
+                hint = f" (its scene file is {doc['scene']}, relative to it)"
+            return (
+                f"this is a {kind} (it has {', '.join(found)}), where the command expects "
+                f"the {what}{hint}"
+            )
+    return None

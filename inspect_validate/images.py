@@ -135,15 +135,19 @@ def _read_tiff(path: Path) -> tuple[np.ndarray, bool]:
         return stack, colour
 
 
-def _capture_step(path: Path) -> str | None:
-    """The capture step recorded in a frame's JSON sidecar, if it has one."""
+_SETTING = ("exposure_us", "gain_db", "pixel_format")
+
+
+def _capture_record(path: Path) -> dict | None:
+    """A captured frame's JSON sidecar (step and camera settings), if it has one."""
     sidecar = path.with_suffix(".json")
     if path.suffix.lower() not in _TIFF or not sidecar.is_file():
         return None
     try:
-        return json.loads(sidecar.read_text()).get("step")
-    except (OSError, ValueError):
+        meta = json.loads(sidecar.read_text())
+    except (OSError, ValueError, RecursionError):
         return None
+    return meta if isinstance(meta, dict) else None
 
 
 def _monochrome(image: np.ndarray, path: Path, *, colour: bool | None = None) -> np.ndarray:
@@ -203,18 +207,28 @@ def read_frames(paths) -> np.ndarray:
     # Frames are copied into one preallocated stack as they are read: peak memory is the
     # stack plus one file, not twice the stack.
     stack, n, first = None, 0, None
-    steps: dict[str, Path] = {}
+    recorded: tuple[Path, dict] | None = None  # the first frame with a capture sidecar
     paths = expand_paths(paths)
     for i, path in enumerate(paths):
-        step = _capture_step(path)
-        if step is not None:
-            steps.setdefault(step, path)
-            if len(steps) > 1:
-                (a, pa), (b, pb) = list(steps.items())[:2]
+        meta = _capture_record(path)
+        if meta is not None:
+            recorded = recorded or (path, meta)
+            (pa, a), b = recorded, meta
+            if b.get("step") != a.get("step"):
                 raise InputError(
-                    f"frames of capture step {b!r} mixed with step {a!r} ({pa}): one stack is one illumination; "
-                    "give dark frames with --dark",
-                    source=str(pb),
+                    f"frames of capture step {b.get('step')!r} mixed with step {a.get('step')!r} "
+                    f"({pa}): one stack is one illumination; give dark frames with --dark",
+                    source=str(path),
+                )
+            differ = [k for k in _SETTING if b.get(k) != a.get(k)]
+            if differ:
+                raise InputError(
+                    "taken at "
+                    + ", ".join(f"{k} {b.get(k)}" for k in differ)
+                    + f", but {pa} at "
+                    + ", ".join(f"{k} {a.get(k)}" for k in differ)
+                    + ": a stack must be one camera setting",
+                    source=str(path),
                 )
         image = read_image(path)
         frames = image if image.ndim == 3 else image[np.newaxis]

@@ -135,7 +135,8 @@ class Measurement:
 
     ``weighting`` says how groups of several classes were weighted
     (``equal``, ``pixels`` or ``priors``); ``inputs`` names what was read;
-    ``skipped`` says what was not computed, and why.
+    ``skipped`` says what was not computed, and why; ``warnings``, what the frames
+    themselves make doubtful (:func:`unsteady_classes`).
     """
 
     classes: tuple[ClassMeasurement, ...]
@@ -144,6 +145,7 @@ class Measurement:
     violations: tuple[str, ...] = ()
     inputs: dict = field(default_factory=dict)
     skipped: tuple[str, ...] = ()
+    warnings: tuple[str, ...] = ()
 
     def comparison(self, text: str) -> Comparison:
         """The comparison written ``text`` (``"A vs B,C"``)."""
@@ -353,4 +355,34 @@ def measure_files(
         "n_frames": stack.shape[0],
         "dtype": str(stack.dtype),
     }
-    return replace(result, violations=limits.violations(result.classes), inputs=inputs)
+    return replace(
+        result,
+        violations=limits.violations(result.classes),
+        inputs=inputs,
+        warnings=unsteady_classes(classes),
+    )
+
+
+def unsteady_classes(classes: tuple[ClassMeasurement, ...]) -> tuple[str, ...]:
+    """Classes whose frames differ from each other more than their temporal noise allows:
+    a stack of more than one setting or light (files without a capture's sidecars, whose
+    settings cannot be compared), or a light that flickers.
+
+    The spatial variance s²_y.spatial = s²(ȳ) − σ²_t/F (EMVA 1288) of a steady stack
+    scatters about a value ≥ 0 with a standard deviation of about
+    (σ²_t/F)·√(2F/(n(F − 1))) when the temporal noise dominates (n pixels, F frames);
+    an estimate below −6 of them is flagged (chance: about 1e-9 per class).
+    """
+    out = []
+    for c in classes:
+        t, s, n, f = c.temporal_variance, c.spatial_variance, c.n_pixels, c.n_frames
+        if t is None or s is None or f < 2 or n < 2 or t <= 0:
+            continue
+        if s < -6 * (t / f) * (2 * f / (n * (f - 1))) ** 0.5:
+            out.append(
+                f"class {c.name}: the frames differ from each other more than their noise "
+                f"allows (spatial variance {s:.4g} DN², below 0; temporal {t:.4g} DN²): "
+                "frames of different settings or lights in one stack, or a flickering light? "
+                "Measure one setting at a time"
+            )
+    return tuple(out)

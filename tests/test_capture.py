@@ -446,10 +446,13 @@ def test_a_frame_that_cannot_be_written_stops_the_capture_naming_the_file(tmp_pa
     assert not list(out.rglob("*.tmp")) and not list(out.rglob("frame_*"))
 
 
-def test_an_interrupted_capture_keeps_every_frame_it_grabbed_complete(tmp_path):
+@pytest.mark.parametrize("inherited", ["default", "ignored"])
+def test_an_interrupted_capture_keeps_every_frame_it_grabbed_complete(tmp_path, inherited):
     """SIGINT once the first frame is on disk: exit 130, and every frame file that exists
     is whole, with its sidecar (frames queued for the writer thread are written before
-    the process ends); --resume then finishes the capture."""
+    the process ends); --resume then finishes the capture. The same when the capture
+    inherited SIGINT as ignored (a job started with '&' from a script, or a test
+    runner run in the background)."""
     import signal
     import subprocess
     import sys
@@ -466,6 +469,9 @@ def test_an_interrupted_capture_keeps_every_frame_it_grabbed_complete(tmp_path):
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        preexec_fn=lambda: signal.signal(
+            signal.SIGINT, signal.SIG_IGN if inherited == "ignored" else signal.SIG_DFL
+        ),
     )
     deadline = time.monotonic() + 60
     while not list(out.glob("amber/frame_*.json")) and time.monotonic() < deadline:

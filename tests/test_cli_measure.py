@@ -337,3 +337,42 @@ def test_spatial_variance_with_darks_leaves_out_the_dark_means_noise(n_dark):
     se = np.sqrt(2 / mask.sum()) * (4 + 9 / 8 + 16 / n_dark)
     assert c.spatial_variance == pytest.approx(4.0, abs=5 * se)
     assert abs(c.spatial_variance + 16 / n_dark - 4.0) > 5 * se  # the bias it had
+
+
+def test_a_stack_of_two_lights_is_flagged(paperboard, tmp_path, capsys):
+    """The chapter's two frames (different lights, no sidecars to compare) stacked: the
+    frames differ beyond their noise, a warning per class it shows in (text and JSON);
+    each frame alone, and a stack of one capture step, give none."""
+    frames = [paperboard / "optimized.png", paperboard / "non_optimized.png"]
+    doc = tmp_path / "m.json"
+    assert run(["measure", *frames, "--rois", paperboard / "rois.yaml", "--json", doc]) == 0
+    err = capsys.readouterr().err
+    assert "warning: class A: the frames differ from each other more than their noise" in err
+    assert json.loads(doc.read_text())["warnings"][0].startswith("class A:")
+    assert run(["measure", frames[0], "--rois", paperboard / "rois.yaml"]) == 0
+    assert "warning" not in capsys.readouterr().err
+
+
+def test_captured_frames_of_other_settings_are_refused(tmp_path, capsys):
+    from conftest import copy_station, run_cli
+
+    path = copy_station(tmp_path)
+    assert run_cli(["capture", path, "--out", tmp_path / "cap"]) == 0
+    rois = tmp_path / "rois.yaml"
+    assert run(["measure", tmp_path / "cap" / "amber", "--rois", rois]) == 0
+    assert "warning" not in capsys.readouterr().err
+    sidecar = tmp_path / "cap" / "amber" / "frame_0003.json"
+    meta = json.loads(sidecar.read_text())
+    sidecar.write_text(json.dumps({**meta, "exposure_us": 4000.0}))
+    assert run(["measure", tmp_path / "cap" / "amber", "--rois", rois]) == 2
+    err = capsys.readouterr().err
+    assert "frame_0003.tif: taken at exposure_us 4000.0, but" in err
+    assert "at exposure_us 8000.0: a stack must be one camera setting" in err
+
+
+def test_a_bad_comparison_on_the_command_line_names_the_option(paperboard, capsys):
+    argv = ["measure", paperboard / "optimized.png", "--rois", paperboard / "rois.yaml"]
+    assert run([*argv, "--comparison", "A vs Q"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: --comparison:") and "no class 'Q'" in err
+    assert "rois.yaml" not in err

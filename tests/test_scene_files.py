@@ -269,3 +269,21 @@ def test_default_grid_leaves_out_what_no_light_lens_and_camera_see(tmp_path, cap
     declared = scene(optics="[{file: t.csv}]", extra="wavelength: {start: 380, stop: 780}")
     declared = read_scene(write(tmp_path, declared))
     assert (declared.grid[0], declared.grid[-1], declared.skipped) == (380, 780, ())
+
+
+@pytest.mark.parametrize(
+    ("command", "path", "kind", "expects"),
+    [
+        ("predict", "station/station.yaml", "station file", "scene file"),
+        ("verify", "scenes/paperboard/scene.yaml", "scene file", "station file"),
+    ],
+)
+def test_a_file_of_another_kind_is_named_as_such(capsys, command, path, kind, expects):
+    """A station file given to predict (or a scene to verify) is one message saying
+    what it is, not a dozen schema errors."""
+    from conftest import ROOT
+
+    assert run([command, ROOT / "sample_images" / path]) == 2
+    err = capsys.readouterr().err
+    assert f"this is a {kind}" in err and f"where the command expects the {expects}" in err
+    assert err.count("\n") == 1

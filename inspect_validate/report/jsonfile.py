@@ -88,6 +88,7 @@ def measurement_document(m: Measurement, *, limits) -> dict:
         "classes": classes,
         "comparisons": comparisons,
         "skipped": list(m.skipped),
+        "warnings": list(m.warnings),
     }
 
 
