@@ -1046,7 +1046,21 @@ def watch(
     monitor = DriftMonitor(
         plan.golden, dark_offset=plan.model.camera.dark_offset, snr_floor_db=drift.snr_floor_db
     )
-    history = History(db_path, station=str(st.path.resolve()), golden=str(golden_file))
+    from inspect_validate.files import exclusive_lock
+
+    # Two watches on one folder would set each other's cycles aside, even with two --db.
+    folder_lock = exclusive_lock(
+        folder / ".watch.lock",
+        holder="watch",
+        what="cycles into this folder",
+        remedy="another --out",
+        source=folder,
+    )
+    try:
+        history = History(db_path, station=str(st.path.resolve()), golden=str(golden_file))
+    except BaseException:
+        folder_lock.close()
+        raise
     server = None
     if http_port is not None:
         from inspect_validate.watch.serve import StatusServer
@@ -1055,6 +1069,7 @@ def watch(
             server = StatusServer(http_port)
         except OSError as exc:
             history.close()
+            folder_lock.close()
             raise InputError(
                 f"--http {http_port}: cannot serve the status on 127.0.0.1:{http_port} "
                 f"({exc.strerror or exc}); choose a free port, or 0 for any"
@@ -1092,6 +1107,7 @@ def watch(
         )
     finally:
         history.close()
+        folder_lock.close()
         if server is not None:
             server.close()
     if stopped:

@@ -87,3 +87,37 @@ def atomic_write(path: str | Path, data: bytes) -> Path:
         Path(tmp).unlink(missing_ok=True)
         raise
     return path
+
+
+def exclusive_lock(lock_path: Path, *, holder: str, what: str, remedy: str, source: Path):
+    """An exclusive ``flock`` on ``lock_path`` (created if need be), held until the
+    returned file is closed, with this process's id written in it; a second taker is
+    refused at once naming the first.
+
+    Raises
+    ------
+    InputError
+        The lock is held (naming the holder's pid, ``what`` it guards and ``remedy``),
+        or the lock file cannot be made; naming ``source``.
+    """
+    import fcntl
+
+    try:
+        handle = open(lock_path, "a+")
+    except OSError as exc:
+        raise InputError(f"cannot lock {what} ({exc.strerror})", source=str(source)) from None
+    try:
+        fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        handle.seek(0)
+        pid = handle.read().strip() or "another process"
+        handle.close()
+        raise InputError(
+            f"another {holder} ({pid}) is writing {what}; stop it first, or give {remedy}",
+            source=str(source),
+        ) from None
+    handle.seek(0)
+    handle.truncate()
+    handle.write(f"pid {os.getpid()}")
+    handle.flush()
+    return handle

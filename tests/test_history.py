@@ -5,10 +5,14 @@ trends into its report, and a history that is missing, foreign or damaged is ref
 import csv
 import io
 import math
+import re
 import shutil
 import sqlite3
+import subprocess
+import sys
 from contextlib import redirect_stdout
 from datetime import datetime
+from pathlib import Path
 from types import SimpleNamespace
 
 import pytest
@@ -359,3 +363,66 @@ def test_a_history_that_cannot_be_written_is_a_clear_error(tmp_path):
     with pytest.raises(InputError, match=r"cannot write cycle 1 to the history .*cycle-000001"):
         history.commit(record, {})
     history.close()
+
+
+def _small_station(folder):
+    """The shipped station at 64 × 48 pixels (its frames a few KB), its ROIs redrawn."""
+    from inspect_validate.model.render import class_bands
+
+    path = copy_station(folder)
+    doc = yaml.safe_load(path.read_text())
+    doc["camera"].update(width=64, height=48)
+    path.write_text(yaml.safe_dump(doc, sort_keys=False))
+    bands = class_bands(("A", "B", "C"), height=48, width=64, gap=6)
+    (folder / "rois.yaml").write_text(
+        "classes:\n" + "".join(f"  {k}:\n    - rect: {list(v)}\n" for k, v in bands.items())
+    )
+    return path
+
+
+def _limited_watch(path, golden, db, limit_kb, cycles=60):
+    import resource
+
+    def limit():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit_kb * 1024, limit_kb * 1024))
+
+    args = ["watch", path, "--golden", golden, "--db", db, "--interval", 0, "--cycles", cycles]
+    return subprocess.run(
+        [sys.executable, "-m", "inspect_validate", *map(str, args)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        preexec_fn=limit,
+    )
+
+
+def test_a_history_that_outgrows_the_file_size_limit(tmp_path):
+    """Fault injection for real: ``ulimit -f`` (RLIMIT_FSIZE) lets the frames through and
+    stops the database growing. watch ends with exit 2 naming the file and the limit,
+    no traceback; every committed cycle is readable by history, the failing cycle's
+    frames are kept, and the watch continues the same history once the limit is raised.
+    Below what a new history needs, it is not created at all (no half-made file)."""
+    path = _small_station(tmp_path)
+    assert run_cli(["train", path, "--out", tmp_path / "g.json", "--repeats", 2]) == 0
+    db = tmp_path / "w" / "history.sqlite"
+    done = _limited_watch(path, tmp_path / "g.json", db, 48)
+    assert done.returncode == 2, done.stderr
+    assert "Traceback" not in done.stderr and "ulimit -f" in done.stderr
+    last = re.search(r"history\.sqlite: (?:cannot write )?cycle (\d+)", done.stderr)
+    assert last, done.stderr
+    shown = subprocess.run(
+        [sys.executable, "-m", "inspect_validate", "history", str(db)],
+        capture_output=True,
+        text=True,
+    )
+    assert shown.returncode == 0, shown.stderr
+    first_last = re.search(r"cycles 0–(\d+)", shown.stdout)
+    assert first_last and int(first_last[1]) >= int(last[1]) - 1 >= 1, shown.stdout
+    assert (tmp_path / "w" / f"cycle-{int(last[1]):06d}").is_dir()
+    code = run_cli(["watch", path, "--golden", tmp_path / "g.json", "--db", db, "--cycles", 1])
+    assert code in (0, 1)
+
+    fresh = tmp_path / "w2" / "history.sqlite"
+    done = _limited_watch(path, tmp_path / "g.json", fresh, 24, cycles=1)
+    assert done.returncode == 2 and "cannot create the history" in done.stderr, done.stderr
+    assert not fresh.exists() and not Path(f"{fresh}-wal").exists()

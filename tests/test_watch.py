@@ -440,3 +440,31 @@ def test_ctrl_c_to_the_process_group_is_not_a_device_fault(tmp_path, golden):
     with sqlite3.connect(db) as con:
         rows = con.execute("SELECT status, reason FROM cycles").fetchall()
     assert rows and all(status != "error" for status, _ in rows), rows
+
+
+def test_a_second_watch_into_one_folder_is_refused_naming_the_holder(cli, tmp_path, golden):
+    """Two --db, one --out: the second would set the first's running cycle aside as a
+    killed one. It is refused at once, naming the first's process; free once it ends."""
+    path = copy_station(tmp_path)
+    out = tmp_path / "cycles"
+    args = ["watch", path, "--golden", golden, "--db", tmp_path / "one.sqlite", "--out", out]
+    first = subprocess.Popen(
+        [sys.executable, "-m", "inspect_validate", *map(str, args), "--interval", "60"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        deadline = time.monotonic() + 60
+        while not (out / ".watch.lock").is_file() or not (out / ".watch.lock").read_text():
+            assert first.poll() is None and time.monotonic() < deadline, first.communicate()
+            time.sleep(0.05)
+        args = ["watch", path, "--golden", golden, "--out", out, "--cycles", 1]
+        code, _, err = cli([*args, "--db", tmp_path / "two.sqlite"])
+        assert code == 2, err
+        assert f"another watch (pid {first.pid}) is writing cycles into this folder" in err
+    finally:
+        first.send_signal(signal.SIGINT)
+        first.communicate(timeout=60)
+    code, _, err = cli([*args, "--db", tmp_path / "two.sqlite", "--interval", 0])
+    assert code == 0, err

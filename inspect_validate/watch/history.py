@@ -108,29 +108,50 @@ class History:
             raise
 
     def _open(self, station: str, golden: str | None) -> None:
-        if self.path.is_file() and self.path.stat().st_size:
+        new = not (self.path.is_file() and self.path.stat().st_size)
+        if not new:
             # Damage from outside is refused before a cycle is appended to it: the same
             # checks `history` makes, and SQLite's own page check.
             read_history(self.path)
             _quick_check(self.path)
         try:
             self.db = sqlite3.connect(self.path, timeout=10.0, isolation_level=None)
-            self.db.execute("PRAGMA journal_mode=WAL")
-            self.db.execute("PRAGMA synchronous=FULL")  # a committed cycle survives power loss
-            self.db.executescript(_SCHEMA)
-            meta = dict(self.db.execute("SELECT key, value FROM meta"))
         except sqlite3.DatabaseError as exc:
             raise _not_history(self.path, exc, "give another --db") from None
         path = self.path
-        if not meta:
-            meta = {
-                "schema_version": str(HISTORY_SCHEMA_VERSION),
-                "station": station,
-                "golden": golden or "",
-                "created": str(time.time()),
-            }
-            with self.db:
-                self.db.executemany("INSERT INTO meta VALUES (?, ?)", list(meta.items()))
+        fresh = {
+            "schema_version": str(HISTORY_SCHEMA_VERSION),
+            "station": station,
+            "golden": golden or "",
+            "created": str(time.time()),
+        }
+        try:
+            self.db.execute("PRAGMA journal_mode=WAL")
+            self.db.execute("PRAGMA synchronous=FULL")  # a committed cycle survives power loss
+            # Tables and meta in one transaction: a history is made whole or not at all.
+            self.db.execute("BEGIN IMMEDIATE")
+            try:
+                for statement in _SCHEMA.split(";"):
+                    self.db.execute(statement)
+                meta = dict(self.db.execute("SELECT key, value FROM meta"))
+                if not meta:
+                    meta = fresh
+                    self.db.executemany("INSERT INTO meta VALUES (?, ?)", list(meta.items()))
+            except BaseException:
+                self.db.execute("ROLLBACK")
+                raise
+            self.db.execute("COMMIT")
+        except sqlite3.DatabaseError as exc:
+            self.db.close()
+            if new:  # nothing of the user's in it: leave no half-made file to refuse later
+                for suffix in ("", "-wal", "-shm"):
+                    Path(f"{path}{suffix}").unlink(missing_ok=True)
+                raise InputError(
+                    f"cannot create the history ({exc}): free space, raise the file size limit "
+                    "(ulimit -f) or give another --db",
+                    source=str(path),
+                ) from None
+            raise _not_history(path, exc, "give another --db") from None
         for key, value, what in (
             ("station", station, "station"),
             ("golden", golden or "", "golden file"),
@@ -160,7 +181,8 @@ class History:
         except sqlite3.DatabaseError as exc:  # disk full, read-only, damaged since opened
             raise InputError(
                 f"cannot write cycle {record.cycle} to the history ({exc}); its frames are "
-                f"kept in {record.frames or 'the watch folder'} — free space or give another --db",
+                f"kept in {record.frames or 'the watch folder'} — free space, raise the file "
+                "size limit (ulimit -f) or give another --db",
                 source=str(self.path),
             ) from None
         except OverflowError:
@@ -190,10 +212,18 @@ class History:
             self.db.execute("ROLLBACK")
             raise
         self.db.execute("COMMIT")
-        # Into the main file now: a history this small never reaches SQLite's automatic
-        # checkpoint, so every cycle would live in the -wal alone, and losing or damaging
-        # that file would lose them all. (PASSIVE: a reader open on it is not waited for.)
-        self.db.execute("PRAGMA wal_checkpoint(PASSIVE)")
+        try:
+            # Into the main file now: a history this small never reaches SQLite's automatic
+            # checkpoint, so every cycle would live in the -wal alone, and losing or
+            # damaging that file would lose them all. (PASSIVE: a reader is not waited for.)
+            self.db.execute("PRAGMA wal_checkpoint(PASSIVE)")
+        except sqlite3.DatabaseError as exc:
+            raise InputError(
+                f"cycle {record.cycle} is committed, but the history cannot be written back "
+                f"into its main file ({exc}), so its -wal keeps growing: free space, raise "
+                "the file size limit (ulimit -f) or give another --db",
+                source=str(self.path),
+            ) from None
 
     def chart_states(self) -> dict:
         """Per series its last smoothed value and how many cycles it has seen."""
@@ -209,30 +239,15 @@ class History:
 def _exclusive(path: Path):
     """An exclusive lock on ``<db>.lock`` for as long as the history is open: a second
     watch on the same database is refused at once, naming the holder's process."""
-    import fcntl
-    import os
+    from inspect_validate.files import exclusive_lock
 
-    lock_path = path.with_name(path.name + ".lock")
-    try:
-        handle = open(lock_path, "a+")
-    except OSError as exc:
-        raise InputError(f"cannot lock the history ({exc.strerror})", source=str(path)) from None
-    try:
-        fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except BlockingIOError:
-        handle.seek(0)
-        holder = handle.read().strip() or "another process"
-        handle.close()
-        raise InputError(
-            f"another watch ({holder}) is writing this history; stop it first, or give "
-            "another --db",
-            source=str(path),
-        ) from None
-    handle.seek(0)
-    handle.truncate()
-    handle.write(f"pid {os.getpid()}")
-    handle.flush()
-    return handle
+    return exclusive_lock(
+        path.with_name(path.name + ".lock"),
+        holder="watch",
+        what="this history",
+        remedy="another --db",
+        source=path,
+    )
 
 
 def _quick_check(path: Path) -> None:
