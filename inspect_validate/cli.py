@@ -800,7 +800,11 @@ def design(source, json_path, check, out_dir, choose, objective, auto_exposure):
             source=str(source),
         )
     if choose is None:
-        result = solve(problem, objective=objective)
+
+        def note(message):
+            click.echo(f"design: {message}", err=True)
+
+        result = solve(problem, objective=objective, note=note)
     else:
         with click.progressbar(
             length=1, label=f"choosing {choose} of {len(problem.channels)}", file=sys.stderr

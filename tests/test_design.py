@@ -460,3 +460,53 @@ def test_design_cli_chooses_from_a_catalogue(cli, tmp_path):
     assert worst_mix >= doc["choice"]["lower_bound_error"] * (1 - 1e-6)
     code, out, err = cli(["design", path, "--choose", "13"])
     assert code == 2 and "cannot choose 13 of 12" in err
+
+
+@pytest.fixture(scope="module")
+def wide_catalogue(tmp_path_factory):
+    """60 LEDs of seeded random peaks 400–700 nm: above JOINT_MAX and POOL_MAX."""
+    from inspect_validate.design.problem import design_problem
+
+    peaks = np.sort(np.random.default_rng(60).choice(np.arange(400, 700, 0.5), 60, replace=False))
+    path = _catalogue_scene(tmp_path_factory.mktemp("wide"), peaks)
+    p = design_problem(path)
+    response = channel_response(
+        p.channels, p.optics, p.camera, p.classes, grid=p.grid, exposure_time=p.exposure_time
+    )
+    return path, p, response
+
+
+def test_a_large_catalogue_is_screened_to_the_joint_optimum(wide_catalogue, monkeypatch):
+    """Column generation on 60 lights (above JOINT_MAX): within 1 % of every light
+    optimised jointly (the same starts, SLSQP on all 60), the lights left out at 0."""
+    from inspect_validate.design import mix
+
+    _, p, response = wide_catalogue
+    screened = optimise_mix(response, p.objective)
+    monkeypatch.setattr(mix, "JOINT_MAX", 10**6)
+    joint = optimise_mix(response, p.objective)
+    assert screened.objective <= joint.objective * 1.01, (screened.objective, joint.objective)
+    assert (screened.levels == 0).sum() >= 60 - mix.JOINT_MAX
+
+
+def test_choosing_from_a_pool_finds_the_best_single_light(wide_catalogue):
+    """--choose 1 of 60 through the pool of POOL_MAX lights finds the best single light
+    of all 60 (every one optimised alone), with the all-60 mix as its bound."""
+    from inspect_validate.design import catalogue as cat
+
+    _, p, response = wide_catalogue
+    pooled = cat.choose_channels(response, p.objective, 1)
+    singles = [optimise_mix(response.subset([c]), p.objective) for c in range(60)]
+    best = min(range(60), key=lambda c: singles[c].loss)
+    assert pooled.channels == (best,) and not pooled.exhaustive
+    assert pooled.mix.objective == pytest.approx(singles[best].objective, rel=1e-6)
+    assert pooled.bound <= pooled.mix.objective
+
+
+def test_design_cli_on_a_catalogue_reports_its_screening(cli, wide_catalogue):
+    path, _, _ = wide_catalogue
+    code, out, err = cli(["design", path])
+    assert code == 0, err
+    assert "design: screened 60 lights alone" in err and "working set of" in err
+    listed = out.split("designed mix: ")[1].split("\n")[0]
+    assert 1 <= listed.count("channel ") < 60  # the lights in use, not all 60

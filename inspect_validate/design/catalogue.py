@@ -20,6 +20,13 @@ mix (scaled to keep its brightest sample where it was); the best end is then
 swapped against every light until no single swap improves it, so the choice
 is swap-optimal.
 
+A catalogue of more than :data:`POOL_MAX` lights is first narrowed to a pool of
+that many: the lights of the optimal mix of all M (found by column generation,
+:func:`~inspect_validate.design.mix.optimise_mix`), the best lights alone for each
+comparison, then the best alone for the worst comparison. The search above runs
+on the pool; a light outside it could only enter a swap if it were among the
+most promising, which a light neither in the optimal mix nor good alone rarely is.
+
 This is a local search; it reports how far from exhaustive it may be by the
 optimum of all M lights mixed together, a lower bound on every k-subset's
 optimum (a k-subset's mixes are mixes of the M lights with the others at 0),
@@ -36,11 +43,13 @@ import numpy as np
 
 from inspect_validate.errors import InputError
 
-__all__ = ["EXHAUSTIVE_MAX", "Choice", "choose_channels"]
+__all__ = ["EXHAUSTIVE_MAX", "POOL_MAX", "Choice", "choose_channels"]
 
 EXHAUSTIVE_MAX = 400  # subsets optimised one by one; beyond, the local search
 _REFINED = 4  # best screened subsets re-optimised from every structured start
 _CANDIDATES = 12  # channels tried per greedy step and per swap pass, by first-order score
+POOL_MAX = 48
+"""Most lights the subset search runs on; a larger catalogue is narrowed to a pool first."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -117,6 +126,8 @@ def choose_channels(
     m = response.electrons.shape[0]
     if not 1 <= k <= m:
         raise InputError(f"cannot choose {k} of {m} lights: give --choose between 1 and {m}")
+    if m > max(POOL_MAX, k):
+        return _from_pool(response, comparisons, k, optimise, exhaustive_max, progress)
     cache: dict[tuple, object] = {}
     total = math.comb(m, k)
     exhaustive = total <= exhaustive_max
@@ -175,6 +186,40 @@ def choose_channels(
     return Choice(best, mix, len(cache), exhaustive, full.objective)
 
 
+def _from_pool(response, comparisons, k, optimise, exhaustive_max, progress) -> Choice:
+    """:func:`choose_channels` on a catalogue narrowed to :data:`POOL_MAX` lights (module
+    notes), its channels mapped back to the catalogue's."""
+    from inspect_validate.design.mix import single_losses
+
+    options = {key: optimise.keywords[key] for key in ("objective", "max_saturated", "max_level")}
+    full = optimise(response)
+    _, alone = single_losses(
+        response,
+        comparisons,
+        objective=options["objective"],
+        max_saturated=options["max_saturated"],
+        max_level=options["max_level"],
+    )
+    pool = [int(c) for c in np.argsort(-full.levels)[: np.count_nonzero(full.levels)]]
+    ranked = [np.argsort(alone[:, p]) for p in range(alone.shape[1])]
+    ranked.append(np.argsort(alone.max(axis=1)))
+    for depth in range(response.electrons.shape[0]):
+        for order in ranked:
+            if len(pool) < max(POOL_MAX, k) and int(order[depth]) not in pool:
+                pool.append(int(order[depth]))
+    pool = sorted(pool[: max(POOL_MAX, k)])
+    choice = choose_channels(
+        response.subset(pool),
+        comparisons,
+        k,
+        exhaustive_max=exhaustive_max,
+        progress=progress,
+        **options,
+    )
+    channels = tuple(pool[c] for c in choice.channels)
+    return Choice(channels, choice.mix, choice.evaluated, False, full.objective)
+
+
 def _swap_search(chosen, optimum, levels, candidates):
     """Swap one chosen channel for one of ``candidates(levels)`` while that lowers
     ``optimum``, each trial warm-started with the new channel at the old one's level."""
@@ -196,21 +241,13 @@ def _swap_search(chosen, optimum, levels, candidates):
 
 def _first_order_score(response, comparisons, objective):
     """``score(levels)``: the channels not in ``levels`` (channel → level), most promising
-    first — by the derivative of the worst loss (log ε, −log CNR) when a little of the
-    channel is added and the mix scaled down to keep its brightest sample's signal."""
-    from inspect_validate.design.mix import comparison_losses
+    first, by :func:`~inspect_validate.design.mix.first_order_slopes`."""
+    from inspect_validate.design.mix import first_order_slopes
 
     def score(levels):
         w = np.zeros(response.electrons.shape[0])
         w[list(levels)] = list(levels.values())
-        f, g = comparison_losses(response, w, comparisons, objective=objective, gradient=True)
-        signal = response.signal(w)
-        brightest = int(np.argmax(signal))
-        scale = (
-            response.camera.gain * response.electrons[:, brightest] / max(signal[brightest], 1e-300)
-        )
-        active = f >= f.max() - np.log(2.0)  # the comparisons the worst may switch to
-        slope = (g[active] - np.outer(g[active] @ w, scale)).max(axis=0)
+        slope = first_order_slopes(response, w, comparisons, objective=objective)
         return [c for c in np.argsort(slope) if c not in levels]
 
     return score

@@ -4,7 +4,7 @@ optimum is."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -67,20 +67,25 @@ def drive_percent(level: float) -> float:
     return float(f"{100.0 * level:.3g}")
 
 
-def solve(problem, *, objective: str = "error", choose: int | None = None, progress=None) -> Design:
+def solve(
+    problem, *, objective: str = "error", choose: int | None = None, progress=None, note=None
+) -> Design:
     """The mix of ``problem``'s channels that minimises its objective's worst ε (or, with
     ``objective="cnr"``, maximises the worst CNR); with ``choose``, of the best ``choose`` of
-    them (:func:`~.catalogue.choose_channels`, ``progress`` its callback). With the problem's
+    them (:func:`~.catalogue.choose_channels`, ``progress`` its callback). ``note(message)``
+    is told how the screening of a large catalogue goes. With the problem's
     auto exposure the levels are optimised up to the longest exposure over the reference
     one and rescaled to a designed exposure time."""
     from functools import partial
 
     from inspect_validate.design.catalogue import choose_channels
     from inspect_validate.design.mix import (
+        JOINT_MAX,
         channel_response,
         comparison_cnr,
         comparison_errors,
         optimise_mix,
+        single_losses,
     )
 
     response = channel_response(
@@ -101,13 +106,20 @@ def solve(problem, *, objective: str = "error", choose: int | None = None, progr
     choice = None
     if choose is None:
         chosen = list(range(len(labels)))
-        mix = optimise_mix(response, problem.objective, **options)
+        mix = optimise_mix(response, problem.objective, progress=note, **options)
+        if len(labels) > JOINT_MAX:  # a screened catalogue: its lights at 0 are not in it
+            chosen = [int(c) for c in np.flatnonzero(mix.levels > 0)]
+            mix = replace(mix, levels=mix.levels[chosen])
     else:
         choice = choose_channels(response, problem.objective, choose, progress=progress, **options)
         chosen, mix = list(choice.channels), choice.mix
     optimise = partial(optimise_mix, comparisons=problem.objective, **options)
-    singles = [optimise(response.subset([c])) for c in range(len(labels))]
-    best = min(range(len(labels)), key=lambda c: singles[c].loss)
+    candidates = range(len(labels))
+    if len(labels) > JOINT_MAX:  # a catalogue: optimise the lights best alone at their limit
+        _, alone = single_losses(response, problem.objective, **options)
+        candidates = np.argsort(alone.max(axis=1))[:JOINT_MAX]
+    singles = {int(c): optimise(response.subset([c])) for c in candidates}
+    best = min(singles, key=lambda c: singles[c].loss)
     single_level = float(singles[best].levels[0])
 
     mixed = response.subset(chosen)
