@@ -56,6 +56,7 @@ import numpy as np
 from inspect_validate.errors import InputError
 
 __all__ = [
+    "JOINT_MAX",
     "OBJECTIVES",
     "ChannelResponse",
     "Mix",
@@ -65,8 +66,8 @@ __all__ = [
     "comparison_losses",
     "first_order_slopes",
     "mix_moments",
-    "single_losses",
     "optimise_mix",
+    "single_losses",
 ]
 
 OBJECTIVES = ("error", "cnr")  # minimise the worst ε_tot; maximise the worst CNR
@@ -523,7 +524,9 @@ def single_losses(
         levels = np.where(peaks > 0, np.minimum(ceiling / peaks, max_level), 0.0)
     losses = np.array(
         [
-            comparison_losses(response.subset([c]), levels[c : c + 1], comparisons, objective=objective)
+            comparison_losses(
+                response.subset([c]), levels[c : c + 1], comparisons, objective=objective
+            )
             for c in range(len(levels))
         ]
     )
