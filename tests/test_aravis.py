@@ -193,9 +193,11 @@ def test_verify_over_gige_recovers_a_dimmer_light(cli, tmp_path, acquisition, pi
     assert abs(float(scale[1]) - 0.4) < 0.01, out
 
 
-def test_watch_over_gige_names_a_brighter_light(cli, tmp_path, golden):
+@pytest.mark.parametrize("acquisition", ["software-trigger", "free-run"])
+def test_watch_over_gige_names_a_brighter_light(cli, tmp_path, golden, acquisition):
     """`watch` on the fake camera: the red LED 5 % brighter from cycle 2 is flagged and
-    attributed by the next cycle, the cycles before it pass."""
+    attributed by the next cycle, the cycles before it pass (the golden file trained
+    on the simulated camera: the same scene through another camera stack)."""
     import sqlite3
 
     from conftest import copy_station, through_sdk
@@ -203,6 +205,7 @@ def test_watch_over_gige_names_a_brighter_light(cli, tmp_path, golden):
     path = through_sdk(
         copy_station(tmp_path, world={"changes": [{"start": 2, "irradiance": {2: 1.05}}]}),
         "aravis",
+        acquisition=acquisition,
     )
     db = tmp_path / "w" / "history.sqlite"
     code, out, err = cli(
