@@ -170,3 +170,22 @@ def test_irradiance_is_stated_over_the_visible_band():
     assert np.trapezoid(e[band], grid[band]) == pytest.approx(10.0, rel=1e-3)
     # Over the model's whole range it is several times more: what the old rule got wrong.
     assert np.trapezoid(e, grid) > 3 * 10.0
+
+
+def test_predict_of_a_scene_too_large_to_hold_points_to_sweep(monkeypatch):
+    """Scene.predict() of 100 × 100 × 100 combinations ran past 240 s (every array of
+    every combination, each group's mixture ε for each); above PREDICT_MAX_BYTES it is
+    refused at once, saying how large and pointing to sweep, which the scene still takes."""
+    from conftest import ROOT
+
+    from inspect_validate.errors import InputError
+    from inspect_validate.model import acquisition
+    from inspect_validate.scene import read_scene
+
+    scene = read_scene(ROOT / "sample_images" / "scenes" / "mix" / "scene.yaml")
+    assert scene.predict().mean.shape[:3] == (3, 1, 1)
+    monkeypatch.setattr(acquisition, "PREDICT_MAX_BYTES", 1000)
+    with pytest.raises(InputError, match=r"3 × 1 × 1 = 3 combinations: .*rank them with sweep"):
+        scene.predict()
+    ranking = scene.sweep(by="error", comparison=None, top=2)
+    assert ranking.index.shape == (2, 3)

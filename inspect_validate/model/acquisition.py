@@ -42,6 +42,7 @@ from inspect_validate.errors import InputError
 from inspect_validate.spectra import Spectrum
 
 __all__ = [
+    "PREDICT_MAX_BYTES",
     "Exposure",
     "ObjectClass",
     "Prediction",
@@ -282,6 +283,11 @@ def _prepare(lights, optics, cameras, classes, *, exposure, grid, comparisons) -
     )
 
 
+PREDICT_MAX_BYTES = 2**31
+"""Most memory :func:`predict` may hold for the per-sample arrays of every combination;
+a larger scene is :func:`~inspect_validate.model.sweep`'s (blocks, best rows kept)."""
+
+
 def predict(
     lights: list[Light],
     optics: list[Optics],
@@ -309,6 +315,17 @@ def predict(
         Which groups of classes to compare and how a group is weighted; default
         every pair and each class against the rest, equal weights.
     """
+    combinations = len(lights) * len(optics) * len(cameras)
+    samples = sum(c.reflectance.n_samples for c in classes)
+    held = combinations * samples * 8 * 8  # the per-sample arrays and their intermediates
+    if held > PREDICT_MAX_BYTES:
+        raise InputError(
+            f"{len(lights)} × {len(optics)} × {len(cameras)} = {combinations} combinations: "
+            f"predicting them all at once would hold about {held / 2**30:.1f} GB of arrays "
+            f"(above {PREDICT_MAX_BYTES / 2**30:.0f} GB) and take each group's mixture ε for "
+            "every one; rank them with sweep (Scene.sweep(by=..., comparison=..., top=...), "
+            "what 'inspect-validate predict' does), which keeps the best rows of each block"
+        )
     chain = _prepare(
         lights, optics, cameras, classes, exposure=exposure, grid=grid, comparisons=comparisons
     )
