@@ -150,3 +150,44 @@ def test_ellipse_rasterised_in_its_box_equals_the_whole_frame_test(seed):
             continue
         got = rasterise(Ellipse(cx, cy, rx, ry), (height, width), where="t")
         np.testing.assert_array_equal(got, want)
+
+
+def test_shared_pixels_are_counted_only_where_boxes_meet(tmp_path):
+    """The overlap check looks only inside the intersection of the classes' boxes: on
+    random rectangles it reports exactly the pixels a whole-frame AND counts."""
+    import re
+
+    rng = np.random.default_rng(7)
+    for trial in range(60):
+        rects = [
+            [
+                int(rng.integers(0, 30)),
+                int(rng.integers(0, 20)),
+                int(rng.integers(1, 12)),
+                int(rng.integers(1, 12)),
+            ]
+            for _ in range(3)
+        ]
+        text = "classes:\n" + "".join(
+            f"  {k}:\n    - rect: {r}\n" for k, r in zip("ABC", rects, strict=True)
+        )
+        p = write(tmp_path, text)
+        full = [np.zeros((32, 42), bool) for _ in rects]
+        for m, (x, y, w, h) in zip(full, rects, strict=True):
+            m[y : y + h, x : x + w] = True
+        shared = [
+            (a, b, int((full[i] & full[j]).sum()))
+            for j, b in enumerate("ABC")
+            for i, a in enumerate("ABC")
+            if i < j
+        ]
+        first = next(((a, b, n) for a, b, n in shared if n), None)
+        if first is None:
+            class_masks(read_rois(p), (32, 42))
+            continue
+        with pytest.raises(InputError) as info:
+            class_masks(read_rois(p), (32, 42))
+        found = re.search(r"'(\w)' and '(\w)' share (\d+) pixels", str(info.value))
+        assert (
+            found and int(found[3]) == dict(((a, b), n) for a, b, n in shared)[found[1], found[2]]
+        ), trial

@@ -188,6 +188,7 @@ def class_masks(rois: RoiSet, frame_shape: tuple[int, int]) -> dict[str, np.ndar
         sharing pixels (each message names the file, class and shape).
     """
     masks: dict[str, np.ndarray] = {}
+    boxes: dict[str, tuple[int, int, int, int]] = {}
     for cls in rois.classes:
         # A one-shape class keeps its shape's mask: no second frame-sized array.
         union = np.zeros(frame_shape, dtype=bool) if len(cls.shapes) != 1 else None
@@ -202,8 +203,14 @@ def class_masks(rois: RoiSet, frame_shape: tuple[int, int]) -> dict[str, np.ndar
                     "enlarge its shapes or reduce 'erode'",
                     source=rois.source,
                 )
+        box = _box(union)
         for other, mask in masks.items():
-            overlap = int(np.count_nonzero(union & mask))
+            # Only where the two classes' boxes meet can they share a pixel.
+            y0, x0 = max(box[0], boxes[other][0]), max(box[1], boxes[other][1])
+            y1, x1 = min(box[2], boxes[other][2]), min(box[3], boxes[other][3])
+            if y0 >= y1 or x0 >= x1:
+                continue
+            overlap = int(np.count_nonzero(union[y0:y1, x0:x1] & mask[y0:y1, x0:x1]))
             if overlap:
                 raise InputError(
                     f"classes {other!r} and {cls.name!r} share {overlap} pixels; "
@@ -211,7 +218,16 @@ def class_masks(rois: RoiSet, frame_shape: tuple[int, int]) -> dict[str, np.ndar
                     source=rois.source,
                 )
         masks[cls.name] = union
+        boxes[cls.name] = box
     return masks
+
+
+def _box(mask: np.ndarray) -> tuple[int, int, int, int]:
+    """The rows and columns a mask's pixels span: (y0, x0, y1, x1), ends exclusive."""
+    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    if rows.size == 0:
+        return (0, 0, 0, 0)
+    return int(rows[0]), int(cols[0]), int(rows[-1]) + 1, int(cols[-1]) + 1
 
 
 def _erode(mask: np.ndarray, radius: int) -> np.ndarray:
