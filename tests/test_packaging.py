@@ -49,3 +49,74 @@ def test_wheel_holds_every_module(tmp_path):
     modules = _tracked_modules()
     assert "inspect_validate/watch/loop.py" in modules  # the list is the tree's, not empty
     assert sorted(modules - in_wheel) == []
+
+
+def test_every_command_runs_from_the_installed_wheel(tmp_path):
+    """The wheel installed (not editable) in a fresh virtual environment, its
+    dependencies taken from this one: every command runs from it on the shipped samples
+    — predict, analyze-spectra, measure, capture, verify, train, watch, history, design,
+    characterize — and the package imported is the wheel's."""
+    import os
+
+    source = tmp_path / "source"
+    shutil.copytree(
+        ROOT, source, ignore=shutil.ignore_patterns(".git", "build", "*.egg-info", "__pycache__")
+    )
+    subprocess.run(
+        [sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w", str(tmp_path), str(source)],
+        check=True,
+        capture_output=True,
+    )
+    (wheel,) = tmp_path.glob("inspect_validate-*.whl")
+    env_dir = tmp_path / "venv"
+    subprocess.run(
+        [sys.executable, "-m", "venv", "--system-site-packages", str(env_dir)], check=True
+    )
+    python = env_dir / "bin" / "python"
+    subprocess.run(
+        [str(python), "-m", "pip", "install", "-q", "--no-deps", str(wheel)],
+        check=True,
+        capture_output=True,
+    )
+    work = tmp_path / "work"
+    work.mkdir()
+    # Outside the checkout, so that nothing is imported from the source tree.
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    where = subprocess.run(
+        [str(python), "-c", "import inspect_validate.watch.loop as m; print(m.__file__)"],
+        cwd=work,
+        env=env,
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout
+    assert where.startswith(str(env_dir)), where
+    samples = ROOT / "sample_images"
+    station = shutil.copy(samples / "station" / "station.yaml", work / "station.yaml")
+    shutil.copy(samples / "station" / "rois.yaml", work / "rois.yaml")
+    text = (work / "station.yaml").read_text()
+    (work / "station.yaml").write_text(text.replace("../scenes/", f"{samples / 'scenes'}/"))
+    script = env_dir / "bin" / "inspect-validate"
+    commands = [
+        ["predict", samples / "scenes" / "paperboard" / "scene.yaml"],
+        ["analyze-spectra", samples / "scenes" / "paperboard" / "scene.yaml"],
+        [
+            "measure",
+            samples / "paperboard" / "optimized.png",
+            "--rois",
+            samples / "paperboard" / "rois.yaml",
+        ],
+        ["capture", station, "--out", "cap"],
+        ["verify", station, "--frames", "cap", "--report", "report"],
+        ["train", station, "--out", "golden.json", "--repeats", 2],
+        ["watch", station, "--golden", "golden.json", "--cycles", 1, "--interval", 0],
+        ["history", "watch-station/history.sqlite"],
+        ["design", samples / "scenes" / "mix" / "scene.yaml"],
+        ["characterize", station, "--out", "series"],
+    ]
+    for args in commands:
+        done = subprocess.run(
+            [str(script), *map(str, args)], cwd=work, env=env, capture_output=True, text=True
+        )
+        assert done.returncode == 0, (args, done.stdout[-2000:], done.stderr[-2000:])
+        assert "Traceback" not in done.stderr, (args, done.stderr)
