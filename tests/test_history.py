@@ -95,16 +95,14 @@ def test_history_prints_the_trend(cli, aged):
     # cycle the database says their run of alarms began
     table = out.split("trends")[1].strip().splitlines()[3:]
     top = {line.split()[1] + " " + line.split()[2] for line in table[:3]}
-    assert top == {"A mean", "B mean", "C mean"} and all(
-        line.startswith("amber:") for line in table[:3]
-    )
+    assert top == {"A μ", "B μ", "C μ"} and all(line.startswith("amber:") for line in table[:3])
     alarms = _sql(
         aged.db,
         "SELECT cycle, ewma < low OR ewma > high FROM points WHERE illumination = 'amber' "
         "AND name = 'A' AND quantity = 'mean' ORDER BY cycle",
     )
     onset = max(c for c, a in alarms if not a) + 1
-    row = next(line for line in table if line.startswith("amber: A mean")).split()
+    row = next(line for line in table if line.startswith("amber: A μ [DN]")).split()
     assert row[-2:] == [str(sum(a for _, a in alarms)), str(onset)]
     assert all(line.split()[-1] == "—" for line in table if line.startswith("red:"))
 
@@ -167,7 +165,7 @@ def test_verify_report_carries_the_history(cli, aged, tmp_path):
     assert code == 0, out + err
     page = (tmp_path / "r" / "report.html").read_text()
     trends = page.split("<h2>Trends (watch history)</h2>")[1]
-    assert "LED ageing" in trends and "amber: A mean" in trends
+    assert "LED ageing" in trends and "amber: A μ [DN]" in trends
     assert trends.count("data:image/png") == 3  # the overview and each illumination
 
 
@@ -237,7 +235,7 @@ def test_history_of_a_lenient_but_sound_database(cli, tmp_path):
     db = _lenient(tmp_path / "h.sqlite", [GOOD_CYCLE], [(*GOOD_POINT[:5], None, 160.0, 159, 161)])
     code, out, err = cli(["history", db, "--csv", tmp_path / "h.csv", "--plot", tmp_path / "p"])
     assert code == 0, err
-    assert "amber: A mean" in out and "nan" not in out.lower()
+    assert "amber: A μ [DN]" in out and "nan" not in out.lower()
     row = next(csv.DictReader(open(tmp_path / "h.csv", newline="")))
     assert row["value"] == "" and row["ewma"] == "160.0"
 

@@ -44,10 +44,20 @@ _CSV_COLUMNS = [
 ]
 
 
+# What each charted quantity is called where people read it (the database and the
+# exports keep the column names: mean, variance, snr_db, log_error).
+QUANTITY_LABELS = {
+    "mean": "μ [DN]",
+    "variance": "σ² [DN²]",
+    "snr_db": "SNR_dB [dB]",
+    "log_error": "log₁₀ ε Gauss",
+}
+
+
 def chart_label(key) -> str:
-    """``illumination: class-or-comparison quantity`` of a chart key."""
+    """``illumination: class-or-comparison quantity [unit]`` of a chart key."""
     ill, _, name, quantity = key
-    return f"{ill}: {name} {quantity}"
+    return f"{ill}: {name} {QUANTITY_LABELS.get(quantity, quantity)}"
 
 
 def local_time(t: float) -> str:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 
 from inspect_validate.measure import Measurement
 
@@ -20,10 +21,20 @@ def format_error(value: float | None, log_value: float | None = None) -> str:
     return f"{value:.2e}"
 
 
-def render_table(header: list[str], rows: list[list[str]], *, left=(0,)) -> str:
-    """Columns padded to their widest cell: text columns (indices ``left``) flush left,
-    the others (numbers) flush right."""
+_NUMBER = re.compile(r"^[-+−]?(\d|\.\d|inf|nan)|^[-—]$")
+
+
+def render_table(header: list[str], rows: list[list[str]], *, left=None) -> str:
+    """Columns padded to their widest cell: text flush left, numbers flush right. A
+    column is text (``left``: its indices, default: found) unless most of its cells
+    begin as a number does (a dash: none)."""
     widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
+    if left is None:
+        left = set()
+        for i in range(len(header)):
+            cells = [r[i] for r in rows if r[i]]  # an empty cell is neither
+            if 2 * sum(bool(_NUMBER.match(c)) for c in cells) < len(cells):
+                left.add(i)
 
     def line(r):
         cells = (
