@@ -380,7 +380,7 @@ def skipped_work(quick: bool) -> Knob:
     from inspect_validate.camera.capture import capture
     from inspect_validate.camera.station import read_station
 
-    from inspect_validate.measure import measure_files
+    from inspect_validate.measurement import measure_files
     from inspect_validate.verification.verify import (
         dominated_illuminations,
         plan_verification,

@@ -118,7 +118,7 @@ def measure(
     Exits 1 when a class has more saturated or zero pixels than allowed.
     """
     from inspect_validate.comparisons import Comparisons, ComparisonsSpec
-    from inspect_validate.measure import Limits, measure_files
+    from inspect_validate.measurement import Limits, measure_files
     from inspect_validate.report import format_measurement, measurement_document, write_json
     from inspect_validate.roi import read_rois
 

@@ -104,6 +104,19 @@ def through_sdk(path: Path, backend: str = "pylon", **camera) -> Path:
     return path
 
 
+def watch_cycles(cli, station, golden, db, cycles):
+    """Run ``watch`` for ``cycles`` (no pause) into ``db``: its exit code and output,
+    and the history's (cycle, status, cause) rows."""
+    import sqlite3
+
+    code, out, err = cli(
+        ["watch", station, "--golden", golden, "--db", db, "--interval", 0, "--cycles", cycles]
+    )
+    with sqlite3.connect(db) as con:
+        rows = con.execute("SELECT cycle, status, cause FROM cycles ORDER BY cycle").fetchall()
+    return code, out, err, rows
+
+
 @pytest.fixture
 def cli(capsys):
     """Run the CLI in-process: ``cli(args) -> (exit code, stdout, stderr)``."""

@@ -9,12 +9,11 @@ test_genicam.py (TLSimu, viky) and test_pylon.py (pylon's emulator).
 
 import json
 import re
-import sqlite3
 
 import numpy as np
 import pytest
 import yaml
-from conftest import copy_station
+from conftest import copy_station, watch_cycles
 from test_capture import run, station_copy
 
 
@@ -221,11 +220,7 @@ def test_verify_and_watch_in_every_mode(cli, tmp_path, golden, mode):
     (tmp_path / "w").mkdir()
     station = _moded_station(tmp_path / "w", mode, world=world)
     db = tmp_path / "w" / "history.sqlite"
-    code, out, err = cli(
-        ["watch", station, "--golden", golden, "--db", db, "--interval", 0, "--cycles", 3]
-    )
+    code, out, err, rows = watch_cycles(cli, station, golden, db, 3)
     assert code == 1, out + err
-    with sqlite3.connect(db) as con:
-        rows = con.execute("SELECT cycle, status, cause FROM cycles ORDER BY cycle").fetchall()
     assert [r[1] for r in rows[:2]] == ["pass", "pass"], rows
     assert rows[2][1] != "pass" and "amber dimmer" in (rows[2][2] or ""), rows

@@ -198,9 +198,7 @@ def test_watch_over_gige_names_a_brighter_light(cli, tmp_path, golden, acquisiti
     """`watch` on the fake camera: the red LED 5 % brighter from cycle 2 is flagged and
     attributed by the next cycle, the cycles before it pass (the golden file trained
     on the simulated camera: the same scene through another camera stack)."""
-    import sqlite3
-
-    from conftest import copy_station, through_sdk
+    from conftest import copy_station, through_sdk, watch_cycles
 
     path = through_sdk(
         copy_station(tmp_path, world={"changes": [{"start": 2, "irradiance": {2: 1.05}}]}),
@@ -208,12 +206,8 @@ def test_watch_over_gige_names_a_brighter_light(cli, tmp_path, golden, acquisiti
         acquisition=acquisition,
     )
     db = tmp_path / "w" / "history.sqlite"
-    code, out, err = cli(
-        ["watch", path, "--golden", golden, "--db", db, "--interval", 0, "--cycles", 4]
-    )
+    code, out, err, rows = watch_cycles(cli, path, golden, db, 4)
     assert code == 1, out + err
-    with sqlite3.connect(db) as con:
-        rows = con.execute("SELECT cycle, status, cause FROM cycles ORDER BY cycle").fetchall()
     assert [r[1] for r in rows[:2]] == ["pass", "pass"], rows
     assert rows[-1][1] != "pass" and "illumination red brighter" in rows[-1][2], rows
 

@@ -311,7 +311,7 @@ def test_photon_transfer_on_the_emva1288_simulators_frames(tmp_path, emva1288_py
     clipped at 4095 counts as saturated at the 12-bit level, not at uint16's 65535."""
     from types import SimpleNamespace
 
-    from inspect_validate.measure import measure_classes
+    from inspect_validate.measurement import measure_classes
     from inspect_validate.verification.calibration import photon_transfer
 
     done = subprocess.run(

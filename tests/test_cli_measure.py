@@ -224,7 +224,7 @@ def _shaped_frame(seed):
 def test_kde_auto_skips_only_where_the_gaussians_fit(seed):
     """Where ``--kde auto`` skips ε KDE, computing it (``always``) gives ε Gauss within
     GAUSSIAN_AGREEMENT; where it computes it, the value is ``always``'s."""
-    from inspect_validate.measure import GAUSSIAN_AGREEMENT, compare, measure_classes
+    from inspect_validate.measurement import GAUSSIAN_AGREEMENT, compare, measure_classes
 
     frame, masks = _shaped_frame(seed)
     classes = measure_classes(frame, masks)
@@ -325,7 +325,7 @@ def test_spatial_variance_with_darks_leaves_out_the_dark_means_noise(n_dark):
     in every frame: uncorrected it is read as spatial variance (the bias followed it
     exactly for M = 1…16). A known fixed pattern (variance 4 DN²) is recovered within
     5 standard errors whatever M."""
-    from inspect_validate.measure import measure_classes
+    from inspect_validate.measurement import measure_classes
 
     rng = np.random.default_rng(n_dark)
     shape = (200, 200)

@@ -105,7 +105,7 @@ def test_nan_pixel_is_named_with_its_file_and_position(tmp_path):
 
 
 def test_integer_frame_spanning_2_to_the_40_does_not_allocate_by_span():
-    from inspect_validate.measure import measure_classes
+    from inspect_validate.measurement import measure_classes
     from inspect_validate.stats import as_sample
 
     frame = np.zeros((1, 40, 40), np.int64)

@@ -32,9 +32,9 @@ def _tracked_modules() -> set[str]:
     return modules
 
 
-def test_wheel_holds_every_module(tmp_path):
-    # Built from a copy: setuptools reuses the checkout's build/ folder, whose stale
-    # modules would hide a package the list leaves out.
+def _build_wheel(tmp_path):
+    """The wheel built from a copy of the checkout: setuptools reuses the checkout's
+    build/ folder, whose stale modules would hide a package the list leaves out."""
     source = tmp_path / "source"
     shutil.copytree(
         ROOT, source, ignore=shutil.ignore_patterns(".git", "build", "*.egg-info", "__pycache__")
@@ -45,6 +45,11 @@ def test_wheel_holds_every_module(tmp_path):
         capture_output=True,
     )
     (wheel,) = tmp_path.glob("inspect_validate-*.whl")
+    return wheel
+
+
+def test_wheel_holds_every_module(tmp_path):
+    wheel = _build_wheel(tmp_path)
     in_wheel = set(zipfile.ZipFile(wheel).namelist())
     modules = _tracked_modules()
     assert "inspect_validate/watch/loop.py" in modules  # the list is the tree's, not empty
@@ -58,16 +63,7 @@ def test_every_command_runs_from_the_installed_wheel(tmp_path):
     characterize — and the package imported is the wheel's."""
     import os
 
-    source = tmp_path / "source"
-    shutil.copytree(
-        ROOT, source, ignore=shutil.ignore_patterns(".git", "build", "*.egg-info", "__pycache__")
-    )
-    subprocess.run(
-        [sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w", str(tmp_path), str(source)],
-        check=True,
-        capture_output=True,
-    )
-    (wheel,) = tmp_path.glob("inspect_validate-*.whl")
+    wheel = _build_wheel(tmp_path)
     env_dir = tmp_path / "venv"
     subprocess.run(
         [sys.executable, "-m", "venv", "--system-site-packages", str(env_dir)], check=True

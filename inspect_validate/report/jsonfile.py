@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from inspect_validate import __version__
-from inspect_validate.measure import Measurement
+from inspect_validate.measurement import Measurement
 
 __all__ = [
     "SCHEMA_VERSION",

@@ -199,7 +199,7 @@ def plot_class_histograms(classes, target, *, title: str, kde_bandwidths=None):
     """Each class's grey-value histogram (as a density) with its Gaussian N(μ, σ²) (dashed)
     and its kernel density estimate (41) (solid), 1/DN against DN.
 
-    ``classes`` are :class:`~inspect_validate.measure.ClassMeasurement`;
+    ``classes`` are :class:`~inspect_validate.measurement.ClassMeasurement`;
     ``kde_bandwidths`` (DN per class, optional) default to each class's own.
     """
     from inspect_validate.stats import LatticeSample

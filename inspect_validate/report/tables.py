@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 import re
 
-from inspect_validate.measure import Measurement
+from inspect_validate.measurement import Measurement
 
 __all__ = ["format_error", "format_measurement", "render_table"]
 

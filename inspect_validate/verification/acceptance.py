@@ -116,9 +116,9 @@ class Acceptance(_Strict):
         return any(s.max_error_kde is not None for s in self.separation)
 
     def limits(self):
-        """The saturated and zero fractions as measurement :class:`~inspect_validate.measure.Limits`
+        """The saturated and zero fractions as measurement :class:`~inspect_validate.measurement.Limits`
         (no limit given: any fraction passes)."""
-        from inspect_validate.measure import Limits
+        from inspect_validate.measurement import Limits
 
         return Limits(
             max_saturated=1.0 if self.max_saturated is None else self.max_saturated,

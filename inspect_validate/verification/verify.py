@@ -24,7 +24,7 @@ from inspect_validate.verification.checks import Check, at_least, at_most, not_r
 from inspect_validate.verification.golden import drift_checks
 
 if TYPE_CHECKING:
-    from inspect_validate.measure import KdeMode
+    from inspect_validate.measurement import KdeMode
 
 __all__ = [
     "Capture",
@@ -154,7 +154,7 @@ def measure_capture(
     station, folder: Path, *, rois, comparisons, limits, kde: KdeMode, camera=None
 ) -> Capture:
     """Measure every illumination (and the darks) of a capture folder of ``station``
-    with :func:`~inspect_validate.measure.measure_files`, the one measuring path;
+    with :func:`~inspect_validate.measurement.measure_files`, the one measuring path;
     pixels count as saturated at :func:`saturation_level` (``camera``: the station's
     camera model, where the frames do not record their bit depth).
 
@@ -164,7 +164,7 @@ def measure_capture(
         Not a complete capture of the station; an unreadable frame; an ROI
         outside the frame.
     """
-    from inspect_validate.measure import measure_files
+    from inspect_validate.measurement import measure_files
 
     files, dark_files, manifest, hashes = read_capture(folder, station)
     level = saturation_level(next(iter(files.values()))[0], camera)

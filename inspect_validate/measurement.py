@@ -328,6 +328,10 @@ def measure_files(
     from inspect_validate.images import expand_paths, read_frames, recorded_bit_depth
     from inspect_validate.roi import class_masks, read_rois
 
+    if isinstance(frames, (str, Path)):  # one file, folder or pattern, not its letters
+        frames = [frames]
+    if isinstance(dark, (str, Path)):
+        dark = [dark]
     stack = read_frames(frames)
     if saturation_level is None and stack.dtype.kind in "ui":
         bits = recorded_bit_depth(expand_paths(frames)[0])

@@ -1,0 +1,59 @@
+"""The flat API, ``import inspect_validate as iv``: every verb's docstring example runs
+(doctest, from the repository's root, on the shipped samples), the verbs load lazily,
+and each gives what its command prints."""
+
+import doctest
+import json
+import subprocess
+import sys
+
+import pytest
+from conftest import ROOT, run_cli
+
+import inspect_validate as iv
+
+
+def test_every_example_in_the_api_runs(monkeypatch):
+    import inspect_validate.api
+
+    monkeypatch.chdir(ROOT)
+    failed, attempted = doctest.testmod(inspect_validate.api, optionflags=doctest.ELLIPSIS)
+    assert attempted >= 12 and failed == 0
+
+
+def test_import_is_cheap_and_the_verbs_are_listed():
+    """``import inspect_validate`` loads no numpy, pydantic or scipy: the CLI's start."""
+    code = (
+        "import sys, inspect_validate as iv; "
+        "print(sorted(m for m in ('numpy', 'pydantic', 'scipy') if m in sys.modules)); "
+        "print(all(v in dir(iv) for v in iv.__all__))"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True
+    ).stdout.split("\n")
+    assert out[:2] == ["[]", "True"]
+    with pytest.raises(AttributeError, match="no attribute 'nothing'"):
+        iv.nothing  # noqa: B018
+
+
+def test_measure_from_python_is_measure_from_the_cli(tmp_path):
+    """One import and one call give the numbers ``measure --json`` writes, and the
+    module of the same concept does not shadow the verb."""
+    import inspect_validate.measurement  # noqa: F401
+
+    frames = ROOT / "sample_images" / "paperboard" / "optimized.png"
+    rois = ROOT / "sample_images" / "paperboard" / "rois.yaml"
+    m = iv.measure(frames, rois)
+    assert run_cli(["measure", frames, "--rois", rois, "--json", tmp_path / "m.json"]) == 0
+    doc = json.loads((tmp_path / "m.json").read_text())
+    assert [c.mean for c in m.classes] == [c["mean"] for c in doc["classes"]]
+    assert [c.snr_db for c in m.comparisons] == [c["snr_db"] for c in doc["comparisons"]]
+
+
+def test_train_and_verify_against_it_from_python(tmp_path):
+    station = ROOT / "sample_images" / "station" / "station.yaml"
+    for k in (1, 2):
+        iv.capture(station, tmp_path / f"c{k}")
+    golden = iv.train(station, [tmp_path / "c1", tmp_path / "c2"])
+    assert golden.repeats == 2 and set(golden.illuminations) == {"amber", "red"}
+    assert iv.verify(station, tmp_path / "c1").passed
