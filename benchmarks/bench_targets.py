@@ -1,0 +1,219 @@
+"""The speed targets of issue 29 in one run, each against its reference and its target.
+
+Run: ``python benchmarks/bench_targets.py [--runs 5]`` (about two minutes on 2 cores).
+
+1. ``measure`` CLI, default and ``--no-kde``, on one 5 MP uint16 frame with 3 ROIs,
+   against a plain cv2 + numpy + yaml script (fresh processes, median of ``--runs``);
+   targets 1.5× and 1.4×.
+2. ``measure``'s own work in process (frame read → report text, imports done)
+   against the plain script's (read, means, variances); target 1.3×.
+3. Peak memory of ``measure --no-kde`` on a 10 × 20 MP uint16 stack above the import
+   baseline, against the stack's size; target 1.2×.
+4. ``Scene.predict()`` on a 100 × 100 × 100 scene: refused at once (target: a clear
+   error pointing to ``sweep``), against ``sweep`` of the same scene, top 10.
+5. ε Gauss through the public function on 10⁶ and 4·10⁶ pairs, each in a fresh
+   process with its imports, against a careful scipy version likewise; target 1.0×
+   "once the call is large enough to repay the compile".
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+from bench_measure import PLAIN, make_frame, stack_memory, timed
+from machine import compile_package, machine_line
+
+ROOT = Path(__file__).resolve().parents[1]
+
+ERROR_SCRIPT = """
+import sys, time
+import numpy as np
+rng = np.random.default_rng(0)
+n = int(sys.argv[2])
+m1 = rng.normal(0, 100, n); s1 = 10 ** rng.uniform(-1, 2, n); s2 = s1 * 10 ** rng.uniform(-1, 1, n)
+m2 = m1 + 10 ** rng.uniform(-1, 1.5, n) * np.maximum(s1, s2); v1, v2 = s1 * s1, s2 * s2
+t = time.perf_counter()
+if sys.argv[1] == "ours":
+    from inspect_validate.stats import gaussian_error
+    gaussian_error(m1, v1, m2, v2)
+else:
+    sys.path.insert(0, sys.argv[3])
+    from bench_stats import careful_scipy_error
+    careful_scipy_error(m1, v1, m2, v2)
+print(time.perf_counter() - t)
+"""
+
+
+def in_process_work(frame: str, rois: str, runs: int) -> tuple[float, float]:
+    """Median in-process time of measure's work and of the plain script's, s."""
+    import cv2
+    import yaml
+
+    from inspect_validate.cli import main
+
+    def ours():
+        sink = io.StringIO()
+        with contextlib.redirect_stdout(sink), contextlib.redirect_stderr(sink):
+            with contextlib.suppress(SystemExit):
+                main(["measure", frame, "--rois", rois])
+
+    def plain():
+        img = cv2.imread(frame, cv2.IMREAD_UNCHANGED)
+        for shapes in yaml.safe_load(open(rois))["classes"].values():
+            x, y, w, h = shapes[0]["rect"]
+            cv2.meanStdDev(img[y : y + h, x : x + w])
+
+    out = []
+    for fn in (ours, plain):
+        fn()  # imports and first-use caches
+        times = []
+        for _ in range(runs):
+            t = time.perf_counter()
+            fn()
+            times.append(time.perf_counter() - t)
+        out.append(float(np.median(times)))
+    return out[0], out[1]
+
+
+def large_scene(folder: Path) -> Path:
+    """The inks scene with 100 LEDs, 100 lenses (f-numbers) and 100 cameras (gains)."""
+    import yaml
+
+    mix = ROOT / "sample_images" / "scenes" / "mix"
+    doc = yaml.safe_load((mix / "scene.yaml").read_text())
+    for name in doc["classes"]:
+        doc["classes"][name]["file"] = str(mix / doc["classes"][name]["file"])
+    camera = doc["cameras"][0]
+    camera["file"] = str((mix / camera["file"]).resolve())
+    doc["lights"] = [
+        {"led": {"peak": float(p), "fwhm": 25}, "name": f"LED {i}", "irradiance": 2.0}
+        for i, p in enumerate(np.linspace(400, 700, 100))
+    ]
+    doc["optics"] = [
+        {"ideal": {}, "f_number": float(f), "name": f"f/{f:.2f}"} for f in np.linspace(1.4, 16, 100)
+    ]
+    doc["cameras"] = [
+        {**camera, "name": f"cam {i}", "gain": float(g)}
+        for i, g in enumerate(np.linspace(0.05, 0.5, 100))
+    ]
+    path = folder / "large.yaml"
+    path.write_text(yaml.safe_dump(doc, sort_keys=False))
+    return path
+
+
+def predict_row(folder: Path) -> tuple[float, str, float]:
+    from inspect_validate.errors import InputError
+    from inspect_validate.scene import read_scene
+
+    scene = read_scene(large_scene(folder))
+    t = time.perf_counter()
+    try:
+        scene.predict()
+        message = "no error"
+    except InputError as exc:
+        message = str(exc)
+    refused = time.perf_counter() - t
+    t = time.perf_counter()
+    scene.sweep(by="error", comparison=None, top=10)
+    return refused, message, time.perf_counter() - t
+
+
+def fresh(args) -> float:
+    return float(subprocess.run(args, capture_output=True, text=True, check=True).stdout)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--runs", type=int, default=5)
+    args = parser.parse_args()
+    compile_package()
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        make_frame(tmp)
+        frame, rois = str(tmp / "frame.tif"), str(tmp / "rois.yaml")
+        (tmp / "plain.py").write_text(PLAIN)
+        plain = timed([sys.executable, str(tmp / "plain.py"), frame, rois], args.runs)[0]
+        cmd = [sys.executable, "-m", "inspect_validate", "measure", frame, "--rois", rois]
+        for label, extra, target in (
+            ("measure CLI, default --kde auto", [], 1.5),
+            ("measure CLI, --no-kde", ["--no-kde"], 1.4),
+        ):
+            t = timed([*cmd, *extra], args.runs)[0]
+            rows.append((label, f"{t:.3f} s", f"plain script {plain:.3f} s", t / plain, target))
+        ours, theirs = in_process_work(frame, rois, args.runs)
+        rows.append(
+            (
+                "measure's own work, in process",
+                f"{1e3 * ours:.1f} ms",
+                f"plain script {1e3 * theirs:.1f} ms",
+                ours / theirs,
+                1.3,
+            )
+        )
+        for label, peak, baseline, size in stack_memory(tmp)[:1]:
+            rows.append(
+                (
+                    f"measure peak memory, 10 × 20 MP stack ({label})",
+                    f"{peak - baseline:.0f} MB above imports",
+                    f"the stack {size:.0f} MB",
+                    (peak - baseline) / size,
+                    1.2,
+                )
+            )
+        refused, message, swept = predict_row(tmp)
+        rows.append(
+            (
+                "Scene.predict(), 10⁶ combinations",
+                f"refused in {1e3 * refused:.1f} ms",
+                f"sweep top 10: {swept:.1f} s",
+                float("nan"),
+                "clear error → sweep" if "sweep" in message else "—",
+            )
+        )
+        script = tmp / "eps.py"
+        script.write_text(ERROR_SCRIPT)
+        here = str(Path(__file__).resolve().parent)
+        for n in (1_000_000, 4_000_000):
+            ours = np.median(
+                [fresh([sys.executable, str(script), "ours", str(n)]) for _ in range(3)]
+            )
+            ref = np.median(
+                [fresh([sys.executable, str(script), "scipy", str(n), here]) for _ in range(3)]
+            )
+            rows.append(
+                (
+                    f"ε Gauss, {n:.0e} pairs, fresh process",
+                    f"{ours:.3f} s",
+                    f"careful scipy {ref:.3f} s",
+                    ours / ref,
+                    1.0,
+                )
+            )
+    print(machine_line())
+    print(f"median of {args.runs} runs (ε Gauss: 3 fresh processes each)")
+    print()
+    print("| target row | ours | reference | ratio | target | holds |")
+    print("|---|---|---|---|---|---|")
+    for label, ours, ref, ratio, target in rows:
+        shown = "—" if not np.isfinite(ratio) else f"{ratio:.2f}"
+        if isinstance(target, str):
+            holds, target_text = ("yes" if target != "—" else "no"), target
+        else:
+            holds, target_text = ("yes" if ratio <= target else "no"), f"≤ {target}"
+        print(f"| {label} | {ours} | {ref} | {shown} | {target_text} | {holds} |")
+    print()
+    print(f"Scene.predict() says: {message}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
