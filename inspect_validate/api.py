@@ -197,18 +197,13 @@ def verify(
     >>> result.passed
     True
     """
-    from inspect_validate.errors import InputError
-    from inspect_validate.verification.verify import plan_verification
-    from inspect_validate.verification.verify import verify as run
+    from inspect_validate.verification.verify import verify_station
 
-    st = _station(station)
-    plan = plan_verification(st)  # a mistake in the station file costs no capture
-    if frames is None:
-        if out is None:
-            raise InputError("give frames (a capture folder) or out (where to capture)")
-        capture(st, out)
-        frames = out
-    return run(st, Path(frames), plan=plan)
+    return verify_station(
+        _station(station),
+        frames=None if frames is None else Path(frames),
+        out=None if out is None else Path(out),
+    )
 
 
 def train(station: Station | str | Path, captures) -> Golden:

@@ -587,11 +587,9 @@ def _station_history(path, st):
 
 
 def _verify_station(st, *, frames_dir, out, report_dir, history=None, skip_dominated=False):
-    """Plan, capture into ``out`` unless ``frames_dir`` is given (with ``skip_dominated``,
-    not the illuminations the plan finds dominated), verify, print the verdict and write
-    the reports into ``report_dir`` (with ``history``'s trends); the :class:`Verification`."""
-    from dataclasses import replace
-
+    """:func:`~inspect_validate.verification.verify.verify_station` with a progress bar,
+    the verdict printed and the reports written into ``report_dir`` (with ``history``'s
+    trends); the :class:`Verification`."""
     from inspect_validate.report import write_json
     from inspect_validate.report.html import write_verification_html
     from inspect_validate.report.verification import (
@@ -599,44 +597,22 @@ def _verify_station(st, *, frames_dir, out, report_dir, history=None, skip_domin
         verification_document,
         write_junit,
     )
-    from inspect_validate.verification.verify import (
-        dominance_unconfirmed,
-        dominated_illuminations,
-        plan_verification,
-    )
-    from inspect_validate.verification.verify import verify as run_verify
+    from inspect_validate.verification.verify import verify_station
 
-    plan = plan_verification(st)  # a mistake in the station file costs no capture
-    full = st
-    if frames_dir is None:
-        dominated = (
-            dominated_illuminations(st, plan.model, plan.comparisons) if skip_dominated else {}
-        )
-        if dominated:
-            kept = [i for i in st.illuminations if i.name not in dominated]
-            st = st.model_copy(update={"illuminations": kept})
-            plan = replace(plan, dominated=dominated)
-            for name in dominated:
-                click.echo(f"not capturing {name!r}: predicted dominated (see skipped:)", err=True)
-        _capture(st, out)
-        click.echo(f"frames: {out}")
-        frames_dir = out
-    result = run_verify(st, frames_dir, plan=plan)
-    misses = dominance_unconfirmed(result) if plan.dominated else []
-    if misses:
-        # The skip rested on the prediction, which the captured lights contradict: the
-        # left-out ones are added to the same capture (its complete steps are kept).
-        names = ", ".join(repr(n) for n in plan.dominated)
-        them = "them" if len(plan.dominated) > 1 else "it"
-        why = (
-            f"captured {names} after all: the prediction that left {them} out does not hold here "
-            f"({misses[0]}{f', and {len(misses) - 1} more' if len(misses) > 1 else ''})"
-        )
-        click.echo(why, err=True)
-        st, plan = full, replace(plan, dominated={})
-        _capture(st, out, resume=True)
-        result = run_verify(st, out, plan=plan)
-        result = replace(result, notes=(*result.notes, why))
+    def capture(station, folder, *, resume=False):
+        _capture(station, folder, resume=resume)
+        if not resume:
+            click.echo(f"frames: {folder}")
+
+    result = verify_station(
+        st,
+        frames=frames_dir,
+        out=out,
+        skip_dominated=skip_dominated,
+        capture=capture,
+        notify=lambda message: click.echo(message, err=True),
+    )
+    st = result.station
     click.echo(
         f"{st.name}: {len(st.illuminations)} illumination(s), calibration {st.calibration.method}"
     )

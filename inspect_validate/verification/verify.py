@@ -37,6 +37,7 @@ __all__ = [
     "read_capture",
     "station_regions",
     "verify",
+    "verify_station",
 ]
 
 
@@ -372,6 +373,77 @@ def dominance_unconfirmed(result: Verification) -> list[str]:
         f"{where} measured {miss:.1f} dB from its prediction (more than {tolerance:g} dB)"
         for miss, where in sorted(misses, reverse=True)
     ]
+
+
+def verify_station(
+    station,
+    *,
+    frames: Path | None = None,
+    out: Path | None = None,
+    skip_dominated: bool = False,
+    capture=None,
+    notify=None,
+) -> Verification:
+    """Verify ``station`` end to end: plan (a mistake in the station file costs no
+    capture), capture into ``out`` unless ``frames`` (an earlier capture) is given, and
+    :func:`verify`. What ``inspect-validate verify`` does, without printing.
+
+    Parameters
+    ----------
+    station : Station
+    frames, out : path, keyword-only
+        One of them: the capture to verify, or where to capture.
+    skip_dominated : bool, keyword-only
+        Leave out the illuminations the prediction finds dominated; capture them after
+        all, into the same folder, where the measurement contradicts the prediction.
+    capture : callable, keyword-only
+        ``capture(station, folder, resume=False)``; default
+        :func:`~inspect_validate.camera.capture.capture`.
+    notify : callable, keyword-only
+        ``notify(message)``: what was left out, or captured after all, and why.
+
+    Raises
+    ------
+    InputError
+        Neither ``frames`` nor ``out``; a station file, capture or frame that cannot be
+        used. DeviceError: a device that fails while capturing.
+    """
+    if capture is None:
+        from inspect_validate.camera.capture import capture
+    notify = notify or (lambda message: None)
+    plan = plan_verification(station)
+    full = station
+    if frames is None:
+        if out is None:
+            raise InputError("give the frames to verify (a capture folder) or where to capture")
+        dominated = (
+            dominated_illuminations(station, plan.model, plan.comparisons) if skip_dominated else {}
+        )
+        if dominated:
+            kept = [i for i in station.illuminations if i.name not in dominated]
+            station = station.model_copy(update={"illuminations": kept})
+            plan = replace(plan, dominated=dominated)
+            for name in dominated:
+                notify(f"not capturing {name!r}: predicted dominated (see skipped:)")
+        capture(station, Path(out))
+        frames = out
+    result = verify(station, Path(frames), plan=plan)
+    misses = dominance_unconfirmed(result) if plan.dominated else []
+    if misses:
+        # The skip rested on the prediction, which the captured lights contradict: the
+        # left-out ones are added to the same capture (its complete steps are kept).
+        names = ", ".join(repr(n) for n in plan.dominated)
+        them = "them" if len(plan.dominated) > 1 else "it"
+        why = (
+            f"captured {names} after all: the prediction that left {them} out does not hold here "
+            f"({misses[0]}{f', and {len(misses) - 1} more' if len(misses) > 1 else ''})"
+        )
+        notify(why)
+        plan = replace(plan, dominated={})
+        capture(full, Path(out), resume=True)
+        result = verify(full, Path(out), plan=plan)
+        result = replace(result, notes=(*result.notes, why))
+    return result
 
 
 def verify(station, frames_dir: Path, *, plan: Plan | None = None) -> Verification:
