@@ -105,7 +105,7 @@ def format_prediction(p: Ranking, rows: list[dict]) -> str:
     what = f"{comparison}" if comparison else "worst pair of classes"
     lines = [
         f"Ranked by {'ε Gauss' if by == 'error' else by} of the {what}; μ in DN, σ² in DN², "
-        "ε_tot (37) with equal priors",
+        "ε_tot (37) with equal priors, a fraction (0 to ½)",
         render_table(header, table),
     ]
     if any(r["saturated"] for r in rows):

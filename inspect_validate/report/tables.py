@@ -11,13 +11,14 @@ __all__ = ["format_error", "format_measurement", "render_table"]
 
 
 def format_error(value: float | None, log_value: float | None = None) -> str:
-    """ε as a percentage, switching to powers of ten for tiny values."""
+    """ε as a fraction (0 to ½), the unit of every output and every limit, to three
+    significant digits; powers of ten for tiny values."""
     if value is None:
         return "-"
     if value == 0.0 and log_value is not None and math.isfinite(log_value):
         return f"1e{log_value / math.log(10):.0f}"
     if value >= 1e-4:
-        return f"{100 * value:#.3g} %"
+        return f"{value:#.3g}"
     return f"{value:.2e}"
 
 
@@ -94,7 +95,7 @@ def format_measurement(m: Measurement, *, saturation_limit: float | None = None)
         return "\n".join(out)
     groups = {"equal": "equal weights", "pixels": "weighted by pixels", "priors": "class priors"}
     out += [
-        "Separation (chapter Table 3; ε_tot (37) with equal priors between the sides; "
+        "Separation (chapter Table 3; ε_tot (37), a fraction, with equal priors between the sides; "
         f"a group of classes is their mixture, {groups[m.weighting]})",
         render_table(header, rows),
     ]
