@@ -282,7 +282,7 @@ def predict(scene, json_path, top, rank_by, comparison, no_kde, plot_dir, render
                 analyse_spectra(list(sc.classes), kde=not no_kde, comparisons=sc.comparisons),
                 plot_dir / "spectral_error.png",
             ),
-            plot_ranked_separation(rows, plot_dir / "ranking.png"),
+            plot_ranked_separation(rows, plot_dir / "ranking.png", by=by),
         ]
         click.echo("wrote " + ", ".join(str(p) for p in written))
     if render_dir:

@@ -120,3 +120,33 @@ def test_predict_plots_and_render_round_trip(tmp_path):
             # the spread of which reflectance sample each pixel drew).
             assert c["mean"] == pytest.approx(p["mean"], abs=5 * np.sqrt(p["variance"] / n) + 0.05)
             assert c["variance"] == pytest.approx(p["variance"], rel=0.03)
+
+
+@pytest.mark.parametrize("by", ["error", "snr_db"])
+def test_ranking_plot_shows_what_the_table_ranks_by(monkeypatch, by):
+    """ranking.png's bars are each row's key comparison's value — the number the table
+    ranks by — not the worst listed comparison's, each written at its bar."""
+    from inspect_validate.report import plots
+
+    rows = [
+        {
+            "rank": i + 1,
+            "light": f"L{i}",
+            "optics": "o",
+            "camera": "c",
+            "key_comparison": 1,
+            "comparisons": [
+                {"first": ["A"], "second": ["B"], "error_gaussian": 0.4, "snr_db": -30.0},
+                {"first": ["A"], "second": ["B", "C"], "error_gaussian": e, "snr_db": s},
+            ],
+        }
+        for i, (e, s) in enumerate([(0.01, -3.0), (0.02, -5.0), (0.05, -9.0)])
+    ]
+    shown = {}
+    monkeypatch.setattr(plots, "_save", lambda fig, path: shown.setdefault("fig", fig))
+    plots.plot_ranked_separation(rows, "unused.png", by=by)
+    ax = shown["fig"].axes[0]
+    widths = [bar.get_width() for bar in ax.patches]
+    key = "error_gaussian" if by == "error" else "snr_db"
+    assert widths == [r["comparisons"][1][key] for r in rows]
+    assert "A vs B,C" in ax.get_xlabel() and len(ax.texts) == 3

@@ -146,17 +146,36 @@ def plot_spectral_errors(separation, path, *, marked: dict[str, float] | None = 
     return _save(fig, path)
 
 
-def plot_ranked_separation(rows: list[dict], path):
-    """ε Gauss of the ranked combinations (log scale), best first."""
+def plot_ranked_separation(rows: list[dict], path, *, by: str = "error"):
+    """The ranked combinations, best first, by the value the table ranks them by: each
+    row's key comparison's ε Gauss (log scale), SNR_dB or CNR_dB, written at each bar."""
     plt = _pyplot()
     labels = [f"{r['rank']}: {r['light']} / {r['optics']} / {r['camera']}" for r in rows]
-    eps = [max(c["error_gaussian"] for c in r["comparisons"]) for r in rows]
+    keys = [r["comparisons"][r["key_comparison"]] for r in rows]
+    quantity = {"error": "error_gaussian"}.get(by, by)
+    values = np.array([k[quantity] for k in keys], dtype=float)
+    names = sorted({f"{','.join(k['first'])} vs {','.join(k['second'])}" for k in keys})
     fig, ax = plt.subplots(figsize=(9, 0.35 * len(rows) + 1.5))
-    ax.barh(range(len(rows)), np.maximum(eps, 1e-300), color="tab:blue")
-    ax.set_xscale("log")
+    if by == "error":
+        shown = np.maximum(values, 1e-300)
+        ax.barh(range(len(rows)), shown, color="tab:blue")
+        wide = shown.max() > 10 * shown.min()  # else a log axis exaggerates the differences
+        if wide:
+            ax.set_xscale("log")
+        texts = [f"{v:.3g}" for v in values]
+        what = f"predicted ε Gauss (a fraction{', log scale' if wide else ''})"
+    else:
+        shown = values
+        ax.barh(range(len(rows)), shown, color="tab:blue")
+        texts = [f"{v:.2f} dB" for v in values]
+        what = f"predicted {'SNR_dB' if by == 'snr_db' else 'CNR_dB'} [dB]"
+    for y, (x, text) in enumerate(zip(shown, texts, strict=True)):
+        ax.annotate(
+            text, (x, y), xytext=(3, 0), textcoords="offset points", va="center", fontsize=7
+        )
     ax.set_yticks(range(len(rows)), labels, fontsize=7)
     ax.invert_yaxis()
-    ax.set_xlabel("predicted ε_tot (worst listed comparison)")
+    ax.set_xlabel(f"{what} of {', '.join(names)}: the table's ranking")
     return _save(fig, path)
 
 
