@@ -21,6 +21,7 @@ from inspect_validate.errors import (
     EXIT_INTERNAL,
     InspectValidateError,
 )
+from inspect_validate.text import labelled
 
 _PATH = click.Path(path_type=Path)
 
@@ -143,9 +144,9 @@ def measure(
     )
     click.echo(format_measurement(result, saturation_limit=max_saturated))
     for reason in result.skipped:
-        click.echo(f"skipped: {reason}", err=True)
+        click.echo(labelled("skipped", reason), err=True)
     for warning in result.warnings:
-        click.echo(f"warning: {warning}", err=True)
+        click.echo(labelled("warning", warning), err=True)
     if json_path:
         write_json(measurement_document(result, limits=limits), json_path)
         click.echo(f"\nwrote {json_path}")
@@ -230,7 +231,7 @@ def predict(scene, json_path, top, rank_by, comparison, no_kde, plot_dir, render
 
     sc = read_scene(scene)
     for note in sc.notes():
-        click.echo(f"note: {note}", err=True)
+        click.echo(labelled("note", note), err=True)
     by = rank_by or sc.rank_by
     rank_comparison, comparison = comparison, comparison or sc.rank_comparison
     if comparison is not None:
@@ -251,9 +252,9 @@ def predict(scene, json_path, top, rank_by, comparison, no_kde, plot_dir, render
     with cluster as client:
         result = sc.sweep(by=by, comparison=comparison, top=top, client=client)
     for reason in result.skipped:
-        click.echo(f"skipped: {reason}", err=True)
+        click.echo(labelled("skipped", reason), err=True)
     for work in result.skipped_work:
-        click.echo(f"not computed: {work}", err=True)
+        click.echo(labelled("not computed", work), err=True)
     rows = prediction_rows(result, kde=not no_kde)
     n = result.combinations
     n_skipped = n - result.predicted
@@ -336,7 +337,7 @@ def analyze_spectra(scene, json_path, plot_path, best, no_kde):
     _outputs(files=[json_path, plot_path])
     sc = read_scene(scene)
     for note in sc.notes():
-        click.echo(f"note: {note}", err=True)
+        click.echo(labelled("note", note), err=True)
     sep = analyse_spectra(list(sc.classes), kde=not no_kde, comparisons=sc.comparisons)
     rows = []
     for j, (a, b) in enumerate(sep.comparisons):
@@ -411,7 +412,7 @@ def capture(station, out, resume):
             err=True,
         )
     for warning in result.warnings:
-        click.echo(f"warning: {warning}", err=True)
+        click.echo(labelled("warning", warning), err=True)
     for step, n in result.steps.items():
         click.echo(f"{step}: {n} frames in {out / step}{_precision_note(result, step, st)}")
     for step in result.skipped:
@@ -767,7 +768,7 @@ def design(source, json_path, check, out_dir, choose, objective, auto_exposure):
     _outputs(files=[json_path], folders=[out_dir])
     problem = design_problem(source, auto_exposure=auto_exposure)
     for work in problem.skipped:
-        click.echo(f"not computed: {work}", err=True)
+        click.echo(labelled("not computed", work), err=True)
     objective = objective or ("cnr" if problem.rank_by == "cnr_db" else "error")
     if check and problem.station is None:
         raise InputError(

@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import math
 import re
+import sys
 
 from inspect_validate.measurement import Measurement
+from inspect_validate.text import labelled
 
 __all__ = ["format_error", "format_measurement", "render_table"]
 
@@ -95,8 +97,12 @@ def format_measurement(m: Measurement, *, saturation_limit: float | None = None)
         return "\n".join(out)
     groups = {"equal": "equal weights", "pixels": "weighted by pixels", "priors": "class priors"}
     out += [
-        "Separation (chapter Table 3; ε_tot (37), a fraction, with equal priors between the sides; "
-        f"a group of classes is their mixture, {groups[m.weighting]})",
+        labelled(
+            "Separation",
+            "chapter Table 3; ε_tot (37), a fraction, with equal priors between the sides; "
+            f"a group of classes is their mixture, {groups[m.weighting]}",
+            stream=sys.stdout,
+        ),
         render_table(header, rows),
     ]
     if any(c.kde_bandwidth_at_floor for c in m.classes):

@@ -10,11 +10,13 @@ comparison, the ranking, and every check with value, limit, unit and verdict.
 
 from __future__ import annotations
 
+import sys
 from dataclasses import asdict
 from pathlib import Path
 
 from inspect_validate import __version__
 from inspect_validate.report.tables import render_table
+from inspect_validate.text import labelled
 
 __all__ = [
     "CHECK_COLUMNS",
@@ -68,9 +70,9 @@ def format_verdict(v) -> str:
     if rows:
         out += ["", render_table(list(CHECK_COLUMNS), rows)]
     for s in v.skipped:
-        out.append(f"skipped: {s}")
+        out.append(labelled("skipped", s, stream=sys.stdout))
     for n in v.notes:
-        out.append(f"note: {n}")
+        out.append(labelled("note", n, stream=sys.stdout))
     out += [f"frames: {describe_acquisition(a)}" for a in v.acquisition]
     out.append("")
     out.append(f"{'PASS' if v.passed else 'FAIL'}: {count_failed(v.checks)}")
