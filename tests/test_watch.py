@@ -317,8 +317,9 @@ def _http(port, request: bytes) -> bytes:
 def test_status_server_answers_only_its_own_host_and_bounds_clients(capfd):
     """DNS rebinding: a foreign ``Host`` is refused; a query string is the same path; the
     ``Server`` header names no Python; idle and half-sent connections are cut after
-    TIMEOUT_S, more than MAX_CONNECTIONS at once are closed, a request's bytes are
-    bounded; clients that leave early print nothing on watch's terminal."""
+    TIMEOUT_S (also one trickled a byte at a time), more than MAX_CONNECTIONS at once
+    are closed, a request's bytes are bounded; clients that leave early print nothing
+    on watch's terminal."""
     import socket
     import threading
 
@@ -357,6 +358,21 @@ def test_status_server_answers_only_its_own_host_and_bounds_clients(capfd):
         # A request larger than the budget is cut, not read on.
         big = _http(port, b"GET /status HTTP/1.1\r\n" + b"X: b\r\n" * 4000 + b"\r\n")
         assert big.startswith(b"HTTP/1.0 431"), big
+        # A request trickled a byte at a time (slowloris) is cut at its time too.
+        slow = socket.create_connection(("127.0.0.1", port))
+        slow.settimeout(0.3)
+        slow.sendall(b"GET /status HTTP/1.1\r\nX: ")
+        started, cut = time.monotonic(), None
+        while cut is None and time.monotonic() - started < serve.TIMEOUT_S + 5:
+            try:
+                slow.sendall(b"a")
+                cut = slow.recv(100) == b"" or None  # b"": the server shut it
+            except TimeoutError:
+                pass
+            except OSError:
+                cut = True
+        slow.close()
+        assert cut and time.monotonic() - started < serve.TIMEOUT_S + 2
         # Clients that close before the answer: nothing on stderr.
         for _ in range(20):
             s = socket.create_connection(("127.0.0.1", port))

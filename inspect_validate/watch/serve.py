@@ -12,7 +12,9 @@ not an error on ``watch``'s terminal.
 
 from __future__ import annotations
 
+import contextlib
 import json
+import socket
 import threading
 import time
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
@@ -81,7 +83,8 @@ class _Budget:
         self.cut: int | None = None  # the HTTP status for a request cut short
 
     def readline(self, limit=-1):
-        if self.left <= 0 or time.monotonic() > self.deadline:
+        remaining = self.deadline - time.monotonic()
+        if self.left <= 0 or remaining <= 0:
             self.cut = 431 if self.left <= 0 else 408
             return b""
         line = self.raw.readline(min(self.left, limit) if limit >= 0 else self.left)
@@ -135,6 +138,20 @@ class StatusServer:
             def setup(self):
                 super().setup()
                 self.rfile = _Budget(self.rfile)
+                # The socket's timeout is per read: a request trickled a byte at a time
+                # would outlast it. Past its time the connection is shut, mid-read too.
+                self.watchdog = threading.Timer(TIMEOUT_S, self._shut)
+                self.watchdog.daemon = True
+                self.watchdog.start()
+
+            def _shut(self):
+                with contextlib.suppress(OSError):
+                    self.connection.shutdown(socket.SHUT_RDWR)
+
+            def finish(self):
+                self.watchdog.cancel()
+                with contextlib.suppress(OSError):
+                    super().finish()
 
             def version_string(self):
                 return "inspect-validate"  # not the Python version
