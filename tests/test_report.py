@@ -29,3 +29,16 @@ def test_running_text_wraps_on_a_terminal_only():
     assert all(line.startswith("  ") for line in lines[1:])
     assert " ".join(line.strip() for line in lines) == f"note: {text}".strip()
     assert labelled("note", text, stream=io.StringIO()) == f"note: {text}"
+
+
+def test_a_yes_no_check_reads_as_what_it_asks():
+    """The ranking check is kept as 1/0 against a limit of 1 (JSON); the table shows
+    yes/no against "must be yes", and a failing one's JUnit message is its detail."""
+    from inspect_validate.report.verification import check_rows
+    from inspect_validate.verification.checks import Check
+
+    ranking = Check("ranking by A vs B,C", "ranking", 0.0, 1.0, "", "≥", False, "measured best red")
+    separation = Check("amber: A vs B SNR_dB", "separation", -5.1, -7.0, "dB", "≥", True)
+    cells = dict((c.kind, row) for c, row in check_rows([ranking, separation]))
+    assert cells["ranking"][2:4] == ["no", "must be yes"]
+    assert cells["separation"][2:4] == ["-5.1", "≥ -7"]

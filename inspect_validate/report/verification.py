@@ -37,7 +37,7 @@ def check_rows(checks) -> list[tuple[object, list[str]]]:
     """``(check, cells under CHECK_COLUMNS)`` for each check, failures first, then in the
     order the checks were made: the verdict table and the HTML report show these."""
     return [
-        (c, [c.verdict, c.name, _number(c), f"{c.relation} {c.limit:.4g}", c.unit, c.detail])
+        (c, [c.verdict, c.name, _number(c), _limit(c), c.unit, c.detail])
         for c in sorted(checks, key=lambda c: c.passed)
     ]
 
@@ -88,6 +88,11 @@ def count_failed(checks) -> str:
     return f"{failed} of {len(checks)} checks failed" + (
         f" ({not_run} could not run)" if not_run else ""
     )
+
+
+def _limit(c) -> str:
+    # A yes/no check (kept as 1/0 in the JSON) reads as what it asks, not "≥ 1".
+    return "must be yes" if c.kind == "ranking" else f"{c.relation} {c.limit:.4g}"
 
 
 def _number(c) -> str:
@@ -173,7 +178,7 @@ def write_junit(v, path: str | Path) -> Path:
                 f"{c.value:.6g} {c.unit} is not {c.relation} {c.limit:.6g} {c.unit}".replace(
                     "  ", " "
                 )
-                if c.ran
+                if c.ran and c.kind != "ranking"
                 else c.detail
             )
             fail = ET.SubElement(case, "failure", message=message, type=c.kind)
