@@ -1,6 +1,7 @@
 """Per-wavelength errors, plots, and the render → measure loop against the prediction."""
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -150,3 +151,23 @@ def test_ranking_plot_shows_what_the_table_ranks_by(monkeypatch, by):
     key = "error_gaussian" if by == "error" else "snr_db"
     assert widths == [r["comparisons"][1][key] for r in rows]
     assert "A vs B,C" in ax.get_xlabel() and len(ax.texts) == 3
+
+
+def test_spectral_error_plot_says_where_it_is_floored(monkeypatch):
+    """ε below the log axis's 1e-16 floor is drawn on it with a word saying so, and the
+    lights' labels sit above the plot, not over the curves."""
+    from inspect_validate.model import analyse_spectra
+    from inspect_validate.report import plots
+    from inspect_validate.scene import read_scene
+
+    scene = read_scene(
+        Path(__file__).parents[1] / "sample_images" / "scenes" / "mix" / "scene.yaml"
+    )
+    sep = analyse_spectra(list(scene.classes), kde=False, comparisons=scene.comparisons)
+    assert np.nanmin(sep.error_gaussian) < 1e-16  # the inks separate completely somewhere
+    shown = {}
+    monkeypatch.setattr(plots, "_save", lambda fig, path: shown.setdefault("fig", fig))
+    plots.plot_spectral_errors(sep, "unused.png", marked={"blue LED": 465})
+    texts = {t.get_text(): t for t in shown["fig"].axes[0].texts}
+    assert any("complete separation" in t for t in texts)
+    assert texts["blue LED"].get_verticalalignment() == "bottom"  # above the axes' top

@@ -110,8 +110,13 @@ def plot_spectral_errors(separation, path, *, marked: dict[str, float] | None = 
     """
     plt = _pyplot()
     fig, axes = plt.subplots(
-        1, 2 if separation.error_kde is not None else 1, figsize=(11, 4), squeeze=False, sharey=True
+        1,
+        2 if separation.error_kde is not None else 1,
+        figsize=(11, 4.6),
+        squeeze=False,
+        sharey=True,
     )
+    floor = 1e-16  # a log axis cannot show 0: complete separation is drawn here, and said so
     for ax, (title, data) in zip(
         axes[0],
         [
@@ -123,23 +128,34 @@ def plot_spectral_errors(separation, path, *, marked: dict[str, float] | None = 
         for (a, b), eps in zip(separation.comparisons, data, strict=True):
             ax.semilogy(
                 separation.wavelengths,
-                np.maximum(eps, 1e-16),
+                np.maximum(eps, floor),
                 label=f"{','.join(a)} vs {','.join(b)}",
+            )
+        if np.nanmin(data) < floor:
+            ax.axhline(floor, color="0.5", ls="--", lw=0.8)
+            ax.annotate(
+                f"ε < {floor:g} (complete separation) drawn at {floor:g}",
+                (0.01, floor),
+                xycoords=("axes fraction", "data"),
+                xytext=(0, 3),
+                textcoords="offset points",
+                fontsize=7,
+                color="0.3",
             )
         for k, (name, wl) in enumerate((marked or {}).items()):
             ax.axvline(wl, color="0.3", ls=":", lw=1)
+            # Above the plot, not over the curves; alternate heights keep close lights apart.
             ax.annotate(
                 name,
                 (wl, 1.0),
                 xycoords=("data", "axes fraction"),
-                rotation=90,
-                va="top",
-                ha="right",
+                ha="center",
+                va="bottom",
                 fontsize=7,
-                xytext=(-2, -2 - 40 * (k % 2)),
+                xytext=(0, 2 + 9 * (k % 2)),
                 textcoords="offset points",
             )
-        ax.set_title(f"ε_tot per wavelength, {title}")
+        ax.set_title(f"ε_tot per wavelength, {title}", pad=24 if marked else 6)
         ax.set_xlabel("wavelength [nm]")
         ax.legend(fontsize=7)
     axes[0][0].set_ylabel("classification error ε_tot")
