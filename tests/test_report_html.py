@@ -73,6 +73,20 @@ def test_checks_table_lists_failures_first(report):
     assert "<title>verify paperboard station, amber LED drifted: FAIL</title>" in report.read_text()
 
 
+def test_skipped_work_is_rows_of_the_checks_table(report):
+    """What was not computed sits in the checks table, after the checks, as rows marked
+    skipped (what, and why in the detail column), not as loose paragraphs."""
+    text = report.read_text()
+    page = _Page()
+    page.feed(text)
+    skipped = [r for r in page.rows if r and r[0] == "skipped"]
+    assert skipped and all(len(r) == 3 for r in skipped)  # verdict, what, why
+    assert any(r[1] == "ε KDE" and "no check asks for it" in r[2] for r in skipped)
+    assert '<tr class="skipped">' in text and "<p>skipped:" not in text
+    rows = [r[0] for r in page.rows if r and r[0] in ("pass", "FAIL", "skipped")]
+    assert rows.index("skipped") > max(i for i, v in enumerate(rows) if v != "skipped")
+
+
 _PROBE = """<script>
 window.addEventListener('load', () => {
   const bad = [...document.images].filter(i => !(i.complete && i.naturalWidth > 0));

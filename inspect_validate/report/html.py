@@ -34,6 +34,7 @@ table { border-collapse: collapse; margin: 0.8em 0; font-size: 0.9em; }
 th, td { border: 1px solid #ccc; padding: 0.25em 0.6em; text-align: left; }
 td.num { text-align: right; font-variant-numeric: tabular-nums; }
 tr.fail td { background: #fde7ea; }
+tr.skipped td { color: #666; background: #f6f6f6; }
 img { max-width: 100%; display: block; margin: 0.5em 0; }
 .meta { color: #555; font-size: 0.9em; }
 """
@@ -68,7 +69,6 @@ def verification_html(v, *, history=None) -> str:
         "<h2>Checks</h2>",
         _checks_table(v),
     ]
-    parts += [f"<p>skipped: {e(s)}</p>" for s in v.skipped]
     parts += [f"<p>note: {e(n)}</p>" for n in v.notes]
     if v.acquisition:
         parts += ["<h2>Frames</h2>", "<ul>"]
@@ -105,11 +105,14 @@ def _figure(plot, *args, alt: str, **options) -> str:
     return f'<img src="data:image/png;base64,{data}" alt="{html.escape(alt)}">'
 
 
-def _table(header, rows, *, failed=None) -> str:
+def _table(header, rows, *, failed=None, classes=None) -> str:
+    """``rows`` under ``header``; a row is marked ``fail`` where ``failed[i]``, else with
+    ``classes[i]`` (a CSS class) where given."""
     e = html.escape
     out = ["<table><tr>" + "".join(f"<th>{e(h)}</th>" for h in header) + "</tr>"]
     for i, row in enumerate(rows):
-        cls = ' class="fail"' if failed and failed[i] else ""
+        mark = "fail" if failed and failed[i] else (classes[i] if classes else "")
+        cls = f' class="{mark}"' if mark else ""
         cells = "".join(
             f'<td class="num">{e(c)}</td>' if _numeric(c) else f"<td>{e(c)}</td>" for c in row
         )
@@ -134,10 +137,18 @@ def _checks_table(v) -> str:
     from inspect_validate.report.verification import CHECK_COLUMNS, check_rows
 
     rows = check_rows(v.checks)
-    if not rows:
+    if not rows and not v.skipped:
         return "<p>The station's acceptance section asks for no check.</p>"
+    # What was not computed, and why, is read where the checks are: rows of their own.
+    skipped = []
+    for item in v.skipped:
+        what, _, why = item.partition(": ")
+        skipped.append(["skipped", what, "", "", "", why])
     return _table(
-        CHECK_COLUMNS, [cells for _, cells in rows], failed=[not c.passed for c, _ in rows]
+        CHECK_COLUMNS,
+        [cells for _, cells in rows] + skipped,
+        failed=[not c.passed for c, _ in rows] + [False] * len(skipped),
+        classes=[""] * len(rows) + ["skipped"] * len(skipped),
     )
 
 
