@@ -121,15 +121,21 @@ def _generic_controller(station: Station, port: str | None):
     )
 
 
+def _lit_by_simulator(station: Station, state_path: Path | None) -> None:
+    """Refuse a camera that renders the scene without the simulated controller, whose
+    state file says which lights are on."""
+    if state_path is None:
+        raise InputError(
+            f"a camera that renders the scene ({station.camera.backend}) needs the simulated "
+            "controller (controller.backend: simulated)",
+            source=str(station.path),
+        )
+
+
 def scene_renderer(station: Station, state_path: Path | None, target: str = "scene"):
     """The simulated camera of the station's scene, lit by the simulated controller's state."""
     spec = station.camera
-    if state_path is None:
-        raise InputError(
-            f"a camera that renders the scene ({spec.backend}) needs the simulated controller "
-            "(controller.backend: simulated)",
-            source=str(station.path),
-        )
+    _lit_by_simulator(station, state_path)
     from inspect_validate.camera.grabbers.simulated import SimulatedCamera
 
     from inspect_validate.model.illumination import station_model
@@ -152,7 +158,7 @@ def _fake_gige(station: Station, state_path: Path | None, target: str):
     from inspect_validate.camera.grabbers.aravis import AravisCamera
     from inspect_validate.camera.grabbers.fake_gige import SENSOR as FAKE_SENSOR
 
-    scene_renderer(station, state_path, target)  # refuses a station it cannot render
+    _lit_by_simulator(station, state_path)  # the renderer itself is built in the camera's process
     spec = station.camera
     if spec.width > FAKE_SENSOR or spec.height > FAKE_SENSOR:
         raise InputError(

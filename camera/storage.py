@@ -37,7 +37,7 @@ from inspect_validate import __version__
 from inspect_validate.errors import InputError
 from inspect_validate.files import atomic_write
 
-__all__ = ["QUEUED_FRAMES", "CaptureStore", "audit_capture", "file_sha256", "read_manifest"]
+__all__ = ["QUEUED_FRAMES", "CaptureStore", "audit_capture", "read_manifest"]
 
 QUEUED_FRAMES = 8
 """Grabbed frames that may wait for the writer thread."""
@@ -176,7 +176,7 @@ class CaptureStore:
         with self._lock:
             record = self.manifest["steps"][step]
             record["frames"] = index
-            record.setdefault("sha256", {})[tif.name] = hashlib.sha256(data).hexdigest()
+            record["sha256"][tif.name] = hashlib.sha256(data).hexdigest()
         return tif
 
     def save_later(self, step: str, index: int, frame: Frame, info: dict) -> None:
@@ -225,12 +225,6 @@ class CaptureStore:
         self._save_manifest()
 
 
-def file_sha256(path: Path) -> str:
-    """The SHA-256 of a file's bytes, read in blocks (a 20 MP frame is 40 MB)."""
-    with open(path, "rb") as f:
-        return hashlib.file_digest(f, "sha256").hexdigest()
-
-
 def audit_capture(folder: Path, manifest: dict, steps) -> dict[str, str]:
     """Check that the frames of ``steps`` in a capture ``folder`` are the ones written.
 
@@ -273,7 +267,8 @@ def audit_capture(folder: Path, manifest: dict, steps) -> dict[str, str]:
                 problems.append(f"{step}: {', '.join(extra)} not written by this capture")
         for path in files:
             where = f"{step}/{path.name}"
-            digest = file_sha256(path)
+            data = path.read_bytes()  # read once: hashed, and its description parsed
+            digest = hashlib.sha256(data).hexdigest()
             hashes[where] = digest
             if isinstance(recorded, dict) and recorded.get(path.name) not in (None, digest):
                 problems.append(f"{where} changed since it was written (SHA-256 differs)")
@@ -292,7 +287,7 @@ def audit_capture(folder: Path, manifest: dict, steps) -> dict[str, str]:
             if meta.get("step", step) != step or meta.get("file", path.name) != path.name:
                 problems.append(f"{where}: its sidecar is of {meta.get('step')}/{meta.get('file')}")
             try:
-                with tifffile.TiffFile(path) as tif:
+                with tifffile.TiffFile(io.BytesIO(data)) as tif:
                     text = tif.pages[0].description
                 described = json.loads(text) if text.startswith("{") else None
             except Exception:  # tifffile raises many kinds on a damaged file

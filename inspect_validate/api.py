@@ -199,11 +199,7 @@ def verify(
     """
     from inspect_validate.verification.verify import verify_station
 
-    return verify_station(
-        _station(station),
-        frames=None if frames is None else Path(frames),
-        out=None if out is None else Path(out),
-    )
+    return verify_station(_station(station), frames=frames, out=out)
 
 
 def train(station: Station | str | Path, captures) -> Golden:

@@ -492,20 +492,21 @@ def first_order_slopes(
     *,
     objective: str = "error",
     band: float = float(np.log(2.0)),
-    ceiling: float | None = None,
+    at_limit: bool = True,
 ) -> np.ndarray:
     """How the worst loss (log ε, −log CNR) moves per unit of each channel's level added
-    at ``levels`` (N,); negative: adding the channel helps. Where the brightest sample is
-    at the saturation ``ceiling`` (DN; None: taken to be), the mix is scaled down to keep
-    it there. Taken as the largest over the comparisons within ``band`` of the worst loss
-    (the worst may switch to them; at a tie a channel must help each)."""
+    at ``levels`` (N,); negative: adding the channel helps. With ``at_limit`` the mix is
+    scaled down to keep its brightest sample's signal (the saturation limit binds);
+    without, the light is added as it is. Taken as the largest over the comparisons
+    within ``band`` of the worst loss (the worst may switch to them; at a tie a channel
+    must help each)."""
     w = np.asarray(levels, float)
     f, g = comparison_losses(response, w, comparisons, objective=objective, gradient=True)
     active = f >= f.max() - band
+    if not at_limit:
+        return g[active].max(axis=0)
     signal = response.signal(w)
     brightest = int(np.argmax(signal))
-    if ceiling is not None and signal[brightest] < ceiling * (1 - 1e-6):
-        return g[active].max(axis=0)  # headroom: more light is allowed as it is
     scale = response.camera.gain * response.electrons[:, brightest] / max(signal[brightest], 1e-300)
     return (g[active] - np.outer(g[active] @ w, scale)).max(axis=0)
 
@@ -571,7 +572,7 @@ def _screened(response, comparisons, *, progress=None, **options) -> Mix:
             keep = tied if p is None else [p]
             which = comparisons.subset([comparisons.labels[i] for i in keep])
             slopes = first_order_slopes(
-                response, w, which, objective=objective, band=np.inf, ceiling=np.inf
+                response, w, which, objective=objective, band=np.inf, at_limit=False
             )
             slopes[work] = np.inf
             joining |= {int(c) for c in np.argsort(slopes)[:_ADDED] if slopes[c] < -1e-9}
