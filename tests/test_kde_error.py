@@ -1,5 +1,6 @@
 """ε_tot (37) of two kernel density estimates, against brute-force quadrature (1e-8 relative)."""
 
+import importlib
 import itertools
 
 import numpy as np
@@ -245,3 +246,21 @@ def k_lscv(x):
     from inspect_validate.stats import lscv_bandwidth
 
     return lscv_bandwidth(x).h
+
+
+def test_shared_regions_reuse_inside_the_block_only():
+    # A measurement finds each comparison's regions once for ε Gauss and the counted
+    # error; outside the block nothing is kept (a long-running watch grows no cache).
+    k = importlib.import_module("inspect_validate.stats.kde_error")  # the module, not ε KDE
+
+    args = ([10.0, 30.0], [0.5, 0.5], [2.0, 3.0], [20.0], [1.0], [4.0])
+    plain = k.misclassified_regions(*args)
+    with k.shared_regions():
+        first = k.misclassified_regions(*args)
+        error = mixture_error(*args)
+        assert len(k._shared) == 1
+    assert k._shared is None
+    for (r0, m0), (r1, m1) in zip(plain, first, strict=True):
+        assert r0 == r1
+        np.testing.assert_array_equal(m0, m1)
+    assert error == mixture_error(*args)

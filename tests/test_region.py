@@ -145,3 +145,22 @@ def test_the_compiled_kernels_take_over_once_numpy_has_spent_their_load(monkeypa
         compiled.temporal_variance,
         compiled.spatial_variance,
     )
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_one_frame_histogram_over_any_mask_equals_bincount(seed):
+    # Blocks the mask covers whole are counted without indexing: rectangles, a rectangle
+    # with a hole, random blobs and one-pixel rows must all give the indexed count.
+    from inspect_validate.stats.region import _masked_histogram
+
+    rng = np.random.default_rng(seed)
+    frame = rng.integers(0, 256, (700, 300), dtype=np.uint8)
+    mask = np.zeros(frame.shape, bool)
+    y0, x0 = rng.integers(0, 300), rng.integers(0, 150)
+    mask[y0 : y0 + rng.integers(1, 400), x0 : x0 + rng.integers(1, 150)] = True
+    if seed % 2:
+        mask[rng.integers(0, 700), rng.integers(0, 300)] ^= True
+    if seed % 3 == 0:
+        mask |= rng.random(frame.shape) < 0.01
+    expected = np.bincount(frame[mask], minlength=256)
+    np.testing.assert_array_equal(_masked_histogram(frame, mask, 256), expected)

@@ -19,6 +19,7 @@ and each class's binned density.
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 from dataclasses import dataclass
 
@@ -385,10 +386,31 @@ def _sorted_components(centres1, weights1, sigma1, centres2, weights2, sigma2):
     return order, *([x[o] for x, o in zip(arr, order, strict=True)] for arr in (c, w, s))
 
 
+_shared: dict[tuple[bytes, ...], tuple[list, list]] | None = None
+
+
+@contextlib.contextmanager
+def shared_regions():
+    """Within the block, mixtures' decision regions are found once: a measurement asks
+    for each comparison's twice, for ε Gauss and for the counted error (the crossing
+    search is most of either)."""
+    global _shared
+    outer, _shared = _shared, {} if _shared is None else _shared
+    try:
+        yield
+    finally:
+        _shared = outer
+
+
 def _split_regions(cs, ws, ss) -> tuple[list, list]:
     """The regions where side 1's density is the lower one, and those where side 2's
     is (sorted components)."""
-    return _by_lower(_lower_regions(cs[0], ss[0], cs[1], ss[1], ws[0], ws[1]))
+    if _shared is None:
+        return _by_lower(_lower_regions(cs[0], ss[0], cs[1], ss[1], ws[0], ws[1]))
+    key = tuple(np.asarray(a, np.float64).tobytes() for a in (*cs, *ws, *ss))
+    if key not in _shared:
+        _shared[key] = _by_lower(_lower_regions(cs[0], ss[0], cs[1], ss[1], ws[0], ws[1]))
+    return _shared[key]
 
 
 def _by_lower(labelled) -> tuple[list, list]:

@@ -225,12 +225,18 @@ def _kernels(values: int):
 
 def _masked_histogram(frame, mask, nbins) -> np.ndarray:
     """Counts of the values 0 … nbins − 1 of an unsigned frame under the mask, in blocks of
-    rows (a few hundred kB each: cache-resident, and no copy of the region)."""
+    rows of the mask's bounding box (a few hundred kB each: cache-resident, and no copy of
+    the region); a block the mask covers whole is counted without indexing (a rectangle's
+    pixels in half the time)."""
     hist = np.zeros(nbins, np.int64)
     rows = np.flatnonzero(mask.any(axis=1))
-    step = max(1, 2**18 // frame.shape[1])
+    cols = np.flatnonzero(mask[rows[0] : rows[-1] + 1].any(axis=0))
+    x0, x1 = cols[0], cols[-1] + 1
+    step = max(1, 2**18 // int(x1 - x0))
     for i in range(rows[0], rows[-1] + 1, step):
-        hist += np.bincount(frame[i : i + step][mask[i : i + step]], minlength=nbins)
+        block, inside = frame[i : i + step, x0:x1], mask[i : i + step, x0:x1]
+        values = block.ravel() if inside.all() else block[inside]
+        hist += np.bincount(values, minlength=nbins)
     return hist
 
 
