@@ -42,7 +42,7 @@ from pydantic import (
 )
 
 from inspect_validate.comparisons import ComparisonsSpec
-from inspect_validate.config import load_yaml, one_of
+from inspect_validate.config import StrictModel, load_yaml, one_of
 from inspect_validate.scene import Irradiance
 from inspect_validate.verification.acceptance import Acceptance, Calibration
 
@@ -60,8 +60,6 @@ __all__ = [
 ]
 
 
-class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid")
 
 
 Seconds = Annotated[float, Field(gt=0, le=3600, allow_inf_nan=False)]
@@ -70,7 +68,7 @@ Microseconds = Annotated[float, Field(ge=0, le=1e8, allow_inf_nan=False)]
 Line = Annotated[str, Field(pattern=r"^Line[0-9]{1,2}$")]
 
 
-class _CameraCommon(_Strict):
+class _CameraCommon(StrictModel):
     model: str | None = None  # which of the scene's cameras this is (default: its only one)
     exposure_us: Annotated[float, Field(gt=0, le=1e8, allow_inf_nan=False)] | None = None
     gain_db: Annotated[float, Field(ge=-60, le=100, allow_inf_nan=False)] | None = None
@@ -115,7 +113,7 @@ Transmission = Annotated[float, Field(gt=0, le=2, allow_inf_nan=False)]
 BlurPx = Annotated[float, Field(ge=0, le=50, allow_inf_nan=False)]
 
 
-class WorldChange(_Strict):
+class WorldChange(StrictModel):
     """A change of the simulated world from cycle ``start`` of ``watch`` on (to ``stop``,
     exclusive, if given): a step (factors), a gradual drift (% per cycle or per hour,
     compounding from the start) or a device fault. A station that is ageing, soiled or
@@ -148,7 +146,7 @@ class WorldChange(_Strict):
         return cycle >= self.start and (self.stop is None or cycle < self.stop)
 
 
-class World(_Strict):
+class World(StrictModel):
     """How the simulated world differs from the station's scene.
 
     A simulator rendered from the very scene it is checked against can only
@@ -233,7 +231,7 @@ class World(_Strict):
         return [a for c in self.changes if c.active(cycle) for a in c.controller_faults]
 
 
-class _Rendered(_Strict):
+class _Rendered(StrictModel):
     """A camera that renders the station's scene (simulated, fed into pylon's emulator, or
     streamed by Aravis' fake GigE Vision camera)."""
 
@@ -352,7 +350,7 @@ class AsciiProtocol(BaseModel):
         return v
 
 
-class Pulse(_Strict):
+class Pulse(StrictModel):
     """The controller's pulse (strobe) mode: Gardasoft ``RTc,width,delay,%``, the generic
     protocol's ``pulse`` template. Each trigger lights the channel ``width_us`` long,
     ``delay_us`` after the trigger."""
@@ -368,7 +366,7 @@ class Pulse(_Strict):
     output, the camera's ``trigger_line``."""
 
 
-class _ControllerCommon(_Strict):
+class _ControllerCommon(StrictModel):
     channels: Annotated[int, Field(ge=1, le=64)] = 4
     timeout_s: Seconds = 1.0
     error_codes: dict[int, str] = {}
@@ -393,7 +391,7 @@ class GenericControllerSpec(_ControllerCommon):
     protocol: AsciiProtocol
 
 
-class ManualControllerSpec(_Strict):
+class ManualControllerSpec(StrictModel):
     backend: Literal["manual"]
     channels: Annotated[int, Field(ge=1, le=64)] = 4
 
@@ -410,7 +408,7 @@ ControllerSpec = one_of(
 )
 
 
-class ChannelLight(_Strict):
+class ChannelLight(StrictModel):
     """What a controller channel drives: a light of the station's scene."""
 
     light: Annotated[str, Field(min_length=1)]
@@ -422,12 +420,12 @@ def _channel_shorthand(v):
     return {"light": v} if isinstance(v, str) else v
 
 
-class Illumination(_Strict):
+class Illumination(StrictModel):
     name: str = Field(pattern=r"^[A-Za-z0-9_.-]+$", max_length=100)
     channels: dict[Channel, Annotated[float, Field(ge=0, le=100, allow_inf_nan=False)]]
 
 
-class Precision(_Strict):
+class Precision(StrictModel):
     """Sequential stopping (:mod:`~inspect_validate.camera.stopping`): ``frames`` becomes
     the most an illumination gets; it ends once every class's μ and σ² are known to
     these relative standard errors."""
@@ -437,7 +435,7 @@ class Precision(_Strict):
     min_frames: Annotated[int, Field(ge=3, le=100_000)] = 3
 
 
-class Characterize(_Strict):
+class Characterize(StrictModel):
     """How ``characterize`` measures the camera (EMVA 1288): the light of the exposure
     series, its points, the frames of the spatial stacks and the analysed region."""
 
@@ -457,7 +455,7 @@ class Characterize(_Strict):
     """x, y, width, height of the uniformly lit area analysed (default: the frame)."""
 
 
-class Station(_Strict):
+class Station(StrictModel):
     name: str = "station"
     camera: CameraSpec
     controller: ControllerSpec

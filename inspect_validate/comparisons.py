@@ -30,8 +30,9 @@ from itertools import combinations
 from typing import Annotated, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import Field
 
+from inspect_validate.config import StrictModel
 from inspect_validate.errors import InputError
 
 __all__ = [
@@ -54,10 +55,9 @@ Group = tuple[int, ...]
 Weighting = Literal["equal", "pixels"]
 
 
-class ComparisonsSpec(BaseModel):
+class ComparisonsSpec(StrictModel):
     """The ``comparisons:`` section of a scene or station file."""
 
-    model_config = ConfigDict(extra="forbid")
     # An empty list would leave nothing to rank or check: name one, or take "default".
     groups: (
         Literal["default", "pairs", "rest"]

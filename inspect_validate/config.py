@@ -19,13 +19,24 @@ import functools
 from pathlib import Path
 from typing import TypeVar
 
-from pydantic import BaseModel, ValidationError
+from pydantic import BaseModel, ConfigDict, ValidationError
 
 from inspect_validate.errors import InputError
 
-__all__ = ["explain", "load_yaml", "one_of", "parse_yaml"]
+__all__ = ["StrictModel", "explain", "load_yaml", "one_of", "parse_yaml"]
 
 M = TypeVar("M", bound=BaseModel)
+
+
+class StrictModel(BaseModel):
+    """The base of every file model (scene, station, ROI set, golden, camera file).
+
+    Unknown keys are refused (a misspelt key is an error naming it, never a silent
+    default); a model, once read, does not change; a field's docstring is its
+    description, which the file-format reference of the manual is generated from.
+    """
+
+    model_config = ConfigDict(extra="forbid", frozen=True, use_attribute_docstrings=True)
 
 
 def one_of(models: dict, *, what: str, field: str | None = None, shorthand=None):

@@ -41,16 +41,14 @@ from typing import Annotated, Any, Literal
 
 import numpy as np
 from pydantic import (
-    BaseModel,
     BeforeValidator,
-    ConfigDict,
     Field,
     field_validator,
     model_validator,
 )
 
 from inspect_validate.comparisons import Comparisons, ComparisonsSpec
-from inspect_validate.config import load_yaml, one_of
+from inspect_validate.config import StrictModel, load_yaml, one_of
 from inspect_validate.errors import InputError
 
 __all__ = ["IRRADIANCE_BAND", "MAX_GRID_POINTS", "Scene", "read_scene"]
@@ -70,14 +68,12 @@ Irradiance = Annotated[float, Field(gt=0, le=1e6, allow_inf_nan=False)]
 float64 (1e300 W/m² did)."""
 
 
-class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
 
 
 # --- lights ----------------------------------------------------------------------
 
 
-class _LightCommon(_Strict):
+class _LightCommon(StrictModel):
     name: Name | None = None
     irradiance: Irradiance | None = None  # W/m² at the object over irradiance_band
     irradiance_band: tuple[Nanometre, Nanometre] | None = None
@@ -90,12 +86,12 @@ class _LightCommon(_Strict):
         return v
 
 
-class _LedParams(_Strict):
+class _LedParams(StrictModel):
     peak: Nanometre
     fwhm: Annotated[float, Field(gt=0, le=2000, allow_inf_nan=False)]
 
 
-class _WhiteLedParams(_Strict):
+class _WhiteLedParams(StrictModel):
     blue_peak: Nanometre = 450.0
     blue_fwhm: Annotated[float, Field(gt=0, le=2000)] = 20.0
     phosphor_peak: Nanometre = 560.0
@@ -140,7 +136,7 @@ LightSpec = one_of(
 FNumber = Annotated[float, Field(ge=0.5, le=1000, allow_inf_nan=False)]
 
 
-class _OpticsCommon(_Strict):
+class _OpticsCommon(StrictModel):
     name: Name | None = None
     f_number: FNumber | None = None
 
@@ -185,7 +181,7 @@ OpticsSpec = one_of(
 # --- cameras ---------------------------------------------------------------------
 
 
-class _EmvaOverrides(_Strict):
+class _EmvaOverrides(StrictModel):
     name: Name | None = None
     gain: Annotated[float, Field(gt=0, le=1000, allow_inf_nan=False)] | None = None  # DN/e⁻
     dark_noise: Annotated[float, Field(ge=0, le=1e6, allow_inf_nan=False)] | None = None  # e⁻
@@ -227,32 +223,32 @@ CameraSpec = one_of(
 # --- classes ---------------------------------------------------------------------
 
 
-class _BlinnPhongParams(_Strict):
+class _BlinnPhongParams(StrictModel):
     ks: NonNegative
     n: Positive
 
 
-class _CookTorranceParams(_Strict):
+class _CookTorranceParams(StrictModel):
     roughness: Annotated[float, Field(gt=0, le=1)]
     f0: Annotated[float, Field(ge=0, le=1)] = 0.04
 
 
-class _BlinnPhong(_Strict):
+class _BlinnPhong(StrictModel):
     blinn_phong: _BlinnPhongParams
 
 
-class _CookTorrance(_Strict):
+class _CookTorrance(StrictModel):
     cook_torrance: _CookTorranceParams
 
 
 GlossSpec = one_of({"blinn_phong": _BlinnPhong, "cook_torrance": _CookTorrance}, what="gloss")
 
 
-class _ClassCommon(_Strict):
+class _ClassCommon(StrictModel):
     gloss: GlossSpec | None = None
 
 
-class _Spectrometer(_Strict):
+class _Spectrometer(StrictModel):
     readings: Name
     black: Name
     white: Name
@@ -271,13 +267,13 @@ ClassSpec = one_of({"file": _ClassFile, "spectrometer": _ClassSpectrometer}, wha
 # --- the file --------------------------------------------------------------------
 
 
-class _Wavelength(_Strict):
+class _Wavelength(StrictModel):
     start: Nanometre | None = None
     stop: Nanometre | None = None
     step: Annotated[float, Field(gt=0, allow_inf_nan=False)] = 1.0
 
 
-class _Exposure(_Strict):
+class _Exposure(StrictModel):
     mode: Literal["auto", "fixed"] = "auto"
     time: Positive | None = None  # s
     target: Annotated[float, Field(gt=0, le=1)] = 0.7
@@ -290,12 +286,12 @@ class _Exposure(_Strict):
         return self
 
 
-class _Rank(_Strict):
+class _Rank(StrictModel):
     by: Literal["error", "snr_db", "cnr_db"] = "error"
     comparison: Name | None = None
 
 
-class _Geometry(_Strict):
+class _Geometry(StrictModel):
     light: tuple[Finite, Finite, Finite]
     view: tuple[Finite, Finite, Finite] = (0.0, 0.0, 1.0)
     normal: tuple[Finite, Finite, Finite] = (0.0, 0.0, 1.0)
@@ -304,7 +300,7 @@ class _Geometry(_Strict):
 ClassName = Annotated[str, Field(min_length=1, max_length=100, pattern=r"^[^,]+$")]
 
 
-class _Scene(_Strict):
+class _Scene(StrictModel):
     name: Name | None = None
     geometry: _Geometry | None = None
     wavelength: _Wavelength = _Wavelength()

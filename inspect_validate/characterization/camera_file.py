@@ -82,11 +82,12 @@ def _file_model():
 
     from pydantic import BaseModel, ConfigDict, Field
 
+    from inspect_validate.config import StrictModel
+
     Positive = Annotated[float, Field(gt=0, le=1e9, allow_inf_nan=False)]
     NonNegative = Annotated[float, Field(ge=0, le=1e9, allow_inf_nan=False)]
 
-    class MeasuredValues(BaseModel):
-        model_config = ConfigDict(extra="forbid")
+    class MeasuredValues(StrictModel):
         name: str | None = None
         gain: Positive | None = None
         dark_noise: NonNegative | None = None
@@ -101,8 +102,7 @@ def _file_model():
         model_config = ConfigDict(extra="allow")  # station, date, standard errors, …
         gain_db: Annotated[float, Field(ge=-60, le=100, allow_inf_nan=False)] = 0.0
 
-    class CameraFile(BaseModel):
-        model_config = ConfigDict(extra="forbid")
+    class CameraFile(StrictModel):
         camera: MeasuredValues
         measured: Provenance = Provenance()
 

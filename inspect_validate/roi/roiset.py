@@ -26,9 +26,9 @@ from pathlib import Path
 from typing import Annotated, Any
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import Field, ValidationError, field_validator
 
-from inspect_validate.config import explain, load_yaml
+from inspect_validate.config import StrictModel, explain, load_yaml
 from inspect_validate.errors import InputError
 from inspect_validate.roi.shapes import Ellipse, MaskImage, Polygon, Rect, Shape, rasterise
 
@@ -54,8 +54,7 @@ class RoiSet:
     source: str
 
 
-class _ShapeModel(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+class _ShapeModel(StrictModel):
     rect: tuple[int, int, Annotated[int, Field(gt=0)], Annotated[int, Field(gt=0)]] | None = None
     polygon: list[tuple[float, float]] | None = None
     ellipse: (
@@ -72,14 +71,12 @@ class _ShapeModel(BaseModel):
         return v
 
 
-class _ClassModel(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+class _ClassModel(StrictModel):
     shapes: list[dict[str, Any]] = Field(min_length=1)
     erode: NonNegativeInt | None = None
 
 
-class _FileModel(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+class _FileModel(StrictModel):
     version: int = 1
     erode: NonNegativeInt = 0
     classes: dict[

@@ -27,7 +27,9 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import Field, model_validator
+
+from inspect_validate.config import StrictModel
 
 __all__ = ["Acceptance", "Agreement", "Calibration", "Drift", "Separation"]
 
@@ -36,11 +38,9 @@ Decibel = Annotated[float, Field(ge=-200, le=200, allow_inf_nan=False)]
 Relative = Annotated[float, Field(gt=0, le=100, allow_inf_nan=False)]
 
 
-class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid")
 
 
-class Calibration(_Strict):
+class Calibration(StrictModel):
     """How the prediction's absolute scale is tied to the measurement.
 
     ``fit``: one irradiance scale per illumination, least squares over the
@@ -61,7 +61,7 @@ class Calibration(_Strict):
         return self
 
 
-class Separation(_Strict):
+class Separation(StrictModel):
     """Limits on one comparison's measured separation."""
 
     comparison: Annotated[str, Field(min_length=1)]
@@ -73,7 +73,7 @@ class Separation(_Strict):
     """ε KDE (37); asking for it is what makes ``verify`` compute the kernel densities."""
 
 
-class Agreement(_Strict):
+class Agreement(StrictModel):
     """Largest deviations of the measurement from the calibrated prediction."""
 
     mean_relative: Relative | None = 0.1
@@ -88,7 +88,7 @@ class Agreement(_Strict):
     says nothing), so a comparison below the floor in both agrees."""
 
 
-class Drift(_Strict):
+class Drift(StrictModel):
     """Largest drift from the golden statistics ``inspect-validate train`` stored
     (:mod:`.golden`); a tolerance not given is ``k`` × the trained spread."""
 
@@ -100,7 +100,7 @@ class Drift(_Strict):
     """As in :class:`Agreement`: comparisons below it, trained and now, are not checked."""
 
 
-class Acceptance(_Strict):
+class Acceptance(StrictModel):
     illumination: str | None = None
     separation: list[Separation] = []
     max_saturated: Fraction | None = 0.001

@@ -26,6 +26,7 @@ from typing import Annotated, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
+from inspect_validate.config import StrictModel
 from inspect_validate.errors import InputError
 from inspect_validate.verification.checks import Check, at_most
 
@@ -42,8 +43,8 @@ __all__ = [
 GOLDEN_SCHEMA_VERSION = 1
 
 
-class _Frozen(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True)
+class _Frozen(StrictModel):
+    model_config = ConfigDict(populate_by_name=True)  # golden files are read back by alias
 
 
 class Spread(BaseModel):
