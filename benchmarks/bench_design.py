@@ -36,8 +36,8 @@ import numpy as np
 from machine import compile_package, machine_line
 
 from inspect_validate.components import led
-from inspect_validate.design.catalogue import choose_channels
-from inspect_validate.design.mix import channel_response, optimise_mix
+from inspect_validate.mix_design.catalogue import choose_channels
+from inspect_validate.mix_design.mix import channel_response, optimise_mix
 from inspect_validate.scene import read_scene
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -118,7 +118,7 @@ def main():
         )
     )
 
-    from inspect_validate.design import mix as mix_module
+    from inspect_validate.mix_design import mix as mix_module
 
     rng = np.random.default_rng(1000)
     r200 = response(scene, np.sort(rng.uniform(400, 700, 200)))

@@ -100,7 +100,7 @@ def _generic_controller(station: Station, port: str | None):
     if not port or spec.protocol is None:
         raise InputError(
             "controller.port and controller.protocol are required for a generic controller "
-            "(see README, 'Station files')",
+            "(see the manual, 'Station files')",
             source=str(station.path),
         )
     from inspect_validate.camera.lights.generic import GenericAsciiController

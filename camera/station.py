@@ -3,7 +3,7 @@
 The one description of a station that ``capture``, ``verify`` and ``train``
 read: what is in front of the camera (``scene``, ``rois``), what each controller
 channel drives (``channels``), the camera settings the prediction uses, and
-what the station must achieve (``acceptance``). Example (README, "Station files")::
+what the station must achieve (``acceptance``). Example (the manual, "Station files")::
 
     name: paperboard station
     scene: ../scenes/paperboard/scene.yaml
@@ -33,9 +33,7 @@ from pathlib import Path
 from typing import Annotated, Literal
 
 from pydantic import (
-    BaseModel,
     BeforeValidator,
-    ConfigDict,
     Field,
     field_validator,
     model_validator,
@@ -60,8 +58,6 @@ __all__ = [
 ]
 
 
-
-
 Seconds = Annotated[float, Field(gt=0, le=3600, allow_inf_nan=False)]
 Channel = Annotated[int, Field(ge=1, le=64)]
 Microseconds = Annotated[float, Field(ge=0, le=1e8, allow_inf_nan=False)]
@@ -69,15 +65,21 @@ Line = Annotated[str, Field(pattern=r"^Line[0-9]{1,2}$")]
 
 
 class _CameraCommon(StrictModel):
-    model: str | None = None  # which of the scene's cameras this is (default: its only one)
+    model: str | None = None
+    """Which of the scene's cameras this is (default: its only one)."""
     exposure_us: Annotated[float, Field(gt=0, le=1e8, allow_inf_nan=False)] | None = None
+    """Exposure time set on the camera, µs (default: the camera's own)."""
     gain_db: Annotated[float, Field(ge=-60, le=100, allow_inf_nan=False)] | None = None
+    """Analogue gain set on the camera, dB (default: the camera's own)."""
     pixel_format: str | None = None
+    """A monochrome pixel format (``Mono8``, ``Mono12``, ``Mono16``…; default: the camera's)."""
     timeout_s: Seconds = 2.0
-    # dropped after a switch by a camera that cannot restart its stream (v4l2, replay)
+    """How long to wait for a frame before the camera counts as failed (exit 3)."""
     flush_frames: Annotated[int, Field(ge=0, le=1000)] = 4
+    """Frames dropped after a switch by a camera that cannot restart its stream (V4L2,
+    replay)."""
     acquisition: Literal["auto", "free-run", "software-trigger", "hardware-trigger"] = "auto"
-    """How frames start (README, "Real stations"); ``auto``: ``software-trigger`` where
+    """How frames start (the user guide's "Real stations"); ``auto``: ``software-trigger`` where
     the camera has ``TriggerSoftware``, else ``free-run``."""
     settle_ms: Annotated[float, Field(ge=0, le=60_000, allow_inf_nan=False)] = 0.0
     """Triggered: wait this long after the controller confirms a switch, before the
@@ -306,17 +308,25 @@ _TEMPLATE_FIELDS = {
 }
 
 
-class AsciiProtocol(BaseModel):
+class AsciiProtocol(StrictModel):
     """A generic ASCII controller's protocol (:mod:`inspect_validate.camera.lights.generic`)."""
 
-    model_config = ConfigDict(extra="forbid")
     commands: dict[Literal["set", "off", "pulse", "trigger", "status", "init"], str | list[str]]
+    """Command templates with the fields ``{channel}``, ``{percent}``, ``{value}``,
+    ``{width_us}``, ``{delay_us}``: ``set`` is required; ``init`` may be a list."""
     baudrate: int = Field(default=115200, gt=0)
+    """Serial line speed (a TCP port ignores it)."""
     terminator: str = Field(default="\r", min_length=1)
+    """Appended to every command sent."""
     reply_end: str = Field(default="\r\n", min_length=1)
+    """What ends a reply."""
     ok: str | None = None
+    """Regular expression a reply must match to be a success (default: any reply that is
+    not an error)."""
     error: str = r"(?i)err\w*\s*(\d+)"
+    """Regular expression of an error reply; its first group is the error code."""
     max_value: float = Field(default=100.0, gt=0)
+    """The ``{value}`` sent for 100 % (``{value}`` = percent × max_value / 100)."""
 
     @field_validator("commands")
     @classmethod
@@ -368,32 +378,49 @@ class Pulse(StrictModel):
 
 class _ControllerCommon(StrictModel):
     channels: Annotated[int, Field(ge=1, le=64)] = 4
+    """How many output channels the controller has."""
     timeout_s: Seconds = 1.0
+    """How long to wait for a reply before the controller counts as gone (exit 3)."""
     error_codes: dict[int, str] = {}
+    """Meanings of the controller's error codes, shown in messages (``{21: over-current}``)."""
     pulse: Pulse | None = None
+    """Strobe the lights instead of lighting them continuously."""
 
 
 class SimulatedControllerSpec(_ControllerCommon):
+    """A simulated Gardasoft controller, started as its own process on a pseudo-terminal."""
+
     backend: Literal["simulated"]
-    protocol: AsciiProtocol | None = None  # the generic driver on the simulator's line dialect
-    # faults for the simulated controller (tests): e.g. ["--vanish-after", "5"]
+    protocol: AsciiProtocol | None = None
+    """Drive the simulator with the generic ASCII driver in its line dialect instead."""
     simulator_args: list[str] = []
+    """Faults for the simulator (tests), e.g. ``["--vanish-after", "5"]``."""
 
 
 class GardasoftControllerSpec(_ControllerCommon):
+    """A Gardasoft RT-series controller."""
+
     backend: Literal["gardasoft"]
     port: Annotated[str, Field(min_length=1)]
+    """Serial port (``/dev/ttyUSB0``, ``COM3``) or a pyserial URL (``socket://host:port`` on Ethernet)."""
 
 
 class GenericControllerSpec(_ControllerCommon):
+    """Any controller that speaks lines of ASCII, described by ``protocol``."""
+
     backend: Literal["generic"]
     port: Annotated[str, Field(min_length=1)]
+    """Serial port (``/dev/ttyUSB0``, ``COM3``) or a pyserial URL (``socket://host:port`` on Ethernet)."""
     protocol: AsciiProtocol
+    """The command templates and reply patterns."""
 
 
 class ManualControllerSpec(StrictModel):
+    """No controller: the capture asks the operator to switch each illumination."""
+
     backend: Literal["manual"]
     channels: Annotated[int, Field(ge=1, le=64)] = 4
+    """How many lights the operator switches."""
 
 
 ControllerSpec = one_of(
@@ -412,6 +439,7 @@ class ChannelLight(StrictModel):
     """What a controller channel drives: a light of the station's scene."""
 
     light: Annotated[str, Field(min_length=1)]
+    """The scene light's name."""
     irradiance: Irradiance | None = None
     """W/m² at the object at 100 % (default: the scene light's own ``irradiance``)."""
 
@@ -421,8 +449,12 @@ def _channel_shorthand(v):
 
 
 class Illumination(StrictModel):
+    """One lighting state to capture: which channels are on, and at what drive level."""
+
     name: str = Field(pattern=r"^[A-Za-z0-9_.-]+$", max_length=100)
+    """The step's name: its frames go to ``OUT/<name>/``."""
     channels: dict[Channel, Annotated[float, Field(ge=0, le=100, allow_inf_nan=False)]]
+    """Channel → drive level, % (channels not named are off)."""
 
 
 class Precision(StrictModel):
@@ -431,8 +463,11 @@ class Precision(StrictModel):
     these relative standard errors."""
 
     mean: Annotated[float, Field(gt=0, lt=1, allow_inf_nan=False)]
+    """Relative standard error of every class's μ to reach."""
     variance: Annotated[float, Field(gt=0, lt=1, allow_inf_nan=False)]
+    """Relative standard error of every class's σ² to reach."""
     min_frames: Annotated[int, Field(ge=3, le=100_000)] = 3
+    """Frames each illumination gets at least."""
 
 
 class Characterize(StrictModel):
@@ -442,7 +477,9 @@ class Characterize(StrictModel):
     illumination: str | None = None
     """The station's illumination that lights the series (default: its first)."""
     points: Annotated[int, Field(ge=8, le=1000)] = 50
+    """Exposure times of the photon transfer series, dark to saturation."""
     frames_spatial: Annotated[int, Field(ge=2, le=10_000)] = 16
+    """Frames averaged for the spatial (DSNU, PRNU) stacks."""
     region: (
         tuple[
             Annotated[int, Field(ge=0)],
@@ -456,24 +493,45 @@ class Characterize(StrictModel):
 
 
 class Station(StrictModel):
+    """A station: its camera, its light controller, the illuminations to capture, and
+    the scene, regions and checks that predict, measure and verify them."""
+
     name: str = "station"
+    """Shown in reports, metrics and the history."""
     camera: CameraSpec
+    """The camera and how frames start; ``backend`` chooses the kind."""
     controller: ControllerSpec
+    """The light controller; ``backend`` chooses the kind."""
     illuminations: list[Illumination] = Field(min_length=1)
+    """The lighting states to capture, in order."""
     frames: int = Field(default=4, ge=1, le=100_000)
+    """Frames per illumination (the most, with ``precision``)."""
     precision: Precision | None = None
+    """Stop each illumination once the classes are known this well."""
     dark_frames: int = Field(default=4, ge=0, le=100_000)
+    """Frames with every light off, subtracted per pixel."""
     discard_max: int = Field(default=20, ge=0, le=100_000)
+    """Frames an illumination may discard (stale, unsettled) before it fails."""
     brightness_tolerance: float = Field(default=0.02, gt=0, le=1)
+    """Relative change of a frame's mean that counts as the light still settling."""
     scene: str | None = None
+    """The scene file that predicts this station (relative to this file)."""
     rois: str | None = None
+    """The ROI file of the classes in the camera's frames (relative to this file)."""
     channels: dict[Channel, Annotated[ChannelLight, BeforeValidator(_channel_shorthand)]] = {}
-    optics: str | None = None  # which of the scene's optics (default: its only one)
+    """Controller channel → the scene light it drives (a name, or ``{light, irradiance}``)."""
+    optics: str | None = None
+    """Which of the scene's optics the station has (default: its only one)."""
     comparisons: ComparisonsSpec = ComparisonsSpec()
+    """Which groups of classes to compare, and how a group is weighted."""
     calibration: Calibration = Calibration()
+    """How the prediction's absolute scale is tied to the measurement."""
     acceptance: Acceptance = Acceptance()
+    """The checks ``verify`` runs and their limits."""
     characterize: Characterize = Characterize()
-    path: Path | None = None
+    """How ``characterize`` measures the camera."""
+    path: Path | None = Field(default=None, exclude=True)
+    """The file the station was read from (set on reading, never written)."""
 
     @model_validator(mode="after")
     def _channels_exist(self):

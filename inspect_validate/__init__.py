@@ -8,7 +8,7 @@ uses when first called, so the command line starts fast:
 * :func:`measure` — the same from frames and regions;
 * :func:`capture`, :func:`verify`, :func:`train` — a station's frames, its verdict,
   its golden statistics;
-* :func:`design_mix` — the best mix of a controller's channels.
+* :func:`design` — the best mix of a controller's channels.
 
 The modules are organised by concept: :mod:`inspect_validate.stats` (grey-value
 statistics, class separation and classification error), :mod:`inspect_validate.roi`,

@@ -9,8 +9,8 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from inspect_validate.camera.station import Station
-    from inspect_validate.design.solve import Design
     from inspect_validate.measurement import Limits, Measurement
+    from inspect_validate.mix_design.solve import Design
     from inspect_validate.model import Prediction, Ranking
     from inspect_validate.scene import Scene
     from inspect_validate.verification.golden import Golden
@@ -18,6 +18,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "capture",
+    "design",
     "design_mix",
     "measure",
     "predict",
@@ -210,7 +211,7 @@ def train(station: Station | str | Path, captures) -> Golden:
     return run(_station(station), [Path(c) for c in captures])
 
 
-def design_mix(
+def design(
     source: str | Path,
     *,
     objective: str = "error",
@@ -225,12 +226,16 @@ def design_mix(
     Examples
     --------
     >>> import inspect_validate as iv
-    >>> d = iv.design_mix("sample_images/scenes/mix/scene.yaml")
+    >>> d = iv.design("sample_images/scenes/mix/scene.yaml")
     >>> sorted(d.percent)  # channels in the mix: blue and red
     [1, 3]
     """
-    from inspect_validate.design.problem import design_problem
-    from inspect_validate.design.solve import solve
+    from inspect_validate.mix_design.problem import design_problem
+    from inspect_validate.mix_design.solve import solve
 
     problem = design_problem(source, auto_exposure=auto_exposure)
     return solve(problem, objective=objective, choose=choose)
+
+
+design_mix = design
+"""The same as :func:`design` (its name before the API was flat)."""

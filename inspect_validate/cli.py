@@ -2,7 +2,7 @@
 
 Only click and the error types are imported at start-up; numpy, numba, OpenCV
 and the rest load inside the command that needs them, so ``--help`` is instant.
-Exit codes: see :mod:`inspect_validate.errors` and README, "Exit codes".
+Exit codes: see :mod:`inspect_validate.errors` and the manual, "Exit codes".
 """
 
 from __future__ import annotations
@@ -96,7 +96,7 @@ def cli():
     default="equal",
     show_default=True,
     help="How a group of several classes is weighted: equally, or by pixel count (the "
-    "mixture with weights n_i/N, as the chapter's Table 3; README: 'Comparisons').",
+    "mixture with weights n_i/N, as the chapter's Table 3; the manual: 'Comparisons and groups of classes').",
 )
 def measure(
     frames,
@@ -757,9 +757,9 @@ def design(source, json_path, check, out_dir, choose, objective, auto_exposure):
     station file. With --verify, exits 1 when a check on the captured mix fails
     or the mix does not measure better than the best single channel.
     """
-    from inspect_validate.design.problem import design_problem
-    from inspect_validate.design.solve import decibel, drive_percent, solve
     from inspect_validate.errors import InputError
+    from inspect_validate.mix_design.problem import design_problem
+    from inspect_validate.mix_design.solve import decibel, drive_percent, solve
     from inspect_validate.report import render_table, write_json
     from inspect_validate.report.design import design_document
 
@@ -881,7 +881,7 @@ def _verify_design(problem, result, out_dir):
     """Capture ``result``'s mix and best single channel on ``problem``'s station, verify them
     and print measured against predicted ε; exit 1 when the design does not hold."""
     from inspect_validate.camera.station import write_station
-    from inspect_validate.design.station import design_station
+    from inspect_validate.mix_design.station import design_station
     from inspect_validate.report import render_table
     from inspect_validate.report.design import design_verification
 

@@ -210,7 +210,7 @@ def load_yaml(path: str | Path, model: type[M], *, what: str) -> M:
     if not isinstance(doc, dict):
         found = "empty" if doc is None else f"a {type(doc).__name__}"
         raise InputError(
-            f"the {what} is {found}; it must be a mapping of fields (see the README)",
+            f"the {what} is {found}; it must be a mapping of fields (see the manual's file formats)",
             source=str(path),
         )
     try:

@@ -2,7 +2,7 @@
 
 Every error the CLI reports names the thing at fault (a file, a field, a class, a
 shape or a device) and says what to do about it. The exit codes are part of the
-documented interface (README, "Exit codes").
+documented interface (the manual, "Exit codes").
 """
 
 from __future__ import annotations

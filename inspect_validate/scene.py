@@ -1,6 +1,6 @@
 """Scene files: the object classes, candidate components and exposure of a prediction.
 
-YAML, paths relative to the scene file (README, "Scene files")::
+YAML, paths relative to the scene file (the manual, "Scene files")::
 
     wavelength: {start: 380, stop: 780, step: 1}      # nm; optional
     classes:
@@ -68,15 +68,16 @@ Irradiance = Annotated[float, Field(gt=0, le=1e6, allow_inf_nan=False)]
 float64 (1e300 W/m² did)."""
 
 
-
-
 # --- lights ----------------------------------------------------------------------
 
 
 class _LightCommon(StrictModel):
     name: Name | None = None
-    irradiance: Irradiance | None = None  # W/m² at the object over irradiance_band
+    """Shown in tables and reports (default: the spectrum's own name)."""
+    irradiance: Irradiance | None = None
+    """W/m² at the object, integrated over ``irradiance_band`` (default: relative SPD)."""
     irradiance_band: tuple[Nanometre, Nanometre] | None = None
+    """[shortest, longest] nm over which ``irradiance`` is integrated (default 380–780)."""
 
     @field_validator("irradiance_band")
     @classmethod
@@ -87,8 +88,12 @@ class _LightCommon(StrictModel):
 
 
 class _LedParams(StrictModel):
+    """A modelled LED (Ohno's spectral model)."""
+
     peak: Nanometre
+    """Peak wavelength, nm."""
     fwhm: Annotated[float, Field(gt=0, le=2000, allow_inf_nan=False)]
+    """Full width at half maximum, nm."""
 
 
 class _WhiteLedParams(StrictModel):
@@ -104,7 +109,8 @@ class _Led(_LightCommon):
 
 
 class _Blackbody(_LightCommon):
-    blackbody: Annotated[float, Field(gt=0, le=100_000, allow_inf_nan=False)]  # K
+    blackbody: Annotated[float, Field(gt=0, le=100_000, allow_inf_nan=False)]
+    """Colour temperature, K."""
 
 
 class _Cie(_LightCommon):
@@ -112,7 +118,8 @@ class _Cie(_LightCommon):
 
 
 class _Daylight(_LightCommon):
-    daylight: Annotated[float, Field(ge=4000, le=25000)]  # K
+    daylight: Annotated[float, Field(ge=4000, le=25000)]
+    """Colour temperature, K."""
 
 
 class _WhiteLed(_LightCommon):
@@ -138,7 +145,9 @@ FNumber = Annotated[float, Field(ge=0.5, le=1000, allow_inf_nan=False)]
 
 class _OpticsCommon(StrictModel):
     name: Name | None = None
+    """Shown in tables and reports."""
     f_number: FNumber | None = None
+    """The working f-number N (irradiance at the sensor ∝ 1/(4N²); default 4)."""
 
 
 class _Lens(_OpticsCommon):
@@ -183,16 +192,25 @@ OpticsSpec = one_of(
 
 class _EmvaOverrides(StrictModel):
     name: Name | None = None
-    gain: Annotated[float, Field(gt=0, le=1000, allow_inf_nan=False)] | None = None  # DN/e⁻
-    dark_noise: Annotated[float, Field(ge=0, le=1e6, allow_inf_nan=False)] | None = None  # e⁻
-    saturation: Annotated[float, Field(gt=0, le=1e9, allow_inf_nan=False)] | None = None  # e⁻
+    gain: Annotated[float, Field(gt=0, le=1000, allow_inf_nan=False)] | None = None
+    """Overall system gain K, DN/e⁻."""
+    dark_noise: Annotated[float, Field(ge=0, le=1e6, allow_inf_nan=False)] | None = None
+    """Temporal dark noise σ_d, e⁻."""
+    saturation: Annotated[float, Field(gt=0, le=1e9, allow_inf_nan=False)] | None = None
+    """Saturation capacity μ_e.sat, e⁻."""
     bit_depth: Annotated[int, Field(ge=1, le=32)] | None = None
-    dark_offset: NonNegative | None = None  # DN
-    pixel_pitch: Annotated[float, Field(gt=0, le=1000, allow_inf_nan=False)] | None = None  # µm
-    dark_current: Annotated[float, Field(ge=0, le=1e9, allow_inf_nan=False)] | None = None  # e⁻/s
-    dsnu: Annotated[float, Field(ge=0, le=1e6, allow_inf_nan=False)] | None = None  # e⁻ rms
-    prnu: Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)] | None = None  # relative rms
-    measured: Name | None = None  # a camera file from `characterize`: its values win
+    dark_offset: NonNegative | None = None
+    """Dark offset μ_y.dark, DN."""
+    pixel_pitch: Annotated[float, Field(gt=0, le=1000, allow_inf_nan=False)] | None = None
+    """Pixel pitch, µm (the pixel area A in μ_e)."""
+    dark_current: Annotated[float, Field(ge=0, le=1e9, allow_inf_nan=False)] | None = None
+    """Dark current, e⁻/s."""
+    dsnu: Annotated[float, Field(ge=0, le=1e6, allow_inf_nan=False)] | None = None
+    """DSNU, e⁻ rms."""
+    prnu: Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)] | None = None
+    """PRNU, relative rms."""
+    measured: Name | None = None
+    """A camera file from ``characterize``: its values replace these."""
 
 
 class _Builtin(_EmvaOverrides):
@@ -249,9 +267,14 @@ class _ClassCommon(StrictModel):
 
 
 class _Spectrometer(StrictModel):
+    """Raw spectrometer readings normalised by black and white references, (33)–(34)."""
+
     readings: Name
+    """CSV of the class's readings: wavelength, then one column per sample."""
     black: Name
+    """CSV of the black reference reading."""
     white: Name
+    """CSV of the white reference reading."""
 
 
 class _ClassFile(_ClassCommon):
@@ -268,16 +291,27 @@ ClassSpec = one_of({"file": _ClassFile, "spectrometer": _ClassSpectrometer}, wha
 
 
 class _Wavelength(StrictModel):
+    """The integration grid (default: where a light, optics and a camera all respond)."""
+
     start: Nanometre | None = None
+    """First wavelength, nm."""
     stop: Nanometre | None = None
+    """Last wavelength, nm."""
     step: Annotated[float, Field(gt=0, allow_inf_nan=False)] = 1.0
+    """Grid step, nm."""
 
 
 class _Exposure(StrictModel):
+    """How the exposure time of each combination is chosen."""
+
     mode: Literal["auto", "fixed"] = "auto"
-    time: Positive | None = None  # s
+    """``auto``: the brightest class at ``target`` × saturation; ``fixed``: ``time``."""
+    time: Positive | None = None
+    """``fixed``: the exposure time, s."""
     target: Annotated[float, Field(gt=0, le=1)] = 0.7
-    max_time: Positive | None = None  # s
+    """``auto``: the brightest class's mean as a fraction of saturation."""
+    max_time: Positive | None = None
+    """``auto``: the longest exposure time allowed, s."""
 
     @model_validator(mode="after")
     def _fixed_time(self):
@@ -287,8 +321,12 @@ class _Exposure(StrictModel):
 
 
 class _Rank(StrictModel):
+    """How ``predict`` ranks the combinations."""
+
     by: Literal["error", "snr_db", "cnr_db"] = "error"
+    """ε Gauss (lowest first), SNR_dB or CNR_dB (highest first)."""
     comparison: Name | None = None
+    """The comparison ranked by, ``"A vs B,C"`` (default: each combination's worst)."""
 
 
 class _Geometry(StrictModel):
@@ -301,16 +339,28 @@ ClassName = Annotated[str, Field(min_length=1, max_length=100, pattern=r"^[^,]+$
 
 
 class _Scene(StrictModel):
+    """Candidate lights, optics and cameras, and the object classes to tell apart."""
+
     name: Name | None = None
+    """Shown in reports."""
     geometry: _Geometry | None = None
+    """Light and view directions, for glossy classes (default: diffuse only)."""
     wavelength: _Wavelength = _Wavelength()
+    """The integration grid."""
     classes: dict[ClassName, ClassSpec] = Field(min_length=2)
+    """Class name → its reflectance samples (a file, or spectrometer readings)."""
     lights: list[LightSpec] = Field(min_length=1)
+    """Candidate lights; each has exactly one of the kind keys."""
     optics: list[OpticsSpec] = Field(min_length=1)
+    """Candidate optics; a plain name is a built-in lens."""
     cameras: list[CameraSpec] = Field(min_length=1)
+    """Candidate cameras; a plain name is a built-in camera."""
     exposure: _Exposure = _Exposure()
+    """How each combination's exposure time is chosen."""
     rank: _Rank = _Rank()
+    """How ``predict`` ranks the combinations."""
     comparisons: ComparisonsSpec = ComparisonsSpec()
+    """Which groups of classes to compare, and how a group is weighted."""
 
     @field_validator("classes")
     @classmethod
@@ -336,7 +386,8 @@ class Scene:
     rank_by: str
     rank_comparison: str | None
     comparisons: Comparisons
-    skipped: tuple[str, ...] = ()  # work the scene's declarations leave out, and why
+    skipped: tuple[str, ...] = ()
+    """Work the scene's declarations leave out, and why."""
 
     def _model_inputs(self) -> tuple[list, dict]:
         """The components and options as :func:`~inspect_validate.model.predict` and

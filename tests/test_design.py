@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from conftest import ROOT, write_mix_scene
 
-from inspect_validate.design import (
+from inspect_validate.mix_design import (
     channel_response,
     comparison_cnr,
     comparison_errors,
@@ -153,8 +153,8 @@ def test_cnr_and_error_objectives_differ_where_a_group_straddles(tmp_path):
     """CNR sees a side's mixture by its first two moments only: C between A and B gives
     "C vs A,B" a CNR near 0 however little the classes overlap. The two objectives then
     choose different mixes, each the better by its own measure."""
-    from inspect_validate.design.problem import design_problem
-    from inspect_validate.design.solve import solve
+    from inspect_validate.mix_design.problem import design_problem
+    from inspect_validate.mix_design.solve import solve
 
     p = design_problem(write_mix_scene(tmp_path / "s.yaml"), auto_exposure=True)
     by_error, by_cnr = solve(p), solve(p, objective="cnr")
@@ -166,9 +166,9 @@ def test_cnr_and_error_objectives_differ_where_a_group_straddles(tmp_path):
 
 
 def test_auto_exposure_designs_the_exposure(tmp_path):
-    from inspect_validate.design.mix import channel_response
-    from inspect_validate.design.problem import design_problem
-    from inspect_validate.design.solve import solve
+    from inspect_validate.mix_design.mix import channel_response
+    from inspect_validate.mix_design.problem import design_problem
+    from inspect_validate.mix_design.solve import solve
 
     def scene(time):
         return write_mix_scene(
@@ -416,7 +416,7 @@ def _catalogue_scene(tmp_path, peaks, *, fwhm=25):
 
 @pytest.fixture(scope="module")
 def catalogue(tmp_path_factory):
-    from inspect_validate.design.problem import design_problem
+    from inspect_validate.mix_design.problem import design_problem
 
     p = design_problem(_catalogue_scene(tmp_path_factory.mktemp("cat"), range(420, 700, 25)))
     response = channel_response(
@@ -427,7 +427,7 @@ def catalogue(tmp_path_factory):
 
 @pytest.mark.parametrize("k", [2, 3])
 def test_catalogue_local_search_finds_the_exhaustive_choice(catalogue, k):
-    from inspect_validate.design.catalogue import choose_channels
+    from inspect_validate.mix_design.catalogue import choose_channels
 
     p, response = catalogue  # 12 LEDs, 420–695 nm
     exhaustive = choose_channels(response, p.objective, k)
@@ -465,7 +465,7 @@ def test_design_cli_chooses_from_a_catalogue(cli, tmp_path):
 @pytest.fixture(scope="module")
 def wide_catalogue(tmp_path_factory):
     """60 LEDs of seeded random peaks 400–700 nm: above JOINT_MAX and POOL_MAX."""
-    from inspect_validate.design.problem import design_problem
+    from inspect_validate.mix_design.problem import design_problem
 
     peaks = np.sort(np.random.default_rng(60).choice(np.arange(400, 700, 0.5), 60, replace=False))
     path = _catalogue_scene(tmp_path_factory.mktemp("wide"), peaks)
@@ -479,7 +479,7 @@ def wide_catalogue(tmp_path_factory):
 def test_a_large_catalogue_is_screened_to_the_joint_optimum(wide_catalogue, monkeypatch):
     """Column generation on 60 lights (above JOINT_MAX): within 1 % of every light
     optimised jointly (the same starts, SLSQP on all 60), the lights left out at 0."""
-    from inspect_validate.design import mix
+    from inspect_validate.mix_design import mix
 
     _, p, response = wide_catalogue
     screened = optimise_mix(response, p.objective)
@@ -492,7 +492,7 @@ def test_a_large_catalogue_is_screened_to_the_joint_optimum(wide_catalogue, monk
 def test_choosing_from_a_pool_finds_the_best_single_light(wide_catalogue):
     """--choose 1 of 60 through the pool of POOL_MAX lights finds the best single light
     of all 60 (every one optimised alone), with the all-60 mix as its bound."""
-    from inspect_validate.design import catalogue as cat
+    from inspect_validate.mix_design import catalogue as cat
 
     _, p, response = wide_catalogue
     pooled = cat.choose_channels(response, p.objective, 1)

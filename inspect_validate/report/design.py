@@ -104,10 +104,10 @@ class DesignCheck:
 
 def design_verification(verification, objective, *, kind: str = "error") -> DesignCheck:
     """Summarise a :class:`~inspect_validate.verification.verify.Verification` of a
-    :func:`~inspect_validate.design.station.design_station` over the ``objective`` comparisons
+    :func:`~inspect_validate.mix_design.station.design_station` over the ``objective`` comparisons
     (labels): the worst ε (``kind="error"``) or CNR (``"cnr"``) of the mix against the single
     channel's, predicted and measured."""
-    from inspect_validate.design.station import DESIGN_ILLUMINATION
+    from inspect_validate.mix_design.station import DESIGN_ILLUMINATION
 
     by = {(r["illumination"], r["comparison"]): r for r in verification.comparisons}
     ills = tuple(dict.fromkeys(r["illumination"] for r in verification.comparisons))

@@ -1,4 +1,4 @@
-"""The measurement as a versioned JSON document (schema in README, "JSON output").
+"""The measurement as a versioned JSON document (schema in the manual, "JSON documents").
 
 JSON has no infinities: ±inf (e.g. SNR_dB of classes with equal means) are
 written as the strings ``"inf"`` and ``"-inf"``; missing and undefined (NaN)

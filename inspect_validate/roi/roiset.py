@@ -1,6 +1,6 @@
 """ROI sets: class names mapped to shapes, read from YAML or ImageJ files.
 
-YAML (see README, "ROI files")::
+YAML (see the manual, "ROI files")::
 
     erode: 2                      # optional, pixels, all classes
     classes:
@@ -131,7 +131,7 @@ def _parse_shape(raw, base: Path, where: str) -> list[tuple[Shape, str]]:
         raise InputError(f"{kind}: {explain(exc)}", source=where) from None
     where = f"{where} ({kind})"
     if getattr(m, kind) is None:
-        raise InputError(f"'{kind}:' needs its values (see README, 'ROI files')", source=where)
+        raise InputError(f"'{kind}:' needs its values (see the manual, 'ROI files')", source=where)
     if kind == "rect":
         return [(Rect(*m.rect), where)]
     if kind == "polygon":

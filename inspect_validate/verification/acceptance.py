@@ -38,8 +38,6 @@ Decibel = Annotated[float, Field(ge=-200, le=200, allow_inf_nan=False)]
 Relative = Annotated[float, Field(gt=0, le=100, allow_inf_nan=False)]
 
 
-
-
 class Calibration(StrictModel):
     """How the prediction's absolute scale is tied to the measurement.
 

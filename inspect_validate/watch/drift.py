@@ -235,7 +235,7 @@ class DriftMonitor:
         return _medians(self.relative_means())
 
     def cause(self, alarms) -> str:
-        """The likely cause of ``alarms`` from their pattern (see the README's table).
+        """The likely cause of ``alarms`` from their pattern (see the manual's table, "Watch a running station").
 
         What moved most, in half-widths of the bands, leads: the class means (a light
         level or the spectrum) or the classes' noise and contrast at steady means (focus,

@@ -1,4 +1,4 @@
-"""Solve a :class:`~inspect_validate.design.problem.DesignProblem`: the optimal mix, the
+"""Solve a :class:`~inspect_validate.mix_design.problem.DesignProblem`: the optimal mix, the
 best single channel, both predicted by ``predict`` for the mixed light, and how flat the
 optimum is."""
 
@@ -78,8 +78,8 @@ def solve(
     one and rescaled to a designed exposure time."""
     from functools import partial
 
-    from inspect_validate.design.catalogue import choose_channels
-    from inspect_validate.design.mix import (
+    from inspect_validate.mix_design.catalogue import choose_channels
+    from inspect_validate.mix_design.mix import (
         JOINT_MAX,
         channel_response,
         comparison_cnr,

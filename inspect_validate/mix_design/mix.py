@@ -43,7 +43,7 @@ optimal in first order over the whole catalogue.
 At a fixed exposure the levels are bounded by 100 %. With the exposure free
 (auto exposure) only the product of level and exposure time counts, so a
 caller optimises with ``max_level`` the longest exposure over the given one
-and rescales (:func:`~inspect_validate.design.solve.solve`).
+and rescales (:func:`~inspect_validate.mix_design.solve.solve`).
 """
 
 from __future__ import annotations

@@ -19,7 +19,7 @@ def design_station(station, design):
     camera's exposure is the design's (with auto exposure, the designed one).
     """
     from inspect_validate.camera.station import Illumination
-    from inspect_validate.design.solve import drive_percent
+    from inspect_validate.mix_design.solve import drive_percent
 
     illuminations = [Illumination(name=DESIGN_ILLUMINATION, channels=design.percent)]
     channel, level = design.single

@@ -1,7 +1,7 @@
 """Illumination design: the drive levels of a multi-channel controller that separate a
 station's classes best (:mod:`.mix`)."""
 
-from inspect_validate.design.mix import (
+from inspect_validate.mix_design.mix import (
     OBJECTIVES,
     ChannelResponse,
     Mix,

@@ -1,6 +1,6 @@
 """Choosing k lights of a catalogue of M for a k-channel controller.
 
-Every k-subset has its own optimal mix (:func:`~inspect_validate.design.mix.optimise_mix`);
+Every k-subset has its own optimal mix (:func:`~inspect_validate.mix_design.mix.optimise_mix`);
 the choice is the subset whose optimum is best (lowest worst ε, or highest worst CNR). A subset is
 *screened* by optimising its mix from one start: the neighbouring subset's mix
 (warm), else the equal mix; the best few screened subsets are then optimised
@@ -22,7 +22,7 @@ is swap-optimal.
 
 A catalogue of more than :data:`POOL_MAX` lights is first narrowed to a pool of
 that many: the lights of the optimal mix of all M (found by column generation,
-:func:`~inspect_validate.design.mix.optimise_mix`), the best lights alone for each
+:func:`~inspect_validate.mix_design.mix.optimise_mix`), the best lights alone for each
 comparison, then the best alone for the worst comparison. The search above runs
 on the pool; a light outside it could only enter a swap if it were among the
 most promising, which a light neither in the optimal mix nor good alone rarely is.
@@ -100,7 +100,7 @@ def choose_channels(
     k : int
         Channels of the controller, 1 ≤ k ≤ M.
     objective, max_saturated, max_level : keyword-only
-        As :func:`~inspect_validate.design.mix.optimise_mix`'s.
+        As :func:`~inspect_validate.mix_design.mix.optimise_mix`'s.
     exhaustive_max : int, keyword-only
         Largest M choose k optimised subset by subset.
     progress : callable, keyword-only, optional
@@ -114,7 +114,7 @@ def choose_channels(
     """
     from functools import partial
 
-    from inspect_validate.design.mix import optimise_mix
+    from inspect_validate.mix_design.mix import optimise_mix
 
     optimise = partial(
         optimise_mix,
@@ -189,7 +189,7 @@ def choose_channels(
 def _from_pool(response, comparisons, k, optimise, exhaustive_max, progress) -> Choice:
     """:func:`choose_channels` on a catalogue narrowed to :data:`POOL_MAX` lights (module
     notes), its channels mapped back to the catalogue's."""
-    from inspect_validate.design.mix import single_losses
+    from inspect_validate.mix_design.mix import single_losses
 
     options = {key: optimise.keywords[key] for key in ("objective", "max_saturated", "max_level")}
     full = optimise(response)
@@ -241,8 +241,8 @@ def _swap_search(chosen, optimum, levels, candidates):
 
 def _first_order_score(response, comparisons, objective):
     """``score(levels)``: the channels not in ``levels`` (channel → level), most promising
-    first, by :func:`~inspect_validate.design.mix.first_order_slopes`."""
-    from inspect_validate.design.mix import first_order_slopes
+    first, by :func:`~inspect_validate.mix_design.mix.first_order_slopes`."""
+    from inspect_validate.mix_design.mix import first_order_slopes
 
     def score(levels):
         w = np.zeros(response.electrons.shape[0])

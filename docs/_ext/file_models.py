@@ -1,0 +1,180 @@
+"""``file-model``: a file format's reference table, generated from its validation model.
+
+    ```{file-model} inspect_validate.scene:_Scene
+    ```
+
+renders every key of the model (type, constraints, default, description from the
+field's docstring) and, below it, the same for every model nested in it, so the
+manual's format pages are the models the tool validates files with.
+"""
+
+from __future__ import annotations
+
+import importlib
+import types
+import typing
+from pathlib import Path
+
+import annotated_types as at
+from docutils.parsers.rst import Directive
+from docutils.statemachine import StringList
+from pydantic import BaseModel, Discriminator, Tag
+from pydantic.fields import FieldInfo
+
+_NAMES = {str: "text", int: "integer", float: "number", bool: "true/false", Path: "path"}
+_BOUNDS = ((at.Gt, "gt", ">"), (at.Ge, "ge", "≥"), (at.Lt, "lt", "<"), (at.Le, "le", "≤"))
+
+
+def _constraints(metadata) -> list[str]:
+    out = []
+    for m in metadata:
+        if isinstance(m, FieldInfo):
+            out += _constraints(m.metadata)
+        for cls, attr, sign in _BOUNDS:
+            if isinstance(m, cls):
+                out.append(f"{sign} {getattr(m, attr):g}")
+        if isinstance(m, at.MinLen) and m.min_length:
+            out.append(f"at least {m.min_length} long")
+        if isinstance(m, at.MaxLen):
+            out.append(f"at most {m.max_length} long")
+        pattern = getattr(m, "pattern", None)
+        if isinstance(pattern, str):
+            out.append(f"matches `{pattern}`")
+        if getattr(m, "allow_inf_nan", None) is False:
+            out.append("finite")
+    return out
+
+
+class _Formatter:
+    """Type expressions as words; nested models collected with the path they sit at."""
+
+    def __init__(self):
+        self.nested: list[tuple[str, type[BaseModel]]] = []
+
+    def __call__(self, tp, where: str) -> str:
+        origin, args = typing.get_origin(tp), typing.get_args(tp)
+        if origin is typing.Annotated:
+            inner, meta = args[0], args[1:]
+            tag = next((m.tag for m in meta if isinstance(m, Tag)), None)
+            if tag is not None:
+                kind = tag.lstrip("_")
+                self(inner, f"{where} ({kind})")
+                return f"`{kind}:` …"
+            text = self(inner, where)
+            if any(isinstance(m, Discriminator) for m in meta):
+                return text
+            bounds = _constraints(meta)
+            return f"{text} ({', '.join(bounds)})" if bounds else text
+        if origin in (typing.Union, types.UnionType):
+            parts = [self(a, where) for a in args if a is not type(None)]
+            if any(p.startswith("`") and p.endswith(":` …") for p in parts):
+                return "one of " + ", ".join(parts)
+            text = " or ".join(parts)
+            return f"{text} or null" if type(None) in args else text
+        if origin is typing.Literal:
+            return " \\| ".join(f"`{a}`" for a in args)
+        if origin is list:
+            return f"list of {self(args[0], f'{where}[]')}" if args else "list"
+        if origin is tuple:
+            return "[" + ", ".join(self(a, where) for a in args) + "]"
+        if origin is dict:
+            key, value = args
+            return f"mapping of {self(key, where)} to {self(value, f'{where}.<key>')}"
+        if isinstance(tp, type) and issubclass(tp, BaseModel):
+            if all(m is not tp for _, m in self.nested):
+                self.nested.append((where, tp))
+            return f"mapping (*{where}* below)"
+        if tp is type(None):
+            return "null"
+        if tp is typing.Any:
+            return "any"
+        return _NAMES.get(tp, getattr(tp, "__name__", str(tp)))
+
+
+def _default(field: FieldInfo) -> str:
+    if field.is_required():
+        return "**required**"
+    if field.default_factory is not None:
+        return "(computed)"
+    value = field.default
+    if isinstance(value, BaseModel):
+        return "its defaults"
+    if value is None:
+        return "`null`"
+    if isinstance(value, bool):
+        return f"`{str(value).lower()}`"
+    if isinstance(value, dict | list) and not value:
+        return "none"
+    return f"`{value}`"
+
+
+def _one_line(text: str | None) -> str:
+    return " ".join((text or "").split())
+
+
+def model_rst(model: type[BaseModel], title: str) -> list[str]:
+    """MyST Markdown of ``model``'s table and those of the models nested in it."""
+    fmt = _Formatter()
+    fmt.nested.append((title, model))
+    lines: list[str] = []
+    done = 0
+    while done < len(fmt.nested):
+        where, current = fmt.nested[done]
+        done += 1
+        lines += ["```{rubric} " + where, "```", ""]
+        doc = _one_line(current.__doc__ if current.__doc__ != BaseModel.__doc__ else "")
+        if doc and not doc.startswith("Usage docs"):
+            lines += [doc, ""]
+        lines += [
+            "````{list-table}",
+            ":header-rows: 1",
+            ":widths: 18 34 12 36",
+            "",
+            "* - key",
+            "  - type",
+            "  - default",
+            "  - meaning",
+        ]
+        for name, field in current.model_fields.items():
+            if name == "path" and field.exclude:
+                continue
+            key = field.alias or name
+            path = key if where == title else f"{where}.{key}"
+            kind = fmt(field.annotation, path)
+            bounds = _constraints(field.metadata)
+            if bounds:
+                kind += f" ({', '.join(bounds)})"
+            lines += [
+                f"* - `{key}`",
+                f"  - {kind}",
+                f"  - {_default(field)}",
+                f"  - {_one_line(field.description) or ' '}",
+            ]
+        lines += ["````", ""]
+    return lines
+
+
+class FileModel(Directive):
+    required_arguments = 1
+    optional_arguments = 0
+    final_argument_whitespace = False
+    option_spec: typing.ClassVar = {"title": str}
+
+    def run(self):
+        module, _, name = self.arguments[0].partition(":")
+        target = importlib.import_module(module)
+        for part in name.split("."):
+            target = getattr(target, part)
+        if not (isinstance(target, type) and issubclass(target, BaseModel)):
+            target = target()  # a factory of a model built on first use
+        lines = model_rst(target, self.options.get("title", "top level"))
+        container = StringList(lines, source=f"<file-model {self.arguments[0]}>")
+        node = __import__("docutils").nodes.section()
+        node.document = self.state.document
+        self.state.nested_parse(container, self.content_offset, node)
+        return node.children
+
+
+def setup(app):
+    app.add_directive("file-model", FileModel)
+    return {"parallel_read_safe": True, "parallel_write_safe": True}
