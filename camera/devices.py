@@ -13,7 +13,7 @@ from inspect_validate.camera.station import Station
 
 from inspect_validate.errors import DeviceError, InputError
 
-__all__ = ["open_devices", "scene_renderer"]
+__all__ = ["open_devices"]
 
 
 @contextlib.contextmanager
@@ -121,44 +121,15 @@ def _generic_controller(station: Station, port: str | None):
     )
 
 
-def _lit_by_simulator(station: Station, state_path: Path | None) -> None:
-    """Refuse a camera that renders the scene without the simulated controller, whose
-    state file says which lights are on."""
-    if state_path is None:
-        raise InputError(
-            f"a camera that renders the scene ({station.camera.backend}) needs the simulated "
-            "controller (controller.backend: simulated)",
-            source=str(station.path),
-        )
-
-
-def scene_renderer(station: Station, state_path: Path | None, target: str = "scene"):
-    """The simulated camera of the station's scene, lit by the simulated controller's state."""
-    spec = station.camera
-    _lit_by_simulator(station, state_path)
-    from inspect_validate.camera.grabbers.simulated import SimulatedCamera
-
-    from inspect_validate.model.illumination import station_model
-
-    return SimulatedCamera(
-        station_model(station),
-        state_path,
-        world=spec.world,
-        width=spec.width,
-        height=spec.height,
-        latency=spec.latency,
-        target=target,
-    )
-
-
 @contextlib.contextmanager
 def _fake_gige(station: Station, state_path: Path | None, target: str):
     """Aravis' fake GigE Vision camera in a process of its own on ``lo``, streaming the
     station's scene under the simulated controller's lights, opened through Aravis."""
     from inspect_validate.camera.grabbers.aravis import AravisCamera
     from inspect_validate.camera.grabbers.fake_gige import SENSOR as FAKE_SENSOR
+    from inspect_validate.camera.grabbers.simulated import lit_by_simulator
 
-    _lit_by_simulator(station, state_path)  # the renderer itself is built in the camera's process
+    lit_by_simulator(station, state_path)  # the renderer itself is built in the camera's process
     spec = station.camera
     if spec.width > FAKE_SENSOR or spec.height > FAKE_SENSOR:
         raise InputError(
@@ -212,7 +183,9 @@ def _fake_gige(station: Station, state_path: Path | None, target: str):
 def _open_camera(station: Station, state_path: Path | None, controller, target="scene"):
     spec = station.camera
     if spec.backend == "simulated":
-        return scene_renderer(station, state_path, target)
+        from inspect_validate.camera.grabbers.simulated import scene_camera
+
+        return scene_camera(station, state_path, target)
     if spec.backend == "genicam":
         from inspect_validate.camera.grabbers.genicam import GenICamCamera
 
@@ -225,8 +198,9 @@ def _open_camera(station: Station, state_path: Path | None, controller, target="
 
         if spec.simulate:  # the simulated station through pylon's camera emulator
             from inspect_validate.camera.grabbers.emulator_feed import EmulatorFeed
+            from inspect_validate.camera.grabbers.simulated import scene_camera
 
-            renderer = scene_renderer(station, state_path, target)
+            renderer = scene_camera(station, state_path, target)
             # Enough noise realisations that no step's frames repeat, even after discards.
             per_light = (
                 max(station.frames, station.dark_frames) + station.discard_max + spec.flush_frames

@@ -39,10 +39,10 @@ from pydantic import (
     model_validator,
 )
 
+from inspect_validate.acceptance import Acceptance, Calibration
 from inspect_validate.comparisons import ComparisonsSpec
 from inspect_validate.config import StrictModel, load_yaml, one_of
 from inspect_validate.scene import Irradiance
-from inspect_validate.verification.acceptance import Acceptance, Calibration
 
 __all__ = [
     "ChannelLight",

@@ -37,7 +37,7 @@ from inspect_validate import __version__
 from inspect_validate.errors import InputError
 from inspect_validate.files import atomic_write
 
-__all__ = ["QUEUED_FRAMES", "CaptureStore", "audit_capture", "read_manifest"]
+__all__ = ["QUEUED_FRAMES", "CaptureStore", "audit_capture", "read_capture", "read_manifest"]
 
 QUEUED_FRAMES = 8
 """Grabbed frames that may wait for the writer thread."""
@@ -321,3 +321,45 @@ def audit_capture(folder: Path, manifest: dict, steps) -> dict[str, str]:
             source=str(folder),
         )
     return hashes
+
+
+def read_capture(
+    folder: Path, station
+) -> tuple[dict[str, list[Path]], list[Path], dict, dict[str, str]]:
+    """Frame files of each illumination and of the darks in a capture folder, its
+    manifest, and each frame file's SHA-256 — after checking that the frames are those
+    the capture wrote (:func:`audit_capture`).
+
+    Raises
+    ------
+    InputError
+        No manifest, an illumination of the station missing or incomplete, or frames
+        changed since they were written (each disagreement named).
+    """
+    folder = Path(folder)
+    manifest_path = folder / "manifest.json"
+    if not manifest_path.is_file():
+        raise InputError(
+            "not a capture folder (no manifest.json); make one with 'inspect-validate capture' "
+            "or leave out --frames to capture now",
+            source=str(folder),
+        )
+    manifest = read_manifest(manifest_path)
+    steps = manifest["steps"]
+    frames = {}
+    for ill in station.illuminations:
+        files = sorted((folder / ill.name).glob("frame_*.tif"))
+        if not steps.get(ill.name, {}).get("complete") or not files:
+            raise InputError(
+                f"illumination {ill.name!r} was not captured completely here; "
+                "rerun the capture with --resume",
+                source=str(folder),
+            )
+        frames[ill.name] = files
+    dark = (
+        sorted((folder / "dark").glob("frame_*.tif"))
+        if steps.get("dark", {}).get("complete")
+        else []
+    )
+    hashes = audit_capture(folder, manifest, [*frames, *(["dark"] if dark else [])])
+    return frames, dark, manifest, hashes

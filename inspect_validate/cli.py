@@ -449,13 +449,13 @@ def characterize(station, out, report_dir, resume):
     from dataclasses import replace
 
     from inspect_validate.camera.station import read_station, station_hash
-    from inspect_validate.characterization.camera_file import write_camera_file
     from inspect_validate.characterization.descriptor import write_descriptor
     from inspect_validate.characterization.series import (
         capture_series,
         expected_rate,
         read_series,
     )
+    from inspect_validate.components.camera_file import write_camera_file
     from inspect_validate.images import read_frames
     from inspect_validate.report.characterization import (
         format_characterization,
@@ -666,7 +666,7 @@ def train(station, golden_path, repeats, frames_dirs, frames_out):
     from inspect_validate.camera.station import read_station
     from inspect_validate.report import render_table, write_json
     from inspect_validate.verification.golden import train as run_train
-    from inspect_validate.verification.verify import station_regions
+    from inspect_validate.verification.measured import station_regions
 
     st = read_station(station)
     _outputs(files=[golden_path], folders=[frames_out])
@@ -989,10 +989,10 @@ def watch(
     """
     from dataclasses import replace
 
+    from inspect_validate.acceptance import Drift
     from inspect_validate.camera.station import read_station
     from inspect_validate.errors import InputError
     from inspect_validate.report import write_json
-    from inspect_validate.verification.acceptance import Drift
     from inspect_validate.verification.verify import plan_verification
     from inspect_validate.watch.drift import DriftMonitor
     from inspect_validate.watch.history import History

@@ -635,7 +635,7 @@ def _camera(spec, base):
         if v is not None
     }
     if spec.measured is not None:  # what characterize measured, over what the file states
-        from inspect_validate.characterization.camera_file import measured_values
+        from inspect_validate.components.camera_file import measured_values
 
         given.update(measured_values(base / spec.measured))
     if isinstance(spec, _Builtin):

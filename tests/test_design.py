@@ -6,6 +6,7 @@ import math
 import numpy as np
 import pytest
 from conftest import ROOT, write_mix_scene
+from inspect_validate.camera.illumination import illumination_light
 
 from inspect_validate.mix_design import (
     channel_response,
@@ -16,7 +17,6 @@ from inspect_validate.mix_design import (
     optimise_mix,
 )
 from inspect_validate.model import Exposure, predict
-from inspect_validate.model.illumination import illumination_light
 from inspect_validate.scene import read_scene
 
 MIX = ROOT / "sample_images" / "scenes" / "mix" / "scene.yaml"

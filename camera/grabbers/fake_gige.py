@@ -110,7 +110,7 @@ def main(argv=None) -> None:
     fake = lib.arv_gv_fake_camera_get_fake_camera(gv)
     keep = None
     if args.station is not None:
-        from inspect_validate.camera.devices import scene_renderer
+        from inspect_validate.camera.grabbers.simulated import scene_camera
         from inspect_validate.camera.station import World, read_station
 
         station = read_station(args.station)
@@ -118,7 +118,7 @@ def main(argv=None) -> None:
             world = World.model_validate_json(args.world)
             camera = station.camera.model_copy(update={"world": world})
             station = station.model_copy(update={"camera": camera})
-        renderer = scene_renderer(station, args.state, args.target)
+        renderer = scene_camera(station, args.state, args.target)
         lib.arv_fake_camera_write_register(fake, _REGISTER_WIDTH, renderer.width)
         lib.arv_fake_camera_write_register(fake, _REGISTER_HEIGHT, renderer.height)
         keep = scene_fill(lib, renderer)  # referenced for the process's life

@@ -39,10 +39,10 @@ import numpy as np
 from inspect_validate.camera.frame import Frame
 from inspect_validate.camera.grabbers.base import Features, Grabber
 
-from inspect_validate.errors import DeviceError
+from inspect_validate.errors import DeviceError, InputError
 from inspect_validate.model.render import class_bands, expected_grey, expose, sensor_pattern
 
-__all__ = ["SimulatedCamera"]
+__all__ = ["SimulatedCamera", "lit_by_simulator", "scene_camera"]
 
 
 def world_components(model, world) -> tuple[dict, object, object, list]:
@@ -126,7 +126,7 @@ class SimulatedCamera(Grabber):
     Parameters
     ----------
     model : StationModel
-        The station's scene components (:func:`inspect_validate.model.illumination.station_model`).
+        The station's scene components (:func:`inspect_validate.camera.illumination.station_model`).
     state_path : Path
         JSON written by the controller (``{"channels": {"1": percent, ...}}``).
     world : World, optional
@@ -430,3 +430,31 @@ class SimulatedCamera(Grabber):
             "exposure",
             extra,
         )
+
+
+def lit_by_simulator(station, state_path: Path | None) -> None:
+    """Refuse a camera that renders the scene without the simulated controller, whose
+    state file says which lights are on."""
+    if state_path is None:
+        raise InputError(
+            f"a camera that renders the scene ({station.camera.backend}) needs the simulated "
+            "controller (controller.backend: simulated)",
+            source=str(station.path),
+        )
+
+
+def scene_camera(station, state_path: Path | None, target: str = "scene") -> SimulatedCamera:
+    """The simulated camera of the station's scene, lit by the simulated controller's state."""
+    spec = station.camera
+    lit_by_simulator(station, state_path)
+    from inspect_validate.camera.illumination import station_model
+
+    return SimulatedCamera(
+        station_model(station),
+        state_path,
+        world=spec.world,
+        width=spec.width,
+        height=spec.height,
+        latency=spec.latency,
+        target=target,
+    )

@@ -73,9 +73,9 @@ def design_problem(path: str | Path, *, auto_exposure: bool = False) -> DesignPr
 
 
 def _from_station(path: Path, auto_exposure: bool) -> DesignProblem:
+    from inspect_validate.camera.illumination import station_model
     from inspect_validate.camera.station import read_station
     from inspect_validate.comparisons import Comparisons
-    from inspect_validate.model.illumination import station_model
 
     st = read_station(path)
     if st.camera.exposure_us is None:

@@ -169,7 +169,7 @@ class Golden(_Frozen):
 
 def train(station, captures: list[Path], *, regions=None) -> Golden:
     """Measure every capture folder of ``station`` and gather the golden statistics;
-    ``regions`` is :func:`~inspect_validate.verification.verify.station_regions` of it,
+    ``regions`` is :func:`~inspect_validate.verification.measured.station_regions` of it,
     read here if not given.
 
     Raises
@@ -180,7 +180,7 @@ def train(station, captures: list[Path], *, regions=None) -> Golden:
     """
     from inspect_validate import __version__
     from inspect_validate.camera.station import station_hash
-    from inspect_validate.verification.verify import measure_capture, station_regions
+    from inspect_validate.verification.measured import measure_capture, station_regions
 
     rois, comparisons = regions or station_regions(station)
     limits = station.acceptance.limits()

@@ -22,36 +22,20 @@ import numpy as np
 from inspect_validate.errors import InputError
 from inspect_validate.verification.checks import Check, at_least, at_most, not_run
 from inspect_validate.verification.golden import drift_checks
+from inspect_validate.verification.measured import measure_capture, station_regions
 
 if TYPE_CHECKING:
-    from inspect_validate.measurement import KdeMode
+    pass
 
 __all__ = [
-    "Capture",
     "Plan",
     "Verification",
     "dominance_unconfirmed",
     "dominated_illuminations",
-    "measure_capture",
     "plan_verification",
-    "read_capture",
-    "station_regions",
     "verify",
     "verify_station",
 ]
-
-
-@dataclass(frozen=True)
-class Capture:
-    """A capture folder of a station, measured in the station's regions."""
-
-    files: dict  # illumination → frame files
-    dark_files: list
-    manifest: dict
-    measurements: dict  # illumination → Measurement
-    dark: object | None  # Measurement of the dark stack, or None
-    saturation_level: float | None = None  # DN, :func:`saturation_level`
-    sha256: dict = field(default_factory=dict)  # "step/frame_0001.tif" → hex, as audited
 
 
 @dataclass(frozen=True)
@@ -82,126 +66,6 @@ class Verification:
         return all(c.passed for c in self.checks)
 
 
-def read_capture(
-    folder: Path, station
-) -> tuple[dict[str, list[Path]], list[Path], dict, dict[str, str]]:
-    """Frame files of each illumination and of the darks in a capture folder, its
-    manifest, and each frame file's SHA-256 — after checking that the frames are those
-    the capture wrote (:func:`~inspect_validate.camera.storage.audit_capture`).
-
-    Raises
-    ------
-    InputError
-        No manifest, an illumination of the station missing or incomplete, or frames
-        changed since they were written (each disagreement named).
-    """
-    from inspect_validate.camera.storage import audit_capture, read_manifest
-
-    folder = Path(folder)
-    manifest_path = folder / "manifest.json"
-    if not manifest_path.is_file():
-        raise InputError(
-            "not a capture folder (no manifest.json); make one with 'inspect-validate capture' "
-            "or leave out --frames to capture now",
-            source=str(folder),
-        )
-    manifest = read_manifest(manifest_path)
-    steps = manifest["steps"]
-    frames = {}
-    for ill in station.illuminations:
-        files = sorted((folder / ill.name).glob("frame_*.tif"))
-        if not steps.get(ill.name, {}).get("complete") or not files:
-            raise InputError(
-                f"illumination {ill.name!r} was not captured completely here; "
-                "rerun the capture with --resume",
-                source=str(folder),
-            )
-        frames[ill.name] = files
-    dark = (
-        sorted((folder / "dark").glob("frame_*.tif"))
-        if steps.get("dark", {}).get("complete")
-        else []
-    )
-    hashes = audit_capture(folder, manifest, [*frames, *(["dark"] if dark else [])])
-    return frames, dark, manifest, hashes
-
-
-def station_regions(station):
-    """The station's ROI set and the :class:`~inspect_validate.comparisons.Comparisons` of
-    its classes (the station's ``comparisons:``).
-
-    Raises
-    ------
-    InputError
-        No ``rois:``, an unreadable ROI file, weights naming unknown classes.
-    """
-    from inspect_validate.comparisons import Comparisons
-    from inspect_validate.roi import read_rois
-
-    if station.rois is None:
-        raise InputError(
-            "the station has no 'rois:' (the regions of its classes)", source=str(station.path)
-        )
-    rois = read_rois(station.resolve(station.rois))
-    comparisons = Comparisons.of(
-        [c.name for c in rois.classes],
-        station.comparisons,
-        source=f"{station.path}: comparisons",
-    )
-    return rois, comparisons
-
-
-def measure_capture(
-    station, folder: Path, *, rois, comparisons, limits, kde: KdeMode, camera=None
-) -> Capture:
-    """Measure every illumination (and the darks) of a capture folder of ``station``
-    with :func:`~inspect_validate.measurement.measure_files`, the one measuring path;
-    pixels count as saturated at :func:`saturation_level` (``camera``: the station's
-    camera model, where the frames do not record their bit depth).
-
-    Raises
-    ------
-    InputError
-        Not a complete capture of the station; an unreadable frame; an ROI
-        outside the frame.
-    """
-    from inspect_validate.measurement import measure_files
-
-    files, dark_files, manifest, hashes = read_capture(folder, station)
-    level = saturation_level(next(iter(files.values()))[0], camera)
-    measurements = {
-        name: measure_files(
-            paths,
-            rois,
-            comparisons=comparisons,
-            limits=limits,
-            kde=kde,
-            saturation_level=level,
-        )
-        for name, paths in files.items()
-    }
-    dark = (
-        measure_files(
-            dark_files, rois, comparisons=comparisons, kde="never", saturation_level=level
-        )
-        if dark_files
-        else None
-    )
-    return Capture(files, dark_files, manifest, measurements, dark, level, hashes)
-
-
-def saturation_level(frame: Path, camera=None) -> float | None:
-    """The grey value of a saturated pixel, DN: 2^bits − 1 of the bit depth ``frame`` was
-    recorded with (a Mono12 frame in uint16: 4095), else of ``camera`` (the scene's
-    ``bit_depth``); None where neither tells (the storage type's maximum then)."""
-    from inspect_validate.images import recorded_bit_depth
-
-    bits = recorded_bit_depth(frame)
-    if bits is None and camera is not None:
-        bits = camera.bit_depth
-    return None if bits is None else float(2**bits - 1)
-
-
 @dataclass(frozen=True)
 class Plan:
     """What a station's verification needs before any frame: its regions, comparisons and
@@ -227,7 +91,7 @@ def plan_verification(station) -> Plan:
         scene does not have; an acceptance section naming unknown comparisons or
         illuminations; an unreadable golden file (exit code 2).
     """
-    from inspect_validate.model.illumination import station_model
+    from inspect_validate.camera.illumination import station_model
     from inspect_validate.verification.golden import read_golden
 
     source = str(station.path)
@@ -338,7 +202,7 @@ def _dominance_tolerance(acc) -> tuple[float, float]:
     """How far (dB) each illumination's SNR_dB may miss its prediction for a dominance to
     stand (the agreement tolerance; its default when the station sets none), and the
     floor below which SNR_dB says nothing."""
-    from inspect_validate.verification.acceptance import Agreement
+    from inspect_validate.acceptance import Agreement
 
     agreement = acc.agreement or Agreement()
     default = Agreement.model_fields["snr_db"].default

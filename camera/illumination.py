@@ -160,7 +160,7 @@ def station_model(station, scene=None) -> StationModel:
     if station.camera.measured:
         # What characterize measured replaces the declared values in the model; the
         # scene camera stays what a simulated camera renders (the world's sensor).
-        from inspect_validate.characterization.camera_file import measured_camera
+        from inspect_validate.components.camera_file import measured_camera
 
         camera = measured_camera(scene_camera, station.resolve(station.camera.measured))
     if station.camera.gain_db:

@@ -1,0 +1,105 @@
+"""A station's capture folder measured in the station's regions: what ``verify``,
+``train`` and ``watch`` measure, each through :func:`measure_capture`."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from inspect_validate.errors import InputError
+
+if TYPE_CHECKING:
+    from inspect_validate.measurement import KdeMode
+
+__all__ = ["Capture", "measure_capture", "saturation_level", "station_regions"]
+
+
+@dataclass(frozen=True)
+class Capture:
+    """A capture folder of a station, measured in the station's regions."""
+
+    files: dict  # illumination → frame files
+    dark_files: list
+    manifest: dict
+    measurements: dict  # illumination → Measurement
+    dark: object | None  # Measurement of the dark stack, or None
+    saturation_level: float | None = None  # DN, :func:`saturation_level`
+    sha256: dict = field(default_factory=dict)  # "step/frame_0001.tif" → hex, as audited
+
+
+def station_regions(station):
+    """The station's ROI set and the :class:`~inspect_validate.comparisons.Comparisons` of
+    its classes (the station's ``comparisons:``).
+
+    Raises
+    ------
+    InputError
+        No ``rois:``, an unreadable ROI file, weights naming unknown classes.
+    """
+    from inspect_validate.comparisons import Comparisons
+    from inspect_validate.roi import read_rois
+
+    if station.rois is None:
+        raise InputError(
+            "the station has no 'rois:' (the regions of its classes)", source=str(station.path)
+        )
+    rois = read_rois(station.resolve(station.rois))
+    comparisons = Comparisons.of(
+        [c.name for c in rois.classes],
+        station.comparisons,
+        source=f"{station.path}: comparisons",
+    )
+    return rois, comparisons
+
+
+def measure_capture(
+    station, folder: Path, *, rois, comparisons, limits, kde: KdeMode, camera=None
+) -> Capture:
+    """Measure every illumination (and the darks) of a capture folder of ``station``
+    with :func:`~inspect_validate.measurement.measure_files`, the one measuring path;
+    pixels count as saturated at :func:`saturation_level` (``camera``: the station's
+    camera model, where the frames do not record their bit depth).
+
+    Raises
+    ------
+    InputError
+        Not a complete capture of the station; an unreadable frame; an ROI
+        outside the frame.
+    """
+    from inspect_validate.camera.storage import read_capture
+    from inspect_validate.measurement import measure_files
+
+    files, dark_files, manifest, hashes = read_capture(folder, station)
+    level = saturation_level(next(iter(files.values()))[0], camera)
+    measurements = {
+        name: measure_files(
+            paths,
+            rois,
+            comparisons=comparisons,
+            limits=limits,
+            kde=kde,
+            saturation_level=level,
+        )
+        for name, paths in files.items()
+    }
+    dark = (
+        measure_files(
+            dark_files, rois, comparisons=comparisons, kde="never", saturation_level=level
+        )
+        if dark_files
+        else None
+    )
+    return Capture(files, dark_files, manifest, measurements, dark, level, hashes)
+
+
+def saturation_level(frame: Path, camera=None) -> float | None:
+    """The grey value of a saturated pixel, DN: 2^bits − 1 of the bit depth ``frame`` was
+    recorded with (a Mono12 frame in uint16: 4095), else of ``camera`` (the scene's
+    ``bit_depth``); None where neither tells (the storage type's maximum then)."""
+    from inspect_validate.images import recorded_bit_depth
+
+    bits = recorded_bit_depth(frame)
+    if bits is None and camera is not None:
+        bits = camera.bit_depth
+    return None if bits is None else float(2**bits - 1)

@@ -1,0 +1,95 @@
+"""The package's import graph has no cycle, counting the imports inside functions too
+(a deferred import hides a cycle from Python, not from a reader)."""
+
+import ast
+from collections import defaultdict
+from pathlib import Path
+
+import pytest
+from conftest import ROOT
+
+
+def _modules() -> dict[str, Path]:
+    """Module name → file, the camera/ folder under its installed name."""
+    mods = {}
+    for base in ("inspect_validate", "camera"):
+        for path in (ROOT / base).rglob("*.py"):
+            parts = list(path.relative_to(ROOT).with_suffix("").parts)
+            if parts[0] == "camera":
+                parts = ["inspect_validate", *parts]
+            if parts[-1] == "__init__":
+                parts = parts[:-1]
+            mods[".".join(parts)] = path
+    return mods
+
+
+def _edges(depth: int) -> dict[str, set[str]]:
+    """Imports between the units of ``depth`` name parts (2: inspect_validate.camera…)."""
+    mods = _modules()
+
+    def owner(name: str) -> str | None:
+        while name and name not in mods:
+            name = name.rpartition(".")[0]
+        return name or None
+
+    def unit(name: str) -> str:
+        return ".".join(name.split(".")[:depth])
+
+    edges = defaultdict(set)
+    for name, path in mods.items():
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Import):
+                targets = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+                targets = [node.module, *(f"{node.module}.{a.name}" for a in node.names)]
+            else:
+                continue
+            for target in targets:
+                found = owner(target) if target.startswith("inspect_validate") else None
+                if found is None:
+                    continue
+                a, b = unit(name), unit(found)
+                # a package's __init__ re-exports its modules: not a dependency of theirs
+                if a != b and not b.startswith(a + ".") and a != "inspect_validate":
+                    edges[a].add(b)
+    return edges
+
+
+def _cycles(edges) -> list[list[str]]:
+    index, low, stack, on, found = {}, {}, [], set(), []
+
+    def visit(v):
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on.add(v)
+        for w in edges.get(v, ()):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                found.append(sorted(component))
+
+    for v in list(edges):
+        if v not in index:
+            visit(v)
+    return found
+
+
+@pytest.mark.parametrize("depth", [2, 3, 9])
+def test_no_import_cycle(depth):
+    # depth 2: packages (camera, model, verification…), 3: their subpackages, 9: modules
+    assert _cycles(_edges(depth)) == []
+
+
+def test_the_checker_finds_a_cycle():
+    assert _cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
