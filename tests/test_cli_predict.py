@@ -121,7 +121,7 @@ def test_masked_wavelengths_are_reported(tmp_path, capsys):
 def test_dask_before_the_scene_is_named_not_taken_as_its_address(capsys):
     from conftest import ROOT
 
-    from inspect_validate.cli import _scheduler_address
+    from inspect_validate.cli.predict import scheduler_address as _scheduler_address
 
     scene = ROOT / "sample_images/scenes/mix/scene.yaml"
     # `predict --dask SCENE`: click gives SCENE to --dask; the message says what happened.

@@ -37,7 +37,9 @@ def _build_wheel(tmp_path):
     build/ folder, whose stale modules would hide a package the list leaves out."""
     source = tmp_path / "source"
     shutil.copytree(
-        ROOT, source, ignore=shutil.ignore_patterns(".git", "build", "*.egg-info", "__pycache__")
+        ROOT,
+        source,
+        ignore=shutil.ignore_patterns(".git", "build", "_build", "*.egg-info", "__pycache__"),
     )
     subprocess.run(
         [sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w", str(tmp_path), str(source)],

@@ -247,7 +247,7 @@ def test_sigint_ends_the_watch_after_the_cycle(tmp_path, golden):
 
 
 def test_terminal_view_redraws_a_table(capsys, golden):
-    from inspect_validate.cli import _show_cycle
+    from inspect_validate.cli.watch import show_cycle as _show_cycle
     from inspect_validate.watch.drift import DriftState
     from inspect_validate.watch.history import CycleRecord
     from inspect_validate.watch.loop import CycleOutcome

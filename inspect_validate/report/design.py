@@ -6,7 +6,13 @@ from dataclasses import dataclass
 
 from inspect_validate import __version__
 
-__all__ = ["DESIGN_SCHEMA_VERSION", "DesignCheck", "design_document", "design_verification"]
+__all__ = [
+    "DESIGN_SCHEMA_VERSION",
+    "DesignCheck",
+    "design_document",
+    "design_verification",
+    "format_design",
+]
 
 DESIGN_SCHEMA_VERSION = 1
 
@@ -152,3 +158,84 @@ def design_verification(verification, objective, *, kind: str = "error") -> Desi
     if not holds:
         verdict += f": FAIL, the mix does not measure better than {single}"
     return DesignCheck(ills, quantity, rows, verdict, holds)
+
+
+def format_design(result, *, source: str) -> str:
+    """What ``inspect-validate design`` prints of a :class:`~inspect_validate.mix_design.solve.Design`:
+    the mix, the choice of channels, the best single channel, ε and SNR_dB (or CNR_dB) of
+    each comparison for both, the drive tolerance and the station file's entry.
+    ``source`` names the station or scene file in the first line."""
+    from inspect_validate.mix_design.solve import decibel, drive_percent
+    from inspect_validate.report.tables import render_table
+
+    problem, objective = result.problem, result.objective
+    out: list[str] = []
+    names = {c: light.name for c, light in problem.channels.items()}
+    goal = "minimising the worst ε Gauss" if objective == "error" else "maximising the worst CNR"
+    exposure = f"{1e3 * result.exposure_time:.4g} ms" + (
+        " (designed)" if problem.auto_exposure else ""
+    )
+    out.append(
+        f"{source}: {len(names)} channels, exposure {exposure}, {goal} of "
+        f"{', '.join(problem.objective.labels)} ({result.starts} starts)"
+    )
+    out.append(
+        "designed mix: "
+        + ", ".join(f"channel {c} ({names[c]}) {p:g} %" for c, p in result.percent.items())
+    )
+    if result.choice is not None:
+        c = result.choice
+        bound = f"ε {c.bound:.3g}" if objective == "error" else f"CNR {decibel(c.bound):.2f} dB"
+        how = (
+            "every subset optimised"
+            if c.exhaustive
+            else f"local search; no choice can beat all {len(names)} mixed, worst {bound}"
+        )
+        out.append(
+            f"chose {len(c.channels)} of {len(names)} channels ({c.evaluated} subsets, {how})"
+        )
+    ch, level = result.single
+    out.append(f"best single channel: {ch} ({names[ch]}) at {drive_percent(level):g} %")
+    mix, single = result.mix, result.single_prediction
+    ratio = "snr_db" if objective == "error" else "cnr_db"  # the chapter's SNR, or the objective
+    rows = [
+        [
+            text,
+            f"{mix.error_gaussian[0, 0, 0, j]:.3g}",
+            f"{single.error_gaussian[0, 0, 0, j]:.3g}",
+            f"{getattr(mix, ratio)[0, 0, 0, j]:.2f}",
+            f"{getattr(single, ratio)[0, 0, 0, j]:.2f}",
+        ]
+        for j, text in enumerate(problem.comparisons.labels)
+    ]
+    name = "SNR_dB" if objective == "error" else "CNR_dB"
+    out.append(
+        render_table(["comparison", "ε mix", "ε single", f"{name} mix", f"{name} single"], rows)
+    )
+    if objective == "error":
+        worst = max(result.flatness, key=lambda f: f["worst_error"])
+        value = f"the worst ε is at most {worst['worst_error']:.3g}"
+    else:
+        worst = min(result.flatness, key=lambda f: f["worst_cnr_db"])
+        value = f"the worst CNR is at least {worst['worst_cnr_db']:.2f} dB"
+    out.append(
+        f"drive tolerance: with one level off by ±10 % {value} "
+        f"(channel {worst['channel']} {100 * worst['change']:+.0f} %)"
+        + ("; +10 % on a level saturates" if any(f["saturates"] for f in result.flatness) else "")
+    )
+    entry = ", ".join(f"{c}: {p:g}" for c, p in result.percent.items())
+    out.append(f"station entry:\n  - {{name: design, channels: {{{entry}}}}}")
+    if problem.auto_exposure:
+        out.append(f"  with camera.exposure_us: {1e6 * result.exposure_time:.6g}")
+        top = max(result.levels.values())
+        if top < 1.0:  # the single channel set the exposure; the mix alone needs less
+            alone = ", ".join(
+                f"{c}: {drive_percent(w / top):g}"
+                for c, w in result.levels.items()
+                if c in result.percent
+            )
+            out.append(
+                f"  (the mix alone, faster: channels {{{alone}}} at camera.exposure_us "
+                f"{1e6 * result.exposure_time * top:.6g})"
+            )
+    return "\n".join(out)

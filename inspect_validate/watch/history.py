@@ -42,6 +42,7 @@ __all__ = [
     "History",
     "HistoryLog",
     "read_history",
+    "read_station_history",
 ]
 
 HISTORY_SCHEMA_VERSION = 1
@@ -374,6 +375,20 @@ def read_history(path: str | Path, *, last: int | None = None) -> HistoryLog:
         charts=_chart_series(path, rows),
         total=int(total),
     )
+
+
+def read_station_history(path: str | Path, station) -> HistoryLog:
+    """:func:`read_history`, refused unless the history was kept of ``station`` (a
+    :class:`~inspect_validate.camera.station.Station` read from its file): ``verify
+    --history`` puts its trends in that station's report."""
+    log = read_history(path)
+    if Path(log.station) != station.path.resolve():
+        raise InputError(
+            f"this history was kept of station {log.station}, not {station.path.resolve()}; "
+            "give the history of this station",
+            source=str(path),
+        )
+    return log
 
 
 def _read_only(path: Path, todo: str) -> sqlite3.Connection:

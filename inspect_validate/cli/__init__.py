@@ -1,0 +1,97 @@
+"""The ``inspect-validate`` command line: one module per command, each parsing its options
+and calling the library.
+
+Only click and the error types are imported at start-up; numpy, numba, OpenCV
+and the rest load inside the command that needs them, so ``--help`` is instant.
+Exit codes: see :mod:`inspect_validate.errors` and the manual, "Exit codes".
+"""
+
+from __future__ import annotations
+
+import sys
+import traceback
+
+import click
+
+from inspect_validate import __version__
+from inspect_validate.cli import (
+    analyze_spectra,
+    capture,
+    characterize,
+    design,
+    history,
+    measure,
+    predict,
+    train,
+    verify,
+    watch,
+)
+from inspect_validate.errors import (
+    EXIT_INPUT,
+    EXIT_INTERNAL,
+    InspectValidateError,
+)
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="inspect-validate")
+def cli():
+    """Design and verify machine-vision inspection stations from spectra and images."""
+
+
+def _terminated(signum, frame):
+    """SIGTERM (a service manager, ``kill``) ends the tool as Ctrl-C does: saved frames
+    kept, exit 130 with a message — not the bare 143 of the default action."""
+    raise KeyboardInterrupt
+
+
+def main(argv=None):
+    """Console entry point: run the CLI and map errors to documented exit codes."""
+    import signal
+
+    try:
+        signal.signal(signal.SIGTERM, _terminated)
+        # Ctrl-C too, even where it was inherited as ignored (a job started with '&' from
+        # a script): an interrupted capture writes every grabbed frame and its manifest.
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    except ValueError:  # not the main thread (an embedding program): its own handling
+        pass
+    try:
+        cli.main(args=argv, prog_name="inspect-validate", standalone_mode=False)
+    except (click.exceptions.Abort, KeyboardInterrupt):
+        click.echo(
+            "interrupted; frames saved so far are kept (capture: rerun with --resume)", err=True
+        )
+        sys.exit(130)
+    except click.ClickException as exc:
+        exc.show()
+        sys.exit(EXIT_INPUT)
+    except InspectValidateError as exc:
+        click.echo(f"error: {exc}", err=True)
+        sys.exit(exc.exit_code)
+    except MemoryError:
+        click.echo("error: out of memory; measure fewer or smaller frames at a time", err=True)
+        sys.exit(EXIT_INTERNAL)
+    except Exception:
+        traceback.print_exc()
+        click.echo(
+            "internal error in inspect-validate: please report it with the traceback above",
+            err=True,
+        )
+        sys.exit(EXIT_INTERNAL)
+    sys.exit(0)
+
+
+for _module in (
+    measure,
+    predict,
+    analyze_spectra,
+    capture,
+    verify,
+    train,
+    watch,
+    history,
+    design,
+    characterize,
+):
+    cli.add_command(getattr(_module, _module.__name__.rpartition(".")[2]))

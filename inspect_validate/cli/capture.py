@@ -1,0 +1,53 @@
+"""`inspect-validate capture`: a station's illuminations and darks, verified frame by frame."""
+
+from __future__ import annotations
+
+import click
+
+from inspect_validate.cli.common import (
+    PATH,
+    capture_with_progress,
+    precision_note,
+)
+from inspect_validate.text import labelled
+
+
+@click.command()
+@click.argument("station", type=PATH)
+@click.option(
+    "--out",
+    "out",
+    type=PATH,
+    required=True,
+    help="Folder for the frames (TIFF + JSON sidecars) and the manifest.",
+)
+@click.option(
+    "--resume",
+    is_flag=True,
+    help="Continue an interrupted capture in --out, skipping finished steps.",
+)
+def capture(station, out, resume):
+    """Capture every illumination of STATION (and dark frames), verified and saved as they come.
+
+    Switches each illumination, waits for the controller, discards frames
+    exposed before the switch, checks brightness is stable, and writes 16-bit
+    TIFFs with JSON sidecars atomically. Exits 3 on a camera or controller
+    failure, keeping every frame saved; rerun with --resume to continue.
+    """
+    from inspect_validate.camera.station import read_station
+
+    st = read_station(station)
+    result = capture_with_progress(st, out, resume=resume)
+    if result.not_applied:
+        click.echo(
+            f"warning: the camera has no {', '.join(result.not_applied)} setting; the station's value "
+            "was not applied (recorded in the manifest)",
+            err=True,
+        )
+    for warning in result.warnings:
+        click.echo(labelled("warning", warning), err=True)
+    for step, n in result.steps.items():
+        click.echo(f"{step}: {n} frames in {out / step}{precision_note(result, step, st)}")
+    for step in result.skipped:
+        click.echo(f"{step}: already complete, skipped")
+    click.echo(f"manifest: {out / 'manifest.json'}")

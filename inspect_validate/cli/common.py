@@ -1,0 +1,107 @@
+"""What several commands share: the path type, option checks, the progress bar of a
+capture, and verify's reports (verify, design --verify)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import click
+
+PATH = click.Path(path_type=Path)
+
+
+def finite(value, param):
+    """Refuse NaN and infinities, which click's float type lets through."""
+    import math
+
+    if value is not None and not math.isfinite(value):
+        raise click.BadParameter(f"{value} is not a finite number", param=param)
+    return value
+
+
+def verify_and_report(st, *, frames_dir, out, report_dir, history=None, skip_dominated=False):
+    """:func:`~inspect_validate.verification.verify.verify_station` with a progress bar,
+    the verdict printed and the reports written into ``report_dir`` (with ``history``'s
+    trends); the :class:`Verification`."""
+    from inspect_validate.report import write_json
+    from inspect_validate.report.html import write_verification_html
+    from inspect_validate.report.verification import (
+        format_verdict,
+        verification_document,
+        write_junit,
+    )
+    from inspect_validate.verification.verify import verify_station
+
+    def capture(station, folder, *, resume=False):
+        capture_with_progress(station, folder, resume=resume)
+        if not resume:
+            click.echo(f"frames: {folder}")
+
+    result = verify_station(
+        st,
+        frames=frames_dir,
+        out=out,
+        skip_dominated=skip_dominated,
+        capture=capture,
+        notify=lambda message: click.echo(message, err=True),
+    )
+    st = result.station
+    click.echo(
+        f"{st.name}: {len(st.illuminations)} illumination(s), calibration {st.calibration.method}"
+    )
+    click.echo(format_verdict(result))
+    if report_dir:
+        write_json(verification_document(result), report_dir / "verification.json")
+        write_junit(result, report_dir / "junit.xml")
+        write_verification_html(result, report_dir / "report.html", history=history)
+        click.echo(f"report: {report_dir / 'report.html'} (verification.json, junit.xml)")
+    return result
+
+
+def capture_with_progress(station, out, *, resume=False):
+    """Capture ``station`` into ``out`` with a progress bar on stderr."""
+    from inspect_validate.camera.capture import capture
+
+    total = sum(station.frames for _ in station.illuminations) + station.dark_frames
+    with click.progressbar(length=total, label="capturing", file=sys.stderr) as bar:
+        last = [0]
+
+        def progress(step, done, _total):
+            bar.label = f"capturing {step}"
+            bar.update(done - last[0])
+            last[0] = done
+
+        return capture(station, out, resume=resume, progress=progress)
+
+
+def precision_note(result, step, station) -> str:
+    """What sequential stopping did in ``step``: the frames it saved, or that the
+    precision was not reached within the station's ``frames``."""
+    known = result.known.get(step)
+    if known is None:
+        return ""
+    if not known.reached:
+        return f" (the most; precision not reached: {known.describe()})"
+    if known.frames == station.frames:
+        return f" ({known.describe()})"
+    return f" (stopped early, {known.describe()}; the most is {station.frames})"
+
+
+def new_folder(command: str, source) -> Path:
+    """A default output folder in the working directory: <command>-<source's stem>-<time>."""
+    import time
+
+    return Path(f"{command}-{Path(source).stem}-{time.strftime('%Y%m%dT%H%M%S')}")
+
+
+def check_outputs(*, files=(), folders=()):
+    """Check output paths before the work starts, so a typo does not cost a sweep or a capture."""
+    from inspect_validate.files import output_file, output_folder
+
+    for f in files:
+        if f is not None:
+            output_file(f)
+    for d in folders:
+        if d is not None:
+            output_folder(d)

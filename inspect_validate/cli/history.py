@@ -1,0 +1,60 @@
+"""`inspect-validate history`: the history a watch keeps, printed, plotted, exported."""
+
+from __future__ import annotations
+
+import click
+
+from inspect_validate.cli.common import (
+    PATH,
+    check_outputs,
+)
+
+
+@click.command("history")
+@click.argument("db", type=PATH)
+@click.option("--last", type=click.IntRange(1), help="Only the last N cycles.")
+@click.option(
+    "--recent",
+    type=click.IntRange(0),
+    default=10,
+    show_default=True,
+    help="Cycles listed one by one (the trends cover all that are read).",
+)
+@click.option(
+    "--plot",
+    "plot_dir",
+    type=PATH,
+    help="Write history-overview.png and one history-<illumination>.png per illumination.",
+)
+@click.option(
+    "--csv", "csv_path", type=PATH, help="Export one row per cycle and chart (UTF-8 CSV)."
+)
+def history(db, last, recent, plot_dir, csv_path):
+    """Print, plot and export the history DB that 'watch' keeps.
+
+    Prints the cycles' statuses, the last cycles, and per drift chart its golden
+    target, its smoothed value at the start and now, its band now and how far
+    off target it is (in half-widths of the band: beyond ±1 is an alarm),
+    furthest first. Reads a history while 'watch' is still writing it.
+    """
+    import re
+
+    from inspect_validate.report.history import format_history, write_history_csv
+    from inspect_validate.watch.history import read_history
+
+    check_outputs(files=[csv_path], folders=[plot_dir])
+    log = read_history(db, last=last)
+    click.echo(format_history(log, recent=recent))
+    if csv_path:
+        write_history_csv(log, csv_path)
+        click.echo(f"csv: {csv_path}")
+    if plot_dir and log.charts:
+        from inspect_validate.report.plots import plot_history_charts, plot_history_overview
+
+        written = [plot_history_overview(log, plot_dir / "history-overview.png")]
+        for ill in log.illuminations:
+            slug = re.sub(r"[^A-Za-z0-9_.-]+", "_", ill)
+            written.append(plot_history_charts(log, ill, plot_dir / f"history-{slug}.png"))
+        click.echo(f"plots: {', '.join(str(w) for w in written)}")
+    elif plot_dir:
+        click.echo("plots: none (no measured cycle yet)")

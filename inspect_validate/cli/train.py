@@ -1,0 +1,73 @@
+"""`inspect-validate train`: the golden statistics of a known-good station."""
+
+from __future__ import annotations
+
+import click
+
+from inspect_validate.cli.common import (
+    PATH,
+    capture_with_progress,
+    check_outputs,
+)
+
+
+@click.command()
+@click.argument("station", type=PATH)
+@click.option(
+    "--out",
+    "golden_path",
+    type=PATH,
+    required=True,
+    help="The golden file to write (JSON); acceptance.drift.golden names it.",
+)
+@click.option(
+    "--repeats",
+    type=click.IntRange(1, 1000),
+    default=5,
+    show_default=True,
+    help="Captures of the known-good setup (re-place the parts between them).",
+)
+@click.option(
+    "--frames",
+    "frames_dirs",
+    type=PATH,
+    multiple=True,
+    help="Train on these capture folders instead of capturing (repeatable; --repeats is ignored).",
+)
+@click.option(
+    "--frames-out",
+    type=PATH,
+    help="Where to keep the captures (default: <golden file's stem>-frames next to it).",
+)
+def train(station, golden_path, repeats, frames_dirs, frames_out):
+    """Store the golden statistics of STATION in a known-good state.
+
+    Captures the station --repeats times (or reads --frames folders), measures
+    every illumination in the station's ROIs and writes per class μ and σ² and
+    per comparison SNR_dB and ε with their spread across the repeats.
+    'verify' then checks drift from it (acceptance.drift). Exits 2 on bad input,
+    3 on a camera or controller failure (the captures so far are kept).
+    """
+    from inspect_validate.camera.station import read_station
+    from inspect_validate.report import write_json
+    from inspect_validate.report.golden import format_golden
+    from inspect_validate.verification.golden import train as run_train
+    from inspect_validate.verification.measured import station_regions
+
+    st = read_station(station)
+    check_outputs(files=[golden_path], folders=[frames_out])
+    regions = station_regions(st)  # a station without ROIs fails before the captures
+    captures = list(frames_dirs)
+    if not captures:
+        base = frames_out or golden_path.with_name(f"{golden_path.stem}-frames")
+        for i in range(repeats):
+            folder = base / f"repeat_{i + 1:02d}"
+            if repeats > 1:
+                click.echo(f"repeat {i + 1} of {repeats}", err=True)
+            capture_with_progress(st, folder)
+            captures.append(folder)
+        click.echo(f"frames: {base}")
+    golden = run_train(st, captures, regions=regions)
+    click.echo(format_golden(golden))
+    write_json(golden.document(), golden_path)
+    click.echo(f"golden: {golden_path} ({golden.repeats} repeats)")

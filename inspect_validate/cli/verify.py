@@ -1,0 +1,84 @@
+"""`inspect-validate verify`: a station captured, measured, predicted and checked."""
+
+from __future__ import annotations
+
+import sys
+
+import click
+
+from inspect_validate.cli.common import (
+    PATH,
+    check_outputs,
+    new_folder,
+    verify_and_report,
+)
+from inspect_validate.errors import EXIT_CHECK_FAILED
+
+
+@click.command()
+@click.argument("station", type=PATH)
+@click.option(
+    "--frames",
+    "frames_dir",
+    type=PATH,
+    help="A capture folder made by 'capture' (default: capture now through the station's devices).",
+)
+@click.option(
+    "--out",
+    type=PATH,
+    help="Where to save the frames captured now (default: REPORT/frames, else a new "
+    "folder verify-<station>-<time>).",
+)
+@click.option(
+    "--report",
+    "report_dir",
+    type=PATH,
+    help="Write report.html, verification.json and junit.xml to this folder.",
+)
+@click.option(
+    "--history",
+    "history_path",
+    type=PATH,
+    help="A history 'watch' keeps of this station: its trends go into report.html.",
+)
+@click.option(
+    "--all-illuminations",
+    is_flag=True,
+    help="Capture every illumination, also those the prediction shows clearly worse than "
+    "another where no check needs them (skipped by default, and listed).",
+)
+def verify(station, frames_dir, out, report_dir, history_path, all_illuminations):
+    """Verify STATION: measure its frames, predict it as built, calibrate, compare and check.
+
+    Captures every illumination and the darks through the station's camera and
+    controller (or reads --frames), measures the classes in the station's ROIs,
+    predicts the same quantities from the spectra at the station's exposure and
+    gain, estimates the system gain K by photon transfer, ties each
+    illumination's irradiance to the measurement (calibration: fit, reference
+    or absolute) and runs the checks of the station's acceptance section.
+    Exits 0 when every check passes, 1 when one fails (reports still written),
+    2 on bad input, 3 on a camera or controller failure (frames kept).
+    """
+    from inspect_validate.camera.station import read_station
+
+    st = read_station(station)
+    check_outputs(folders=[report_dir])
+    log = None
+    if history_path is not None:
+        if report_dir is None:
+            raise click.UsageError("--history adds trends to the report: give --report too")
+        from inspect_validate.watch.history import read_station_history
+
+        log = read_station_history(history_path, st)
+    if frames_dir is None and out is None:
+        out = report_dir / "frames" if report_dir else new_folder("verify", station)
+    result = verify_and_report(
+        st,
+        frames_dir=frames_dir,
+        out=out,
+        report_dir=report_dir,
+        history=log,
+        skip_dominated=not all_illuminations,
+    )
+    if not result.passed:
+        sys.exit(EXIT_CHECK_FAILED)
