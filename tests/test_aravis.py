@@ -129,6 +129,7 @@ def test_a_hardware_trigger_nobody_fires_times_out(tmp_path, capsys, fake_gige):
     assert f"Aravis Fake (serial {serial}): no frame within 1 s" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_camera_killed_mid_capture_keeps_every_grabbed_frame(tmp_path, fake_gige):
     """The camera's process dies during the first step: exit 3 naming it, every frame
     already saved kept, and the step marked failed, not complete."""
@@ -193,6 +194,7 @@ def test_verify_over_gige_recovers_a_dimmer_light(cli, tmp_path, acquisition, pi
     assert abs(float(scale[1]) - 0.4) < 0.01, out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("acquisition", ["software-trigger", "free-run"])
 def test_watch_over_gige_names_a_brighter_light(cli, tmp_path, golden, acquisition):
     """`watch` on the fake camera: the red LED 5 % brighter from cycle 2 is flagged and
@@ -227,6 +229,7 @@ def test_simulated_fake_camera_refuses_a_hardware_trigger(cli, tmp_path):
     assert str(path) in err and not (tmp_path / "cap" / "manifest.json").exists()
 
 
+@pytest.mark.slow
 def test_characterize_over_gige(cli, tmp_path):
     """The EMVA 1288 series through the fake camera (a uniform target at each exposure
     set over GVCP): the camera file's system gain within 5 % of the scene camera's

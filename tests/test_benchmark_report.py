@@ -4,9 +4,11 @@ import re
 import subprocess
 import sys
 
+import pytest
 from conftest import ROOT
 
 
+@pytest.mark.slow
 def test_report_writes_every_knob_with_its_plot(tmp_path):
     import matplotlib.pyplot as plt
 

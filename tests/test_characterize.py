@@ -83,6 +83,7 @@ def characterized(tmp_path_factory):
     return folder
 
 
+@pytest.mark.slow
 def test_the_simulated_sensor_is_measured_within_emva_tolerances(characterized):
     sheet = json.loads((characterized / "report" / "characterization.json").read_text())
     values = {k: v["value"] for k, v in sheet["datasheet"].items() if isinstance(v, dict)}
@@ -144,6 +145,7 @@ print(json.dumps({"K": r.K, "sigma_d": r.sigma_d, "u_e_sat": r.u_e_sat,
     assert 100 * ours["prnu"] == pytest.approx(theirs["PRNU"], rel=0.02)  # theirs in %
 
 
+@pytest.mark.slow
 def test_characterize_then_verify_with_the_measured_camera(tmp_path, capsys):
     """The shipped station whose sensor's K is 12 % above the declared one fails a 5 %
     K check; characterised, and verified with the measured camera file, it passes, and
@@ -239,6 +241,7 @@ def test_bad_characterize_sections_are_refused(tmp_path, capsys, change, message
     assert message in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_characterize_through_pylons_grab_engine(tmp_path):
     """The simulated station on pypylon's camera emulator: the series runs end to end
     through pylon (software-triggered), the bit depth its Mono16 format's."""

@@ -138,6 +138,7 @@ def brute_force(response, comparisons, channels, points, *, objective="error", r
     # all three: 11³, then 11 rounds of 7³ (to ~1.7e-6); each face likewise.
     [([0, 2], 41), ([0, 1, 2], 11)],
 )
+@pytest.mark.slow
 def test_optimiser_matches_brute_force(inks, channels, points, objective):
     scene, _, response = inks
     from dataclasses import replace
@@ -425,6 +426,7 @@ def catalogue(tmp_path_factory):
     return p, response
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("k", [2, 3])
 def test_catalogue_local_search_finds_the_exhaustive_choice(catalogue, k):
     from inspect_validate.mix_design.catalogue import choose_channels
@@ -445,6 +447,7 @@ def test_catalogue_local_search_finds_the_exhaustive_choice(catalogue, k):
     assert exhaustive.mix.objective <= again.objective * (1 + 1e-6)
 
 
+@pytest.mark.slow
 def test_design_cli_chooses_from_a_catalogue(cli, tmp_path):
     import json
 
@@ -476,6 +479,7 @@ def wide_catalogue(tmp_path_factory):
     return path, p, response
 
 
+@pytest.mark.slow
 def test_a_large_catalogue_is_screened_to_the_joint_optimum(wide_catalogue, monkeypatch):
     """Column generation on 60 lights (above JOINT_MAX): within 1 % of every light
     optimised jointly (the same starts, SLSQP on all 60), the lights left out at 0."""
@@ -489,6 +493,7 @@ def test_a_large_catalogue_is_screened_to_the_joint_optimum(wide_catalogue, monk
     assert (screened.levels == 0).sum() >= 60 - mix.JOINT_MAX
 
 
+@pytest.mark.slow
 def test_choosing_from_a_pool_finds_the_best_single_light(wide_catalogue):
     """--choose 1 of 60 through the pool of POOL_MAX lights finds the best single light
     of all 60 (every one optimised alone), with the all-60 mix as its bound."""
@@ -503,6 +508,7 @@ def test_choosing_from_a_pool_finds_the_best_single_light(wide_catalogue):
     assert pooled.bound <= pooled.mix.objective
 
 
+@pytest.mark.slow
 def test_design_cli_on_a_catalogue_reports_its_screening(cli, wide_catalogue):
     path, _, _ = wide_catalogue
     code, out, err = cli(["design", path])

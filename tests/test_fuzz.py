@@ -694,6 +694,7 @@ def test_design_with_hostile_scenes(
     spreads=st.lists(st.floats(0.005, 0.2), min_size=3, max_size=3),
     options=design_options,
 )
+@pytest.mark.slow
 def test_design_never_refuses_a_valid_scene(capsys, peaks, repeat, levels, spreads, options):
     leds = [
         {"led": {"peak": p, "fwhm": 25}, "irradiance": 2.0, "name": f"L{i}"}

@@ -62,6 +62,7 @@ def _sql(db, query):
         return con.execute(query).fetchall()
 
 
+@pytest.mark.slow
 def test_watch_flags_led_ageing_from_the_cli(aged):
     assert aged.code == 1, aged.out  # the last cycle drifted
     rows = _sql(aged.db, "SELECT cycle, status, reason, cause FROM cycles ORDER BY cycle")
@@ -394,6 +395,7 @@ def _limited_watch(path, golden, db, limit_kb, cycles=60):
     )
 
 
+@pytest.mark.slow
 def test_a_history_that_outgrows_the_file_size_limit(tmp_path):
     """Fault injection for real: ``ulimit -f`` (RLIMIT_FSIZE) lets the frames through and
     stops the database growing. watch ends with exit 2 naming the file and the limit,

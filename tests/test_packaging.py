@@ -10,6 +10,7 @@ import subprocess
 import sys
 import zipfile
 
+import pytest
 from conftest import ROOT
 
 # Source folder → the package it is installed as (pyproject's package-dir).
@@ -58,6 +59,7 @@ def test_wheel_holds_every_module(tmp_path):
     assert sorted(modules - in_wheel) == []
 
 
+@pytest.mark.slow
 def test_every_command_runs_from_the_installed_wheel(tmp_path):
     """The wheel installed (not editable) in a fresh virtual environment, its
     dependencies taken from this one: every command runs from it on the shipped samples

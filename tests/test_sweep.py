@@ -210,6 +210,7 @@ def test_sweep_on_a_dask_cluster_equals_the_sweep_in_process(dask_cluster):
         np.testing.assert_array_equal(getattr(there, name), getattr(here, name), err_msg=name)
 
 
+@pytest.mark.slow
 def test_cli_predict_on_dask_by_address_and_locally(tmp_path, capsys, dask_cluster):
     g = np.arange(380, 781, 5)
     for name, level in (("a", 0.3), ("b", 0.6)):

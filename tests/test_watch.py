@@ -91,6 +91,7 @@ def test_watch_attributes_each_change_to_its_cause(cli, tmp_path, golden, change
     assert all(cause in r[3] for r in rows if r[0] >= named[0][0]), rows
 
 
+@pytest.mark.slow
 def test_watch_flags_a_drift_per_hour(cli, tmp_path, golden):
     """The amber LED losing 99 %/h from cycle 2 (≥ 0.13 % per ≥ 1 s cycle): flagged as
     LED ageing by the last of 10 cycles, with no alarm before the onset."""
@@ -110,6 +111,7 @@ def test_watch_flags_a_drift_per_hour(cli, tmp_path, golden):
         ({"controller_faults": ["--garbage-after", "1"]}, "unexpected reply"),
     ],
 )
+@pytest.mark.slow
 def test_watch_survives_a_fault_with_every_cycle_recorded_once(
     cli, tmp_path, golden, fault, reason
 ):
@@ -314,6 +316,7 @@ def _http(port, request: bytes) -> bytes:
     return b"".join(chunks)
 
 
+@pytest.mark.slow
 def test_status_server_answers_only_its_own_host_and_bounds_clients(capfd):
     """DNS rebinding: a foreign ``Host`` is refused; a query string is the same path; the
     ``Server`` header names no Python; idle and half-sent connections are cut after
@@ -424,6 +427,7 @@ def test_cause_without_signal_above_dark(golden):
     assert monitor.cause([("amber", "class", "A", "mean")]).startswith("drift of amber")
 
 
+@pytest.mark.slow
 def test_ctrl_c_to_the_process_group_is_not_a_device_fault(tmp_path, golden):
     """A terminal's Ctrl-C goes to the whole process group. The simulated controller runs
     in a session of its own, so it is not interrupted first: the cycle in flight is
