@@ -21,12 +21,18 @@ illumination that the station is.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from inspect_validate.components.lights import Light
 from inspect_validate.errors import InputError
 from inspect_validate.spectra import Spectrum, SpectrumKind
+
+if TYPE_CHECKING:
+    from inspect_validate.components.cameras import Camera
+    from inspect_validate.components.optics import Optics
+    from inspect_validate.scene import Scene
 
 __all__ = ["StationModel", "illumination_light", "station_model"]
 
@@ -53,12 +59,12 @@ class StationModel:
         The station's exposure, s (None: the scene's exposure control).
     """
 
-    scene: object
+    scene: Scene
     channels: dict
     nominal: frozenset
-    optics: object
-    camera: object
-    scene_camera: object
+    optics: Optics
+    camera: Camera  # as measured, where the station names a camera file
+    scene_camera: Camera  # as the scene declares it
     exposure_time: float | None
 
     def lights(self, station, *, scale=None) -> list[Light]:

@@ -38,10 +38,14 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from inspect_validate.errors import InputError
+
+if TYPE_CHECKING:
+    from inspect_validate.mix_design.mix import Mix
 
 __all__ = ["EXHAUSTIVE_MAX", "POOL_MAX", "Choice", "choose_channels"]
 
@@ -71,7 +75,7 @@ class Choice:
     """
 
     channels: tuple
-    mix: object
+    mix: Mix
     evaluated: int
     exhaustive: bool
     bound: float

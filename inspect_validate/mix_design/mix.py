@@ -50,10 +50,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from inspect_validate.errors import InputError
+
+if TYPE_CHECKING:
+    from inspect_validate.components.cameras import Camera
 
 __all__ = [
     "JOINT_MAX",
@@ -96,7 +100,7 @@ class ChannelResponse:
 
     electrons: np.ndarray
     sample_class: np.ndarray
-    camera: object
+    camera: Camera
 
     @cached_property
     def class_statistics(self) -> tuple[np.ndarray, np.ndarray]:

@@ -5,8 +5,17 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from inspect_validate.errors import InputError
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from inspect_validate.camera.station import Station
+    from inspect_validate.comparisons import Comparisons
+    from inspect_validate.components.cameras import Camera
+    from inspect_validate.components.optics import Optics
 
 __all__ = ["MAX_EXPOSURE_TIME", "DesignProblem", "design_problem"]
 
@@ -28,15 +37,15 @@ class DesignProblem:
     source: str
     kind: str  # "station" or "scene"
     channels: dict
-    optics: object
-    camera: object
+    optics: Optics
+    camera: Camera
     classes: tuple
-    grid: object
+    grid: np.ndarray  # nm
     exposure_time: float  # s
-    comparisons: object  # Comparisons of the classes (all that are reported)
-    objective: object  # Comparisons the objective is about
+    comparisons: Comparisons  # of the classes (all that are reported)
+    objective: Comparisons  # the comparisons the objective is about
     max_saturated: float
-    station: object | None = None
+    station: Station | None = None
     auto_exposure: bool = False
     max_exposure_time: float = MAX_EXPOSURE_TIME  # s
     rank_by: str = "error"  # what the scene ranks by (error, snr_db, cnr_db)

@@ -5,8 +5,14 @@ optimum is."""
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from inspect_validate.mix_design.catalogue import Choice
+    from inspect_validate.mix_design.problem import DesignProblem
+    from inspect_validate.model import Prediction
 
 __all__ = ["Design", "decibel", "drive_percent", "solve"]
 
@@ -42,17 +48,17 @@ class Design:
         How the channels were chosen from a catalogue (``choose``), else None.
     """
 
-    problem: object
+    problem: DesignProblem
     objective: str
     exposure_time: float
     levels: dict
     single: tuple
-    mix: object
-    single_prediction: object
+    mix: Prediction
+    single_prediction: Prediction
     flatness: list
     path: dict
     starts: int
-    choice: object = None
+    choice: Choice | None = None
 
     @property
     def percent(self) -> dict:

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 from inspect_validate.errors import InputError
 
 if TYPE_CHECKING:
-    from inspect_validate.measurement import KdeMode
+    from inspect_validate.measurement import KdeMode, Measurement
 
 __all__ = ["Capture", "measure_capture", "saturation_level", "station_regions"]
 
@@ -19,11 +19,11 @@ __all__ = ["Capture", "measure_capture", "saturation_level", "station_regions"]
 class Capture:
     """A capture folder of a station, measured in the station's regions."""
 
-    files: dict  # illumination → frame files
+    files: dict[str, list[Path]]  # illumination → frame files
     dark_files: list
     manifest: dict
-    measurements: dict  # illumination → Measurement
-    dark: object | None  # Measurement of the dark stack, or None
+    measurements: dict[str, Measurement]  # illumination → its measurement
+    dark: Measurement | None  # of the dark stack
     saturation_level: float | None = None  # DN, :func:`saturation_level`
     sha256: dict = field(default_factory=dict)  # "step/frame_0001.tif" → hex, as audited
 

@@ -25,6 +25,15 @@ from inspect_validate.verification.golden import drift_checks
 from inspect_validate.verification.measured import measure_capture, station_regions
 
 if TYPE_CHECKING:
+    from inspect_validate.camera.illumination import StationModel
+    from inspect_validate.camera.station import Station
+    from inspect_validate.comparisons import Comparisons
+    from inspect_validate.measurement import Limits, Measurement
+    from inspect_validate.model import Prediction
+    from inspect_validate.roi import RoiSet
+    from inspect_validate.verification.calibration import Gain, IrradianceScale
+    from inspect_validate.verification.golden import Golden
+
     pass
 
 __all__ = [
@@ -42,17 +51,17 @@ __all__ = [
 class Verification:
     """Everything ``verify`` found; :attr:`passed` is the verdict."""
 
-    station: object
-    model: object  # StationModel the prediction used (its scene holds the ROI classes only)
-    rois: object  # RoiSet measured
-    limits: object  # Limits: the saturated and zero fractions the measurements were held to
+    station: Station
+    model: StationModel  # what the prediction used (its scene holds the ROI classes only)
+    rois: RoiSet  # measured
+    limits: Limits  # the saturated and zero fractions the measurements were held to
     inputs: dict
-    measurements: dict  # illumination → Measurement
-    dark: object | None  # Measurement of the dark stack, or None
-    nominal: object  # Prediction at the stated irradiances
-    prediction: object  # Prediction after calibration
-    scales: dict  # illumination → IrradianceScale
-    gain: object | None  # Gain, or None
+    measurements: dict[str, Measurement]  # illumination → its measurement
+    dark: Measurement | None  # of the dark stack
+    nominal: Prediction  # at the stated irradiances
+    prediction: Prediction  # after calibration
+    scales: dict[str, IrradianceScale]  # illumination → its scale
+    gain: Gain | None
     classes: list  # per illumination and class: predicted against measured
     comparisons: list  # per illumination and comparison: predicted against measured
     ranking: dict | None
@@ -72,10 +81,10 @@ class Plan:
     model, and the golden file. Made first, so that a mistake in the station file costs
     no capture."""
 
-    rois: object
-    comparisons: object
-    model: object  # StationModel
-    golden: object | None  # Golden, for acceptance.drift
+    rois: RoiSet
+    comparisons: Comparisons
+    model: StationModel
+    golden: Golden | None  # for acceptance.drift
     dominated: dict[str, str] = field(default_factory=dict)
     """Illuminations left out of the capture as dominated (:func:`dominated_illuminations`):
     name → why; listed as skipped."""

@@ -23,8 +23,14 @@ import signal
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from inspect_validate.errors import DeviceError
+
+if TYPE_CHECKING:
+    from inspect_validate.verification.verify import Verification
+    from inspect_validate.watch.drift import DriftState
+    from inspect_validate.watch.history import CycleRecord
 
 __all__ = ["CycleOutcome", "WatchSettings", "status_document", "watch"]
 
@@ -40,9 +46,9 @@ class WatchSettings:
 
 @dataclass(frozen=True)
 class CycleOutcome:
-    record: object  # CycleRecord
-    state: object | None  # DriftState, None for an error cycle
-    verification: object | None
+    record: CycleRecord
+    state: DriftState | None  # None for an error cycle
+    verification: Verification | None
     failures: int  # consecutive failed cycles, this one included
 
 
