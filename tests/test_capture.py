@@ -6,20 +6,13 @@ import shutil
 
 import numpy as np
 import pytest
-from conftest import ROOT
+from conftest import ROOT, run_cli
 from inspect_validate.camera.capture import verified_frames
 from inspect_validate.camera.frame import Frame
 
-from inspect_validate.cli import main
 from inspect_validate.errors import DeviceError
 
 STATION = ROOT / "sample_images" / "station"
-
-
-def run(argv):
-    with pytest.raises(SystemExit) as info:
-        main([str(a) for a in argv])
-    return info.value.code
 
 
 def station_copy(tmp_path, camera=None, **controller_extra):
@@ -57,7 +50,7 @@ def test_capture_then_measure_on_the_simulated_station(tmp_path, capsys, acquisi
         if acquisition
         else STATION / "station.yaml"
     )
-    assert run(["capture", station, "--out", out]) == 0
+    assert run_cli(["capture", station, "--out", out]) == 0
     manifest = json.loads((out / "manifest.json").read_text())
     assert all(manifest["steps"][s]["complete"] for s in ("amber", "red", "dark"))
     mode = acquisition or "software-trigger"
@@ -89,7 +82,7 @@ def test_capture_then_measure_on_the_simulated_station(tmp_path, capsys, acquisi
     # The camera's pipeline holds 2 frames: a capture that did not discard would have recorded them.
     doc = tmp_path / "m.json"
     assert (
-        run(
+        run_cli(
             [
                 "measure",
                 out / "amber",
@@ -111,7 +104,7 @@ def test_capture_then_measure_on_the_simulated_station(tmp_path, capsys, acquisi
 def test_controller_vanishing_keeps_frames_and_resume_finishes(tmp_path, capsys):
     station = station_copy(tmp_path, simulator_args=["--vanish-after", "3"])
     out = tmp_path / "cap"
-    assert run(["capture", station, "--out", out]) == 3
+    assert run_cli(["capture", station, "--out", out]) == 3
     err = capsys.readouterr().err
     assert re.search(r"error: /dev/pts/\d+: ", err)
     amber = sorted((out / "amber").glob("frame_*.tif"))
@@ -120,7 +113,7 @@ def test_controller_vanishing_keeps_frames_and_resume_finishes(tmp_path, capsys)
     assert manifest["steps"]["amber"]["complete"] and "error" in manifest["steps"]["red"]
     before = [p.read_bytes() for p in amber]
     # Each run's simulator vanishes after 3 commands again; resuming makes progress every time.
-    codes = [run(["capture", station, "--out", out, "--resume"]) for _ in range(2)]
+    codes = [run_cli(["capture", station, "--out", out, "--resume"]) for _ in range(2)]
     assert codes[-1] == 0 and [p.read_bytes() for p in amber] == before
     manifest = json.loads((out / "manifest.json").read_text())
     assert all(manifest["steps"][s]["complete"] for s in ("amber", "red", "dark"))
@@ -130,13 +123,13 @@ def test_controller_over_tcp_captures_and_a_dropped_connection_keeps_frames(tmp_
     """The simulated controller on 127.0.0.1 (an Ethernet controller's socket:// port):
     a full capture, then one whose connection drops after the amber step."""
     out = tmp_path / "cap"
-    assert run(["capture", station_copy(tmp_path, simulator_args=["--tcp"]), "--out", out]) == 0
+    assert run_cli(["capture", station_copy(tmp_path, simulator_args=["--tcp"]), "--out", out]) == 0
     manifest = json.loads((out / "manifest.json").read_text())
     assert all(manifest["steps"][s]["complete"] for s in ("amber", "red", "dark"))
 
     station = station_copy(tmp_path, simulator_args=["--tcp", "--drop-after", "3"])
     out = tmp_path / "dropped"
-    assert run(["capture", station, "--out", out]) == 3
+    assert run_cli(["capture", station, "--out", out]) == 3
     err = capsys.readouterr().err
     assert re.search(r"error: socket://127\.0\.0\.1:\d+: the connection failed", err), err
     assert "network connection was lost" in err
@@ -148,7 +141,7 @@ def test_controller_over_tcp_captures_and_a_dropped_connection_keeps_frames(tmp_
 def test_err_reply_names_the_command_and_keeps_frames(tmp_path, capsys):
     station = station_copy(tmp_path, simulator_args=["--error", "RS2,100:3"])
     out = tmp_path / "cap"
-    assert run(["capture", station, "--out", out]) == 3
+    assert run_cli(["capture", station, "--out", out]) == 3
     assert "answered 'Err 3' to 'RS2,100'" in capsys.readouterr().err
     assert len(list((out / "amber").glob("frame_*.tif"))) == 4
 
@@ -164,7 +157,7 @@ def test_err_reply_names_the_command_and_keeps_frames(tmp_path, capsys):
 def test_silent_or_garbled_controller_keeps_frames(tmp_path, capsys, fault, message):
     station = station_copy(tmp_path, simulator_args=fault, timeout_s=0.5)
     out = tmp_path / "cap"
-    assert run(["capture", station, "--out", out]) == 3
+    assert run_cli(["capture", station, "--out", out]) == 3
     err = capsys.readouterr().err
     assert re.search(r"error: /dev/pts/\d+: " + message, err), err
     manifest = json.loads((out / "manifest.json").read_text())
@@ -178,11 +171,11 @@ def test_silent_or_garbled_controller_keeps_frames(tmp_path, capsys, fault, mess
 def test_existing_capture_needs_resume_and_the_same_station(tmp_path, capsys):
     station = station_copy(tmp_path)
     out = tmp_path / "cap"
-    assert run(["capture", station, "--out", out]) == 0
-    assert run(["capture", station, "--out", out]) == 2
+    assert run_cli(["capture", station, "--out", out]) == 0
+    assert run_cli(["capture", station, "--out", out]) == 2
     assert "add --resume" in capsys.readouterr().err
     station.write_text(station.read_text().replace("frames: 4", "frames: 5"))
-    assert run(["capture", station, "--out", out, "--resume"]) == 2
+    assert run_cli(["capture", station, "--out", out, "--resume"]) == 2
     assert "different station file" in capsys.readouterr().err
 
 
@@ -191,7 +184,7 @@ def test_bad_station_file_names_the_field(tmp_path, capsys):
     bad.write_text(
         "camera: {backend: simulated}\ncontroller: {backend: telepathy}\nilluminations: []\n"
     )
-    assert run(["capture", bad, "--out", tmp_path / "o"]) == 2
+    assert run_cli(["capture", bad, "--out", tmp_path / "o"]) == 2
     err = capsys.readouterr().err
     assert (
         "controller: backend must be one of simulated, gardasoft" in err and "illuminations" in err
@@ -208,7 +201,7 @@ def test_a_step_no_brighter_than_dark_is_reported(tmp_path, capsys):
     )
     station.write_text(text)
     out = tmp_path / "cap"
-    assert run(["capture", station, "--out", out]) == 0
+    assert run_cli(["capture", station, "--out", out]) == 0
     err = capsys.readouterr().err
     assert "warning: step 'unplugged': mean" in err and "no brighter than the dark frames" in err
     assert "'amber'" not in err and "'red'" not in err
@@ -229,7 +222,7 @@ LINE_PROTOCOL = {
 def test_capture_through_the_generic_ascii_controller(tmp_path, capsys):
     station = station_copy(tmp_path, simulator_args=["--dialect", "line"], protocol=LINE_PROTOCOL)
     out = tmp_path / "cap"
-    assert run(["capture", station, "--out", out]) == 0
+    assert run_cli(["capture", station, "--out", out]) == 0
     meta = json.loads((out / "red" / "frame_0001.json").read_text())
     assert meta["controller"].startswith("ASCII controller on /dev/pts/")
     assert meta["extra"]["lights"] == {"1": 0.0, "2": 100.0}
@@ -243,7 +236,7 @@ def test_generic_controller_faults_keep_frames(tmp_path, capsys):
         error_codes={4: "channel disabled"},
     )
     out = tmp_path / "cap"
-    assert run(["capture", station, "--out", out]) == 3
+    assert run_cli(["capture", station, "--out", out]) == 3
     assert "answered 'ERROR 4' (channel disabled) to 'SET 2 255'" in capsys.readouterr().err
     assert len(list((out / "amber").glob("frame_*.tif"))) == 4
 
@@ -258,7 +251,7 @@ def test_generic_controller_faults_keep_frames(tmp_path, capsys):
 )
 def test_generic_protocol_is_validated(tmp_path, capsys, protocol, field):
     station = station_copy(tmp_path, protocol=protocol)
-    assert run(["capture", station, "--out", tmp_path / "o"]) == 2
+    assert run_cli(["capture", station, "--out", tmp_path / "o"]) == 2
     err = capsys.readouterr().err
     assert str(station) in err and field in err
 
@@ -342,7 +335,7 @@ def test_illumination_on_a_missing_channel_is_refused_when_read(tmp_path, capsys
             "{name: red, channels: {2: 100}}", "{name: red, channels: {3: 100}}"
         )
     )
-    assert run(["capture", path, "--out", tmp_path / "o"]) == 2
+    assert run_cli(["capture", path, "--out", tmp_path / "o"]) == 2
     err = capsys.readouterr().err
     assert (
         "illuminations[1] (red): channel 3 is not on the controller (controller.channels: 2)" in err
@@ -356,7 +349,7 @@ def test_settings_of_another_backend_are_refused(tmp_path, capsys):
         "camera: {backend: genicam, latency: 3}\ncontroller: {backend: gardasoft, port: /dev/x}\n"
         "illuminations: [{name: a, channels: {1: 100}}]\n"
     )
-    assert run(["capture", path, "--out", tmp_path / "o"]) == 2
+    assert run_cli(["capture", path, "--out", tmp_path / "o"]) == 2
     assert "camera.latency: Extra inputs are not permitted" in capsys.readouterr().err
 
 
@@ -365,29 +358,29 @@ def test_camera_that_fails_to_open_leaves_nothing_blocking_a_rerun(tmp_path, cap
     good = path.read_text()
     path.write_text(re.sub(r"(\nscene: ).*", r"\1missing.yaml", good))
     out = tmp_path / "o"
-    assert run(["capture", path, "--out", out]) == 2
+    assert run_cli(["capture", path, "--out", out]) == 2
     assert "missing.yaml" in capsys.readouterr().err
     assert not (out / "manifest.json").exists()
     path.write_text(good)
-    assert run(["capture", path, "--out", out]) == 0
+    assert run_cli(["capture", path, "--out", out]) == 0
 
 
 def test_resume_with_another_camera_is_refused(tmp_path, capsys):
     path = station_copy(tmp_path, simulator_args=["--vanish-after", "5"])
     out = tmp_path / "o"
-    assert run(["capture", path, "--out", out]) == 3
+    assert run_cli(["capture", path, "--out", out]) == 3
     manifest = json.loads((out / "manifest.json").read_text())
     assert "simulated camera" in manifest["camera"]["name"]
     manifest["camera"]["name"] = "Basler acA1920 (serial 123)"  # as if another camera took them
     (out / "manifest.json").write_text(json.dumps(manifest))
     capsys.readouterr()
-    assert run(["capture", path, "--out", out, "--resume"]) == 2
+    assert run_cli(["capture", path, "--out", out, "--resume"]) == 2
     assert "taken with 'Basler acA1920 (serial 123)'" in capsys.readouterr().err
 
 
 def test_controller_status_is_recorded_per_step(tmp_path):
     out = tmp_path / "o"
-    assert run(["capture", station_copy(tmp_path), "--out", out]) == 0
+    assert run_cli(["capture", station_copy(tmp_path), "--out", out]) == 0
     steps = json.loads((out / "manifest.json").read_text())["steps"]
     assert "CH1 continuous 100%" in steps["amber"]["controller_status"]
     assert "CH2 continuous 0%" in steps["amber"]["controller_status"]
@@ -409,7 +402,7 @@ def test_a_jump_on_the_last_frame_keeps_the_verified_frames(tmp_path, capsys):
         "illuminations: [{name: one, channels: {1: 100}}]\nframes: 4\ndark_frames: 0\n"
     )
     out = tmp_path / "o"
-    assert run(["capture", path, "--out", out]) == 3
+    assert run_cli(["capture", path, "--out", out]) == 3
     assert "brightness jumps" in capsys.readouterr().err
     assert len(list((out / "one").glob("frame_*.tif"))) == 3
     assert len(list((out / "one").glob("frame_*.json"))) == 3
@@ -484,7 +477,7 @@ def test_an_interrupted_capture_keeps_every_frame_it_grabbed_complete(tmp_path, 
     for tif in tifs:
         assert tifffile.imread(tif).shape == (240, 320)
     assert not list(out.rglob("*.tmp"))
-    assert run(["capture", station, "--out", out, "--resume"]) == 0
+    assert run_cli(["capture", station, "--out", out, "--resume"]) == 0
     assert len(list(out.glob("amber/frame_*.tif"))) == 40
 
 
@@ -606,7 +599,7 @@ def test_resume_on_a_damaged_capture_is_refused_naming_the_file(tmp_path, capsys
     file where a step's folder was: exit 2 naming the file, frames left as they are."""
     station = station_copy(tmp_path, simulator_args=["--vanish-after", "3"])
     out = tmp_path / "cap"
-    assert run(["capture", station, "--out", out]) == 3
+    assert run_cli(["capture", station, "--out", out]) == 3
     saved = sorted(out.glob("*/frame_*.tif"))
     manifest = out / "manifest.json"
     if damage == "step file":
@@ -619,7 +612,7 @@ def test_resume_on_a_damaged_capture_is_refused_naming_the_file(tmp_path, capsys
         manifest.write_text(text)
         where = manifest
     capsys.readouterr()
-    assert run(["capture", station, "--out", out, "--resume"]) == 2
+    assert run_cli(["capture", station, "--out", out, "--resume"]) == 2
     err = capsys.readouterr().err
     assert f"error: {where}: " in err and "Traceback" not in err
     assert all(p.exists() for p in saved if p.parent.name == "amber")

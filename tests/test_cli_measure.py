@@ -8,8 +8,7 @@ import sys
 
 import numpy as np
 import pytest
-
-from inspect_validate.cli import main
+from conftest import run_cli
 
 TABLE3 = {  # chapter Table 3, whole dB
     "optimized": {"A vs B": -15, "A vs C": -21, "A vs B,C": -18},
@@ -21,16 +20,10 @@ FROM_TABLE4 = {  # (36) applied to the chapter's Table 4
 }
 
 
-def run(argv):
-    with pytest.raises(SystemExit) as info:
-        main([str(a) for a in argv])
-    return info.value.code
-
-
 @pytest.mark.parametrize("setting", ["optimized", "non_optimized"])
 def test_reproduces_tables_3_and_4(paperboard, tmp_path, setting, capsys):
     out = tmp_path / "m.json"
-    code = run(
+    code = run_cli(
         [
             "measure",
             paperboard / f"{setting}.png",
@@ -80,7 +73,7 @@ def test_stack_dark_and_16bit_tiff(tmp_path):
         "classes:\n  L:\n    - rect: [2, 2, 26, 36]\n  R:\n    - rect: [32, 2, 26, 36]\n"
     )
     out = tmp_path / "m.json"
-    code = run(
+    code = run_cli(
         [
             "measure",
             tmp_path / "stack.tif",
@@ -114,7 +107,9 @@ def test_saturation_limit_exits_1_and_still_writes(tmp_path, capsys):
         "classes:\n  A:\n    - rect: [0, 0, 10, 20]\n  B:\n    - rect: [10, 0, 10, 20]\n"
     )
     out = tmp_path / "m.json"
-    assert run(["measure", tmp_path / "f.png", "--rois", tmp_path / "r.yaml", "--json", out]) == 1
+    assert (
+        run_cli(["measure", tmp_path / "f.png", "--rois", tmp_path / "r.yaml", "--json", out]) == 1
+    )
     assert "class A: 50 % saturated pixels" in capsys.readouterr().err
     assert json.loads(out.read_text())["limits"]["violations"]
 
@@ -144,7 +139,7 @@ def test_bad_input_exits_2_with_a_message(tmp_path, capsys, files, rois, message
 
     cv2.imwrite(str(tmp_path / "f.png"), np.zeros((20, 20), np.uint8))
     (tmp_path / "r.yaml").write_text(rois)
-    assert run(["measure", *(tmp_path / f for f in files), "--rois", tmp_path / "r.yaml"]) == 2
+    assert run_cli(["measure", *(tmp_path / f for f in files), "--rois", tmp_path / "r.yaml"]) == 2
     err = capsys.readouterr().err
     assert err.startswith("error: ") and re.search(message, err)
 
@@ -282,7 +277,7 @@ def test_saturation_comes_from_the_recorded_bit_depth(tmp_path, capsys):
 
     def saturated(*extra):
         out = tmp_path / "m.json"
-        run(["measure", frames, "--rois", rois, "--json", out, "--no-kde", *extra])
+        run_cli(["measure", frames, "--rois", rois, "--json", out, "--no-kde", *extra])
         capsys.readouterr()
         return {c["name"]: c["saturated_fraction"] for c in json.loads(out.read_text())["classes"]}
 
@@ -309,7 +304,7 @@ def test_one_class_and_one_pixel_classes_measure_without_a_traceback(tmp_path, c
     pixel.write_text("classes:\n  A: [{rect: [0, 0, 10, 10]}]\n  B: [{rect: [15, 15, 1, 1]}]\n")
     for rois in (one, pixel):
         out = tmp_path / f"{rois.stem}.json"
-        assert run(["measure", *frames, "--rois", rois, "--json", out]) == 0
+        assert run_cli(["measure", *frames, "--rois", rois, "--json", out]) == 0
         captured = capsys.readouterr()
         assert "Traceback" not in captured.err
         if rois is one:
@@ -345,11 +340,11 @@ def test_a_stack_of_two_lights_is_flagged(paperboard, tmp_path, capsys):
     each frame alone, and a stack of one capture step, give none."""
     frames = [paperboard / "optimized.png", paperboard / "non_optimized.png"]
     doc = tmp_path / "m.json"
-    assert run(["measure", *frames, "--rois", paperboard / "rois.yaml", "--json", doc]) == 0
+    assert run_cli(["measure", *frames, "--rois", paperboard / "rois.yaml", "--json", doc]) == 0
     err = capsys.readouterr().err
     assert "warning: class A: the frames differ from each other more than their noise" in err
     assert json.loads(doc.read_text())["warnings"][0].startswith("class A:")
-    assert run(["measure", frames[0], "--rois", paperboard / "rois.yaml"]) == 0
+    assert run_cli(["measure", frames[0], "--rois", paperboard / "rois.yaml"]) == 0
     assert "warning" not in capsys.readouterr().err
 
 
@@ -359,12 +354,12 @@ def test_captured_frames_of_other_settings_are_refused(tmp_path, capsys):
     path = copy_station(tmp_path)
     assert run_cli(["capture", path, "--out", tmp_path / "cap"]) == 0
     rois = tmp_path / "rois.yaml"
-    assert run(["measure", tmp_path / "cap" / "amber", "--rois", rois]) == 0
+    assert run_cli(["measure", tmp_path / "cap" / "amber", "--rois", rois]) == 0
     assert "warning" not in capsys.readouterr().err
     sidecar = tmp_path / "cap" / "amber" / "frame_0003.json"
     meta = json.loads(sidecar.read_text())
     sidecar.write_text(json.dumps({**meta, "exposure_us": 4000.0}))
-    assert run(["measure", tmp_path / "cap" / "amber", "--rois", rois]) == 2
+    assert run_cli(["measure", tmp_path / "cap" / "amber", "--rois", rois]) == 2
     err = capsys.readouterr().err
     assert "frame_0003.tif: taken at exposure_us 4000.0, but" in err
     assert "at exposure_us 8000.0: a stack must be one camera setting" in err
@@ -372,7 +367,7 @@ def test_captured_frames_of_other_settings_are_refused(tmp_path, capsys):
 
 def test_a_bad_comparison_on_the_command_line_names_the_option(paperboard, capsys):
     argv = ["measure", paperboard / "optimized.png", "--rois", paperboard / "rois.yaml"]
-    assert run([*argv, "--comparison", "A vs Q"]) == 2
+    assert run_cli([*argv, "--comparison", "A vs Q"]) == 2
     err = capsys.readouterr().err
     assert err.startswith("error: --comparison:") and "no class 'Q'" in err
     assert "rois.yaml" not in err

@@ -3,21 +3,17 @@
 import json
 
 import pytest
-
-from inspect_validate.cli import main
-
-
-def run(argv):
-    with pytest.raises(SystemExit) as info:
-        main([str(a) for a in argv])
-    return info.value.code
+from conftest import run_cli
 
 
 def test_predict_paperboard_json(tmp_path, capsys):
     from conftest import ROOT
 
     out = tmp_path / "p.json"
-    assert run(["predict", ROOT / "sample_images/scenes/paperboard/scene.yaml", "--json", out]) == 0
+    assert (
+        run_cli(["predict", ROOT / "sample_images/scenes/paperboard/scene.yaml", "--json", out])
+        == 0
+    )
     doc = json.loads(out.read_text())
     assert doc["schema"] == "inspect-validate/prediction" and doc["schema_version"] == 2
     best = doc["ranking"][0]
@@ -40,7 +36,7 @@ def test_predict_table2_top_and_rank_by(capsys):
     from conftest import ROOT
 
     assert (
-        run(
+        run_cli(
             [
                 "predict",
                 ROOT / "sample_images/scenes/chapter_table2/scene.yaml",
@@ -95,7 +91,7 @@ def test_bad_scenes_exit_2(tmp_path, capsys, scene, message):
 
     (tmp_path / "a.csv").write_text("400,0.5,0.52\n700,0.5,0.52\n")
     (tmp_path / "scene.yaml").write_text(scene)
-    assert run(["predict", tmp_path / "scene.yaml"]) == 2
+    assert run_cli(["predict", tmp_path / "scene.yaml"]) == 2
     assert re.search(message, capsys.readouterr().err)
 
 
@@ -110,7 +106,7 @@ def test_masked_wavelengths_are_reported(tmp_path, capsys):
         "classes:\n  A: {spectrometer: {readings: r.csv, black: black.csv, white: white.csv}}\n  B: {file: b.csv}\n"
         "lights: [{led: {peak: 500, fwhm: 20}}]\noptics: [ideal]\ncameras: [cmos-visible]\n"
     )
-    assert run(["predict", d / "s.yaml", "--no-kde"]) == 0
+    assert run_cli(["predict", d / "s.yaml", "--no-kde"]) == 0
     err = capsys.readouterr().err
     assert (
         "note: A (" in err
@@ -125,7 +121,7 @@ def test_dask_before_the_scene_is_named_not_taken_as_its_address(capsys):
 
     scene = ROOT / "sample_images/scenes/mix/scene.yaml"
     # `predict --dask SCENE`: click gives SCENE to --dask; the message says what happened.
-    assert run(["predict", "--dask", scene]) == 2
+    assert run_cli(["predict", "--dask", scene]) == 2
     err = capsys.readouterr().err
     assert f"'{scene}' is not a scheduler address" in err and "put --dask after SCENE" in err
     assert "Missing argument" not in err

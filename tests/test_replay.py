@@ -7,24 +7,18 @@ import cv2
 import numpy as np
 import pytest
 import tifffile
-from conftest import ROOT
-
-from inspect_validate.cli import main
+from conftest import ROOT, run_cli
 
 SCENES = ROOT / "sample_images" / "scenes"
-
-
-def run(argv):
-    with pytest.raises(SystemExit) as info:
-        main([str(a) for a in argv])
-    return info.value.code
 
 
 @pytest.fixture(scope="module")
 def recording(tmp_path_factory):
     """A capture of the built-in simulated station: what a replay re-runs."""
     out = tmp_path_factory.mktemp("rec") / "cap"
-    assert run(["capture", ROOT / "sample_images" / "station" / "station.yaml", "--out", out]) == 0
+    assert (
+        run_cli(["capture", ROOT / "sample_images" / "station" / "station.yaml", "--out", out]) == 0
+    )
     return out
 
 
@@ -44,7 +38,7 @@ def replay_station(tmp_path, folder, *, exposure=8000, frames=4, illuminations=N
 
 def test_replayed_capture_serves_the_recorded_frames_per_light(tmp_path, recording, capsys):
     out = tmp_path / "again"
-    assert run(["capture", replay_station(tmp_path, recording), "--out", out]) == 0
+    assert run_cli(["capture", replay_station(tmp_path, recording), "--out", out]) == 0
     for step in ("amber", "red", "dark"):
         for i in range(1, 5):
             name = f"frame_{i:04d}"
@@ -75,7 +69,7 @@ def test_replayed_capture_serves_the_recorded_frames_per_light(tmp_path, recordi
 )
 def test_replay_refuses_what_was_not_recorded(tmp_path, recording, capsys, kwargs, message):
     out = tmp_path / "again"
-    assert run(["capture", replay_station(tmp_path, recording, **kwargs), "--out", out]) == 3
+    assert run_cli(["capture", replay_station(tmp_path, recording, **kwargs), "--out", out]) == 3
     assert message in capsys.readouterr().err
     if "exposure" in kwargs:  # refused while configuring: no manifest blocks a plain rerun
         assert not (out / "manifest.json").exists()
@@ -107,7 +101,7 @@ def test_manual_controller_prompts_for_each_setting(tmp_path, capsys, monkeypatc
     station = manual_station(tmp_path)
     monkeypatch.setattr("sys.stdin", io.StringIO("\n\n\n"))
     out = tmp_path / "cap"
-    assert run(["capture", station, "--out", out]) == 0
+    assert run_cli(["capture", station, "--out", out]) == 0
     err = capsys.readouterr().err
     prompts = [line for line in err.splitlines() if line.startswith("Set the lights:")]
     assert prompts == [
@@ -125,7 +119,7 @@ def test_manual_controller_prompts_for_each_setting(tmp_path, capsys, monkeypatc
 def test_manual_controller_without_an_operator(tmp_path, capsys, monkeypatch):
     station = manual_station(tmp_path)
     monkeypatch.setattr("sys.stdin", io.StringIO(""))
-    assert run(["capture", station, "--out", tmp_path / "cap"]) == 3
+    assert run_cli(["capture", station, "--out", tmp_path / "cap"]) == 3
     assert "manual switching: no operator to switch the lights (standard input is closed)" in (
         capsys.readouterr().err
     )
@@ -135,8 +129,8 @@ def test_camera_backends_without_hardware_give_clear_errors(tmp_path, capsys):
     station = tmp_path / "s.yaml"
     base = "controller: {backend: simulated, channels: 1}\nilluminations: [{name: a, channels: {1: 100}}]\n"
     station.write_text("camera: {backend: v4l2, device: /dev/video99}\n" + base)
-    assert run(["capture", station, "--out", tmp_path / "o1"]) == 3
+    assert run_cli(["capture", station, "--out", tmp_path / "o1"]) == 3
     assert "V4L2 camera /dev/video99: cannot open it" in capsys.readouterr().err
     station.write_text("camera: {backend: replay, folder: nowhere}\n" + base)
-    assert run(["capture", station, "--out", tmp_path / "o2"]) == 2
+    assert run_cli(["capture", station, "--out", tmp_path / "o2"]) == 2
     assert "replay folder not found (camera.folder in the station file)" in capsys.readouterr().err

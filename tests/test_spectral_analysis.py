@@ -5,18 +5,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import run_cli
 
-from inspect_validate.cli import main
 from inspect_validate.errors import InputError
 from inspect_validate.model import ObjectClass, analyse_spectra
 from inspect_validate.spectra import Spectrum
 from inspect_validate.stats import gaussian_error
-
-
-def run(argv):
-    with pytest.raises(SystemExit) as info:
-        main([str(a) for a in argv])
-    return info.value.code
 
 
 def test_per_wavelength_gaussian_error_is_the_closed_form():
@@ -47,7 +41,7 @@ def test_analyze_spectra_cli_finds_the_amber_band(tmp_path, capsys):
 
     out, png = tmp_path / "s.json", tmp_path / "err.png"
     assert (
-        run(
+        run_cli(
             [
                 "analyze-spectra",
                 ROOT / "sample_images/scenes/paperboard/scene.yaml",
@@ -76,7 +70,7 @@ def test_predict_plots_and_render_round_trip(tmp_path):
     scene = ROOT / "sample_images/scenes/chapter_table2/scene.yaml"
     pred = tmp_path / "p.json"
     assert (
-        run(
+        run_cli(
             [
                 "predict",
                 scene,
@@ -101,7 +95,7 @@ def test_predict_plots_and_render_round_trip(tmp_path):
         assert tifffile.imread(tif).dtype == np.uint16
         out = tmp_path / f"{stem}.json"
         assert (
-            run(
+            run_cli(
                 [
                     "measure",
                     tif,
