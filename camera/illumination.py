@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from inspect_validate.components.cameras import gain_factor
 from inspect_validate.components.lights import Light
 from inspect_validate.errors import InputError
 from inspect_validate.spectra import Spectrum, SpectrumKind
@@ -170,7 +171,7 @@ def station_model(station, scene=None) -> StationModel:
 
         camera = measured_camera(scene_camera, station.resolve(station.camera.measured))
     if station.camera.gain_db:
-        gain = camera.gain * 10 ** (station.camera.gain_db / 20)
+        gain = camera.gain * gain_factor(station.camera.gain_db)
         camera = replace(camera, gain=gain, name=f"{camera.name} at {station.camera.gain_db:g} dB")
     t = station.camera.exposure_us
     return StationModel(

@@ -111,3 +111,11 @@ def test_cameras_and_energy_efficiency():
     with pytest.raises(InputError, match="built-in cameras"):
         builtin_camera("ccd-9000")
     assert blackbody(3000).spd.values.max() > 0
+
+
+def test_gain_factor_is_an_amplitude_ratio():
+    from inspect_validate.components.cameras import gain_factor
+
+    assert gain_factor(0.0) == 1.0
+    assert gain_factor(20.0) == pytest.approx(10.0, rel=1e-15)
+    assert gain_factor(-20.0 * np.log10(2.0)) == pytest.approx(0.5, rel=1e-15)

@@ -39,6 +39,7 @@ import numpy as np
 from inspect_validate.camera.frame import Frame
 from inspect_validate.camera.grabbers.base import Features, Grabber
 
+from inspect_validate.components.cameras import gain_factor
 from inspect_validate.errors import DeviceError, InputError
 from inspect_validate.model.render import class_bands, expected_grey, expose, sensor_pattern
 
@@ -374,7 +375,7 @@ class SimulatedCamera(Grabber):
         )
 
     def _gain(self) -> float:
-        return self.camera.gain * 10 ** (self.gain_db / 20)
+        return self.camera.gain * gain_factor(self.gain_db)
 
     def _electrons(self, state: dict[int, float]) -> np.ndarray:
         """Mean photo-electrons of each pixel (e⁻) under ``state``, world deviations included."""

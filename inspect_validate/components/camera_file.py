@@ -125,7 +125,9 @@ def measured_values(path) -> dict:
     doc = read_camera_file(path)
     values = dict(doc["values"])
     if "gain" in values:
-        values["gain"] /= 10 ** (doc["measured"]["gain_db"] / 20)
+        from inspect_validate.components.cameras import gain_factor
+
+        values["gain"] /= gain_factor(doc["measured"]["gain_db"])
     return values
 
 

@@ -24,7 +24,14 @@ from inspect_validate.constants import C, H
 from inspect_validate.errors import InputError
 from inspect_validate.spectra import Spectrum, SpectrumKind
 
-__all__ = ["BUILT_IN_CAMERAS", "Camera", "builtin_camera", "energy_efficiency", "qe_model"]
+__all__ = [
+    "BUILT_IN_CAMERAS",
+    "Camera",
+    "builtin_camera",
+    "energy_efficiency",
+    "gain_factor",
+    "qe_model",
+]
 
 
 @dataclass(frozen=True)
@@ -94,6 +101,12 @@ class Camera:
     def max_dn(self) -> float:
         """Largest grey value: full scale or the saturation capacity, whichever is lower, DN."""
         return min(2.0**self.bit_depth - 1.0, self.dark_offset + self.gain * self.saturation)
+
+
+def gain_factor(gain_db: float) -> float:
+    """The factor an analogue gain of ``gain_db`` dB multiplies the system gain K by:
+    10^(gain_db/20) (GenICam's ``Gain`` in dB is an amplitude ratio)."""
+    return 10.0 ** (gain_db / 20.0)
 
 
 def energy_efficiency(qe, wavelength) -> np.ndarray:
