@@ -42,3 +42,41 @@ def test_a_yes_no_check_reads_as_what_it_asks():
     cells = dict((c.kind, row) for c, row in check_rows([ranking, separation]))
     assert cells["ranking"][2:4] == ["no", "must be yes"]
     assert cells["separation"][2:4] == ["-5.1", "≥ -7"]
+
+
+def test_verify_keeps_its_checks_table_within_a_terminal(tmp_path):
+    # A real terminal (a pseudo-terminal): the checks table of the shipped station is 150
+    # columns wide with its details; on a 100-column terminal the details go under their
+    # rows. Into a pipe the table keeps its detail column (tests and logs grep it).
+    import os
+    import subprocess
+    import sys
+
+    from conftest import ROOT
+
+    station = ROOT / "sample_images" / "station" / "station.yaml"
+    master, slave = os.openpty()
+    env = {**os.environ, "COLUMNS": "100", "LINES": "40"}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "inspect_validate", "verify", station, "--out", tmp_path / "f"],
+        stdout=slave,
+        stderr=subprocess.DEVNULL,
+        env=env,
+    )
+    os.close(slave)
+    chunks = []
+    while True:
+        try:
+            data = os.read(master, 65536)
+        except OSError:  # EIO: the other end is closed
+            break
+        if not data:
+            break
+        chunks.append(data)
+    os.close(master)
+    assert proc.wait(timeout=120) == 0
+    lines = b"".join(chunks).decode().replace("\r\n", "\n").splitlines()
+    table = [line for line in lines if line.startswith(("pass ", "FAIL ", "         "))]
+    assert len(table) > 20
+    assert max(len(line) for line in table) <= 100
+    assert any("predicted best amber" in line for line in table)  # a detail, on its own line

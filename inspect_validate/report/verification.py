@@ -16,7 +16,7 @@ from pathlib import Path
 
 from inspect_validate import __version__
 from inspect_validate.report.tables import render_table
-from inspect_validate.text import labelled
+from inspect_validate.text import labelled, terminal_width
 
 __all__ = [
     "CHECK_COLUMNS",
@@ -40,6 +40,23 @@ def check_rows(checks) -> list[tuple[object, list[str]]]:
         (c, [c.verdict, c.name, _number(c), _limit(c), c.unit, c.detail])
         for c in sorted(checks, key=lambda c: c.passed)
     ]
+
+
+def _checks_table(rows: list[list[str]], width: int | None) -> str:
+    """The checks as a table; where it would be wider than ``width`` (a terminal), each
+    check's detail goes on an indented line under its row instead of in a column."""
+    table = render_table(list(CHECK_COLUMNS), rows)
+    if width is None or max(map(len, table.splitlines())) <= width:
+        return table
+    import textwrap
+
+    lines = render_table(list(CHECK_COLUMNS[:-1]), [r[:-1] for r in rows]).splitlines()
+    out = lines[:2]
+    for line, row in zip(lines[2:], rows, strict=True):
+        out.append(line)
+        if row[-1]:
+            out += textwrap.wrap(row[-1], width, initial_indent=" " * 9, subsequent_indent=" " * 11)
+    return "\n".join(out)
 
 
 def format_verdict(v) -> str:
@@ -68,7 +85,7 @@ def format_verdict(v) -> str:
         )
     rows = [cells for _, cells in check_rows(v.checks)]
     if rows:
-        out += ["", render_table(list(CHECK_COLUMNS), rows)]
+        out += ["", _checks_table(rows, terminal_width(sys.stdout))]
     for s in v.skipped:
         out.append(labelled("skipped", s, stream=sys.stdout))
     for n in v.notes:
