@@ -101,14 +101,16 @@ def predict(scene: Scene | str | Path) -> Prediction:
 def sweep(
     scene: Scene | str | Path,
     *,
-    by: str = "error",
+    by: str | None = None,
     comparison: str | None = None,
     top: int = 10,
 ) -> Ranking:
     """The ``top`` combinations of a scene of any size, best first, as ``predict`` the
     command ranks them: ``by`` ``"error"`` (ε Gauss, lowest first), ``"snr_db"`` or
-    ``"cnr_db"`` (highest first), of ``comparison`` (``"A vs B,C"``; default: the
-    scene's ``rank.comparison``, else the worst comparison of each combination).
+    ``"cnr_db"`` (highest first; default: the scene's ``rank.by``), of ``comparison``
+    (``"A vs B,C"``; default: the scene's ``rank.comparison``, else the worst comparison
+    of each combination).
+    :func:`~inspect_validate.report.prediction.format_prediction` prints it as a table.
 
     Examples
     --------
@@ -117,8 +119,7 @@ def sweep(
     >>> ranking.index.shape  # (rows, (light, optics, camera))
     (2, 3)
     """
-    sc = _scene(scene)
-    return sc.sweep(by=by, comparison=comparison or sc.rank_comparison, top=top)
+    return _scene(scene).sweep(by=by, comparison=comparison, top=top)
 
 
 def measure(

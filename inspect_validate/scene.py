@@ -402,14 +402,31 @@ class Scene:
         parts, options = self._model_inputs()
         return predict(*parts, grid=self.grid if grid is None else grid, **options)
 
-    def sweep(self, *, by: str, comparison: str | None, top: int, client=None):
-        """:func:`inspect_validate.model.sweep` of every combination of this scene; its
-        ``skipped_work`` begins with the scene's own (:attr:`skipped`)."""
+    def sweep(
+        self,
+        *,
+        by: str | None = None,
+        comparison: str | None = None,
+        top: int = 10,
+        client=None,
+    ):
+        """:func:`inspect_validate.model.sweep` of every combination of this scene, ranked as
+        ``inspect-validate predict`` ranks it: by the scene's ``rank:`` unless ``by``
+        (``"error"``, ``"snr_db"``, ``"cnr_db"``) and ``comparison`` (``"A vs B,C"``) say
+        otherwise; the best ``top`` rows. Its ``skipped_work`` begins with the scene's own
+        (:attr:`skipped`); :func:`~inspect_validate.report.prediction.format_prediction`
+        prints it as the command does."""
         from inspect_validate.model import sweep
 
         parts, options = self._model_inputs()
         ranking = sweep(
-            *parts, grid=self.grid, by=by, comparison=comparison, top=top, client=client, **options
+            *parts,
+            grid=self.grid,
+            by=by or self.rank_by,
+            comparison=comparison if comparison is not None else self.rank_comparison,
+            top=top,
+            client=client,
+            **options,
         )
         return replace(ranking, skipped_work=(*self.skipped, *ranking.skipped_work))
 

@@ -57,3 +57,22 @@ def test_train_and_verify_against_it_from_python(tmp_path):
     golden = iv.train(station, [tmp_path / "c1", tmp_path / "c2"])
     assert golden.repeats == 2 and set(golden.illuminations) == {"amber", "red"}
     assert iv.verify(station, tmp_path / "c1").passed
+
+
+def test_a_scene_sweeps_with_its_own_ranking_and_prints_the_commands_table(cli):
+    # Scene.sweep() needs no arguments (the scene's rank: and top 10), and the table the
+    # command prints is one public call on its result.
+    from conftest import ROOT
+
+    from inspect_validate.report.prediction import format_prediction
+    from inspect_validate.scene import read_scene
+
+    path = ROOT / "sample_images" / "scenes" / "paperboard" / "scene.yaml"
+    ranking = read_scene(path).sweep()
+    assert ranking.lights[ranking.index[0][0]] == "amber LED"
+    table = format_prediction(ranking)
+    code, out, _ = cli(["predict", path, "--no-kde"])
+    assert code == 0
+    ours = [line for line in table.splitlines() if line.startswith("1 ")]
+    printed = [line for line in out.splitlines() if line.startswith("1 ")]
+    assert ours and printed and ours[0].split()[:12] == printed[0].split()[:12]

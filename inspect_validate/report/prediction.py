@@ -73,7 +73,13 @@ def prediction_rows(p: Ranking, *, kde: bool = True) -> list[dict]:
     return rows
 
 
-def format_prediction(p: Ranking, rows: list[dict]) -> str:
+def format_prediction(p: Ranking, rows: list[dict] | None = None) -> str:
+    """The ranking table ``inspect-validate predict`` prints: per row the light, optics and
+    camera, exposure, each class's μ (DN) and σ² (DN²), and the key comparison's SNR_dB
+    (36), CNR_dB, ε Gauss and ε KDE (37) (``rows``: :func:`prediction_rows` of ``p``,
+    computed here when not given)."""
+    if rows is None:
+        rows = prediction_rows(p)
     by, comparison = p.by, p.comparison
     header = ["#", "light", "optics", "camera", "t_exp"]
     header += [f"μ {c}" for c in p.classes] + [f"σ² {c}" for c in p.classes]
