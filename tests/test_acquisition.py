@@ -13,12 +13,12 @@ import re
 import numpy as np
 import pytest
 import yaml
-from conftest import copy_station, watch_cycles
-from test_capture import run, station_copy
+from conftest import copy_station, run_cli, watch_cycles
+from test_capture import station_copy
 
 
 def _capture(station, out, capsys):
-    code = run(["capture", station, "--out", out])
+    code = run_cli(["capture", station, "--out", out])
     return code, capsys.readouterr().err
 
 

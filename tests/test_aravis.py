@@ -15,7 +15,7 @@ import time
 import uuid
 
 import pytest
-from test_capture import run
+from conftest import run_cli
 
 from inspect_validate.errors import DeviceError
 
@@ -99,7 +99,7 @@ def _station(tmp_path, serial, camera="", controller="", frames=3):
 def test_capture_from_the_cli(tmp_path, capsys, fake_gige, acquisition):
     serial, _ = fake_gige()
     out = tmp_path / "cap"
-    code = run(
+    code = run_cli(
         ["capture", _station(tmp_path, serial, f", acquisition: {acquisition}"), "--out", out]
     )
     err = capsys.readouterr().err
@@ -125,7 +125,7 @@ def test_a_hardware_trigger_nobody_fires_times_out(tmp_path, capsys, fake_gige):
         ", acquisition: hardware-trigger, trigger_line: Line0",
         ", pulse: {width_us: 4500}",
     )
-    assert run(["capture", station, "--out", tmp_path / "cap"]) == 3
+    assert run_cli(["capture", station, "--out", tmp_path / "cap"]) == 3
     assert f"Aravis Fake (serial {serial}): no frame within 1 s" in capsys.readouterr().err
 
 

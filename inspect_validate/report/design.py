@@ -115,15 +115,15 @@ def design_verification(verification, objective, *, kind: str = "error") -> Desi
     channel's, predicted and measured."""
     from inspect_validate.mix_design.station import DESIGN_ILLUMINATION
 
-    by = {(r["illumination"], r["comparison"]): r for r in verification.comparisons}
-    ills = tuple(dict.fromkeys(r["illumination"] for r in verification.comparisons))
+    by = {(r.illumination, r.comparison): r for r in verification.comparisons}
+    ills = tuple(dict.fromkeys(r.illumination for r in verification.comparisons))
     field, quantity, fmt = (
         ("error_gaussian", "ε", "{:.3g}") if kind == "error" else ("cnr_db", "CNR_dB", "{:.2f}")
     )
     rows = [
         [label]
         + [
-            fmt.format(by[ill, label][what][field])
+            fmt.format(getattr(getattr(by[ill, label], what), field))
             for ill in ills
             for what in ("predicted", "measured")
         ]
@@ -131,7 +131,7 @@ def design_verification(verification, objective, *, kind: str = "error") -> Desi
     ]
 
     def worst(ill, what):
-        values = [by[ill, label][what][field] for label in objective]
+        values = [getattr(getattr(by[ill, label], what), field) for label in objective]
         return max(values) if kind == "error" else min(values)
 
     mix = worst(DESIGN_ILLUMINATION, "measured")

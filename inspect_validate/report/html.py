@@ -231,18 +231,18 @@ def _illuminations(v) -> list[str]:
         )
         rows = [
             [
-                r["class"],
-                _g(r["predicted"]["mean"]),
-                _g(r["measured"]["mean"]),
-                _g(100 * r["mean_relative"], 3),
-                _g(r["predicted"]["temporal_variance"]),
-                _g(r["measured"]["temporal_variance"]),
-                _g(r["predicted"]["spatial_variance"]),
-                _g(r["measured"]["spatial_variance"]),
-                _g(100 * r["measured"]["saturated_fraction"], 3),
+                r.class_name,
+                _g(r.predicted.mean),
+                _g(r.measured.mean),
+                _g(100 * r.mean_relative, 3),
+                _g(r.predicted.temporal_variance),
+                _g(r.measured.temporal_variance),
+                _g(r.predicted.spatial_variance),
+                _g(r.measured.spatial_variance),
+                _g(100 * r.measured.saturated_fraction, 3),
             ]
             for r in v.classes
-            if r["illumination"] == ill
+            if r.illumination == ill
         ]
         out.append(
             _table(
@@ -278,16 +278,16 @@ def _bandwidths(classes) -> dict[str, float]:
 def _comparisons_table(v) -> str:
     rows = [
         [
-            r["illumination"],
-            r["comparison"],
-            _g(r["predicted"]["snr_db"]),
-            _g(r["measured"]["snr_db"]),
-            _g(r["predicted"]["cnr_db"]),
-            _g(r["measured"]["cnr_db"]),
-            _g(r["predicted"]["error_gaussian"], 3),
-            _g(r["measured"]["error_gaussian"], 3),
-            _g(r["predicted"]["error_kde"], 3),
-            _g(r["measured"]["error_kde"], 3),
+            r.illumination,
+            r.comparison,
+            _g(r.predicted.snr_db),
+            _g(r.measured.snr_db),
+            _g(r.predicted.cnr_db),
+            _g(r.measured.cnr_db),
+            _g(r.predicted.error_gaussian, 3),
+            _g(r.measured.error_gaussian, 3),
+            _g(r.predicted.error_kde, 3),
+            _g(r.measured.error_kde, 3),
         ]
         for r in v.comparisons
     ]

@@ -12,8 +12,12 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from inspect_validate.verification.verify import ClassAgreement, ComparisonAgreement
 
 __all__ = [
     "plot_agreement",
@@ -277,8 +281,8 @@ def plot_class_histograms(classes, target, *, title: str, kde_bandwidths=None):
 
 
 def plot_agreement(
-    class_rows: list[dict],
-    comparison_rows: list[dict],
+    class_rows: list[ClassAgreement],
+    comparison_rows: list[ComparisonAgreement],
     target,
     *,
     agreement=None,
@@ -289,7 +293,7 @@ def plot_agreement(
     agreement floor are not checked and drawn hollow."""
     plt = _pyplot()
     fig, axes = plt.subplots(1, 3, figsize=(13, 4.2))
-    illuminations = list(dict.fromkeys(r["illumination"] for r in class_rows))
+    illuminations = list(dict.fromkeys(r.illumination for r in class_rows))
     markers = "osD^v<>ph*"
     floor = getattr(agreement, "snr_floor_db", None)
 
@@ -297,9 +301,7 @@ def plot_agreement(
         values = np.array([get(r) for r in rows], dtype=float).reshape(-1, 2)
         for i, ill in enumerate(illuminations):
             for on in (True, False):
-                sel = [
-                    j for j, r in enumerate(rows) if r["illumination"] == ill and checked(r) == on
-                ]
+                sel = [j for j, r in enumerate(rows) if r.illumination == ill and checked(r) == on]
                 if sel:
                     ax.scatter(
                         values[sel, 0],
@@ -326,7 +328,7 @@ def plot_agreement(
     panel(
         axes[0],
         class_rows,
-        lambda r: (r["predicted"]["mean"], 100.0 * r["mean_relative"]),
+        lambda r: (r.predicted.mean, 100.0 * r.mean_relative),
         pct(getattr(agreement, "mean_relative", None)),
         "class mean μ",
         "DN",
@@ -335,7 +337,7 @@ def plot_agreement(
     panel(
         axes[1],
         class_rows,
-        lambda r: (r["predicted"]["variance"], 100.0 * r["variance_relative"]),
+        lambda r: (r.predicted.variance, 100.0 * r.variance_relative),
         pct(getattr(agreement, "variance_relative", None)),
         "class variance σ²",
         "DN²",
@@ -344,14 +346,12 @@ def plot_agreement(
     panel(
         axes[2],
         comparison_rows,
-        lambda r: (r["predicted"]["snr_db"], r["snr_db_difference"]),
+        lambda r: (r.predicted.snr_db, r.snr_db_difference),
         getattr(agreement, "snr_db", None),
         "SNR_dB per comparison",
         "dB",
         "dB",
-        checked=lambda r: (
-            floor is None or max(r["predicted"]["snr_db"], r["measured"]["snr_db"]) >= floor
-        ),
+        checked=lambda r: floor is None or max(r.predicted.snr_db, r.measured.snr_db) >= floor,
     )
     labels = {}
     for ax in axes:

@@ -122,6 +122,13 @@ def _number(c) -> str:
     return f"{c.value:.4g}"
 
 
+def _row_document(row) -> dict:
+    """A predicted-against-measured row as the JSON has it (``class_name`` is ``class``)."""
+    from dataclasses import asdict
+
+    return {("class" if k == "class_name" else k): x for k, x in asdict(row).items()}
+
+
 def verification_document(v) -> dict:
     """The ``verification.json`` document (:func:`~inspect_validate.report.write_json` makes it JSON-safe)."""
     from inspect_validate.report.jsonfile import measurement_document
@@ -149,8 +156,8 @@ def verification_document(v) -> dict:
             "illuminations": {k: asdict(s) for k, s in v.scales.items()},
         },
         "exposure_time_s": float(v.prediction.exposure_time[0, 0, 0]),
-        "classes": v.classes,
-        "comparisons": v.comparisons,
+        "classes": [_row_document(r) for r in v.classes],
+        "comparisons": [_row_document(r) for r in v.comparisons],
         "ranking": v.ranking,
         "checks": [
             {

@@ -48,6 +48,79 @@ __all__ = [
 
 
 @dataclass(frozen=True)
+class PredictedClass:
+    """A class as the calibrated prediction has it: μ (DN), σ² and its temporal and spatial
+    (reflectance) parts (DN²), the saturated fraction."""
+
+    mean: float
+    variance: float
+    temporal_variance: float
+    spatial_variance: float
+    saturated_fraction: float
+
+
+@dataclass(frozen=True)
+class NominalClass:
+    """A class as predicted at the station's stated irradiances: μ (DN), σ² (DN²)."""
+
+    mean: float
+    variance: float
+
+
+@dataclass(frozen=True)
+class MeasuredClass:
+    """A class as measured: μ (DN), σ² and its EMVA 1288 parts (DN², None where the frames
+    cannot tell), saturated and zero fractions, and the dark level subtracted (DN)."""
+
+    mean: float
+    variance: float
+    temporal_variance: float | None
+    spatial_variance: float | None
+    saturated_fraction: float
+    zero_fraction: float
+    dark_mean: float
+
+
+@dataclass(frozen=True)
+class ClassAgreement:
+    """One class under one illumination, predicted against measured. ``mean_relative`` is
+    (μ measured − μ predicted) over the predicted signal above the dark level,
+    ``variance_relative`` (σ² measured − σ² predicted) over σ² predicted."""
+
+    illumination: str
+    class_name: str
+    predicted: PredictedClass
+    nominal: NominalClass
+    measured: MeasuredClass
+    mean_relative: float
+    variance_relative: float
+
+
+@dataclass(frozen=True)
+class ComparisonValues:
+    """A comparison's separation: SNR_dB (36), CNR_dB, ε Gauss and ε KDE (37), fractions
+    (ε KDE None where not computed)."""
+
+    snr_db: float
+    cnr_db: float
+    error_gaussian: float
+    error_kde: float | None = None
+
+
+@dataclass(frozen=True)
+class ComparisonAgreement:
+    """One comparison under one illumination, predicted (calibrated), nominal and measured;
+    ``snr_db_difference`` is measured − predicted SNR_dB, dB."""
+
+    illumination: str
+    comparison: str
+    predicted: ComparisonValues
+    nominal: ComparisonValues
+    measured: ComparisonValues
+    snr_db_difference: float
+
+
+@dataclass(frozen=True)
 class Verification:
     """Everything ``verify`` found; :attr:`passed` is the verdict."""
 
@@ -62,8 +135,8 @@ class Verification:
     prediction: Prediction  # after calibration
     scales: dict[str, IrradianceScale]  # illumination → its scale
     gain: Gain | None
-    classes: list  # per illumination and class: predicted against measured
-    comparisons: list  # per illumination and comparison: predicted against measured
+    classes: list[ClassAgreement]  # per illumination and class
+    comparisons: list[ComparisonAgreement]  # per illumination and comparison
     ranking: dict | None
     checks: tuple[Check, ...]
     skipped: tuple[str, ...] = ()
@@ -237,10 +310,10 @@ def dominance_unconfirmed(result: Verification) -> list[str]:
     """
     tolerance, floor = _dominance_tolerance(result.station.acceptance)
     misses = [
-        (abs(r["snr_db_difference"]), f"{r['illumination']}: {r['comparison']}")
+        (abs(r.snr_db_difference), f"{r.illumination}: {r.comparison}")
         for r in result.comparisons
-        if max(r["predicted"]["snr_db"], r["measured"]["snr_db"]) >= floor
-        and abs(r["snr_db_difference"]) > tolerance
+        if max(r.predicted.snr_db, r.measured.snr_db) >= floor
+        and abs(r.snr_db_difference) > tolerance
     ]
     return [
         f"{where} measured {miss:.1f} dB from its prediction (more than {tolerance:g} dB)"
@@ -513,59 +586,59 @@ def _compare(measurements, p, nominal, dark_means, offset, *, need_kde):
             level = (dark_means or {}).get(c.name, offset)
             signal = pm - offset
             class_rows.append(
-                {
-                    "illumination": ill,
-                    "class": c.name,
-                    "predicted": {
-                        "mean": pm,
-                        "variance": pv,
-                        "temporal_variance": float(temporal[li, 0, 0, k]),
-                        "spatial_variance": float(p.spectral_variance[li, 0, 0, k]),
-                        "saturated_fraction": float(p.saturated_fraction[li, 0, 0, k]),
-                    },
-                    "nominal": {
-                        "mean": float(nominal.mean[li, 0, 0, k]),
-                        "variance": float(nominal.variance[li, 0, 0, k]),
-                    },
-                    "measured": {
-                        "mean": c.mean,
-                        "variance": c.variance,
-                        "temporal_variance": c.temporal_variance,
-                        "spatial_variance": c.spatial_variance,
-                        "saturated_fraction": c.saturated_fraction,
-                        "zero_fraction": c.zero_fraction,
-                        "dark_mean": level,
-                    },
-                    # Relative to the signal above the dark level, which is what the model predicts.
-                    "mean_relative": (c.mean - pm) / signal if signal > 0 else float("nan"),
-                    "variance_relative": (c.variance - pv) / pv if pv > 0 else float("nan"),
-                }
+                ClassAgreement(
+                    illumination=ill,
+                    class_name=c.name,
+                    predicted=PredictedClass(
+                        mean=pm,
+                        variance=pv,
+                        temporal_variance=float(temporal[li, 0, 0, k]),
+                        spatial_variance=float(p.spectral_variance[li, 0, 0, k]),
+                        saturated_fraction=float(p.saturated_fraction[li, 0, 0, k]),
+                    ),
+                    nominal=NominalClass(
+                        mean=float(nominal.mean[li, 0, 0, k]),
+                        variance=float(nominal.variance[li, 0, 0, k]),
+                    ),
+                    measured=MeasuredClass(
+                        mean=c.mean,
+                        variance=c.variance,
+                        temporal_variance=c.temporal_variance,
+                        spatial_variance=c.spatial_variance,
+                        saturated_fraction=c.saturated_fraction,
+                        zero_fraction=c.zero_fraction,
+                        dark_mean=level,
+                    ),
+                    # Relative to the signal above the dark level, which the model predicts.
+                    mean_relative=(c.mean - pm) / signal if signal > 0 else float("nan"),
+                    variance_relative=(c.variance - pv) / pv if pv > 0 else float("nan"),
+                )
             )
         for j, comp in enumerate(m.comparisons):
             predicted_kde = predicted_kde_error(p, (li, 0, 0), j) if need_kde else None
             comparison_rows.append(
-                {
-                    "illumination": ill,
-                    "comparison": comp.label,
-                    "predicted": {
-                        "snr_db": float(p.snr_db[li, 0, 0, j]),
-                        "cnr_db": float(p.cnr_db[li, 0, 0, j]),
-                        "error_gaussian": float(p.error_gaussian[li, 0, 0, j]),
-                        "error_kde": predicted_kde,
-                    },
-                    "nominal": {
-                        "snr_db": float(nominal.snr_db[li, 0, 0, j]),
-                        "cnr_db": float(nominal.cnr_db[li, 0, 0, j]),
-                        "error_gaussian": float(nominal.error_gaussian[li, 0, 0, j]),
-                    },
-                    "measured": {
-                        "snr_db": comp.snr_db,
-                        "cnr_db": comp.cnr_db,
-                        "error_gaussian": comp.error_gaussian,
-                        "error_kde": comp.error_kde,
-                    },
-                    "snr_db_difference": comp.snr_db - float(p.snr_db[li, 0, 0, j]),
-                }
+                ComparisonAgreement(
+                    illumination=ill,
+                    comparison=comp.label,
+                    predicted=ComparisonValues(
+                        snr_db=float(p.snr_db[li, 0, 0, j]),
+                        cnr_db=float(p.cnr_db[li, 0, 0, j]),
+                        error_gaussian=float(p.error_gaussian[li, 0, 0, j]),
+                        error_kde=predicted_kde,
+                    ),
+                    nominal=ComparisonValues(
+                        snr_db=float(nominal.snr_db[li, 0, 0, j]),
+                        cnr_db=float(nominal.cnr_db[li, 0, 0, j]),
+                        error_gaussian=float(nominal.error_gaussian[li, 0, 0, j]),
+                    ),
+                    measured=ComparisonValues(
+                        snr_db=comp.snr_db,
+                        cnr_db=comp.cnr_db,
+                        error_gaussian=comp.error_gaussian,
+                        error_kde=comp.error_kde,
+                    ),
+                    snr_db_difference=comp.snr_db - float(p.snr_db[li, 0, 0, j]),
+                )
             )
     return class_rows, comparison_rows
 
@@ -652,17 +725,17 @@ def _checks(
     agree = acc.agreement
     if agree is not None:
         for row in class_rows:
-            where = f"{row['illumination']}: {row['class']}"
-            pred = row["predicted"]
+            where = f"{row.illumination}: {row.class_name}"
+            pred = row.predicted
             if agree.mean_relative is not None:
                 checks.append(
                     at_most(
                         f"{where} μ deviation",
                         "agreement",
-                        100 * abs(row["mean_relative"]),
+                        100 * abs(row.mean_relative),
                         100 * agree.mean_relative,
                         "%",
-                        f"predicted {pred['mean']:.4g} DN, measured {row['measured']['mean']:.4g} DN",
+                        f"predicted {pred.mean:.4g} DN, measured {row.measured.mean:.4g} DN",
                     )
                 )
             if agree.variance_relative is not None:
@@ -670,18 +743,18 @@ def _checks(
                     at_most(
                         f"{where} σ² deviation",
                         "agreement",
-                        100 * abs(row["variance_relative"]),
+                        100 * abs(row.variance_relative),
                         100 * agree.variance_relative,
                         "%",
-                        f"predicted {pred['variance']:.4g} DN², "
-                        f"measured {row['measured']['variance']:.4g} DN²",
+                        f"predicted {pred.variance:.4g} DN², "
+                        f"measured {row.measured.variance:.4g} DN²",
                     )
                 )
         if agree.snr_db is not None:
             below = [
-                f"{r['illumination']}: {r['comparison']}"
+                f"{r.illumination}: {r.comparison}"
                 for r in comparison_rows
-                if max(r["predicted"]["snr_db"], r["measured"]["snr_db"]) < agree.snr_floor_db
+                if max(r.predicted.snr_db, r.measured.snr_db) < agree.snr_floor_db
             ]
             if below:
                 skipped.append(
@@ -689,17 +762,17 @@ def _checks(
                     f"agreement.snr_floor_db ({agree.snr_floor_db:g} dB)"
                 )
             for row in comparison_rows:
-                if max(row["predicted"]["snr_db"], row["measured"]["snr_db"]) < agree.snr_floor_db:
+                if max(row.predicted.snr_db, row.measured.snr_db) < agree.snr_floor_db:
                     continue  # both unseparable: the dB values carry no agreement to check
                 checks.append(
                     at_most(
-                        f"{row['illumination']}: {row['comparison']} SNR_dB deviation",
+                        f"{row.illumination}: {row.comparison} SNR_dB deviation",
                         "agreement",
-                        abs(row["snr_db_difference"]),
+                        abs(row.snr_db_difference),
                         agree.snr_db,
                         "dB",
-                        f"predicted {row['predicted']['snr_db']:.2f} dB, "
-                        f"measured {row['measured']['snr_db']:.2f} dB",
+                        f"predicted {row.predicted.snr_db:.2f} dB, "
+                        f"measured {row.measured.snr_db:.2f} dB",
                     )
                 )
     if acc.ranking:
