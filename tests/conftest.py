@@ -203,3 +203,22 @@ def emva1288_python() -> Path:
     if not installed or subprocess.run(check, capture_output=True).returncode:
         pytest.skip("cannot make an environment with the emva1288 package (needs PyPI)")
     return python
+
+
+def lenient_history(path, cycles=(), points=(), meta=None):
+    """A database shaped like a history but without its types and constraints."""
+    import sqlite3
+
+    con = sqlite3.connect(path)
+    con.executescript(
+        "CREATE TABLE meta (key, value); CREATE TABLE cycles (cycle, started, seconds, status, "
+        "passed, reason, cause, frames); CREATE TABLE points (cycle, illumination, kind, name, "
+        "quantity, value, ewma, low, high);"
+    )
+    meta = {"station": "/s.yaml", "golden": "/g.json", "created": "1.7e9"} if meta is None else meta
+    con.executemany("INSERT INTO meta VALUES (?, ?)", list(meta.items()))
+    con.executemany("INSERT INTO cycles VALUES (?, ?, ?, ?, ?, ?, ?, ?)", cycles)
+    con.executemany("INSERT INTO points VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)", points)
+    con.commit()
+    con.close()
+    return path

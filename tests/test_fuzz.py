@@ -759,7 +759,7 @@ def _storable(value):
     plot=st.sampled_from([False, False, False, True]),
 )
 def test_history_with_hostile_databases(capsys, cycles, points, meta, plot):
-    from test_history import _lenient
+    from conftest import lenient_history
 
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
@@ -767,7 +767,7 @@ def test_history_with_hostile_databases(capsys, cycles, points, meta, plot):
             [[_storable(v) for v in row] for row in cycles],
             [[_storable(v) for v in row] for row in points],
         )
-        _lenient(tmp / "h.sqlite", *rows, meta if isinstance(meta, dict) else {})
+        lenient_history(tmp / "h.sqlite", *rows, meta if isinstance(meta, dict) else {})
         args = ["history", tmp / "h.sqlite", "--csv", tmp / "h.csv"]
         code, out, err = run([*args, *(["--plot", tmp / "p"] if plot else [])], capsys)
         event(f"exit {code}")

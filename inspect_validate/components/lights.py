@@ -113,7 +113,7 @@ def blackbody(temperature: float, *, grid=DEFAULT_GRID, irradiance: float | None
 
 # The root in (½, 1) of g + 2g⁵ = 3/2, where the Ohno LED is at half its peak. A
 # constant rather than brentq at first use, whose scipy.optimize import was a fifth of
-# a predict on the paperboard scene. tests/test_components.py checks it against brentq
+# a predict on the paperboard scene. tests/components/test_components.py checks it against brentq
 # and mpmath.
 _G_HALF = 0.8086092632090856
 

@@ -1,11 +1,10 @@
 """Per-wavelength errors, plots, and the render → measure loop against the prediction."""
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import run_cli
+from conftest import ROOT, run_cli
 
 from inspect_validate.errors import InputError
 from inspect_validate.model import ObjectClass, analyse_spectra
@@ -154,9 +153,7 @@ def test_spectral_error_plot_says_where_it_is_floored(monkeypatch):
     from inspect_validate.report import plots
     from inspect_validate.scene import read_scene
 
-    scene = read_scene(
-        Path(__file__).parents[1] / "sample_images" / "scenes" / "mix" / "scene.yaml"
-    )
+    scene = read_scene(ROOT / "sample_images" / "scenes" / "mix" / "scene.yaml")
     sep = analyse_spectra(list(scene.classes), kde=False, comparisons=scene.comparisons)
     assert np.nanmin(sep.error_gaussian) < 1e-16  # the inks separate completely somewhere
     shown = {}

@@ -17,7 +17,7 @@ from types import SimpleNamespace
 
 import pytest
 import yaml
-from conftest import copy_station, run_cli
+from conftest import copy_station, lenient_history, run_cli
 
 ONSET = 20  # stable cycles before the LED starts ageing
 
@@ -179,23 +179,6 @@ def test_verify_refuses_another_stations_history(cli, aged, tmp_path):
     assert code == 2 and "--report" in err
 
 
-def _lenient(path, cycles=(), points=(), meta=None):
-    """A database shaped like a history but without its types and constraints."""
-    con = sqlite3.connect(path)
-    con.executescript(
-        "CREATE TABLE meta (key, value); CREATE TABLE cycles (cycle, started, seconds, status, "
-        "passed, reason, cause, frames); CREATE TABLE points (cycle, illumination, kind, name, "
-        "quantity, value, ewma, low, high);"
-    )
-    meta = {"station": "/s.yaml", "golden": "/g.json", "created": "1.7e9"} if meta is None else meta
-    con.executemany("INSERT INTO meta VALUES (?, ?)", list(meta.items()))
-    con.executemany("INSERT INTO cycles VALUES (?, ?, ?, ?, ?, ?, ?, ?)", cycles)
-    con.executemany("INSERT INTO points VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)", points)
-    con.commit()
-    con.close()
-    return path
-
-
 GOOD_CYCLE = (0, 1.7e9, 1.0, "pass", 1, None, None, None)
 GOOD_POINT = (0, "amber", "class", "A", "mean", 160.0, 160.0, 159.0, 161.0)
 
@@ -205,17 +188,23 @@ GOOD_POINT = (0, "amber", "class", "A", "mean", 160.0, 160.0, 159.0, 161.0)
     [
         (lambda p: p, "no such history database"),
         (lambda p: p.write_bytes(b"\x00junk" * 100) and p, "not a watch history database"),
-        (lambda p: _lenient(p, meta={}), "no station or start time"),
-        (lambda p: _lenient(p, meta={"station": "s", "created": "never"}), "no station"),
-        (lambda p: _lenient(p, [(0, "noon", 1.0, "pass", 1, None, None, None)]), "damaged"),
-        (lambda p: _lenient(p, [(0, math.inf, 1.0, "pass", 1, None, None, None)]), "damaged"),
-        (lambda p: _lenient(p, [(0, 1.7e9, 1.0, "weird", 1, None, None, None)]), "damaged"),
-        (lambda p: _lenient(p, [(0, 1.7e9, -1.0, "pass", 7, None, None, None)]), "damaged"),
-        (lambda p: _lenient(p, [GOOD_CYCLE], [(*GOOD_POINT[:5], "x", 1, 0, 2)]), "damaged"),
-        (lambda p: _lenient(p, [GOOD_CYCLE], [(*GOOD_POINT[:6], math.inf, 0, 2)]), "damaged"),
-        (lambda p: _lenient(p, [GOOD_CYCLE], [(*GOOD_POINT[:7], None, 2)]), "damaged"),
+        (lambda p: lenient_history(p, meta={}), "no station or start time"),
+        (lambda p: lenient_history(p, meta={"station": "s", "created": "never"}), "no station"),
+        (lambda p: lenient_history(p, [(0, "noon", 1.0, "pass", 1, None, None, None)]), "damaged"),
         (
-            lambda p: _lenient(p, [GOOD_CYCLE], [(0, 5, "class", "A", "mean", 1, 1, 0, 2)]),
+            lambda p: lenient_history(p, [(0, math.inf, 1.0, "pass", 1, None, None, None)]),
+            "damaged",
+        ),
+        (lambda p: lenient_history(p, [(0, 1.7e9, 1.0, "weird", 1, None, None, None)]), "damaged"),
+        (lambda p: lenient_history(p, [(0, 1.7e9, -1.0, "pass", 7, None, None, None)]), "damaged"),
+        (lambda p: lenient_history(p, [GOOD_CYCLE], [(*GOOD_POINT[:5], "x", 1, 0, 2)]), "damaged"),
+        (
+            lambda p: lenient_history(p, [GOOD_CYCLE], [(*GOOD_POINT[:6], math.inf, 0, 2)]),
+            "damaged",
+        ),
+        (lambda p: lenient_history(p, [GOOD_CYCLE], [(*GOOD_POINT[:7], None, 2)]), "damaged"),
+        (
+            lambda p: lenient_history(p, [GOOD_CYCLE], [(0, 5, "class", "A", "mean", 1, 1, 0, 2)]),
             "damaged",
         ),
     ],
@@ -233,7 +222,9 @@ def test_history_refuses_what_watch_did_not_write(cli, tmp_path, make, message):
 def test_history_of_a_lenient_but_sound_database(cli, tmp_path):
     """What watch writes, held in untyped columns (another SQLite tool's copy), with a
     value that was not finite that cycle: read, not refused."""
-    db = _lenient(tmp_path / "h.sqlite", [GOOD_CYCLE], [(*GOOD_POINT[:5], None, 160.0, 159, 161)])
+    db = lenient_history(
+        tmp_path / "h.sqlite", [GOOD_CYCLE], [(*GOOD_POINT[:5], None, 160.0, 159, 161)]
+    )
     code, out, err = cli(["history", db, "--csv", tmp_path / "h.csv", "--plot", tmp_path / "p"])
     assert code == 0, err
     assert "amber: A μ [DN]" in out and "nan" not in out.lower()
