@@ -236,7 +236,7 @@ def general_gaussian_error_rows(rows):
     import sys
     from pathlib import Path
 
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "stats"))
     from test_gaussian_error import cases, reference
 
     implementation = importlib.import_module("inspect_validate.stats.gaussian_error")

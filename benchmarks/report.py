@@ -460,11 +460,7 @@ def skipped_work(quick: bool) -> Knob:
     (t_skip, v_skip), (t_all, v_all) = runs["skip"], runs["all"]
 
     def amber(v):
-        snr = {
-            r["comparison"]: r["measured"]["snr_db"]
-            for r in v.comparisons
-            if r["illumination"] == "amber"
-        }
+        snr = {r.comparison: r.measured.snr_db for r in v.comparisons if r.illumination == "amber"}
         verdicts = {c.name: c.passed for c in v.checks if c.name.startswith("amber")}
         return snr, verdicts
 
