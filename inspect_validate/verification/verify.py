@@ -493,10 +493,11 @@ def verify(station, frames_dir: Path, *, plan: Plan | None = None) -> Verificati
     class_rows, comparison_rows = _compare(
         measurements, prediction, nominal, dark_means, offset, need_kde=need_kde
     )
-    ranking = _ranking(measurements, prediction, model.scene, acc, comparisons, skipped)
-    checks = _checks(
-        acc, measurements, class_rows, comparison_rows, ranking, gain, skipped, gain_missing
+    ranking, not_ranked = _ranking(measurements, prediction, model.scene, acc, comparisons)
+    checks, unchecked = _checks(
+        acc, measurements, class_rows, comparison_rows, ranking, gain, gain_missing
     )
+    skipped += [*not_ranked, *unchecked]
     if golden is not None:
         checks += drift_checks(golden, measurements, acc.drift)
     inputs = {
@@ -643,13 +644,13 @@ def _compare(measurements, p, nominal, dark_means, offset, *, need_kde):
     return class_rows, comparison_rows
 
 
-def _ranking(measurements, p, scene, acc, comparisons, skipped):
-    """The illuminations ranked by the key comparison, measured against predicted."""
+def _ranking(measurements, p, scene, acc, comparisons) -> tuple[dict | None, tuple[str, ...]]:
+    """The illuminations ranked by the key comparison, measured against predicted, and
+    why not (None and the reason) with one illumination."""
     from inspect_validate.stats.ranking import kendall_tau
 
     if len(measurements) < 2:
-        skipped.append("ranking: one illumination, nothing to rank")
-        return None
+        return None, ("ranking: one illumination, nothing to rank",)
     text = (
         acc.separation[0].comparison
         if acc.separation
@@ -671,7 +672,7 @@ def _ranking(measurements, p, scene, acc, comparisons, skipped):
         measured = np.array([getattr(measurements[n].comparisons[j], by) for n in names])
         best_p, best_m = names[int(np.argmax(predicted))], names[int(np.argmax(measured))]
     tau = kendall_tau(predicted, measured)
-    return {
+    ranking = {
         "comparison": comparisons.labels[j],
         "by": "log_error_gaussian" if by == "error" else by,
         "predicted": dict(zip(names, map(float, predicted), strict=True)),
@@ -681,14 +682,16 @@ def _ranking(measurements, p, scene, acc, comparisons, skipped):
         "agree": best_p == best_m,
         "kendall_tau": tau,
     }
+    return ranking, ()
 
 
 def _checks(
-    acc, measurements, class_rows, comparison_rows, ranking, gain, skipped, gain_missing=None
-):
-    """The checks ``acc`` asks for. One that cannot be evaluated is :func:`not_run`, a
-    failure that says why — never a skip; ``skipped`` gets only work nobody asked for."""
-    checks = []
+    acc, measurements, class_rows, comparison_rows, ranking, gain, gain_missing=None
+) -> tuple[list[Check], list[str]]:
+    """The checks ``acc`` asks for, and the work left out (a skip: only what nobody asked
+    for). A check that cannot be evaluated is :func:`not_run`, a failure that says why —
+    never a skip."""
+    checks, skipped = [], []
     targets = [acc.illumination] if acc.illumination else list(measurements)
     for sep in acc.separation:
         for ill in targets:
@@ -823,4 +826,4 @@ def _checks(
                     f"declared {gain.declared:.4g}",
                 )
             )
-    return checks
+    return checks, skipped
