@@ -191,9 +191,9 @@ def _calibration(v) -> str:
     if v.ranking:
         r = v.ranking
         out.append(
-            f"<p>Ranking by {e(r['comparison'])} ({e(r['by'])}): predicted best "
-            f"{e(r['predicted_best'])}, measured best {e(r['measured_best'])}, "
-            f"Kendall τ {r['kendall_tau']:.2f}.</p>"
+            f"<p>Ranking by {e(r.comparison)} ({e(r.by)}): predicted best "
+            f"{e(r.predicted_best)}, measured best {e(r.measured_best)}, "
+            f"Kendall τ {r.kendall_tau:.2f}.</p>"
         )
     return "\n".join(out)
 

@@ -80,8 +80,8 @@ def format_verdict(v) -> str:
     if v.ranking:
         r = v.ranking
         out.append(
-            f"ranking by {r['comparison']}: predicted best {r['predicted_best']}, measured best "
-            f"{r['measured_best']} (Kendall τ {r['kendall_tau']:.2f})"
+            f"ranking by {r.comparison}: predicted best {r.predicted_best}, measured best "
+            f"{r.measured_best} (Kendall τ {r.kendall_tau:.2f})"
         )
     rows = [cells for _, cells in check_rows(v.checks)]
     if rows:
@@ -124,8 +124,6 @@ def _number(c) -> str:
 
 def _row_document(row) -> dict:
     """A predicted-against-measured row as the JSON has it (``class_name`` is ``class``)."""
-    from dataclasses import asdict
-
     return {("class" if k == "class_name" else k): x for k, x in asdict(row).items()}
 
 
@@ -158,7 +156,7 @@ def verification_document(v) -> dict:
         "exposure_time_s": float(v.prediction.exposure_time[0, 0, 0]),
         "classes": [_row_document(r) for r in v.classes],
         "comparisons": [_row_document(r) for r in v.comparisons],
-        "ranking": v.ranking,
+        "ranking": None if v.ranking is None else asdict(v.ranking),
         "checks": [
             {
                 "name": c.name,

@@ -121,6 +121,22 @@ class ComparisonAgreement:
 
 
 @dataclass(frozen=True)
+class RankingAgreement:
+    """The illuminations ranked by the key ``comparison``, predicted against measured:
+    each illumination's value ``by`` (``log_error_gaussian``, lowest best; ``snr_db`` or
+    ``cnr_db``, highest best), the best of each, whether they agree, Kendall's τ."""
+
+    comparison: str
+    by: str
+    predicted: dict[str, float]
+    measured: dict[str, float]
+    predicted_best: str
+    measured_best: str
+    agree: bool
+    kendall_tau: float
+
+
+@dataclass(frozen=True)
 class Verification:
     """Everything ``verify`` found; :attr:`passed` is the verdict."""
 
@@ -137,7 +153,7 @@ class Verification:
     gain: Gain | None
     classes: list[ClassAgreement]  # per illumination and class
     comparisons: list[ComparisonAgreement]  # per illumination and comparison
-    ranking: dict | None
+    ranking: RankingAgreement | None
     checks: tuple[Check, ...]
     skipped: tuple[str, ...] = ()
     notes: tuple[str, ...] = field(default=())
@@ -644,7 +660,9 @@ def _compare(measurements, p, nominal, dark_means, offset, *, need_kde):
     return class_rows, comparison_rows
 
 
-def _ranking(measurements, p, scene, acc, comparisons) -> tuple[dict | None, tuple[str, ...]]:
+def _ranking(
+    measurements, p, scene, acc, comparisons
+) -> tuple[RankingAgreement | None, tuple[str, ...]]:
     """The illuminations ranked by the key comparison, measured against predicted, and
     why not (None and the reason) with one illumination."""
     from inspect_validate.stats.ranking import kendall_tau
@@ -672,16 +690,16 @@ def _ranking(measurements, p, scene, acc, comparisons) -> tuple[dict | None, tup
         measured = np.array([getattr(measurements[n].comparisons[j], by) for n in names])
         best_p, best_m = names[int(np.argmax(predicted))], names[int(np.argmax(measured))]
     tau = kendall_tau(predicted, measured)
-    ranking = {
-        "comparison": comparisons.labels[j],
-        "by": "log_error_gaussian" if by == "error" else by,
-        "predicted": dict(zip(names, map(float, predicted), strict=True)),
-        "measured": dict(zip(names, map(float, measured), strict=True)),
-        "predicted_best": best_p,
-        "measured_best": best_m,
-        "agree": best_p == best_m,
-        "kendall_tau": tau,
-    }
+    ranking = RankingAgreement(
+        comparison=comparisons.labels[j],
+        by="log_error_gaussian" if by == "error" else by,
+        predicted=dict(zip(names, map(float, predicted), strict=True)),
+        measured=dict(zip(names, map(float, measured), strict=True)),
+        predicted_best=best_p,
+        measured_best=best_m,
+        agree=best_p == best_m,
+        kendall_tau=tau,
+    )
     return ranking, ()
 
 
@@ -793,13 +811,13 @@ def _checks(
         else:
             checks.append(
                 at_least(
-                    f"ranking by {ranking['comparison']}: measured best is predicted best",
+                    f"ranking by {ranking.comparison}: measured best is predicted best",
                     "ranking",
-                    1.0 if ranking["agree"] else 0.0,
+                    1.0 if ranking.agree else 0.0,
                     1.0,
                     "",
-                    f"predicted best {ranking['predicted_best']}, measured best "
-                    f"{ranking['measured_best']}, Kendall τ {ranking['kendall_tau']:.2f}",
+                    f"predicted best {ranking.predicted_best}, measured best "
+                    f"{ranking.measured_best}, Kendall τ {ranking.kendall_tau:.2f}",
                 )
             )
     if acc.gain_relative is not None:
