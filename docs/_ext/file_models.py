@@ -16,6 +16,7 @@ import typing
 from pathlib import Path
 
 import annotated_types as at
+from docutils import nodes
 from docutils.parsers.rst import Directive
 from docutils.statemachine import StringList
 from pydantic import BaseModel, Discriminator, Tag
@@ -169,7 +170,7 @@ class FileModel(Directive):
             target = target()  # a factory of a model built on first use
         lines = model_rst(target, self.options.get("title", "top level"))
         container = StringList(lines, source=f"<file-model {self.arguments[0]}>")
-        node = __import__("docutils").nodes.section()
+        node = nodes.section()
         node.document = self.state.document
         self.state.nested_parse(container, self.content_offset, node)
         return node.children

@@ -39,6 +39,21 @@ def cli():
     """Design and verify machine-vision inspection stations from spectra and images."""
 
 
+for _command in (
+    measure.measure,
+    predict.predict,
+    analyze_spectra.analyze_spectra,
+    capture.capture,
+    verify.verify,
+    train.train,
+    watch.watch,
+    history.history,
+    design.design,
+    characterize.characterize,
+):
+    cli.add_command(_command)
+
+
 def _terminated(signum, frame):
     """SIGTERM (a service manager, ``kill``) ends the tool as Ctrl-C does: saved frames
     kept, exit 130 with a message — not the bare 143 of the default action."""
@@ -80,18 +95,3 @@ def main(argv=None):
         )
         sys.exit(EXIT_INTERNAL)
     sys.exit(0)
-
-
-for _module in (
-    measure,
-    predict,
-    analyze_spectra,
-    capture,
-    verify,
-    train,
-    watch,
-    history,
-    design,
-    characterize,
-):
-    cli.add_command(getattr(_module, _module.__name__.rpartition(".")[2]))
