@@ -34,6 +34,18 @@ __all__ = [
 def read_scene(path: str | Path) -> Scene:
     """A scene file (lights, optics, cameras, object classes), validated.
 
+    Parameters
+    ----------
+    path : str or Path
+        The scene file (YAML); the files it names are relative to it.
+
+    Returns
+    -------
+    Scene
+        Its components ready to predict: ``classes`` (reflectance samples),
+        ``lights``, ``optics``, ``cameras``, the wavelength ``grid`` (nm), the
+        ``comparisons`` and how it ranks (``rank_by``, ``rank_comparison``).
+
     Raises
     ------
     InputError
@@ -54,6 +66,22 @@ def read_scene(path: str | Path) -> Scene:
 def read_station(path: str | Path) -> Station:
     """A station file (camera, controller, illuminations, acceptance), validated.
 
+    Parameters
+    ----------
+    path : str or Path
+        The station file (YAML); the scene, ROI and camera files it names are relative
+        to it.
+
+    Returns
+    -------
+    Station
+        The validated, frozen model (the manual's "Station files" lists every key).
+
+    Raises
+    ------
+    InputError
+        Naming the file and the field.
+
     Examples
     --------
     >>> import inspect_validate as iv
@@ -67,7 +95,23 @@ def read_station(path: str | Path) -> Station:
 
 
 def read_rois(path: str | Path):
-    """An ROI file (YAML, ImageJ ``.roi`` or RoiSet ``.zip``): the classes' shapes."""
+    """An ROI file (YAML, ImageJ ``.roi`` or RoiSet ``.zip``): the classes' shapes.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    RoiSet
+        Each class's name and shapes (pixels, origin at the top-left corner).
+
+    Examples
+    --------
+    >>> import inspect_validate as iv
+    >>> [c.name for c in iv.read_rois("sample_images/paperboard/rois.yaml").classes]
+    ['A', 'B', 'C']
+    """
     from inspect_validate.roi import read_rois as read
 
     return read(path)
@@ -85,8 +129,24 @@ def predict(scene: Scene | str | Path) -> Prediction:
     """Every light × optics × camera combination of a scene: each class's μ (DN) and
     σ² (DN²), and per comparison SNR_dB (36), CNR, Fisher ratio and ε Gauss (37).
 
-    Arrays are indexed (light, optics, camera, …). A scene too large to hold every
-    combination's arrays (above 2 GB) is refused: :func:`sweep` ranks it in blocks.
+    Parameters
+    ----------
+    scene : Scene, str or Path
+        A scene, or its file.
+
+    Returns
+    -------
+    Prediction
+        Arrays indexed (light, optics, camera, …): ``mean`` (DN) and ``variance``
+        (DN²) of shape (L, O, C, K) for K classes; ``snr_db``, ``cnr_db``,
+        ``error_gaussian`` (a fraction) of shape (L, O, C, P) for the P comparisons
+        of ``comparison_set``; ``exposure_time`` (s) of shape (L, O, C).
+
+    Raises
+    ------
+    InputError
+        A scene too large to hold every combination's arrays (above 2 GB): :func:`sweep`
+        ranks it in blocks.
 
     Examples
     --------
@@ -111,6 +171,20 @@ def sweep(
     (``"A vs B,C"``; default: the scene's ``rank.comparison``, else the worst comparison
     of each combination).
     :func:`~inspect_validate.report.prediction.format_prediction` prints it as a table.
+
+    Parameters
+    ----------
+    scene : Scene, str or Path
+    by : {"error", "snr_db", "cnr_db"}, keyword-only, optional
+    comparison : str, keyword-only, optional
+    top : int, keyword-only
+        Rows kept.
+
+    Returns
+    -------
+    Ranking
+        ``index`` (top, 3): each row's (light, optics, camera); the rows' ``mean``,
+        ``variance``, ``snr_db``, ``error_gaussian``…; ``key`` the ranked value.
 
     Examples
     --------
@@ -149,6 +223,20 @@ def measure(
     limits : Limits, keyword-only
         Saturated and zero fractions allowed.
     kde : {"auto", "always", "never"}, keyword-only
+        ε KDE for every comparison, none, or (``auto``) where the Gaussians do not fit.
+
+    Returns
+    -------
+    Measurement
+        ``classes`` (μ in DN, σ² in DN², their temporal and spatial parts, pixel counts,
+        saturated and zero fractions), ``comparisons`` (SNR_dB, CNR, Fisher, ε Gauss,
+        ε counted, ε KDE where computed), ``skipped``, ``warnings``, ``violations``.
+
+    Raises
+    ------
+    InputError
+        An unreadable frame or ROI file, an ROI outside the frame, frames of different
+        sizes or settings (each message names the file).
 
     Examples
     --------
@@ -175,7 +263,27 @@ def measure(
 
 def capture(station: Station | str | Path, out: str | Path, *, resume: bool = False):
     """Capture a station's illuminations and darks into ``out`` (TIFF frames, sidecars,
-    a manifest): what ``inspect-validate capture`` does, without a progress bar."""
+    a manifest): what ``inspect-validate capture`` does, without a progress bar.
+
+    Parameters
+    ----------
+    station : Station, str or Path
+    out : str or Path
+        The capture folder (the manual's "Capture folders").
+    resume : bool, keyword-only
+        Continue an interrupted capture in ``out``: complete steps are kept.
+
+    Returns
+    -------
+    CaptureResult
+        ``folder``, ``steps`` (frames saved per step), ``skipped`` (steps already
+        complete), ``not_applied`` (settings the camera lacks), ``warnings``.
+
+    Raises
+    ------
+    DeviceError
+        The camera or the controller failed; the frames saved so far are kept.
+    """
     from inspect_validate.camera.capture import capture as run
 
     return run(_station(station), Path(out), resume=resume)
@@ -190,6 +298,21 @@ def verify(
     """Verify a station: capture it into ``out`` (unless ``frames``, an earlier capture
     folder, is given), measure it and check the measurement against the prediction
     and the acceptance section. :attr:`Verification.passed` is the verdict.
+
+    Parameters
+    ----------
+    station : Station, str or Path
+    frames : str or Path, optional
+        An earlier capture folder of this station to verify instead of capturing.
+    out : str or Path, keyword-only, optional
+        Where to capture (default: a new folder in the working directory).
+
+    Returns
+    -------
+    Verification
+        ``checks`` (each with value, limit, unit, verdict, detail), ``passed``, the
+        ``measurements``, the calibrated ``prediction``, the predicted-against-measured
+        ``classes`` and ``comparisons``, the ``ranking``, ``skipped`` and ``notes``.
 
     Examples
     --------
@@ -206,7 +329,20 @@ def verify(
 
 def train(station: Station | str | Path, captures) -> Golden:
     """The golden statistics of a known-good station from its capture folders (two or
-    more independent captures give each value's spread)."""
+    more independent captures give each value's spread).
+
+    Parameters
+    ----------
+    station : Station, str or Path
+    captures : sequence of str or Path
+        Capture folders of the station in its known-good state.
+
+    Returns
+    -------
+    Golden
+        Per illumination, each class's μ and σ² and each comparison's SNR_dB and ε, as
+        spreads over the captures; ``document()`` is the golden file's JSON.
+    """
     from inspect_validate.verification.golden import train as run
 
     return run(_station(station), [Path(c) for c in captures])
@@ -222,7 +358,26 @@ def design(
     """The drive levels of a controller's channels (a station file's, or a scene's
     lights) that minimise the worst comparison's ε Gauss (``objective="cnr"``:
     maximise its CNR), no class saturating; with ``choose``, of the best ``choose``
-    of them. What ``inspect-validate design`` prints.
+    of them. What ``inspect-validate design`` prints
+    (:func:`~inspect_validate.report.design.format_design`).
+
+    Parameters
+    ----------
+    source : str or Path
+        A station file (its channels, exposure and camera) or a scene file (its lights
+        as channels 1, 2, …).
+    objective : {"error", "cnr"}, keyword-only
+    choose : int, keyword-only, optional
+        Choose the best K of the channels (a catalogue), with their mix.
+    auto_exposure : bool, keyword-only
+        Design the exposure time too.
+
+    Returns
+    -------
+    Design
+        ``percent`` (channel → drive level, %), ``mix`` and ``single_prediction`` (the
+        mix's and the best single channel's predictions), ``flatness`` (the worst value
+        with a level ±10 %), ``exposure_time`` (s), ``choice``.
 
     Examples
     --------
