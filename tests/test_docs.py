@@ -78,3 +78,21 @@ def test_every_manual_page_is_in_the_manual():
         if rel == "index" or rel.startswith(("_build", "auto_examples", "reference/generated")):
             continue
         assert f"\n{rel}\n" in index, rel
+
+
+def test_format_pages_read_each_fields_docstring_and_constraints():
+    # The format pages come from the models; a field's docstring is its meaning (read by
+    # the docs build, not by pydantic at import: that cost the command line 50 ms).
+    import sys
+
+    sys.path.insert(0, str(DOCS / "_ext"))
+    from file_models import _field_docs, model_rst
+    from inspect_validate.camera.station import GardasoftControllerSpec, Station
+
+    assert _field_docs(Station)["frames"].startswith("Frames per illumination")
+    controller = _field_docs(GardasoftControllerSpec)  # a field of its base too
+    assert controller["timeout_s"].startswith("How long to wait for a reply")
+    assert controller["port"].startswith("Serial port")
+    text = "\n".join(model_rst(Station, "station file"))
+    assert "* - `frames`\n  - integer (≥ 1, ≤ 100000)\n  - `4`\n  - Frames per illumination" in text
+    assert "camera (genicam)" in text and "controller (gardasoft)" in text

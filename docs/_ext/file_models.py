@@ -10,7 +10,11 @@ manual's format pages are the models the tool validates files with.
 
 from __future__ import annotations
 
+import ast
 import importlib
+import inspect
+import itertools
+import textwrap
 import types
 import typing
 from pathlib import Path
@@ -92,6 +96,29 @@ class _Formatter:
         return _NAMES.get(tp, getattr(tp, "__name__", str(tp)))
 
 
+def _field_docs(model: type[BaseModel]) -> dict[str, str]:
+    """The docstring under each field of ``model`` and its bases (a string literal right
+    after the field's annotated assignment), read from the source."""
+    docs: dict[str, str] = {}
+    for cls in reversed(model.__mro__):
+        if not (isinstance(cls, type) and issubclass(cls, BaseModel)) or cls is BaseModel:
+            continue
+        try:
+            body = ast.parse(textwrap.dedent(inspect.getsource(cls))).body[0].body
+        except (OSError, TypeError, IndexError):  # defined inside a function: no source
+            continue
+        for node, after in itertools.pairwise(body):
+            if (
+                isinstance(node, ast.AnnAssign)
+                and isinstance(node.target, ast.Name)
+                and isinstance(after, ast.Expr)
+                and isinstance(after.value, ast.Constant)
+                and isinstance(after.value.value, str)
+            ):
+                docs[node.target.id] = inspect.cleandoc(after.value.value)
+    return docs
+
+
 def _default(field: FieldInfo) -> str:
     if field.is_required():
         return "**required**"
@@ -136,6 +163,7 @@ def model_rst(model: type[BaseModel], title: str) -> list[str]:
             "  - default",
             "  - meaning",
         ]
+        docs = _field_docs(current)
         for name, field in current.model_fields.items():
             if name == "path" and field.exclude:
                 continue
@@ -149,7 +177,7 @@ def model_rst(model: type[BaseModel], title: str) -> list[str]:
                 f"* - `{key}`",
                 f"  - {kind}",
                 f"  - {_default(field)}",
-                f"  - {_one_line(field.description) or ' '}",
+                f"  - {_one_line(field.description or docs.get(name)) or ' '}",
             ]
         lines += ["````", ""]
     return lines
