@@ -80,12 +80,10 @@ def test_every_manual_page_is_in_the_manual():
         assert f"\n{rel}\n" in index, rel
 
 
-def test_format_pages_read_each_fields_docstring_and_constraints():
+def test_format_pages_read_each_fields_docstring_and_constraints(monkeypatch):
     # The format pages come from the models; a field's docstring is its meaning (read by
     # the docs build, not by pydantic at import: that cost the command line 50 ms).
-    import sys
-
-    sys.path.insert(0, str(DOCS / "_ext"))
+    monkeypatch.syspath_prepend(str(DOCS / "_ext"))
     from file_models import _field_docs, model_rst
     from inspect_validate.camera.station import GardasoftControllerSpec, Station
 

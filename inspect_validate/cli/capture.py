@@ -7,7 +7,6 @@ import click
 from inspect_validate.cli.common import (
     PATH,
     capture_with_progress,
-    precision_note,
 )
 from inspect_validate.text import labelled
 
@@ -51,3 +50,16 @@ def capture(station, out, resume):
     for step in result.skipped:
         click.echo(f"{step}: already complete, skipped")
     click.echo(f"manifest: {out / 'manifest.json'}")
+
+
+def precision_note(result, step, station) -> str:
+    """What sequential stopping did in ``step``: the frames it saved, or that the
+    precision was not reached within the station's ``frames``."""
+    known = result.known.get(step)
+    if known is None:
+        return ""
+    if not known.reached:
+        return f" (the most; precision not reached: {known.describe()})"
+    if known.frames == station.frames:
+        return f" ({known.describe()})"
+    return f" (stopped early, {known.describe()}; the most is {station.frames})"

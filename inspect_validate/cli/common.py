@@ -1,4 +1,4 @@
-"""What several commands share: the path type, option checks, the progress bar of a
+"""What several commands share: the path type, output checks, the progress bar of a
 capture, and verify's reports (verify, design --verify)."""
 
 from __future__ import annotations
@@ -9,15 +9,6 @@ from pathlib import Path
 import click
 
 PATH = click.Path(path_type=Path)
-
-
-def finite(value, param):
-    """Refuse NaN and infinities, which click's float type lets through."""
-    import math
-
-    if value is not None and not math.isfinite(value):
-        raise click.BadParameter(f"{value} is not a finite number", param=param)
-    return value
 
 
 def verify_and_report(st, *, frames_dir, out, report_dir, history=None, skip_dominated=False):
@@ -73,19 +64,6 @@ def capture_with_progress(station, out, *, resume=False):
             last[0] = done
 
         return capture(station, out, resume=resume, progress=progress)
-
-
-def precision_note(result, step, station) -> str:
-    """What sequential stopping did in ``step``: the frames it saved, or that the
-    precision was not reached within the station's ``frames``."""
-    known = result.known.get(step)
-    if known is None:
-        return ""
-    if not known.reached:
-        return f" (the most; precision not reached: {known.describe()})"
-    if known.frames == station.frames:
-        return f" ({known.describe()})"
-    return f" (stopped early, {known.describe()}; the most is {station.frames})"
 
 
 def new_folder(command: str, source) -> Path:

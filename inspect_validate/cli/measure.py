@@ -9,10 +9,18 @@ import click
 from inspect_validate.cli.common import (
     PATH,
     check_outputs,
-    finite,
 )
 from inspect_validate.errors import EXIT_CHECK_FAILED
 from inspect_validate.text import labelled
+
+
+def finite(value, param):
+    """Refuse NaN and infinities, which click's float type lets through."""
+    import math
+
+    if value is not None and not math.isfinite(value):
+        raise click.BadParameter(f"{value} is not a finite number", param=param)
+    return value
 
 
 @click.command()

@@ -87,15 +87,14 @@ def predict(scene, json_path, top, rank_by, comparison, no_kde, plot_dir, render
     sc = read_scene(scene)
     for note in sc.notes():
         click.echo(labelled("note", note), err=True)
-    by = rank_by or sc.rank_by
-    rank_comparison, comparison = comparison, comparison or sc.rank_comparison
-    if comparison is not None:
+    named = comparison or sc.rank_comparison
+    if named is not None:
         from inspect_validate.errors import InputError
 
         try:  # an unknown comparison fails before the sweep, naming where it came from
-            sc.comparisons.index(comparison)
+            sc.comparisons.index(named)
         except InputError as exc:
-            where = "--comparison" if rank_comparison else f"{scene}: rank.comparison"
+            where = "--comparison" if comparison else f"{scene}: rank.comparison"
             raise InputError(str(exc), source=where) from None
     check_outputs(files=[json_path], folders=[plot_dir, render_dir])
     if dask_address:
@@ -105,7 +104,8 @@ def predict(scene, json_path, top, rank_by, comparison, no_kde, plot_dir, render
     else:
         cluster = contextlib.nullcontext()
     with cluster as client:
-        result = sc.sweep(by=by, comparison=comparison, top=top, client=client)
+        # None ranks as the scene's rank: says
+        result = sc.sweep(by=rank_by, comparison=comparison, top=top, client=client)
     for reason in result.skipped:
         click.echo(labelled("skipped", reason), err=True)
     for work in result.skipped_work:
@@ -138,7 +138,7 @@ def predict(scene, json_path, top, rank_by, comparison, no_kde, plot_dir, render
                 analyse_spectra(list(sc.classes), kde=not no_kde, comparisons=sc.comparisons),
                 plot_dir / "spectral_error.png",
             ),
-            plot_ranked_separation(rows, plot_dir / "ranking.png", by=by),
+            plot_ranked_separation(rows, plot_dir / "ranking.png", by=result.by),
         ]
         click.echo("wrote " + ", ".join(str(p) for p in written))
     if render_dir:
