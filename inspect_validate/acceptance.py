@@ -6,6 +6,7 @@ Example::
       method: fit                  # fit | reference | absolute
       reference: white             # the class of known reflectance (method: reference)
     acceptance:
+      false_alarm: 0.0027          # how often an unchanged station may fail (default: 3σ)
       illumination: amber          # separation checks apply to this one (default: every one)
       separation:
         - {comparison: "A vs B,C", min_snr_db: -10, max_error: 0.1}
@@ -18,9 +19,13 @@ Example::
       gain_relative: 0.1           # photon-transfer K against the camera's declared gain
       drift:                       # against the golden statistics of 'inspect-validate train'
         golden: golden.json        # relative to the station file
-        k: 3                       # tolerance k × the trained spread, unless given:
-        mean_dn: 2                 # |μ − μ_golden| per class, DN
-        snr_db: 0.5                # |SNR_dB − SNR_dB golden| per comparison
+        mean_dn: 2                 # a fixed tolerance |μ − μ_golden| per class, DN
+        snr_db: 0.5                # |SNR_dB − SNR_dB golden| per comparison; without
+                                   # them, prediction intervals from the trained repeats
+
+Every check that estimates (drift without a fixed tolerance, the ranking) or holds an
+estimate to a given limit (agreement, separation, gain) shares ``false_alarm``
+(:mod:`inspect_validate.verification.checks`).
 """
 
 from __future__ import annotations
@@ -32,6 +37,8 @@ from pydantic import Field, model_validator
 from inspect_validate.config import StrictModel
 
 __all__ = ["Acceptance", "Agreement", "Calibration", "Drift", "Separation"]
+
+FALSE_ALARM_DEFAULT = 0.0027  # checks.DEFAULT_FALSE_ALARM (not imported: scipy-free module)
 
 Fraction = Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)]
 Decibel = Annotated[float, Field(ge=-200, le=200, allow_inf_nan=False)]
@@ -48,7 +55,9 @@ class Calibration(StrictModel):
     """
 
     method: Literal["fit", "reference", "absolute"] = "fit"
+    """``fit``, ``reference`` or ``absolute`` (above)."""
     reference: str | None = None
+    """The class of known reflectance that ``reference`` calibrates with."""
 
     @model_validator(mode="after")
     def _reference_class(self):
@@ -63,8 +72,11 @@ class Separation(StrictModel):
     """Limits on one comparison's measured separation."""
 
     comparison: Annotated[str, Field(min_length=1)]
+    """The comparison, as ``comparisons:`` names it (``"A vs B,C"``)."""
     min_snr_db: Decibel | None = None
+    """Least SNR_dB (36), dB."""
     min_cnr_db: Decibel | None = None
+    """Least CNR_dB, dB."""
     max_error: Fraction | None = None
     """ε Gauss (37), a fraction."""
     max_error_kde: Fraction | None = None
@@ -88,25 +100,74 @@ class Agreement(StrictModel):
 
 class Drift(StrictModel):
     """Largest drift from the golden statistics ``inspect-validate train`` stored
-    (:mod:`.golden`); a tolerance not given is ``k`` × the trained spread."""
+    (:mod:`inspect_validate.verification.golden`). Where no fixed tolerance is given, the
+    limit is a prediction interval: the trained repeats' spread (Student's t with n − 1
+    degrees of freedom) and the new measurement's own standard error, at the
+    verification's false-alarm rate."""
 
     golden: Annotated[str, Field(min_length=1)]
-    k: Annotated[float, Field(gt=0, le=100, allow_inf_nan=False)] = 3.0
+    """The golden file ``train`` wrote (relative to the station file)."""
+    k: Annotated[float, Field(gt=0, le=30, allow_inf_nan=False)] | None = None
+    """The false-alarm rate as a normal-equivalent two-sided level: k = 3 is
+    ``acceptance.false_alarm: 0.0027`` (give one of the two)."""
     mean_dn: Annotated[float, Field(gt=0, le=1e9, allow_inf_nan=False)] | None = None
+    """A fixed tolerance on |μ − μ_golden| per class, DN (instead of the interval)."""
     snr_db: Annotated[float, Field(gt=0, le=200, allow_inf_nan=False)] | None = None
+    """A fixed tolerance on |SNR_dB − SNR_dB golden| per comparison, dB."""
     snr_floor_db: Decibel = -20.0
     """As in :class:`Agreement`: comparisons below it, trained and now, are not checked."""
 
 
 class Acceptance(StrictModel):
+    """The checks ``verify`` runs, their limits, and how often an unchanged station may
+    fail them."""
+
+    false_alarm: Annotated[float, Field(gt=0, le=0.5, allow_inf_nan=False)] | None = None
+    """The family-wise false-alarm rate: how often a verification of a station that has
+    not changed fails, at most (default 0.0027, the 3σ convention; or ``drift.k``)."""
     illumination: str | None = None
+    """The illumination the separation checks apply to (default: every one)."""
     separation: list[Separation] = []
+    """Requirements on the measured separation of comparisons (tolerance checks)."""
     max_saturated: Fraction | None = 0.001
+    """Largest fraction of a class's pixels at saturation, per illumination (fixed)."""
     max_zero: Fraction | None = 0.001
+    """Largest fraction of a class's pixels at 0 DN, per illumination (fixed)."""
     agreement: Agreement | None = Agreement()
+    """How far the measurement may lie from the calibrated prediction (tolerance checks)."""
     ranking: bool = False
+    """The measured best illumination must be the predicted best, unless these frames
+    cannot tell them apart (statistical)."""
     gain_relative: Relative | None = None
+    """Largest relative deviation of the photon-transfer K from the camera's (tolerance)."""
     drift: Drift | None = None
+    """Drift from the golden statistics of ``inspect-validate train``."""
+
+    @model_validator(mode="after")
+    def _one_level(self):
+        k = self.drift.k if self.drift else None
+        if k is not None and self.false_alarm is not None:
+            import math
+
+            implied = math.erfc(k / math.sqrt(2.0))
+            if not math.isclose(implied, self.false_alarm, rel_tol=1e-3):
+                raise ValueError(
+                    f"drift.k {k:g} means a false-alarm rate of {implied:.3g}, and "
+                    f"false_alarm says {self.false_alarm:g}: give one of the two"
+                )
+        return self
+
+    @property
+    def false_alarm_rate(self) -> float:
+        """The family-wise false-alarm rate: ``false_alarm``, else that of ``drift.k``
+        (2 (1 − Φ(k))), else 0.0027."""
+        if self.false_alarm is not None:
+            return self.false_alarm
+        if self.drift is not None and self.drift.k is not None:
+            import math
+
+            return math.erfc(self.drift.k / math.sqrt(2.0))
+        return FALSE_ALARM_DEFAULT
 
     @property
     def needs_kde(self) -> bool:

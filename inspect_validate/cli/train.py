@@ -68,6 +68,14 @@ def train(station, golden_path, repeats, frames_dirs, frames_out):
             captures.append(folder)
         click.echo(f"frames: {base}")
     golden = run_train(st, captures, regions=regions)
-    click.echo(format_golden(golden))
+    from inspect_validate.verification.verify import planned_tests
+
+    rate = st.acceptance.false_alarm_rate
+    rois, comparisons = regions
+    tests = planned_tests(
+        st, [c.name for c in rois.classes], comparisons.labels, golden, drift=True
+    )
+    floor = st.acceptance.drift.snr_floor_db if st.acceptance.drift else -20.0
+    click.echo(format_golden(golden, share=rate / tests, rate=rate, snr_floor_db=floor))
     write_json(golden.document(), golden_path)
     click.echo(f"golden: {golden_path} ({golden.repeats} repeats)")

@@ -52,7 +52,11 @@ def verification_html(v, *, history=None) -> str:
     ``history``, a :class:`~inspect_validate.watch.history.HistoryLog` of the station,
     adds its trends."""
     from inspect_validate.report.plots import plot_agreement
-    from inspect_validate.report.verification import count_failed, describe_acquisition
+    from inspect_validate.report.verification import (
+        count_failed,
+        describe_acquisition,
+        false_alarm_line,
+    )
 
     e = html.escape
     verdict = "pass" if v.passed else "fail"
@@ -67,6 +71,9 @@ def verification_html(v, *, history=None) -> str:
         f"{e(str(v.inputs['station_sha256'])[:16])}…), capture {e(str(v.inputs['capture']))}, "
         f"inspect-validate {e(__version__)}</p>",
         "<h2>Checks</h2>",
+        f'<p class="meta">{e(false_alarm_line(v))}: statistical limits come from the '
+        "rate and what was measured, tolerance limits are widened by the value's own "
+        "uncertainty, fixed limits are held as given.</p>",
         _checks_table(v),
     ]
     parts += [f"<p>note: {e(n)}</p>" for n in v.notes]
@@ -139,11 +146,9 @@ def _checks_table(v) -> str:
     rows = check_rows(v.checks)
     if not rows and not v.skipped:
         return "<p>The station's acceptance section asks for no check.</p>"
-    # What was not computed, and why, is read where the checks are: rows of their own.
-    skipped = []
-    for item in v.skipped:
-        what, _, why = item.partition(": ")
-        skipped.append(["skipped", what, "", "", "", why])
+    # What was not computed, and why, is read where the checks are: rows of their own,
+    # whole (a "what: why" split at a colon would cut "amber: C vs A,B" apart).
+    skipped = [["skipped", item, "", "", "", "", ""] for item in v.skipped]
     return _table(
         CHECK_COLUMNS,
         [cells for _, cells in rows] + skipped,

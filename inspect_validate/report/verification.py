@@ -1,10 +1,14 @@
 """Reports of a verification: the verdict table, ``verification.json`` and ``junit.xml``.
 
-``verification.json`` (schema ``inspect-validate/verification``, version 1)
+``verification.json`` (schema ``inspect-validate/verification``, version 2)
 holds every input (station file and its SHA-256, tool version, the frame
 files), the calibration (system gain K, one irradiance scale per illumination
 with its method and uncertainty), predicted against measured per class and
-comparison, the ranking, and every check with value, limit, unit and verdict.
+comparison, the ranking, the false-alarm rate, and every check with value, limit,
+unit, basis, margin and verdict. Version 2 added ``false_alarm`` and each check's
+``basis``, ``given_limit``, ``standard_error``, ``df``, ``false_alarm`` and the
+verdict ``too close``; the ranking check's value became how far the predicted best
+measures behind the measured best.
 ``junit.xml`` has one test case per check, as CI systems read it.
 """
 
@@ -27,35 +31,54 @@ __all__ = [
     "write_junit",
 ]
 
-VERIFICATION_SCHEMA_VERSION = 1
+VERIFICATION_SCHEMA_VERSION = 2
 
 
-CHECK_COLUMNS = ("verdict", "check", "value", "limit", "unit", "detail")
+CHECK_COLUMNS = ("verdict", "check", "value", "limit", "unit", "basis", "detail")
 
 
 def check_rows(checks) -> list[tuple[object, list[str]]]:
     """``(check, cells under CHECK_COLUMNS)`` for each check, failures first, then in the
     order the checks were made: the verdict table and the HTML report show these."""
     return [
-        (c, [c.verdict, c.name, _number(c), _limit(c), c.unit, c.detail])
-        for c in sorted(checks, key=lambda c: c.passed)
+        (c, [c.verdict, c.name, _number(c), _limit(c), c.unit, c.basis, c.detail])
+        for c in sorted(checks, key=lambda c: (c.passed, not c.undecided))
     ]
+
+
+def false_alarm_line(v) -> str:
+    """How often these checks fail a station that has not changed, and how the rate is
+    shared: ``false-alarm rate 0.27 % (3σ) shared by 24 checks, 0.011 % each; 12 fixed``."""
+    from inspect_validate.verification.checks import count_tests, normal_equivalent
+
+    m = count_tests(v.checks)
+    fixed = sum(c.basis == "fixed" for c in v.checks)
+    rate = v.false_alarm
+    text = (
+        f"false-alarm rate {100 * rate:.3g} % ({normal_equivalent(rate):.2g}σ) for the station "
+        f"unchanged, shared by {m} statistical and tolerance checks"
+    )
+    if m:
+        text += f", {100 * rate / m:.2g} % each"
+    if fixed:
+        text += f"; {fixed} fixed limit{'s' if fixed > 1 else ''}"
+    return text
 
 
 def _checks_table(rows: list[list[str]], width: int | None) -> str:
     """The checks as a table; where it would be wider than ``width`` (a terminal), each
-    check's detail goes on an indented line under its row instead of in a column."""
+    check's basis and detail go on an indented line under its row instead of in columns."""
     table = render_table(list(CHECK_COLUMNS), rows)
     if width is None or max(map(len, table.splitlines())) <= width:
         return table
     import textwrap
 
-    lines = render_table(list(CHECK_COLUMNS[:-1]), [r[:-1] for r in rows]).splitlines()
+    lines = render_table(list(CHECK_COLUMNS[:-2]), [r[:-2] for r in rows]).splitlines()
     out = lines[:2]
     for line, row in zip(lines[2:], rows, strict=True):
         out.append(line)
-        if row[-1]:
-            out += textwrap.wrap(row[-1], width, initial_indent=" " * 9, subsequent_indent=" " * 11)
+        under = f"{row[-2]}: {row[-1]}" if row[-1] else row[-2]
+        out += textwrap.wrap(under, width, initial_indent=" " * 9, subsequent_indent=" " * 11)
     return "\n".join(out)
 
 
@@ -85,7 +108,7 @@ def format_verdict(v) -> str:
         )
     rows = [cells for _, cells in check_rows(v.checks)]
     if rows:
-        out += ["", _checks_table(rows, terminal_width(sys.stdout))]
+        out += ["", false_alarm_line(v), _checks_table(rows, terminal_width(sys.stdout))]
     for s in v.skipped:
         out.append(labelled("skipped", s, stream=sys.stdout))
     for n in v.notes:
@@ -97,26 +120,29 @@ def format_verdict(v) -> str:
 
 
 def count_failed(checks) -> str:
-    """``all 12 checks passed`` or ``2 of 12 checks failed (1 could not run)``."""
+    """``all 12 checks passed`` or ``2 of 12 checks failed (1 could not run)``; checks too
+    close to call are counted apart (they fail nothing)."""
     failed = sum(not c.passed for c in checks)
-    if not failed:
-        return f"all {len(checks)} checks passed"
+    notes = []
     not_run = sum(not c.ran for c in checks)
-    return f"{failed} of {len(checks)} checks failed" + (
-        f" ({not_run} could not run)" if not_run else ""
-    )
+    if failed and not_run:
+        notes.append(f"{not_run} could not run")
+    close = sum(c.undecided for c in checks)
+    if close:
+        notes.append(f"{close} too close to call")
+    tail = f" ({', '.join(notes)})" if notes else ""
+    if not failed:
+        return f"all {len(checks) - close} checks passed{tail}"
+    return f"{failed} of {len(checks)} checks failed{tail}"
 
 
 def _limit(c) -> str:
-    # A yes/no check (kept as 1/0 in the JSON) reads as what it asks, not "≥ 1".
-    return "must be yes" if c.kind == "ranking" else f"{c.relation} {c.limit:.4g}"
+    return f"{c.relation} {c.limit:.4g}"
 
 
 def _number(c) -> str:
     if not c.ran:
         return "—"
-    if c.kind == "ranking":
-        return "yes" if c.value >= 1 else "no"
     if c.unit == "" and c.kind == "separation":  # ε, a fraction
         return f"{c.value:.3g}"
     return f"{c.value:.4g}"
@@ -157,6 +183,7 @@ def verification_document(v) -> dict:
         "classes": [_row_document(r) for r in v.classes],
         "comparisons": [_row_document(r) for r in v.comparisons],
         "ranking": None if v.ranking is None else asdict(v.ranking),
+        "false_alarm": _false_alarm_document(v),
         "checks": [
             {
                 "name": c.name,
@@ -165,6 +192,11 @@ def verification_document(v) -> dict:
                 "limit": c.limit,
                 "relation": c.relation,
                 "unit": c.unit,
+                "basis": c.basis,
+                "given_limit": c.given,
+                "standard_error": c.standard_error,
+                "df": c.df if c.df != float("inf") else None,
+                "false_alarm": c.false_alarm,
                 "verdict": c.verdict.lower(),
                 "detail": c.detail,
             }
@@ -176,6 +208,18 @@ def verification_document(v) -> dict:
         "measurements": {
             ill: measurement_document(m, limits=v.limits) for ill, m in v.measurements.items()
         },
+    }
+
+
+def _false_alarm_document(v) -> dict:
+    from inspect_validate.verification.checks import count_tests, normal_equivalent
+
+    m = count_tests(v.checks)
+    return {
+        "rate": v.false_alarm,
+        "normal_equivalent_k": normal_equivalent(v.false_alarm),
+        "checks_sharing": m,
+        "per_check": v.false_alarm / m if m else None,
     }
 
 
@@ -200,7 +244,7 @@ def write_junit(v, path: str | Path) -> Path:
                 f"{c.value:.6g} {c.unit} is not {c.relation} {c.limit:.6g} {c.unit}".replace(
                     "  ", " "
                 )
-                if c.ran and c.kind != "ranking"
+                if c.ran
                 else c.detail
             )
             fail = ET.SubElement(case, "failure", message=message, type=c.kind)

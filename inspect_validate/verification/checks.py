@@ -1,11 +1,78 @@
-"""One acceptance check: what was measured, its limit and unit, and the verdict."""
+"""One acceptance check: what was measured, its limit and unit, how the limit was set, and
+the verdict.
+
+A verification is a family of tests of one station. Each check has a *basis*:
+
+``statistical``
+    The limit comes from the verification's family-wise false-alarm rate and from what
+    was measured: a prediction interval around the golden statistics (drift), or a margin
+    for what these frames can resolve (ranking). A station that has not changed fails
+    such a check with at most the check's share of the rate.
+``tolerance``
+    A limit the acceptance section gives (a model tolerance, a separation requirement,
+    the gain's), widened by the value's own standard error at the check's share of the
+    rate: a station exactly at the limit fails at most that often; one inside it less.
+``fixed``
+    A limit taken as it is: counts in these frames (saturated pixels), or a tolerance the
+    user gave where none of the value's uncertainty is known or wanted (drift
+    ``mean_dn``). Not part of the false-alarm rate.
+
+:func:`decide` shares the rate among the statistical and tolerance checks that ran
+(Bonferroni: each gets rate / m, so that the family's rate is at most the rate whatever
+the checks' correlation) and sets every limit.
+"""
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from typing import Literal
 
-__all__ = ["Check", "at_least", "at_most", "not_run"]
+__all__ = [
+    "DEFAULT_FALSE_ALARM",
+    "Basis",
+    "Check",
+    "at_least",
+    "at_most",
+    "count_tests",
+    "decide",
+    "normal_equivalent",
+    "not_run",
+    "quantile",
+    "rate_of_k",
+]
+
+Basis = Literal["statistical", "tolerance", "fixed"]
+Relation = Literal["≥", "≤"]
+
+DEFAULT_FALSE_ALARM = 0.0027
+"""The family-wise false-alarm rate of a verification unless the acceptance sets one:
+0.27 %, the two-sided 3σ convention of control charts."""
+
+
+def rate_of_k(k: float) -> float:
+    """The two-sided false-alarm rate of a normal-equivalent k σ limit: 2 (1 − Φ(k))
+    (k = 3: 0.27 %)."""
+    return math.erfc(k / math.sqrt(2.0))
+
+
+def normal_equivalent(rate: float) -> float:
+    """The k of :func:`rate_of_k`: the two-sided normal quantile of ``rate``."""
+    from scipy.special import ndtri
+
+    return float(-ndtri(rate / 2.0))
+
+
+def quantile(rate: float, *, df: float = math.inf, sided: int = 2) -> float:
+    """The multiplier of a standard error that a value exceeds with probability ``rate``
+    when nothing changed: the normal quantile, or Student's t with ``df`` degrees of
+    freedom (a spread estimated from df + 1 repeats); ``sided`` 2 for |deviation|."""
+    from scipy.special import ndtri, stdtrit
+
+    p = 1.0 - rate / sided
+    if not math.isfinite(df):
+        return float(ndtri(p))
+    return float(stdtrit(df, p))
 
 
 @dataclass(frozen=True)
@@ -19,14 +86,38 @@ class Check:
     kind : str
         ``separation``, ``saturation``, ``agreement``, ``ranking``, ``gain`` or ``drift``.
     value, limit : float
-        The measured value and its limit (1.0/0.0 for yes/no checks).
+        The measured value and the limit it was held to (1.0/0.0 for yes/no checks), in
+        ``unit``; for statistical and tolerance checks the limit includes the margin.
     unit : str
         ``dB``, ``%``, ``DN``, ``DN/e⁻`` or ``""``.
     relation : str
         ``"≥"`` or ``"≤"``: how ``value`` must stand to ``limit``.
     passed : bool
+        False for a failure and for a check that could not run; True for a pass and for a
+        check too close to call (:attr:`undecided`).
     detail : str
         Context for a reader (predicted value, spread, why a value is missing).
+    basis : {"statistical", "tolerance", "fixed"}
+        How the limit was set (module description).
+    given : float or None
+        The limit before any margin: the acceptance's (tolerance, fixed), 0 for a
+        statistical check centred on its reference.
+    standard_error : float or None
+        The standard deviation the margin is a multiple of, in ``unit``: the value's own
+        standard error (tolerance), or the prediction interval's (statistical).
+    df : float
+        Degrees of freedom of ``standard_error`` (inf: known; n − 1 from n repeats).
+    sided : int
+        2 where the value is an absolute deviation (either direction counts), else 1.
+    false_alarm : float or None
+        This check's share of the family-wise rate (statistical and tolerance checks).
+    undecided : bool
+        The question is too close to call from these frames (a ranking of two
+        illuminations predicted nearly equal): neither a pass nor a failure, and it does
+        not fail the verification.
+    predicted_gap : float or None
+        For a ranking: how far apart the prediction puts the two in question; below what
+        the frames resolve (the margin), the check is too close to call.
     """
 
     name: str
@@ -37,6 +128,14 @@ class Check:
     relation: str
     passed: bool
     detail: str = ""
+    basis: Basis = "fixed"
+    given: float | None = None
+    standard_error: float | None = None
+    df: float = math.inf
+    sided: int = 1
+    false_alarm: float | None = None
+    undecided: bool = False
+    predicted_gap: float | None = None
 
     @property
     def ran(self) -> bool:
@@ -44,16 +143,58 @@ class Check:
         return math.isfinite(self.value)
 
     @property
+    def margin(self) -> float:
+        """How far the limit lies beyond the given one (0 for fixed checks)."""
+        if self.given is None or not math.isfinite(self.limit):
+            return 0.0
+        return abs(self.limit - self.given)
+
+    @property
     def verdict(self) -> str:
+        if self.undecided:
+            return "TOO CLOSE"
         return "pass" if self.passed else ("FAIL" if self.ran else "NOT RUN")
 
 
-def _check(name, kind, value, limit, unit, relation, detail):
+def _holds(value: float, limit: float, relation: str) -> bool:
+    return math.isfinite(value) and (value >= limit if relation == "≥" else value <= limit)
+
+
+def _check(
+    name,
+    kind,
+    value,
+    limit,
+    unit,
+    relation,
+    detail,
+    *,
+    basis: Basis = "fixed",
+    standard_error: float | None = None,
+    df: float = math.inf,
+    sided: int = 1,
+    predicted_gap: float | None = None,
+):
     value = float(value)
-    ok = math.isfinite(value) and (value >= limit if relation == "≥" else value <= limit)
     if not math.isfinite(value) and not detail:
         detail = "no value: the quantity could not be computed from these frames"
-    return Check(name, kind, value, float(limit), unit, relation, bool(ok), detail)
+    se = None if standard_error is None else float(standard_error)
+    return Check(
+        name,
+        kind,
+        value,
+        float(limit),
+        unit,
+        relation,
+        _holds(value, float(limit), relation),
+        detail,
+        basis=basis,
+        given=float(limit),
+        standard_error=se,
+        df=float(df),
+        sided=sided,
+        predicted_gap=predicted_gap,
+    )
 
 
 def not_run(name: str, kind: str, limit, unit: str, relation: str, why: str) -> Check:
@@ -62,11 +203,84 @@ def not_run(name: str, kind: str, limit, unit: str, relation: str, why: str) -> 
     return Check(name, kind, math.nan, float(limit), unit, relation, False, f"could not run: {why}")
 
 
-def at_least(name: str, kind: str, value, limit, unit: str = "", detail: str = "") -> Check:
-    """Passes when ``value ≥ limit`` (a NaN value fails)."""
-    return _check(name, kind, value, limit, unit, "≥", detail)
+def at_least(
+    name: str, kind: str, value, limit, unit: str = "", detail: str = "", **options
+) -> Check:
+    """Passes when ``value ≥ limit`` (less the margin :func:`decide` sets; a NaN value
+    fails). ``options``: ``basis`` (default ``"fixed"``), ``standard_error``, ``df``,
+    ``sided`` and ``predicted_gap`` (:class:`Check`)."""
+    return _check(name, kind, value, limit, unit, "≥", detail, **options)
 
 
-def at_most(name: str, kind: str, value, limit, unit: str = "", detail: str = "") -> Check:
-    """Passes when ``value ≤ limit`` (a NaN value fails)."""
-    return _check(name, kind, value, limit, unit, "≤", detail)
+def at_most(
+    name: str, kind: str, value, limit, unit: str = "", detail: str = "", **options
+) -> Check:
+    """Passes when ``value ≤ limit`` (plus the margin :func:`decide` sets; a NaN value
+    fails). ``options`` as in :func:`at_least`."""
+    return _check(name, kind, value, limit, unit, "≤", detail, **options)
+
+
+def _tested(c: Check) -> bool:
+    """A check that spends part of the false-alarm rate: statistical or tolerance, with a
+    value and a standard error."""
+    return (
+        c.basis != "fixed"
+        and c.ran
+        and c.standard_error is not None
+        and math.isfinite(c.standard_error)
+    )
+
+
+def count_tests(checks) -> int:
+    """How many of ``checks`` share the false-alarm rate (:func:`decide`)."""
+    return sum(_tested(c) for c in checks)
+
+
+def decide(checks, rate: float) -> tuple[Check, ...]:
+    """Set every check's limit and verdict at the family-wise false-alarm ``rate``.
+
+    The statistical and tolerance checks that ran share ``rate`` equally
+    (Bonferroni); each moves its given limit outward by its quantile (Student's t with
+    its ``df``, one- or two-sided) times its standard error. A statistical check without
+    a standard error could not set its limit and does not run; a tolerance check
+    without one is held to its given limit. A ranking whose predicted gap is within the
+    margin is too close to call (:attr:`Check.undecided`).
+    """
+    checks = list(checks)
+    m = count_tests(checks)
+    share = rate / m if m else rate
+    out = []
+    for c in checks:
+        if not _tested(c):
+            if c.basis == "statistical" and c.ran:
+                out.append(
+                    replace(
+                        c,
+                        value=math.nan,
+                        passed=False,
+                        detail=f"could not run: no spread to set its limit from; {c.detail}",
+                    )
+                )
+            else:
+                out.append(c)
+            continue
+        margin = quantile(share, df=c.df, sided=c.sided) * c.standard_error
+        limit = c.given + margin if c.relation == "≤" else c.given - margin
+        undecided = c.predicted_gap is not None and abs(c.predicted_gap) < margin
+        detail = c.detail
+        if undecided:
+            detail = (
+                f"too close to call: predicted {abs(c.predicted_gap):.2g} {c.unit} apart, "
+                f"these frames resolve {margin:.2g} {c.unit}; {detail}"
+            )
+        out.append(
+            replace(
+                c,
+                limit=limit,
+                passed=undecided or _holds(c.value, limit, c.relation),
+                detail=detail,
+                false_alarm=share,
+                undecided=undecided,
+            )
+        )
+    return tuple(out)

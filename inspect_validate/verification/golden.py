@@ -1,16 +1,31 @@
 """The golden statistics of a known-good station (``train``) and ``verify``'s drift check.
 
 ``train`` measures a station N times and keeps, per illumination, each class's
-μ and σ² and each comparison's SNR_dB and ε, every repeat's value and their
-spread. ``golden.json`` (schema ``inspect-validate/golden``, version 1) holds
-them with the camera settings and illuminations they were taken at. ``verify``
-then checks how far the station has drifted from it, in DN for μ and in dB for
-SNR_dB, against explicit tolerances or k times the trained spread (the sample
-standard deviation across repeats, as a control chart's k-sigma limits)::
+μ and σ² and each comparison's SNR_dB and ε, every repeat's value, its standard error
+from its pixels and frames, and their spread. ``golden.json`` (schema
+``inspect-validate/golden``, version 2; version 1, without the standard errors, is
+read too) holds them with the camera settings and illuminations they were taken at.
+``verify`` then checks how far the station has drifted from it, in DN for μ and in dB
+for SNR_dB::
 
     acceptance:
-      drift: {golden: golden.json, k: 3}          # k × spread
-      drift: {golden: golden.json, mean_dn: 2, snr_db: 0.5}
+      drift: {golden: golden.json}                # prediction intervals
+      drift: {golden: golden.json, mean_dn: 2, snr_db: 0.5}   # fixed tolerances
+
+**The prediction interval.** From n repeats x₁ … x_n with mean x̄ and sample standard
+deviation s, a new measurement x of an unchanged station lies within
+
+    |x − x̄| ≤ t_{n−1}(1 − α/2) · √(s'² (1 + 1/n) + max(0, SE² − SE₀²))
+
+with probability 1 − α: Student's t because s has n − 1 degrees of freedom, 1/n for
+the uncertainty of x̄, SE the new measurement's own standard error and SE₀ the
+repeats' (:mod:`.uncertainty`; a measurement of fewer pixels or frames than the
+training varies more), s'² = max(s², SE₀²) (repeats cannot vary less than their
+noise). α is the check's share of the verification's false-alarm rate
+(:mod:`.checks`). Few repeats make t large: 5 repeats and 20 checks at 0.27 % give
+limits 4.1 × as wide as a perfectly known spread would; a golden file whose limits
+would be more than :data:`MAX_WIDENING` × as wide is refused, naming the repeats it
+needs.
 
 The spread is what varied between the repeats: repeats of one placement
 measure the noise of the estimates only, so re-place the parts (and let the
@@ -32,15 +47,27 @@ from inspect_validate.verification.checks import Check, at_most
 
 __all__ = [
     "GOLDEN_SCHEMA_VERSION",
+    "MAX_WIDENING",
     "Golden",
     "Spread",
     "check_golden",
+    "detectable_change",
     "drift_checks",
+    "prediction_sd",
     "read_golden",
+    "repeats_needed",
     "train",
+    "widening",
 ]
 
-GOLDEN_SCHEMA_VERSION = 1
+GOLDEN_SCHEMA_VERSION = 2
+MAX_WIDENING = 10.0
+"""A golden file whose drift limits would be more than this many times as wide as a
+perfectly known spread would set (too few repeats for the false-alarm rate asked) is
+refused: its checks would catch only gross changes, which a fixed tolerance states
+more plainly."""
+GOOD_WIDENING = 2.0
+"""The widening :func:`repeats_needed` names as enough for limits that track the spread."""
 
 
 class _Frozen(StrictModel):
@@ -48,12 +75,35 @@ class _Frozen(StrictModel):
 
 
 class Spread(BaseModel):
-    """One quantity over the repeats: every value, and (derived, for readers of the file)
-    their mean, sample standard deviation, minimum and maximum. Undefined values are None."""
+    """One quantity over the repeats: every value, each value's own standard error, and
+    (derived, for readers of the file) their mean, sample standard deviation, minimum and
+    maximum. Undefined values are None."""
 
     # The derived numbers are written for people and recomputed on reading.
     model_config = ConfigDict(extra="ignore", frozen=True)
-    values: Annotated[list[float | None], Field(min_length=1)]
+    values: Annotated[list[float | None], Field(min_length=1, max_length=100_000)]
+    """Every repeat's value."""
+    standard_errors: list[Annotated[float, Field(ge=0, allow_inf_nan=False)] | None] | None = None
+    """Each repeat's standard error from its pixels and frames (None in version 1 files)."""
+
+    @model_validator(mode="after")
+    def _paired(self):
+        if self.standard_errors is not None and len(self.standard_errors) != len(self.values):
+            raise ValueError(
+                f"{len(self.standard_errors)} standard_errors for {len(self.values)} values"
+            )
+        return self
+
+    @property
+    def n(self) -> int:
+        """The repeats with a value."""
+        return int(self._finite.size)
+
+    @property
+    def standard_error(self) -> float:
+        """The repeats' own standard error (root mean square; NaN where not recorded)."""
+        se = [x for x in self.standard_errors or () if x is not None]
+        return math.sqrt(sum(x * x for x in se) / len(se)) if se else math.nan
 
     @property
     def _finite(self) -> np.ndarray:
@@ -81,13 +131,16 @@ class Spread(BaseModel):
 
     def document(self) -> dict:
         v = self._finite
-        return {
+        doc = {
             "mean": self.mean,
             "std": self.std,
             "min": float(v.min()) if v.size else None,
             "max": float(v.max()) if v.size else None,
             "values": list(self.values),
         }
+        if self.standard_errors is not None:
+            doc["standard_errors"] = list(self.standard_errors)
+        return doc
 
 
 def _within(spread, lo: float, hi: float, what: str) -> None:
@@ -100,8 +153,12 @@ def _within(spread, lo: float, hi: float, what: str) -> None:
 
 
 class GoldenClass(_Frozen):
-    mean: Spread  # DN
-    variance: Spread  # DN²
+    """One class under one illumination over the repeats."""
+
+    mean: Spread
+    """μ, DN."""
+    variance: Spread
+    """σ² (39), DN²."""
 
     @model_validator(mode="after")
     def _physical(self):
@@ -111,9 +168,14 @@ class GoldenClass(_Frozen):
 
 
 class GoldenComparison(_Frozen):
+    """One comparison under one illumination over the repeats."""
+
     snr_db: Spread
+    """SNR_dB (36), dB."""
     error_gaussian: Spread
+    """ε Gauss (37), a fraction."""
     error_kde: Spread | None = None
+    """ε KDE (37), a fraction."""
 
     @model_validator(mode="after")
     def _physical(self):
@@ -123,25 +185,54 @@ class GoldenComparison(_Frozen):
 
 
 class GoldenIllumination(_Frozen):
-    channels: dict[int, float]  # controller channel → percent
+    """One illumination's golden statistics."""
+
+    channels: dict[int, float]
+    """Controller channel → drive level, % (a verification at others is refused)."""
     classes: dict[str, GoldenClass]
+    """Class name → its statistics."""
     comparisons: dict[str, GoldenComparison]
+    """Comparison (``"A vs B,C"``) → its statistics."""
 
 
 class Golden(_Frozen):
     """A station's golden statistics, as ``golden.json`` holds them."""
 
     schema_: Literal["inspect-validate/golden"] = Field("inspect-validate/golden", alias="schema")
-    schema_version: Literal[1] = GOLDEN_SCHEMA_VERSION
+    schema_version: Literal[1, 2] = GOLDEN_SCHEMA_VERSION
+    """2; files of version 1 (no standard errors) are read too."""
     tool_version: str
+    """The inspect-validate version that trained it."""
     station: str
+    """The station file trained."""
     station_sha256: str
+    """SHA-256 of the station file's bytes at training."""
     exposure_us: float | None
+    """The camera's exposure, µs (a verification at another is refused)."""
     gain_db: float
+    """The camera's gain, dB (likewise)."""
     weighting: str
-    repeats: Annotated[int, Field(ge=1)]
+    """How groups of classes were weighted (``equal``, ``pixels``, ``priors``)."""
+    repeats: Annotated[int, Field(ge=1, le=100_000)]
+    """The captures trained on."""
     captures: list[str]
+    """Their folders."""
     illuminations: dict[str, GoldenIllumination]
+    """Per illumination: its channels, its classes' μ and σ², its comparisons' SNR_dB and ε."""
+
+    @model_validator(mode="after")
+    def _repeats(self):
+        for ill, g in self.illuminations.items():
+            for spread in (
+                *(x for c in g.classes.values() for x in (c.mean, c.variance)),
+                *(c.snr_db for c in g.comparisons.values()),
+            ):
+                if len(spread.values) != self.repeats:
+                    raise ValueError(
+                        f"illuminations.{ill}: {len(spread.values)} values where 'repeats' "
+                        f"says {self.repeats}"
+                    )
+        return self
 
     def document(self) -> dict:
         """The ``golden.json`` document, each spread with its mean, std, min and max."""
@@ -182,6 +273,14 @@ def train(station, captures: list[Path], *, regions=None) -> Golden:
     from inspect_validate.camera.station import station_hash
     from inspect_validate.verification.measured import measure_capture, station_regions
 
+    folders = [Path(c).resolve() for c in captures]
+    for i, folder in enumerate(folders):
+        if folder in folders[:i]:
+            raise InputError(
+                "given twice: the same capture twice would train a spread of zero; train on "
+                "independent captures (--repeats N captures them)",
+                source=str(captures[i]),
+            )
     rois, comparisons = regions or station_regions(station)
     limits = station.acceptance.limits()
     runs = [
@@ -200,42 +299,75 @@ def train(station, captures: list[Path], *, regions=None) -> Golden:
                     source=str(folder),
                 )
 
+    return golden_of(
+        station,
+        [r.measurements for r in runs],
+        comparisons,
+        captures=[str(c) for c in captures],
+        tool_version=__version__,
+        station_sha256=station_hash(station.path),
+    )
+
+
+def golden_of(
+    station,
+    runs: list[dict],
+    comparisons,
+    *,
+    captures: list[str],
+    tool_version: str,
+    station_sha256: str,
+) -> Golden:
+    """The :class:`Golden` of ``runs``, each a dict illumination → its
+    :class:`~inspect_validate.measurement.Measurement` (measured with ``comparisons``)."""
+    from inspect_validate.verification.uncertainty import measured_standard_errors
+
     illuminations = {}
     for ill in station.illuminations:
-        ms = [r.measurements[ill.name] for r in runs]
+        ms = [r[ill.name] for r in runs]
+        se = [measured_standard_errors(m, comparisons, mixtures=()) for m in ms]
         classes = {
             c.name: GoldenClass(
-                mean=_spread(m.classes[k].mean for m in ms),
-                variance=_spread(m.classes[k].variance for m in ms),
+                mean=_spread((m.classes[k].mean for m in ms), (e.mean[k] for e in se)),
+                variance=_spread((m.classes[k].variance for m in ms), (e.variance[k] for e in se)),
             )
             for k, c in enumerate(ms[0].classes)
         }
-        comparisons = {
+        comps = {
             comp.label: GoldenComparison(
-                snr_db=_spread(m.comparisons[j].snr_db for m in ms),
+                snr_db=_spread((m.comparisons[j].snr_db for m in ms), (e.snr_db[j] for e in se)),
                 error_gaussian=_spread(m.comparisons[j].error_gaussian for m in ms),
                 error_kde=_spread(m.comparisons[j].error_kde for m in ms),
             )
             for j, comp in enumerate(ms[0].comparisons)
         }
         illuminations[ill.name] = GoldenIllumination(
-            channels=dict(ill.channels), classes=classes, comparisons=comparisons
+            channels=dict(ill.channels), classes=classes, comparisons=comps
         )
     return Golden(
-        tool_version=__version__,
+        tool_version=tool_version,
         station=str(station.path),
-        station_sha256=station_hash(station.path),
+        station_sha256=station_sha256,
         exposure_us=station.camera.exposure_us,
         gain_db=station.camera.gain_db,
-        weighting=runs[0].measurements[station.illuminations[0].name].weighting,
+        weighting=runs[0][station.illuminations[0].name].weighting,
         repeats=len(runs),
-        captures=[str(c) for c in captures],
+        captures=captures,
         illuminations=illuminations,
     )
 
 
-def _spread(values) -> Spread:
-    return Spread(values=[None if x is None or math.isnan(x) else float(x) for x in values])
+def _finite_or_none(x) -> float | None:
+    return None if x is None or not math.isfinite(x) else float(x)
+
+
+def _spread(values, standard_errors=None) -> Spread:
+    return Spread(
+        values=[_finite_or_none(x) for x in values],
+        standard_errors=None
+        if standard_errors is None
+        else [_finite_or_none(x) for x in standard_errors],
+    )
 
 
 GOLDEN_MAX_BYTES = 64 * 2**20  # a golden file of thousands of classes is a few MB
@@ -285,58 +417,139 @@ def read_golden(path: str | Path) -> Golden:
         raise InputError(explain(exc), source=str(path)) from None
 
 
-def drift_checks(golden: Golden, measurements: dict, drift) -> list[Check]:
+def prediction_sd(spread: Spread, standard_error: float) -> float:
+    """The standard deviation of a new value's deviation from ``spread``'s mean when
+    nothing changed (module description): the repeats' spread, floored at their own
+    standard error, times √(1 + 1/n), and what the new measurement's own standard error
+    ``standard_error`` adds beyond the repeats'. NaN without a spread (one repeat)."""
+    n, s = spread.n, spread.std
+    if n < 2 or not math.isfinite(s):
+        return math.nan
+    own = standard_error if math.isfinite(standard_error) else 0.0
+    ref = spread.standard_error
+    if not math.isfinite(ref):  # a version 1 file: the repeats were measured alike
+        ref = own
+    var = max(s * s, ref * ref) * (1.0 + 1.0 / n) + max(0.0, own * own - ref * ref)
+    return math.sqrt(var)
+
+
+def widening(repeats: int, share: float) -> float:
+    """How many times as wide a drift limit from ``repeats`` repeats is as one from a
+    perfectly known spread, at a check's false-alarm ``share``:
+    t_{n−1}(1 − α/2) √(1 + 1/n) / z(1 − α/2); inf for one repeat."""
+    from inspect_validate.verification.checks import quantile
+
+    if repeats < 2:
+        return math.inf
+    return quantile(share, df=repeats - 1) * math.sqrt(1.0 + 1.0 / repeats) / quantile(share)
+
+
+def repeats_needed(share: float, *, factor: float = GOOD_WIDENING) -> int:
+    """The fewest repeats whose :func:`widening` at ``share`` is at most ``factor``."""
+    n = 2
+    while widening(n, share) > factor and n < 100_000:
+        n = n + 1 if n < 64 else int(n * 1.25)
+    return n
+
+
+def detectable_change(spread: Spread, share: float, *, power: float = 0.95) -> float:
+    """The smallest change of a quantity that its drift check catches with probability
+    ``power``, in its unit: (t_{n−1}(1 − α/2) + z(power)) × :func:`prediction_sd` at the
+    repeats' own standard error (a verification captured as the training was)."""
+    from inspect_validate.verification.checks import quantile
+
+    sd = prediction_sd(spread, spread.standard_error)
+    if not math.isfinite(sd):
+        return math.nan
+    return (quantile(share, df=spread.n - 1) + quantile(1.0 - power, sided=1)) * sd
+
+
+def drift_checks(golden: Golden, measurements: dict, drift, errors: dict) -> list[Check]:
     """Drift of each class's μ (DN) and each comparison's SNR_dB (dB) from ``golden``, which
     :func:`check_golden` has accepted for the station.
 
-    ``drift`` is the station's ``acceptance.drift``; a tolerance it does not
-    give explicitly is ``k`` × the trained spread.
+    ``drift`` is the station's ``acceptance.drift``: a fixed tolerance it gives is held as
+    it is; otherwise each check is statistical, its limit the prediction interval (module
+    description) that :func:`~.checks.decide` sets from :func:`prediction_sd`.
+    ``errors`` is illumination → the measurement's
+    :class:`~.uncertainty.StandardErrors`.
     """
     checks = []
     for ill, m in measurements.items():
-        g = golden.illuminations[ill]
-        for c in m.classes:
+        g, se = golden.illuminations[ill], errors[ill]
+        for k, c in enumerate(m.classes):
             ref = g.classes[c.name].mean
-            tol, how = _tolerance(drift.mean_dn, drift.k, ref)
             checks.append(
-                at_most(
+                _drift_check(
                     f"{ill}: {c.name} μ drift",
-                    "drift",
-                    abs(c.mean - ref.mean),
-                    tol,
+                    c.mean,
+                    ref,
+                    drift.mean_dn,
+                    float(se.mean[k]),
                     "DN",
-                    f"golden {ref.summary()} DN over {len(ref.values)} repeats, "
-                    f"now {c.mean:.4g} DN; limit {how}",
+                    f"golden {ref.summary()} DN over {ref.n} repeats, now {c.mean:.4g} DN",
                 )
             )
-        for comp in m.comparisons:
+        for j, comp in enumerate(m.comparisons):
             ref = g.comparisons[comp.label].snr_db
             if max(ref.mean, comp.snr_db) < drift.snr_floor_db:
                 continue  # both unseparable: their dB carry no drift to check
-            tol, how = _tolerance(drift.snr_db, drift.k, ref)
             checks.append(
-                at_most(
+                _drift_check(
                     f"{ill}: {comp.label} SNR_dB drift",
-                    "drift",
-                    abs(comp.snr_db - ref.mean),
-                    tol,
+                    comp.snr_db,
+                    ref,
+                    drift.snr_db,
+                    float(se.snr_db[j]),
                     "dB",
-                    f"golden {ref.summary(3)} dB, now {comp.snr_db:.2f} dB; limit {how}",
+                    f"golden {ref.summary(3)} dB over {ref.n} repeats, now {comp.snr_db:.2f} dB",
                 )
             )
     return checks
 
 
-def check_golden(golden: Golden, station, drift, *, classes, comparisons, source: str) -> None:
+def _drift_check(name, value, ref: Spread, tolerance, standard_error, unit, detail) -> Check:
+    deviation = abs(value - ref.mean)
+    if tolerance is not None:
+        return at_most(name, "drift", deviation, tolerance, unit, f"{detail}; fixed tolerance")
+    sd = prediction_sd(ref, standard_error)
+    return at_most(
+        name,
+        "drift",
+        deviation,
+        0.0,
+        unit,
+        f"{detail}; prediction interval, sd {sd:.2g} {unit}, t with {ref.n - 1} df",
+        basis="statistical",
+        standard_error=sd,
+        df=ref.n - 1,
+        sided=2,
+    )
+
+
+def check_golden(
+    golden: Golden,
+    station,
+    drift,
+    *,
+    classes,
+    comparisons,
+    source: str,
+    share: float | None = None,
+) -> None:
     """Refuse, before any capture, a golden file that cannot check ``station``'s drift.
+
+    ``share`` is a drift check's share of the false-alarm rate (:func:`~.checks.decide`):
+    a golden file whose limits it would widen more than :data:`MAX_WIDENING` times is
+    refused.
 
     Raises
     ------
     InputError
         Trained at other camera settings or illuminations, without one of the
         ``classes`` or ``comparisons`` (labels), or without a spread where
-        ``drift`` gives no explicit tolerance (names ``source``: retrain, or give
-        the tolerance).
+        ``drift`` gives no explicit tolerance, or too few repeats for the rate (names
+        ``source``: retrain, or give the tolerance).
     """
     camera = station.camera
     if golden.exposure_us != camera.exposure_us or golden.gain_db != camera.gain_db:
@@ -362,10 +575,12 @@ def check_golden(golden: Golden, station, drift, *, classes, comparisons, source
             )
         for name in classes:
             spread = _entry(g.classes, name, ill.name, "class", source).mean
-            _needs_spread(drift.mean_dn, spread, f"{ill.name}: {name} μ", source)
+            _needs_spread(drift.mean_dn, spread, f"{ill.name}: {name} μ", source, share)
         for text in comparisons:
             spread = _entry(g.comparisons, text, ill.name, "comparison", source).snr_db
-            _needs_spread(drift.snr_db, spread, f"{ill.name}: {text} SNR_dB", source)
+            if not spread.mean >= drift.snr_floor_db:
+                continue  # not checked while it stays below the floor
+            _needs_spread(drift.snr_db, spread, f"{ill.name}: {text} SNR_dB", source, share)
 
 
 def _entry(table: dict, name: str, ill: str, what: str, source: str):
@@ -378,17 +593,24 @@ def _entry(table: dict, name: str, ill: str, what: str, source: str):
     return table[name]
 
 
-def _needs_spread(explicit, spread: Spread, where: str, source: str) -> None:
-    if explicit is None and not math.isfinite(spread.std):
+def _needs_spread(explicit, spread: Spread, where: str, source: str, share) -> None:
+    if explicit is not None:
+        return
+    if not math.isfinite(spread.std):
         raise InputError(
             f"{where}: the golden file has no spread (trained with "
             f"{len(spread.values)} repeat(s)); train with --repeats 2 or more, or give the "
             "tolerance in acceptance.drift (mean_dn, snr_db)",
             source=source,
         )
-
-
-def _tolerance(explicit, k, spread: Spread) -> tuple[float, str]:
-    if explicit is not None:
-        return float(explicit), "given"
-    return k * spread.std, f"{k:g} × spread"
+    if share is not None and widening(spread.n, share) > MAX_WIDENING:
+        raise InputError(
+            f"{where}: {spread.n} repeats are too few for the false-alarm rate asked "
+            f"({share:.2g} a check): the drift limits would be "
+            f"{widening(spread.n, share):.0f} × as wide as the spread itself sets. Train "
+            f"with --repeats {repeats_needed(share, factor=MAX_WIDENING)} or more "
+            f"({repeats_needed(share)} for limits within {GOOD_WIDENING:g} ×), raise "
+            "acceptance.false_alarm, or give fixed tolerances (acceptance.drift mean_dn, "
+            "snr_db)",
+            source=source,
+        )

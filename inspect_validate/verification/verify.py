@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from inspect_validate.errors import InputError
-from inspect_validate.verification.checks import Check, at_least, at_most, not_run
+from inspect_validate.verification.checks import Check, at_least, at_most, decide, not_run
 from inspect_validate.verification.golden import drift_checks
 from inspect_validate.verification.measured import measure_capture, station_regions
 
@@ -33,8 +33,7 @@ if TYPE_CHECKING:
     from inspect_validate.roi import RoiSet
     from inspect_validate.verification.calibration import Gain, IrradianceScale
     from inspect_validate.verification.golden import Golden
-
-    pass
+    from inspect_validate.verification.measured import Capture
 
 __all__ = [
     "Plan",
@@ -42,7 +41,9 @@ __all__ = [
     "dominance_unconfirmed",
     "dominated_illuminations",
     "plan_verification",
+    "planned_tests",
     "verify",
+    "verify_capture",
     "verify_station",
 ]
 
@@ -158,6 +159,7 @@ class Verification:
     skipped: tuple[str, ...] = ()
     notes: tuple[str, ...] = field(default=())
     acquisition: tuple[dict, ...] = ()  # per step: how its frames were taken (acquisition_steps)
+    false_alarm: float = 0.0027  # the family-wise rate the checks share (acceptance)
 
     @property
     def passed(self) -> bool:
@@ -179,8 +181,11 @@ class Plan:
     name → why; listed as skipped."""
 
 
-def plan_verification(station) -> Plan:
-    """Check ``station``'s scene, channels, ROIs, comparisons, acceptance and golden file.
+def plan_verification(station, *, drift_checks: bool = True) -> Plan:
+    """Check ``station``'s scene, channels, ROIs, comparisons, acceptance and golden file;
+    ``drift_checks``: that the golden file's repeats can set the drift checks' limits at
+    the acceptance's false-alarm rate (``watch`` charts drift instead, and checks its
+    charts' bands itself).
 
     Raises
     ------
@@ -242,10 +247,54 @@ def plan_verification(station) -> Plan:
             classes=names,
             comparisons=comparisons.labels,
             source=str(station.resolve(acc.drift.golden)),
+            share=acc.false_alarm_rate / planned_tests(station, names, comparisons.labels, golden)
+            if drift_checks
+            else None,
         )
     # Only the ROI classes are predicted.
     scene = replace(model.scene, classes=tuple(scene_classes[n] for n in names))
     return Plan(rois, comparisons, replace(model, scene=scene), golden)
+
+
+def planned_tests(station, classes, comparisons, golden=None, *, drift: bool = False) -> int:
+    """How many checks of ``station``'s acceptance will share its false-alarm rate
+    (:func:`~.checks.decide`), counted before any frame: every statistical and tolerance
+    check it asks for on the ROI ``classes`` and ``comparisons`` (labels), the drift
+    checks on what ``golden`` holds above the drift floor. An upper bound where a check
+    depends on the frames (agreement of comparisons below the SNR_dB floor is left out
+    then), so that a share from it is never too large. ``drift``: count the drift checks
+    of ``golden`` as the acceptance's default drift block would, where it has none (what
+    ``train`` tells of a golden file before the station uses it)."""
+    from inspect_validate.acceptance import Drift
+
+    acc = station.acceptance
+    if drift and acc.drift is None:
+        acc = acc.model_copy(update={"drift": Drift(golden="-")})
+    ills = len(station.illuminations)
+    n = 0
+    for sep in acc.separation:
+        per = sum(x is not None for x in (sep.min_snr_db, sep.min_cnr_db, sep.max_error))
+        n += per * (1 if acc.illumination else ills)
+    if acc.agreement is not None:
+        a = acc.agreement
+        n += (
+            ills
+            * len(classes)
+            * ((a.mean_relative is not None) + (a.variance_relative is not None))
+        )
+        n += ills * len(comparisons) * (a.snr_db is not None)
+    n += bool(acc.ranking and ills > 1) + (acc.gain_relative is not None)
+    if acc.drift is not None and golden is not None:
+        for g in golden.illuminations.values():
+            if acc.drift.mean_dn is None:
+                n += len(classes)
+            if acc.drift.snr_db is None:
+                n += sum(
+                    g.comparisons[c].snr_db.mean >= acc.drift.snr_floor_db
+                    for c in comparisons
+                    if c in g.comparisons
+                )
+    return max(n, 1)
 
 
 def dominated_illuminations(station, model, comparisons) -> dict[str, str]:
@@ -417,10 +466,30 @@ def verify(station, frames_dir: Path, *, plan: Plan | None = None) -> Verificati
     InputError
         See :func:`plan_verification`; an unreadable or incomplete capture (exit code 2).
     """
+    plan = plan or plan_verification(station)
+    acc = station.acceptance
+    capture = measure_capture(
+        station,
+        frames_dir,
+        rois=plan.rois,
+        comparisons=plan.comparisons,
+        limits=acc.limits(),
+        kde="always" if acc.needs_kde else "never",
+        camera=plan.model.camera,
+    )
+    return verify_capture(station, capture, plan=plan, folder=frames_dir)
+
+
+def verify_capture(
+    station, capture: Capture, *, plan: Plan, folder: Path | None = None
+) -> Verification:
+    """Verify ``station`` on a capture already measured in its regions
+    (:func:`~.measured.measure_capture`, with ``plan``'s regions and comparisons, the
+    acceptance's limits, ε KDE where a check asks for it); ``folder`` is where it lies
+    (None for frames that never were files: a simulation's)."""
     from inspect_validate.camera.station import station_hash
     from inspect_validate.verification.calibration import fit_scales, photon_transfer
 
-    plan = plan or plan_verification(station)
     acc = station.acceptance
     rois, comparisons, model, golden = plan.rois, plan.comparisons, plan.model, plan.golden
     need_kde = acc.needs_kde
@@ -434,15 +503,6 @@ def verify(station, frames_dir: Path, *, plan: Plan | None = None) -> Verificati
     if not need_kde:
         skipped.append("ε KDE: no check asks for it (acceptance.separation[].max_error_kde)")
     limits = acc.limits()
-    capture = measure_capture(
-        station,
-        frames_dir,
-        rois=rois,
-        comparisons=comparisons,
-        limits=limits,
-        kde="always" if need_kde else "never",
-        camera=model.camera,
-    )
     files, dark_files, manifest = capture.files, capture.dark_files, capture.manifest
     measurements, dark = capture.measurements, capture.dark
     # The prediction weights a group's classes as the measured regions do.
@@ -506,20 +566,35 @@ def verify(station, frames_dir: Path, *, plan: Plan | None = None) -> Verificati
         if acc.gain_relative is None:  # nobody asked: a skip, not a failure
             skipped.append(f"system gain K: {gain_missing}")
 
+    from inspect_validate.verification.uncertainty import measured_standard_errors
+
+    # log ε's errors take a root search per class moved: only for the checks that use them.
+    mixtures = {comparisons.index(s.comparison) for s in acc.separation if s.max_error is not None}
+    if acc.ranking and len(measurements) > 1:
+        mixtures.add(comparisons.index(_ranking_comparison(model.scene, acc, comparisons)))
+    errors = {
+        ill: measured_standard_errors(m, comparisons, mixtures=mixtures)
+        for ill, m in measurements.items()
+    }
     class_rows, comparison_rows = _compare(
         measurements, prediction, nominal, dark_means, offset, need_kde=need_kde
     )
     ranking, not_ranked = _ranking(measurements, prediction, model.scene, acc, comparisons)
     checks, unchecked = _checks(
-        acc, measurements, class_rows, comparison_rows, ranking, gain, gain_missing
+        acc, measurements, class_rows, comparison_rows, ranking, gain, gain_missing, errors
     )
     skipped += [*not_ranked, *unchecked]
     if golden is not None:
-        checks += drift_checks(golden, measurements, acc.drift)
+        checks += drift_checks(golden, measurements, acc.drift, errors)
+    rate = acc.false_alarm_rate
+    checks = decide(checks, rate)
+    notes += _uncertainty_notes(
+        acc, checks, golden, prediction, predicted_comparisons, list(measurements)
+    )
     inputs = {
         "station": str(station.path),
         "station_sha256": station_hash(station.path),
-        "capture": str(frames_dir),
+        "capture": None if folder is None else str(folder),
         "capture_station_sha256": manifest.get("station_sha256"),
         "frames": {k: [str(p) for p in v] for k, v in files.items()},
         "dark": [str(p) for p in dark_files],
@@ -552,7 +627,53 @@ def verify(station, frames_dir: Path, *, plan: Plan | None = None) -> Verificati
         skipped=tuple(skipped),
         notes=tuple(notes),
         acquisition=acquisition,
+        false_alarm=rate,
     )
+
+
+def _uncertainty_notes(acc, checks, golden, prediction, comparisons, illuminations) -> list[str]:
+    """What a reader should know of the checks' power: drift limits widened by a short
+    training, and agreement tolerances within the model's own uncertainty."""
+    from inspect_validate.verification.checks import quantile
+    from inspect_validate.verification.golden import (
+        GOOD_WIDENING,
+        repeats_needed,
+        widening,
+    )
+    from inspect_validate.verification.uncertainty import predicted_standard_errors
+
+    notes = []
+    drift = [c for c in checks if c.kind == "drift" and c.basis == "statistical" and c.ran]
+    if drift and golden is not None:
+        share = drift[0].false_alarm
+        w = widening(golden.repeats, share)
+        if w > GOOD_WIDENING:
+            notes.append(
+                f"the golden file's {golden.repeats} repeats make the drift limits {w:.1f} × as "
+                f"wide as a well-known spread would (Student's t with {golden.repeats - 1} "
+                f"degrees of freedom at {share:.2g} a check); train with --repeats "
+                f"{repeats_needed(share)} for {GOOD_WIDENING:g} ×"
+            )
+    agreement = acc.agreement
+    tested = [c for c in checks if c.false_alarm is not None]
+    if agreement is None or agreement.snr_db is None or not tested:
+        return notes
+    q = quantile(tested[0].false_alarm, sided=1)
+    close = []
+    for li, ill in enumerate(illuminations):
+        se = predicted_standard_errors(prediction, li, comparisons, mixtures=()).snr_db
+        for j, text in enumerate(comparisons.labels):
+            row = f"{ill}: {text} SNR_dB deviation"
+            if any(c.name == row for c in tested) and q * se[j] > agreement.snr_db:
+                close.append(f"{ill}: {text} ±{se[j]:.2g} dB")
+    if close:
+        notes.append(
+            f"agreement.snr_db {agreement.snr_db:g} dB is within {q:.2g} × the model's own "
+            f"uncertainty from its reflectance samples for {', '.join(close)}: parts that are "
+            "another draw of their classes than the spectra measured fail it more often than "
+            "the false-alarm rate (measure more spectra per class, or widen the tolerance)"
+        )
+    return notes
 
 
 def acquisition_steps(manifest: dict, files: dict[str, list[Path]]) -> tuple[dict, ...]:
@@ -669,16 +790,7 @@ def _ranking(
 
     if len(measurements) < 2:
         return None, ("ranking: one illumination, nothing to rank",)
-    text = (
-        acc.separation[0].comparison
-        if acc.separation
-        else scene.rank_comparison
-        if scene.rank_comparison in comparisons.labels
-        else None
-    )
-    if text is None:  # the worst pair decides, as predict ranks by default
-        text = comparisons.labels[0]
-    j = comparisons.index(text)
+    j = comparisons.index(_ranking_comparison(scene, acc, comparisons))
     by = scene.rank_by if scene.rank_by in ("snr_db", "cnr_db") else "error"
     names = list(measurements)
     if by == "error":
@@ -703,33 +815,132 @@ def _ranking(
     return ranking, ()
 
 
+def _ranking_comparison(scene, acc, comparisons) -> str:
+    """The comparison the illuminations are ranked by: the first separation check's, else
+    the scene's ``rank:`` comparison, else the first (the worst pair decides, as predict
+    ranks by default)."""
+    if acc.separation:
+        return acc.separation[0].comparison
+    if scene.rank_comparison in comparisons.labels:
+        return scene.rank_comparison
+    return comparisons.labels[0]
+
+
+def _ranking_check(ranking: RankingAgreement, errors, j: int) -> Check:
+    """Whether the predicted best illumination measures best, as a statistical check.
+
+    Each illumination's "badness" is its measured log₁₀ ε (or −SNR_dB, −CNR_dB). The
+    value is how far the predicted best measures behind the measured best (0 where it
+    measures best); it may do so by up to what these frames resolve: the margin,
+    a multiple of the standard error of the difference. When the prediction itself puts
+    the two in question (the predicted best and the measured best, or the predicted
+    runner-up where they agree) closer than the margin, the check is too close to call.
+    """
+    sign = 1.0 if ranking.by == "log_error_gaussian" else -1.0
+    unit, quantity, field = _RANKED[ranking.by]
+    names = list(ranking.measured)
+    bad_m = {n: sign * ranking.measured[n] for n in names}
+    bad_p = {n: sign * ranking.predicted[n] for n in names}
+    se = {n: float(getattr(errors[n], field)[j]) for n in names}
+    best_p, best_m = ranking.predicted_best, ranking.measured_best
+    other = best_m
+    if other == best_p:  # they agree: the question is the predicted runner-up
+        other = min((n for n in names if n != best_p), key=lambda n: bad_p[n])
+    behind = bad_m[best_p] - bad_m[best_m]
+    return at_most(
+        f"ranking by {ranking.comparison}: predicted best {best_p} measures best",
+        "ranking",
+        behind,
+        0.0,
+        unit,
+        f"measured best {best_m}; {quantity} measured "
+        + ", ".join(f"{n} {ranking.measured[n]:.3g}" for n in names)
+        + ", predicted "
+        + ", ".join(f"{n} {ranking.predicted[n]:.3g}" for n in names)
+        + f"; predicted gap to {other} {bad_p[other] - bad_p[best_p]:.2g} {unit}; "
+        f"Kendall τ {ranking.kendall_tau:.2f}",
+        basis="statistical",
+        standard_error=float(np.hypot(se[best_p], se[other])),
+        predicted_gap=bad_p[other] - bad_p[best_p],
+    )
+
+
+_RANKED = {  # by → unit, what it is, the StandardErrors field
+    "log_error_gaussian": ("decades", "log₁₀ ε", "log_error"),
+    "snr_db": ("dB", "SNR_dB", "snr_db"),
+    "cnr_db": ("dB", "CNR_dB", "cnr_db"),
+}
+
+
 def _checks(
-    acc, measurements, class_rows, comparison_rows, ranking, gain, gain_missing=None
+    acc,
+    measurements,
+    class_rows,
+    comparison_rows,
+    ranking,
+    gain,
+    gain_missing=None,
+    errors=None,
 ) -> tuple[list[Check], list[str]]:
     """The checks ``acc`` asks for, and the work left out (a skip: only what nobody asked
     for). A check that cannot be evaluated is :func:`not_run`, a failure that says why —
-    never a skip."""
+    never a skip. ``errors`` is illumination → the measurement's
+    :class:`~.uncertainty.StandardErrors`: the tolerance checks' margins
+    (:func:`~.checks.decide` sets them)."""
     checks, skipped = [], []
     targets = [acc.illumination] if acc.illumination else list(measurements)
     for sep in acc.separation:
         for ill in targets:
-            comp = measurements[ill].comparison(sep.comparison)
+            m = measurements[ill]
+            j = m.comparisons.index(m.comparison(sep.comparison))
+            comp, se = m.comparisons[j], errors[ill]
             where = f"{ill}: {comp.label}"
+            tolerance = {"basis": "tolerance"}
             if sep.min_snr_db is not None:
                 checks.append(
-                    at_least(f"{where} SNR_dB", "separation", comp.snr_db, sep.min_snr_db, "dB")
+                    at_least(
+                        f"{where} SNR_dB",
+                        "separation",
+                        comp.snr_db,
+                        sep.min_snr_db,
+                        "dB",
+                        standard_error=se.snr_db[j],
+                        **tolerance,
+                    )
                 )
             if sep.min_cnr_db is not None:
                 checks.append(
-                    at_least(f"{where} CNR_dB", "separation", comp.cnr_db, sep.min_cnr_db, "dB")
+                    at_least(
+                        f"{where} CNR_dB",
+                        "separation",
+                        comp.cnr_db,
+                        sep.min_cnr_db,
+                        "dB",
+                        standard_error=se.cnr_db[j],
+                        **tolerance,
+                    )
                 )
             if sep.max_error is not None:
+                # SE(ε) = ε ln 10 SE(log₁₀ ε)
                 checks.append(
-                    at_most(f"{where} ε Gauss", "separation", comp.error_gaussian, sep.max_error)
+                    at_most(
+                        f"{where} ε Gauss",
+                        "separation",
+                        comp.error_gaussian,
+                        sep.max_error,
+                        standard_error=comp.error_gaussian * np.log(10.0) * se.log_error[j],
+                        **tolerance,
+                    )
                 )
             if sep.max_error_kde is not None:
                 checks.append(
-                    at_most(f"{where} ε KDE", "separation", comp.error_kde, sep.max_error_kde)
+                    at_most(
+                        f"{where} ε KDE",
+                        "separation",
+                        comp.error_kde,
+                        sep.max_error_kde,
+                        detail="fixed limit: ε KDE has no standard error here",
+                    )
                 )
     for ill, m in measurements.items():
         for c in m.classes:
@@ -745,10 +956,16 @@ def _checks(
                     )
     agree = acc.agreement
     if agree is not None:
+        class_index = {
+            (ill, c.name): k for ill, m in measurements.items() for k, c in enumerate(m.classes)
+        }
         for row in class_rows:
             where = f"{row.illumination}: {row.class_name}"
             pred = row.predicted
+            k = class_index[row.illumination, row.class_name]
+            se = errors[row.illumination]
             if agree.mean_relative is not None:
+                signal = pred.mean - row.measured.dark_mean
                 checks.append(
                     at_most(
                         f"{where} μ deviation",
@@ -757,6 +974,8 @@ def _checks(
                         100 * agree.mean_relative,
                         "%",
                         f"predicted {pred.mean:.4g} DN, measured {row.measured.mean:.4g} DN",
+                        basis="tolerance",
+                        standard_error=100 * se.mean[k] / signal if signal > 0 else np.nan,
                     )
                 )
             if agree.variance_relative is not None:
@@ -769,6 +988,10 @@ def _checks(
                         "%",
                         f"predicted {pred.variance:.4g} DN², "
                         f"measured {row.measured.variance:.4g} DN²",
+                        basis="tolerance",
+                        standard_error=100 * se.variance[k] / pred.variance
+                        if pred.variance > 0
+                        else np.nan,
                     )
                 )
         if agree.snr_db is not None:
@@ -782,9 +1005,15 @@ def _checks(
                     f"SNR_dB agreement of {', '.join(below)}: predicted and measured below "
                     f"agreement.snr_floor_db ({agree.snr_floor_db:g} dB)"
                 )
+            index = {
+                (ill, c.label): j
+                for ill, m in measurements.items()
+                for j, c in enumerate(m.comparisons)
+            }
             for row in comparison_rows:
                 if max(row.predicted.snr_db, row.measured.snr_db) < agree.snr_floor_db:
                     continue  # both unseparable: the dB values carry no agreement to check
+                j = index[row.illumination, row.comparison]
                 checks.append(
                     at_most(
                         f"{row.illumination}: {row.comparison} SNR_dB deviation",
@@ -794,6 +1023,8 @@ def _checks(
                         "dB",
                         f"predicted {row.predicted.snr_db:.2f} dB, "
                         f"measured {row.measured.snr_db:.2f} dB",
+                        basis="tolerance",
+                        standard_error=errors[row.illumination].snr_db[j],
                     )
                 )
     if acc.ranking:
@@ -802,24 +1033,15 @@ def _checks(
                 not_run(
                     "ranking: measured best is predicted best",
                     "ranking",
-                    1.0,
+                    0.0,
                     "",
-                    "≥",
+                    "≤",
                     "one illumination measured, nothing to rank (leave out acceptance.ranking)",
                 )
             )
         else:
-            checks.append(
-                at_least(
-                    f"ranking by {ranking.comparison}: measured best is predicted best",
-                    "ranking",
-                    1.0 if ranking.agree else 0.0,
-                    1.0,
-                    "",
-                    f"predicted best {ranking.predicted_best}, measured best "
-                    f"{ranking.measured_best}, Kendall τ {ranking.kendall_tau:.2f}",
-                )
-            )
+            labels = [c.label for c in next(iter(measurements.values())).comparisons]
+            checks.append(_ranking_check(ranking, errors, labels.index(ranking.comparison)))
     if acc.gain_relative is not None:
         if gain is None:
             checks.append(
@@ -833,6 +1055,9 @@ def _checks(
                 )
             )
         else:
+            # K from ≥ 3 points has the residuals' standard error (points − 1 degrees of
+            # freedom); from fewer, the propagated sampling error (known).
+            points = len(gain.points)
             checks.append(
                 at_most(
                     "system gain K deviation from the camera's",
@@ -842,6 +1067,9 @@ def _checks(
                     "%",
                     f"K = {gain.value:.4g} ± {gain.standard_error:.2g} DN/e⁻, "
                     f"declared {gain.declared:.4g}",
+                    basis="tolerance",
+                    standard_error=100 * gain.standard_error / gain.declared,
+                    df=points - 1 if points >= 3 else np.inf,
                 )
             )
     return checks, skipped

@@ -31,17 +31,31 @@ def test_running_text_wraps_on_a_terminal_only():
     assert labelled("note", text, stream=io.StringIO()) == f"note: {text}"
 
 
-def test_a_yes_no_check_reads_as_what_it_asks():
-    """The ranking check is kept as 1/0 against a limit of 1 (JSON); the table shows
-    yes/no against "must be yes", and a failing one's JUnit message is its detail."""
-    from inspect_validate.report.verification import check_rows
-    from inspect_validate.verification.checks import Check
+def test_a_check_shows_its_basis_and_a_ranking_too_close_to_call_fails_nothing():
+    """The table's basis column says how each limit was set; a ranking whose predicted gap
+    is within what the frames resolve reads TOO CLOSE, sorts after the failures, and the
+    verdict line counts it apart."""
+    from inspect_validate.report.verification import check_rows, count_failed
+    from inspect_validate.verification.checks import at_least, at_most, decide
 
-    ranking = Check("ranking by A vs B,C", "ranking", 0.0, 1.0, "", "≥", False, "measured best red")
-    separation = Check("amber: A vs B SNR_dB", "separation", -5.1, -7.0, "dB", "≥", True)
-    cells = dict((c.kind, row) for c, row in check_rows([ranking, separation]))
-    assert cells["ranking"][2:4] == ["no", "must be yes"]
-    assert cells["separation"][2:4] == ["-5.1", "≥ -7"]
+    ranking = at_most(
+        "ranking by A vs B,C: predicted best amber measures best",
+        "ranking",
+        0.02,
+        0.0,
+        "decades",
+        basis="statistical",
+        standard_error=0.05,
+        predicted_gap=0.1,
+    )
+    separation = at_least("amber: A vs B SNR_dB", "separation", -7.2, -7.0, "dB")
+    checks = decide([ranking, separation], 0.0027)
+    cells = [row for _, row in check_rows(checks)]
+    assert [r[0] for r in cells] == ["FAIL", "TOO CLOSE"]
+    assert [r[5] for r in cells] == ["fixed", "statistical"]
+    assert cells[1][3] == f"≤ {checks[0].limit:.4g}" and checks[0].limit > 0.1
+    assert count_failed(checks) == "1 of 2 checks failed (1 too close to call)"
+    assert count_failed(checks[:1]) == "all 0 checks passed (1 too close to call)"
 
 
 def test_verify_keeps_its_checks_table_within_a_terminal(tmp_path):

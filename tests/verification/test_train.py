@@ -1,10 +1,10 @@
 """`inspect-validate train` and the drift check of `verify` against its golden file.
 
-A golden file trained on three captures of the simulated station; `verify` on
-one of those captures is within k = 3 trained spreads by construction (one of
-n values lies within (n−1)/√n spreads of their mean), and a light that aged
-by 5 % — which the irradiance fit absorbs, so agreement with the prediction
-still passes — fails the drift check.
+A golden file trained on four captures of the simulated station; `verify` on one of
+those captures is within the drift limits by construction (one of n values lies within
+(n−1)/√n spreads of their mean, the prediction interval's half-width is t·√(1 + 1/n)
+spreads), and a light that aged by 5 % — which the irradiance fit absorbs, so agreement
+with the prediction still passes — fails the drift check.
 """
 
 import json
@@ -20,7 +20,7 @@ def trained(tmp_path_factory):
     """A station copy, and a golden file trained on three captures of it."""
     folder = tmp_path_factory.mktemp("trained")
     path = copy_station(folder)
-    assert run_cli(["train", path, "--out", folder / "golden.json", "--repeats", 3]) == 0
+    assert run_cli(["train", path, "--out", folder / "golden.json", "--repeats", 4]) == 0
     return path, folder / "golden.json"
 
 
@@ -41,32 +41,76 @@ def with_acceptance(tmp_path, trained, world=None, **acceptance):
 def test_golden_file_holds_every_repeat_and_its_spread(trained):
     golden = trained[1]
     doc = json.loads(golden.read_text())
-    assert doc["schema"] == "inspect-validate/golden" and doc["schema_version"] == 1
-    assert doc["repeats"] == 3 and doc["exposure_us"] == 8000
+    assert doc["schema"] == "inspect-validate/golden" and doc["schema_version"] == 2
+    assert doc["repeats"] == 4 and doc["exposure_us"] == 8000
     a = doc["illuminations"]["amber"]["classes"]["A"]["mean"]
-    assert len(a["values"]) == 3 and a["min"] <= a["mean"] <= a["max"]
+    assert len(a["values"]) == 4 and a["min"] <= a["mean"] <= a["max"]
     # New sensor noise in every capture: the repeats are not copies.
-    assert a["std"] > 0 and len(set(a["values"])) == 3
+    assert a["std"] > 0 and len(set(a["values"])) == 4
     assert a["std"] < 0.1  # the same parts under the same light: noise of the mean only
+    # Each repeat's own standard error, from its pixels and frames: the same parts under
+    # the same light vary by it alone, so it is of the spread's size (4 repeats: the
+    # sample std scatters within a factor 3 of it at 99 %).
+    se = a["standard_errors"]
+    assert len(se) == 4 and all(x > 0 for x in se)
+    assert 1 / 3 < a["std"] / (sum(x * x for x in se) / 4) ** 0.5 < 3
     comp = doc["illuminations"]["amber"]["comparisons"]["A vs B,C"]
     assert comp["snr_db"]["mean"] == pytest.approx(-5.1, abs=0.3)
-    assert len(comp["error_kde"]["values"]) == 3
-    for i in (1, 2, 3):
+    assert len(comp["snr_db"]["standard_errors"]) == 4
+    assert len(comp["error_kde"]["values"]) == 4
+    for i in (1, 2, 3, 4):
         assert (golden.parent / "golden-frames" / f"repeat_0{i}" / "manifest.json").exists()
 
 
-def test_a_training_capture_is_within_k_spreads(cli, tmp_path, trained):
+def test_a_training_capture_is_within_the_prediction_intervals(cli, tmp_path, trained):
     path = with_acceptance(tmp_path, trained, drift={"golden": "golden.json", "k": 3})
     frames = trained[1].parent / "golden-frames" / "repeat_02"
     code, out, err = cli(["verify", path, "--frames", frames, "--report", tmp_path / "r"])
     assert code == 0, out + err
     doc = json.loads((tmp_path / "r" / "verification.json").read_text())
+    assert doc["schema_version"] == 2
+    rate = doc["false_alarm"]
+    assert rate["rate"] == pytest.approx(0.0027, rel=1e-3)  # k: 3, two-sided normal
     drift = [c for c in doc["checks"] if c["kind"] == "drift"]
     names = {c["name"] for c in drift}
     assert {f"{i}: {k} μ drift" for i in ("amber", "red") for k in "ABC"} <= names
     amber = {n for n in names if n.startswith("amber") and "SNR_dB" in n}
     assert len(amber) == 5  # C vs A,B (−37 dB) is below the floor: not checked
-    assert all("3 × spread" in c["detail"] for c in drift)
+    tested = [c for c in doc["checks"] if c["basis"] != "fixed"]
+    assert rate["checks_sharing"] == len(tested) and rate["per_check"] == pytest.approx(
+        rate["rate"] / len(tested)
+    )
+    from scipy import stats
+
+    for c in drift:
+        assert c["basis"] == "statistical" and c["df"] == 3 and c["given_limit"] == 0
+        assert "prediction interval" in c["detail"]
+        # The limit is Student's t with 3 degrees of freedom at the check's share of the
+        # rate, two-sided, times the interval's standard deviation (scipy's t, 1e-9).
+        q = stats.t.isf(c["false_alarm"] / 2, 3)
+        assert c["limit"] == pytest.approx(q * c["standard_error"], rel=1e-9)
+    assert "4 repeats make the drift limits" in out and "--repeats" in out
+
+
+def test_too_few_repeats_for_the_rate_are_refused_naming_the_repeats_needed(cli, tmp_path, trained):
+    """Three repeats at 0.27 % over ~25 checks would widen the limits 26-fold: refused
+    before any capture, naming how many repeats the rate needs; a rate of 5 % takes them."""
+    frames = trained[1].parent / "golden-frames"
+    golden = tmp_path / "three.json"
+    code, out, err = cli(
+        ["train", trained[0], "--out", golden]
+        + [x for i in (1, 2, 3) for x in ("--frames", frames / f"repeat_0{i}")]
+    )
+    assert code == 0, out + err
+    path = with_acceptance(tmp_path, trained, drift={"golden": "three.json"})
+    code, out, err = cli(["verify", path, "--out", tmp_path / "f"])
+    assert code == 2, out + err
+    assert "3 repeats are too few" in err and "--repeats 4 or more" in err
+    assert "(9 for limits within 2 ×)" in err
+    assert not (tmp_path / "f").exists()
+    path = with_acceptance(tmp_path, trained, drift={"golden": "three.json"}, false_alarm=0.05)
+    code, out, err = cli(["verify", path, "--frames", frames / "repeat_01"])
+    assert code == 0, out + err
 
 
 def test_an_aged_light_passes_agreement_and_fails_drift(cli, tmp_path, trained):
@@ -197,3 +241,13 @@ def test_a_golden_file_is_a_bounded_regular_file_of_possible_values(tmp_path, tr
     bad.write_text(json.dumps(doc))
     with pytest.raises(InputError, match=r"a classification error of 0\.7 is impossible"):
         read_golden(bad)
+
+
+def test_the_same_capture_given_twice_is_refused_before_measuring(cli, tmp_path, trained):
+    """Twice the same folder would train a spread of zero (the frames' own noise only)."""
+    frames = trained[1].parent / "golden-frames" / "repeat_01"
+    code, out, err = cli(
+        ["train", trained[0], "--out", tmp_path / "g.json", "--frames", frames, "--frames", frames]
+    )
+    assert code == 2 and "given twice" in err and str(frames) in err, out + err
+    assert not (tmp_path / "g.json").exists()

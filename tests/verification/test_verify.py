@@ -27,7 +27,7 @@ def test_shipped_station_passes_with_reports(cli, tmp_path):
     code, out, err, doc = verify(cli, tmp_path, station(tmp_path))
     assert code == 0, out + err
     assert "PASS: all" in out and "Traceback" not in err
-    assert doc["schema"] == "inspect-validate/verification" and doc["schema_version"] == 1
+    assert doc["schema"] == "inspect-validate/verification" and doc["schema_version"] == 2
     assert doc["verdict"] == "pass" and len(doc["inputs"]["station_sha256"]) == 64
     assert {c["kind"] for c in doc["checks"]} >= {"separation", "agreement", "ranking"}
     for c in doc["checks"]:
@@ -417,3 +417,38 @@ def test_every_needed_illumination_is_captured(tmp_path, acceptance):
     st = read_station(candidates(tmp_path, **acceptance))
     plan = plan_verification(st)
     assert dominated_illuminations(st, plan.model, plan.comparisons) == {}
+
+
+def test_a_ranking_of_illuminations_predicted_nearly_equal_is_too_close_to_call(cli, tmp_path):
+    """Amber at 100 % and at 99 %: the prediction puts them 0.013 decades of ε apart,
+    below what four frames resolve. The ranking check says so, with the numbers, and
+    fails nothing; its limit is the margin these frames set."""
+    path = station(
+        tmp_path,
+        illuminations=[
+            {"name": "amber", "channels": {1: 100}},
+            {"name": "amber_99", "channels": {1: 99}},
+            {"name": "red", "channels": {2: 100}},
+        ],
+    )
+    code, out, err, doc = verify(cli, tmp_path, path, "--all-illuminations")
+    assert code == 0, out + err
+    (rank,) = [c for c in doc["checks"] if c["kind"] == "ranking"]
+    assert rank["verdict"] == "too close" and rank["basis"] == "statistical"
+    assert rank["detail"].startswith("too close to call: predicted 0.013 decades apart")
+    assert rank["unit"] == "decades" and rank["limit"] > 0.013
+    assert "(1 too close to call)" in out and "TOO CLOSE" in out
+
+
+def test_a_ranking_against_the_prediction_fails_beyond_what_the_frames_resolve(cli, tmp_path):
+    """The red LED predicted far worse than amber, but in the world the two LEDs swapped
+    their peaks (amber's 40 nm up, red's 40 nm down): red measures best by far more than
+    the margin."""
+    path = station(tmp_path, world={"peak_shift_nm": {1: 40.0, 2: -40.0}})
+    doc = yaml.safe_load(path.read_text())
+    doc["acceptance"]["agreement"] = None
+    path.write_text(yaml.safe_dump(doc))
+    code, out, err, doc = verify(cli, tmp_path, path)
+    (rank,) = [c for c in doc["checks"] if c["kind"] == "ranking"]
+    assert rank["verdict"] == "fail" and rank["value"] > rank["limit"] > 0, rank
+    assert "measured best red" in rank["detail"]
