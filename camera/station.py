@@ -165,6 +165,10 @@ class World(StrictModel):
     """The channel's spectrum stretched about its peak (FWHM × this factor)."""
     reflectance_seed: Annotated[int, Field(ge=0)] | None = None
     """The objects are another draw (bootstrap) from each class's reflectance samples."""
+    irradiance_jitter: Annotated[float, Field(ge=0, le=0.5, allow_inf_nan=False)] = 0.0
+    """Relative standard deviation of each channel's irradiance from one capture to the
+    next (a driver's current, an LED's temperature): the spread between captures that a
+    golden file's repeats must learn."""
     transmission: Transmission = 1.0
     """Factor on the lens transmission."""
     vignetting: Annotated[float, Field(ge=0, lt=1, allow_inf_nan=False)] = 0.0

@@ -35,6 +35,7 @@ __all__ = [
     "compare",
     "measure_classes",
     "measure_files",
+    "measure_stack",
 ]
 
 
@@ -326,9 +327,8 @@ def measure_files(
         An unreadable frame or ROI file, darks of another size, an ROI outside
         the frame (each message names the file).
     """
-    from inspect_validate.comparisons import ComparisonsSpec
     from inspect_validate.images import expand_paths, read_frames, recorded_bit_depth
-    from inspect_validate.roi import class_masks, read_rois
+    from inspect_validate.roi import read_rois
 
     if isinstance(frames, (str, Path)):  # one file, folder or pattern, not its letters
         frames = [frames]
@@ -348,11 +348,15 @@ def measure_files(
             source=str(dark[0]),
         )
     roi_set = read_rois(rois) if isinstance(rois, (str, Path)) else rois
-    masks = class_masks(roi_set, stack.shape[1:])
-    classes = measure_classes(stack, masks, dark=dark_stack, saturation_level=saturation_level)
-    if comparisons is None or isinstance(comparisons, ComparisonsSpec):
-        comparisons = Comparisons.of([c.name for c in classes], comparisons, source=str(rois))
-    result = compare(classes, comparisons, kde=kde)
+    result = measure_stack(
+        stack,
+        roi_set,
+        dark=dark_stack,
+        comparisons=comparisons,
+        saturation_level=saturation_level,
+        limits=limits,
+        kde=kde,
+    )
     inputs = {
         "frames": [str(p) for p in frames],
         "dark": [str(p) for p in dark],
@@ -361,10 +365,35 @@ def measure_files(
         "n_frames": stack.shape[0],
         "dtype": str(stack.dtype),
     }
+    return replace(result, inputs=inputs)
+
+
+def measure_stack(
+    stack: np.ndarray,
+    rois,
+    *,
+    dark: np.ndarray | None = None,
+    comparisons=None,
+    saturation_level: float | None = None,
+    limits: Limits = Limits(),
+    kde: KdeMode = "auto",
+) -> Measurement:
+    """Measure the classes of a :class:`~inspect_validate.roi.RoiSet` in a frame stack
+    already in memory, (N, H, W) DN: what :func:`measure_files` does once the files are
+    read (a simulation's frames need none). Parameters as there; ``dark`` is the dark
+    stack, (M, H, W)."""
+    from inspect_validate.comparisons import ComparisonsSpec
+    from inspect_validate.roi import class_masks
+
+    masks = class_masks(rois, stack.shape[1:])
+    classes = measure_classes(stack, masks, dark=dark, saturation_level=saturation_level)
+    if comparisons is None or isinstance(comparisons, ComparisonsSpec):
+        source = str(getattr(rois, "source", "the ROI file"))
+        comparisons = Comparisons.of([c.name for c in classes], comparisons, source=source)
+    result = compare(classes, comparisons, kde=kde)
     return replace(
         result,
         violations=limits.violations(result.classes),
-        inputs=inputs,
         warnings=unsteady_classes(classes),
     )
 

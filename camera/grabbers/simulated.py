@@ -134,6 +134,9 @@ class SimulatedCamera(Grabber):
         Deviations of the simulated world from the scene.
     seed : int
         Which reflectance sample each object pixel shows (the parts themselves).
+    sensor_seed : int, optional
+        The sensor's fixed pattern (PRNU, DSNU); default drawn after the parts from
+        ``seed`` (parts re-placed on one camera: a new ``seed``, the same ``sensor_seed``).
     noise_seed : int, optional
         The sensor noise; default new entropy for every camera opened.
     target : {"scene", "uniform"}
@@ -152,6 +155,7 @@ class SimulatedCamera(Grabber):
         latency: int = 2,
         frame_interval_s: float = 0.01,
         seed: int = 0,
+        sensor_seed: int | None = None,
         noise_seed: int | None = None,
         target: str = "scene",
     ):
@@ -193,6 +197,9 @@ class SimulatedCamera(Grabber):
             grid=grid,
         )
         rates = p.sample_electrons[:, 0, 0]  # (channels, samples), e⁻/s at 100 %, unclipped
+        if world.irradiance_jitter:  # this capture's light levels, drawn once per opening
+            level = np.exp(self.noise.normal(0.0, world.irradiance_jitter, len(lights)))
+            rates = rates * np.where(np.array(list(lights)) == 0, 1.0, level)[:, None]
         scene = p.sample_class < len(classes)
         self.rates = rates[:, scene]
         self.white_rate = rates[:, ~scene][:, 0]  # (channels,)
@@ -210,7 +217,8 @@ class SimulatedCamera(Grabber):
                 ((slice(y, y + h), slice(x, x + w)), objects.choice(samples, size=(h, w)))
             )
         # The sensor's own fixed pattern (PRNU, DSNU), as fixed as the objects.
-        self._pattern = sensor_pattern(self.camera, (height, width), rng=objects)
+        sensor = objects if sensor_seed is None else np.random.default_rng(sensor_seed)
+        self._pattern = sensor_pattern(self.camera, (height, width), rng=sensor)
         yy, xx = np.mgrid[0:height, 0:width]
         r2 = ((yy - (height - 1) / 2) ** 2 + (xx - (width - 1) / 2) ** 2) / (
             ((height - 1) / 2) ** 2 + ((width - 1) / 2) ** 2
