@@ -108,7 +108,7 @@ def test_every_command_runs_from_the_installed_wheel(tmp_path):
         ],
         ["capture", station, "--out", "cap"],
         ["verify", station, "--frames", "cap", "--report", "report"],
-        ["train", station, "--out", "golden.json", "--repeats", 2],
+        ["train", station, "--out", "golden.json", "--repeats", 5],
         ["watch", station, "--golden", "golden.json", "--cycles", 1, "--interval", 0],
         ["history", "watch-station/history.sqlite"],
         ["design", samples / "scenes" / "mix" / "scene.yaml"],

@@ -130,7 +130,8 @@ def watch(
     # verified without the single-cycle drift checks: the charts replace them, with a
     # false-alarm rate controlled over every chart together.
     plan = plan_verification(
-        st.model_copy(update={"acceptance": st.acceptance.model_copy(update={"drift": drift})})
+        st.model_copy(update={"acceptance": st.acceptance.model_copy(update={"drift": drift})}),
+        drift_checks=False,
     )
     st = st.model_copy(update={"acceptance": st.acceptance.model_copy(update={"drift": None})})
     db_path = Path(db_path or Path(f"watch-{Path(station).stem}") / "history.sqlite")
@@ -138,9 +139,14 @@ def watch(
     status_path = Path(status_path or folder / "status.json")
     check_outputs(files=[db_path, status_path], folders=[folder])
     golden_file = st.resolve(drift.golden)
-    monitor = DriftMonitor(
-        plan.golden, dark_offset=plan.model.camera.dark_offset, snr_floor_db=drift.snr_floor_db
-    )
+    try:
+        monitor = DriftMonitor(
+            plan.golden,
+            dark_offset=plan.model.camera.dark_offset,
+            snr_floor_db=drift.snr_floor_db,
+        )
+    except InputError as exc:
+        raise InputError(str(exc), source=str(st.resolve(drift.golden))) from None
     from inspect_validate.files import exclusive_lock
 
     # Two watches on one folder would set each other's cycles aside, even with two --db.
@@ -177,7 +183,7 @@ def watch(
     )
 
     def on_cycle(outcome):
-        doc = status_document(outcome, st)
+        doc = status_document(outcome, st, interval=interval)
         write_json(doc, status_path)
         if server is not None:
             server.doc = doc

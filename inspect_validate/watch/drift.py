@@ -2,22 +2,26 @@
 monitored quantity, and the likely cause from the pattern of what drifted.
 
 Each quantity x (a class's μ and σ² per illumination, a comparison's SNR_dB and
-log₁₀ ε) is standardised by its golden mean μ₀ and spread σ₀, and smoothed. σ₀
-is the upper 90 % confidence bound of the trained repeats' standard deviation
-(s·√((n−1)/χ²₀.₁,ₙ₋₁): ×1.94 for 5 repeats — a short training run
-underestimates the spread as often as not), floored (a golden file of
-near-identical repeats must not make every frame's noise an alarm).
-Comparisons whose golden SNR_dB is below the drift floor (``snr_floor_db``,
-−20 dB) are not charted: the dB of classes that are not separated are the log
-of a near-zero difference, noise without a drift to show.
+log₁₀ ε) is standardised by its golden mean μ₀ and spread σ₀, and smoothed. σ₀ is the
+trained repeats' standard deviation s, floored at their own standard error (repeats
+cannot vary less than their noise; a golden file of version 1, which has none, is
+floored at fixed fractions instead). Comparisons whose golden SNR_dB is below the drift
+floor (``snr_floor_db``, −20 dB) are not charted: the dB of classes that are not
+separated are the log of a near-zero difference, noise without a drift to show.
 
     z_t = λ x_t + (1 − λ) z_{t−1},  z_0 = μ₀
 
-It alarms when |z_t − μ₀| > L σ₀ √(λ/(2 − λ) · (1 − (1 − λ)^{2t})). With m charts
-watched together, L is chosen so that one chart's in-control average run length
-(ARL₀) is m × the family's target (:func:`ewma_limit`; the ARL of a chart is
-computed by the Markov-chain approximation of Brook & Evans (1972), 201
-states) — a Bonferroni split, conservative for correlated charts.
+It alarms when |z_t − μ₀| > L σ₀ √(λ/(2 − λ) · (1 − (1 − λ)^{2t})).
+
+**The limit L.** μ₀ and σ₀ are estimates from n repeats: the chart's target is off by
+δ ~ N(0, σ²/n) and its spread by w = σ₀/σ ~ √(χ²_{n−1}/(n−1)), for as long as the
+golden file is used. L is chosen so that the long-run false-alarm rate, averaged over
+the golden files a station could have trained (E[1/ARL(L·w, shift δ)], by quadrature
+over δ and w; the ARL of a chart by the Markov-chain approximation of Brook & Evans
+(1972)), is 1/(m × the family's ARL) for each of m charts — a Bonferroni split,
+conservative for correlated charts (:func:`design_limit`). The same golden file's
+drift checks in ``verify`` are prediction intervals on the same footing
+(:mod:`inspect_validate.verification.golden`).
 """
 
 from __future__ import annotations
@@ -29,11 +33,14 @@ from functools import lru_cache
 import numpy as np
 
 __all__ = [
+    "FAMILY_ARL",
     "LAMBDA",
     "Chart",
     "DriftMonitor",
     "DriftState",
     "SeriesKey",
+    "chart_repeats_needed",
+    "design_limit",
     "ewma_arl",
     "ewma_limit",
     "series_of",
@@ -41,35 +48,117 @@ __all__ = [
 
 LAMBDA = 0.2  # weight of the newest cycle: detects shifts of ~1 σ₀ within about 10 cycles
 FAMILY_ARL = 1000.0  # in-control cycles between false alarms of the whole family
-# Floors of σ₀: relative for μ and σ², absolute for dB and decades of ε.
+# Floors of σ₀ where the golden file records no standard errors (version 1): relative
+# for μ and σ², absolute for dB and decades of ε.
 _FLOOR = {"mean": 2e-3, "variance": 0.02, "snr_db": 0.05, "log_error": 0.05}
+_DESIGN_STATES = 81  # Markov-chain states of the ARLs the design averages (±1 % of 201's)
+_DESIGN_NODES = 12  # quadrature nodes per tail and dimension (target error, spread)
 
 SeriesKey = tuple  # (illumination, "class" | "comparison", name, quantity)
 
 
-def ewma_arl(limit: float, *, lam: float = LAMBDA, shift: float = 0.0, states: int = 201) -> float:
+def ewma_arl(limit, *, lam: float = LAMBDA, shift=0.0, states: int = 201):
     """Average run length of an asymptotic-limit EWMA chart of unit-variance normal data
     whose mean is ``shift`` σ off target (Brook & Evans' Markov chain, ``states`` states
-    across the in-control band ± ``limit`` σ_z)."""
+    across the in-control band ± ``limit`` σ_z), from the target. ``limit`` and ``shift``
+    may be arrays (broadcast together): one ARL each."""
     from scipy.special import ndtr  # the normal CDF; scipy.stats would add 0.4 s of import
 
-    h = limit * math.sqrt(lam / (2.0 - lam))
+    limit, shift = np.broadcast_arrays(np.asarray(limit, float), np.asarray(shift, float))
+    scale = math.sqrt(lam / (2.0 - lam))  # σ_z of unit data
+    # A band of no width alarms at once, and one whose edge lies more than 9 σ_z beyond
+    # the chart's mean never does (an ARL past 1e17): either would make the chain's
+    # matrix singular in floating point.
+    never = limit - np.abs(shift) / scale > 9.0
+    limit = np.clip(limit, 1e-3, np.abs(shift) / scale + 9.0)
+    h = limit[..., None, None] * scale
     width = 2.0 * h / states
-    centres = -h + width * (np.arange(states) + 0.5)
+    k = np.arange(states) + 0.5
+    centres = -h + width * k[None, :]  # (..., 1, S)
     # From state i, z' = (1 − λ) c_i + λ x falls in state j with x ~ N(shift, 1).
-    lo = (centres - width / 2)[None, :] - (1 - lam) * centres[:, None]
+    lo = (centres - width / 2) - (1 - lam) * np.swapaxes(centres, -1, -2)
     hi = lo + width
-    q = ndtr(hi / lam - shift) - ndtr(lo / lam - shift)
-    arl = np.linalg.solve(np.eye(states) - q, np.ones(states))
-    return float(arl[states // 2])
+    s = shift[..., None, None]
+    q = ndtr(hi / lam - s) - ndtr(lo / lam - s)
+    with np.errstate(all="ignore"):
+        arl = np.linalg.solve(np.eye(states) - q, np.ones((*limit.shape, states, 1)))
+    out = np.where(never, np.inf, arl[..., states // 2, 0])
+    return float(out) if out.ndim == 0 else out
 
 
 @lru_cache(maxsize=64)
 def ewma_limit(arl: float, *, lam: float = LAMBDA) -> float:
-    """The L (in σ_z) whose in-control ARL is ``arl`` cycles."""
+    """The L (in σ_z) whose in-control ARL is ``arl`` cycles, target and spread known."""
     from scipy.optimize import brentq
 
     return float(brentq(lambda x: math.log(ewma_arl(x, lam=lam)) - math.log(arl), 0.5, 8.0))
+
+
+@lru_cache(maxsize=64)
+def design_limit(arl: float, repeats: int, *, lam: float = LAMBDA) -> float:
+    """The L (in σ₀-units of σ_z) whose false-alarm rate, averaged over the golden files
+    of ``repeats`` repeats a station could train, is 1/``arl`` per cycle (module
+    description); :func:`ewma_limit` for a known target and spread (``repeats`` < 2).
+
+    The average is a quadrature over the target's error δ√n ~ N(0, 1) and the spread's
+    w² = χ²_{n−1}/(n − 1), both in probability: at the small rates a family of charts
+    needs, the rare golden files (a spread estimated far too small, a target far off)
+    carry most of it, so the nodes are Gauss–Legendre in log₁₀ of the tail probability,
+    10⁻¹⁴ … ½ (≈ 10⁻¹⁴ of the mass left out). Each node's rate is 1/ARL(L·w, shift δ)
+    by the Markov chain (81 states).
+    """
+    from numpy.polynomial.legendre import leggauss
+    from scipy.optimize import brentq
+    from scipy.special import gammaincinv, ndtri
+
+    if repeats < 2:
+        return ewma_limit(arl, lam=lam)
+    n, df = repeats, repeats - 1
+    x, wx = leggauss(_DESIGN_NODES)
+    log_p = 7.0 * (x + 1.0) - 14.0  # log₁₀ p in [−14, 0]
+    p = 10.0**log_p
+    mass = wx * 7.0 * math.log(10.0) * p  # dp over the nodes
+    # spread: w at the lower-tail probability p (small w alarm most); the upper half of
+    # the distribution by its own nodes (1 − p), each side weighted by its mass
+    low = np.sqrt(2.0 * gammaincinv(df / 2.0, p / 2.0) / df)
+    high = np.sqrt(2.0 * gammaincinv(df / 2.0, 1.0 - p / 2.0) / df)
+    spread = np.concatenate([low, high])
+    spread_w = np.concatenate([mass, mass]) / 2.0
+    # target error: |δ|√n at the two-sided tail probability p (the rate is even in δ)
+    shifts = -ndtri(p / 2.0) / math.sqrt(n)
+    d, w = np.meshgrid(shifts, spread, indexing="ij")
+    weight = np.outer(mass, spread_w)
+    weight /= weight.sum()
+
+    def log_rate(limit: float) -> float:
+        arl_nodes = ewma_arl(limit * w, lam=lam, shift=d, states=_DESIGN_STATES)
+        # Past ~1e15 cycles the chain's solve loses its digits: such a node never alarms.
+        arl_nodes = np.where(np.isfinite(arl_nodes) & (arl_nodes > 0), arl_nodes, np.inf)
+        rate = float(np.sum(weight / np.maximum(arl_nodes, 1.0)))
+        return math.log(max(rate, 1e-300)) + math.log(arl)
+
+    lo = ewma_limit(arl, lam=lam)  # a known target and spread: the least L can be
+    hi = lo
+    while log_rate(hi) > 0:
+        hi *= 1.25
+        if hi > 200:
+            return math.inf  # no limit reaches the rate: too few repeats
+    return float(brentq(log_rate, lo, hi, xtol=1e-3)) if hi > lo else lo
+
+
+def chart_repeats_needed(arl: float, factor: float) -> int:
+    """The fewest repeats whose :func:`design_limit` at ``arl`` is at most ``factor`` ×
+    :func:`ewma_limit` (bisection: a few designs)."""
+    known = ewma_limit(arl)
+    lo, hi = 2, 8
+    while design_limit(arl, hi) > factor * known:
+        lo, hi = hi, hi * 2
+        if hi > 4096:
+            return hi
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        lo, hi = (mid, hi) if design_limit(arl, mid) > factor * known else (lo, mid)
+    return hi
 
 
 @dataclass
@@ -124,33 +213,32 @@ def golden_targets(golden, *, snr_floor_db: float = -20.0) -> dict[SeriesKey, tu
     description)."""
     targets = {}
 
-    def put(key, values, quantity):
-        v = np.array([np.nan if x is None else x for x in values], float)
+    def put(key, spread, quantity):
+        v = np.array([np.nan if x is None else x for x in spread.values], float)
+        se = spread.standard_error
         if quantity == "log_error":
             v = _log_error(v)
+            se = math.nan  # not recorded: the fixed floor
         v = v[np.isfinite(v)]
         if not v.size:
             return
         mu = float(v.mean())
-        sd = 0.0
-        if v.size > 1:
-            from scipy.special import gammaincinv
-
-            # χ²'s 10 % quantile with n − 1 degrees of freedom, as scipy.stats.chi2.ppf
-            chi2_10 = 2.0 * gammaincinv((v.size - 1) / 2.0, 0.1)
-            sd = float(v.std(ddof=1)) * math.sqrt((v.size - 1) / chi2_10)
-        floor = _FLOOR[quantity] * (abs(mu) if quantity in ("mean", "variance") else 1.0)
+        sd = float(v.std(ddof=1)) if v.size > 1 else 0.0
+        if math.isfinite(se):
+            floor = se
+        else:
+            floor = _FLOOR[quantity] * (abs(mu) if quantity in ("mean", "variance") else 1.0)
         targets[key] = (mu, max(sd, floor, 1e-12))
 
     for ill, g in golden.illuminations.items():
         for name, c in g.classes.items():
-            put((ill, "class", name, "mean"), c.mean.values, "mean")
-            put((ill, "class", name, "variance"), c.variance.values, "variance")
+            put((ill, "class", name, "mean"), c.mean, "mean")
+            put((ill, "class", name, "variance"), c.variance, "variance")
         for label, c in g.comparisons.items():
             if not c.snr_db.mean >= snr_floor_db:
                 continue
-            put((ill, "comparison", label, "snr_db"), c.snr_db.values, "snr_db")
-            put((ill, "comparison", label, "log_error"), c.error_gaussian.values, "log_error")
+            put((ill, "comparison", label, "snr_db"), c.snr_db, "snr_db")
+            put((ill, "comparison", label, "log_error"), c.error_gaussian, "log_error")
     return targets
 
 
@@ -190,9 +278,24 @@ class DriftMonitor:
         snr_floor_db: float = -20.0,
         family_arl: float = FAMILY_ARL,
     ):
+        from inspect_validate.errors import InputError
+        from inspect_validate.verification.golden import GOOD_WIDENING, MAX_WIDENING
+
         self.targets = golden_targets(golden, snr_floor_db=snr_floor_db)
         self.dark_offset = float(dark_offset)
-        self.limit = ewma_limit(family_arl * max(len(self.targets), 1))
+        arl = family_arl * max(len(self.targets), 1)
+        self.limit = design_limit(arl, golden.repeats)
+        known = ewma_limit(arl)
+        if not self.limit <= MAX_WIDENING * known:
+            wide = "wider than any" if math.isinf(self.limit) else f"{self.limit / known:.0f} ×"
+            raise InputError(
+                f"{golden.repeats} repeats are too few for {len(self.targets)} drift charts at "
+                f"one false alarm in {family_arl:g} cycles: their bands would be {wide} as "
+                f"wide as a well-known spread sets. Train with --repeats "
+                f"{chart_repeats_needed(arl, MAX_WIDENING)} or more "
+                f"({chart_repeats_needed(arl, GOOD_WIDENING)} for bands within "
+                f"{GOOD_WIDENING:g} ×)"
+            )
         self.charts = {k: Chart(mu, sd, mu) for k, (mu, sd) in self.targets.items()}
 
     def restore(self, key: SeriesKey, *, ewma: float, n: int) -> None:

@@ -52,8 +52,9 @@ class CycleOutcome:
     failures: int  # consecutive failed cycles, this one included
 
 
-def status_document(outcome: CycleOutcome, station) -> dict:
-    """The status file's content: the latest cycle's verdict for the line."""
+def status_document(outcome: CycleOutcome, station, *, interval: float | None = None) -> dict:
+    """The status file's content: the latest cycle's verdict for the line (``interval``:
+    the watch's seconds between cycle starts, for a monitor to tell a stopped watch)."""
     r = outcome.record
     doc = {
         "schema": "inspect-validate/watch-status",
@@ -61,6 +62,7 @@ def status_document(outcome: CycleOutcome, station) -> dict:
         "station": str(station.path),
         "cycle": r.cycle,
         "time": r.started,
+        "interval_s": interval,
         "status": r.status,
         "passed": r.passed,
         "reason": r.reason,

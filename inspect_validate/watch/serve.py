@@ -41,9 +41,20 @@ def prometheus_text(doc: dict) -> str:
         return repr(float(v))
 
     lines = [
+        "# HELP inspect_validate_info The station watched (its file), always 1.",
+        "# TYPE inspect_validate_info gauge",
+        f'inspect_validate_info{{station="{label(doc.get("station", ""))}"}} 1',
         "# HELP inspect_validate_cycle Number of the latest committed watch cycle.",
         "# TYPE inspect_validate_cycle gauge",
         f"inspect_validate_cycle {doc['cycle']}",
+        "# HELP inspect_validate_cycle_timestamp_seconds When the latest committed cycle "
+        "started (Unix time).",
+        "# TYPE inspect_validate_cycle_timestamp_seconds gauge",
+        f"inspect_validate_cycle_timestamp_seconds {number(doc.get('time'))}",
+        "# HELP inspect_validate_cycle_interval_seconds The watch's interval between cycle "
+        "starts (--interval).",
+        "# TYPE inspect_validate_cycle_interval_seconds gauge",
+        f"inspect_validate_cycle_interval_seconds {number(doc.get('interval_s'))}",
         "# HELP inspect_validate_status 1 for the latest cycle's status.",
         "# TYPE inspect_validate_status gauge",
     ]
@@ -53,22 +64,31 @@ def prometheus_text(doc: dict) -> str:
         "# HELP inspect_validate_consecutive_failures Failed cycles in a row.",
         "# TYPE inspect_validate_consecutive_failures gauge",
         f"inspect_validate_consecutive_failures {doc['consecutive_failures']}",
-        "# HELP inspect_validate_value Latest measured value per illumination, class or "
-        "comparison and quantity (log_error: log10 of ε).",
-        "# TYPE inspect_validate_value gauge",
     ]
-    alarms = []
+    series = {
+        "value": "Latest measured value per illumination, class or comparison and quantity "
+        "(mean DN, variance DN², snr_db dB, log_error: log10 of ε).",
+        "ewma": "The quantity's drift chart: its smoothed value (EWMA).",
+        "band_low": "The drift chart's lower limit.",
+        "band_high": "The drift chart's upper limit.",
+        "alarm": "1 where the quantity's drift chart alarms.",
+    }
+    keys = {"value": "value", "ewma": "ewma", "band_low": "low", "band_high": "high"}
+    rows: dict[str, list[str]] = {name: [] for name in series}
     for v in doc["values"]:
         labels = ",".join(
             f'{k}="{label(v[k])}"' for k in ("illumination", "kind", "name", "quantity")
         )
-        lines.append(f"inspect_validate_value{{{labels}}} {number(v['value'])}")
-        alarms.append(f"inspect_validate_alarm{{{labels}}} {int(v['alarm'])}")
-    lines += [
-        "# HELP inspect_validate_alarm 1 where the quantity's drift chart alarms.",
-        "# TYPE inspect_validate_alarm gauge",
-        *alarms,
-    ]
+        for name, key in keys.items():
+            if key in v:
+                rows[name].append(f"inspect_validate_{name}{{{labels}}} {number(v[key])}")
+        rows["alarm"].append(f"inspect_validate_alarm{{{labels}}} {int(v['alarm'])}")
+    for name, text in series.items():
+        lines += [
+            f"# HELP inspect_validate_{name} {text}",
+            f"# TYPE inspect_validate_{name} gauge",
+            *rows[name],
+        ]
     return "\n".join(lines) + "\n"
 
 

@@ -394,7 +394,7 @@ def test_a_history_that_outgrows_the_file_size_limit(tmp_path):
     frames are kept, and the watch continues the same history once the limit is raised.
     Below what a new history needs, it is not created at all (no half-made file)."""
     path = _small_station(tmp_path)
-    assert run_cli(["train", path, "--out", tmp_path / "g.json", "--repeats", 2]) == 0
+    assert run_cli(["train", path, "--out", tmp_path / "g.json", "--repeats", 5]) == 0
     db = tmp_path / "w" / "history.sqlite"
     done = _limited_watch(path, tmp_path / "g.json", db, 48)
     assert done.returncode == 2, done.stderr
