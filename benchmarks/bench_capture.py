@@ -48,11 +48,12 @@ from functools import partial
 from pathlib import Path
 
 import yaml
-from inspect_validate.camera import capture as capture_module
-from inspect_validate.camera.devices import open_devices
-from inspect_validate.camera.station import read_station
-from inspect_validate.camera.storage import CaptureStore
 from machine import machine_line
+
+from inspect_validate.station import capture as capture_module
+from inspect_validate.camera.storage import CaptureStore
+from inspect_validate.station.devices import open_devices
+from inspect_validate.station.file import read_station
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -144,7 +145,7 @@ def fake_gige() -> str:
 
     serial = "BENCH1"
     proc = subprocess.Popen(
-        [sys.executable, "-m", "inspect_validate.camera.grabbers.fake_gige", serial],
+        [sys.executable, "-m", "inspect_validate.simulation.fake_gige", serial],
         stdout=subprocess.PIPE,
         text=True,
     )

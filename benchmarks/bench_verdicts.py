@@ -126,9 +126,8 @@ def with_drift(path: Path, folder: Path) -> Path:
 def work(args) -> list:
     """One process's share of the runs of one station."""
     path, repeats, runs, changes = args
-    from inspect_validate.camera.station import read_station
-
     from inspect_validate.simulation import run_trials
+    from inspect_validate.station.file import read_station
 
     station = read_station(path)
     return list(run_trials(station, runs=runs, repeats=repeats, changes=changes))
@@ -157,7 +156,7 @@ def main() -> None:
 
     import tempfile
 
-    from inspect_validate.camera.station import read_station
+    from inspect_validate.station.file import read_station
 
     print(machine_line())
     t0 = time.perf_counter()

@@ -128,9 +128,8 @@ def small_station(folder: Path, world: dict) -> Path:
 
 def _watch_share(args):
     path, runs, cycles = args
-    from inspect_validate.camera.station import read_station
-
     from inspect_validate.simulation import watch_trials
+    from inspect_validate.station.file import read_station
 
     return list(watch_trials(read_station(path), runs=runs, repeats=5, cycles=cycles))
 
@@ -179,8 +178,8 @@ def detection(tmp: Path, golden: Path, change: dict, cause: str, repeats: int):
 
 
 def capture_time(tmp: Path) -> float:
-    from inspect_validate.camera.capture import capture
-    from inspect_validate.camera.station import read_station
+    from inspect_validate.station.capture import capture
+    from inspect_validate.station.file import read_station
 
     st = read_station(station(tmp / "capture"))
     times = []

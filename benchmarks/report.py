@@ -256,11 +256,10 @@ def region(quick: bool) -> Knob:
 
 
 def frames_averaged(quick: bool) -> Knob:
-    from inspect_validate.camera.devices import open_devices
-    from inspect_validate.camera.station import read_station
-    from inspect_validate.camera.stopping import SequentialStop
-
     from inspect_validate.roi import class_masks, read_rois
+    from inspect_validate.station.devices import open_devices
+    from inspect_validate.station.file import read_station
+    from inspect_validate.station.stopping import SequentialStop
     from inspect_validate.stats import region_statistics, sample_moments
 
     knob = Knob(
@@ -377,10 +376,10 @@ def skipped_work(quick: bool) -> Knob:
     import tempfile
 
     import yaml
-    from inspect_validate.camera.capture import capture
-    from inspect_validate.camera.station import read_station
 
+    from inspect_validate.station.capture import capture
     from inspect_validate.measurement import measure_files
+    from inspect_validate.station.file import read_station
     from inspect_validate.verification.verify import (
         dominated_illuminations,
         plan_verification,

@@ -1,6 +1,9 @@
-"""Capture sequencing: every illumination of a station, verified, saved before any analysis.
+"""Capture sequencing: every step (a light setting), verified, saved before any analysis.
 
-For each illumination (and finally the dark frames, all lights off):
+The device layer's capture: an open camera and controller, the steps, the camera
+settings and a capture folder; what a station makes of it is
+:func:`inspect_validate.station.capture.capture`. For each step (a station's
+illuminations, and finally the dark frames, all lights off):
 
 1. switch the controller and wait for its acknowledgement;
 2. discard frames exposed before the switch: frames whose exposure timestamp
@@ -38,15 +41,19 @@ import time
 from collections import Counter
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from inspect_validate.camera.station import Station, station_hash
-from inspect_validate.camera.stopping import Known, SequentialStop
-from inspect_validate.camera.storage import CaptureStore
 
 from inspect_validate.errors import DeviceError, InputError
 
-__all__ = ["CaptureResult", "Step", "capture", "station_steps", "verified_frames"]
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    from inspect_validate.camera.settings import CameraSettings, Pulse
+    from inspect_validate.camera.storage import CaptureStore
+
+__all__ = ["CaptureResult", "Step", "capture_steps", "verified_frames"]
 
 
 @dataclass(frozen=True)
@@ -56,7 +63,7 @@ class CaptureResult:
     skipped: tuple[str, ...]  # steps already complete (resume)
     not_applied: tuple[str, ...] = ()  # station settings the camera has no node for
     warnings: tuple[str, ...] = ()  # e.g. a step no brighter than dark
-    known: dict[str, Known] = field(default_factory=dict)  # step → precision (precision:)
+    known: dict[str, Any] = field(default_factory=dict)  # step → the stopping rule's known()
 
 
 def verified_frames(
@@ -200,7 +207,7 @@ def _agrees(frame, kept, tolerance) -> bool:
 @dataclass(frozen=True)
 class Step:
     """One step of a capture: a light setting (channel → %), the frames to keep, and the
-    exposure to take them at (µs; None: the station's ``camera.exposure_us``)."""
+    exposure to take them at (µs; None: the settings' ``exposure_us``)."""
 
     name: str
     channels: dict
@@ -208,215 +215,214 @@ class Step:
     exposure_us: float | None = None
 
 
-def station_steps(station: Station) -> list[Step]:
-    """The station's illuminations, then its dark frames: what ``capture`` takes."""
-    steps = [Step(i.name, dict(i.channels), station.frames) for i in station.illuminations]
-    if station.dark_frames:
-        steps.append(Step("dark", {}, station.dark_frames))
-    return steps
-
-
-def capture(
-    station: Station,
-    out: Path,
+def capture_steps(
+    controller,
+    camera,
+    steps: list[Step],
+    store: CaptureStore,
+    settings: CameraSettings,
     *,
-    resume: bool = False,
+    pulse: Pulse | None = None,
+    discard_max: int = 20,
+    brightness_tolerance: float = 0.02,
+    source: str = "the station file",
+    stopping: Callable[[str], Any] | None = None,
     progress=None,
-    devices=None,
-    steps: list[Step] | None = None,
 ) -> CaptureResult:
-    """Run the station's capture sequence into ``out``.
+    """Run ``steps`` on an open ``controller`` and ``camera`` into ``store``.
 
-    ``progress(step, done, total)`` is called after every verified frame (its
-    save may still be under way; a step is complete only once all are written).
-    ``devices`` replaces the station's camera and controller with a context
-    manager yielding ``(controller, camera)`` (other setups, tests). ``steps``
-    replaces :func:`station_steps` (``characterize``'s exposure series).
+    Parameters
+    ----------
+    controller, camera
+        An open :class:`~inspect_validate.camera.controllers.base.LedController` and
+        :class:`~inspect_validate.camera.grabbers.base.Grabber`.
+    steps : list of Step
+    store : CaptureStore
+        The capture folder (resumed steps that are complete are skipped).
+    settings : CameraSettings
+        What the camera is set to and how its frames start.
+    pulse : Pulse, keyword-only, optional
+        The controller's pulse mode, used where frames are strobed or hardware-triggered.
+    discard_max, brightness_tolerance : keyword-only
+        Frames a step may discard, and the relative agreement of its frames' means.
+    source : str, keyword-only
+        Where the settings come from, for messages.
+    stopping : callable, keyword-only, optional
+        ``stopping(step)`` → a rule with ``add(frame_data) -> bool`` (True: enough frames)
+        and ``known()`` (what it found), or None for a step that takes all its frames.
+    progress : callable, keyword-only, optional
+        ``progress(step, done, total)`` after every verified frame (its save may still be
+        under way; a step is complete only once all are written).
     """
-    from inspect_validate.camera.devices import open_devices
-
-    store = CaptureStore(
-        out, station_path=station.path, station_sha256=station_hash(station.path), resume=resume
-    )
-    steps = [
-        (s.name, s.channels, s.frames, s.exposure_us)
-        for s in (station_steps(station) if steps is None else steps)
-    ]
+    steps = [(s.name, s.channels, s.frames, s.exposure_us) for s in steps]
     saved, skipped, known = {}, [], {}
     levels: dict[str, float] = {}  # mean grey value of each step captured in this run
-    rois = _precision_rois(station)
     total = sum(s[2] for s in steps)
     done = 0
-    with devices if devices is not None else open_devices(station) as (controller, camera):
-        cam = station.camera
-        camera.configure(
-            exposure_us=cam.exposure_us, gain_db=cam.gain_db, pixel_format=cam.pixel_format
-        )
-        asked = {"exposure": cam.exposure_us, "gain": cam.gain_db, "pixel_format": cam.pixel_format}
-        not_applied = tuple(sorted(m for m in camera.missing if asked.get(m) is not None))
-        mode, chunk = _arm(station, camera)  # refuses what the camera lacks, lights untouched
-        pulse = station.controller.pulse if cam.strobe_line or mode == "hardware-trigger" else None
-        # The manifest is written only now: a camera that fails to open leaves
-        # nothing that would block a plain rerun.
-        store.record(
-            "camera",
-            {
-                "name": camera.name,
-                "missing": sorted(camera.missing),
-                "not_applied": not_applied,
-                "acquisition": mode,
-                "chunks": sorted(chunk or ()),
-                "strobe_line": cam.strobe_line,
-                "trigger_line": cam.trigger_line if mode == "hardware-trigger" else None,
-            },
-        )
-        next_frame = _frame_source(camera, controller, mode, pulse, cam.timeout_s)
-        pending = None  # a step whose frames are grabbed; their saves may still run
+    cam = settings
+    camera.configure(
+        exposure_us=cam.exposure_us, gain_db=cam.gain_db, pixel_format=cam.pixel_format
+    )
+    asked = {"exposure": cam.exposure_us, "gain": cam.gain_db, "pixel_format": cam.pixel_format}
+    not_applied = tuple(sorted(m for m in camera.missing if asked.get(m) is not None))
+    mode, chunk = _arm(cam, camera, source)  # refuses what the camera lacks, lights untouched
+    if not (cam.strobe_line or mode == "hardware-trigger"):
+        pulse = None
+    # The manifest is written only now: a camera that fails to open leaves
+    # nothing that would block a plain rerun.
+    store.record(
+        "camera",
+        {
+            "name": camera.name,
+            "missing": sorted(camera.missing),
+            "not_applied": not_applied,
+            "acquisition": mode,
+            "chunks": sorted(chunk or ()),
+            "strobe_line": cam.strobe_line,
+            "trigger_line": cam.trigger_line if mode == "hardware-trigger" else None,
+        },
+    )
+    next_frame = _frame_source(camera, controller, mode, pulse, cam.timeout_s)
+    pending = None  # a step whose frames are grabbed; their saves may still run
 
-        def complete(step):
-            """Mark ``step`` complete once all its frames are on disk; a failed save fails it."""
-            nonlocal pending
-            pending = None
-            try:
-                store.flush()
-            except InputError as exc:
-                store.fail(step, str(exc))
-                raise
-            store.finish(step)
-
-        def abort(step, exc):
-            """Record why ``step`` failed once every frame grabbed before is written."""
-            nonlocal pending
-            unsaved = store.close()  # the frames grabbed before the failure are kept
-            if unsaved is not None:
-                pending = None  # which step's frame failed is in the message, not known here
-            also = f"; saving its frames failed too: {unsaved}" if unsaved else ""
-            store.fail(step, f"{exc}{also}")
-
+    def complete(step):
+        """Mark ``step`` complete once all its frames are on disk; a failed save fails it."""
+        nonlocal pending
+        pending = None
         try:
-            exposure = cam.exposure_us
-            for name, setting, n, step_exposure in steps:
-                if store.is_complete(name):
-                    skipped.append(name)
-                    done += n
-                    continue
-                as_json = {str(k): v for k, v in setting.items()}  # JSON keys are strings
-                want = cam.exposure_us if step_exposure is None else step_exposure
-                if want != exposure:  # an exposure series: set before the light switches
-                    camera.configure(exposure_us=want)
-                    exposure = want
-                    if chunk and "ExposureTime" in chunk:
-                        chunk = {**chunk, "ExposureTime": (want, chunk["ExposureTime"][1])}
-                try:
-                    if pulse is not None:
-                        controller.apply_pulsed(
-                            setting, width_us=pulse.width_us, delay_us=pulse.delay_us
-                        )
-                    else:
-                        controller.apply(setting)
-                    switched = time.monotonic_ns()
-                    # A camera that can restart its stream drops every queued buffer:
-                    # nothing exposed before the switch can arrive after it. A triggered
-                    # camera exposes nothing until triggered after the switch.
-                    fresh = mode != "free-run" or camera.restart_stream()
-                except (DeviceError, InputError) as exc:
-                    abort(name, exc)
-                    raise
-                if pending is not None:
-                    complete(pending)  # its last saves end while this step's first frame exposes
-                try:
-                    store.begin(name, {"channels": as_json})
-                    status = controller.status()
-                    if status:
-                        store.note(name, "controller_status", status)
-                    info = {
-                        "step": name,
-                        "light_setting": as_json,
-                        "light_switched_ns": switched,
-                        "acquisition": mode,
-                        # Triggered after the switch, or the stream restarted: no frame
-                        # from before it can arrive (by construction, not by a check).
-                        "stale_frames_possible": not fresh,
-                        "stream_restarted": mode == "free-run" and fresh,
-                        "light_pulsed": pulse is not None,
-                        "controller": controller.name,
-                    }
-                    if mode != "free-run" and cam.settle_ms:
-                        time.sleep(cam.settle_ms / 1000)
-                    frames = verified_frames(
-                        camera,
-                        n,
-                        switched_ns=switched,
-                        discard_max=station.discard_max,
-                        tolerance=station.brightness_tolerance,
-                        timeout_s=cam.timeout_s,
-                        flush=0 if fresh else max(cam.flush_frames, camera.pipeline_frames),
-                        next_frame=next_frame,
-                        chunk=chunk,
-                    )
-                    stop = None
-                    if rois is not None and name != "dark":
-                        p = station.precision
-                        stop = SequentialStop(
-                            rois, mean=p.mean, variance=p.variance, min_frames=p.min_frames
-                        )
-                    total_mean, i, discarded = 0.0, 0, {}
-                    for i, (frame, discarded) in enumerate(frames, start=1):
-                        # Written on the writer thread while the next frame is grabbed.
-                        store.save_later(
-                            name,
-                            i,
-                            frame,
-                            {
-                                **info,
-                                "discarded_before": sum(discarded.values()),
-                                "discarded": discarded,
-                            },
-                        )
-                        total_mean += frame.mean
-                        enough = stop is not None and stop.add(frame.data)
-                        done += 1 + (n - i if enough else 0)  # the frames not needed count as done
-                        if progress:
-                            progress(name, done, total)
-                        if enough:
-                            break
-                    store.note(name, "acquisition", mode)
-                    store.note(name, "discarded", discarded)
-                    if stop is not None:
-                        known[name] = stop.known()
-                        store.note(name, "precision", asdict(known[name]))
-                # InputError: ROIs off the frame, a full disk.
-                except (DeviceError, InputError) as exc:
-                    abort(name, exc)
-                    raise
-                pending = name
-                saved[name] = i
-                levels[name] = total_mean / i
-            if pending is not None:
-                complete(pending)
-        finally:
+            store.flush()
+        except InputError as exc:
+            store.fail(step, str(exc))
+            raise
+        store.finish(step)
+
+    def abort(step, exc):
+        """Record why ``step`` failed once every frame grabbed before is written."""
+        nonlocal pending
+        unsaved = store.close()  # the frames grabbed before the failure are kept
+        if unsaved is not None:
+            pending = None  # which step's frame failed is in the message, not known here
+        also = f"; saving its frames failed too: {unsaved}" if unsaved else ""
+        store.fail(step, f"{exc}{also}")
+
+    try:
+        exposure = cam.exposure_us
+        for name, setting, n, step_exposure in steps:
+            if store.is_complete(name):
+                skipped.append(name)
+                done += n
+                continue
+            as_json = {str(k): v for k, v in setting.items()}  # JSON keys are strings
+            want = cam.exposure_us if step_exposure is None else step_exposure
+            if want != exposure:  # an exposure series: set before the light switches
+                camera.configure(exposure_us=want)
+                exposure = want
+                if chunk and "ExposureTime" in chunk:
+                    chunk = {**chunk, "ExposureTime": (want, chunk["ExposureTime"][1])}
             try:
-                controller.all_off()
-            except DeviceError:
-                pass  # the original error matters more; the frames are saved
-            # An interruption (Ctrl-C) or an error still writes every frame grabbed before
-            # it; a step whose every frame was grabbed is then complete.
-            if store.close() is None and pending is not None:
-                store.finish(pending)
-    warnings = _unlit_steps(levels, station.brightness_tolerance)
+                if pulse is not None:
+                    controller.apply_pulsed(
+                        setting, width_us=pulse.width_us, delay_us=pulse.delay_us
+                    )
+                else:
+                    controller.apply(setting)
+                switched = time.monotonic_ns()
+                # A camera that can restart its stream drops every queued buffer:
+                # nothing exposed before the switch can arrive after it. A triggered
+                # camera exposes nothing until triggered after the switch.
+                fresh = mode != "free-run" or camera.restart_stream()
+            except (DeviceError, InputError) as exc:
+                abort(name, exc)
+                raise
+            if pending is not None:
+                complete(pending)  # its last saves end while this step's first frame exposes
+            try:
+                store.begin(name, {"channels": as_json})
+                status = controller.status()
+                if status:
+                    store.note(name, "controller_status", status)
+                info = {
+                    "step": name,
+                    "light_setting": as_json,
+                    "light_switched_ns": switched,
+                    "acquisition": mode,
+                    # Triggered after the switch, or the stream restarted: no frame
+                    # from before it can arrive (by construction, not by a check).
+                    "stale_frames_possible": not fresh,
+                    "stream_restarted": mode == "free-run" and fresh,
+                    "light_pulsed": pulse is not None,
+                    "controller": controller.name,
+                }
+                if mode != "free-run" and cam.settle_ms:
+                    time.sleep(cam.settle_ms / 1000)
+                frames = verified_frames(
+                    camera,
+                    n,
+                    switched_ns=switched,
+                    discard_max=discard_max,
+                    tolerance=brightness_tolerance,
+                    timeout_s=cam.timeout_s,
+                    flush=0 if fresh else max(cam.flush_frames, camera.pipeline_frames),
+                    next_frame=next_frame,
+                    chunk=chunk,
+                )
+                stop = stopping(name) if stopping is not None else None
+                total_mean, i, discarded = 0.0, 0, {}
+                for i, (frame, discarded) in enumerate(frames, start=1):
+                    # Written on the writer thread while the next frame is grabbed.
+                    store.save_later(
+                        name,
+                        i,
+                        frame,
+                        {
+                            **info,
+                            "discarded_before": sum(discarded.values()),
+                            "discarded": discarded,
+                        },
+                    )
+                    total_mean += frame.mean
+                    enough = stop is not None and stop.add(frame.data)
+                    done += 1 + (n - i if enough else 0)  # the frames not needed count as done
+                    if progress:
+                        progress(name, done, total)
+                    if enough:
+                        break
+                store.note(name, "acquisition", mode)
+                store.note(name, "discarded", discarded)
+                if stop is not None:
+                    known[name] = stop.known()
+                    store.note(name, "precision", asdict(known[name]))
+            # InputError: ROIs off the frame, a full disk.
+            except (DeviceError, InputError) as exc:
+                abort(name, exc)
+                raise
+            pending = name
+            saved[name] = i
+            levels[name] = total_mean / i
+        if pending is not None:
+            complete(pending)
+    finally:
+        try:
+            controller.all_off()
+        except DeviceError:
+            pass  # the original error matters more; the frames are saved
+        # An interruption (Ctrl-C) or an error still writes every frame grabbed before
+        # it; a step whose every frame was grabbed is then complete.
+        if store.close() is None and pending is not None:
+            store.finish(pending)
+    warnings = _unlit_steps(levels, brightness_tolerance)
     if warnings:
         store.record("warnings", list(warnings))
-    return CaptureResult(Path(out), saved, tuple(skipped), not_applied, warnings, known)
+    return CaptureResult(Path(store.folder), saved, tuple(skipped), not_applied, warnings, known)
 
 
-def _arm(station: Station, camera) -> tuple[str, dict | None]:
-    """Resolve the station's acquisition mode on ``camera`` and arm it.
+def _arm(cam: CameraSettings, camera, source: str) -> tuple[str, dict | None]:
+    """Resolve the settings' acquisition mode on ``camera`` and arm it.
 
     Returns the mode and the chunk check (chunk name → (requested, increment)), or
     None without chunks. Refuses, before any light is switched, a mode, line or
     chunk the camera lacks, naming the feature and the camera.
     """
-    cam = station.camera
     has = camera.features()
     mode = cam.acquisition
     if mode == "auto":
@@ -439,7 +445,7 @@ def _arm(station: Station, camera) -> tuple[str, dict | None]:
         raise InputError(
             f"{camera.name} lacks {'; '.join(lacks)}. Nothing was switched: choose what the "
             "camera has (camera.acquisition: free-run runs on every camera)",
-            source=f"{station.path}: camera",
+            source=f"{source}: camera",
         )
     use_chunks = bool(has.chunks) if cam.chunks is None else cam.chunks
     camera.arm(
@@ -482,16 +488,6 @@ def _frame_source(camera, controller, mode: str, pulse, timeout_s: float):
         return camera.grab(1, timeout_s=timeout_s)[0], sent, untriggered
 
     return next_frame
-
-
-def _precision_rois(station: Station):
-    """The station's ROI set when its steps stop on precision (read before any device
-    opens, so a bad ROI file costs no capture), else None."""
-    if station.precision is None:
-        return None
-    from inspect_validate.roi import read_rois
-
-    return read_rois(station.resolve(station.rois))
 
 
 def _unlit_steps(levels: dict[str, float], tolerance: float) -> tuple[str, ...]:

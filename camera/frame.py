@@ -10,9 +10,10 @@ import numpy as np
 __all__ = ["Frame"]
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, kw_only=True)
 class Frame:
-    """One monochrome frame, owning its pixels.
+    """One monochrome frame, owning its pixels (made by keywords: ten fields are too many to
+    tell apart by position).
 
     Attributes
     ----------

@@ -25,7 +25,7 @@ import numpy as np
 
 from inspect_validate.errors import DeviceError
 
-__all__ = ["BIT_DEPTH", "MONO_FORMATS", "PFNC_CODES", "packed_size", "unpack"]
+__all__ = ["BIT_DEPTH", "MONO_FORMATS", "PACKED", "PFNC_CODES", "packed_size", "unpack"]
 
 BIT_DEPTH = {
     "Mono8": 8,
@@ -52,6 +52,8 @@ PFNC_CODES = {
     0x010C0006: "Mono12Packed",
 }
 _BITS_STORED = {"Mono8": 8, "Mono10p": 10, "Mono12p": 12, "Mono10Packed": 12, "Mono12Packed": 12}
+#: Formats whose pixels share bytes (:func:`unpack` them).
+PACKED = frozenset(f for f, bits in _BITS_STORED.items() if bits % 8)
 
 
 def packed_size(pixel_format: str, n_pixels: int) -> int:

@@ -31,9 +31,8 @@ import time
 from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 
-from inspect_validate.camera.frame import Frame
-
 from inspect_validate import __version__
+from inspect_validate.camera.frame import Frame
 from inspect_validate.errors import InputError
 from inspect_validate.files import atomic_write
 
@@ -324,19 +323,20 @@ def audit_capture(folder: Path, manifest: dict, steps) -> dict[str, str]:
 
 
 def read_capture(
-    folder: Path, station
+    folder: Path, steps
 ) -> tuple[dict[str, list[Path]], list[Path], dict, dict[str, str]]:
-    """Frame files of each illumination and of the darks in a capture folder, its
-    manifest, and each frame file's SHA-256 — after checking that the frames are those
-    the capture wrote (:func:`audit_capture`).
+    """Frame files of each of ``steps`` (the illuminations' names) and of the darks in a
+    capture folder, its manifest, and each frame file's SHA-256 — after checking that the
+    frames are those the capture wrote (:func:`audit_capture`).
 
     Raises
     ------
     InputError
-        No manifest, an illumination of the station missing or incomplete, or frames
-        changed since they were written (each disagreement named).
+        No manifest, one of ``steps`` missing or incomplete, or frames changed since they
+        were written (each disagreement named).
     """
     folder = Path(folder)
+    wanted = list(steps)
     manifest_path = folder / "manifest.json"
     if not manifest_path.is_file():
         raise InputError(
@@ -347,15 +347,15 @@ def read_capture(
     manifest = read_manifest(manifest_path)
     steps = manifest["steps"]
     frames = {}
-    for ill in station.illuminations:
-        files = sorted((folder / ill.name).glob("frame_*.tif"))
-        if not steps.get(ill.name, {}).get("complete") or not files:
+    for name in wanted:
+        files = sorted((folder / name).glob("frame_*.tif"))
+        if not steps.get(name, {}).get("complete") or not files:
             raise InputError(
-                f"illumination {ill.name!r} was not captured completely here; "
+                f"illumination {name!r} was not captured completely here; "
                 "rerun the capture with --resume",
                 source=str(folder),
             )
-        frames[ill.name] = files
+        frames[name] = files
     dark = (
         sorted((folder / "dark").glob("frame_*.tif"))
         if steps.get("dark", {}).get("complete")

@@ -8,11 +8,11 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from inspect_validate.camera.station import Station
     from inspect_validate.measurement import Limits, Measurement
     from inspect_validate.mix_design.solve import Design
     from inspect_validate.model import Prediction, Ranking
     from inspect_validate.scene import Scene
+    from inspect_validate.station.file import Station
     from inspect_validate.verification.golden import Golden
     from inspect_validate.verification.verify import Verification
 
@@ -89,7 +89,7 @@ def read_station(path: str | Path) -> Station:
     >>> [i.name for i in station.illuminations]
     ['amber', 'red']
     """
-    from inspect_validate.camera.station import read_station as read
+    from inspect_validate.station.file import read_station as read
 
     return read(path)
 
@@ -284,7 +284,7 @@ def capture(station: Station | str | Path, out: str | Path, *, resume: bool = Fa
     DeviceError
         The camera or the controller failed; the frames saved so far are kept.
     """
-    from inspect_validate.camera.capture import capture as run
+    from inspect_validate.station.capture import capture as run
 
     return run(_station(station), Path(out), resume=resume)
 
@@ -294,10 +294,13 @@ def verify(
     frames: str | Path | None = None,
     *,
     out: str | Path | None = None,
+    all_illuminations: bool = False,
 ) -> Verification:
     """Verify a station: capture it into ``out`` (unless ``frames``, an earlier capture
     folder, is given), measure it and check the measurement against the prediction
-    and the acceptance section. :attr:`Verification.passed` is the verdict.
+    and the acceptance section. :attr:`Verification.passed` is the verdict. As
+    ``inspect-validate verify``: illuminations no check needs and the prediction shows
+    clearly worse are not captured unless the measurement contradicts it.
 
     Parameters
     ----------
@@ -306,6 +309,8 @@ def verify(
         An earlier capture folder of this station to verify instead of capturing.
     out : str or Path, keyword-only, optional
         Where to capture (default: a new folder in the working directory).
+    all_illuminations : bool, keyword-only
+        Capture every illumination (``verify --all-illuminations``).
 
     Returns
     -------
@@ -324,7 +329,9 @@ def verify(
     """
     from inspect_validate.verification.verify import verify_station
 
-    return verify_station(_station(station), frames=frames, out=out)
+    return verify_station(
+        _station(station), frames=frames, out=out, skip_dominated=not all_illuminations
+    )
 
 
 def train(station: Station | str | Path, captures) -> Golden:

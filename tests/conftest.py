@@ -32,7 +32,7 @@ def simulator(tmp_path):
             [
                 sys.executable,
                 "-m",
-                "inspect_validate.camera.lights.simulator",
+                "inspect_validate.simulation.controller",
                 "--state",
                 str(state),
                 *args,

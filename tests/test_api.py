@@ -76,3 +76,25 @@ def test_a_scene_sweeps_with_its_own_ranking_and_prints_the_commands_table(cli):
     ours = [line for line in table.splitlines() if line.startswith("1 ")]
     printed = [line for line in out.splitlines() if line.startswith("1 ")]
     assert ours and printed and ours[0].split()[:12] == printed[0].split()[:12]
+
+
+def test_iv_verify_and_the_cli_skip_the_same_illuminations_by_default(tmp_path):
+    """With the ranking off, red is predicted far behind amber on every comparison: both
+    `verify` and iv.verify leave it out, saying so; all_illuminations (the CLI's
+    --all-illuminations) captures it."""
+    import yaml
+    from conftest import copy_station
+
+    path = copy_station(tmp_path)
+    doc = yaml.safe_load(path.read_text())
+    doc["acceptance"]["ranking"] = False
+    path.write_text(yaml.safe_dump(doc, sort_keys=False))
+    report = tmp_path / "r"
+    assert run_cli(["verify", path, "--out", tmp_path / "cli", "--report", report]) == 0
+    cli_skipped = json.loads((report / "verification.json").read_text())["skipped"]
+    result = iv.verify(path, out=tmp_path / "api")
+    red = [s for s in result.skipped if s.startswith("illumination 'red'")]
+    assert red and red == [s for s in cli_skipped if s.startswith("illumination 'red'")]
+    assert set(result.measurements) == {"amber"}
+    every = iv.verify(path, out=tmp_path / "all", all_illuminations=True)
+    assert set(every.measurements) == {"amber", "red"}

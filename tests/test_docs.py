@@ -85,12 +85,17 @@ def test_format_pages_read_each_fields_docstring_and_constraints(monkeypatch):
     # the docs build, not by pydantic at import: that cost the command line 50 ms).
     monkeypatch.syspath_prepend(str(DOCS / "_ext"))
     from file_models import _field_docs, model_rst
-    from inspect_validate.camera.station import GardasoftControllerSpec, Station
+
+    from inspect_validate.camera.controllers.gardasoft import GardasoftSettings
+    from inspect_validate.station.file import Station
 
     assert _field_docs(Station)["frames"].startswith("Frames per illumination")
-    controller = _field_docs(GardasoftControllerSpec)  # a field of its base too
+    controller = _field_docs(GardasoftSettings)  # a field of its base too
     assert controller["timeout_s"].startswith("How long to wait for a reply")
     assert controller["port"].startswith("Serial port")
     text = "\n".join(model_rst(Station, "station file"))
     assert "* - `frames`\n  - integer (≥ 1, ≤ 100000)\n  - `4`\n  - Frames per illumination" in text
     assert "camera (genicam)" in text and "controller (gardasoft)" in text
+    # A backend's section is its settings and the station's keys: the docs read both.
+    assert "* - `camera.cti`" in text or "`cti`" in text
+    assert "which of the scene's cameras" in text.lower()

@@ -93,3 +93,51 @@ def test_no_import_cycle(depth):
 
 def test_the_checker_finds_a_cycle():
     assert _cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+
+
+# What the device layer may use of the rest: exit-code errors, atomic files, reading
+# image files (the replay camera), and the strict-model base of its settings.
+DEVICE_LAYER_MAY_IMPORT = {
+    "inspect_validate",  # the version
+    "inspect_validate.errors",
+    "inspect_validate.files",
+    "inspect_validate.images",
+    "inspect_validate.config",
+}
+
+
+def test_the_device_layer_imports_nothing_of_the_science():
+    """camera/ (installed as inspect_validate.camera) is devices only: grabbers, light
+    controllers, the capture sequence and its folder. It imports no model, scene,
+    statistics, station or verification, counting imports inside functions."""
+    mods = _modules()
+    device = {name for name in mods if name.startswith("inspect_validate.camera")}
+    edges = _edges(9)
+    wrong = {
+        (name, target)
+        for name in device
+        for target in edges.get(name, ())
+        if not target.startswith("inspect_validate.camera")
+        and target not in DEVICE_LAYER_MAY_IMPORT
+    }
+    assert not wrong, sorted(wrong)
+
+
+def test_the_layer_check_sees_a_forbidden_import(tmp_path, monkeypatch):
+    """The check above fails on a device module that imports the model (a copy of the
+    tree with one such import added)."""
+    import shutil
+
+    import conftest
+
+    copy = tmp_path / "tree"
+    for part in ("inspect_validate", "camera"):
+        shutil.copytree(ROOT / part, copy / part)
+    grabber = copy / "camera" / "grabbers" / "v4l2.py"
+    grabber.write_text(
+        grabber.read_text() + "\n\ndef _f():\n    from inspect_validate.model import predict\n"
+    )
+    monkeypatch.setattr(conftest, "ROOT", copy)
+    monkeypatch.setitem(globals(), "ROOT", copy)
+    with pytest.raises(AssertionError, match="inspect_validate.model"):
+        test_the_device_layer_imports_nothing_of_the_science()

@@ -21,16 +21,24 @@ Debian 12's GLib with ``libgirepository1.0-dev``, ``libcairo2-dev`` and ``pkg-co
 
 from __future__ import annotations
 
-import time
+import contextlib
+from typing import Annotated, Literal
 
 import numpy as np
-from inspect_validate.camera.frame import Frame
-from inspect_validate.camera.grabbers.base import NodeMapGrabber
-from inspect_validate.camera.pixelformats import BIT_DEPTH, PFNC_CODES, packed_size, unpack
+from pydantic import Field
 
+from inspect_validate.camera.grabbers.base import (
+    Buffer,
+    DeviceInfo,
+    NodeMapGrabber,
+    choose_device,
+)
+from inspect_validate.camera.pixelformats import PFNC_CODES
+from inspect_validate.camera.registry import Backend, Opening
+from inspect_validate.camera.settings import CameraSettings
 from inspect_validate.errors import DeviceError
 
-__all__ = ["AravisCamera", "import_aravis"]
+__all__ = ["BACKEND", "AravisCamera", "AravisSettings", "import_aravis"]
 
 
 def import_aravis():
@@ -77,26 +85,35 @@ class AravisCamera(NodeMapGrabber):
         Aravis = self._aravis
         Aravis.update_device_list()
         found = [
-            (Aravis.get_device_id(i), Aravis.get_device_serial_nbr(i))
+            DeviceInfo(
+                Aravis.get_device_id(i),
+                str(Aravis.get_device_serial_nbr(i)),
+                str(Aravis.get_device_vendor(i) or ""),
+                str(Aravis.get_device_model(i) or ""),
+                device_id=Aravis.get_device_id(i),
+            )
             for i in range(Aravis.get_n_devices())
         ]
-        listing = ", ".join(f"{d} (serial {s})" for d, s in found) or "none"
-        if serial is not None:
-            ids = [d for d, s in found if s == str(serial)]
-            if not ids:
-                raise DeviceError(f"no Aravis camera with serial {serial}; found: {listing}")
-            device_id = ids[0]
-        elif device_id is None:
-            if index >= len(found):
-                raise DeviceError(
-                    f"Aravis camera index {index} does not exist; found: {listing} — check "
-                    "power, cable, the network interface's address and the firewall (GVCP, UDP 3956)"
-                )
-            device_id = found[index][0]
+        if serial is None and device_id is not None:
+            # An id Aravis did not discover may still open: a camera's address, a
+            # camera on another subnet that answers to it directly.
+            key = device_id
+        else:
+            key = choose_device(
+                found,
+                what="Aravis",
+                serial=serial,
+                index=index,
+                hint="check power, cable, the network interface's address and the firewall "
+                "(GVCP, UDP 3956)",
+            ).key
         try:
-            self._cam = Aravis.Camera.new(device_id)
+            self._cam = Aravis.Camera.new(key)
         except self._glib.Error as exc:
-            raise DeviceError(f"cannot open Aravis camera {device_id} ({exc.message})") from None
+            listing = ", ".join(d.describe() for d in found) or "none"
+            raise DeviceError(
+                f"cannot open Aravis camera {key} ({exc.message}); found: {listing}"
+            ) from None
         self._dev = self._cam.get_device()
         self.name = (
             f"{self._cam.get_vendor_name()} {self._cam.get_model_name()} "
@@ -106,35 +123,27 @@ class AravisCamera(NodeMapGrabber):
         self._gain_raw = gain_raw
         self._stream = None
         self._chunked = False
-        self.missing = {
-            label
-            for label, names in (
-                ("exposure", self._EXPOSURE_NODES),
-                ("gain", self._GAIN_NODES),
-                ("pixel_format", ("PixelFormat",)),
-            )
-            if self._feature(names) is None
-        }
+        self.missing = self._missing()
 
     # -- nodes ---------------------------------------------------------------------------
 
-    def _feature(self, names) -> str | None:
-        return next((n for n in names if self._dev.get_feature(n) is not None), None)
+    def _has(self, name: str) -> bool:
+        return self._dev.get_feature(name) is not None
 
     def _symbolics(self, name: str) -> tuple[str, ...]:
-        if self._dev.get_feature(name) is None:
+        if not self._has(name):
             return ()
         try:
             return tuple(self._dev.dup_available_enumeration_feature_values_as_strings(name))
         except self._glib.Error:
             return ()
 
-    def _set(self, names, value, label: str):
-        name = self._feature(names)
-        if name is None:
+    def _write(self, name: str, value, label: str) -> None:
+        feature = self._dev.get_feature(name)
+        if feature is None:
             self.missing.add(label)
-            return None
-        node = type(self._dev.get_feature(name)).__name__
+            return
+        node = type(feature).__name__
         try:
             if isinstance(value, bool) or node == "GcBoolean":
                 self._dev.set_boolean_feature_value(name, bool(value))
@@ -148,14 +157,31 @@ class AravisCamera(NodeMapGrabber):
             raise DeviceError(
                 f"{self.name}: cannot set {name} to {value!r} ({exc.message})"
             ) from None
-        return value
 
-    def _read(self, names) -> float | None:
-        name = self._feature(names)
+    def _read(self, name: str) -> float | None:
         try:
-            return self._dev.get_float_feature_value(name) if name else None
+            return self._dev.get_float_feature_value(name)
         except self._glib.Error:
             return None
+
+    def _increment(self, name: str) -> float | None:
+        try:
+            return self._dev.get_float_feature_increment(name)
+        except self._glib.Error:
+            return None
+
+    def _execute(self, name: str) -> None:
+        try:
+            self._dev.execute_command(name)
+        except self._glib.Error as exc:
+            raise DeviceError(f"{self.name}: {name} failed ({exc.message})") from None
+
+    def configure(self, *, exposure_us=None, gain_db=None, pixel_format=None, region=None) -> None:
+        super().configure(
+            exposure_us=exposure_us, gain_db=gain_db, pixel_format=pixel_format, region=region
+        )
+        if self._gain_raw is not None:
+            self._write("GainRaw", int(self._gain_raw), "gain_raw")
 
     # -- stream --------------------------------------------------------------------------
 
@@ -183,28 +209,6 @@ class AravisCamera(NodeMapGrabber):
             pass  # a camera that vanished: the stream is dropped all the same
         self._stream = None  # its queued buffers go with it
 
-    def configure(self, *, exposure_us=None, gain_db=None, pixel_format=None, region=None) -> None:
-        super().configure(
-            exposure_us=exposure_us, gain_db=gain_db, pixel_format=pixel_format, region=region
-        )
-        if self._gain_raw is not None:
-            self._set(("GainRaw",), int(self._gain_raw), "gain_raw")
-
-    def _has(self, name: str) -> bool:
-        return self._dev.get_feature(name) is not None
-
-    def _write(self, name: str, value, label: str) -> None:
-        self._set((name,), value, label)
-
-    def trigger(self) -> int:
-        self._start()
-        sent = time.monotonic_ns()
-        try:
-            self._dev.execute_command("TriggerSoftware")
-        except self._glib.Error as exc:
-            raise DeviceError(f"{self.name}: TriggerSoftware failed ({exc.message})") from None
-        return sent
-
     def drain(self) -> int:
         drained = 0
         while self._stream is not None and (buf := self._stream.try_pop_buffer()) is not None:
@@ -212,77 +216,73 @@ class AravisCamera(NodeMapGrabber):
             drained += 1
         return drained
 
-    def increments(self) -> dict[str, float]:
-        steps = {}
-        for label, names in (("exposure_us", self._EXPOSURE_NODES), ("gain_db", self._GAIN_NODES)):
-            name = self._feature(names)
-            try:
-                # Aravis reports the smallest double for a float without an increment.
-                if name and (inc := self._dev.get_float_feature_increment(name)) > 1e-12:
-                    steps[label] = inc
-            except self._glib.Error:
-                pass
-        return steps
-
-    # -- frames --------------------------------------------------------------------------
-
-    def grab(self, n: int, *, timeout_s: float = 2.0) -> list[Frame]:
-        self._start()
-        exposure, gain = self._read(self._EXPOSURE_NODES), self._read(self._GAIN_NODES)
-        success = self._aravis.BufferStatus.SUCCESS
-        frames = []
-        for k in range(n):
-            buf = self._stream.timeout_pop_buffer(max(1, int(timeout_s * 1e6)))
-            if buf is None:
+    @contextlib.contextmanager
+    def _fetch(self, timeout_s: float):
+        buf = self._stream.timeout_pop_buffer(max(1, int(timeout_s * 1e6)))
+        if buf is None:
+            yield None
+            return
+        try:
+            status = buf.get_status()
+            if status != self._aravis.BufferStatus.SUCCESS:
                 raise DeviceError(
-                    f"{self.name}: no frame within {timeout_s:g} s (frame {k + 1} of {n}); check "
-                    "trigger mode, frame rate, exposure time, the cable and that the camera is "
-                    "still powered"
+                    f"{self.name}: frame {buf.get_frame_id()} arrived incomplete "
+                    f"({status.value_nick}); check the network (packet size, bandwidth, "
+                    "a switch dropping packets)"
                 )
-            try:
-                status = buf.get_status()
-                if status != success:
-                    raise DeviceError(
-                        f"{self.name}: frame {buf.get_frame_id()} arrived incomplete "
-                        f"({status.value_nick}); check the network (packet size, bandwidth, "
-                        "a switch dropping packets)"
-                    )
-                frames.append(self._frame(buf, exposure, gain))
-            finally:
-                self._stream.push_buffer(buf)
-        return frames
-
-    def _frame(self, buf, exposure, gain) -> Frame:
-        code = buf.get_image_pixel_format()
-        fmt = self._checked_format(PFNC_CODES.get(code), f"pixel format 0x{code:08x}")
-        w, h = buf.get_image_width(), buf.get_image_height()
-        raw = np.frombuffer(buf.get_data(), np.uint8)  # PyGObject's bytes: read-only
-        if fmt == "Mono8":
-            data = raw[: w * h].reshape(h, w).copy()
-        elif fmt in ("Mono10", "Mono12", "Mono14", "Mono16"):
-            data = raw[: 2 * w * h].view("<u2").reshape(h, w).astype(np.uint16)
-        else:
-            data = unpack(raw[: packed_size(fmt, w * h)], fmt, w, h)
-        chunk = {}
-        if self._chunked:
-            for name in self._CHUNKS:
-                try:
-                    chunk[name] = float(buf.get_chunk_data_as_float(name))  # not in every build
-                except (AttributeError, self._glib.Error, TypeError):
-                    pass
-        return Frame(
-            data,
-            int(buf.get_frame_id()),
-            int(buf.get_timestamp()),
-            exposure,
-            gain,
-            fmt,
-            BIT_DEPTH[fmt],
-            self.name,
-            "device",
-            {"chunk": chunk} if chunk else {},
-        )
+            code = buf.get_image_pixel_format()
+            chunk = {}
+            if self._chunked:
+                for name in self._CHUNKS:
+                    try:
+                        chunk[name] = float(buf.get_chunk_data_as_float(name))  # not every build
+                    except (AttributeError, self._glib.Error, TypeError):
+                        pass
+            yield Buffer(
+                pixels=np.frombuffer(buf.get_data(), np.uint8),  # PyGObject's bytes: read-only
+                pixel_format=PFNC_CODES.get(code),
+                width=buf.get_image_width(),
+                height=buf.get_image_height(),
+                frame_id=int(buf.get_frame_id()),
+                timestamp_ns=int(buf.get_timestamp()),
+                clock="device",
+                reported=f"pixel format 0x{code:08x}",
+                chunk=chunk,
+            )
+        finally:
+            self._stream.push_buffer(buf)
 
     def close(self) -> None:
         self._stop()
         self._cam = self._dev = None
+
+
+class AravisSettings(CameraSettings):
+    """A GigE Vision or USB3 Vision camera through Aravis."""
+
+    backend: Literal["aravis"]
+    simulate: bool = False
+    """Stream the station's simulated scene from Aravis' fake GigE Vision camera on ``lo``."""
+    serial: str | None = None
+    """The camera's serial number."""
+    device_id: str | None = None
+    """Aravis' id for the device, e.g. ``Aravis-Fake-TEST1`` (``arv-tool-0.8`` lists them)."""
+    index: Annotated[int, Field(ge=0)] = 0
+    """Position in Aravis' discovery list, when neither is given."""
+    num_buffers: Annotated[int, Field(ge=1, le=1000)] = 8
+    """Buffers pushed to the stream."""
+    gain_raw: Annotated[int, Field(ge=0, le=1_000_000)] | None = None
+    """Written to ``GainRaw`` (the camera's own units) on a camera without gain in dB."""
+
+
+def open_aravis(settings: AravisSettings, opening: Opening) -> AravisCamera:
+    return AravisCamera(
+        serial=settings.serial,
+        device_id=settings.device_id,
+        index=settings.index,
+        num_buffers=settings.num_buffers,
+        gain_raw=settings.gain_raw,
+    )
+
+
+BACKEND = Backend("aravis", AravisSettings, open_aravis)

@@ -2,15 +2,26 @@
 
 from __future__ import annotations
 
+import time
 from abc import ABC, abstractmethod
-from dataclasses import dataclass
+from contextlib import AbstractContextManager
+from dataclasses import dataclass, field
+
+import numpy as np
 
 from inspect_validate.camera.frame import Frame
-from inspect_validate.camera.pixelformats import BIT_DEPTH
-
+from inspect_validate.camera.pixelformats import BIT_DEPTH, PACKED, packed_size, unpack
 from inspect_validate.errors import DeviceError
 
-__all__ = ["ACQUISITIONS", "Features", "Grabber", "NodeMapGrabber"]
+__all__ = [
+    "ACQUISITIONS",
+    "Buffer",
+    "DeviceInfo",
+    "Features",
+    "Grabber",
+    "NodeMapGrabber",
+    "choose_device",
+]
 
 #: How frames are started: by the camera's own clock, by ``TriggerSoftware`` from the
 #: capture, or by a pulse on one of the camera's input lines.
@@ -39,6 +50,102 @@ class Features:
     trigger_lines: tuple[str, ...] = ()
     strobe_lines: tuple[str, ...] = ()
     chunks: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class DeviceInfo:
+    """A camera a backend found, before it is opened.
+
+    Attributes
+    ----------
+    key : object
+        The backend's handle to open it by (an index, a device info object, an id).
+    serial : str
+    vendor, model : str
+    device_id : str
+        The backend's own id for it, where it has one (Aravis: ``Aravis-Fake-TEST1``).
+    """
+
+    key: object
+    serial: str
+    vendor: str = ""
+    model: str = ""
+    device_id: str = ""
+
+    def describe(self) -> str:
+        what = " ".join(x for x in (self.vendor, self.model) if x) or self.device_id or "camera"
+        return f"{what} (serial {self.serial})"
+
+
+def choose_device(
+    found: list[DeviceInfo],
+    *,
+    what: str,
+    serial: str | None = None,
+    device_id: str | None = None,
+    index: int = 0,
+    hint: str = "check power, cable or network, and that no other program holds it",
+) -> DeviceInfo:
+    """The camera a station asks for among those a backend ``what`` found: by serial
+    number, else by device id, else by index.
+
+    Raises
+    ------
+    DeviceError
+        None found (with ``hint``), or none that matches (listing those found).
+    """
+    listing = ", ".join(d.describe() for d in found) or "none"
+    if not found:
+        raise DeviceError(f"no {what} camera found; {hint}")
+    if serial is not None:
+        match = [d for d in found if d.serial == str(serial)]
+        if not match:
+            raise DeviceError(f"no {what} camera with serial {serial}; found: {listing}")
+        return match[0]
+    if device_id is not None:
+        match = [d for d in found if d.device_id == device_id]
+        if not match:
+            raise DeviceError(f"no {what} camera {device_id}; found: {listing}")
+        return match[0]
+    if index >= len(found):
+        raise DeviceError(
+            f"{what} camera index {index} does not exist; {len(found)} found ({listing})"
+        )
+    return found[index]
+
+
+@dataclass
+class Buffer:
+    """One frame as a backend fetched it, before it becomes a :class:`Frame`.
+
+    Attributes
+    ----------
+    pixels : ndarray
+        The payload: the image as an (H, W) array of the format's storage type, or its
+        bytes (uint8, flat) for a packed format (:func:`~.pixelformats.unpack`).
+    pixel_format : str or None
+        The format the buffer itself reports, by its PFNC name (None: not one this tool
+        knows; ``reported`` says how the buffer named it).
+    width, height : int
+    frame_id : int
+    timestamp_ns : int
+    clock : str
+        What ``timestamp_ns`` is (:class:`Frame`).
+    reported : str
+        The format as the buffer named it, for messages.
+    chunk : dict
+        Chunk values that came with the frame (``ExposureTime``, ``Gain``…).
+    """
+
+    pixels: np.ndarray
+    pixel_format: str | None
+    width: int
+    height: int
+    frame_id: int
+    timestamp_ns: int
+    clock: str = "device"
+    reported: str = ""
+    chunk: dict = field(default_factory=dict)
 
 
 class Grabber(ABC):
@@ -132,11 +239,16 @@ class Grabber(ABC):
 
 
 class NodeMapGrabber(Grabber):
-    """A camera with a GenICam node map: its triggers, lines and chunks are found and set
-    by their SFNC names the same way whatever reaches them (harvesters, pylon, Aravis).
+    """A camera with a GenICam node map: the one grab path of every GenICam-style backend
+    (harvesters, pylon, Aravis). Its exposure, gain, format, region, triggers, lines and
+    chunks are found and set by their SFNC names; its frames are fetched with a timeout,
+    checked against the format asked for, unpacked where packed, and made into
+    :class:`Frame` the same way whatever reaches them.
 
-    A backend gives three small accessors — :meth:`_has`, :meth:`_symbolics` and
-    :meth:`_write` — and :meth:`_stop` and :meth:`_start` for its acquisition.
+    A backend gives what its library differs in: the node accessors :meth:`_has`,
+    :meth:`_symbolics`, :meth:`_write`, :meth:`_read`, :meth:`_increment` and
+    :meth:`_execute`; :meth:`_stop` and :meth:`_start` for its acquisition; and
+    :meth:`_fetch`, one buffer with a timeout.
     """
 
     _CHUNKS = ("ExposureTime", "Gain", "Timestamp", "FrameID")
@@ -201,6 +313,100 @@ class NodeMapGrabber(Grabber):
     def _first(self, names) -> str | None:
         """The first of ``names`` the camera has."""
         return next((n for n in names if self._has(n)), None)
+
+    def _missing(self) -> set[str]:
+        """The settings the camera has no node for (recorded, not failed)."""
+        return {
+            label
+            for label, names in (
+                ("exposure", self._EXPOSURE_NODES),
+                ("gain", self._GAIN_NODES),
+                ("pixel_format", ("PixelFormat",)),
+            )
+            if self._first(names) is None
+        }
+
+    @abstractmethod
+    def _read(self, name: str) -> float | None:
+        """A float node's value, None where it cannot be read."""
+
+    @abstractmethod
+    def _increment(self, name: str) -> float | None:
+        """A float node's increment, None where it has none."""
+
+    @abstractmethod
+    def _execute(self, name: str) -> None:
+        """Execute a command node (``TriggerSoftware``), a DeviceError if it fails."""
+
+    @abstractmethod
+    def _fetch(self, timeout_s: float) -> AbstractContextManager[Buffer | None]:
+        """The next buffer, None after ``timeout_s``; the backend's buffer is handed back
+        (re-queued) when the context ends, so its pixels are copied within it."""
+
+    def _before_trigger(self) -> None:
+        """Wait until the camera accepts a trigger, where the library can tell."""
+
+    def trigger(self) -> int:
+        self._start()
+        self._before_trigger()
+        sent = time.monotonic_ns()
+        self._execute("TriggerSoftware")
+        return sent
+
+    def increments(self) -> dict[str, float]:
+        steps = {}
+        for label, names in (("exposure_us", self._EXPOSURE_NODES), ("gain_db", self._GAIN_NODES)):
+            name = self._first(names)
+            inc = self._increment(name) if name else None
+            if inc is not None and inc > 1e-12:  # Aravis reports the smallest double for none
+                steps[label] = float(inc)
+        return steps
+
+    def grab(self, n: int, *, timeout_s: float = 2.0) -> list[Frame]:
+        self._start()
+        exposure, gain = (
+            self._read(name) if (name := self._first(names)) else None
+            for names in (self._EXPOSURE_NODES, self._GAIN_NODES)
+        )
+        frames = []
+        for k in range(n):
+            with self._fetch(timeout_s) as buffer:
+                if buffer is None:
+                    raise DeviceError(
+                        f"{self.name}: no frame within {timeout_s:g} s (frame {k + 1} of {n}); "
+                        "check trigger mode, frame rate, exposure time, the cable and that the "
+                        "camera is still powered"
+                    )
+                fmt = self._checked_format(buffer.pixel_format, buffer.reported)
+                frames.append(
+                    Frame(
+                        data=self._decode(buffer, fmt),
+                        frame_id=buffer.frame_id,
+                        timestamp_ns=buffer.timestamp_ns,
+                        exposure_us=exposure,
+                        gain_db=gain,
+                        pixel_format=fmt,
+                        bit_depth=BIT_DEPTH[fmt],
+                        device=self.name,
+                        clock=buffer.clock,
+                        extra={"chunk": buffer.chunk} if buffer.chunk else {},
+                    )
+                )
+        return frames
+
+    @staticmethod
+    def _decode(buffer: Buffer, fmt: str) -> np.ndarray:
+        """The buffer's pixels as an owned (H, W) array: copied, or unpacked from a packed
+        format (before the backend re-queues the buffer)."""
+        w, h, pixels = buffer.width, buffer.height, buffer.pixels
+        if fmt in PACKED:
+            return unpack(pixels.reshape(-1)[: packed_size(fmt, w * h)], fmt, w, h)
+        if pixels.ndim == 2 and pixels.shape == (h, w):
+            return pixels.copy()
+        flat = pixels.reshape(-1)
+        if flat.dtype == np.uint8 and fmt != "Mono8":  # 16-bit storage read as bytes
+            return flat[: 2 * w * h].view("<u2").reshape(h, w).astype(np.uint16)
+        return flat[: w * h].reshape(h, w).copy()
 
     def restart_stream(self) -> bool:
         """Stop and restart the acquisition, which drops every buffer queued or in flight.

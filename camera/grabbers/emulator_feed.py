@@ -16,7 +16,6 @@ from pathlib import Path
 
 from inspect_validate.camera.frame import Frame
 from inspect_validate.camera.grabbers.base import Grabber
-
 from inspect_validate.errors import DeviceError
 
 __all__ = ["EmulatorFeed"]

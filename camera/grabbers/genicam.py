@@ -26,17 +26,27 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 import time
 from pathlib import Path
+from typing import Annotated, Literal
 
-from inspect_validate.camera.frame import Frame
-from inspect_validate.camera.grabbers.base import NodeMapGrabber
-from inspect_validate.camera.pixelformats import BIT_DEPTH, packed_size, unpack
+import numpy as np
+from pydantic import Field
 
+from inspect_validate.camera.grabbers.base import (
+    Buffer,
+    DeviceInfo,
+    NodeMapGrabber,
+    choose_device,
+)
+from inspect_validate.camera.pixelformats import BIT_DEPTH, PACKED, packed_size
+from inspect_validate.camera.registry import Backend, Opening
+from inspect_validate.camera.settings import CameraSettings
 from inspect_validate.errors import DeviceError
 
-__all__ = ["GenICamCamera", "find_producers"]
+__all__ = ["BACKEND", "GenICamCamera", "GenicamSettings", "find_producers"]
 
 
 def _entries(node) -> tuple[str, ...]:
@@ -66,13 +76,6 @@ def find_producers(cti: str | None = None) -> list[Path]:
     return found
 
 
-def _node(node_map, names):
-    for name in names:
-        if hasattr(node_map, name):
-            return name, getattr(node_map, name)
-    return None, None
-
-
 class GenICamCamera(NodeMapGrabber):
     """A GenICam camera chosen by serial number or index."""
 
@@ -90,28 +93,17 @@ class GenICamCamera(NodeMapGrabber):
         for producer in find_producers(cti):
             self._harvester.add_file(str(producer))
         self._harvester.update()
-        devices = self._harvester.device_info_list
-        if not devices:
+        found = [
+            DeviceInfo(k, str(d.serial_number), str(d.vendor), str(d.model))
+            for k, d in enumerate(self._harvester.device_info_list)
+        ]
+        try:
+            chosen = choose_device(found, what="GenICam", serial=serial, index=index)
+        except DeviceError:
             self._harvester.reset()
-            raise DeviceError(
-                "no GenICam camera found; check power, cable or network, and access rights"
-            )
-        serials = [d.serial_number for d in devices]
-        if serial is not None:
-            if str(serial) not in serials:
-                self._harvester.reset()
-                raise DeviceError(f"no camera with serial {serial}; found: {', '.join(serials)}")
-            self._ia = self._harvester.create({"serial_number": str(serial)})
-            info = devices[serials.index(str(serial))]
-        else:
-            if index >= len(devices):
-                self._harvester.reset()
-                raise DeviceError(
-                    f"camera index {index} does not exist; {len(devices)} found (serials {', '.join(serials)})"
-                )
-            self._ia = self._harvester.create(index)
-            info = devices[index]
-        self.name = f"{info.vendor} {info.model} (serial {info.serial_number})"
+            raise
+        self._ia = self._harvester.create(chosen.key)
+        self.name = chosen.describe()
         if num_buffers is not None:
             try:
                 self._ia.num_buffers = int(num_buffers)
@@ -125,26 +117,45 @@ class GenICamCamera(NodeMapGrabber):
         self._acquiring = False
         self._chunked = False
         self._nodes = self._ia.remote_device.node_map
-        self.missing = {
-            label
-            for label, names in (
-                ("exposure", self._EXPOSURE_NODES),
-                ("gain", self._GAIN_NODES),
-                ("pixel_format", ("PixelFormat",)),
-            )
-            if _node(self._nodes, names)[0] is None
-        }
+        self.missing = self._missing()
 
-    def _set(self, names, value, label):
-        name, node = _node(self._nodes, names)
+    # -- nodes ---------------------------------------------------------------------------
+
+    def _has(self, name: str) -> bool:
+        return hasattr(self._nodes, name)
+
+    def _symbolics(self, name: str) -> tuple[str, ...]:
+        return _entries(getattr(self._nodes, name, None))
+
+    def _write(self, name: str, value, label: str) -> None:
+        node = getattr(self._nodes, name, None)
         if node is None:
             self.missing.add(label)
-            return None
+            return
         try:
             node.value = value
-            return node.value
         except Exception as exc:  # GenICam raises several types for out-of-range and access errors
             raise DeviceError(f"{self.name}: cannot set {name} to {value!r} ({exc})") from None
+
+    def _read(self, name: str) -> float | None:
+        try:
+            return float(getattr(self._nodes, name).value)
+        except Exception:  # absent or not readable now
+            return None
+
+    def _increment(self, name: str) -> float | None:
+        try:
+            return float(getattr(self._nodes, name).inc)
+        except Exception:  # a float without an increment
+            return None
+
+    def _execute(self, name: str) -> None:
+        try:
+            getattr(self._nodes, name).execute()
+        except Exception as exc:  # GenICam raises several types for access errors
+            raise DeviceError(f"{self.name}: {name} failed ({exc})") from None
+
+    # -- stream --------------------------------------------------------------------------
 
     def _stop(self):
         if self._acquiring:
@@ -159,15 +170,6 @@ class GenICamCamera(NodeMapGrabber):
                 raise DeviceError(f"{self.name}: cannot start the acquisition ({exc})") from None
             self._acquiring = True
 
-    def _has(self, name: str) -> bool:
-        return hasattr(self._nodes, name)
-
-    def _symbolics(self, name: str) -> tuple[str, ...]:
-        return _entries(getattr(self._nodes, name, None))
-
-    def _write(self, name: str, value, label: str) -> None:
-        self._set((name,), value, label)
-
     def _arm_stream(self) -> None:
         # Triggered frames are fetched in the order they were triggered.
         stream = self._ia.data_streams[0].node_map
@@ -180,15 +182,6 @@ class GenICamCamera(NodeMapGrabber):
                     f"{self.name}: cannot set StreamBufferHandlingMode to OldestFirst ({exc})"
                 ) from None
 
-    def trigger(self) -> int:
-        self._start()
-        sent = time.monotonic_ns()
-        try:
-            self._nodes.TriggerSoftware.execute()
-        except Exception as exc:  # GenICam raises several types for access errors
-            raise DeviceError(f"{self.name}: TriggerSoftware failed ({exc})") from None
-        return sent
-
     def drain(self) -> int:
         if not self._acquiring:
             return 0
@@ -198,15 +191,48 @@ class GenICamCamera(NodeMapGrabber):
             drained += 1
         return drained
 
-    def increments(self) -> dict[str, float]:
-        steps = {}
-        for label, names in (("exposure_us", self._EXPOSURE_NODES), ("gain_db", self._GAIN_NODES)):
-            _, node = _node(self._nodes, names)
+    @contextlib.contextmanager
+    def _fetch(self, timeout_s: float):
+        from genicam.gentl import TimeoutException
+
+        try:
+            buf = self._ia.fetch(timeout=timeout_s)
+        except TimeoutException:
+            yield None
+            return
+        try:
+            arrived = time.monotonic_ns()
+            comp = buf.payload.components[0]
+            w, h = int(comp.width), int(comp.height)
             try:
-                steps[label] = float(node.inc)
-            except Exception:  # no node, or a float without an increment
-                pass
-        return steps
+                reported = str(comp.data_format)
+            except Exception:  # a producer that reports no format: the node's value
+                reported = str(self._nodes.PixelFormat.value)
+            if reported in PACKED:
+                start = int(comp.data_offset)
+                raw = comp._buffer.raw_buffer
+                pixels = np.frombuffer(raw, np.uint8)[start : start + packed_size(reported, w * h)]
+            elif reported in BIT_DEPTH:
+                pixels = comp.data.reshape(h, w)
+            else:  # not monochrome: refused by its format before its pixels are read
+                pixels = comp.data
+            try:
+                stamp, clock = int(buf.timestamp_ns), "device"
+            except Exception:  # producers without timestamps raise NotAvailableException
+                stamp, clock = arrived, "arrival"
+            yield Buffer(
+                pixels=pixels,
+                pixel_format=reported if reported in BIT_DEPTH else None,
+                width=w,
+                height=h,
+                frame_id=int(buf.frame_id),
+                timestamp_ns=stamp,
+                clock=clock,
+                reported=reported,
+                chunk=self._chunk_values() if self._chunked else {},
+            )
+        finally:
+            buf.queue()
 
     def _chunk_values(self) -> dict[str, float]:
         """The fetched buffer's chunk values (harvesters attached them to the node map)."""
@@ -219,69 +245,34 @@ class GenICamCamera(NodeMapGrabber):
                 continue
         return values
 
-    def _read(self, names):
-        _, node = _node(self._nodes, names)
-        try:
-            return float(node.value) if node is not None else None
-        except Exception:
-            return None
-
-    def grab(self, n: int, *, timeout_s: float = 2.0) -> list[Frame]:
-        from genicam.gentl import TimeoutException
-
-        self._start()
-        exposure, gain = self._read(self._EXPOSURE_NODES), self._read(self._GAIN_NODES)
-        frames = []
-        for k in range(n):
-            try:
-                with self._ia.fetch(timeout=timeout_s) as buf:
-                    arrived = time.monotonic_ns()
-                    comp = buf.payload.components[0]
-                    w, h = int(comp.width), int(comp.height)
-                    fmt = self._buffer_format(comp)
-                    if fmt in ("Mono8", "Mono10", "Mono12", "Mono14", "Mono16"):
-                        data = comp.data.reshape(h, w).copy()  # copy before the buffer is re-queued
-                    else:
-                        raw = comp._buffer.raw_buffer
-                        start = int(comp.data_offset)
-                        data = unpack(raw[start : start + packed_size(fmt, w * h)], fmt, w, h)
-                    try:
-                        stamp, clock = int(buf.timestamp_ns), "device"
-                    except Exception:  # producers without timestamps raise NotAvailableException
-                        stamp, clock = arrived, "arrival"
-                    chunk = self._chunk_values() if self._chunked else {}
-                    frames.append(
-                        Frame(
-                            data,
-                            int(buf.frame_id),
-                            stamp,
-                            exposure,
-                            gain,
-                            fmt,
-                            BIT_DEPTH.get(fmt, 8),
-                            self.name,
-                            clock,
-                            {"chunk": chunk} if chunk else {},
-                        )
-                    )
-            except TimeoutException:
-                raise DeviceError(
-                    f"{self.name}: no frame within {timeout_s:g} s (frame {k + 1} of {n}); "
-                    "check trigger mode, frame rate, exposure time and the cable"
-                ) from None
-        return frames
-
-    def _buffer_format(self, comp) -> str:
-        """The pixel format the buffer itself reports, checked against the request."""
-        try:
-            fmt = str(comp.data_format)
-        except Exception:  # a producer that reports no format: the node's value
-            fmt = str(self._nodes.PixelFormat.value)
-        return self._checked_format(fmt, fmt)
-
     def close(self) -> None:
         try:
             self._stop()
             self._ia.destroy()
         finally:
             self._harvester.reset()
+
+
+class GenicamSettings(CameraSettings):
+    """A GenICam camera through harvesters and its vendor's GenTL producer."""
+
+    backend: Literal["genicam"]
+    cti: str | None = None
+    """The GenTL producer (.cti, relative to the station file; default: every one in
+    ``GENICAM_GENTL64_PATH``)."""
+    serial: str | None = None
+    """The camera's serial number (default: by ``index``)."""
+    index: Annotated[int, Field(ge=0)] = 0
+    """Position in the producers' device list, when no serial is given."""
+    num_buffers: Annotated[int, Field(ge=1, le=1000)] | None = None
+    """Buffers announced to the stream (default: harvesters')."""
+
+
+def open_genicam(settings: GenicamSettings, opening: Opening) -> GenICamCamera:
+    cti = str(opening.resolve(settings.cti)) if settings.cti else None
+    return GenICamCamera(
+        cti, serial=settings.serial, index=settings.index, num_buffers=settings.num_buffers
+    )
+
+
+BACKEND = Backend("genicam", GenicamSettings, open_genicam)

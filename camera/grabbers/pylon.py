@@ -7,15 +7,25 @@ Also drives pylon's camera emulator (``PYLON_CAMEMU=1``, device class
 
 from __future__ import annotations
 
+import contextlib
 import time
+from typing import Annotated, Literal
 
-from inspect_validate.camera.frame import Frame
-from inspect_validate.camera.grabbers.base import NodeMapGrabber
-from inspect_validate.camera.pixelformats import BIT_DEPTH
+import numpy as np
+from pydantic import Field
 
+from inspect_validate.camera.grabbers.base import (
+    Buffer,
+    DeviceInfo,
+    NodeMapGrabber,
+    choose_device,
+)
+from inspect_validate.camera.pixelformats import PACKED, PFNC_CODES
+from inspect_validate.camera.registry import Backend, Opening
+from inspect_validate.camera.settings import CameraSettings
 from inspect_validate.errors import DeviceError
 
-__all__ = ["PylonCamera"]
+__all__ = ["BACKEND", "PylonCamera", "PylonSettings"]
 
 
 class PylonCamera(NodeMapGrabber):
@@ -30,52 +40,62 @@ class PylonCamera(NodeMapGrabber):
             ) from None
         self._pylon, self._genicam = pylon, genicam
         factory = pylon.TlFactory.GetInstance()
-        devices = factory.EnumerateDevices()
-        if not devices:
-            raise DeviceError(
-                "no pylon camera found; check power, cable, network and that no other program holds it"
-            )
-        serials = [d.GetSerialNumber() for d in devices]
-        if serial is not None:
-            if str(serial) not in serials:
-                raise DeviceError(
-                    f"no pylon camera with serial {serial}; found: {', '.join(serials)}"
-                )
-            device = devices[serials.index(str(serial))]
-        elif index < len(devices):
-            device = devices[index]
-        else:
-            raise DeviceError(f"pylon camera index {index} does not exist; {len(devices)} found")
-        self._cam = pylon.InstantCamera(factory.CreateDevice(device))
+        found = [
+            DeviceInfo(d, str(d.GetSerialNumber()), "Basler", str(d.GetModelName()))
+            for d in factory.EnumerateDevices()
+        ]
+        chosen = choose_device(found, what="pylon", serial=serial, index=index)
+        self._cam = pylon.InstantCamera(factory.CreateDevice(chosen.key))
         self._cam.Open()
         self._chunked = False
-        self.name = f"Basler {device.GetModelName()} (serial {device.GetSerialNumber()})"
-        self._exposure = self._first(self._EXPOSURE_NODES)
-        self._gain = self._first(self._GAIN_NODES)
-        self.missing = {
-            label
-            for label, node in (("exposure", self._exposure), ("gain", self._gain))
-            if node is None
-        }
+        self.name = chosen.describe()
+        self.missing = self._missing()
 
     @property
     def nodes(self):
         """The camera's node map (for settings this interface does not cover)."""
         return self._cam
 
+    # -- nodes ---------------------------------------------------------------------------
+
     def _has(self, node: str) -> bool:
         """The camera has ``node`` now (pypylon answers any name with a placeholder, so
         ``hasattr`` cannot tell)."""
         return bool(self._genicam.IsAvailable(self._cam.GetNodeMap().GetNode(node)))
 
-    def _set(self, node: str | None, value, label: str):
-        if node is None or not self._has(node):
+    def _symbolics(self, node: str) -> tuple[str, ...]:
+        try:
+            return tuple(getattr(self._cam, node).Symbolics)
+        except (AttributeError, self._genicam.GenericException):  # absent or unavailable now
+            return ()
+
+    def _write(self, name: str, value, label: str) -> None:
+        if not self._has(name):
             self.missing.add(label)
             return
         try:
-            getattr(self._cam, node).Value = value
+            getattr(self._cam, name).Value = value
         except self._genicam.GenericException as exc:
-            raise DeviceError(f"{self.name}: cannot set {node} to {value!r} ({exc})") from None
+            raise DeviceError(f"{self.name}: cannot set {name} to {value!r} ({exc})") from None
+
+    def _read(self, name: str) -> float | None:
+        try:
+            return float(getattr(self._cam, name).Value)
+        except (AttributeError, self._genicam.GenericException):
+            return None
+
+    def _increment(self, name: str) -> float | None:
+        try:
+            feature = getattr(self._cam, name)
+            return float(feature.Inc) if feature.HasInc() else None
+        except (AttributeError, self._genicam.GenericException):
+            return None
+
+    def _execute(self, name: str) -> None:
+        try:
+            getattr(self._cam, name).Execute()
+        except self._genicam.GenericException as exc:
+            raise DeviceError(f"{self.name}: {name} failed ({exc})") from None
 
     def serve_files(self, folder) -> None:
         """Make pylon's camera emulator serve the images in ``folder``, cycling through them.
@@ -94,21 +114,17 @@ class PylonCamera(NodeMapGrabber):
         self._cam.ImageFileMode.Value = "On"
         self._cam.ImageFilename.Value = str(folder)
 
-    def _symbolics(self, node: str) -> tuple[str, ...]:
-        try:
-            return tuple(getattr(self._cam, node).Symbolics)
-        except (AttributeError, self._genicam.GenericException):  # absent or unavailable now
-            return ()
-
-    def _write(self, name: str, value, label: str) -> None:
-        self._set(name, value, label)
+    # -- stream --------------------------------------------------------------------------
 
     def _stop(self):
         if self._cam.IsGrabbing():
             self._cam.StopGrabbing()
 
-    def trigger(self) -> int:
-        self._start()
+    def _start(self):
+        if not self._cam.IsGrabbing():
+            self._cam.StartGrabbing(self._pylon.GrabStrategy_OneByOne)
+
+    def _before_trigger(self) -> None:
         # A trigger the camera is not ready for is dropped without a word (the emulator
         # right after StartGrabbing, a camera still reading out): wait until it is.
         if not self._cam.WaitForFrameTriggerReady(5000, self._pylon.TimeoutHandling_Return):
@@ -116,12 +132,6 @@ class PylonCamera(NodeMapGrabber):
                 f"{self.name}: not ready for a frame trigger within 5 s; check TriggerMode "
                 "and that no exposure is still under way"
             )
-        sent = time.monotonic_ns()
-        try:
-            self._cam.TriggerSoftware.Execute()
-        except self._genicam.GenericException as exc:
-            raise DeviceError(f"{self.name}: TriggerSoftware failed ({exc})") from None
-        return sent
 
     def drain(self) -> int:
         drained = 0
@@ -133,68 +143,66 @@ class PylonCamera(NodeMapGrabber):
             drained += 1
         return drained
 
-    def increments(self) -> dict[str, float]:
-        steps = {}
-        for label, node in (("exposure_us", self._exposure), ("gain_db", self._gain)):
-            if node is None:
-                continue
-            try:
-                feature = getattr(self._cam, node)
-                if feature.HasInc():
-                    steps[label] = float(feature.Inc)
-            except (AttributeError, self._genicam.GenericException):
-                pass
-        return steps
-
-    def _start(self):
-        if not self._cam.IsGrabbing():
-            self._cam.StartGrabbing(self._pylon.GrabStrategy_OneByOne)
-
-    def grab(self, n: int, *, timeout_s: float = 2.0) -> list[Frame]:
-        pylon = self._pylon
-        self._start()
-        fmt = self._cam.PixelFormat.Value
-        exposure = float(getattr(self._cam, self._exposure).Value) if self._exposure else None
-        gain = float(getattr(self._cam, self._gain).Value) if self._gain else None
-        frames = []
-        for k in range(n):
-            try:
-                result = self._cam.RetrieveResult(
-                    int(timeout_s * 1000), pylon.TimeoutHandling_ThrowException
-                )
-            except self._genicam.TimeoutException:
-                raise DeviceError(
-                    f"{self.name}: no frame within {timeout_s:g} s (frame {k + 1} of {n}); check trigger mode and exposure"
-                ) from None
-            try:
-                if not result.GrabSucceeded():
-                    raise DeviceError(f"{self.name}: grab failed ({result.GetErrorDescription()})")
-                data = result.Array.copy()  # copy before the buffer returns to pylon
-                chunk = {}
-                for name in self._CHUNKS if self._chunked else ():
-                    try:
-                        chunk[name] = float(getattr(result, f"Chunk{name}").Value)
-                    except (AttributeError, self._genicam.GenericException):
-                        pass
-                frames.append(
-                    Frame(
-                        data,
-                        int(result.ID),
-                        int(result.TimeStamp) or time.monotonic_ns(),
-                        exposure,
-                        gain,
-                        fmt,
-                        BIT_DEPTH.get(fmt, 8),
-                        self.name,
-                        "device" if result.TimeStamp else "arrival",
-                        {"chunk": chunk} if chunk else {},
-                    )
-                )
-            finally:
-                result.Release()
-        return frames
+    @contextlib.contextmanager
+    def _fetch(self, timeout_s: float):
+        try:
+            result = self._cam.RetrieveResult(
+                int(timeout_s * 1000), self._pylon.TimeoutHandling_ThrowException
+            )
+        except self._genicam.TimeoutException:
+            yield None
+            return
+        try:
+            if not result.GrabSucceeded():
+                raise DeviceError(f"{self.name}: grab failed ({result.GetErrorDescription()})")
+            w, h = int(result.Width), int(result.Height)
+            # The format the buffer itself carries (its PFNC code), not the node's setting.
+            reported = PFNC_CODES.get(int(result.PixelType))
+            if reported in PACKED:  # pylon leaves packed pixels packed in the raw buffer
+                pixels = np.frombuffer(result.GetBuffer(), np.uint8)
+            else:
+                pixels = result.Array
+            chunk = {}
+            for name in self._CHUNKS if self._chunked else ():
+                try:
+                    chunk[name] = float(getattr(result, f"Chunk{name}").Value)
+                except (AttributeError, self._genicam.GenericException):
+                    pass
+            stamp = int(result.TimeStamp)
+            yield Buffer(
+                pixels=pixels,
+                pixel_format=reported,
+                width=w,
+                height=h,
+                frame_id=int(result.ID),
+                timestamp_ns=stamp or time.monotonic_ns(),
+                clock="device" if stamp else "arrival",
+                reported=reported or f"pixel type 0x{int(result.PixelType):08x}",
+                chunk=chunk,
+            )
+        finally:
+            result.Release()
 
     def close(self) -> None:
         if self._cam.IsGrabbing():
             self._cam.StopGrabbing()
         self._cam.Close()
+
+
+class PylonSettings(CameraSettings):
+    """A Basler camera through pypylon (``pip install 'inspect-validate[pylon]'``)."""
+
+    backend: Literal["pylon"]
+    serial: str | None = None
+    """The camera's serial number (default: by ``index``)."""
+    index: Annotated[int, Field(ge=0)] = 0
+    """Position in pylon's device list, when no serial is given."""
+    simulate: bool = False
+    """Render the station's simulated scene into pylon's camera emulator (PYLON_CAMEMU=1)."""
+
+
+def open_pylon(settings: PylonSettings, opening: Opening) -> PylonCamera:
+    return PylonCamera(serial=settings.serial, index=settings.index)
+
+
+BACKEND = Backend("pylon", PylonSettings, open_pylon)

@@ -19,15 +19,18 @@ import json
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
+
+from inspect_validate.camera.controllers.base import describe_setting
 from inspect_validate.camera.frame import Frame
 from inspect_validate.camera.grabbers.base import Grabber
-from inspect_validate.camera.lights.base import describe_setting
-
+from inspect_validate.camera.registry import Backend, Opening
+from inspect_validate.camera.settings import CameraSettings
 from inspect_validate.errors import DeviceError, InputError
 
-__all__ = ["ReplayCamera"]
+__all__ = ["BACKEND", "ReplayCamera", "ReplaySettings"]
 
 Setting = tuple[tuple[int, float], ...]
 
@@ -150,18 +153,38 @@ class ReplayCamera(Grabber):
             recorded = {k: meta[k] for k in ("frame_id", "timestamp_ns", "device") if k in meta}
             frames.append(
                 Frame(
-                    data,
-                    self.frame_id,
-                    time.monotonic_ns(),
-                    meta.get("exposure_us"),
-                    meta.get("gain_db"),
-                    meta.get("pixel_format", "Mono8" if data.dtype == np.uint8 else "Mono16"),
-                    int(meta.get("bit_depth", data.dtype.itemsize * 8)),
-                    self.name,
+                    data=data,
+                    frame_id=self.frame_id,
+                    timestamp_ns=time.monotonic_ns(),
+                    exposure_us=meta.get("exposure_us"),
+                    gain_db=meta.get("gain_db"),
+                    pixel_format=meta.get(
+                        "pixel_format", "Mono8" if data.dtype == np.uint8 else "Mono16"
+                    ),
+                    bit_depth=int(meta.get("bit_depth", data.dtype.itemsize * 8)),
+                    device=self.name,
                     # A recorded frame is chosen by the light that is on now, so it
                     # counts as exposed now; a plain sequence knows nothing of lights.
-                    "exposure" if setting is not None else "arrival",
-                    {"replayed_from": str(path), "recorded": recorded},
+                    clock="exposure" if setting is not None else "arrival",
+                    extra={"replayed_from": str(path), "recorded": recorded},
                 )
             )
         return frames
+
+
+class ReplaySettings(CameraSettings):
+    """Frames recorded earlier, served per light setting (a capture folder)."""
+
+    backend: Literal["replay"]
+    folder: str
+    """The folder of recorded frames (relative to the station file)."""
+
+
+def open_replay(settings: ReplaySettings, opening: Opening) -> ReplayCamera:
+    controller = opening.controller
+    return ReplayCamera(
+        opening.resolve(settings.folder), lights=lambda: getattr(controller, "applied", None)
+    )
+
+
+BACKEND = Backend("replay", ReplaySettings, open_replay)

@@ -20,14 +20,18 @@ gain with ``v4l2-ctl -c gain=…`` and keep it fixed.
 from __future__ import annotations
 
 import time
+from typing import Annotated, Literal
 
 import numpy as np
+from pydantic import Field
+
 from inspect_validate.camera.frame import Frame
 from inspect_validate.camera.grabbers.base import Grabber
-
+from inspect_validate.camera.registry import Backend, Opening
+from inspect_validate.camera.settings import CameraSettings
 from inspect_validate.errors import DeviceError
 
-__all__ = ["V4l2Camera"]
+__all__ = ["BACKEND", "V4l2Camera", "V4l2Settings"]
 
 # Pixel format name → V4L2 fourcc, bit depth, dtype OpenCV returns it as (raw mode).
 FORMATS = {
@@ -183,19 +187,36 @@ class V4l2Camera(Grabber):
             self.frame_id += 1  # V4L2's sequence number does not pass through OpenCV
             frames.append(
                 Frame(
-                    image if image.flags.owndata else image.copy(),
-                    self.frame_id,
-                    arrived,
-                    exposure,
-                    None,
-                    self.pixel_format,
-                    depth,
-                    self.name,
-                    "arrival",
-                    {"driver_timestamp_ms": float(self._cap.get(cv2.CAP_PROP_POS_MSEC))},
+                    data=image if image.flags.owndata else image.copy(),
+                    frame_id=self.frame_id,
+                    timestamp_ns=arrived,
+                    exposure_us=exposure,
+                    gain_db=None,
+                    pixel_format=self.pixel_format,
+                    bit_depth=depth,
+                    device=self.name,
+                    clock="arrival",
+                    extra={"driver_timestamp_ms": float(self._cap.get(cv2.CAP_PROP_POS_MSEC))},
                 )
             )
         return frames
 
     def close(self) -> None:
         self._cap.release()
+
+
+class V4l2Settings(CameraSettings):
+    """A Video4Linux2 camera (USB, UVC) through OpenCV."""
+
+    backend: Literal["v4l2"]
+    device: str | int | None = None
+    """The device path (``/dev/video0``) or number (default: ``index``)."""
+    index: Annotated[int, Field(ge=0)] = 0
+    """The device number, when no device is given."""
+
+
+def open_v4l2(settings: V4l2Settings, opening: Opening) -> V4l2Camera:
+    return V4l2Camera(settings.device if settings.device is not None else settings.index)
+
+
+BACKEND = Backend("v4l2", V4l2Settings, open_v4l2)

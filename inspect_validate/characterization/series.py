@@ -79,9 +79,10 @@ def _mean(folder: Path, mask) -> float:
 
 def capture_series(station, out: Path, *, resume: bool = False, progress=None) -> Plan:
     """Probe, plan and capture the series into ``out`` (module docstring); the plan."""
-    from inspect_validate.camera.capture import Step, capture
-    from inspect_validate.camera.devices import open_devices
+    from inspect_validate.camera.capture import Step
     from inspect_validate.images import recorded_bit_depth
+    from inspect_validate.station.capture import capture
+    from inspect_validate.station.devices import open_devices
 
     def run(steps):
         opened = open_devices(station, target="uniform")
@@ -111,12 +112,12 @@ def capture_series(station, out: Path, *, resume: bool = False, progress=None) -
         fixed = "exposure" in first.not_applied or station.camera.exposure_us is None
         bits = recorded_bit_depth(next((out / "probe_b_0").glob("frame_*.tif")))
         if bits is None:
-            from inspect_validate.camera.illumination import station_model
+            from inspect_validate.station.model import station_model
 
             bits = station_model(station).camera.bit_depth
         top = 2**bits - 1
         if station.scene:  # a full well below the format's range: the declared camera's
-            from inspect_validate.camera.illumination import station_model
+            from inspect_validate.station.model import station_model
 
             top = min(top, station_model(station).camera.max_dn)
         mask = region_mask(station, out / "probe_b_0")
@@ -338,9 +339,9 @@ def expected_rate(station, plan: Plan) -> float | None:
     under the series' illumination at its level, through the scene's optics and camera
     QE: what the measured responsivity is held against for an absolute QE. None where
     an illumination's channel has no stated irradiance (its light is then nominal)."""
-    from inspect_validate.camera.illumination import station_model
     from inspect_validate.model import Exposure, ObjectClass, predict
     from inspect_validate.spectra import Spectrum, SpectrumKind
+    from inspect_validate.station.model import station_model
 
     model = station_model(station)
     ill = _illumination(station)

@@ -33,7 +33,7 @@ def capture(station, out, resume):
     TIFFs with JSON sidecars atomically. Exits 3 on a camera or controller
     failure, keeping every frame saved; rerun with --resume to continue.
     """
-    from inspect_validate.camera.station import read_station
+    from inspect_validate.station.file import read_station
 
     st = read_station(station)
     result = capture_with_progress(st, out, resume=resume)

@@ -41,7 +41,6 @@ def characterize(station, out, report_dir, resume):
     """
     from dataclasses import replace
 
-    from inspect_validate.camera.station import read_station, station_hash
     from inspect_validate.characterization.descriptor import write_descriptor
     from inspect_validate.characterization.series import (
         capture_series,
@@ -54,6 +53,7 @@ def characterize(station, out, report_dir, resume):
         format_characterization,
         write_characterization_report,
     )
+    from inspect_validate.station.file import read_station, station_hash
 
     st = read_station(station)
     if resume and out is None:

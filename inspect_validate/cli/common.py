@@ -11,7 +11,7 @@ import click
 PATH = click.Path(path_type=Path)
 
 
-def verify_and_report(st, *, frames_dir, out, report_dir, history=None, skip_dominated=False):
+def verify_and_report(st, *, frames_dir, out, report_dir, history=None, skip_dominated=True):
     """:func:`~inspect_validate.verification.verify.verify_station` with a progress bar,
     the verdict printed and the reports written into ``report_dir`` (with ``history``'s
     trends); the :class:`Verification`."""
@@ -52,7 +52,7 @@ def verify_and_report(st, *, frames_dir, out, report_dir, history=None, skip_dom
 
 def capture_with_progress(station, out, *, resume=False):
     """Capture ``station`` into ``out`` with a progress bar on stderr."""
-    from inspect_validate.camera.capture import capture
+    from inspect_validate.station.capture import capture
 
     total = sum(station.frames for _ in station.illuminations) + station.dark_frames
     with click.progressbar(length=total, label="capturing", file=sys.stderr) as bar:

@@ -122,10 +122,10 @@ def design(source, json_path, check, out_dir, choose, objective, auto_exposure):
 def verify_design(problem, result, out_dir):
     """Capture ``result``'s mix and best single channel on ``problem``'s station, verify them
     and print measured against predicted ε; exit 1 when the design does not hold."""
-    from inspect_validate.camera.station import write_station
     from inspect_validate.mix_design.station import design_station
     from inspect_validate.report import render_table
     from inspect_validate.report.design import design_verification
+    from inspect_validate.station.file import write_station
 
     st = write_station(
         design_station(problem.station, result),
@@ -134,8 +134,9 @@ def verify_design(problem, result, out_dir):
         f"(inspect-validate design --verify {problem.source})",
     )
     click.echo(f"\nverifying the design on {st.path}")
+    # Every illumination: the mix is judged against the single lights.
     verification = verify_and_report(
-        st, frames_dir=None, out=out_dir / "frames", report_dir=out_dir
+        st, frames_dir=None, out=out_dir / "frames", report_dir=out_dir, skip_dominated=False
     )
     summary = design_verification(verification, problem.objective.labels, kind=result.objective)
     click.echo(render_table(summary.header, summary.rows))

@@ -48,9 +48,9 @@ def train(station, golden_path, repeats, frames_dirs, frames_out):
     'verify' then checks drift from it (acceptance.drift). Exits 2 on bad input,
     3 on a camera or controller failure (the captures so far are kept).
     """
-    from inspect_validate.camera.station import read_station
     from inspect_validate.report import write_json
     from inspect_validate.report.golden import format_golden
+    from inspect_validate.station.file import read_station
     from inspect_validate.verification.golden import train as run_train
     from inspect_validate.verification.measured import station_regions
 

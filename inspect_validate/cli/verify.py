@@ -59,7 +59,7 @@ def verify(station, frames_dir, out, report_dir, history_path, all_illuminations
     Exits 0 when every check passes, 1 when one fails (reports still written),
     2 on bad input, 3 on a camera or controller failure (frames kept).
     """
-    from inspect_validate.camera.station import read_station
+    from inspect_validate.station.file import read_station
 
     st = read_station(station)
     check_outputs(folders=[report_dir])

@@ -104,9 +104,9 @@ def watch(
     from dataclasses import replace
 
     from inspect_validate.acceptance import Drift
-    from inspect_validate.camera.station import read_station
     from inspect_validate.errors import InputError
     from inspect_validate.report import write_json
+    from inspect_validate.station.file import read_station
     from inspect_validate.verification.verify import plan_verification
     from inspect_validate.watch.drift import DriftMonitor
     from inspect_validate.watch.history import History

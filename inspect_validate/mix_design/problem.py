@@ -12,10 +12,10 @@ from inspect_validate.errors import InputError
 if TYPE_CHECKING:
     import numpy as np
 
-    from inspect_validate.camera.station import Station
     from inspect_validate.comparisons import Comparisons
     from inspect_validate.components.cameras import Camera
     from inspect_validate.components.optics import Optics
+    from inspect_validate.station.file import Station
 
 __all__ = ["MAX_EXPOSURE_TIME", "DesignProblem", "design_problem"]
 
@@ -82,9 +82,9 @@ def design_problem(path: str | Path, *, auto_exposure: bool = False) -> DesignPr
 
 
 def _from_station(path: Path, auto_exposure: bool) -> DesignProblem:
-    from inspect_validate.camera.illumination import station_model
-    from inspect_validate.camera.station import read_station
     from inspect_validate.comparisons import Comparisons
+    from inspect_validate.station.file import read_station
+    from inspect_validate.station.model import station_model
 
     st = read_station(path)
     if st.camera.exposure_us is None:

@@ -198,8 +198,8 @@ def decibel(ratio: float) -> float:
 def _predict(problem, levels: dict, name: str, exposure_time: float):
     """``predict`` of the light ``levels`` mix at ``exposure_time`` s, with every comparison
     of the problem."""
-    from inspect_validate.camera.illumination import illumination_light
     from inspect_validate.model import Exposure, predict
+    from inspect_validate.station.model import illumination_light
 
     light = illumination_light(
         name,

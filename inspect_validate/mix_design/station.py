@@ -18,8 +18,8 @@ def design_station(station, design):
     The single channel is left out when the mix is that channel alone. The
     camera's exposure is the design's (with auto exposure, the designed one).
     """
-    from inspect_validate.camera.station import Illumination
     from inspect_validate.mix_design.solve import drive_percent
+    from inspect_validate.station.file import Illumination
 
     illuminations = [Illumination(name=DESIGN_ILLUMINATION, channels=design.percent)]
     channel, level = design.single

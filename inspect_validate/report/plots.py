@@ -367,8 +367,8 @@ def plot_design_spectrum(design, path):
     """The designed mix's irradiance at the object, stacked by channel, over the classes'
     reflectances (mean and sample range) and the camera's relative sensitivity (optics
     transmission × QE)."""
-    from inspect_validate.camera.illumination import illumination_light
     from inspect_validate.errors import InputError
+    from inspect_validate.station.model import illumination_light
 
     plt = _pyplot()
     p = design.problem

@@ -10,7 +10,7 @@ shifted, the lens soiled…: a failure is a detection). What varies from capture
 capture besides the noise is the world's (``irradiance_jitter``: lights that vary).
 
 The frames are rendered by the station's own simulated camera
-(:class:`~inspect_validate.camera.grabbers.simulated.SimulatedCamera`) under each
+(:class:`~inspect_validate.simulation.camera.SimulatedCamera`) under each
 illumination's channels, measured by the one measuring path
 (:func:`~inspect_validate.measurement.measure_stack`) and verified by
 :func:`~inspect_validate.verification.verify.verify_capture`: the same code as
@@ -29,7 +29,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from inspect_validate.camera.station import Station, World
+    from inspect_validate.station.file import Station
+    from inspect_validate.station.world import World
     from inspect_validate.verification.measured import Capture
     from inspect_validate.verification.verify import Plan
 
@@ -101,14 +102,14 @@ def render_capture(
         What the camera renders (the station file's, or changed).
     seed, sensor_seed, noise_seed : keyword-only
         The parts' placement, the sensor's fixed pattern and the noise
-        (:class:`~inspect_validate.camera.grabbers.simulated.SimulatedCamera`).
+        (:class:`~inspect_validate.simulation.camera.SimulatedCamera`).
     renderer_model : StationModel, keyword-only, optional
         ``station_model(station)``, made here if not given (a caller rendering many
         captures makes it once).
     """
-    from inspect_validate.camera.grabbers.simulated import SimulatedCamera
-    from inspect_validate.camera.illumination import station_model
     from inspect_validate.measurement import measure_stack
+    from inspect_validate.simulation.camera import SimulatedCamera
+    from inspect_validate.station.model import station_model
     from inspect_validate.verification.measured import Capture
 
     model = renderer_model or station_model(station)
@@ -206,7 +207,7 @@ def run_trials(
     """
     from inspect_validate import __version__
     from inspect_validate.acceptance import Drift
-    from inspect_validate.camera.illumination import station_model
+    from inspect_validate.station.model import station_model
     from inspect_validate.verification.golden import check_golden, golden_of
     from inspect_validate.verification.verify import (
         plan_verification,
@@ -274,7 +275,7 @@ def watch_trials(
     the charts start again from their targets, so that the alarms count the run lengths
     (renewal: cycles / alarms estimates the in-control ARL)."""
     from inspect_validate import __version__
-    from inspect_validate.camera.illumination import station_model
+    from inspect_validate.station.model import station_model
     from inspect_validate.verification.golden import golden_of
     from inspect_validate.verification.verify import plan_verification, verify_capture
     from inspect_validate.watch.drift import DriftMonitor, series_of

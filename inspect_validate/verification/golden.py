@@ -270,7 +270,7 @@ def train(station, captures: list[Path], *, regions=None) -> Golden:
         without ROIs (exit code 2).
     """
     from inspect_validate import __version__
-    from inspect_validate.camera.station import station_hash
+    from inspect_validate.station.file import station_hash
     from inspect_validate.verification.measured import measure_capture, station_regions
 
     folders = [Path(c).resolve() for c in captures]

@@ -25,12 +25,12 @@ from inspect_validate.verification.golden import drift_checks
 from inspect_validate.verification.measured import measure_capture, station_regions
 
 if TYPE_CHECKING:
-    from inspect_validate.camera.illumination import StationModel
-    from inspect_validate.camera.station import Station
     from inspect_validate.comparisons import Comparisons
     from inspect_validate.measurement import Limits, Measurement
     from inspect_validate.model import Prediction
     from inspect_validate.roi import RoiSet
+    from inspect_validate.station.file import Station
+    from inspect_validate.station.model import StationModel
     from inspect_validate.verification.calibration import Gain, IrradianceScale
     from inspect_validate.verification.golden import Golden
     from inspect_validate.verification.measured import Capture
@@ -194,7 +194,7 @@ def plan_verification(station, *, drift_checks: bool = True) -> Plan:
         scene does not have; an acceptance section naming unknown comparisons or
         illuminations; an unreadable golden file (exit code 2).
     """
-    from inspect_validate.camera.illumination import station_model
+    from inspect_validate.station.model import station_model
     from inspect_validate.verification.golden import read_golden
 
     source = str(station.path)
@@ -391,7 +391,7 @@ def verify_station(
     *,
     frames: Path | None = None,
     out: Path | None = None,
-    skip_dominated: bool = False,
+    skip_dominated: bool = True,
     capture=None,
     notify=None,
 ) -> Verification:
@@ -405,8 +405,9 @@ def verify_station(
     frames, out : path, keyword-only
         One of them: the capture to verify, or where to capture.
     skip_dominated : bool, keyword-only
-        Leave out the illuminations the prediction finds dominated; capture them after
-        all, into the same folder, where the measurement contradicts the prediction.
+        Leave out the illuminations the prediction finds dominated (the default, as
+        ``inspect-validate verify`` does); capture them after all, into the same folder,
+        where the measurement contradicts the prediction. False captures every one.
     capture : callable, keyword-only
         ``capture(station, folder, resume=False)``; default
         :func:`~inspect_validate.camera.capture.capture`.
@@ -420,7 +421,7 @@ def verify_station(
         used. DeviceError: a device that fails while capturing.
     """
     if capture is None:
-        from inspect_validate.camera.capture import capture
+        from inspect_validate.station.capture import capture
     notify = notify or (lambda message: None)
     plan = plan_verification(station)
     full = station
@@ -458,7 +459,7 @@ def verify_station(
 
 
 def verify(station, frames_dir: Path, *, plan: Plan | None = None) -> Verification:
-    """Verify ``station`` (a :class:`~inspect_validate.camera.station.Station`) on the capture
+    """Verify ``station`` (a :class:`~inspect_validate.station.file.Station`) on the capture
     in ``frames_dir``; ``plan`` is :func:`plan_verification` of it, made here if not given.
 
     Raises
@@ -487,7 +488,7 @@ def verify_capture(
     (:func:`~.measured.measure_capture`, with ``plan``'s regions and comparisons, the
     acceptance's limits, ε KDE where a check asks for it); ``folder`` is where it lies
     (None for frames that never were files: a simulation's)."""
-    from inspect_validate.camera.station import station_hash
+    from inspect_validate.station.file import station_hash
     from inspect_validate.verification.calibration import fit_scales, photon_transfer
 
     acc = station.acceptance

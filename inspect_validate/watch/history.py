@@ -379,7 +379,7 @@ def read_history(path: str | Path, *, last: int | None = None) -> HistoryLog:
 
 def read_station_history(path: str | Path, station) -> HistoryLog:
     """:func:`read_history`, refused unless the history was kept of ``station`` (a
-    :class:`~inspect_validate.camera.station.Station` read from its file): ``verify
+    :class:`~inspect_validate.station.file.Station` read from its file): ``verify
     --history`` puts its trends in that station's report."""
     log = read_history(path)
     if Path(log.station) != station.path.resolve():

@@ -164,8 +164,8 @@ def set_aside(frames: Path) -> Path:
 
 
 def _cycle(station, plan, history, monitor, folder, settings, failures):
-    from inspect_validate.camera.capture import capture
-    from inspect_validate.camera.station import simulated_at
+    from inspect_validate.station.capture import capture
+    from inspect_validate.station.file import simulated_at
     from inspect_validate.verification.verify import verify
     from inspect_validate.watch.drift import series_of
     from inspect_validate.watch.history import CycleRecord

@@ -35,7 +35,7 @@ def fake_gige():
     def start():
         serial = f"IV{uuid.uuid4().hex[:6].upper()}"
         proc = subprocess.Popen(
-            [sys.executable, "-m", "inspect_validate.camera.grabbers.fake_gige", serial],
+            [sys.executable, "-m", "inspect_validate.simulation.fake_gige", serial],
             stdout=subprocess.PIPE,
             text=True,
         )

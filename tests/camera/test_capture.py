@@ -7,9 +7,9 @@ import shutil
 import numpy as np
 import pytest
 from conftest import ROOT, run_cli
+
 from inspect_validate.camera.capture import verified_frames
 from inspect_validate.camera.frame import Frame
-
 from inspect_validate.errors import DeviceError
 
 STATION = ROOT / "sample_images" / "station"
@@ -187,7 +187,8 @@ def test_bad_station_file_names_the_field(tmp_path, capsys):
     assert run_cli(["capture", bad, "--out", tmp_path / "o"]) == 2
     err = capsys.readouterr().err
     assert (
-        "controller: backend must be one of simulated, gardasoft" in err and "illuminations" in err
+        "controller: backend must be one of gardasoft, generic, manual, simulated" in err
+        and "illuminations" in err
     )
 
 
@@ -269,15 +270,15 @@ class FakeCamera:
         stamp, mean = self.frames.pop(0)
         return [
             Frame(
-                np.full((4, 4), mean, np.uint16),
-                0,
-                stamp,
-                None,
-                None,
-                "Mono16",
-                16,
-                "fake",
-                self.clock,
+                data=np.full((4, 4), mean, np.uint16),
+                frame_id=0,
+                timestamp_ns=stamp,
+                exposure_us=None,
+                gain_db=None,
+                pixel_format="Mono16",
+                bit_depth=16,
+                device="fake",
+                clock=self.clock,
             )
         ]
 
@@ -488,7 +489,15 @@ def test_triggered_frames_are_the_ones_triggered_across_an_id_wrap():
 
     def next_frame():
         frame = Frame(
-            np.full((4, 4), 100, np.uint16), next(ids), 50, None, None, "Mono16", 16, "f", "device"
+            data=np.full((4, 4), 100, np.uint16),
+            frame_id=next(ids),
+            timestamp_ns=50,
+            exposure_us=None,
+            gain_db=None,
+            pixel_format="Mono16",
+            bit_depth=16,
+            device="f",
+            clock="device",
         )
         return frame, 20, 0
 

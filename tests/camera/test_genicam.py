@@ -4,8 +4,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from inspect_validate.camera.grabbers.genicam import GenICamCamera, find_producers
 
+from inspect_validate.camera.grabbers.genicam import GenICamCamera, find_producers
 from inspect_validate.errors import DeviceError
 
 genicam = pytest.importorskip("genicam")
@@ -62,7 +62,10 @@ def test_colour_format_is_refused():
 
 
 def test_selection_and_producer_errors(tmp_path, monkeypatch):
-    with pytest.raises(DeviceError, match="no camera with serial 42; found: 0, 1, 2"):
+    with pytest.raises(
+        DeviceError,
+        match=r"no GenICam camera with serial 42; found: .*Viky \(serial 0\), .*\(serial 2\)",
+    ):
         GenICamCamera(str(CTI), serial="42")
     with pytest.raises(DeviceError, match="camera index 7 does not exist"):
         GenICamCamera(str(CTI), index=7)

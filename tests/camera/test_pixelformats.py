@@ -2,8 +2,8 @@
 
 import numpy as np
 import pytest
-from inspect_validate.camera.pixelformats import packed_size, unpack
 
+from inspect_validate.camera.pixelformats import packed_size, unpack
 from inspect_validate.errors import DeviceError
 
 

@@ -71,7 +71,10 @@ def test_emulator_errors(tmp_path):
         """,
         tmp_path,
     )
-    assert "serial: no pylon camera with serial nope; found: 0815-0000" in out
+    assert (
+        "serial: no pylon camera with serial nope; found: Basler Emulation (serial 0815-0000)"
+        in out
+    )
     assert "format: " in out and "RGB8Packed not offered as monochrome" in out
     assert "timeout: " in out and "no frame within 0.2 s" in out
 
@@ -226,7 +229,7 @@ def test_legacy_node_names_and_software_trigger(tmp_path):
                 pass
             cam.trigger()
             frame = cam.grab(1, timeout_s=2)[0]
-            print(cam._exposure, frame.exposure_us, has.software_trigger, has.trigger_lines,
+            print(cam._first(cam._EXPOSURE_NODES), frame.exposure_us, has.software_trigger, has.trigger_lines,
                   has.strobe_lines, has.chunks, cam.increments().get("exposure_us"))
         """,
         tmp_path,

@@ -6,10 +6,10 @@ import json
 import numpy as np
 import pytest
 from conftest import ROOT, copy_station
-from inspect_validate.camera.stopping import SequentialStop
 
 from inspect_validate.roi import ClassRoi, RoiSet
 from inspect_validate.roi.shapes import Rect
+from inspect_validate.station.stopping import SequentialStop
 
 STATION = ROOT / "sample_images" / "station"
 

@@ -6,8 +6,8 @@ import glob
 import cv2
 import numpy as np
 import pytest
-from inspect_validate.camera.grabbers.v4l2 import V4l2Camera, _fourcc, _fourcc_text
 
+from inspect_validate.camera.grabbers.v4l2 import V4l2Camera, _fourcc, _fourcc_text
 from inspect_validate.errors import DeviceError
 
 

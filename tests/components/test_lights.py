@@ -3,8 +3,8 @@
 import json
 
 import pytest
-from inspect_validate.camera.lights import GardasoftController, GenericAsciiController
 
+from inspect_validate.camera.controllers import GardasoftController, GenericAsciiController
 from inspect_validate.errors import DeviceError
 
 

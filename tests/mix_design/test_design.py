@@ -6,7 +6,6 @@ import math
 import numpy as np
 import pytest
 from conftest import ROOT, write_mix_scene
-from inspect_validate.camera.illumination import illumination_light
 
 from inspect_validate.mix_design import (
     channel_response,
@@ -18,6 +17,7 @@ from inspect_validate.mix_design import (
 )
 from inspect_validate.model import Exposure, predict
 from inspect_validate.scene import read_scene
+from inspect_validate.station.model import illumination_light
 
 MIX = ROOT / "sample_images" / "scenes" / "mix" / "scene.yaml"
 
@@ -323,7 +323,7 @@ def _inks_station(tmp_path, **world):
 def test_design_verify_measures_the_mix_on_the_simulated_station(cli, tmp_path):
     import json
 
-    from inspect_validate.camera.station import read_station
+    from inspect_validate.station.file import read_station
 
     out = tmp_path / "d"
     code, stdout, err = cli(["design", _inks_station(tmp_path), "--verify", "--out", out])
@@ -358,7 +358,7 @@ def test_design_verify_measures_the_mix_on_the_simulated_station(cli, tmp_path):
 def test_design_verify_with_auto_exposure_and_cnr(cli, tmp_path):
     import json
 
-    from inspect_validate.camera.station import read_station
+    from inspect_validate.station.file import read_station
 
     out = tmp_path / "d"
     args = ["design", _inks_station(tmp_path), "--verify", "--out", out]
@@ -390,7 +390,7 @@ def test_design_verify_needs_a_station(cli, tmp_path):
 
 
 def test_write_station_round_trips(tmp_path):
-    from inspect_validate.camera.station import read_station, write_station
+    from inspect_validate.station.file import read_station, write_station
 
     st = read_station(INKS_STATION)
     again = write_station(st, tmp_path / "elsewhere.yaml", comment="a copy\nof the inks")

@@ -11,8 +11,8 @@ import pytest
 import yaml
 from conftest import ROOT, copy_station, run_cli
 
-from inspect_validate.camera.station import read_station
 from inspect_validate.simulation import run_trials
+from inspect_validate.station.file import read_station
 
 STATION = ROOT / "sample_images" / "station" / "station.yaml"
 

@@ -110,8 +110,13 @@ def test_a_ranking_predicted_closer_than_the_frames_resolve_is_too_close_to_call
 
 @pytest.mark.parametrize(
     ("repeats", "tau", "se_new", "exact"),
-    [(3, 0.0, 1.0, False), (5, 0.0, 1.0, False), (5, 0.0, 3.0, False), (12, 5.0, 1.0, True)]
-    + [(3, 10.0, 1.0, True)],
+    [
+        (3, 0.0, 1.0, False),
+        (5, 0.0, 1.0, False),
+        (5, 0.0, 3.0, False),
+        (12, 5.0, 1.0, True),
+        (3, 10.0, 1.0, True),
+    ],
 )
 def test_the_drift_prediction_interval_holds_its_rate(repeats, tau, se_new, exact):
     """An unchanged station: n repeats of standard error SE₀ = 1 that also vary between

@@ -73,8 +73,11 @@ def test_separation_standard_errors_match_the_spread_of_snr_cnr_and_log_error():
         classes = measure_classes(_stack(rng, frame, 3.0, 3), masks)
         m = compare(classes, comparisons, kde="never")
         values.append(
-            [[c.snr_db for c in m.comparisons], [c.cnr_db for c in m.comparisons]]
-            + [[c.log_error_gaussian for c in m.comparisons]]
+            [
+                [c.snr_db for c in m.comparisons],
+                [c.cnr_db for c in m.comparisons],
+                [c.log_error_gaussian for c in m.comparisons],
+            ]
         )
         if len(errors) < 40:  # the estimate barely changes between draws
             e = measured_standard_errors(m, comparisons)
@@ -88,7 +91,7 @@ def test_a_variance_step_never_crosses_zero():
     """A class whose σ² is below its standard error: the step is shortened and scaled back
     (no NaN, and the result is the derivative's, as a finite difference inside 0 < σ²)."""
     comparisons = Comparisons.of(["A", "B"])
-    snr, cnr, log_error = separation_standard_errors(
+    snr, _, log_error = separation_standard_errors(
         [100.0, 101.0], [0.01, 1.0], [0.001, 0.01], [0.05, 0.01], comparisons
     )
     assert np.all(np.isfinite(snr)) and np.all(np.isfinite(log_error))

@@ -410,8 +410,7 @@ def candidates_acceptance(**changes):
     ],
 )
 def test_every_needed_illumination_is_captured(tmp_path, acceptance):
-    from inspect_validate.camera.station import read_station
-
+    from inspect_validate.station.file import read_station
     from inspect_validate.verification.verify import dominated_illuminations, plan_verification
 
     st = read_station(candidates(tmp_path, **acceptance))
@@ -449,6 +448,7 @@ def test_a_ranking_against_the_prediction_fails_beyond_what_the_frames_resolve(c
     doc["acceptance"]["agreement"] = None
     path.write_text(yaml.safe_dump(doc))
     code, out, err, doc = verify(cli, tmp_path, path)
+    assert code == 1, out + err
     (rank,) = [c for c in doc["checks"] if c["kind"] == "ranking"]
     assert rank["verdict"] == "fail" and rank["value"] > rank["limit"] > 0, rank
     assert "measured best red" in rank["detail"]

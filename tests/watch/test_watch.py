@@ -398,7 +398,7 @@ def test_watch_on_a_busy_port_is_a_clear_error(cli, tmp_path, golden):
 
 
 def test_world_schedule_compounds_per_cycle_and_per_hour():
-    from inspect_validate.camera.station import World
+    from inspect_validate.station.world import World
 
     world = World(
         irradiance={1: 0.9},

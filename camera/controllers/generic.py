@@ -28,13 +28,15 @@ stations). Example, for a controller taking 8-bit levels::
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from typing import Literal
 
-from inspect_validate.camera.lights.base import LedController
-from inspect_validate.camera.lights.gardasoft import SerialAscii
-
+from inspect_validate.camera.controllers.base import LedController
+from inspect_validate.camera.controllers.gardasoft import SerialAscii
+from inspect_validate.camera.registry import Backend, Opening
+from inspect_validate.camera.settings import AsciiProtocol, ControllerSettings, Port
 from inspect_validate.errors import DeviceError
 
-__all__ = ["GenericAsciiController"]
+__all__ = ["BACKEND", "GenericAsciiController", "GenericSettings", "protocol_controller"]
 
 
 class GenericAsciiController(LedController):
@@ -120,3 +122,41 @@ class GenericAsciiController(LedController):
 
     def close(self) -> None:
         self.link.close()
+
+
+class GenericSettings(ControllerSettings):
+    """Any controller that speaks lines of ASCII, described by ``protocol``."""
+
+    backend: Literal["generic"]
+    port: Port
+    """Serial port (``/dev/ttyUSB0``, ``COM3``) or a pyserial URL (``socket://host:port`` on
+    Ethernet)."""
+    protocol: AsciiProtocol
+    """The command templates and reply patterns."""
+
+
+def protocol_controller(
+    port: str, protocol: AsciiProtocol, settings: ControllerSettings
+) -> GenericAsciiController:
+    """A :class:`GenericAsciiController` on ``port`` speaking ``protocol``, with the
+    channels, timeout and error codes of ``settings``."""
+    return GenericAsciiController(
+        port,
+        commands=protocol.commands,
+        channels=settings.channels,
+        max_value=protocol.max_value,
+        baudrate=protocol.baudrate,
+        terminator=protocol.terminator.encode(),
+        reply_end=protocol.reply_end.encode(),
+        ok=protocol.ok.encode() if protocol.ok is not None else None,
+        error=protocol.error.encode(),
+        timeout=settings.timeout_s,
+        error_codes=settings.error_codes,
+    )
+
+
+def open_generic(settings: GenericSettings, opening: Opening) -> GenericAsciiController:
+    return protocol_controller(settings.port, settings.protocol, settings)
+
+
+BACKEND = Backend("generic", GenericSettings, open_generic)

@@ -123,7 +123,7 @@ def _pick(items, name, *, what, field, source):
 
 
 def station_model(station, scene=None) -> StationModel:
-    """The scene components of ``station`` (a :class:`~inspect_validate.camera.station.Station`).
+    """The scene components of ``station`` (a :class:`~inspect_validate.station.file.Station`).
 
     Raises
     ------

@@ -3,12 +3,16 @@
 from __future__ import annotations
 
 import sys
+from typing import Annotated, Literal
 
-from inspect_validate.camera.lights.base import LedController, describe_setting
+from pydantic import Field
 
+from inspect_validate.camera.controllers.base import LedController, describe_setting
+from inspect_validate.camera.registry import Backend, Opening
+from inspect_validate.config import StrictModel
 from inspect_validate.errors import DeviceError
 
-__all__ = ["ManualController"]
+__all__ = ["BACKEND", "ManualController", "ManualSettings"]
 
 
 class ManualController(LedController):
@@ -39,3 +43,18 @@ class ManualController(LedController):
 
     def all_off(self) -> None:
         self.apply({})
+
+
+class ManualSettings(StrictModel):
+    """No controller: the capture asks the operator to switch each illumination."""
+
+    backend: Literal["manual"]
+    channels: Annotated[int, Field(ge=1, le=64)] = 4
+    """How many lights the operator switches."""
+
+
+def open_manual(settings: ManualSettings, opening: Opening) -> ManualController:
+    return ManualController(channels=settings.channels)
+
+
+BACKEND = Backend("manual", ManualSettings, open_manual)

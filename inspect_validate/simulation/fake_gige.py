@@ -1,7 +1,7 @@
 """Aravis' GigE Vision fake camera, run as a process of its own, optionally showing the
 station's scene.
 
-``python -m inspect_validate.camera.grabbers.fake_gige SERIAL`` answers GVCP and
+``python -m inspect_validate.simulation.fake_gige SERIAL`` answers GVCP and
 streams GVSP on the loopback interface like a real camera (discovered as
 ``Aravis-Fake-SERIAL``), with Aravis' own test pattern: a diagonal ramp.
 
@@ -100,7 +100,7 @@ def main(argv=None) -> None:
     parser.add_argument("--target", choices=("scene", "uniform"), default="scene")
     parser.add_argument("--world", help="the simulated world (JSON), instead of the file's")
     args = parser.parse_args(argv)
-    from inspect_validate.camera.lights.simulator import end_with_parent
+    from inspect_validate.simulation.controller import end_with_parent
 
     end_with_parent()
     lib = _library()
@@ -110,8 +110,9 @@ def main(argv=None) -> None:
     fake = lib.arv_gv_fake_camera_get_fake_camera(gv)
     keep = None
     if args.station is not None:
-        from inspect_validate.camera.grabbers.simulated import scene_camera
-        from inspect_validate.camera.station import World, read_station
+        from inspect_validate.simulation.camera import scene_camera
+        from inspect_validate.station.file import read_station
+        from inspect_validate.station.world import World
 
         station = read_station(args.station)
         if args.world:

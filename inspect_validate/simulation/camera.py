@@ -15,7 +15,7 @@ reflectance samples, a lens transmission factor, vignetting, ambient light and
 a gain error (:func:`world_components`), an exposure factor and defocus blur,
 so that verification has a reality to notice; and faults: a camera that
 times out, or one that repeats a frame. ``watch`` evolves the world over its
-cycles (:meth:`~inspect_validate.camera.station.World.at`).
+cycles (:meth:`~inspect_validate.station.file.World.at`).
 
 It triggers as a GenICam camera does (:meth:`SimulatedCamera.arm`): free-running
 through its pipeline, one frame per :meth:`~SimulatedCamera.trigger` exposed at
@@ -36,9 +36,9 @@ from collections import deque
 from pathlib import Path
 
 import numpy as np
+
 from inspect_validate.camera.frame import Frame
 from inspect_validate.camera.grabbers.base import Features, Grabber
-
 from inspect_validate.components.cameras import gain_factor
 from inspect_validate.errors import DeviceError, InputError
 from inspect_validate.model.render import class_bands, expected_grey, expose, sensor_pattern
@@ -127,7 +127,7 @@ class SimulatedCamera(Grabber):
     Parameters
     ----------
     model : StationModel
-        The station's scene components (:func:`inspect_validate.camera.illumination.station_model`).
+        The station's scene components (:func:`inspect_validate.station.model.station_model`).
     state_path : Path
         JSON written by the controller (``{"channels": {"1": percent, ...}}``).
     world : World, optional
@@ -159,10 +159,9 @@ class SimulatedCamera(Grabber):
         noise_seed: int | None = None,
         target: str = "scene",
     ):
-        from inspect_validate.camera.station import World
-
         from inspect_validate.model import Exposure, ObjectClass, predict
         from inspect_validate.spectra import Spectrum, SpectrumKind
+        from inspect_validate.station.world import World
 
         world = world or World()
         self.name = f"simulated camera ({model.scene_camera.name})"
@@ -428,16 +427,16 @@ class SimulatedCamera(Grabber):
             extra["chunk"] = chunk
         cam = self.camera
         return Frame(
-            data,
-            self.frame_id,
-            stamp,
-            self.exposure_us,
-            self.gain_db,
-            "Mono16",
-            cam.bit_depth,
-            self.name,
-            "exposure",
-            extra,
+            data=data,
+            frame_id=self.frame_id,
+            timestamp_ns=stamp,
+            exposure_us=self.exposure_us,
+            gain_db=self.gain_db,
+            pixel_format="Mono16",
+            bit_depth=cam.bit_depth,
+            device=self.name,
+            clock="exposure",
+            extra=extra,
         )
 
 
@@ -456,7 +455,7 @@ def scene_camera(station, state_path: Path | None, target: str = "scene") -> Sim
     """The simulated camera of the station's scene, lit by the simulated controller's state."""
     spec = station.camera
     lit_by_simulator(station, state_path)
-    from inspect_validate.camera.illumination import station_model
+    from inspect_validate.station.model import station_model
 
     return SimulatedCamera(
         station_model(station),

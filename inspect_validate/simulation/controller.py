@@ -2,11 +2,11 @@
 
 Code under test opens the printed device path with pyserial exactly as it would
 open ``/dev/ttyUSB0``; this process answers in the RT protocol
-(:mod:`inspect_validate.camera.lights.gardasoft`) and writes the channel state to a JSON file
+(:mod:`inspect_validate.camera.controllers.gardasoft`) and writes the channel state to a JSON file
 (atomically, on every change) that the simulated camera reads to know which
 light is on.
 
-Run: ``python -m inspect_validate.camera.lights.simulator --state STATE.json [--channels 4]``;
+Run: ``python -m inspect_validate.simulation.controller --state STATE.json [--channels 4]``;
 the first line on stdout is the device path. Faults for tests:
 
 * ``--error CMD:CODE``: answer ``Err CODE`` to commands starting with CMD
@@ -27,7 +27,7 @@ its channel state.
 Its own error codes: 1 unknown command, 2 malformed parameters, 3 value out of range.
 
 ``--dialect line`` speaks a second, line-based protocol instead (for the generic
-ASCII controller, :mod:`inspect_validate.camera.lights.generic`): ``SET c v`` with v in 0–255,
+ASCII controller, :mod:`inspect_validate.camera.controllers.generic`): ``SET c v`` with v in 0–255,
 ``OFF c``, ``STATUS?``; lines end with LF, replies are ``OK`` or
 ``ERROR n: text`` ended by CR LF.
 """

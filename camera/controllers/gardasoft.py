@@ -25,12 +25,14 @@ from __future__ import annotations
 
 import re
 import time
+from typing import Literal
 
-from inspect_validate.camera.lights.base import LedController
-
+from inspect_validate.camera.controllers.base import LedController
+from inspect_validate.camera.registry import Backend, Opening
+from inspect_validate.camera.settings import ControllerSettings, Port
 from inspect_validate.errors import DeviceError
 
-__all__ = ["GardasoftController", "SerialAscii"]
+__all__ = ["BACKEND", "GardasoftController", "GardasoftSettings", "SerialAscii"]
 
 _ERR = re.compile(rb"Err\s*(\d+)")
 
@@ -215,3 +217,24 @@ class GardasoftController(LedController):
 
     def close(self) -> None:
         self.link.close()
+
+
+class GardasoftSettings(ControllerSettings):
+    """A Gardasoft RT-series controller."""
+
+    backend: Literal["gardasoft"]
+    port: Port
+    """Serial port (``/dev/ttyUSB0``, ``COM3``) or a pyserial URL (``socket://host:port`` on
+    Ethernet)."""
+
+
+def open_gardasoft(settings: GardasoftSettings, opening: Opening) -> GardasoftController:
+    return GardasoftController(
+        settings.port,
+        channels=settings.channels,
+        timeout=settings.timeout_s,
+        error_codes=settings.error_codes,
+    )
+
+
+BACKEND = Backend("gardasoft", GardasoftSettings, open_gardasoft)

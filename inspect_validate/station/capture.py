@@ -1,0 +1,93 @@
+"""A station's capture: its illuminations and dark frames, through its own devices, into a
+capture folder (the sequence itself is :mod:`inspect_validate.camera.capture`)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from inspect_validate.camera.capture import CaptureResult, Step, capture_steps
+from inspect_validate.camera.storage import CaptureStore
+from inspect_validate.station.file import station_hash
+
+if TYPE_CHECKING:
+    from inspect_validate.station.file import Station
+
+__all__ = ["capture", "station_steps"]
+
+
+def station_steps(station: Station) -> list[Step]:
+    """The station's illuminations, then its dark frames: what :func:`capture` takes."""
+    steps = [Step(i.name, dict(i.channels), station.frames) for i in station.illuminations]
+    if station.dark_frames:
+        steps.append(Step("dark", {}, station.dark_frames))
+    return steps
+
+
+def capture(
+    station: Station,
+    out: Path,
+    *,
+    resume: bool = False,
+    progress=None,
+    devices=None,
+    steps: list[Step] | None = None,
+) -> CaptureResult:
+    """Run the station's capture sequence into ``out``.
+
+    ``progress(step, done, total)`` is called after every verified frame (its
+    save may still be under way; a step is complete only once all are written).
+    ``devices`` replaces the station's camera and controller with a context
+    manager yielding ``(controller, camera)`` (other setups, tests). ``steps``
+    replaces :func:`station_steps` (``characterize``'s exposure series). With
+    ``precision:`` each illumination ends once its classes are known that well
+    (:class:`~inspect_validate.station.stopping.SequentialStop`).
+
+    Raises
+    ------
+    InputError
+        A capture folder of another station, an ROI file that cannot be read, a mode,
+        line or chunk the camera lacks (nothing switched).
+    DeviceError
+        A device that fails (the frames saved so far are kept; ``resume`` continues).
+    """
+    from inspect_validate.station.devices import open_devices
+
+    store = CaptureStore(
+        out, station_path=station.path, station_sha256=station_hash(station.path), resume=resume
+    )
+    stopping = _stopping(station)
+    pulse = getattr(station.controller, "pulse", None)
+    with devices if devices is not None else open_devices(station) as (controller, camera):
+        return capture_steps(
+            controller,
+            camera,
+            station_steps(station) if steps is None else steps,
+            store,
+            station.camera,
+            pulse=pulse,
+            discard_max=station.discard_max,
+            brightness_tolerance=station.brightness_tolerance,
+            source=str(station.path),
+            stopping=stopping,
+            progress=progress,
+        )
+
+
+def _stopping(station: Station):
+    """``stopping(step)`` for a station that stops on precision (its ROI file read before
+    any device opens, so a bad one costs no capture), else None."""
+    if station.precision is None:
+        return None
+    from inspect_validate.roi import read_rois
+    from inspect_validate.station.stopping import SequentialStop
+
+    rois = read_rois(station.resolve(station.rois))
+    p = station.precision
+
+    def stopping(step: str):
+        if step == "dark":
+            return None
+        return SequentialStop(rois, mean=p.mean, variance=p.variance, min_frames=p.min_frames)
+
+    return stopping

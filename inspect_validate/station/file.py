@@ -1,0 +1,378 @@
+"""Station files: camera, light controller, illuminations and frame counts (YAML).
+
+The one description of a station that ``capture``, ``verify`` and ``train``
+read: what is in front of the camera (``scene``, ``rois``), what each controller
+channel drives (``channels``), the camera settings the prediction uses, and
+what the station must achieve (``acceptance``). Example (the manual, "Station files")::
+
+    name: paperboard station
+    scene: ../scenes/paperboard/scene.yaml
+    rois: rois.yaml
+    channels:                       # controller channel → scene light
+      1: {light: amber LED, irradiance: 5.0}    # W/m² at the object at 100 %
+      2: red LED
+    camera:
+      backend: simulated            # simulated | genicam | pylon | aravis | v4l2 | replay | a plugin's
+      exposure_us: 20000
+      gain_db: 0
+    controller:
+      backend: simulated            # simulated | gardasoft | generic | manual | a plugin's
+      channels: 2
+    illuminations:
+      - {name: amber, channels: {1: 100}}
+      - {name: red, channels: {2: 100}}
+    frames: 4                       # per illumination (the most, with precision:)
+    precision: {mean: 0.001, variance: 0.01}   # optional: stop once μ and σ² are known
+    dark_frames: 4
+"""
+
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+from typing import Annotated
+
+from pydantic import (
+    BeforeValidator,
+    Field,
+    model_validator,
+)
+
+from inspect_validate.acceptance import Acceptance, Calibration
+from inspect_validate.camera.settings import Channel
+from inspect_validate.comparisons import ComparisonsSpec
+from inspect_validate.config import StrictModel, load_yaml, one_of
+from inspect_validate.scene import Irradiance
+from inspect_validate.station.world import Rendered
+
+__all__ = [
+    "CameraSpec",
+    "ChannelLight",
+    "ControllerSpec",
+    "Illumination",
+    "Precision",
+    "Station",
+    "StationCamera",
+    "read_station",
+    "simulated_at",
+    "station_hash",
+    "write_station",
+]
+
+
+class StationCamera(StrictModel):
+    """The keys of a station's own in every ``camera:`` section, whatever the backend: which
+    camera of the scene the prediction uses."""
+
+    model: str | None = None
+    """Which of the scene's cameras this is (default: its only one)."""
+    measured: str | None = None
+    """A camera file written by ``characterize``: its EMVA 1288 values replace the scene
+    camera's in every prediction of this station (the QE stays the scene's)."""
+
+
+def _sections(kind: str, *, extra: tuple = ()) -> dict:
+    """Backend name → the model of its section in a station file: the backend's own
+    settings (:mod:`inspect_validate.camera.registry`, every installed one) and
+    ``extra``; a camera whose backend has a simulator also renders (``simulate:``)."""
+    from inspect_validate.camera import registry
+
+    simulators = registry.backends("simulators") if kind == "cameras" else {}
+    models = {name: _unloadable(name, why) for name, why in registry.broken(kind).items()}
+    for name, backend in registry.backends(kind).items():
+        bases = (backend.settings, *extra)
+        if name in simulators and not issubclass(backend.settings, Rendered):
+            bases += (Rendered,)
+        models[name] = type(
+            f"{backend.settings.__name__}Section",
+            bases,
+            {"__module__": __name__, "__doc__": backend.settings.__doc__},
+        )
+    return models
+
+
+def _unloadable(name: str, why: str) -> type:
+    """A section model that refuses every section naming a backend whose package is
+    installed but does not load, saying why."""
+
+    class Unloadable(StrictModel):
+        @model_validator(mode="before")
+        @classmethod
+        def _refuse(cls, value):
+            raise ValueError(f"backend {name!r} is installed but cannot be used: {why}")
+
+    return Unloadable
+
+
+CameraSpec = one_of(_sections("cameras", extra=(StationCamera,)), what="camera", field="backend")
+ControllerSpec = one_of(_sections("controllers"), what="controller", field="backend")
+
+
+class ChannelLight(StrictModel):
+    """What a controller channel drives: a light of the station's scene."""
+
+    light: Annotated[str, Field(min_length=1)]
+    """The scene light's name."""
+    irradiance: Irradiance | None = None
+    """W/m² at the object at 100 % (default: the scene light's own ``irradiance``)."""
+
+
+def _channel_shorthand(v):
+    return {"light": v} if isinstance(v, str) else v
+
+
+class Illumination(StrictModel):
+    """One lighting state to capture: which channels are on, and at what drive level."""
+
+    name: str = Field(pattern=r"^[A-Za-z0-9_.-]+$", max_length=100)
+    """The step's name: its frames go to ``OUT/<name>/``."""
+    channels: dict[Channel, Annotated[float, Field(ge=0, le=100, allow_inf_nan=False)]]
+    """Channel → drive level, % (channels not named are off)."""
+
+
+class Precision(StrictModel):
+    """Sequential stopping (:mod:`~inspect_validate.station.stopping`): ``frames`` becomes
+    the most an illumination gets; it ends once every class's μ and σ² are known to
+    these relative standard errors."""
+
+    mean: Annotated[float, Field(gt=0, lt=1, allow_inf_nan=False)]
+    """Relative standard error of every class's μ to reach."""
+    variance: Annotated[float, Field(gt=0, lt=1, allow_inf_nan=False)]
+    """Relative standard error of every class's σ² to reach."""
+    min_frames: Annotated[int, Field(ge=3, le=100_000)] = 3
+    """Frames each illumination gets at least."""
+
+
+class Characterize(StrictModel):
+    """How ``characterize`` measures the camera (EMVA 1288): the light of the exposure
+    series, its points, the frames of the spatial stacks and the analysed region."""
+
+    illumination: str | None = None
+    """The station's illumination that lights the series (default: its first)."""
+    points: Annotated[int, Field(ge=8, le=1000)] = 50
+    """Exposure times of the photon transfer series, dark to saturation."""
+    frames_spatial: Annotated[int, Field(ge=2, le=10_000)] = 16
+    """Frames averaged for the spatial (DSNU, PRNU) stacks."""
+    region: (
+        tuple[
+            Annotated[int, Field(ge=0)],
+            Annotated[int, Field(ge=0)],
+            Annotated[int, Field(ge=1)],
+            Annotated[int, Field(ge=1)],
+        ]
+        | None
+    ) = None
+    """x, y, width, height of the uniformly lit area analysed (default: the frame)."""
+
+
+class Station(StrictModel):
+    """A station: its camera, its light controller, the illuminations to capture, and
+    the scene, regions and checks that predict, measure and verify them."""
+
+    name: str = "station"
+    """Shown in reports, metrics and the history."""
+    camera: CameraSpec
+    """The camera and how frames start; ``backend`` chooses the kind."""
+    controller: ControllerSpec
+    """The light controller; ``backend`` chooses the kind."""
+    illuminations: list[Illumination] = Field(min_length=1)
+    """The lighting states to capture, in order."""
+    frames: int = Field(default=4, ge=1, le=100_000)
+    """Frames per illumination (the most, with ``precision``)."""
+    precision: Precision | None = None
+    """Stop each illumination once the classes are known this well."""
+    dark_frames: int = Field(default=4, ge=0, le=100_000)
+    """Frames with every light off, subtracted per pixel."""
+    discard_max: int = Field(default=20, ge=0, le=100_000)
+    """Frames an illumination may discard (stale, unsettled) before it fails."""
+    brightness_tolerance: float = Field(default=0.02, gt=0, le=1)
+    """Relative change of a frame's mean that counts as the light still settling."""
+    scene: str | None = None
+    """The scene file that predicts this station (relative to this file)."""
+    rois: str | None = None
+    """The ROI file of the classes in the camera's frames (relative to this file)."""
+    channels: dict[Channel, Annotated[ChannelLight, BeforeValidator(_channel_shorthand)]] = {}
+    """Controller channel → the scene light it drives (a name, or ``{light, irradiance}``)."""
+    optics: str | None = None
+    """Which of the scene's optics the station has (default: its only one)."""
+    comparisons: ComparisonsSpec = ComparisonsSpec()
+    """Which groups of classes to compare, and how a group is weighted."""
+    calibration: Calibration = Calibration()
+    """How the prediction's absolute scale is tied to the measurement."""
+    acceptance: Acceptance = Acceptance()
+    """The checks ``verify`` runs and their limits."""
+    characterize: Characterize = Characterize()
+    """How ``characterize`` measures the camera."""
+    path: Path | None = Field(default=None, exclude=True)
+    """The file the station was read from (set on reading, never written)."""
+
+    @model_validator(mode="after")
+    def _channels_exist(self):
+        """Every channel an illumination (or the simulated camera) uses is on the controller."""
+        n = self.controller.channels
+        for i, ill in enumerate(self.illuminations):
+            missing = sorted(c for c in ill.channels if c > n)
+            if missing:
+                raise ValueError(
+                    f"illuminations[{i}] ({ill.name}): channel {missing[0]} is not on the "
+                    f"controller (controller.channels: {n})"
+                )
+        mapped = sorted(c for c in self.channels if c > n)
+        if mapped:
+            raise ValueError(
+                f"channels: channel {mapped[0]} is not on the controller (controller.channels: {n})"
+            )
+        if self.precision is not None:
+            if not self.rois:
+                raise ValueError("precision: stopping on the classes' precision needs 'rois'")
+            if self.frames < self.precision.min_frames:
+                raise ValueError(
+                    f"frames ({self.frames}) is the most an illumination gets with 'precision'; "
+                    f"it must be at least precision.min_frames ({self.precision.min_frames})"
+                )
+        if self.renders and not (self.scene and self.channels):
+            raise ValueError(
+                "a simulated camera renders the station's scene: give 'scene' and 'channels' "
+                "(controller channel → scene light)"
+            )
+        self._check_timing()
+        wanted = self.characterize.illumination
+        if wanted is not None and wanted not in {i.name for i in self.illuminations}:
+            raise ValueError(
+                f"characterize.illumination: no illumination {wanted!r} "
+                f"(the station has {', '.join(i.name for i in self.illuminations)})"
+            )
+        return self
+
+    def _check_timing(self) -> None:
+        """Triggered lights cover the exposure; every part a mode needs is given.
+
+        The prediction integrates the light over ``exposure_us``: a pulse that ends
+        early or starts late would make every frame darker than predicted, so such a
+        station is refused when read, before any device is opened.
+        """
+        cam, ctl = self.camera, self.controller
+        pulse = getattr(ctl, "pulse", None)
+        hardware = cam.acquisition == "hardware-trigger"
+        if hardware and cam.trigger_line is None:
+            raise ValueError(
+                "camera.acquisition: hardware-trigger needs camera.trigger_line, the input "
+                "the controller's trigger output drives (e.g. Line1)"
+            )
+        if cam.strobe_line is not None and cam.acquisition in ("free-run", "hardware-trigger"):
+            raise ValueError(
+                f"camera.strobe_line: a strobed light needs camera.acquisition: "
+                f"software-trigger, not {cam.acquisition} (free-running frames are not paced "
+                "to the light's duty cycle; a hardware trigger already comes with its pulse)"
+            )
+        if not (hardware or cam.strobe_line):
+            if pulse is not None:
+                raise ValueError(
+                    "controller.pulse is used with camera.acquisition: hardware-trigger or "
+                    "camera.strobe_line; give one of them or leave out the pulse"
+                )
+            return
+        what = "hardware-trigger" if hardware else "camera.strobe_line"
+        if ctl.backend == "manual":
+            raise ValueError(f"{what}: a manual controller cannot pulse its lights")
+        if pulse is None:
+            raise ValueError(
+                f"{what} needs controller.pulse: {{width_us: …}}, the light's pulse per frame"
+            )
+        if cam.exposure_us is None:
+            raise ValueError(f"{what} needs camera.exposure_us, which the pulse must cover")
+        commands = ctl.protocol.commands if getattr(ctl, "protocol", None) else None
+        needed = ("pulse", "trigger") if hardware else ("pulse",)
+        for key in needed:
+            if commands is not None and key not in commands:
+                raise ValueError(f"{what}: controller.protocol.commands needs a '{key}' template")
+        if hardware and pulse.trigger_channel > ctl.channels:
+            raise ValueError(
+                f"controller.pulse.trigger_channel {pulse.trigger_channel} is not on the "
+                f"controller (controller.channels: {ctl.channels})"
+            )
+        period_s = pulse.width_us / pulse.max_duty / 1e6
+        if period_s > 60:
+            raise ValueError(
+                f"controller.pulse: width_us / max_duty spaces frames {period_s:.3g} s apart; "
+                "a capture would take hours — check the units (µs) and the duty limit (0–1)"
+            )
+        # Both intervals from the trigger: the exposure starts at the camera's own delay
+        # (a strobe's trigger is the exposure start itself).
+        start = cam.trigger_delay_us if hardware else 0.0
+        end = start + cam.exposure_us
+        if pulse.delay_us > start or pulse.delay_us + pulse.width_us < end:
+            need = "camera.trigger_delay_us" if hardware else "0 (the exposure's start)"
+            raise ValueError(
+                f"controller.pulse lights {pulse.delay_us:g}–{pulse.delay_us + pulse.width_us:g} µs "
+                f"after the trigger, the exposure runs {start:g}–{end:g} µs: the pulse must "
+                f"cover it (delay_us ≤ {need}, delay_us + width_us ≥ that + "
+                f"camera.exposure_us = {end:g} µs)"
+            )
+
+    @property
+    def renders(self) -> bool:
+        """The camera renders the scene (simulated, or pylon's emulator fed with renderings)."""
+        return self.camera.backend == "simulated" or getattr(self.camera, "simulate", False)
+
+    def resolve(self, relative: str | None) -> Path | None:
+        """A path given in the station file, relative to the file."""
+        return None if relative is None else (self.path.parent / relative)
+
+
+def read_station(path: str | Path) -> Station:
+    """Read and validate a station file; errors name the file and field."""
+    station = load_yaml(path, Station, what="station file")
+    names = [i.name for i in station.illuminations]
+    if len(set(names)) != len(names) or "dark" in names:
+        from inspect_validate.errors import InputError
+
+        raise InputError(
+            "illumination names must be unique and not 'dark' (reserved for the dark frames)",
+            source=str(path),
+        )
+    return station.model_copy(update={"path": Path(path)})
+
+
+def station_hash(path: str | Path) -> str:
+    """SHA-256 of the station file's bytes: which configuration a capture belongs to."""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def write_station(station: Station, path: str | Path, *, comment: str = "") -> Station:
+    """Write ``station`` as a station file at ``path`` and read it back from there.
+
+    The paths it names (scene, ROIs, GenTL producer, replay folder, golden
+    file) are written absolute, so the file means the same wherever it lies;
+    ``comment`` heads the file (one ``#`` line per line).
+    """
+    import yaml
+
+    doc = station.model_dump(mode="json", exclude={"path"}, exclude_unset=True)
+    for key in ("scene", "rois"):
+        if doc.get(key):
+            doc[key] = str(station.resolve(doc[key]).resolve())
+    for key in ("cti", "folder", "measured"):
+        if doc["camera"].get(key):
+            doc["camera"][key] = str(station.resolve(doc["camera"][key]).resolve())
+    drift = doc.get("acceptance", {}).get("drift")
+    if drift:
+        drift["golden"] = str(station.resolve(drift["golden"]).resolve())
+    head = "".join(f"# {line}\n" for line in comment.splitlines())
+    Path(path).write_text(head + yaml.safe_dump(doc, sort_keys=False, allow_unicode=True))
+    return read_station(path)
+
+
+def simulated_at(station: Station, cycle: int, *, hours: float = 0.0) -> Station:
+    """``station`` as its simulated world is at ``watch``'s cycle ``cycle`` (``hours`` in):
+    the world's scheduled changes applied and the controller's scheduled faults added.
+    A station whose devices are real is returned as it is."""
+    world = getattr(station.camera, "world", None)
+    if world is None or not world.changes:
+        return station
+    update = {"camera": station.camera.model_copy(update={"world": world.at(cycle, hours=hours)})}
+    faults = world.controller_faults(cycle)
+    if faults and station.controller.backend == "simulated":
+        args = [*station.controller.simulator_args, *faults]
+        update["controller"] = station.controller.model_copy(update={"simulator_args": args})
+    return station.model_copy(update=update)

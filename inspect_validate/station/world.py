@@ -1,0 +1,160 @@
+"""The simulated world of a station file: how what its simulated camera renders differs
+from the scene (``camera.world``), and how it changes over the cycles of ``watch``.
+
+A simulator rendered from the very scene it is checked against can only agree with it;
+these deviations make the simulated station a reality that the verification has to
+notice or calibrate away (:mod:`inspect_validate.simulation.camera` renders them).
+"""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+from pydantic import Field
+
+from inspect_validate.camera.settings import Channel
+from inspect_validate.config import StrictModel
+
+__all__ = ["Rendered", "World", "WorldChange"]
+
+Factor = Annotated[float, Field(gt=0, le=100, allow_inf_nan=False)]
+Percent = Annotated[float, Field(gt=-100, lt=100, allow_inf_nan=False)]
+ShiftNm = Annotated[float, Field(ge=-200, le=200, allow_inf_nan=False)]
+Transmission = Annotated[float, Field(gt=0, le=2, allow_inf_nan=False)]
+BlurPx = Annotated[float, Field(ge=0, le=50, allow_inf_nan=False)]
+
+
+class WorldChange(StrictModel):
+    """A change of the simulated world from cycle ``start`` of ``watch`` on (to ``stop``,
+    exclusive, if given): a step (factors), a gradual drift (% per cycle or per hour,
+    compounding from the start) or a device fault. A station that is ageing, soiled or
+    faulty on a schedule, for ``watch`` to notice."""
+
+    start: Annotated[int, Field(ge=0)] = 0
+    stop: Annotated[int, Field(ge=1)] | None = None
+    irradiance: dict[Channel, Factor] = {}
+    """Step: factor on the channel's irradiance (an LED replaced by a weaker one)."""
+    percent_per_cycle: dict[Channel, Percent] = {}
+    """Drift: the channel's output changes by this % every cycle (LED ageing: negative)."""
+    percent_per_hour: dict[Channel, Percent] = {}
+    """Drift: the channel's output changes by this % every hour of the watch."""
+    peak_shift_nm: dict[Channel, ShiftNm] = {}
+    """Step: the channel's spectrum shifted by this many nm more."""
+    exposure: Factor | None = None
+    """Step: factor on the light every frame collects (someone changed exposure or gain)."""
+    transmission: Transmission | None = None
+    """Step: factor on the lens transmission (a soiled lens)."""
+    blur_px: BlurPx | None = None
+    """Step: Gaussian blur σ in pixels (defocus: the classes bleed into each other)."""
+    camera_timeout: bool = False
+    """Fault: the camera delivers no frame (its grab times out)."""
+    frozen: bool = False
+    """Fault: the camera repeats one frame (a stale image from a hung driver)."""
+    controller_faults: list[str] = []
+    """Fault: arguments for the simulated controller, e.g. ``["--garbage-after", "2"]``."""
+
+    def active(self, cycle: int) -> bool:
+        return cycle >= self.start and (self.stop is None or cycle < self.stop)
+
+
+class World(StrictModel):
+    """How the simulated world differs from the station's scene.
+
+    A simulator rendered from the very scene it is checked against can only
+    agree with it; these deviations make the simulated station a reality that
+    the verification has to notice or calibrate away. Per-channel entries are
+    keyed by controller channel.
+    """
+
+    irradiance: dict[Channel, Annotated[float, Field(gt=0, le=100, allow_inf_nan=False)]] = {}
+    """Factor on the channel's irradiance at the object (a dimmer or farther light)."""
+    peak_shift_nm: dict[Channel, ShiftNm] = {}
+    """The channel's spectrum shifted by this many nm (an LED drifted from its datasheet)."""
+    width_scale: dict[Channel, Annotated[float, Field(ge=0.2, le=5, allow_inf_nan=False)]] = {}
+    """The channel's spectrum stretched about its peak (FWHM × this factor)."""
+    reflectance_seed: Annotated[int, Field(ge=0)] | None = None
+    """The objects are another draw (bootstrap) from each class's reflectance samples."""
+    irradiance_jitter: Annotated[float, Field(ge=0, le=0.5, allow_inf_nan=False)] = 0.0
+    """Relative standard deviation of each channel's irradiance from one capture to the
+    next (a driver's current, an LED's temperature): the spread between captures that a
+    golden file's repeats must learn."""
+    transmission: Transmission = 1.0
+    """Factor on the lens transmission."""
+    vignetting: Annotated[float, Field(ge=0, lt=1, allow_inf_nan=False)] = 0.0
+    """Relative irradiance lost at the frame's corners (quadratic in the radius)."""
+    ambient: Annotated[float, Field(ge=0, le=1000, allow_inf_nan=False)] = 0.0
+    """W/m² of equal-energy light over 380–780 nm at the object, always on (also in darks)."""
+    gain_error: Annotated[float, Field(gt=-0.9, lt=10, allow_inf_nan=False)] = 0.0
+    """Relative error of the system gain K against the camera's declared one."""
+    black_level: Annotated[float, Field(ge=0, le=60_000, allow_inf_nan=False)] | None = None
+    """The sensor's real black level (dark offset), DN; default the declared one."""
+    dark_current: Annotated[float, Field(ge=0, le=1e7, allow_inf_nan=False)] | None = None
+    """The sensor's real dark current, e⁻/s; default the declared one."""
+    dsnu: Annotated[float, Field(ge=0, le=1e5, allow_inf_nan=False)] | None = None
+    """The sensor's real dark signal non-uniformity, e⁻ rms; default the declared one."""
+    prnu: Annotated[float, Field(ge=0, le=0.5, allow_inf_nan=False)] | None = None
+    """The sensor's real photo-response non-uniformity, relative rms; default the declared."""
+    exposure: Factor = 1.0
+    """Factor on the light every frame collects (the exposure the camera really uses)."""
+    blur_px: BlurPx = 0.0
+    """Gaussian blur σ of the image, pixels (defocus)."""
+    camera_timeout: bool = False
+    """The camera delivers no frame."""
+    frozen: bool = False
+    """The camera repeats its first frame."""
+    exposure_glitch_every: Annotated[int, Field(ge=0, le=1000)] = 0
+    """Every n-th frame is exposed at half the set exposure (a setting applied late),
+    its chunk saying so; 0: never."""
+    chunk_lag: bool = False
+    """Chunks carry the previous frame's values (a known firmware fault)."""
+    changes: list[WorldChange] = []
+    """Changes over the cycles of ``watch`` (:meth:`at`)."""
+
+    def at(self, cycle: int, *, hours: float = 0.0) -> World:
+        """This world at ``watch``'s cycle ``cycle``, ``hours`` after it started: every
+        active change applied, none left to apply."""
+        import math
+
+        w = self.model_dump(exclude={"changes"})
+        for c in self.changes:
+            if not c.active(cycle):
+                continue
+            n = cycle - c.start
+            for ch in {*c.irradiance, *c.percent_per_cycle, *c.percent_per_hour}:
+                factor = c.irradiance.get(ch, 1.0)
+                factor *= (1 + c.percent_per_cycle.get(ch, 0.0) / 100) ** n
+                # hours since the change began, as far as the cycles tell (uniform cycles)
+                since = hours * n / cycle if cycle else 0.0
+                factor *= math.exp(math.log1p(c.percent_per_hour.get(ch, 0.0) / 100) * since)
+                w["irradiance"][ch] = w["irradiance"].get(ch, 1.0) * factor
+            for ch, nm in c.peak_shift_nm.items():
+                w["peak_shift_nm"][ch] = w["peak_shift_nm"].get(ch, 0.0) + nm
+            if c.exposure is not None:
+                w["exposure"] *= c.exposure
+            if c.transmission is not None:
+                w["transmission"] = min(w["transmission"] * c.transmission, 2.0)
+            if c.blur_px is not None:
+                w["blur_px"] = max(w["blur_px"], c.blur_px)
+            w["camera_timeout"] |= c.camera_timeout
+            w["frozen"] |= c.frozen
+        # a drift schedule may not push a factor out of its range
+        w["irradiance"] = {ch: min(max(f, 1e-6), 100.0) for ch, f in w["irradiance"].items()}
+        return World(**w)
+
+    def controller_faults(self, cycle: int) -> list[str]:
+        """The simulated controller's fault arguments at ``cycle``."""
+        return [a for c in self.changes if c.active(cycle) for a in c.controller_faults]
+
+
+class Rendered(StrictModel):
+    """A camera that renders the station's scene (simulated, fed into pylon's emulator, or
+    streamed by Aravis' fake GigE Vision camera)."""
+
+    width: Annotated[int, Field(ge=16, le=20000)] = 320
+    """Frame width, pixels."""
+    height: Annotated[int, Field(ge=16, le=20000)] = 240
+    """Frame height, pixels."""
+    latency: Annotated[int, Field(ge=0, le=100)] = 2
+    """Frames in the camera's pipeline: a frame delivered now was exposed this many ago."""
+    world: World = World()
+    """How the simulated world differs from the scene."""
