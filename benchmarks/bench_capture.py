@@ -50,8 +50,8 @@ from pathlib import Path
 import yaml
 from machine import machine_line
 
-from inspect_validate.station import capture as capture_module
 from inspect_validate.camera.storage import CaptureStore
+from inspect_validate.station import capture as capture_module
 from inspect_validate.station.devices import open_devices
 from inspect_validate.station.file import read_station
 

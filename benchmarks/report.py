@@ -377,14 +377,12 @@ def skipped_work(quick: bool) -> Knob:
 
     import yaml
 
-    from inspect_validate.station.capture import capture
     from inspect_validate.measurement import measure_files
+    from inspect_validate.station.capture import capture
     from inspect_validate.station.file import read_station
-    from inspect_validate.verification.verify import (
-        dominated_illuminations,
-        plan_verification,
-        verify,
-    )
+    from inspect_validate.verification.dominance import dominated_illuminations
+    from inspect_validate.verification.plan import plan_verification
+    from inspect_validate.verification.verify import verify_folder
 
     knob = Knob(
         "Skipped work",
@@ -455,7 +453,7 @@ def skipped_work(quick: bool) -> Knob:
         for label, st in (("skip", kept), ("all", full)):
             t0 = time.perf_counter()
             capture(st, tmp / label)
-            runs[label] = (time.perf_counter() - t0, verify(st, tmp / label, plan=plan))
+            runs[label] = (time.perf_counter() - t0, verify_folder(st, tmp / label, plan=plan))
     (t_skip, v_skip), (t_all, v_all) = runs["skip"], runs["all"]
 
     def amber(v):

@@ -363,3 +363,38 @@ def read_capture(
     )
     hashes = audit_capture(folder, manifest, [*frames, *(["dark"] if dark else [])])
     return frames, dark, manifest, hashes
+
+
+def acquisition_record(manifest: dict, files: dict[str, list[Path]]) -> tuple[dict, ...]:
+    """How each step's frames were taken, from the manifest and the frames' sidecars:
+    the acquisition mode, the exposure the frames verifiably had (their chunk values
+    where the camera sent chunks, else the setting read back), and the frames discarded
+    before them, by reason. Steps captured before modes were recorded say ``free-run``."""
+    rows = []
+    for step, paths in files.items():
+        if not paths:
+            continue
+        entry = manifest.get("steps", {}).get(step, {})
+        exposures, source = set(), "read back"
+        for path in paths:
+            try:
+                meta = json.loads(path.with_suffix(".json").read_text())
+            except (OSError, ValueError):
+                continue  # a frame without its sidecar: the exposure is not known for it
+            chunk = (meta.get("extra") or {}).get("chunk") or {}
+            if "ExposureTime" in chunk:
+                exposures.add(float(chunk["ExposureTime"]))
+                source = "chunk"
+            elif meta.get("exposure_us") is not None:
+                exposures.add(float(meta["exposure_us"]))
+        rows.append(
+            {
+                "step": step,
+                "mode": entry.get("acquisition", "free-run"),
+                "frames": len(paths),
+                "exposure_us": sorted(exposures),
+                "exposure_source": source if exposures else None,
+                "discarded": dict(entry.get("discarded") or {}),
+            }
+        )
+    return tuple(rows)

@@ -14,7 +14,7 @@ if TYPE_CHECKING:
     from inspect_validate.scene import Scene
     from inspect_validate.station.file import Station
     from inspect_validate.verification.golden import Golden
-    from inspect_validate.verification.verify import Verification
+    from inspect_validate.verification.results import Verification
 
 __all__ = [
     "capture",

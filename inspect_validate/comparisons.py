@@ -302,7 +302,7 @@ def gaussian_separation(
         Every one by default; the others' ε are NaN.
     """
     from inspect_validate.stats import cnr_db, fisher_db, gaussian_error_and_log, snr_db
-    from inspect_validate.stats.kde_error import mixture_error
+    from inspect_validate.stats.kde_error import Mixture, mixture_error
 
     means = np.asarray(means, dtype=np.float64)
     variances = np.asarray(variances, dtype=np.float64)
@@ -334,12 +334,8 @@ def gaussian_separation(
             if not valid[idx]:
                 continue
             e = mixture_error(
-                means[idx][g1],
-                w[g1] / w[g1].sum(),
-                sd[idx][g1],
-                means[idx][g2],
-                w[g2] / w[g2].sum(),
-                sd[idx][g2],
+                Mixture(means[idx][g1], w[g1] / w[g1].sum(), sd[idx][g1]),
+                Mixture(means[idx][g2], w[g2] / w[g2].sum(), sd[idx][g2]),
             )
             eps[(*idx, p)] = e
             with np.errstate(divide="ignore"):
@@ -398,7 +394,7 @@ def counted_separation(
     pixels : array_like, keyword-only, optional
         Per-class pixel counts (for ``pixels`` weighting).
     """
-    from inspect_validate.stats.kde_error import misclassified_regions
+    from inspect_validate.stats.kde_error import Mixture, misclassified_regions
     from inspect_validate.stats.sample import empirical_cdf
 
     means, sd = np.asarray(means, float), np.sqrt(np.asarray(variances, float))
@@ -411,7 +407,7 @@ def counted_separation(
             continue
         shares = [w[g] / w[g].sum() for g in sides]
         regions = misclassified_regions(
-            means[sides[0]], shares[0], sd[sides[0]], means[sides[1]], shares[1], sd[sides[1]]
+            *(Mixture(means[g], share, sd[g]) for g, share in zip(sides, shares, strict=True))
         )
         counted = expected = variance = 0.0
         for g, share, (ends, masses) in zip(sides, shares, regions, strict=True):

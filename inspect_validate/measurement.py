@@ -22,7 +22,6 @@ from inspect_validate.comparisons import (
 )
 from inspect_validate.errors import InputError
 from inspect_validate.stats import RegionStatistics, region_statistics, sample_moments
-from inspect_validate.stats.kde_error import shared_regions
 from inspect_validate.stats.sample import gaussian_misfit
 
 __all__ = [
@@ -235,9 +234,8 @@ def compare(
     pixels = [c.n_pixels for c in classes]
     means, variances = [c.mean for c in classes], [c.variance for c in classes]
     cdfs = [c.region.cdf for c in classes]  # the misfit's: a float sample sorted once
-    with shared_regions():
-        g = gaussian_separation(means, variances, comparisons, pixels=pixels)
-        counted = counted_separation(cdfs, means, variances, comparisons, pixels=pixels)
+    g = gaussian_separation(means, variances, comparisons, pixels=pixels)
+    counted = counted_separation(cdfs, means, variances, comparisons, pixels=pixels)
     wanted = {"always": range(len(comparisons.groups)), "never": ()}.get(kde)
     if wanted is None:
         shaped = np.array([c.gaussian_misfit <= MISFIT_MAX for c in classes])

@@ -139,5 +139,5 @@ def test_the_layer_check_sees_a_forbidden_import(tmp_path, monkeypatch):
     )
     monkeypatch.setattr(conftest, "ROOT", copy)
     monkeypatch.setitem(globals(), "ROOT", copy)
-    with pytest.raises(AssertionError, match="inspect_validate.model"):
+    with pytest.raises(AssertionError, match=r"inspect_validate\.model"):
         test_the_device_layer_imports_nothing_of_the_science()

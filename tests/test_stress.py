@@ -29,7 +29,7 @@ from inspect_validate.stats import (
     sample_moments,
     snr_db,
 )
-from inspect_validate.stats.kde_error import mixture_error
+from inspect_validate.stats.kde_error import Mixture, mixture_error
 
 implementation = importlib.import_module("inspect_validate.stats.gaussian_error")
 STEFAN_BOLTZMANN = 5.670374419e-8  # W·m⁻²·K⁻⁴ (CODATA 2018, exact from h, c, k)
@@ -140,14 +140,15 @@ def test_separation_is_invariant_under_a_common_offset_and_a_power_of_two_scale(
 def test_union_error_does_not_depend_on_the_order_of_components_or_sides(c1, c2, s, rnd):
     w1, w2 = np.full(len(c1), 1 / len(c1)), np.full(len(c2), 1 / len(c2))
     s1, s2 = np.array(s[: len(c1)]), np.array(s[: len(c2)])[::-1]
-    eps = mixture_error(np.array(c1), w1, s1, np.array(c2), w2, s2)
+    eps = mixture_error(Mixture(c1, w1, s1), Mixture(c2, w2, s2))
     order1, order2 = list(range(len(c1))), list(range(len(c2)))
     rnd.shuffle(order1)
     rnd.shuffle(order2)
     shuffled = mixture_error(
-        np.array(c1)[order1], w1[order1], s1[order1], np.array(c2)[order2], w2[order2], s2[order2]
+        Mixture(np.array(c1)[order1], w1[order1], s1[order1]),
+        Mixture(np.array(c2)[order2], w2[order2], s2[order2]),
     )
-    swapped = mixture_error(np.array(c2), w2, s2, np.array(c1), w1, s1)
+    swapped = mixture_error(Mixture(c2, w2, s2), Mixture(c1, w1, s1))
     assert 0 <= eps <= 0.5
     assert shuffled == pytest.approx(eps, rel=1e-12, abs=1e-300)
     assert swapped == pytest.approx(eps, rel=1e-12, abs=1e-300)

@@ -68,7 +68,7 @@ def train(station, golden_path, repeats, frames_dirs, frames_out):
             captures.append(folder)
         click.echo(f"frames: {base}")
     golden = run_train(st, captures, regions=regions)
-    from inspect_validate.verification.verify import planned_tests
+    from inspect_validate.verification.plan import planned_tests
 
     rate = st.acceptance.false_alarm_rate
     rois, comparisons = regions

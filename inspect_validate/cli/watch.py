@@ -3,14 +3,10 @@
 from __future__ import annotations
 
 import sys
-from pathlib import Path
 
 import click
 
-from inspect_validate.cli.common import (
-    PATH,
-    check_outputs,
-)
+from inspect_validate.cli.common import PATH
 from inspect_validate.errors import EXIT_CHECK_FAILED
 
 
@@ -101,93 +97,11 @@ def watch(
     or with exit 3 after --max-failures failed cycles in a row; exits 1 when
     the last cycle failed a check or drifted.
     """
-    from dataclasses import replace
-
-    from inspect_validate.acceptance import Drift
-    from inspect_validate.errors import InputError
     from inspect_validate.report import write_json
     from inspect_validate.station.file import read_station
-    from inspect_validate.verification.verify import plan_verification
-    from inspect_validate.watch.drift import DriftMonitor
-    from inspect_validate.watch.history import History
     from inspect_validate.watch.loop import WatchSettings, status_document
     from inspect_validate.watch.loop import watch as run_watch
-
-    st = read_station(station)
-    drift = st.acceptance.drift
-    if golden_path is not None:
-        golden_path = Path(golden_path).resolve()
-        drift = (drift or Drift(golden=str(golden_path))).model_copy(
-            update={"golden": str(golden_path)}
-        )
-    if drift is None:
-        raise InputError(
-            "watch charts drift from a golden file: give --golden (made by 'train') or "
-            "acceptance.drift.golden",
-            source=str(station),
-        )
-    # The plan reads the golden file and checks it fits the station; each cycle is then
-    # verified without the single-cycle drift checks: the charts replace them, with a
-    # false-alarm rate controlled over every chart together.
-    plan = plan_verification(
-        st.model_copy(update={"acceptance": st.acceptance.model_copy(update={"drift": drift})}),
-        drift_checks=False,
-    )
-    st = st.model_copy(update={"acceptance": st.acceptance.model_copy(update={"drift": None})})
-    db_path = Path(db_path or Path(f"watch-{Path(station).stem}") / "history.sqlite")
-    folder = Path(folder or db_path.parent)
-    status_path = Path(status_path or folder / "status.json")
-    check_outputs(files=[db_path, status_path], folders=[folder])
-    golden_file = st.resolve(drift.golden)
-    try:
-        monitor = DriftMonitor(
-            plan.golden,
-            dark_offset=plan.model.camera.dark_offset,
-            snr_floor_db=drift.snr_floor_db,
-        )
-    except InputError as exc:
-        raise InputError(str(exc), source=str(st.resolve(drift.golden))) from None
-    from inspect_validate.files import exclusive_lock
-
-    # Two watches on one folder would set each other's cycles aside, even with two --db.
-    folder_lock = exclusive_lock(
-        folder / ".watch.lock",
-        holder="watch",
-        what="cycles into this folder",
-        remedy="another --out",
-        source=folder,
-    )
-    try:
-        history = History(db_path, station=str(st.path.resolve()), golden=str(golden_file))
-    except BaseException:
-        folder_lock.close()
-        raise
-    server = None
-    if http_port is not None:
-        from inspect_validate.watch.serve import StatusServer
-
-        try:
-            server = StatusServer(http_port)
-        except OSError as exc:
-            history.close()
-            folder_lock.close()
-            raise InputError(
-                f"--http {http_port}: cannot serve the status on 127.0.0.1:{http_port} "
-                f"({exc.strerror or exc}); choose a free port, or 0 for any"
-            ) from None
-        click.echo(f"status on http://127.0.0.1:{server.port}/status and /metrics")
-    live = sys.stdout.isatty()
-    click.echo(
-        f"watching {st.name}: history {db_path} (from cycle {history.next_cycle()}), "
-        f"{len(monitor.charts)} drift charts, limit {monitor.limit:.2f} σ"
-    )
-
-    def on_cycle(outcome):
-        doc = status_document(outcome, st, interval=interval)
-        write_json(doc, status_path)
-        if server is not None:
-            server.doc = doc
-        show_cycle(outcome, live=live)
+    from inspect_validate.watch.session import watch_session
 
     settings = WatchSettings(
         interval=interval,
@@ -196,23 +110,44 @@ def watch(
         retry_delay=retry_delay,
         keep_every=keep_every,
     )
-    try:
+    session = watch_session(
+        read_station(station),
+        golden=golden_path,
+        db=db_path,
+        folder=folder,
+        status=status_path,
+        http_port=http_port,
+    )
+    with session as s:
+        if s.server is not None:
+            click.echo(f"status on http://127.0.0.1:{s.server.port}/status and /metrics")
+        live = sys.stdout.isatty()
+        click.echo(
+            f"watching {s.station.name}: history {s.history.path} (from cycle "
+            f"{s.history.next_cycle()}), {len(s.monitor.charts)} drift charts, "
+            f"limit {s.monitor.limit:.2f} σ"
+        )
+
+        def on_cycle(outcome):
+            doc = status_document(outcome, s.station, interval=interval)
+            write_json(doc, s.status_path)
+            if s.server is not None:
+                s.server.doc = doc
+            show_cycle(outcome, live=live)
+
         last, stopped = run_watch(
-            st,
-            replace(plan, golden=None),
-            history,
-            monitor,
-            folder=folder,
+            s.station,
+            s.plan,
+            s.history,
+            s.monitor,
+            folder=s.folder,
             settings=settings,
             on_cycle=on_cycle,
         )
-    finally:
-        history.close()
-        folder_lock.close()
-        if server is not None:
-            server.close()
     if stopped:
-        click.echo(f"stopped after cycle {last.record.cycle if last else '—'}; history: {db_path}")
+        click.echo(
+            f"stopped after cycle {last.record.cycle if last else '—'}; history: {s.history.path}"
+        )
         sys.exit(130)
     if last is not None and last.record.status in ("fail", "drift"):
         sys.exit(EXIT_CHECK_FAILED)

@@ -201,7 +201,7 @@ def comparison_errors(response, levels, comparisons, *, gradient: bool = False):
     a group's side is a mixture of its classes' Gaussians.
     """
     from inspect_validate.stats.gaussian_error import gaussian_error_gradient
-    from inspect_validate.stats.kde_error import mixture_error_gradient
+    from inspect_validate.stats.kde_error import Mixture, mixture_error_gradient
 
     mean, var, d_mean, d_var = mix_moments(response, levels, jacobian=True)
     sd = np.sqrt(var)
@@ -227,12 +227,8 @@ def comparison_errors(response, levels, comparisons, *, gradient: bool = False):
         if p in single:
             continue
         e, dm1, ds1, dm2, ds2 = mixture_error_gradient(
-            mean[g1],
-            prior[g1] / prior[g1].sum(),
-            sd[g1],
-            mean[g2],
-            prior[g2] / prior[g2].sum(),
-            sd[g2],
+            Mixture(mean[g1], prior[g1] / prior[g1].sum(), sd[g1]),
+            Mixture(mean[g2], prior[g2] / prior[g2].sum(), sd[g2]),
         )
         errors[p] = e
         if gradient:

@@ -46,6 +46,7 @@ __all__ = [
     "Exposure",
     "ObjectClass",
     "Prediction",
+    "grey_value",
     "nothing_predictable",
     "predict",
     "skipped_reasons",
@@ -361,7 +362,7 @@ def skipped_reasons(reasons, n_bad: int) -> tuple[str, ...]:
 
 
 def _temporal(cam):
-    """The camera fields :func:`_grey` takes, from a chain's camera dict."""
+    """The camera fields :func:`grey_value` takes, from a chain's camera dict."""
     return cam["gain"], cam["dark_noise"], cam["dark_offset"]
 
 
@@ -371,9 +372,10 @@ def _fixed_pattern(mu_e, cam):
     return cam["gain"] ** 2 * (cam["dsnu"] ** 2 + (cam["prnu"] * mu_e) ** 2)
 
 
-def _grey(mu_e, gain, dark_noise, dark_offset):
-    """Mean (DN) and temporal variance (DN²) of the grey value of μ_e electrons (EMVA 1288,
-    before clipping)."""
+def grey_value(mu_e, gain, dark_noise, dark_offset):
+    """Mean (DN) and temporal variance (DN²) of the grey value of ``mu_e`` mean
+    photo-electrons (EMVA 1288, before clipping): offset + K μ_e and
+    K² (σ_d² + μ_e) + 1/12 DN², K in DN/e⁻ and σ_d in e⁻."""
     return (
         dark_offset + gain * mu_e,
         gain**2 * (dark_noise**2 + mu_e) + QUANTISATION_VARIANCE,
@@ -398,7 +400,7 @@ class _Signal:
         t = self.exposure_time[li, oi, ci][..., None]
         mu_e = (rate + self.deviation[li, oi, ci]) * t
         cam = {f: v[ci][..., None] for f, v in self.camera.items()}
-        mean, var = _grey(mu_e + cam["dark_current"] * t, *_temporal(cam))
+        mean, var = grey_value(mu_e + cam["dark_current"] * t, *_temporal(cam))
         # A sample's pixels spread by the non-uniformities too (clipped as if Gaussian).
         var = var + _fixed_pattern(mu_e, cam)
         return (mu_e, *_clipped_moments(mean, var, cam["max_dn"]))
@@ -473,7 +475,7 @@ def _predict_block(chain: _Chain, ls: slice, os: slice, cs: slice, *, mixtures=N
     dark_e = cam["dark_current"][None, None, :] * t_exp  # e⁻ of dark current per exposure
     squares = np.square(deviation) @ onehot  # Σ (sample − class mean)², (e⁻/s)²
     signal = class_rate * t_exp[..., None]  # μ_e per class
-    mean, variance = _grey(
+    mean, variance = grey_value(
         signal + dark_e[..., None], gain[..., None], dark[..., None], offset[..., None]
     )
     spectral = (gain[..., None] * t_exp[..., None]) ** 2 * squares / np.maximum(per_class - 1, 1)
@@ -486,7 +488,7 @@ def _predict_block(chain: _Chain, ls: slice, os: slice, cs: slice, *, mixtures=N
     # No sample is brighter than its class mean plus √Σ(deviation²): where even that
     # is 8σ below saturation, clipping changes nothing a double holds (Φc(8) ≈ 6e-16).
     brightest = ((class_rate + np.sqrt(squares)) * t_exp[..., None]).max(axis=-1) + dark_e
-    top_mean, top_var = _grey(brightest, gain, dark, offset)
+    top_mean, top_var = grey_value(brightest, gain, dark, offset)
     top_var = top_var + _fixed_pattern(brightest, {f: v[None, None, :] for f, v in cam.items()})
     gap = cam["max_dn"][None, None, :] - top_mean
     near = valid & ((gap <= 0) | (gap * gap <= 64.0 * top_var))

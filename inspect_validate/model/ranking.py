@@ -19,7 +19,7 @@ import numpy as np
 from inspect_validate.comparisons import find_comparison
 from inspect_validate.model.acquisition import Prediction
 from inspect_validate.stats import as_sample, lscv_bandwidth
-from inspect_validate.stats.kde_error import mixture_error
+from inspect_validate.stats.kde_error import Mixture, mixture_error
 
 __all__ = ["comparison_index", "predicted_kde_error", "rank", "rank_keys", "ranked"]
 
@@ -127,5 +127,7 @@ def predicted_kde_error(prediction, index, column: int) -> float:
             centres.append(m)
             weights.append(np.full(m.size, pi / m.size))
             sigmas.append(np.sqrt(noise[sel] + h2))
-        parts += [np.concatenate(centres), np.concatenate(weights), np.concatenate(sigmas)]
+        parts.append(
+            Mixture(np.concatenate(centres), np.concatenate(weights), np.concatenate(sigmas))
+        )
     return mixture_error(*parts)

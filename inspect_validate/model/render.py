@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from inspect_validate import __version__
-from inspect_validate.model.acquisition import Prediction, _grey
+from inspect_validate.model.acquisition import Prediction, grey_value
 
 __all__ = [
     "class_bands",
@@ -116,7 +116,7 @@ def expected_grey(
     photo = np.maximum(electrons, 0.0)
     if pattern is not None:
         photo = photo * pattern[0]
-    mean, variance = _grey(
+    mean, variance = grey_value(
         photo + camera.dark_current * exposure_s, k, camera.dark_noise, camera.dark_offset
     )
     if pattern is not None:

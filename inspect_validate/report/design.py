@@ -109,7 +109,7 @@ class DesignCheck:
 
 
 def design_verification(verification, objective, *, kind: str = "error") -> DesignCheck:
-    """Summarise a :class:`~inspect_validate.verification.verify.Verification` of a
+    """Summarise a :class:`~inspect_validate.verification.results.Verification` of a
     :func:`~inspect_validate.mix_design.station.design_station` over the ``objective`` comparisons
     (labels): the worst ε (``kind="error"``) or CNR (``"cnr"``) of the mix against the single
     channel's, predicted and measured."""

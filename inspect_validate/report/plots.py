@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from inspect_validate.verification.verify import ClassAgreement, ComparisonAgreement
+    from inspect_validate.verification.results import ClassAgreement, ComparisonAgreement
 
 __all__ = [
     "plot_agreement",

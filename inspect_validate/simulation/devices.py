@@ -179,9 +179,7 @@ def open_aravis_fake(settings, opening: Opening):
         proc.stdout.close()
 
 
-SIMULATED_CONTROLLER = Backend(
-    "simulated", SimulatedControllerSettings, open_simulated_controller
-)
+SIMULATED_CONTROLLER = Backend("simulated", SimulatedControllerSettings, open_simulated_controller)
 SIMULATED_CAMERA = Backend("simulated", SimulatedCameraSettings, open_simulated_camera)
 
 

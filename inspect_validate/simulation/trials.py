@@ -32,7 +32,7 @@ if TYPE_CHECKING:
     from inspect_validate.station.file import Station
     from inspect_validate.station.world import World
     from inspect_validate.verification.measured import Capture
-    from inspect_validate.verification.verify import Plan
+    from inspect_validate.verification.plan import Plan
 
 __all__ = ["Trial", "WatchTrial", "render_capture", "run_trials", "watch_trials"]
 
@@ -97,7 +97,7 @@ def render_capture(
     station : Station
         A station whose camera renders its scene.
     plan : Plan
-        :func:`~inspect_validate.verification.verify.plan_verification` of it.
+        :func:`~inspect_validate.verification.plan.plan_verification` of it.
     world : World
         What the camera renders (the station file's, or changed).
     seed, sensor_seed, noise_seed : keyword-only
@@ -209,11 +209,8 @@ def run_trials(
     from inspect_validate.acceptance import Drift
     from inspect_validate.station.model import station_model
     from inspect_validate.verification.golden import check_golden, golden_of
-    from inspect_validate.verification.verify import (
-        plan_verification,
-        planned_tests,
-        verify_capture,
-    )
+    from inspect_validate.verification.plan import plan_verification, planned_tests
+    from inspect_validate.verification.verify import verify_capture
 
     acc = station.acceptance
     drift = acc.drift or Drift(golden=IN_PROCESS)
@@ -277,7 +274,8 @@ def watch_trials(
     from inspect_validate import __version__
     from inspect_validate.station.model import station_model
     from inspect_validate.verification.golden import golden_of
-    from inspect_validate.verification.verify import plan_verification, verify_capture
+    from inspect_validate.verification.plan import plan_verification
+    from inspect_validate.verification.verify import verify_capture
     from inspect_validate.watch.drift import DriftMonitor, series_of
 
     acc = station.acceptance

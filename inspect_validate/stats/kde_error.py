@@ -19,7 +19,7 @@ and each class's binned density.
 
 from __future__ import annotations
 
-import contextlib
+import functools
 import itertools
 from dataclasses import dataclass
 
@@ -31,6 +31,7 @@ from inspect_validate.stats.sample import LatticeSample, as_sample
 
 __all__ = [
     "KdeError",
+    "Mixture",
     "kde_error",
     "kernel_density",
     "kernel_mixture",
@@ -54,6 +55,23 @@ _BINNED_MARGIN = 0.5  # nats: a binned log-density difference trusted for its si
 _TILT_STEP = 6.0  # kernel widths between the peaks of successive tilts
 _BINNED_ELEMENTS_MAX = 2**22  # tilts × FFT size (32 MB an array), else the exact grid
 _DIP_HALVINGS = 30  # a dip's extremum to 2⁻³⁰ of two grid cells (crossings are polished after)
+
+
+@dataclass(frozen=True)
+class Mixture:
+    """A Gaussian mixture: component means μ (DN), weights (summing to 1 within the
+    mixture) and standard deviations σ (DN, one for all or one per component; 0: a
+    point mass)."""
+
+    centres: np.ndarray
+    weights: np.ndarray
+    sigmas: np.ndarray
+
+    def __init__(self, centres, weights, sigmas):
+        c = np.asarray(centres, float)
+        object.__setattr__(self, "centres", c)
+        object.__setattr__(self, "weights", np.asarray(weights, float))
+        object.__setattr__(self, "sigmas", np.broadcast_to(np.asarray(sigmas, float), c.shape))
 
 
 @dataclass(frozen=True)
@@ -183,10 +201,10 @@ def kde_error(sample1, sample2, *, quantum: float | None = None) -> KdeError:
     bw2 = lscv_bandwidth(sample2, quantum=quantum)
     c1, w1 = kernel_mixture(sample1, bw1.h)
     c2, w2 = kernel_mixture(sample2, bw2.h)
-    return KdeError(mixture_error(c1, w1, bw1.h, c2, w2, bw2.h), bw1, bw2)
+    return KdeError(mixture_error(Mixture(c1, w1, bw1.h), Mixture(c2, w2, bw2.h)), bw1, bw2)
 
 
-def mixture_error(centres1, weights1, sigma1, centres2, weights2, sigma2) -> float:
+def mixture_error(first: Mixture, second: Mixture) -> float:
     """ε_tot (37) = ½∫min(p1, p2) of two Gaussian mixtures, equal priors.
 
     Components of zero width are point masses (a class clipped to one grey
@@ -196,16 +214,11 @@ def mixture_error(centres1, weights1, sigma1, centres2, weights2, sigma2) -> flo
 
     Parameters
     ----------
-    centres1, centres2 : ndarray
-        Component means, DN.
-    weights1, weights2 : ndarray
-        Component weights, each set summing to 1.
-    sigma1, sigma2 : float or ndarray
-        Component standard deviations, DN (one for all, or one per component; ≥ 0).
+    first, second : Mixture
+        The two classes' (or groups') mixtures (σ ≥ 0).
     """
-    c1, w1, c2, w2 = (np.asarray(a, float) for a in (centres1, weights1, centres2, weights2))
-    s1 = np.broadcast_to(np.asarray(sigma1, float), c1.shape)
-    s2 = np.broadcast_to(np.asarray(sigma2, float), c2.shape)
+    c1, w1, s1 = first.centres, first.weights, first.sigmas
+    c2, w2, s2 = second.centres, second.weights, second.sigmas
     atom1, atom2 = s1 == 0, s2 == 0
     total = 0.0
     if atom1.any() and atom2.any():
@@ -217,7 +230,8 @@ def mixture_error(centres1, weights1, sigma1, centres2, weights2, sigma2) -> flo
         # The densities' part: ε of the mixtures without their point masses (weights as
         # they are).
         total += 2.0 * _densities_error(
-            c1[spread1], w1[spread1], s1[spread1], c2[spread2], w2[spread2], s2[spread2]
+            Mixture(c1[spread1], w1[spread1], s1[spread1]),
+            Mixture(c2[spread2], w2[spread2], s2[spread2]),
         )
     return min(0.5 * total, 0.5)  # the parts' masses may sum to 1 + 1 ulp
 
@@ -284,8 +298,7 @@ def mixture_errors(mixtures, comparisons) -> np.ndarray:
             # A constant class (point masses, as mixture_error takes them), or classes
             # whose own grid is less than half the shared one (finer or longer for
             # others' sake): searched on their own grid.
-            (c1, w1, s1), (c2, w2, s2) = (_side(mixtures, g, share) for g, share in sides)
-            errors[i] = mixture_error(c1, w1, s1, c2, w2, s2)
+            errors[i] = mixture_error(*(_side(mixtures, g, share) for g, share in sides))
             continue
         side_parts, side_binned = [], []
         for g, share in sides:
@@ -308,7 +321,10 @@ def mixture_errors(mixtures, comparisons) -> np.ndarray:
                 side_binned.append(np.logaddexp.reduce(np.stack(logs), axis=0))
         p1, p2 = side_parts
         d = _grid_difference(grid, p1, p2, binned=side_binned)
-        (u1, w1, v1), (u2, w2, v2) = (_side(classes, g, share) for g, share in sides)
+        (u1, w1, v1), (u2, w2, v2) = (
+            (m.centres, m.weights, m.sigmas)
+            for m in (_side(classes, g, share) for g, share in sides)
+        )
         xtol = 1e-13 * max(v1.max(), v2.max())
         crossings = _crossings(grid, d, p1, p2, xtol)
         limits = _by_lower(_labelled_regions(crossings, p1, p2, u1, v1, u2, v2))
@@ -321,18 +337,18 @@ def mixture_errors(mixtures, comparisons) -> np.ndarray:
     return errors
 
 
-def _side(mixtures, classes, shares):
+def _side(mixtures, classes, shares) -> Mixture:
     """One side of a comparison as one mixture: its classes' (centres, weights, h)
     concatenated, each class's weights times its share, a σ per component."""
     members = [mixtures[k] for k in classes]
-    return (
+    return Mixture(
         np.concatenate([c for c, _, _ in members]),
         np.concatenate([w * share for (_, w, _), share in zip(members, shares, strict=True)]),
         np.concatenate([np.full(np.size(c), float(h)) for c, _, h in members]),
     )
 
 
-def mixture_error_gradient(centres1, weights1, sigma1, centres2, weights2, sigma2):
+def mixture_error_gradient(first: Mixture, second: Mixture):
     """ε_tot (37) of two Gaussian mixtures (every σ > 0) and its gradient.
 
     ε = ½ Σ_regions ∫ p_lower over the regions between the densities' crossings.
@@ -347,10 +363,10 @@ def mixture_error_gradient(centres1, weights1, sigma1, centres2, weights2, sigma
     d_centres1, d_sigma1, d_centres2, d_sigma2 : ndarray
         ∂ε/∂μ and ∂ε/∂σ of each component, in the order given.
     """
-    return _densities_error(centres1, weights1, sigma1, centres2, weights2, sigma2, gradient=True)
+    return _densities_error(first, second, gradient=True)
 
 
-def misclassified_regions(centres1, weights1, sigma1, centres2, weights2, sigma2):
+def misclassified_regions(first: Mixture, second: Mixture):
     """Where each of two Gaussian mixtures (every σ > 0) is the lower density — the
     intervals whose values of that side the Bayes rule assigns to the other side —
     and each component's probability mass there.
@@ -361,7 +377,7 @@ def misclassified_regions(centres1, weights1, sigma1, centres2, weights2, sigma2
         Per side: the intervals (a, b), DN (a may be −inf, b +inf), and for each of
         its components, in the order given, the mass of N(centre, σ²) in them.
     """
-    order, cs, ws, ss = _sorted_components(centres1, weights1, sigma1, centres2, weights2, sigma2)
+    order, cs, ws, ss = _sorted_components(first, second)
     out = []
     for side, regions in enumerate(_split_regions(cs, ws, ss)):
         masses = np.zeros(cs[side].size)
@@ -371,46 +387,33 @@ def misclassified_regions(centres1, weights1, sigma1, centres2, weights2, sigma2
     return tuple(out)
 
 
-def _sorted_components(centres1, weights1, sigma1, centres2, weights2, sigma2):
+def _sorted_components(first: Mixture, second: Mixture):
     """Both mixtures' components as float arrays sorted by centre, and the orders that
     sort them: (orders, centres, weights, sigmas), each a pair."""
-    c = [np.asarray(x, float) for x in (centres1, centres2)]
-    w = [np.asarray(x, float) for x in (weights1, weights2)]
-    s = [
-        np.broadcast_to(np.asarray(x, float), ci.shape)
-        for x, ci in zip((sigma1, sigma2), c, strict=True)
-    ]
+    c = [first.centres, second.centres]
+    w = [first.weights, second.weights]
+    s = [first.sigmas, second.sigmas]
     if not all(np.all(si > 0) for si in s):
         raise ValueError("a mixture's regions need every component's σ > 0")
     order = [np.argsort(ci, kind="stable") for ci in c]
     return order, *([x[o] for x, o in zip(arr, order, strict=True)] for arr in (c, w, s))
 
 
-_shared: dict[tuple[bytes, ...], tuple[list, list]] | None = None
-
-
-@contextlib.contextmanager
-def shared_regions():
-    """Within the block, mixtures' decision regions are found once: a measurement asks
-    for each comparison's twice, for ε Gauss and for the counted error (the crossing
-    search is most of either)."""
-    global _shared
-    outer, _shared = _shared, {} if _shared is None else _shared
-    try:
-        yield
-    finally:
-        _shared = outer
-
-
 def _split_regions(cs, ws, ss) -> tuple[list, list]:
     """The regions where side 1's density is the lower one, and those where side 2's
-    is (sorted components)."""
-    if _shared is None:
-        return _by_lower(_lower_regions(cs[0], ss[0], cs[1], ss[1], ws[0], ws[1]))
-    key = tuple(np.asarray(a, np.float64).tobytes() for a in (*cs, *ws, *ss))
-    if key not in _shared:
-        _shared[key] = _by_lower(_lower_regions(cs[0], ss[0], cs[1], ss[1], ws[0], ws[1]))
-    return _shared[key]
+    is (sorted components). A measurement asks for each comparison's twice — for ε Gauss
+    and for the counted error — and the crossing search is most of either: the last few
+    are kept (a bounded memo: a long ``watch`` grows no cache)."""
+    key = np.concatenate([np.asarray(a, np.float64).ravel() for a in (*cs, *ws, *ss)])
+    return _regions_of(key.tobytes(), (len(cs[0]), len(cs[1])))
+
+
+@functools.lru_cache(maxsize=32)
+def _regions_of(key: bytes, sizes: tuple[int, int]) -> tuple[list, list]:
+    values = np.frombuffer(key, np.float64)
+    ends = np.cumsum([0, *sizes, *sizes, *sizes])
+    c1, c2, w1, w2, s1, s2 = (values[a:b] for a, b in itertools.pairwise(ends))
+    return _by_lower(_lower_regions(c1, s1, c2, s2, w1, w2))
 
 
 def _by_lower(labelled) -> tuple[list, list]:
@@ -432,10 +435,10 @@ def _region_masses(regions, centres, sigmas):
     return value.reshape(za.shape), za, zb
 
 
-def _densities_error(centres1, weights1, sigma1, centres2, weights2, sigma2, *, gradient=False):
+def _densities_error(first: Mixture, second: Mixture, *, gradient=False):
     """ε of two mixtures of components with σ > 0 (:func:`mixture_error_gradient`'s value,
     and with ``gradient`` its gradient)."""
-    order, cs, ws, ss = _sorted_components(centres1, weights1, sigma1, centres2, weights2, sigma2)
+    order, cs, ws, ss = _sorted_components(first, second)
     grads = [[np.zeros(ci.size), np.zeros(ci.size)] for ci in cs]
     total = 0.0
     for side, limits in enumerate(_split_regions(cs, ws, ss)):

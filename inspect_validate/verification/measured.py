@@ -70,7 +70,9 @@ def measure_capture(
     from inspect_validate.camera.storage import read_capture
     from inspect_validate.measurement import measure_files
 
-    files, dark_files, manifest, hashes = read_capture(folder, [i.name for i in station.illuminations])
+    files, dark_files, manifest, hashes = read_capture(
+        folder, [i.name for i in station.illuminations]
+    )
     level = saturation_level(next(iter(files.values()))[0], camera)
     measurements = {
         name: measure_files(

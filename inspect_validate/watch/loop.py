@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING
 from inspect_validate.errors import DeviceError
 
 if TYPE_CHECKING:
-    from inspect_validate.verification.verify import Verification
+    from inspect_validate.verification.results import Verification
     from inspect_validate.watch.drift import DriftState
     from inspect_validate.watch.history import CycleRecord
 
@@ -92,7 +92,7 @@ def status_document(outcome: CycleOutcome, station, *, interval: float | None = 
 def watch(station, plan, history, monitor, *, folder: Path, settings: WatchSettings, on_cycle=None):
     """Run cycles until ``settings.cycles`` are done or a signal stops the watch.
 
-    ``station`` is verified by ``plan`` (:func:`~inspect_validate.verification.verify.
+    ``station`` is verified by ``plan`` (:func:`~inspect_validate.verification.plan.
     plan_verification` of it) every cycle; ``history`` is a :class:`~.history.History`,
     ``monitor`` a :class:`~.drift.DriftMonitor` (restored from the history here).
     ``on_cycle(outcome)`` is called after each committed cycle.
@@ -166,7 +166,7 @@ def set_aside(frames: Path) -> Path:
 def _cycle(station, plan, history, monitor, folder, settings, failures):
     from inspect_validate.station.capture import capture
     from inspect_validate.station.file import simulated_at
-    from inspect_validate.verification.verify import verify
+    from inspect_validate.verification.verify import verify_folder
     from inspect_validate.watch.drift import series_of
     from inspect_validate.watch.history import CycleRecord
 
@@ -179,7 +179,7 @@ def _cycle(station, plan, history, monitor, folder, settings, failures):
     try:
         # hours since the history began: a restarted watch goes on ageing its simulated LEDs
         capture(simulated_at(station, n, hours=(when - history.created) / 3600.0), frames)
-        verification = verify(station, frames, plan=plan)
+        verification = verify_folder(station, frames, plan=plan)
     except DeviceError as exc:
         failures += 1
         status, passed, reason = "error", None, str(exc)

@@ -156,7 +156,7 @@ def test_degenerate_cases():
 
 def test_gradient_matches_central_differences_and_the_mixture_gradient():
     from inspect_validate.stats.gaussian_error import gaussian_error_gradient
-    from inspect_validate.stats.kde_error import mixture_error_gradient
+    from inspect_validate.stats.kde_error import Mixture, mixture_error_gradient
 
     rng = np.random.default_rng(12)
     m1, m2 = rng.normal(0, 3, (2, 400))
@@ -177,7 +177,7 @@ def test_gradient_matches_central_differences_and_the_mixture_gradient():
         ) / (2 * h)
         np.testing.assert_allclose(g, fd, rtol=1e-5, atol=1e-9)
     for j in range(0, 400, 37):  # the general mixture path, independently derived
-        ref = mixture_error_gradient([m1[j]], [1.0], s1[j], [m2[j]], [1.0], s2[j])
+        ref = mixture_error_gradient(Mixture([m1[j]], [1.0], s1[j]), Mixture([m2[j]], [1.0], s2[j]))
         np.testing.assert_allclose(
             [g[j] for g in grad], [r[0] for r in ref[1:]], rtol=1e-10, atol=1e-300
         )

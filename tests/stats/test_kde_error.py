@@ -8,7 +8,7 @@ import pytest
 from scipy import integrate
 
 from inspect_validate.stats import as_sample, gaussian_error, kde_error
-from inspect_validate.stats.kde_error import kernel_mixture, mixture_error, mixture_errors
+from inspect_validate.stats.kde_error import Mixture, kernel_mixture, mixture_error, mixture_errors
 
 
 def brute_force(s1, s2, h1, h2, lo, hi):
@@ -90,8 +90,10 @@ def test_mixture_error_is_invariant_to_the_grey_value_unit(scale):
     # frames) must give the same number as DN, not a failed root search.
     c1, c2 = np.array([0.0, 3.0, 4.0]), np.array([2.0, 5.0])
     w1, w2 = np.array([0.5, 0.3, 0.2]), np.array([0.6, 0.4])
-    expected = mixture_error(c1, w1, 1.0, c2, w2, 1.5)
-    got = mixture_error(c1 * scale + 7 * scale, w1, scale, c2 * scale + 7 * scale, w2, 1.5 * scale)
+    expected = mixture_error(Mixture(c1, w1, 1.0), Mixture(c2, w2, 1.5))
+    got = mixture_error(
+        Mixture(c1 * scale + 7 * scale, w1, scale), Mixture(c2 * scale + 7 * scale, w2, 1.5 * scale)
+    )
     assert got == pytest.approx(expected, rel=1e-6 if scale < 1e-300 else 1e-12)
 
 
@@ -115,7 +117,7 @@ def test_small_mixtures_match_quadrature(seed):
         )[0]
         for a, b in itertools.pairwise(edges)
     )
-    assert mixture_error(c1, w1, s1, c2, w2, s2) == pytest.approx(ref, rel=1e-9)
+    assert mixture_error(Mixture(c1, w1, s1), Mixture(c2, w2, s2)) == pytest.approx(ref, rel=1e-9)
 
 
 @pytest.mark.parametrize("seed", range(6))
@@ -156,12 +158,12 @@ def test_binned_grid_takes_only_signs_it_is_sure_of(seed, monkeypatch):
             held = np.isfinite(b1 - b2)
             assert held.mean() > 0.95
             assert np.max(np.abs(b1 - b2 - exact)[held]) < 0.5 * k._BINNED_MARGIN
-        eps = k.mixture_error(c1, w1, s1, c2, w2, s2)
+        eps = k.mixture_error(Mixture(c1, w1, s1), Mixture(c2, w2, s2))
         with monkeypatch.context() as m:
             m.setattr(
                 k, "_grid_difference", lambda g, a, b: k._log_density(g, a) - k._log_density(g, b)
             )
-            assert k.mixture_error(c1, w1, s1, c2, w2, s2) == eps
+            assert k.mixture_error(Mixture(c1, w1, s1), Mixture(c2, w2, s2)) == eps
 
 
 def test_two_crossings_within_one_grid_cell_are_both_found():
@@ -232,13 +234,14 @@ def test_shared_grid_errors_equal_each_comparisons_own(seed, monkeypatch):
     shared = mixture_errors(mixtures, comparisons)
     assert len(fallbacks) < len(comparisons)
     for got, sides in zip(shared, comparisons, strict=True):
-        args = []
-        for g, share in sides:
-            args += [
+        args = [
+            Mixture(
                 np.concatenate([mixtures[j][0] for j in g]),
                 np.concatenate([mixtures[j][1] * s for j, s in zip(g, share, strict=True)]),
                 np.concatenate([np.full(mixtures[j][0].size, mixtures[j][2]) for j in g]),
-            ]
+            )
+            for g, share in sides
+        ]
         assert got == pytest.approx(mixture_error(*args), rel=1e-12, abs=1e-300)
 
 
@@ -248,19 +251,22 @@ def k_lscv(x):
     return lscv_bandwidth(x).h
 
 
-def test_shared_regions_reuse_inside_the_block_only():
-    # A measurement finds each comparison's regions once for ε Gauss and the counted
-    # error; outside the block nothing is kept (a long-running watch grows no cache).
+def test_the_regions_are_found_once_and_the_memo_stays_bounded():
+    # A measurement asks for each comparison's regions for ε Gauss and for the counted
+    # error: the second asks the memo; a long-running watch asks for ever new ones, and
+    # the memo keeps only the last few.
     k = importlib.import_module("inspect_validate.stats.kde_error")  # the module, not ε KDE
 
-    args = ([10.0, 30.0], [0.5, 0.5], [2.0, 3.0], [20.0], [1.0], [4.0])
-    plain = k.misclassified_regions(*args)
-    with k.shared_regions():
-        first = k.misclassified_regions(*args)
-        error = mixture_error(*args)
-        assert len(k._shared) == 1
-    assert k._shared is None
-    for (r0, m0), (r1, m1) in zip(plain, first, strict=True):
+    args = (Mixture([10.0, 30.0], [0.5, 0.5], [2.0, 3.0]), Mixture([20.0], [1.0], [4.0]))
+    k._regions_of.cache_clear()
+    first = k.misclassified_regions(*args)
+    error = mixture_error(*args)
+    info = k._regions_of.cache_info()
+    assert (info.misses, info.hits) == (1, 1)
+    for (r0, m0), (r1, m1) in zip(first, k.misclassified_regions(*args), strict=True):
         assert r0 == r1
         np.testing.assert_array_equal(m0, m1)
     assert error == mixture_error(*args)
+    for shift in range(100):
+        mixture_error(Mixture([10.0 + shift], [1.0], [2.0]), Mixture([20.0], [1.0], [4.0]))
+    assert k._regions_of.cache_info().currsize <= k._regions_of.cache_info().maxsize == 32

@@ -49,11 +49,17 @@ def test_golden_file_holds_every_repeat_and_its_spread(trained):
     assert a["std"] > 0 and len(set(a["values"])) == 4
     assert a["std"] < 0.1  # the same parts under the same light: noise of the mean only
     # Each repeat's own standard error, from its pixels and frames: the same parts under
-    # the same light vary by it alone, so it is of the spread's size (4 repeats: the
-    # sample std scatters within a factor 3 of it at 99 %).
+    # the same light vary by it alone, so the repeats' variance is its square on average.
+    # Pooled over the six class means (3 degrees of freedom each: χ²₁₈/18), the ratio
+    # lies in (0.2, 3) but once in 10⁴.
     se = a["standard_errors"]
     assert len(se) == 4 and all(x > 0 for x in se)
-    assert 1 / 3 < a["std"] / (sum(x * x for x in se) / 4) ** 0.5 < 3
+    ratios = [
+        c["mean"]["std"] ** 2 / (sum(x * x for x in c["mean"]["standard_errors"]) / 4)
+        for ill in doc["illuminations"].values()
+        for c in ill["classes"].values()
+    ]
+    assert len(ratios) == 6 and 0.2 < sum(ratios) / 6 < 3
     comp = doc["illuminations"]["amber"]["comparisons"]["A vs B,C"]
     assert comp["snr_db"]["mean"] == pytest.approx(-5.1, abs=0.3)
     assert len(comp["snr_db"]["standard_errors"]) == 4

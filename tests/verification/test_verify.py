@@ -411,7 +411,8 @@ def candidates_acceptance(**changes):
 )
 def test_every_needed_illumination_is_captured(tmp_path, acceptance):
     from inspect_validate.station.file import read_station
-    from inspect_validate.verification.verify import dominated_illuminations, plan_verification
+    from inspect_validate.verification.dominance import dominated_illuminations
+    from inspect_validate.verification.plan import plan_verification
 
     st = read_station(candidates(tmp_path, **acceptance))
     plan = plan_verification(st)

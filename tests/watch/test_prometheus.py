@@ -292,7 +292,7 @@ def test_a_real_prometheus_scrapes_a_running_watch_and_fires_its_drift_alert(tmp
         _until(scraped)
         status = json.loads(urllib.request.urlopen(f"http://127.0.0.1:{watch_port}/status").read())
         (cycle,) = _query(port, "inspect_validate_cycle")
-        assert 0 <= status["cycle"] - float(cycle["value"][1]) <= 3  # a scrape behind at most
+        assert 0 <= status["cycle"] - float(cycle["value"][1]) <= 10  # a scrape or two behind
         (up,) = _query(port, 'up{job="inspect-validate"}')
         assert up["value"][1] == "1"
         means = _query(port, 'inspect_validate_value{kind="class",quantity="mean"}')

@@ -1,0 +1,261 @@
+"""The checks a station's ``acceptance:`` section asks for, made from a verification's
+rows, each with its basis and standard error (:func:`~.checks.decide` sets their limits
+at the false-alarm rate)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from inspect_validate.verification.checks import Check, at_least, at_most, not_run
+from inspect_validate.verification.results import RankingAgreement
+
+__all__ = ["acceptance_checks"]
+
+
+def _ranking_check(ranking: RankingAgreement, errors, j: int) -> Check:
+    """Whether the predicted best illumination measures best, as a statistical check.
+
+    Each illumination's "badness" is its measured log₁₀ ε (or −SNR_dB, −CNR_dB). The
+    value is how far the predicted best measures behind the measured best (0 where it
+    measures best); it may do so by up to what these frames resolve: the margin,
+    a multiple of the standard error of the difference. When the prediction itself puts
+    the two in question (the predicted best and the measured best, or the predicted
+    runner-up where they agree) closer than the margin, the check is too close to call.
+    """
+    sign = 1.0 if ranking.by == "log_error_gaussian" else -1.0
+    unit, quantity, field = _RANKED[ranking.by]
+    names = list(ranking.measured)
+    bad_m = {n: sign * ranking.measured[n] for n in names}
+    bad_p = {n: sign * ranking.predicted[n] for n in names}
+    se = {n: float(getattr(errors[n], field)[j]) for n in names}
+    best_p, best_m = ranking.predicted_best, ranking.measured_best
+    other = best_m
+    if other == best_p:  # they agree: the question is the predicted runner-up
+        other = min((n for n in names if n != best_p), key=lambda n: bad_p[n])
+    behind = bad_m[best_p] - bad_m[best_m]
+    return at_most(
+        f"ranking by {ranking.comparison}: predicted best {best_p} measures best",
+        "ranking",
+        behind,
+        0.0,
+        unit,
+        f"measured best {best_m}; {quantity} measured "
+        + ", ".join(f"{n} {ranking.measured[n]:.3g}" for n in names)
+        + ", predicted "
+        + ", ".join(f"{n} {ranking.predicted[n]:.3g}" for n in names)
+        + f"; predicted gap to {other} {bad_p[other] - bad_p[best_p]:.2g} {unit}; "
+        f"Kendall τ {ranking.kendall_tau:.2f}",
+        basis="statistical",
+        standard_error=float(np.hypot(se[best_p], se[other])),
+        predicted_gap=bad_p[other] - bad_p[best_p],
+    )
+
+
+_RANKED = {  # by → unit, what it is, the StandardErrors field
+    "log_error_gaussian": ("decades", "log₁₀ ε", "log_error"),
+    "snr_db": ("dB", "SNR_dB", "snr_db"),
+    "cnr_db": ("dB", "CNR_dB", "cnr_db"),
+}
+
+
+def acceptance_checks(
+    acc,
+    measurements,
+    class_rows,
+    comparison_rows,
+    ranking,
+    gain,
+    gain_missing=None,
+    errors=None,
+) -> tuple[list[Check], list[str]]:
+    """The checks ``acc`` asks for, and the work left out (a skip: only what nobody asked
+    for). A check that cannot be evaluated is :func:`not_run`, a failure that says why —
+    never a skip. ``errors`` is illumination → the measurement's
+    :class:`~.uncertainty.StandardErrors`: the tolerance checks' margins
+    (:func:`~.checks.decide` sets them)."""
+    checks, skipped = [], []
+    targets = [acc.illumination] if acc.illumination else list(measurements)
+    for sep in acc.separation:
+        for ill in targets:
+            m = measurements[ill]
+            j = m.comparisons.index(m.comparison(sep.comparison))
+            comp, se = m.comparisons[j], errors[ill]
+            where = f"{ill}: {comp.label}"
+            tolerance = {"basis": "tolerance"}
+            if sep.min_snr_db is not None:
+                checks.append(
+                    at_least(
+                        f"{where} SNR_dB",
+                        "separation",
+                        comp.snr_db,
+                        sep.min_snr_db,
+                        "dB",
+                        standard_error=se.snr_db[j],
+                        **tolerance,
+                    )
+                )
+            if sep.min_cnr_db is not None:
+                checks.append(
+                    at_least(
+                        f"{where} CNR_dB",
+                        "separation",
+                        comp.cnr_db,
+                        sep.min_cnr_db,
+                        "dB",
+                        standard_error=se.cnr_db[j],
+                        **tolerance,
+                    )
+                )
+            if sep.max_error is not None:
+                # SE(ε) = ε ln 10 SE(log₁₀ ε)
+                checks.append(
+                    at_most(
+                        f"{where} ε Gauss",
+                        "separation",
+                        comp.error_gaussian,
+                        sep.max_error,
+                        standard_error=comp.error_gaussian * np.log(10.0) * se.log_error[j],
+                        **tolerance,
+                    )
+                )
+            if sep.max_error_kde is not None:
+                checks.append(
+                    at_most(
+                        f"{where} ε KDE",
+                        "separation",
+                        comp.error_kde,
+                        sep.max_error_kde,
+                        detail="fixed limit: ε KDE has no standard error here",
+                    )
+                )
+    for ill, m in measurements.items():
+        for c in m.classes:
+            for what, frac, limit in (
+                ("saturated", c.saturated_fraction, acc.max_saturated),
+                ("zero", c.zero_fraction, acc.max_zero),
+            ):
+                if limit is not None:
+                    checks.append(
+                        at_most(
+                            f"{ill}: {c.name} {what}", "saturation", 100 * frac, 100 * limit, "%"
+                        )
+                    )
+    agree = acc.agreement
+    if agree is not None:
+        class_index = {
+            (ill, c.name): k for ill, m in measurements.items() for k, c in enumerate(m.classes)
+        }
+        for row in class_rows:
+            where = f"{row.illumination}: {row.class_name}"
+            pred = row.predicted
+            k = class_index[row.illumination, row.class_name]
+            se = errors[row.illumination]
+            if agree.mean_relative is not None:
+                signal = pred.mean - row.measured.dark_mean
+                checks.append(
+                    at_most(
+                        f"{where} μ deviation",
+                        "agreement",
+                        100 * abs(row.mean_relative),
+                        100 * agree.mean_relative,
+                        "%",
+                        f"predicted {pred.mean:.4g} DN, measured {row.measured.mean:.4g} DN",
+                        basis="tolerance",
+                        standard_error=100 * se.mean[k] / signal if signal > 0 else np.nan,
+                    )
+                )
+            if agree.variance_relative is not None:
+                checks.append(
+                    at_most(
+                        f"{where} σ² deviation",
+                        "agreement",
+                        100 * abs(row.variance_relative),
+                        100 * agree.variance_relative,
+                        "%",
+                        f"predicted {pred.variance:.4g} DN², "
+                        f"measured {row.measured.variance:.4g} DN²",
+                        basis="tolerance",
+                        standard_error=100 * se.variance[k] / pred.variance
+                        if pred.variance > 0
+                        else np.nan,
+                    )
+                )
+        if agree.snr_db is not None:
+            below = [
+                f"{r.illumination}: {r.comparison}"
+                for r in comparison_rows
+                if max(r.predicted.snr_db, r.measured.snr_db) < agree.snr_floor_db
+            ]
+            if below:
+                skipped.append(
+                    f"SNR_dB agreement of {', '.join(below)}: predicted and measured below "
+                    f"agreement.snr_floor_db ({agree.snr_floor_db:g} dB)"
+                )
+            index = {
+                (ill, c.label): j
+                for ill, m in measurements.items()
+                for j, c in enumerate(m.comparisons)
+            }
+            for row in comparison_rows:
+                if max(row.predicted.snr_db, row.measured.snr_db) < agree.snr_floor_db:
+                    continue  # both unseparable: the dB values carry no agreement to check
+                j = index[row.illumination, row.comparison]
+                checks.append(
+                    at_most(
+                        f"{row.illumination}: {row.comparison} SNR_dB deviation",
+                        "agreement",
+                        abs(row.snr_db_difference),
+                        agree.snr_db,
+                        "dB",
+                        f"predicted {row.predicted.snr_db:.2f} dB, "
+                        f"measured {row.measured.snr_db:.2f} dB",
+                        basis="tolerance",
+                        standard_error=errors[row.illumination].snr_db[j],
+                    )
+                )
+    if acc.ranking:
+        if ranking is None:
+            checks.append(
+                not_run(
+                    "ranking: measured best is predicted best",
+                    "ranking",
+                    0.0,
+                    "",
+                    "≤",
+                    "one illumination measured, nothing to rank (leave out acceptance.ranking)",
+                )
+            )
+        else:
+            labels = [c.label for c in next(iter(measurements.values())).comparisons]
+            checks.append(_ranking_check(ranking, errors, labels.index(ranking.comparison)))
+    if acc.gain_relative is not None:
+        if gain is None:
+            checks.append(
+                not_run(
+                    "system gain K deviation from the camera's",
+                    "gain",
+                    100 * acc.gain_relative,
+                    "%",
+                    "≤",
+                    gain_missing or "no photon-transfer estimate of K",
+                )
+            )
+        else:
+            # K from ≥ 3 points has the residuals' standard error (points − 1 degrees of
+            # freedom); from fewer, the propagated sampling error (known).
+            points = len(gain.points)
+            checks.append(
+                at_most(
+                    "system gain K deviation from the camera's",
+                    "gain",
+                    100 * abs(gain.relative_deviation),
+                    100 * acc.gain_relative,
+                    "%",
+                    f"K = {gain.value:.4g} ± {gain.standard_error:.2g} DN/e⁻, "
+                    f"declared {gain.declared:.4g}",
+                    basis="tolerance",
+                    standard_error=100 * gain.standard_error / gain.declared,
+                    df=points - 1 if points >= 3 else np.inf,
+                )
+            )
+    return checks, skipped

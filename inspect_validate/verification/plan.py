@@ -1,0 +1,150 @@
+"""A verification's plan: what a station's verification needs before any frame (its
+regions, comparisons, model and golden file), checked first, so that a mistake in the
+station file costs no capture; and how many checks will share the false-alarm rate."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
+
+from inspect_validate.errors import InputError
+from inspect_validate.verification.measured import station_regions
+
+if TYPE_CHECKING:
+    from inspect_validate.comparisons import Comparisons
+    from inspect_validate.roi import RoiSet
+    from inspect_validate.station.model import StationModel
+    from inspect_validate.verification.golden import Golden
+
+__all__ = ["Plan", "plan_verification", "planned_tests"]
+
+
+@dataclass(frozen=True)
+class Plan:
+    """What a station's verification needs before any frame: its regions, comparisons and
+    model, and the golden file. Made first, so that a mistake in the station file costs
+    no capture."""
+
+    rois: RoiSet
+    comparisons: Comparisons
+    model: StationModel
+    golden: Golden | None  # for acceptance.drift
+    dominated: dict[str, str] = field(default_factory=dict)
+    """Illuminations left out of the capture as dominated (:func:`dominated_illuminations`):
+    name → why; listed as skipped."""
+
+
+def plan_verification(station, *, drift_checks: bool = True) -> Plan:
+    """Check ``station``'s scene, channels, ROIs, comparisons, acceptance and golden file;
+    ``drift_checks``: that the golden file's repeats can set the drift checks' limits at
+    the acceptance's false-alarm rate (``watch`` charts drift instead, and checks its
+    charts' bands itself).
+
+    Raises
+    ------
+    InputError
+        A station without scene, channels, ROIs or exposure; ROI classes the
+        scene does not have; an acceptance section naming unknown comparisons or
+        illuminations; an unreadable golden file (exit code 2).
+    """
+    from inspect_validate.station.model import station_model
+    from inspect_validate.verification.golden import read_golden
+
+    source = str(station.path)
+    acc = station.acceptance
+    if station.camera.exposure_us is None:
+        raise InputError(
+            "camera.exposure_us is needed to predict the station's grey values", source=source
+        )
+    rois, comparisons = station_regions(station)
+    model = station_model(station)
+    scene_classes = {c.name: c for c in model.scene.classes}
+    names = [c.name for c in rois.classes]
+    unknown = [n for n in names if n not in scene_classes]
+    if unknown:
+        raise InputError(
+            f"ROI class {unknown[0]!r} is not a class of the scene "
+            f"({', '.join(scene_classes)}); name the regions as the scene's classes",
+            source=rois.source,
+        )
+    for sep in acc.separation:
+        try:
+            comparisons.index(sep.comparison)
+        except InputError as exc:
+            raise InputError(str(exc), source=f"{source}: acceptance.separation") from None
+    names_of = [i.name for i in station.illuminations]
+    if acc.illumination is not None and acc.illumination not in names_of:
+        raise InputError(
+            f"acceptance.illumination: no illumination {acc.illumination!r} "
+            f"(there are {', '.join(names_of)})",
+            source=source,
+        )
+    used_channels = {c for i in station.illuminations for c, v in i.channels.items() if v > 0}
+    if station.calibration.method == "absolute" and used_channels & model.nominal:
+        ch = min(used_channels & model.nominal)
+        raise InputError(
+            f"calibration 'absolute' needs every light's irradiance, and channel {ch} "
+            f"({model.channels[ch].name}) has none; give channels.{ch}.irradiance or use "
+            "calibration 'fit' or 'reference'",
+            source=source,
+        )
+    golden = None
+    if acc.drift:
+        from inspect_validate.verification.golden import check_golden
+
+        golden = read_golden(station.resolve(acc.drift.golden))
+        check_golden(
+            golden,
+            station,
+            acc.drift,
+            classes=names,
+            comparisons=comparisons.labels,
+            source=str(station.resolve(acc.drift.golden)),
+            share=acc.false_alarm_rate / planned_tests(station, names, comparisons.labels, golden)
+            if drift_checks
+            else None,
+        )
+    # Only the ROI classes are predicted.
+    scene = replace(model.scene, classes=tuple(scene_classes[n] for n in names))
+    return Plan(rois, comparisons, replace(model, scene=scene), golden)
+
+
+def planned_tests(station, classes, comparisons, golden=None, *, drift: bool = False) -> int:
+    """How many checks of ``station``'s acceptance will share its false-alarm rate
+    (:func:`~.checks.decide`), counted before any frame: every statistical and tolerance
+    check it asks for on the ROI ``classes`` and ``comparisons`` (labels), the drift
+    checks on what ``golden`` holds above the drift floor. An upper bound where a check
+    depends on the frames (agreement of comparisons below the SNR_dB floor is left out
+    then), so that a share from it is never too large. ``drift``: count the drift checks
+    of ``golden`` as the acceptance's default drift block would, where it has none (what
+    ``train`` tells of a golden file before the station uses it)."""
+    from inspect_validate.acceptance import Drift
+
+    acc = station.acceptance
+    if drift and acc.drift is None:
+        acc = acc.model_copy(update={"drift": Drift(golden="-")})
+    ills = len(station.illuminations)
+    n = 0
+    for sep in acc.separation:
+        per = sum(x is not None for x in (sep.min_snr_db, sep.min_cnr_db, sep.max_error))
+        n += per * (1 if acc.illumination else ills)
+    if acc.agreement is not None:
+        a = acc.agreement
+        n += (
+            ills
+            * len(classes)
+            * ((a.mean_relative is not None) + (a.variance_relative is not None))
+        )
+        n += ills * len(comparisons) * (a.snr_db is not None)
+    n += bool(acc.ranking and ills > 1) + (acc.gain_relative is not None)
+    if acc.drift is not None and golden is not None:
+        for g in golden.illuminations.values():
+            if acc.drift.mean_dn is None:
+                n += len(classes)
+            if acc.drift.snr_db is None:
+                n += sum(
+                    g.comparisons[c].snr_db.mean >= acc.drift.snr_floor_db
+                    for c in comparisons
+                    if c in g.comparisons
+                )
+    return max(n, 1)

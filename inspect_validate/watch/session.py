@@ -1,0 +1,166 @@
+"""What a ``watch`` holds while it runs: the station verified without its single-cycle
+drift checks, the plan, the drift charts, the history, the folder's lock and the status
+server — opened together, checked before the first cycle, and closed together whatever
+ends the watch."""
+
+from __future__ import annotations
+
+import contextlib
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from inspect_validate.errors import InputError
+
+if TYPE_CHECKING:
+    from collections.abc import Iterator
+
+    from inspect_validate.station.file import Station
+    from inspect_validate.verification.plan import Plan
+    from inspect_validate.watch.drift import DriftMonitor
+    from inspect_validate.watch.history import History
+    from inspect_validate.watch.serve import StatusServer
+
+__all__ = ["Session", "watch_session"]
+
+
+@dataclass(frozen=True)
+class Session:
+    """An open watch.
+
+    Attributes
+    ----------
+    station : Station
+        The station as each cycle verifies it (no single-cycle drift checks: the charts
+        replace them).
+    plan : Plan
+        Its verification plan (made once).
+    monitor : DriftMonitor
+        The drift charts, centred on the golden file.
+    history : History
+        The history database, continued or new.
+    folder : Path
+        Where the cycles' frames go.
+    status_path : Path
+        The status file rewritten after every cycle.
+    server : StatusServer or None
+        ``/status`` and ``/metrics`` on 127.0.0.1, where asked for.
+    """
+
+    station: Station
+    plan: Plan
+    monitor: DriftMonitor
+    history: History
+    folder: Path
+    status_path: Path
+    server: StatusServer | None
+
+
+@contextlib.contextmanager
+def watch_session(
+    station: Station,
+    *,
+    golden: Path | None = None,
+    db: Path | None = None,
+    folder: Path | None = None,
+    status: Path | None = None,
+    http_port: int | None = None,
+) -> Iterator[Session]:
+    """Open what a watch of ``station`` needs, and close it all when the block ends.
+
+    Parameters
+    ----------
+    station : Station
+    golden : Path, keyword-only, optional
+        The golden file the charts are centred on (default: ``acceptance.drift.golden``).
+    db : Path, keyword-only, optional
+        The history database (default: ``watch-<station>/history.sqlite``).
+    folder : Path, keyword-only, optional
+        Where the cycles' frames go (default: the database's folder).
+    status : Path, keyword-only, optional
+        The status file (default: ``status.json`` in ``folder``).
+    http_port : int, keyword-only, optional
+        Serve the status on 127.0.0.1 (0: any free port).
+
+    Raises
+    ------
+    InputError
+        No golden file, one that does not fit the station or has too few repeats for the
+        charts, an output path that cannot be written, a history of another station, a
+        folder another watch writes into, a port in use (nothing is captured).
+    """
+    from inspect_validate.acceptance import Drift
+    from inspect_validate.files import exclusive_lock, output_file, output_folder
+    from inspect_validate.verification.plan import plan_verification
+    from inspect_validate.watch.drift import DriftMonitor
+    from inspect_validate.watch.history import History
+
+    drift = station.acceptance.drift
+    if golden is not None:
+        golden = Path(golden).resolve()
+        drift = (drift or Drift(golden=str(golden))).model_copy(update={"golden": str(golden)})
+    if drift is None:
+        raise InputError(
+            "watch charts drift from a golden file: give --golden (made by 'train') or "
+            "acceptance.drift.golden",
+            source=str(station.path),
+        )
+    # The plan reads the golden file and checks it fits the station; each cycle is then
+    # verified without the single-cycle drift checks: the charts replace them, with a
+    # false-alarm rate controlled over every chart together.
+    with_drift = station.acceptance.model_copy(update={"drift": drift})
+    plan = plan_verification(
+        station.model_copy(update={"acceptance": with_drift}), drift_checks=False
+    )
+    golden_file = station.resolve(drift.golden)
+    watched = station.model_copy(
+        update={"acceptance": station.acceptance.model_copy(update={"drift": None})}
+    )
+    db = Path(db or Path(f"watch-{Path(station.path).stem}") / "history.sqlite")
+    folder = Path(folder or db.parent)
+    status = Path(status or folder / "status.json")
+    for f in (db, status):
+        output_file(f)
+    output_folder(folder)
+    try:
+        monitor = DriftMonitor(
+            plan.golden,
+            dark_offset=plan.model.camera.dark_offset,
+            snr_floor_db=drift.snr_floor_db,
+        )
+    except InputError as exc:
+        raise InputError(str(exc), source=str(golden_file)) from None
+    with contextlib.ExitStack() as stack:
+        # Two watches on one folder would set each other's cycles aside, even with two --db.
+        stack.enter_context(
+            exclusive_lock(
+                folder / ".watch.lock",
+                holder="watch",
+                what="cycles into this folder",
+                remedy="another --out",
+                source=folder,
+            )
+        )
+        history = History(db, station=str(station.path.resolve()), golden=str(golden_file))
+        stack.callback(history.close)
+        server = None
+        if http_port is not None:
+            from inspect_validate.watch.serve import StatusServer
+
+            try:
+                server = StatusServer(http_port)
+            except OSError as exc:
+                raise InputError(
+                    f"--http {http_port}: cannot serve the status on 127.0.0.1:{http_port} "
+                    f"({exc.strerror or exc}); choose a free port, or 0 for any"
+                ) from None
+            stack.callback(server.close)
+        yield Session(
+            station=watched,
+            plan=replace(plan, golden=None),
+            monitor=monitor,
+            history=history,
+            folder=folder,
+            status_path=status,
+            server=server,
+        )
