@@ -27,6 +27,7 @@ decides, with the station's acceptance and the manual's drift block).
 from __future__ import annotations
 
 import argparse
+import multiprocessing
 import time
 from collections import Counter, defaultdict
 from concurrent.futures import ProcessPoolExecutor
@@ -161,7 +162,12 @@ def main() -> None:
     print(machine_line())
     t0 = time.perf_counter()
     results = {}
-    with tempfile.TemporaryDirectory() as tmp, ProcessPoolExecutor(args.jobs) as pool:
+    # Spawned workers: a forked one would inherit numba's OpenMP threads if any had run.
+    spawn = multiprocessing.get_context("spawn")
+    with (
+        tempfile.TemporaryDirectory() as tmp,
+        ProcessPoolExecutor(args.jobs, mp_context=spawn) as pool,
+    ):
         tmp = Path(tmp)
         for name, (path, repeats) in stations(tmp).items():
             path = with_drift(path, tmp)

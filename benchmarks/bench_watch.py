@@ -135,13 +135,15 @@ def _watch_share(args):
 
 
 def measured_arl(tmp: Path, world: dict, goldens: int, cycles: int, jobs: int) -> dict:
+    import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
 
     from scipy.stats import chi2
 
     path = small_station(tmp / f"small-{len(world)}", world)
     parts = [(path, range(i, goldens, jobs), cycles) for i in range(jobs)]
-    with ProcessPoolExecutor(jobs) as pool:
+    # Spawned, not forked: this process has run numba's OpenMP threads (the CLI above).
+    with ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
         trials = [t for part in pool.map(_watch_share, parts) for t in part]
     n = sum(t.cycles for t in trials)
     k = sum(t.alarms for t in trials)

@@ -254,10 +254,11 @@ def capture_steps(
         ``progress(step, done, total)`` after every verified frame (its save may still be
         under way; a step is complete only once all are written).
     """
-    steps = [(s.name, s.channels, s.frames, s.exposure_us) for s in steps]
-    saved, skipped, known = {}, [], {}
+    saved: dict[str, int] = {}
+    skipped: list[str] = []
+    known: dict[str, Any] = {}
     levels: dict[str, float] = {}  # mean grey value of each step captured in this run
-    total = sum(s[2] for s in steps)
+    total = sum(s.frames for s in steps)
     done = 0
     cam = settings
     camera.configure(
@@ -307,7 +308,13 @@ def capture_steps(
 
     try:
         exposure = cam.exposure_us
-        for name, setting, n, step_exposure in steps:
+        for step in steps:
+            name, setting, n, step_exposure = (
+                step.name,
+                step.channels,
+                step.frames,
+                step.exposure_us,
+            )
             if store.is_complete(name):
                 skipped.append(name)
                 done += n
@@ -367,7 +374,8 @@ def capture_steps(
                     chunk=chunk,
                 )
                 stop = stopping(name) if stopping is not None else None
-                total_mean, i, discarded = 0.0, 0, {}
+                total_mean, i = 0.0, 0
+                discarded: dict[str, int] = {}
                 for i, (frame, discarded) in enumerate(frames, start=1):
                     # Written on the writer thread while the next frame is grabbed.
                     store.save_later(

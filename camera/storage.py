@@ -246,7 +246,10 @@ def audit_capture(folder: Path, manifest: dict, steps) -> dict[str, str]:
     """
     import tifffile
 
-    problems, hashes, seen, stamps = [], {}, {}, {}
+    problems: list[str] = []
+    hashes: dict[str, str] = {}
+    seen: dict[str, str] = {}
+    stamps: dict[tuple, str] = {}
     for step in steps:
         record = manifest.get("steps", {}).get(step, {})
         recorded = record.get("sha256")
@@ -287,7 +290,7 @@ def audit_capture(folder: Path, manifest: dict, steps) -> dict[str, str]:
                 problems.append(f"{where}: its sidecar is of {meta.get('step')}/{meta.get('file')}")
             try:
                 with tifffile.TiffFile(io.BytesIO(data)) as tif:
-                    text = tif.pages[0].description
+                    text = getattr(tif.pages[0], "description", "")
                 described = json.loads(text) if text.startswith("{") else None
             except Exception:  # tifffile raises many kinds on a damaged file
                 problems.append(f"{where} is not a readable TIFF")

@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from inspect_validate.measurement import Limits, Measurement
+    from inspect_validate.measurement import KdeMode, Limits, Measurement
     from inspect_validate.mix_design.solve import Design
     from inspect_validate.model import Prediction, Ranking
     from inspect_validate.scene import Scene
@@ -204,7 +204,7 @@ def measure(
     comparisons=None,
     saturation_level: float | None = None,
     limits: Limits | None = None,
-    kde: str = "auto",
+    kde: KdeMode = "auto",
 ) -> Measurement:
     """Each class's μ (DN) and σ² (DN²) in a stack of frames, and every comparison's
     SNR_dB (36), CNR, Fisher ratio and ε (37): what ``inspect-validate measure`` prints.
@@ -330,7 +330,10 @@ def verify(
     from inspect_validate.verification.verify import verify_station
 
     return verify_station(
-        _station(station), frames=frames, out=out, skip_dominated=not all_illuminations
+        _station(station),
+        frames=None if frames is None else Path(frames),
+        out=None if out is None else Path(out),
+        skip_dominated=not all_illuminations,
     )
 
 

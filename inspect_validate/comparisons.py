@@ -98,8 +98,8 @@ def _parse(text: str) -> tuple[frozenset, frozenset] | None:
     parts = text.split(" vs ") if " vs " in text else text.split("vs")
     if len(parts) != 2:
         return None
-    groups = tuple(frozenset(n.strip() for n in p.split(",") if n.strip()) for p in parts)
-    return groups if all(groups) else None
+    first, second = (frozenset(n.strip() for n in p.split(",") if n.strip()) for p in parts)
+    return (first, second) if first and second else None
 
 
 def find_comparison(comparisons, text: str) -> int:
@@ -169,18 +169,22 @@ class Comparisons:
                         else "a class is on both sides"
                     )
                     raise InputError(f"comparisons.groups: {text!r}: {why}", source=source)
-                groups.append(tuple(tuple(i for i in range(n) if classes[i] in s) for s in sides))
-        weights = spec.weights
-        if isinstance(weights, dict):
-            unknown = sorted(set(weights) - set(classes))
-            missing = [c for c in classes if c not in weights]
+                one, other = (tuple(i for i in range(n) if classes[i] in s) for s in sides)
+                groups.append((one, other))
+        weights: str | tuple[float, ...]
+        if isinstance(spec.weights, dict):
+            priors = spec.weights
+            unknown = sorted(set(priors) - set(classes))
+            missing = [c for c in classes if c not in priors]
             if unknown or missing:
                 what = f"no class {unknown[0]!r}" if unknown else f"no prior for {missing[0]!r}"
                 raise InputError(
                     f"comparisons.weights: {what}; give one prior per class ({', '.join(classes)})",
                     source=source,
                 )
-            weights = tuple(float(weights[c]) for c in classes)
+            weights = tuple(float(priors[c]) for c in classes)
+        else:
+            weights = spec.weights
         return cls(classes, tuple(groups), weights)
 
     @property

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import functools
 from pathlib import Path
-from typing import TypeVar
+from typing import Any, TypeVar
 
 from pydantic import BaseModel, ConfigDict, ValidationError
 
@@ -41,7 +41,7 @@ class StrictModel(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
 
-def one_of(models: dict, *, what: str, field: str | None = None, shorthand=None):
+def one_of(models: dict, *, what: str, field: str | None = None, shorthand=None) -> Any:
     """A union of models told apart by one key: a validated model per kind.
 
     With ``field`` None the kind is the one key of ``models`` that a mapping has
@@ -74,7 +74,7 @@ def one_of(models: dict, *, what: str, field: str | None = None, shorthand=None)
         if field is None
         else f"{field} must be one of {', '.join(kinds)}"
     )
-    union = Annotated[
+    union = Annotated[  # type: ignore[valid-type]  # a union built at run time
         Union[tuple(Annotated[m, Tag(f"_{k}")] for k, m in models.items())],  # noqa: UP007
         Discriminator(tag, custom_error_type="kind", custom_error_message=message),
     ]

@@ -33,7 +33,8 @@ def read_image(path: str | Path) -> np.ndarray:
     if not path.is_file():
         raise InputError("image file not found", source=str(path))
     suffix = path.suffix.lower()
-    colour = None  # known from the file where it says (samples per pixel), else by shape
+    colour: bool | None = None  # known from the file where it says (samples per pixel)
+    image: np.ndarray | None
     try:
         if suffix in _TIFF:
             image, colour = _read_tiff(path)
@@ -96,7 +97,7 @@ def recorded_bit_depth(path: str | Path) -> int | None:
             import tifffile
 
             with tifffile.TiffFile(path) as tif:
-                meta = json.loads(tif.pages[0].description or "{}")
+                meta = json.loads(getattr(tif.pages[0], "description", "") or "{}")
         else:
             return None
         bits = meta.get("bit_depth") if isinstance(meta, dict) else None
@@ -117,7 +118,7 @@ def _read_tiff(path: Path) -> tuple[np.ndarray, bool]:
 
     with tifffile.TiffFile(path) as tif:
         pages = list(tif.pages)
-        colour = pages[0].samplesperpixel > 1
+        colour = getattr(pages[0], "samplesperpixel", 1) > 1
         if len(pages) == 1 or (len(tif.series) == 1 and tif.series[0].ndim <= 3):
             return tif.asarray(), colour
         first = pages[0].asarray()
@@ -155,9 +156,9 @@ def _monochrome(image: np.ndarray, path: Path, *, colour: bool | None = None) ->
     if colour is None:
         colour = image.ndim >= 3 and image.shape[-1] in (3, 4)
     if colour:
-        colour = image[..., :3]
-        if np.all(colour == colour[..., :1]):
-            return np.ascontiguousarray(colour[..., 0])
+        rgb = image[..., :3]
+        if np.all(rgb == rgb[..., :1]):
+            return np.ascontiguousarray(rgb[..., 0])
         raise InputError(
             "colour image: inspect-validate measures monochrome frames; "
             "save the camera's raw monochrome output instead",

@@ -37,7 +37,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 import numpy as np
 from pydantic import (
@@ -131,12 +131,19 @@ class _LightFile(_LightCommon):
 
 
 _LIGHT_KINDS = ("led", "blackbody", "cie", "daylight", "white_led", "file")
-LightSpec = one_of(
-    dict(
-        zip(_LIGHT_KINDS, (_Led, _Blackbody, _Cie, _Daylight, _WhiteLed, _LightFile), strict=True)
-    ),
-    what="a light",
-)
+if TYPE_CHECKING:  # a union composed at run time (one_of)
+    LightSpec = Any
+else:
+    LightSpec = one_of(
+        dict(
+            zip(
+                _LIGHT_KINDS,
+                (_Led, _Blackbody, _Cie, _Daylight, _WhiteLed, _LightFile),
+                strict=True,
+            )
+        ),
+        what="a light",
+    )
 
 # --- optics ----------------------------------------------------------------------
 
@@ -181,11 +188,14 @@ def _optics_shorthand(v):
 
 
 _OPTICS_KINDS = ("lens", "ideal", "material", "file")
-OpticsSpec = one_of(
-    dict(zip(_OPTICS_KINDS, (_Lens, _Ideal, _Material, _OpticsFile), strict=True)),
-    what="optics",
-    shorthand=_optics_shorthand,
-)
+if TYPE_CHECKING:  # a union composed at run time (one_of)
+    OpticsSpec = Any
+else:
+    OpticsSpec = one_of(
+        dict(zip(_OPTICS_KINDS, (_Lens, _Ideal, _Material, _OpticsFile), strict=True)),
+        what="optics",
+        shorthand=_optics_shorthand,
+    )
 
 # --- cameras ---------------------------------------------------------------------
 
@@ -234,9 +244,12 @@ def _camera_shorthand(v):
     return {"builtin": v} if isinstance(v, str) else v
 
 
-CameraSpec = one_of(
-    {"builtin": _Builtin, "file": _CameraFile}, what="a camera", shorthand=_camera_shorthand
-)
+if TYPE_CHECKING:  # a union composed at run time (one_of)
+    CameraSpec = Any
+else:
+    CameraSpec = one_of(
+        {"builtin": _Builtin, "file": _CameraFile}, what="a camera", shorthand=_camera_shorthand
+    )
 
 # --- classes ---------------------------------------------------------------------
 
@@ -259,7 +272,10 @@ class _CookTorrance(StrictModel):
     cook_torrance: _CookTorranceParams
 
 
-GlossSpec = one_of({"blinn_phong": _BlinnPhong, "cook_torrance": _CookTorrance}, what="gloss")
+if TYPE_CHECKING:  # a union composed at run time (one_of)
+    GlossSpec = Any
+else:
+    GlossSpec = one_of({"blinn_phong": _BlinnPhong, "cook_torrance": _CookTorrance}, what="gloss")
 
 
 class _ClassCommon(StrictModel):
@@ -285,7 +301,10 @@ class _ClassSpectrometer(_ClassCommon):
     spectrometer: _Spectrometer
 
 
-ClassSpec = one_of({"file": _ClassFile, "spectrometer": _ClassSpectrometer}, what="a class")
+if TYPE_CHECKING:  # a union composed at run time (one_of)
+    ClassSpec = Any
+else:
+    ClassSpec = one_of({"file": _ClassFile, "spectrometer": _ClassSpectrometer}, what="a class")
 
 # --- the file --------------------------------------------------------------------
 
@@ -553,7 +572,7 @@ def _grid(wl, classes, lights, optics, cameras, path) -> tuple[np.ndarray, tuple
             "or a narrower range",
             source=str(path),
         )
-    skipped = ()
+    skipped: tuple[str, ...] = ()
     lo, hi = declared_or(joined)
     if (lo, hi) != (start, stop):
         left_out = round((hi - lo) / wl.step) - round((stop - start) / wl.step)

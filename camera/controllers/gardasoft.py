@@ -126,7 +126,7 @@ class SerialAscii:
                 # What has arrived, or wait for one byte: a fixed-size read would sit out
                 # the port's whole 50 ms timeout on every short reply.
                 reply += self._serial.read(self._serial.in_waiting or 1)
-                if self._complete(reply):
+                if self._complete(bytes(reply)):
                     break
             else:
                 if reply:

@@ -28,7 +28,7 @@ stations). Example, for a controller taking 8-bit levels::
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import Literal
+from typing import Any, Literal
 
 from inspect_validate.camera.controllers.base import LedController
 from inspect_validate.camera.controllers.gardasoft import SerialAscii
@@ -62,7 +62,7 @@ class GenericAsciiController(LedController):
         self,
         port: str,
         *,
-        commands: Mapping[str, str | Sequence[str]],
+        commands: Mapping[str, str | Sequence[str]] | Mapping[Any, str | list[str]],
         channels: int = 4,
         max_value: float = 100.0,
         baudrate: int = 115200,
@@ -90,7 +90,8 @@ class GenericAsciiController(LedController):
             error_codes=error_codes,
         )
         try:
-            for line in self.commands.get("init", ()):
+            init = self.commands.get("init", ())
+            for line in [init] if isinstance(init, str) else init:
                 self.link.query(line)
         except DeviceError:
             self.link.close()
@@ -103,22 +104,28 @@ class GenericAsciiController(LedController):
         )
         return self.link.query(command)
 
+    def _template(self, key: str) -> str:
+        """One command's template (only ``init`` may be a list)."""
+        template = self.commands[key]
+        assert isinstance(template, str)
+        return template
+
     def set_intensity(self, channel: int, percent: float) -> None:
-        template = self.commands["off"] if percent == 0 and "off" in self.commands else None
-        self._send(template or self.commands["set"], channel, percent)
+        key = "off" if percent == 0 and "off" in self.commands else "set"
+        self._send(self._template(key), channel, percent)
 
     def pulse(self, channel: int, *, width_us: float, delay_us: float, percent: float) -> None:
         if "pulse" not in self.commands:
             raise DeviceError(f"{self.name}: the station file gives no 'pulse' command template")
-        self._send(self.commands["pulse"], channel, percent, width_us=width_us, delay_us=delay_us)
+        self._send(self._template("pulse"), channel, percent, width_us=width_us, delay_us=delay_us)
 
     def trigger(self, channel: int) -> None:
         if "trigger" not in self.commands:
             raise DeviceError(f"{self.name}: the station file gives no 'trigger' command template")
-        self._send(self.commands["trigger"], channel, 0.0)
+        self._send(self._template("trigger"), channel, 0.0)
 
     def status(self) -> str:
-        return self.link.query(self.commands["status"]) if "status" in self.commands else ""
+        return self.link.query(self._template("status")) if "status" in self.commands else ""
 
     def close(self) -> None:
         self.link.close()

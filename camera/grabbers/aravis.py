@@ -22,7 +22,7 @@ Debian 12's GLib with ``libgirepository1.0-dev``, ``libcairo2-dev`` and ``pkg-co
 from __future__ import annotations
 
 import contextlib
-from typing import Annotated, Literal
+from typing import Annotated, Any, Literal
 
 import numpy as np
 from pydantic import Field
@@ -94,6 +94,7 @@ class AravisCamera(NodeMapGrabber):
             )
             for i in range(Aravis.get_n_devices())
         ]
+        key: object
         if serial is None and device_id is not None:
             # An id Aravis did not discover may still open: a camera's address, a
             # camera on another subnet that answers to it directly.
@@ -121,7 +122,7 @@ class AravisCamera(NodeMapGrabber):
         )
         self._num_buffers = num_buffers
         self._gain_raw = gain_raw
-        self._stream = None
+        self._stream: Any = None
         self._chunked = False
         self.missing = self._missing()
 

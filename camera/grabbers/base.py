@@ -271,10 +271,10 @@ class NodeMapGrabber(Grabber):
 
     def features(self) -> Features:
         sources = self._symbolics("TriggerSource")
-        strobe = ()
+        strobe: tuple[str, ...] = ()
         if "ExposureActive" in self._symbolics("LineSource"):
             strobe = self._symbolics("LineSelector")
-        chunks = ()
+        chunks: tuple[str, ...] = ()
         if self._has("ChunkModeActive"):
             offered = self._symbolics("ChunkSelector")
             chunks = tuple(c for c in self._CHUNKS if c in offered)

@@ -174,7 +174,7 @@ class GenICamCamera(NodeMapGrabber):
         # Triggered frames are fetched in the order they were triggered.
         stream = self._ia.data_streams[0].node_map
         handling = getattr(stream, "StreamBufferHandlingMode", None)
-        if "OldestFirst" in _entries(handling):
+        if handling is not None and "OldestFirst" in _entries(handling):
             try:
                 handling.value = "OldestFirst"
             except Exception as exc:  # GenTL raises several types for access errors
@@ -239,6 +239,8 @@ class GenICamCamera(NodeMapGrabber):
         values = {}
         for name in self._CHUNKS:
             node = getattr(self._nodes, f"Chunk{name}", None)
+            if node is None:
+                continue
             try:
                 values[name] = float(node.value)
             except Exception:  # not enabled, not in this buffer

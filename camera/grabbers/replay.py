@@ -123,14 +123,14 @@ class ReplayCamera(Grabber):
                 for page in image if image.ndim == 3 else (image,):
                     yield page, {}, path
             return
-        for path, meta in self.recorded.get(setting, ()):
+        for path, meta in (self.recorded or {}).get(setting, ()):
             yield read_image(path), meta, path
 
     def grab(self, n: int, *, timeout_s: float = 2.0) -> list[Frame]:
         frames = []
         for _ in range(n):
             setting = None
-            if self.recorded is not None:
+            if self.recorded is not None and self.lights is not None:
                 setting = _setting(self.lights() or {})
                 if setting not in self.recorded:
                     have = "; ".join(describe_setting(dict(s)) for s in self.recorded)
@@ -143,7 +143,7 @@ class ReplayCamera(Grabber):
             try:
                 data, meta, path = next(self._current[1])
             except StopIteration:
-                count = len(self.paths) if setting is None else len(self.recorded[setting])
+                count = len(self.paths) if setting is None else len((self.recorded or {})[setting])
                 what = "" if setting is None else f" under {describe_setting(dict(setting))}"
                 raise DeviceError(
                     f"{self.name}: the recording has no more frames{what} ({count} in all); "

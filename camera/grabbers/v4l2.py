@@ -127,13 +127,13 @@ class V4l2Camera(Grabber):
                 )
             self._cap.set(cv2.CAP_PROP_FRAME_WIDTH, w)
             self._cap.set(cv2.CAP_PROP_FRAME_HEIGHT, h)
-            got = (
+            size = (
                 int(self._cap.get(cv2.CAP_PROP_FRAME_WIDTH)),
                 int(self._cap.get(cv2.CAP_PROP_FRAME_HEIGHT)),
             )
-            if got != (w, h):
+            if size != (w, h):
                 raise DeviceError(
-                    f"{self.name}: asked for {w}×{h}, the driver set {got[0]}×{got[1]}; "
+                    f"{self.name}: asked for {w}×{h}, the driver set {size[0]}×{size[1]}; "
                     "choose a size from v4l2-ctl --list-formats-ext"
                 )
         if exposure_us is not None:
@@ -145,10 +145,10 @@ class V4l2Camera(Grabber):
                     raise DeviceError(
                         f"{self.name}: automatic exposure stays on (mode {mode:g}); a measurement needs a fixed exposure"
                     )
-                got = self._set(cv2.CAP_PROP_EXPOSURE, exposure_us / 100, "the exposure") * 100
-                if abs(got - exposure_us) > max(100.0, 0.01 * exposure_us):  # one 100 µs step
+                applied = self._set(cv2.CAP_PROP_EXPOSURE, exposure_us / 100, "the exposure") * 100
+                if abs(applied - exposure_us) > max(100.0, 0.01 * exposure_us):  # one 100 µs step
                     raise DeviceError(
-                        f"{self.name}: asked for an exposure of {exposure_us:g} µs, the driver set {got:g} µs; "
+                        f"{self.name}: asked for an exposure of {exposure_us:g} µs, the driver set {applied:g} µs; "
                         "choose one inside the range v4l2-ctl --all shows for exposure_time_absolute"
                     )
 
@@ -162,6 +162,7 @@ class V4l2Camera(Grabber):
         cv2 = self._cv2
         if self.pixel_format is None:
             self.configure()
+        assert self.pixel_format is not None  # configure() reads the driver's format
         if self._timeout_ms != timeout_s * 1000:
             # Without it OpenCV waits 10 s for a frame; older builds lack the property.
             if self._cap.set(cv2.CAP_PROP_READ_TIMEOUT_MSEC, timeout_s * 1000):

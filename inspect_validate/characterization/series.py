@@ -27,6 +27,7 @@ import json
 import math
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -262,7 +263,8 @@ def _write_plan(path: Path, plan: Plan) -> None:
 def _read_plan(path: Path) -> Plan:
     try:
         doc = json.loads(path.read_text())
-        return Plan(**{k: tuple(v) if isinstance(v, list) else v for k, v in doc.items()})
+        fields: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v for k, v in doc.items()}
+        return Plan(**fields)
     except (OSError, ValueError, TypeError) as exc:
         raise InputError(
             f"the characterization plan cannot be read ({exc}); start again without --resume",

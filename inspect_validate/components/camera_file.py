@@ -50,7 +50,7 @@ def write_camera_file(path, result, *, name: str, gain_db: float, provenance: di
         "dsnu": result.dsnu,
         "prnu": result.prnu,
     }
-    camera = {"name": name}
+    camera: dict[str, str | int | float] = {"name": name}
     for key, value in values.items():
         if isinstance(value, int) or math.isfinite(value):
             camera[key] = value if isinstance(value, int) else float(f"{value:.6g}")

@@ -17,6 +17,7 @@ add K²(DSNU² + PRNU²·μ_e²) to a region's spatial variance (EMVA 1288 relea
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -126,7 +127,7 @@ def qe_model(
 
 
 _GRID = np.arange(300.0, 1801.0, 1.0)
-BUILT_IN_CAMERAS = {
+BUILT_IN_CAMERAS: dict[str, tuple[dict[str, float], dict[str, Any]]] = {
     # name: QE model parameters, EMVA parameters
     "cmos-visible": (
         dict(peak=530, peak_qe=0.68, left=85, right=170, lo=350, hi=1050),

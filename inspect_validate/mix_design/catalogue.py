@@ -132,7 +132,7 @@ def choose_channels(
         raise InputError(f"cannot choose {k} of {m} lights: give --choose between 1 and {m}")
     if m > max(POOL_MAX, k):
         return _from_pool(response, comparisons, k, optimise, exhaustive_max, progress)
-    cache: dict[tuple, object] = {}
+    cache: dict[tuple, Mix] = {}
     total = math.comb(m, k)
     exhaustive = total <= exhaustive_max
     if not exhaustive:
@@ -169,7 +169,7 @@ def choose_channels(
                 rest = score(warm)[:_CANDIDATES]
             else:
                 warm, rest = None, range(m)
-            best = min(rest, key=lambda c, w=warm: optimum([*chosen, c], w))
+            best = min(rest, key=lambda c, w=warm: optimum([*chosen, c], w))  # type: ignore[misc]
             chosen = tuple(sorted([*chosen, int(best)]))
         support = np.argsort(-full.levels * response.electrons.sum(axis=1))[:k]
         optimum(support, dict(enumerate(full.levels)))

@@ -165,6 +165,7 @@ def channel_response(channels: dict, optics, camera, classes, *, grid, exposure_
         exposure=Exposure("fixed", time=float(exposure_time)),
         grid=grid,
     )
+    assert p.sample_electrons is not None  # a full prediction keeps its samples
     electrons = p.sample_electrons[:, 0, 0]
     bad = ~np.all(np.isfinite(electrons), axis=1)
     if bad.any():
@@ -416,7 +417,7 @@ def optimise_mix(
     if not starts:
         raise InputError("no channel gives any signal on these classes")
 
-    cache = {}
+    cache: dict[bytes, tuple] = {}
 
     def losses(u):
         key = u.tobytes()
@@ -550,12 +551,12 @@ def _screened(response, comparisons, *, progress=None, **options) -> Mix:
         progress(f"screened {n} lights alone")
     # The best lights for each comparison alone, then the best for the worst of them.
     per = max(2, JOINT_MAX // (2 * alone.shape[1]))
-    work = {int(c) for p in range(alone.shape[1]) for c in np.argsort(alone[:, p])[:per]}
+    screened = {int(c) for p in range(alone.shape[1]) for c in np.argsort(alone[:, p])[:per]}
     for c in np.argsort(alone.max(axis=1)):
-        if len(work) >= JOINT_MAX:
+        if len(screened) >= JOINT_MAX:
             break
-        work.add(int(c))
-    work = sorted(work)
+        screened.add(int(c))
+    work = sorted(screened)
     mix = optimise_mix(response.subset(work), comparisons, **options)
     starts = mix.starts
     for _round in range(n):  # ends: lights join only while they lower the loss

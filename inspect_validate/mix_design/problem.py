@@ -104,6 +104,7 @@ def _from_station(path: Path, auto_exposure: bool) -> DesignProblem:
             f"channel's irradiance; give channels.{ch}.irradiance",
             source=str(path),
         )
+    assert model.exposure_time is not None  # a reference exposure was set above
     classes = tuple(model.scene.classes)
     names = [c.name for c in classes]
     comparisons = Comparisons.of(names, st.comparisons, source=f"{path}: comparisons")

@@ -82,7 +82,6 @@ def solve(
     is told how the screening of a large catalogue goes. With the problem's
     auto exposure the levels are optimised up to the longest exposure over the reference
     one and rescaled to a designed exposure time."""
-    from functools import partial
 
     from inspect_validate.mix_design.catalogue import choose_channels
     from inspect_validate.mix_design.mix import (
@@ -119,11 +118,14 @@ def solve(
     else:
         choice = choose_channels(response, problem.objective, choose, progress=progress, **options)
         chosen, mix = list(choice.channels), choice.mix
-    optimise = partial(optimise_mix, comparisons=problem.objective, **options)
-    candidates = range(len(labels))
+
+    def optimise(channels):
+        return optimise_mix(channels, problem.objective, **options)
+
+    candidates = list(range(len(labels)))
     if len(labels) > JOINT_MAX:  # a catalogue: optimise the lights best alone at their limit
         _, alone = single_losses(response, problem.objective, **options)
-        candidates = np.argsort(alone.max(axis=1))[:JOINT_MAX]
+        candidates = [int(c) for c in np.argsort(alone.max(axis=1))[:JOINT_MAX]]
     singles = {int(c): optimise(response.subset([c])) for c in candidates}
     best = min(singles, key=lambda c: singles[c].loss)
     single_level = float(singles[best].levels[0])

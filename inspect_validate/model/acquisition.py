@@ -189,7 +189,8 @@ class _Chain:
 
     @property
     def shape(self) -> tuple[int, int, int]:
-        return tuple(len(c) for c in self.components[:3])
+        lights, optics, cameras = (len(c) for c in self.components[:3])
+        return lights, optics, cameras
 
     def camera_rows(self, cs: slice) -> tuple[np.ndarray, np.ndarray]:
         """The cameras ``cs`` times each class's mean reflectance, (c·K, W), and times each

@@ -141,6 +141,7 @@ def render_frame(
     t = p.exposure_time[index]
     bands = class_bands(p.classes, height=height, width=width)
     electrons = np.zeros((height, width))
+    assert p.sample_electrons is not None  # a full prediction keeps its samples
     rate = p.sample_electrons[index] / t  # photo-e⁻/s per sample, unclipped
     for c, (x, y, w, h) in enumerate(bands.values()):
         # The model's spectral variance is the unbiased (39) spread of the S

@@ -180,7 +180,9 @@ def sweep(
         results = ((i, _block_rows(chain, b, **options)) for i, b in enumerate(blocks))
     else:
         results = _on_dask(client, chain, blocks, options)
-    kept, why_by_block, n_bad = None, {}, 0
+    kept: dict[str, np.ndarray] | None = None
+    why_by_block: dict[int, list[str]] = {}
+    n_bad = 0
     for i, (rows, bad, why) in results:  # merged as they arrive: the order cannot matter
         n_bad += bad
         if why:
@@ -189,6 +191,7 @@ def sweep(
     reasons = [r for i in sorted(why_by_block) for r in why_by_block[i]][:_MAX_REASONS]
     if n_bad == total:
         raise nothing_predictable(reasons, n_bad)
+    assert kept is not None  # a block ran, or nothing_predictable was raised
     order = _order(kept)
     best = order[:top]
     worst = int(kept["flat"][order[-1]])
@@ -196,7 +199,7 @@ def sweep(
 
     # The rows' other group ε: the same function on the same moments as a full prediction.
     left = [j for j in groups if j not in mixtures]
-    skipped_work = ()
+    skipped_work: tuple[str, ...] = ()
     if left:
         started = time.perf_counter()
         sep = gaussian_separation(rows["mean"], rows["variance"], comparison_set, mixtures=left)
@@ -229,7 +232,7 @@ def sweep(
         absolute=rows["absolute"],
         **{name: rows[name] for name in (*_ROW_FIELDS, "sample_mean", "sample_variance")},
         sample_class=chain.sample_class,
-        worst=tuple(int(i) for i in np.unravel_index(worst, chain.shape)),
+        worst=_triple(np.unravel_index(worst, chain.shape)),
         predicted=total - n_bad,
         skipped=skipped_reasons(reasons, n_bad),
         blocks=len(blocks),
@@ -350,3 +353,9 @@ def _merge(a: dict, b: dict, top: int) -> dict:
 def _kept(order: np.ndarray, top: int) -> np.ndarray:
     """Positions of the best ``top`` and the worst of rows ranked ``order``, ascending."""
     return np.unique(np.concatenate([order[:top], order[-1:]]))
+
+
+def _triple(index) -> tuple[int, int, int]:
+    """A (light, optics, camera) index as ints."""
+    light, optics, camera = (int(i) for i in index)
+    return light, optics, camera

@@ -353,7 +353,7 @@ def plot_agreement(
         "dB",
         checked=lambda r: floor is None or max(r.predicted.snr_db, r.measured.snr_db) >= floor,
     )
-    labels = {}
+    labels: dict[str, object] = {}
     for ax in axes:
         for handle, label in zip(*ax.get_legend_handles_labels(), strict=True):
             labels.setdefault(label, handle)

@@ -17,10 +17,14 @@ from __future__ import annotations
 import sys
 from dataclasses import asdict
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from inspect_validate import __version__
 from inspect_validate.report.tables import render_table
 from inspect_validate.text import labelled, terminal_width
+
+if TYPE_CHECKING:
+    from inspect_validate.verification.checks import Check
 
 __all__ = [
     "CHECK_COLUMNS",
@@ -37,7 +41,7 @@ VERIFICATION_SCHEMA_VERSION = 2
 CHECK_COLUMNS = ("verdict", "check", "value", "limit", "unit", "basis", "detail")
 
 
-def check_rows(checks) -> list[tuple[object, list[str]]]:
+def check_rows(checks) -> list[tuple[Check, list[str]]]:
     """``(check, cells under CHECK_COLUMNS)`` for each check, failures first, then in the
     order the checks were made: the verdict table and the HTML report show these."""
     return [

@@ -132,11 +132,11 @@ def _parse_shape(raw, base: Path, where: str) -> list[tuple[Shape, str]]:
     where = f"{where} ({kind})"
     if getattr(m, kind) is None:
         raise InputError(f"'{kind}:' needs its values (see the manual, 'ROI files')", source=where)
-    if kind == "rect":
+    if kind == "rect" and m.rect is not None:
         return [(Rect(*m.rect), where)]
-    if kind == "polygon":
-        return [(Polygon(tuple(map(tuple, m.polygon))), where)]
-    if kind == "ellipse":
+    if kind == "polygon" and m.polygon is not None:
+        return [(Polygon(tuple((float(x), float(y)) for x, y in m.polygon)), where)]
+    if kind == "ellipse" and m.ellipse is not None:
         return [(Ellipse(*m.ellipse), where)]
     target = base / getattr(m, kind)
     if kind == "mask":
@@ -158,6 +158,7 @@ def _imagej_shapes(path: Path):
         name = roi.name or f"roi{i}"
         where = f"{path}: ROI {i} '{name}'"
         kind = roifile.ROI_TYPE(roi.roitype)
+        shape: Rect | Ellipse | Polygon
         if roi.composite or roi.subtype not in (0, roifile.ROI_SUBTYPE.UNDEFINED):
             raise InputError("composite and text ROIs are not supported", source=where)
         if kind == roifile.ROI_TYPE.RECT:
@@ -166,7 +167,9 @@ def _imagej_shapes(path: Path):
             rx, ry = (roi.right - roi.left) / 2, (roi.bottom - roi.top) / 2
             shape = Ellipse(roi.left + rx, roi.top + ry, rx, ry)
         elif kind in (roifile.ROI_TYPE.POLYGON, roifile.ROI_TYPE.FREEHAND, roifile.ROI_TYPE.TRACED):
-            shape = Polygon(tuple(map(tuple, np.asarray(roi.coordinates(), float))))
+            shape = Polygon(
+                tuple((float(x), float(y)) for x, y in np.asarray(roi.coordinates(), float))
+            )
         else:
             raise InputError(
                 f"{kind.name.lower()} ROIs have no area; use rectangles, ovals or polygons",
@@ -188,10 +191,13 @@ def class_masks(rois: RoiSet, frame_shape: tuple[int, int]) -> dict[str, np.ndar
     boxes: dict[str, tuple[int, int, int, int]] = {}
     for cls in rois.classes:
         # A one-shape class keeps its shape's mask: no second frame-sized array.
-        union = np.zeros(frame_shape, dtype=bool) if len(cls.shapes) != 1 else None
+        union: np.ndarray | None = (
+            np.zeros(frame_shape, dtype=bool) if len(cls.shapes) != 1 else None
+        )
         for shape, where in cls.shapes:
             mask = rasterise(shape, frame_shape, where=where)
             union = mask if union is None else np.logical_or(union, mask, out=union)
+        assert union is not None  # a class has at least one shape
         if cls.erode:
             union = _erode(union, cls.erode)
             if not union.any():

@@ -34,6 +34,7 @@ import json
 import time
 from collections import deque
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -41,12 +42,17 @@ from inspect_validate.camera.frame import Frame
 from inspect_validate.camera.grabbers.base import Features, Grabber
 from inspect_validate.components.cameras import gain_factor
 from inspect_validate.errors import DeviceError, InputError
+
+if TYPE_CHECKING:
+    from inspect_validate.components.cameras import Camera
+    from inspect_validate.components.optics import Optics
+    from inspect_validate.model import ObjectClass
 from inspect_validate.model.render import class_bands, expected_grey, expose, sensor_pattern
 
 __all__ = ["SimulatedCamera", "lit_by_simulator", "scene_camera"]
 
 
-def world_components(model, world) -> tuple[dict, object, object, list]:
+def world_components(model, world) -> tuple[dict, Optics, Camera, list[ObjectClass]]:
     """The simulated world: the station's components with ``world``'s deviations.
 
     Returns the channel lights (with an always-on ambient light as channel 0
@@ -195,6 +201,7 @@ class SimulatedCamera(Grabber):
             exposure=Exposure("fixed", time=1.0),
             grid=grid,
         )
+        assert p.sample_electrons is not None  # a full prediction keeps its samples
         rates = p.sample_electrons[:, 0, 0]  # (channels, samples), e⁻/s at 100 %, unclipped
         if world.irradiance_jitter:  # this capture's light levels, drawn once per opening
             level = np.exp(self.noise.normal(0.0, world.irradiance_jitter, len(lights)))
@@ -224,13 +231,13 @@ class SimulatedCamera(Grabber):
         )
         self._falloff = (1.0 - world.vignetting * r2) * world.exposure
         self.world = world
-        self._frozen = None  # the frame a frozen camera repeats
+        self._frozen: np.ndarray | None = None  # the frame a frozen camera repeats
         self.pipeline: deque = deque()
         self.acquisition, self.strobe_line, self.chunks = "free-run", None, False
         self.trigger_delay_us = 0.0
         self._triggered: deque = deque()  # software triggers not yet delivered
         self._pulses_seen = 0  # the controller's trigger count already exposed
-        self._last_chunk = None  # a lagging chunk's values (world.chunk_lag)
+        self._last_chunk: dict | None = None  # a lagging chunk's values (world.chunk_lag)
 
     _TRIGGER_LINE, _STROBE_LINE = "Line1", "Line2"
 
@@ -322,7 +329,7 @@ class SimulatedCamera(Grabber):
         if self.world.camera_timeout:
             time.sleep(timeout_s)
             raise DeviceError(f"{self.name}: no frame within {timeout_s:g} s (timeout)")
-        frames = []
+        frames: list[Frame] = []
         while len(frames) < n:
             if self.acquisition == "free-run":
                 self.pipeline.append(self._expose())
@@ -414,9 +421,9 @@ class SimulatedCamera(Grabber):
             data = self._frozen.copy()
         else:
             data = self.render(state, exposure_us=exposure)
-        extra = {"lights": state}
+        extra: dict = {"lights": state}
         if self.chunks:
-            chunk = {
+            chunk: dict = {
                 "ExposureTime": exposure,
                 "Gain": self.gain_db,
                 "Timestamp": stamp,
@@ -457,6 +464,7 @@ def scene_camera(station, state_path: Path | None, target: str = "scene") -> Sim
     lit_by_simulator(station, state_path)
     from inspect_validate.station.model import station_model
 
+    assert state_path is not None  # lit_by_simulator refused a station without it
     return SimulatedCamera(
         station_model(station),
         state_path,

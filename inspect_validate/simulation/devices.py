@@ -12,7 +12,7 @@ import subprocess
 import sys
 import tempfile
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal
 
 from inspect_validate.camera.grabbers.aravis import AravisSettings
 from inspect_validate.camera.grabbers.pylon import PylonSettings
@@ -76,9 +76,11 @@ def open_simulated_controller(settings: SimulatedControllerSettings, opening: Op
             start_new_session=True,
         )
         try:
+            assert proc.stdout is not None  # stdout=PIPE
             port = proc.stdout.readline().strip()
             if not port:
                 raise DeviceError("the simulated controller did not start")
+            controller: Any
             if settings.protocol is not None:  # the generic driver, e.g. --dialect line
                 controller = protocol_controller(port, settings.protocol, settings)
             else:
@@ -91,7 +93,8 @@ def open_simulated_controller(settings: SimulatedControllerSettings, opening: Op
         finally:
             proc.kill()
             proc.wait()
-            proc.stdout.close()  # else a ResourceWarning reaches the terminal
+            if proc.stdout is not None:
+                proc.stdout.close()  # else a ResourceWarning reaches the terminal
 
 
 def open_simulated_camera(settings: SimulatedCameraSettings, opening: Opening):
@@ -167,6 +170,7 @@ def open_aravis_fake(settings, opening: Opening):
         start_new_session=True,  # as the simulated controller: the tool takes Ctrl-C
     )
     try:
+        assert proc.stdout is not None  # stdout=PIPE
         if proc.stdout.readline().strip() != "ready":
             raise DeviceError(
                 "Aravis' fake GigE Vision camera did not start (is libaravis-0.8 installed?)"
@@ -176,7 +180,8 @@ def open_aravis_fake(settings, opening: Opening):
     finally:
         proc.kill()
         proc.wait()
-        proc.stdout.close()
+        if proc.stdout is not None:
+            proc.stdout.close()
 
 
 SIMULATED_CONTROLLER = Backend("simulated", SimulatedControllerSettings, open_simulated_controller)

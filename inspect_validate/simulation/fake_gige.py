@@ -92,7 +92,7 @@ def scene_fill(lib, renderer):
 
 def main(argv=None) -> None:
     """Run Aravis' GigE Vision fake camera until killed; prints ``ready`` once it listens."""
-    parser = argparse.ArgumentParser(description=main.__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=(main.__doc__ or "").splitlines()[0])
     parser.add_argument("serial")
     parser.add_argument("--interface", default="lo")
     parser.add_argument("--station", type=Path, help="show this station's scene")

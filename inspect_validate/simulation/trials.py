@@ -24,7 +24,7 @@ import os
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -127,7 +127,7 @@ def render_capture(
     camera.configure(exposure_us=spec.exposure_us, gain_db=spec.gain_db)
     acc = station.acceptance
     level = float(2**model.camera.bit_depth - 1)
-    options = {"comparisons": plan.comparisons, "saturation_level": level}
+    options: dict[str, Any] = {"comparisons": plan.comparisons, "saturation_level": level}
 
     def stack(state, n):
         return np.stack([camera.render(state) for _ in range(n)])

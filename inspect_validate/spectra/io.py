@@ -64,7 +64,7 @@ def read_spectrum_csv(
     if not lines:
         raise InputError("no data", source=str(path))
     dialect = _dialect(lines[0][1])
-    rows = []
+    rows: list[tuple[int, list[float]]] = []
     header = None
     for k, (lineno, line) in enumerate(lines):
         cells = [

@@ -54,7 +54,7 @@ def capture(
     from inspect_validate.station.devices import open_devices
 
     store = CaptureStore(
-        out, station_path=station.path, station_sha256=station_hash(station.path), resume=resume
+        out, station_path=station.file, station_sha256=station_hash(station.file), resume=resume
     )
     stopping = _stopping(station)
     pulse = getattr(station.controller, "pulse", None)
@@ -82,6 +82,8 @@ def _stopping(station: Station):
     from inspect_validate.roi import read_rois
     from inspect_validate.station.stopping import SequentialStop
 
+    if station.rois is None:  # the station file's validation requires it with precision
+        return None
     rois = read_rois(station.resolve(station.rois))
     p = station.precision
 

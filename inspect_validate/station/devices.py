@@ -5,7 +5,7 @@ plugin's)."""
 from __future__ import annotations
 
 import contextlib
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Literal
 
 from inspect_validate.camera.registry import Opening, backend
 
@@ -35,15 +35,17 @@ def open_devices(station: Station, *, target: str = "scene") -> Iterator[tuple]:
         A device that does not open or answer.
     """
     source = str(station.path)
-    opening = Opening(source=source, base=station.path.parent, station=station, target=target)
-    camera_kind = "simulators" if getattr(station.camera, "simulate", False) else "cameras"
+    opening = Opening(source=source, base=station.folder, station=station, target=target)
+    camera_kind: Literal["cameras", "simulators"] = (
+        "simulators" if getattr(station.camera, "simulate", False) else "cameras"
+    )
     controller_backend = backend("controllers", station.controller.backend, source=source)
     camera_backend = backend(camera_kind, station.camera.backend, source=source)
     with contextlib.ExitStack() as stack:
         controller = stack.enter_context(controller_backend.open(station.controller, opening))
         opened = Opening(
             source=source,
-            base=station.path.parent,
+            base=station.folder,
             station=station,
             target=target,
             controller=controller,

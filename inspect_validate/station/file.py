@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import hashlib
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated, Any, Literal, overload
 
 from pydantic import (
     BeforeValidator,
@@ -71,7 +71,7 @@ class StationCamera(StrictModel):
     camera's in every prediction of this station (the QE stays the scene's)."""
 
 
-def _sections(kind: str, *, extra: tuple = ()) -> dict:
+def _sections(kind: Literal["cameras", "controllers"], *, extra: tuple = ()) -> dict:
     """Backend name → the model of its section in a station file: the backend's own
     settings (:mod:`inspect_validate.camera.registry`, every installed one) and
     ``extra``; a camera whose backend has a simulator also renders (``simulate:``)."""
@@ -104,8 +104,17 @@ def _unloadable(name: str, why: str) -> type:
     return Unloadable
 
 
-CameraSpec = one_of(_sections("cameras", extra=(StationCamera,)), what="camera", field="backend")
-ControllerSpec = one_of(_sections("controllers"), what="controller", field="backend")
+if TYPE_CHECKING:
+    # The sections are composed at run time from whatever backends are installed: to a
+    # type checker, any of them (their common keys are CameraSettings' and
+    # ControllerSettings', a backend's own are its own).
+    CameraSpec = Any
+    ControllerSpec = Any
+else:
+    CameraSpec = one_of(
+        _sections("cameras", extra=(StationCamera,)), what="camera", field="backend"
+    )
+    ControllerSpec = one_of(_sections("controllers"), what="controller", field="backend")
 
 
 class ChannelLight(StrictModel):
@@ -315,9 +324,30 @@ class Station(StrictModel):
         """The camera renders the scene (simulated, or pylon's emulator fed with renderings)."""
         return self.camera.backend == "simulated" or getattr(self.camera, "simulate", False)
 
-    def resolve(self, relative: str | None) -> Path | None:
+    @property
+    def file(self) -> Path:
+        """The station file (a station made in code and never written has none)."""
+        if self.path is None:
+            from inspect_validate.errors import InputError
+
+            raise InputError(
+                f"station {self.name!r} has no file; write it with write_station first"
+            )
+        return self.path
+
+    @property
+    def folder(self) -> Path:
+        """The folder the station file's paths are relative to (the working directory for
+        a station made in code)."""
+        return self.path.parent if self.path is not None else Path()
+
+    @overload
+    def resolve(self, relative: str | Path) -> Path: ...
+    @overload
+    def resolve(self, relative: None) -> None: ...
+    def resolve(self, relative: str | Path | None) -> Path | None:
         """A path given in the station file, relative to the file."""
-        return None if relative is None else (self.path.parent / relative)
+        return None if relative is None else (self.folder / relative)
 
 
 def read_station(path: str | Path) -> Station:

@@ -58,7 +58,7 @@ class SequentialStop:
 
     def __init__(self, rois, *, mean: float, variance: float, min_frames: int):
         self._rois = rois
-        self._masks = None
+        self._masks: dict[str, np.ndarray] | None = None
         self._target = (mean, variance)
         self._min = min_frames
         self._rows: list[np.ndarray] = []  # per frame: (classes, [μ, σ²])
@@ -77,8 +77,9 @@ class SequentialStop:
             from inspect_validate.roi import class_masks
 
             self._masks = class_masks(self._rois, data.shape[-2:])
+        masks: dict[str, np.ndarray] = self._masks
         # measure's own statistics (exact for integer frames), class by class.
-        moments = [sample_moments(region_statistics(data, m).sample) for m in self._masks.values()]
+        moments = [sample_moments(region_statistics(data, m).sample) for m in masks.values()]
         self._rows.append(np.array([(m.mean, m.variance) for m in moments]))
         known = self.known()
         return known is not None and known.reached and len(self._rows) >= self._min

@@ -294,13 +294,14 @@ def mixture_errors(mixtures, comparisons) -> np.ndarray:
     errors = np.empty(len(comparisons))
     for i, sides in enumerate(comparisons):
         own = [k for g, _ in sides for k in g]
-        if any(mixtures[k][2] <= 0 for k in own) or 2 * own_points(own) < grid.size:
+        if any(mixtures[k][2] <= 0 for k in own) or 2 * own_points(own) < _size(grid):
             # A constant class (point masses, as mixture_error takes them), or classes
             # whose own grid is less than half the shared one (finer or longer for
             # others' sake): searched on their own grid.
             errors[i] = mixture_error(*(_side(mixtures, g, share) for g, share in sides))
             continue
-        side_parts, side_binned = [], []
+        side_parts: list[list] = []
+        side_binned: list[np.ndarray | None] = []
         for g, share in sides:
             log_share = np.log(np.asarray(share, float))
             side_parts.append(
@@ -335,6 +336,11 @@ def mixture_errors(mixtures, comparisons) -> np.ndarray:
         )
         errors[i] = min(0.5 * total, 0.5)  # the regions' masses may sum to 1 + 1 ulp
     return errors
+
+
+def _size(grid: np.ndarray | None) -> int:
+    """Points of the shared grid (none without a class of spread)."""
+    return 0 if grid is None else grid.size
 
 
 def _side(mixtures, classes, shares) -> Mixture:
@@ -419,7 +425,7 @@ def _regions_of(key: bytes, sizes: tuple[int, int]) -> tuple[list, list]:
 def _by_lower(labelled) -> tuple[list, list]:
     """(a, b, density 1 is the lower) triples as the regions where side 1's density is
     the lower one, and those where side 2's is."""
-    regions = ([], [])
+    regions: tuple[list, list] = ([], [])
     for a, b, lower_is_1 in labelled:
         regions[0 if lower_is_1 else 1].append((a, b))
     return regions

@@ -215,12 +215,13 @@ def _kernels(values: int):
     # numba already loaded by another part (ε Gauss sweeps) leaves only the kernels' cache.
     _compiled = _compiled or "numba" in sys.modules or _blocks_values + values > BLOCKS_VALUES_MAX
     if _compiled:
-        from inspect_validate.stats import _region_kernels as kern
-    else:
-        from inspect_validate.stats import _region_blocks as kern
+        from inspect_validate.stats import _region_kernels
 
-        _blocks_values += values
-    return kern
+        return _region_kernels
+    from inspect_validate.stats import _region_blocks
+
+    _blocks_values += values
+    return _region_blocks
 
 
 def _masked_histogram(frame, mask, nbins) -> np.ndarray:

@@ -275,9 +275,9 @@ def _converted_moments(sample: LatticeSample | np.ndarray) -> Moments:
         if n < 2:
             raise InputError(f"a class needs at least 2 pixels for its variance (39), has {n}")
         d = sample.denominator
-        mean = Fraction(s1, n * d)
-        variance = Fraction(n * s2 - s1 * s1, n * (n - 1) * d * d)
-        return Moments(n, float(mean), float(variance))
+        exact_mean = Fraction(s1, n * d)
+        exact_variance = Fraction(n * s2 - s1 * s1, n * (n - 1) * d * d)
+        return Moments(n, float(exact_mean), float(exact_variance))
     x = sample
     n = x.size
     if n < 2:

@@ -215,7 +215,7 @@ def fit_scales(
     reference : str, optional
         The class of known reflectance (method ``reference``).
     """
-    out = {}
+    out: dict[str, IrradianceScale] = {}
     classes = list(prediction.classes)
     for li, (name, m) in enumerate(measurements.items()):
         by = {c.name: c for c in m.classes}
@@ -232,7 +232,9 @@ def fit_scales(
             ]
         )
         if method == "absolute":
-            s, se, used, resid = 1.0, 0.0, (), ()
+            s, se = 1.0, 0.0
+            used: tuple[str, ...] = ()
+            resid: tuple[float, ...] = ()
         elif method == "reference":
             if reference not in classes:
                 raise InputError(
@@ -248,7 +250,7 @@ def fit_scales(
             c = by[reference]
             s = measured[k] / predicted[k]
             se = abs(s) * np.sqrt(c.variance / (c.n_pixels * c.n_frames)) / abs(measured[k])
-            used, resid = (reference,), ()
+            used, resid = (str(reference),), ()
         else:
             if not usable.any():
                 raise InputError(

@@ -199,7 +199,7 @@ class Golden(_Frozen):
     """A station's golden statistics, as ``golden.json`` holds them."""
 
     schema_: Literal["inspect-validate/golden"] = Field("inspect-validate/golden", alias="schema")
-    schema_version: Literal[1, 2] = GOLDEN_SCHEMA_VERSION
+    schema_version: Literal[1, 2] = 2
     """2; files of version 1 (no standard errors) are read too."""
     tool_version: str
     """The inspect-validate version that trained it."""
@@ -287,7 +287,7 @@ def train(station, captures: list[Path], *, regions=None) -> Golden:
         measure_capture(station, f, rois=rois, comparisons=comparisons, limits=limits, kde="always")
         for f in captures
     ]
-    first_seen = {}
+    first_seen: dict[str, tuple] = {}
     for folder, run in zip(captures, runs, strict=True):
         for where, digest in run.sha256.items():
             other = first_seen.setdefault(digest, (folder, where))

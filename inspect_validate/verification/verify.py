@@ -110,6 +110,7 @@ def verify_station(
         )
         notify(why)
         plan = replace(plan, dominated={})
+        assert out is not None  # the capture above went there
         capture(full, Path(out), resume=True)
         result = verify_folder(full, Path(out), plan=plan)
         result = replace(result, notes=(*result.notes, why))
@@ -246,9 +247,9 @@ def verify_capture(
     if golden is not None:
         checks += drift_checks(golden, measurements, acc.drift, errors)
     rate = acc.false_alarm_rate
-    checks = decide(checks, rate)
+    decided = decide(checks, rate)
     notes += _uncertainty_notes(
-        acc, checks, golden, prediction, predicted_comparisons, list(measurements)
+        acc, decided, golden, prediction, predicted_comparisons, list(measurements)
     )
     inputs = {
         "station": str(station.path),
@@ -282,7 +283,7 @@ def verify_capture(
         classes=class_rows,
         comparisons=comparison_rows,
         ranking=ranking,
-        checks=tuple(checks),
+        checks=decided,
         skipped=tuple(skipped),
         notes=tuple(notes),
         acquisition=acquisition,

@@ -319,7 +319,7 @@ class DriftMonitor:
         """Per illumination and class, the smoothed signal (μ above the dark offset)
         relative to golden, − 1; classes with less than a tenth of the illumination's
         brightest signal are left out (their ratio is mostly noise)."""
-        signal = {}
+        signal: dict[str, dict[str, Chart]] = {}
         for (ill, kind, name, q), chart in self.charts.items():
             if kind == "class" and q == "mean" and chart.target > self.dark_offset:
                 signal.setdefault(ill, {})[name] = chart
@@ -384,7 +384,8 @@ class DriftMonitor:
                 if all(v < 0 for v in values) or all(v > 0 for v in values):
                     if _spread(values) <= 0.25 * max(abs(v) for v in values):
                         return (
-                            f"every illumination {_percent(np.mean(values))}: exposure, gain or "
+                            f"every illumination {_percent(float(np.mean(values)))}: exposure, "
+                            "gain or "
                             "lens transmission changed"
                         )
             parts = [f"{ill} {_percent(v)}" for ill, v in sorted(changes.items())]

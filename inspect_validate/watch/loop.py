@@ -69,11 +69,12 @@ def status_document(outcome: CycleOutcome, station, *, interval: float | None = 
         "cause": r.cause,
         "consecutive_failures": outcome.failures,
         "frames": r.frames,
-        "values": [],
     }
+    values: list[dict] = []
+    doc["values"] = values
     if outcome.state is not None:
         for (ill, kind, name, quantity), (x, ewma, low, high) in outcome.state.points.items():
-            doc["values"].append(
+            values.append(
                 {
                     "illumination": ill,
                     "kind": kind,

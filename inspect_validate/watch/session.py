@@ -116,7 +116,7 @@ def watch_session(
     watched = station.model_copy(
         update={"acceptance": station.acceptance.model_copy(update={"drift": None})}
     )
-    db = Path(db or Path(f"watch-{Path(station.path).stem}") / "history.sqlite")
+    db = Path(db or Path(f"watch-{station.file.stem}") / "history.sqlite")
     folder = Path(folder or db.parent)
     status = Path(status or folder / "status.json")
     for f in (db, status):
@@ -141,7 +141,7 @@ def watch_session(
                 source=folder,
             )
         )
-        history = History(db, station=str(station.path.resolve()), golden=str(golden_file))
+        history = History(db, station=str(station.file.resolve()), golden=str(golden_file))
         stack.callback(history.close)
         server = None
         if http_port is not None:
