@@ -156,21 +156,21 @@ def fake_gige() -> str:
 
 
 def pace_emulator(size: int, fps: float) -> None:
-    """Every PylonCamera configured from now on grabs ``size``² frames at ``fps``: the
+    """Every PylonGrabber configured from now on grabs ``size``² frames at ``fps``: the
     emulator's frame rate, so that its grab waits like a real camera's."""
     import os
 
     os.environ["PYLON_CAMEMU"] = "1"  # read when pylon's transport layers start
-    from inspect_validate.camera.grabbers.pylon import PylonCamera
+    from inspect_validate.camera.grabbers.pylon import PylonGrabber
 
-    configure = PylonCamera.configure
+    configure = PylonGrabber.configure
 
     def paced(self, **options):
         configure(self, **{"region": (0, 0, size, size), **options})
         self._set("AcquisitionFrameRateEnable", True, "frame rate")
         self._set("AcquisitionFrameRate", fps, "frame rate")
 
-    PylonCamera.configure = paced
+    PylonGrabber.configure = paced
 
 
 def main():

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from inspect_validate.components import Camera, Optics, led
+from inspect_validate.components import Optics, SensorModel, led
 from inspect_validate.components.lights import C, H
 from inspect_validate.model import Exposure, ObjectClass, predict, sweep
 from inspect_validate.spectra import Spectrum
@@ -43,7 +43,7 @@ def components(n_l, n_o, n_c, rng):
     for i in range(n_c):
         qe = 0.7 * np.exp(-0.5 * ((GRID - rng.uniform(450, 800)) / rng.uniform(80, 200)) ** 2)
         cameras.append(
-            Camera(f"C{i}", Spectrum(GRID, qe, "qe", f"C{i}", "bench"), 0.4, 2.5, 10000, 12)
+            SensorModel(f"C{i}", Spectrum(GRID, qe, "qe", f"C{i}", "bench"), 0.4, 2.5, 10000, 12)
         )
     classes = []
     for k in range(3):

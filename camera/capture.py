@@ -45,7 +45,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from inspect_validate.errors import DeviceError, InputError
+from inspect_validate.errors import DeviceError, IncompleteFrame, InputError
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -67,7 +67,7 @@ class CaptureResult:
 
 
 def verified_frames(
-    camera,
+    grabber,
     n: int,
     *,
     switched_ns: int,
@@ -103,7 +103,7 @@ def verified_frames(
     if next_frame is None:
 
         def next_frame():
-            return camera.grab(1, timeout_s=timeout_s)[0], None, 0
+            return grabber.grab(1, timeout_s=timeout_s)[0], None, 0
 
     discarded: Counter = Counter()
     kept: list = []
@@ -113,14 +113,20 @@ def verified_frames(
     seen_ids: set[int] = set()
     off_level = False  # this frame was off the level though its chunk agreed
     while done < n:
-        frame, sent, untriggered = next_frame()
+        try:
+            frame, sent, untriggered = next_frame()
+        except IncompleteFrame:
+            # Lost packets: this frame is unusable, the next one (or the next trigger) is not.
+            discarded["arrived incomplete (data lost on the way)"] += 1
+            _give_up_after(grabber, discarded, discard_max)
+            continue
         if sent is not None:  # recorded with the frame: when it was triggered (host ns)
             frame.extra["trigger_ns"] = sent
         if untriggered:
             discarded["arrived untriggered (drained before the trigger)"] += untriggered
         if _repeats(frame, previous):
             raise DeviceError(
-                f"{camera.name}: frame {frame.frame_id} is identical to the one before: the "
+                f"{grabber.name}: frame {frame.frame_id} is identical to the one before: the "
                 "camera hands out a stale image (a hung driver or a stopped sensor) — restart it"
             )
         previous = frame
@@ -156,19 +162,23 @@ def verified_frames(
         else:
             means = [round(f.mean, 1) for f in (*kept[-3:], frame)]
             raise DeviceError(
-                f"{camera.name}: brightness jumps within a step (frame means {means}); "
+                f"{grabber.name}: brightness jumps within a step (frame means {means}); "
                 "the light or exposure is unstable — check the controller and the ambient light"
             )
         # Ids seen, not the largest: a GigE Vision block id wraps at 16 bits.
         seen_ids.add(frame.frame_id)
-        total = sum(discarded.values())
-        if total > discard_max:
-            why = ", ".join(f"{k}: {v}" for k, v in discarded.items())
-            raise DeviceError(
-                f"{camera.name}: {total} frames were discarded ({why}); nothing stable arrived "
-                "— check that the controller really switches this light, the camera's frame "
-                "rate and its settings"
-            )
+        _give_up_after(grabber, discarded, discard_max)
+
+
+def _give_up_after(grabber, discarded: Counter, discard_max: int) -> None:
+    total = sum(discarded.values())
+    if total > discard_max:
+        why = ", ".join(f"{k}: {v}" for k, v in discarded.items())
+        raise DeviceError(
+            f"{grabber.name}: {total} frames were discarded ({why}); nothing stable arrived "
+            "— check that the controller really switches this light, the camera's frame "
+            "rate, its settings and (frames arriving incomplete) the network"
+        )
 
 
 _LAG = " (its brightness agrees, the frame before's did not: the camera's chunks lag a frame)"
@@ -217,7 +227,7 @@ class Step:
 
 def capture_steps(
     controller,
-    camera,
+    grabber,
     steps: list[Step],
     store: CaptureStore,
     settings: CameraSettings,
@@ -229,11 +239,11 @@ def capture_steps(
     stopping: Callable[[str], Any] | None = None,
     progress=None,
 ) -> CaptureResult:
-    """Run ``steps`` on an open ``controller`` and ``camera`` into ``store``.
+    """Run ``steps`` on an open ``controller`` and ``grabber`` into ``store``.
 
     Parameters
     ----------
-    controller, camera
+    controller, grabber
         An open :class:`~inspect_validate.camera.controllers.base.LedController` and
         :class:`~inspect_validate.camera.grabbers.base.Grabber`.
     steps : list of Step
@@ -260,30 +270,35 @@ def capture_steps(
     levels: dict[str, float] = {}  # mean grey value of each step captured in this run
     total = sum(s.frames for s in steps)
     done = 0
-    cam = settings
-    camera.configure(
-        exposure_us=cam.exposure_us, gain_db=cam.gain_db, pixel_format=cam.pixel_format
+    grabber.configure(
+        exposure_us=settings.exposure_us,
+        gain_db=settings.gain_db,
+        pixel_format=settings.pixel_format,
     )
-    asked = {"exposure": cam.exposure_us, "gain": cam.gain_db, "pixel_format": cam.pixel_format}
-    not_applied = tuple(sorted(m for m in camera.missing if asked.get(m) is not None))
-    mode, chunk = _arm(cam, camera, source)  # refuses what the camera lacks, lights untouched
-    if not (cam.strobe_line or mode == "hardware-trigger"):
+    asked = {
+        "exposure": settings.exposure_us,
+        "gain": settings.gain_db,
+        "pixel_format": settings.pixel_format,
+    }
+    not_applied = tuple(sorted(m for m in grabber.missing if asked.get(m) is not None))
+    mode, chunk = _arm(settings, grabber, source)  # refuses what the camera lacks, lights untouched
+    if not (settings.strobe_line or mode == "hardware-trigger"):
         pulse = None
     # The manifest is written only now: a camera that fails to open leaves
     # nothing that would block a plain rerun.
     store.record(
         "camera",
         {
-            "name": camera.name,
-            "missing": sorted(camera.missing),
+            "name": grabber.name,
+            "missing": sorted(grabber.missing),
             "not_applied": not_applied,
             "acquisition": mode,
             "chunks": sorted(chunk or ()),
-            "strobe_line": cam.strobe_line,
-            "trigger_line": cam.trigger_line if mode == "hardware-trigger" else None,
+            "strobe_line": settings.strobe_line,
+            "trigger_line": settings.trigger_line if mode == "hardware-trigger" else None,
         },
     )
-    next_frame = _frame_source(camera, controller, mode, pulse, cam.timeout_s)
+    next_frame = _frame_source(grabber, controller, mode, pulse, settings.timeout_s)
     pending = None  # a step whose frames are grabbed; their saves may still run
 
     def complete(step):
@@ -307,7 +322,7 @@ def capture_steps(
         store.fail(step, f"{exc}{also}")
 
     try:
-        exposure = cam.exposure_us
+        exposure = settings.exposure_us
         for step in steps:
             name, setting, n, step_exposure = (
                 step.name,
@@ -320,9 +335,9 @@ def capture_steps(
                 done += n
                 continue
             as_json = {str(k): v for k, v in setting.items()}  # JSON keys are strings
-            want = cam.exposure_us if step_exposure is None else step_exposure
+            want = settings.exposure_us if step_exposure is None else step_exposure
             if want != exposure:  # an exposure series: set before the light switches
-                camera.configure(exposure_us=want)
+                grabber.configure(exposure_us=want)
                 exposure = want
                 if chunk and "ExposureTime" in chunk:
                     chunk = {**chunk, "ExposureTime": (want, chunk["ExposureTime"][1])}
@@ -337,7 +352,7 @@ def capture_steps(
                 # A camera that can restart its stream drops every queued buffer:
                 # nothing exposed before the switch can arrive after it. A triggered
                 # camera exposes nothing until triggered after the switch.
-                fresh = mode != "free-run" or camera.restart_stream()
+                fresh = mode != "free-run" or grabber.restart_stream()
             except (DeviceError, InputError) as exc:
                 abort(name, exc)
                 raise
@@ -360,16 +375,16 @@ def capture_steps(
                     "light_pulsed": pulse is not None,
                     "controller": controller.name,
                 }
-                if mode != "free-run" and cam.settle_ms:
-                    time.sleep(cam.settle_ms / 1000)
+                if mode != "free-run" and settings.settle_ms:
+                    time.sleep(settings.settle_ms / 1000)
                 frames = verified_frames(
-                    camera,
+                    grabber,
                     n,
                     switched_ns=switched,
                     discard_max=discard_max,
                     tolerance=brightness_tolerance,
-                    timeout_s=cam.timeout_s,
-                    flush=0 if fresh else max(cam.flush_frames, camera.pipeline_frames),
+                    timeout_s=settings.timeout_s,
+                    flush=0 if fresh else max(settings.flush_frames, grabber.pipeline_frames),
                     next_frame=next_frame,
                     chunk=chunk,
                 )
@@ -424,61 +439,63 @@ def capture_steps(
     return CaptureResult(Path(store.folder), saved, tuple(skipped), not_applied, warnings, known)
 
 
-def _arm(cam: CameraSettings, camera, source: str) -> tuple[str, dict | None]:
+def _arm(settings: CameraSettings, grabber, source: str) -> tuple[str, dict | None]:
     """Resolve the settings' acquisition mode on ``camera`` and arm it.
 
     Returns the mode and the chunk check (chunk name → (requested, increment)), or
     None without chunks. Refuses, before any light is switched, a mode, line or
     chunk the camera lacks, naming the feature and the camera.
     """
-    has = camera.features()
-    mode = cam.acquisition
+    has = grabber.features()
+    mode = settings.acquisition
     if mode == "auto":
-        mode = "software-trigger" if has.software_trigger or cam.strobe_line else "free-run"
+        mode = "software-trigger" if has.software_trigger or settings.strobe_line else "free-run"
     lacks = []
     if mode == "software-trigger" and not has.software_trigger:
-        why = "camera.strobe_line needs triggered frames" if cam.strobe_line else ""
+        why = "camera.strobe_line needs triggered frames" if settings.strobe_line else ""
         lacks.append(f"TriggerSoftware (camera.acquisition: software-trigger{why and '; ' + why})")
-    if mode == "hardware-trigger" and cam.trigger_line not in has.trigger_lines:
+    if mode == "hardware-trigger" and settings.trigger_line not in has.trigger_lines:
         offered = ", ".join(has.trigger_lines) or "none"
-        lacks.append(f"TriggerSource {cam.trigger_line} (camera.trigger_line; it offers {offered})")
-    if cam.strobe_line and cam.strobe_line not in has.strobe_lines:
+        lacks.append(
+            f"TriggerSource {settings.trigger_line} (camera.trigger_line; it offers {offered})"
+        )
+    if settings.strobe_line and settings.strobe_line not in has.strobe_lines:
         offered = ", ".join(has.strobe_lines) or "none"
         lacks.append(
-            f"LineSource ExposureActive on {cam.strobe_line} (camera.strobe_line; it offers {offered})"
+            f"LineSource ExposureActive on {settings.strobe_line} (camera.strobe_line; it offers {offered})"
         )
-    if cam.chunks and not {"ExposureTime", "Gain"} & set(has.chunks):
+    if settings.chunks and not {"ExposureTime", "Gain"} & set(has.chunks):
         lacks.append("exposure or gain chunks (camera.chunks: true)")
     if lacks:
         raise InputError(
-            f"{camera.name} lacks {'; '.join(lacks)}. Nothing was switched: choose what the "
+            f"{grabber.name} lacks {'; '.join(lacks)}. Nothing was switched: choose what the "
             "camera has (camera.acquisition: free-run runs on every camera)",
             source=f"{source}: camera",
         )
-    use_chunks = bool(has.chunks) if cam.chunks is None else cam.chunks
-    camera.arm(
+    use_chunks = bool(has.chunks) if settings.chunks is None else settings.chunks
+    grabber.arm(
         mode,
-        trigger_line=cam.trigger_line if mode == "hardware-trigger" else None,
-        strobe_line=cam.strobe_line,
+        trigger_line=settings.trigger_line if mode == "hardware-trigger" else None,
+        strobe_line=settings.strobe_line,
         chunks=use_chunks,
-        trigger_delay_us=cam.trigger_delay_us,
+        trigger_delay_us=settings.trigger_delay_us,
     )
     if not use_chunks:
         return mode, None
-    step = camera.increments()
+    step = grabber.increments()
     chunk = {}
-    if cam.exposure_us is not None and "ExposureTime" in has.chunks:
-        chunk["ExposureTime"] = (cam.exposure_us, step.get("exposure_us", 0.0))
-    if cam.gain_db is not None and "Gain" in has.chunks:
-        chunk["Gain"] = (cam.gain_db, step.get("gain_db", 0.0))
+    if settings.exposure_us is not None and "ExposureTime" in has.chunks:
+        chunk["ExposureTime"] = (settings.exposure_us, step.get("exposure_us", 0.0))
+    if settings.gain_db is not None and "Gain" in has.chunks:
+        chunk["Gain"] = (settings.gain_db, step.get("gain_db", 0.0))
     return mode, chunk
 
 
-def _frame_source(camera, controller, mode: str, pulse, timeout_s: float):
+def _frame_source(grabber, controller, mode: str, pulse, timeout_s: float):
     """``next_frame()`` for :func:`verified_frames`: the camera's next frame, triggered
     as ``mode`` says, spaced so that a pulsed light keeps its duty cycle."""
     if mode == "free-run":
-        return lambda: (camera.grab(1, timeout_s=timeout_s)[0], None, 0)
+        return lambda: (grabber.grab(1, timeout_s=timeout_s)[0], None, 0)
     period_ns = pulse.width_us / pulse.max_duty * 1e3 if pulse is not None else 0.0
     last = [0]
 
@@ -486,14 +503,14 @@ def _frame_source(camera, controller, mode: str, pulse, timeout_s: float):
         wait = last[0] + period_ns - time.monotonic_ns()
         if wait > 0:
             time.sleep(wait / 1e9)
-        untriggered = camera.drain()  # a queued frame was not triggered by what follows
+        untriggered = grabber.drain()  # a queued frame was not triggered by what follows
         if mode == "software-trigger":
-            sent = camera.trigger()
+            sent = grabber.trigger()
         else:
             sent = time.monotonic_ns()
             controller.trigger(pulse.trigger_channel)
         last[0] = sent
-        return camera.grab(1, timeout_s=timeout_s)[0], sent, untriggered
+        return grabber.grab(1, timeout_s=timeout_s)[0], sent, untriggered
 
     return next_frame
 

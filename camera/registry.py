@@ -33,11 +33,14 @@ from contextlib import AbstractContextManager
 from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 from inspect_validate.errors import InputError
 
-__all__ = ["GROUPS", "Backend", "Opening", "backend", "backends", "broken"]
+if TYPE_CHECKING:
+    from pydantic import BaseModel
+
+__all__ = ["GROUPS", "Backend", "Opening", "Search", "backend", "backends", "broken"]
 
 Kind = Literal["cameras", "controllers", "simulators"]
 GROUPS: dict[Kind, str] = {
@@ -82,6 +85,19 @@ class Opening:
 
 
 @dataclass(frozen=True)
+class Search:
+    """Where a backend looks for devices (``inspect-validate devices``).
+
+    Attributes
+    ----------
+    cti : str, optional
+        A GenTL producer to load (default: every one in ``GENICAM_GENTL64_PATH``).
+    """
+
+    cti: str | None = None
+
+
+@dataclass(frozen=True)
 class Backend:
     """One backend: its name, the model of its settings and how to open it.
 
@@ -93,11 +109,27 @@ class Backend:
         The pydantic model of its section's keys (with ``backend: Literal[name]``).
     open : callable
         ``open(settings, opening)`` → a context manager yielding the device.
+    discover : callable, optional
+        ``discover(search)`` → the devices it can see now, as
+        :class:`~inspect_validate.camera.grabbers.base.DeviceInfo`; a
+        :class:`~inspect_validate.errors.DeviceError` saying what to install where its
+        library is missing. None: a backend with nothing to discover (replay, simulated).
+    device_keys : callable, optional
+        ``device_keys(info)`` → the keys of its settings that choose that device
+        (default: ``{"serial": info.serial}``).
     """
 
     name: str
-    settings: type
+    settings: type[BaseModel]
     open: Callable[[Any, Opening], AbstractContextManager]
+    discover: Callable[[Search], list] | None = None
+    device_keys: Callable[[Any], dict[str, Any]] | None = None
+
+    def keys_for(self, info) -> dict[str, Any]:
+        """The settings' keys that choose the found device ``info``."""
+        if self.device_keys is not None:
+            return self.device_keys(info)
+        return {"serial": info.serial}
 
 
 @cache

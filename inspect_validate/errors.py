@@ -48,3 +48,11 @@ class DeviceError(InspectValidateError, RuntimeError):
     """A camera or light controller did not do what it was asked."""
 
     exit_code = EXIT_DEVICE
+
+
+class IncompleteFrame(DeviceError):
+    """A frame arrived with data missing (packets lost on the way, a buffer underrun).
+
+    The capture sequence discards it, counts it with the step's discarded frames and takes
+    the next one; only when more are discarded than a step allows is it an error.
+    """

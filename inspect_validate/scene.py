@@ -245,9 +245,9 @@ def _camera_shorthand(v):
 
 
 if TYPE_CHECKING:  # a union composed at run time (one_of)
-    CameraSpec = Any
+    SensorSpec = Any
 else:
-    CameraSpec = one_of(
+    SensorSpec = one_of(
         {"builtin": _Builtin, "file": _CameraFile}, what="a camera", shorthand=_camera_shorthand
     )
 
@@ -372,7 +372,7 @@ class _Scene(StrictModel):
     """Candidate lights; each has exactly one of the kind keys."""
     optics: list[OpticsSpec] = Field(min_length=1)
     """Candidate optics; a plain name is a built-in lens."""
-    cameras: list[CameraSpec] = Field(min_length=1)
+    cameras: list[SensorSpec] = Field(min_length=1)
     """Candidate cameras; a plain name is a built-in camera."""
     exposure: _Exposure = _Exposure()
     """How each combination's exposure time is chosen."""
@@ -662,7 +662,7 @@ def _optics(spec, base):
 
 
 def _camera(spec, base):
-    from inspect_validate.components import Camera, builtin_camera
+    from inspect_validate.components import SensorModel, builtin_sensor
     from inspect_validate.spectra import SpectrumKind, read_spectrum_csv
 
     given = {
@@ -675,8 +675,8 @@ def _camera(spec, base):
 
         given.update(measured_values(base / spec.measured))
     if isinstance(spec, _Builtin):
-        cam = builtin_camera(spec.builtin)
+        cam = builtin_sensor(spec.builtin)
         changed = f"{cam.name}, {', '.join(f'{k} {v:g}' for k, v in given.items())}"
         return replace(cam, name=spec.name or (changed if given else cam.name), **given)
     qe = read_spectrum_csv(base / spec.file, kind=SpectrumKind.QE)
-    return Camera(spec.name or qe.name, qe, **given)
+    return SensorModel(spec.name or qe.name, qe, **given)

@@ -14,7 +14,7 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from inspect_validate.components import builtin_camera, ideal_lens, led
+from inspect_validate.components import builtin_sensor, ideal_lens, led
 from inspect_validate.components.lights import planck
 from inspect_validate.errors import InputError
 from inspect_validate.model import ObjectClass, predict
@@ -247,7 +247,7 @@ def flat(name, levels, lo=380.0, hi=780.0):
 def test_predict_with_reflectance_0_and_1_and_one_sample_classes(a, b):
     """Black against white, black against black, one sample per class: every value
     defined (an identical pair is ε = ½, not NaN), or a clear refusal."""
-    light, lens, cam = led(550, 30), ideal_lens(), builtin_camera("cmos-visible")
+    light, lens, cam = led(550, 30), ideal_lens(), builtin_sensor("cmos-visible")
     grid = np.arange(380.0, 781.0, 1.0)
     try:
         with warnings.catch_warnings():

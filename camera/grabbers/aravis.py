@@ -34,11 +34,11 @@ from inspect_validate.camera.grabbers.base import (
     choose_device,
 )
 from inspect_validate.camera.pixelformats import PFNC_CODES
-from inspect_validate.camera.registry import Backend, Opening
+from inspect_validate.camera.registry import Backend, Opening, Search
 from inspect_validate.camera.settings import CameraSettings
-from inspect_validate.errors import DeviceError
+from inspect_validate.errors import DeviceError, IncompleteFrame
 
-__all__ = ["BACKEND", "AravisCamera", "AravisSettings", "import_aravis"]
+__all__ = ["BACKEND", "AravisGrabber", "AravisSettings", "discover_aravis", "import_aravis"]
 
 
 def import_aravis():
@@ -56,7 +56,35 @@ def import_aravis():
     return Aravis, GLib
 
 
-class AravisCamera(NodeMapGrabber):
+def _devices(Aravis) -> list[DeviceInfo]:
+    """The cameras Aravis' last discovery found, keyed by their device id."""
+    found = []
+    for i in range(Aravis.get_n_devices()):
+        address = Aravis.get_device_address(i) or ""
+        found.append(
+            DeviceInfo(
+                Aravis.get_device_id(i),
+                str(Aravis.get_device_serial_nbr(i) or ""),
+                str(Aravis.get_device_vendor(i) or ""),
+                str(Aravis.get_device_model(i) or ""),
+                device_id=Aravis.get_device_id(i),
+                interface=" ".join(filter(None, (Aravis.get_device_protocol(i), address))),
+                source=str(Aravis.get_device_physical_id(i) or ""),
+                backend="aravis",
+            )
+        )
+    return found
+
+
+def discover_aravis(search: Search) -> list[DeviceInfo]:
+    """Every GigE Vision and USB3 Vision camera Aravis discovers now (its fake camera too,
+    where one runs on an interface)."""
+    Aravis, _ = import_aravis()
+    Aravis.update_device_list()
+    return _devices(Aravis)
+
+
+class AravisGrabber(NodeMapGrabber):
     """A camera Aravis discovers, chosen by serial number, device id or index.
 
     Parameters
@@ -84,16 +112,7 @@ class AravisCamera(NodeMapGrabber):
         self._aravis, self._glib = import_aravis()
         Aravis = self._aravis
         Aravis.update_device_list()
-        found = [
-            DeviceInfo(
-                Aravis.get_device_id(i),
-                str(Aravis.get_device_serial_nbr(i)),
-                str(Aravis.get_device_vendor(i) or ""),
-                str(Aravis.get_device_model(i) or ""),
-                device_id=Aravis.get_device_id(i),
-            )
-            for i in range(Aravis.get_n_devices())
-        ]
+        found = _devices(Aravis)
         key: object
         if serial is None and device_id is not None:
             # An id Aravis did not discover may still open: a camera's address, a
@@ -165,6 +184,19 @@ class AravisCamera(NodeMapGrabber):
         except self._glib.Error:
             return None
 
+    def _bounds(self, name: str) -> tuple[float, float] | None:
+        feature = self._dev.get_feature(name)
+        if feature is None:
+            return None
+        try:
+            if "Int" in type(feature).__name__:
+                low, high = self._dev.get_integer_feature_bounds(name)
+            else:
+                low, high = self._dev.get_float_feature_bounds(name)
+        except self._glib.Error:
+            return None
+        return float(low), float(high)
+
     def _increment(self, name: str) -> float | None:
         try:
             return self._dev.get_float_feature_increment(name)
@@ -226,7 +258,7 @@ class AravisCamera(NodeMapGrabber):
         try:
             status = buf.get_status()
             if status != self._aravis.BufferStatus.SUCCESS:
-                raise DeviceError(
+                raise IncompleteFrame(
                     f"{self.name}: frame {buf.get_frame_id()} arrived incomplete "
                     f"({status.value_nick}); check the network (packet size, bandwidth, "
                     "a switch dropping packets)"
@@ -276,8 +308,8 @@ class AravisSettings(CameraSettings):
     """Written to ``GainRaw`` (the camera's own units) on a camera without gain in dB."""
 
 
-def open_aravis(settings: AravisSettings, opening: Opening) -> AravisCamera:
-    return AravisCamera(
+def open_aravis(settings: AravisSettings, opening: Opening) -> AravisGrabber:
+    return AravisGrabber(
         serial=settings.serial,
         device_id=settings.device_id,
         index=settings.index,
@@ -286,4 +318,10 @@ def open_aravis(settings: AravisSettings, opening: Opening) -> AravisCamera:
     )
 
 
-BACKEND = Backend("aravis", AravisSettings, open_aravis)
+BACKEND = Backend(
+    "aravis",
+    AravisSettings,
+    open_aravis,
+    discover=discover_aravis,
+    device_keys=lambda d: {"serial": d.serial} if d.serial else {"device_id": d.device_id},
+)

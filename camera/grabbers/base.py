@@ -44,12 +44,40 @@ class Features:
     chunks : tuple of str
         Chunk values the camera can append to a frame (``ExposureTime``, ``Gain``,
         ``Timestamp``, ``FrameID``), empty without ``ChunkModeActive``.
+    pixel_formats : tuple of str
+        Every entry of ``PixelFormat`` (colour ones too; :attr:`monochrome` those read).
+    exposure_us, gain_db : (float, float) or None
+        The range ``ExposureTime`` (µs) and ``Gain`` (dB) take, None where the camera
+        has no such node or does not say.
+    max_size : (int, int) or None
+        The largest ``Width`` and ``Height`` [px].
+    trigger_selectors, trigger_sources, lines : tuple of str
+        The entries of ``TriggerSelector``, ``TriggerSource`` and ``LineSelector``.
     """
 
     software_trigger: bool = False
     trigger_lines: tuple[str, ...] = ()
     strobe_lines: tuple[str, ...] = ()
     chunks: tuple[str, ...] = ()
+    pixel_formats: tuple[str, ...] = ()
+    exposure_us: tuple[float, float] | None = None
+    gain_db: tuple[float, float] | None = None
+    max_size: tuple[int, int] | None = None
+    trigger_selectors: tuple[str, ...] = ()
+    trigger_sources: tuple[str, ...] = ()
+    lines: tuple[str, ...] = ()
+
+    @property
+    def monochrome(self) -> tuple[str, ...]:
+        """The offered pixel formats this tool reads (every one where none are listed)."""
+        if not self.pixel_formats:
+            return ()
+        return tuple(f for f in self.pixel_formats if f in BIT_DEPTH)
+
+    @property
+    def bit_depth(self) -> int | None:
+        """The deepest monochrome format's bits, None where no format is listed."""
+        return max((BIT_DEPTH[f] for f in self.monochrome), default=None)
 
 
 @dataclass(frozen=True)
@@ -64,6 +92,16 @@ class DeviceInfo:
     vendor, model : str
     device_id : str
         The backend's own id for it, where it has one (Aravis: ``Aravis-Fake-TEST1``).
+    interface : str
+        How it is reached (``GEV 192.168.1.20``, ``U3V``, ``GigE``…).
+    user_id : str
+        The name a user gave it (``DeviceUserID``), where the backend reads one.
+    access : {"free", "in use", "read-only", "open here", ""}
+        Whether another program holds it; "" where the backend cannot tell.
+    source : str
+        Where the backend found it: a GenTL producer's file, a device node.
+    backend : str
+        The backend that found it.
     """
 
     key: object
@@ -71,6 +109,11 @@ class DeviceInfo:
     vendor: str = ""
     model: str = ""
     device_id: str = ""
+    interface: str = ""
+    user_id: str = ""
+    access: str = ""
+    source: str = ""
+    backend: str = ""
 
     def describe(self) -> str:
         what = " ".join(x for x in (self.vendor, self.model) if x) or self.device_id or "camera"
@@ -269,6 +312,10 @@ class NodeMapGrabber(Grabber):
     def _write(self, name: str, value, label: str) -> None:
         """Set ``name``; record ``label`` in :attr:`missing` where the node is absent."""
 
+    def _bounds(self, name: str) -> tuple[float, float] | None:
+        """A numeric node's minimum and maximum, None where absent or not readable."""
+        return None
+
     def features(self) -> Features:
         sources = self._symbolics("TriggerSource")
         strobe: tuple[str, ...] = ()
@@ -279,13 +326,25 @@ class NodeMapGrabber(Grabber):
             offered = self._symbolics("ChunkSelector")
             chunks = tuple(c for c in self._CHUNKS if c in offered)
         software = self._has("TriggerMode") and self._has("TriggerSoftware")
+        w, h = self._bounds("Width"), self._bounds("Height")
         return Features(
             # A producer whose TriggerSource lists nothing (TLSimu) still triggers by software.
             software_trigger=software and (not sources or "Software" in sources),
             trigger_lines=tuple(s for s in sources if s.startswith("Line")),
             strobe_lines=strobe,
             chunks=chunks,
+            pixel_formats=self._symbolics("PixelFormat"),
+            exposure_us=self._range(self._EXPOSURE_NODES),
+            gain_db=self._range(self._GAIN_NODES),
+            max_size=(int(w[1]), int(h[1])) if w and h else None,
+            trigger_selectors=self._symbolics("TriggerSelector"),
+            trigger_sources=sources,
+            lines=self._symbolics("LineSelector"),
         )
+
+    def _range(self, names) -> tuple[float, float] | None:
+        name = self._first(names)
+        return self._bounds(name) if name else None
 
     @abstractmethod
     def _stop(self) -> None:

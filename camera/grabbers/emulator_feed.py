@@ -3,7 +3,7 @@
 A station with ``camera.backend: pylon`` *and* a ``camera.scene`` runs on pylon's
 camera emulator (``PYLON_CAMEMU=1``): whenever the simulated controller's lights
 change, frames of the scene under the new lights are rendered with the EMVA 1288
-model (:class:`~camera.grabbers.simulated.SimulatedCamera`), written as 16-bit
+model (:class:`~camera.grabbers.simulated.SimulatedGrabber`), written as 16-bit
 PNG and served by the emulator in ``ImageFileMode``, pixel-exactly in Mono16.
 Every frame the capture keeps has passed through pylon's grab engine, buffers
 and timestamps — the same path as a real Basler camera.
@@ -26,9 +26,9 @@ class EmulatorFeed(Grabber):
 
     Parameters
     ----------
-    camera : PylonCamera
+    camera : PylonGrabber
         Opened on the emulator.
-    renderer : SimulatedCamera
+    renderer : SimulatedGrabber
         Renders the scene under the controller's current lights.
     frames_per_light : int
         Noise realisations rendered per light setting; the emulator cycles
@@ -36,7 +36,7 @@ class EmulatorFeed(Grabber):
     """
 
     def __init__(self, camera, renderer, *, frames_per_light: int = 16):
-        self.camera, self.renderer = camera, renderer
+        self.grabber, self.renderer = camera, renderer
         self.frames_per_light = frames_per_light
         self.name = f"{camera.name} fed by the {renderer.name}"
         self.missing = camera.missing
@@ -53,7 +53,7 @@ class EmulatorFeed(Grabber):
         if region is not None:
             raise DeviceError(f"{self.name}: the rendered frame size is set by camera.width/height")
         self.renderer.configure(exposure_us=exposure_us, gain_db=gain_db)
-        self.camera.configure(
+        self.grabber.configure(
             exposure_us=exposure_us,
             gain_db=gain_db,
             pixel_format="Mono16",
@@ -69,23 +69,23 @@ class EmulatorFeed(Grabber):
         folder.mkdir()
         for i in range(self.frames_per_light):
             cv2.imwrite(str(folder / f"frame_{i:03d}.png"), self.renderer.render(state))
-        self.camera.serve_files(folder)
+        self.grabber.serve_files(folder)
         self._served = state
 
     def restart_stream(self) -> bool:
-        return self.camera.restart_stream()
+        return self.grabber.restart_stream()
 
     def features(self):
-        return self.camera.features()
+        return self.grabber.features()
 
     def arm(self, acquisition, **options) -> None:
-        self.camera.arm(acquisition, **options)
+        self.grabber.arm(acquisition, **options)
         # The renderer lights a pulsed channel as the station's wiring would.
         self.renderer.arm(acquisition, **options)
         self._triggered = acquisition != "free-run"
 
     def drain(self) -> int:
-        return self.camera.drain()
+        return self.grabber.drain()
 
     def _serve_current(self) -> None:
         state = self.renderer.light_state()
@@ -94,18 +94,18 @@ class EmulatorFeed(Grabber):
 
     def trigger(self) -> int:
         self._serve_current()
-        return self.camera.trigger()
+        return self.grabber.trigger()
 
     def grab(self, n: int, *, timeout_s: float = 2.0) -> list[Frame]:
         frames = []
         for _ in range(n):
             if not self._triggered:
                 self._serve_current()
-            frames += self.camera.grab(1, timeout_s=timeout_s)
+            frames += self.grabber.grab(1, timeout_s=timeout_s)
         return frames
 
     def close(self) -> None:
         try:
-            self.camera.close()
+            self.grabber.close()
         finally:
             self._folder.cleanup()

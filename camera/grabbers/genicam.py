@@ -10,12 +10,12 @@
   frame records None for them; the capture goes on.
 * A free-running producer keeps every announced buffer filled, so after a light
   switch up to ``num_buffers`` frames from before it wait in the queue — more than
-  any fixed flush. :meth:`GenICamCamera.restart_stream` stops and restarts the
+  any fixed flush. :meth:`GenICamGrabber.restart_stream` stops and restarts the
   acquisition, which discards them all; ``pipeline_frames`` still reports the
   buffer count for callers that do not restart.
 * The pixel format is read from each buffer, not assumed from the setting: a
   buffer in another format than the one asked for is an error naming the device.
-* Triggered acquisition (:meth:`GenICamCamera.arm`) by SFNC names:
+* Triggered acquisition (:meth:`GenICamGrabber.arm`) by SFNC names:
   ``TriggerSelector=FrameStart``, ``TriggerMode``, ``TriggerSource``
   (``Software`` or ``LineN``), ``TriggerSoftware``, ``TriggerDelay``; a strobe
   output by ``LineSelector``/``LineMode``/``LineSource=ExposureActive``; the data
@@ -42,11 +42,11 @@ from inspect_validate.camera.grabbers.base import (
     choose_device,
 )
 from inspect_validate.camera.pixelformats import BIT_DEPTH, PACKED, packed_size
-from inspect_validate.camera.registry import Backend, Opening
+from inspect_validate.camera.registry import Backend, Opening, Search
 from inspect_validate.camera.settings import CameraSettings
 from inspect_validate.errors import DeviceError
 
-__all__ = ["BACKEND", "GenICamCamera", "GenicamSettings", "find_producers"]
+__all__ = ["BACKEND", "GenICamGrabber", "GenicamSettings", "discover_genicam", "find_producers"]
 
 
 def _entries(node) -> tuple[str, ...]:
@@ -57,26 +57,82 @@ def _entries(node) -> tuple[str, ...]:
         return ()
 
 
-def find_producers(cti: str | None = None) -> list[Path]:
-    """The GenTL producer files to load."""
+def find_producers(
+    cti: str | None = None, *, given_as: str = "camera.cti in the station file"
+) -> list[Path]:
+    """The GenTL producer files to load: ``cti``, else every one in
+    ``GENICAM_GENTL64_PATH``'s folders (``given_as``: where a user gives ``cti``)."""
     if cti:
         path = Path(cti)
         if not path.is_file():
-            raise DeviceError(
-                f"GenTL producer {path} not found; check camera.cti in the station file"
-            )
+            raise DeviceError(f"GenTL producer {path} not found; check {given_as}")
         return [path]
     found = []
     for folder in filter(None, os.environ.get("GENICAM_GENTL64_PATH", "").split(os.pathsep)):
         found += sorted(Path(folder).glob("*.cti"))
     if not found:
         raise DeviceError(
-            "no GenTL producer: give camera.cti in the station file or set GENICAM_GENTL64_PATH to the folder of your camera vendor's .cti"
+            f"no GenTL producer: give {given_as} or set GENICAM_GENTL64_PATH to the folder of "
+            "your camera vendor's .cti"
         )
     return found
 
 
-class GenICamCamera(NodeMapGrabber):
+# GenTL's DEVICE_ACCESS_STATUS, as a person would say it.
+_ACCESS = {1: "free", 2: "read-only", 3: "in use", 4: "in use", 5: "open here", 6: "open here"}
+
+
+def _devices(harvester, source: str = "") -> list[DeviceInfo]:
+    """The cameras a harvester's producers list, keyed by their index in it."""
+
+    def text(device, name: str) -> str:
+        try:
+            return str(getattr(device, name))
+        except Exception:  # producers leave optional fields "not available"
+            return ""
+
+    found = []
+    for k, d in enumerate(harvester.device_info_list):
+        try:
+            access = _ACCESS.get(int(d.access_status), "")
+        except Exception:  # not available from this producer
+            access = ""
+        found.append(
+            DeviceInfo(
+                k,
+                text(d, "serial_number"),
+                text(d, "vendor"),
+                text(d, "model"),
+                device_id=text(d, "id_"),
+                interface=", ".join(filter(None, (text(d, "tl_type"), Path(source).name))),
+                user_id=text(d, "user_defined_name"),
+                access=access,
+                source=source,
+                backend="genicam",
+            )
+        )
+    return found
+
+
+def discover_genicam(search: Search) -> list[DeviceInfo]:
+    """Every camera each GenTL producer lists (``search.cti``, else every ``.cti`` in
+    ``GENICAM_GENTL64_PATH``), each producer loaded on its own so that a camera names the
+    producer it came from."""
+    from harvesters.core import Harvester
+
+    found = []
+    for producer in find_producers(search.cti, given_as="--cti"):
+        harvester = Harvester()
+        try:
+            harvester.add_file(str(producer))
+            harvester.update()
+            found += _devices(harvester, str(producer))
+        finally:
+            harvester.reset()
+    return found
+
+
+class GenICamGrabber(NodeMapGrabber):
     """A GenICam camera chosen by serial number or index."""
 
     def __init__(
@@ -93,10 +149,7 @@ class GenICamCamera(NodeMapGrabber):
         for producer in find_producers(cti):
             self._harvester.add_file(str(producer))
         self._harvester.update()
-        found = [
-            DeviceInfo(k, str(d.serial_number), str(d.vendor), str(d.model))
-            for k, d in enumerate(self._harvester.device_info_list)
-        ]
+        found = _devices(self._harvester)
         try:
             chosen = choose_device(found, what="GenICam", serial=serial, index=index)
         except DeviceError:
@@ -141,6 +194,13 @@ class GenICamCamera(NodeMapGrabber):
         try:
             return float(getattr(self._nodes, name).value)
         except Exception:  # absent or not readable now
+            return None
+
+    def _bounds(self, name: str) -> tuple[float, float] | None:
+        try:
+            node = getattr(self._nodes, name)
+            return float(node.min), float(node.max)
+        except Exception:  # absent, or not a numeric node
             return None
 
     def _increment(self, name: str) -> float | None:
@@ -270,11 +330,20 @@ class GenicamSettings(CameraSettings):
     """Buffers announced to the stream (default: harvesters')."""
 
 
-def open_genicam(settings: GenicamSettings, opening: Opening) -> GenICamCamera:
+def open_genicam(settings: GenicamSettings, opening: Opening) -> GenICamGrabber:
     cti = str(opening.resolve(settings.cti)) if settings.cti else None
-    return GenICamCamera(
+    return GenICamGrabber(
         cti, serial=settings.serial, index=settings.index, num_buffers=settings.num_buffers
     )
 
 
-BACKEND = Backend("genicam", GenicamSettings, open_genicam)
+BACKEND = Backend(
+    "genicam",
+    GenicamSettings,
+    open_genicam,
+    discover=discover_genicam,
+    device_keys=lambda d: {
+        "cti": d.source,
+        **({"serial": d.serial} if d.serial else {"index": d.key}),
+    },
+)

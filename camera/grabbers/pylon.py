@@ -21,29 +21,56 @@ from inspect_validate.camera.grabbers.base import (
     choose_device,
 )
 from inspect_validate.camera.pixelformats import PACKED, PFNC_CODES
-from inspect_validate.camera.registry import Backend, Opening
+from inspect_validate.camera.registry import Backend, Opening, Search
 from inspect_validate.camera.settings import CameraSettings
-from inspect_validate.errors import DeviceError
+from inspect_validate.errors import DeviceError, IncompleteFrame
 
-__all__ = ["BACKEND", "PylonCamera", "PylonSettings"]
+__all__ = ["BACKEND", "PylonGrabber", "PylonSettings", "discover_pylon"]
 
 
-class PylonCamera(NodeMapGrabber):
+def _import_pylon():
+    """pypylon's ``pylon`` and ``genicam`` modules, or a DeviceError saying what to install."""
+    try:
+        from pypylon import genicam, pylon
+    except ImportError:
+        raise DeviceError(
+            "pypylon is not installed: pip install 'inspect-validate[pylon]'"
+        ) from None
+    return pylon, genicam
+
+
+def _devices(pylon) -> list[DeviceInfo]:
+    """The cameras pylon's transport layers enumerate, keyed by their device info."""
+    factory = pylon.TlFactory.GetInstance()
+    return [
+        DeviceInfo(
+            d,
+            str(d.GetSerialNumber()),
+            str(d.GetVendorName() or "Basler"),
+            str(d.GetModelName()),
+            interface=str(d.GetDeviceClass()),
+            user_id=str(d.GetUserDefinedName()),
+            access="free" if factory.IsDeviceAccessible(d) else "in use",
+            backend="pylon",
+        )
+        for d in factory.EnumerateDevices()
+    ]
+
+
+def discover_pylon(search: Search) -> list[DeviceInfo]:
+    """Every camera pylon sees (its emulator's too, where ``PYLON_CAMEMU`` asks for them)."""
+    pylon, _ = _import_pylon()
+    return _devices(pylon)
+
+
+class PylonGrabber(NodeMapGrabber):
     """A pylon camera chosen by serial number or index."""
 
     def __init__(self, *, serial: str | None = None, index: int = 0):
-        try:
-            from pypylon import genicam, pylon
-        except ImportError:
-            raise DeviceError(
-                "pypylon is not installed: pip install 'inspect-validate[pylon]'"
-            ) from None
+        pylon, genicam = _import_pylon()
         self._pylon, self._genicam = pylon, genicam
         factory = pylon.TlFactory.GetInstance()
-        found = [
-            DeviceInfo(d, str(d.GetSerialNumber()), "Basler", str(d.GetModelName()))
-            for d in factory.EnumerateDevices()
-        ]
+        found = _devices(pylon)
         chosen = choose_device(found, what="pylon", serial=serial, index=index)
         self._cam = pylon.InstantCamera(factory.CreateDevice(chosen.key))
         self._cam.Open()
@@ -81,6 +108,15 @@ class PylonCamera(NodeMapGrabber):
     def _read(self, name: str) -> float | None:
         try:
             return float(getattr(self._cam, name).Value)
+        except (AttributeError, self._genicam.GenericException):
+            return None
+
+    def _bounds(self, name: str) -> tuple[float, float] | None:
+        if not self._has(name):
+            return None
+        try:
+            feature = getattr(self._cam, name)
+            return float(feature.Min), float(feature.Max)
         except (AttributeError, self._genicam.GenericException):
             return None
 
@@ -154,7 +190,10 @@ class PylonCamera(NodeMapGrabber):
             return
         try:
             if not result.GrabSucceeded():
-                raise DeviceError(f"{self.name}: grab failed ({result.GetErrorDescription()})")
+                raise IncompleteFrame(
+                    f"{self.name}: grab failed ({result.GetErrorDescription()}); check the "
+                    "cable and the bandwidth"
+                )
             w, h = int(result.Width), int(result.Height)
             # The format the buffer itself carries (its PFNC code), not the node's setting.
             reported = PFNC_CODES.get(int(result.PixelType))
@@ -201,8 +240,8 @@ class PylonSettings(CameraSettings):
     """Render the station's simulated scene into pylon's camera emulator (PYLON_CAMEMU=1)."""
 
 
-def open_pylon(settings: PylonSettings, opening: Opening) -> PylonCamera:
-    return PylonCamera(serial=settings.serial, index=settings.index)
+def open_pylon(settings: PylonSettings, opening: Opening) -> PylonGrabber:
+    return PylonGrabber(serial=settings.serial, index=settings.index)
 
 
-BACKEND = Backend("pylon", PylonSettings, open_pylon)
+BACKEND = Backend("pylon", PylonSettings, open_pylon, discover=discover_pylon)

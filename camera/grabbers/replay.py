@@ -30,7 +30,7 @@ from inspect_validate.camera.registry import Backend, Opening
 from inspect_validate.camera.settings import CameraSettings
 from inspect_validate.errors import DeviceError, InputError
 
-__all__ = ["BACKEND", "ReplayCamera", "ReplaySettings"]
+__all__ = ["BACKEND", "ReplayGrabber", "ReplaySettings"]
 
 Setting = tuple[tuple[int, float], ...]
 
@@ -40,7 +40,7 @@ def _setting(channels: dict) -> Setting:
     return tuple(sorted((int(c), float(v)) for c, v in channels.items() if float(v)))
 
 
-class ReplayCamera(Grabber):
+class ReplayGrabber(Grabber):
     """Serve the frames of ``folder``.
 
     Parameters
@@ -180,9 +180,9 @@ class ReplaySettings(CameraSettings):
     """The folder of recorded frames (relative to the station file)."""
 
 
-def open_replay(settings: ReplaySettings, opening: Opening) -> ReplayCamera:
+def open_replay(settings: ReplaySettings, opening: Opening) -> ReplayGrabber:
     controller = opening.controller
-    return ReplayCamera(
+    return ReplayGrabber(
         opening.resolve(settings.folder), lights=lambda: getattr(controller, "applied", None)
     )
 

@@ -19,19 +19,21 @@ gain with ``v4l2-ctl -c gain=…`` and keep it fixed.
 
 from __future__ import annotations
 
+import os
 import time
+from pathlib import Path
 from typing import Annotated, Literal
 
 import numpy as np
 from pydantic import Field
 
 from inspect_validate.camera.frame import Frame
-from inspect_validate.camera.grabbers.base import Grabber
-from inspect_validate.camera.registry import Backend, Opening
+from inspect_validate.camera.grabbers.base import DeviceInfo, Grabber
+from inspect_validate.camera.registry import Backend, Opening, Search
 from inspect_validate.camera.settings import CameraSettings
 from inspect_validate.errors import DeviceError
 
-__all__ = ["BACKEND", "V4l2Camera", "V4l2Settings"]
+__all__ = ["BACKEND", "V4l2Grabber", "V4l2Settings"]
 
 # Pixel format name → V4L2 fourcc, bit depth, dtype OpenCV returns it as (raw mode).
 FORMATS = {
@@ -51,7 +53,50 @@ def _fourcc_text(value: float) -> str:
     return "".join(chr((v >> (8 * i)) & 0xFF) for i in range(4))
 
 
-class V4l2Camera(Grabber):
+def _text(path: Path) -> str:
+    """A sysfs attribute's value, "" where the driver does not give it."""
+    try:
+        return path.read_text().strip()
+    except OSError:
+        return ""
+
+
+def discover_v4l2(
+    search: Search, *, sysfs: Path = Path("/sys/class/video4linux")
+) -> list[DeviceInfo]:
+    """The video devices the kernel lists (``/sys/class/video4linux``), with the name its
+    driver gives and, for a USB camera, the USB device's maker and serial number. A
+    camera whose driver adds a metadata node lists both (``index 0`` is the video one);
+    whether a node may be read is checked, not whether another program holds it."""
+    found = []
+    nodes = [n for n in sysfs.glob("video*") if n.name[5:].isdigit()]
+    for node in sorted(nodes, key=lambda n: int(n.name[5:])):
+        device = Path("/dev") / node.name
+        usb = node / "device" / ".."  # the USB device above the interface, where there is one
+        index = _text(node / "index")
+        found.append(
+            DeviceInfo(
+                str(device),
+                _text(usb / "serial"),
+                _text(usb / "manufacturer"),
+                _text(node / "name"),
+                device_id=str(device),
+                interface="USB" if (usb / "idVendor").exists() else "",
+                access=(
+                    "no device node"
+                    if not device.exists()
+                    else ""
+                    if os.access(device, os.R_OK)
+                    else "no permission (group video)"
+                ),
+                source=f"index {index}" if index else "",
+                backend="v4l2",
+            )
+        )
+    return found
+
+
+class V4l2Grabber(Grabber):
     """A V4L2 device by path (``/dev/video2``) or index.
 
     Parameters
@@ -216,8 +261,14 @@ class V4l2Settings(CameraSettings):
     """The device number, when no device is given."""
 
 
-def open_v4l2(settings: V4l2Settings, opening: Opening) -> V4l2Camera:
-    return V4l2Camera(settings.device if settings.device is not None else settings.index)
+def open_v4l2(settings: V4l2Settings, opening: Opening) -> V4l2Grabber:
+    return V4l2Grabber(settings.device if settings.device is not None else settings.index)
 
 
-BACKEND = Backend("v4l2", V4l2Settings, open_v4l2)
+BACKEND = Backend(
+    "v4l2",
+    V4l2Settings,
+    open_v4l2,
+    discover=discover_v4l2,
+    device_keys=lambda d: {"device": d.device_id},
+)

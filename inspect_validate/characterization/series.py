@@ -115,12 +115,12 @@ def capture_series(station, out: Path, *, resume: bool = False, progress=None) -
         if bits is None:
             from inspect_validate.station.model import station_model
 
-            bits = station_model(station).camera.bit_depth
+            bits = station_model(station).sensor.bit_depth
         top = 2**bits - 1
         if station.scene:  # a full well below the format's range: the declared camera's
             from inspect_validate.station.model import station_model
 
-            top = min(top, station_model(station).camera.max_dn)
+            top = min(top, station_model(station).sensor.max_dn)
         mask = region_mask(station, out / "probe_b_0")
         t, k = t0, 0
         lit, dark = _mean(out / "probe_b_0", mask), _mean(out / "probe_d_0", mask)
@@ -360,7 +360,7 @@ def expected_rate(station, plan: Plan) -> float | None:
     p = predict(
         [light],
         [model.optics],
-        [model.scene_camera],
+        [model.scene_sensor],
         flat,
         exposure=Exposure("fixed", time=1e-6),
         grid=grid,

@@ -19,6 +19,7 @@ from inspect_validate.cli import (
     capture,
     characterize,
     design,
+    devices,
     history,
     measure,
     predict,
@@ -50,6 +51,7 @@ for _command in (
     history.history,
     design.design,
     characterize.characterize,
+    devices.devices,
 ):
     cli.add_command(_command)
 

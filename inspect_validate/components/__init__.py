@@ -1,11 +1,5 @@
 """Components of an inspection station: lights, optics and cameras."""
 
-from inspect_validate.components.cameras import (
-    BUILT_IN_CAMERAS,
-    Camera,
-    builtin_camera,
-    energy_efficiency,
-)
 from inspect_validate.components.lights import (
     Light,
     blackbody,
@@ -22,15 +16,21 @@ from inspect_validate.components.optics import (
     lens,
     material_transmission,
 )
+from inspect_validate.components.sensors import (
+    BUILT_IN_CAMERAS,
+    SensorModel,
+    builtin_sensor,
+    energy_efficiency,
+)
 
 __all__ = [
     "BUILT_IN_CAMERAS",
     "MATERIALS",
-    "Camera",
     "Light",
     "Optics",
+    "SensorModel",
     "blackbody",
-    "builtin_camera",
+    "builtin_sensor",
     "cie_daylight",
     "cie_illuminant",
     "energy_efficiency",

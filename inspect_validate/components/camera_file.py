@@ -11,7 +11,7 @@ folder, the exposure gain in dB, the date, the tool, each value's standard error
       ...
     measured: {station: ..., gain_db: 0, standard_errors: {gain: 6.1e-05, ...}}
 
-A station names it with ``camera.measured``; :func:`measured_camera` then replaces the
+A station names it with ``camera.measured``; :func:`measured_sensor` then replaces the
 scene camera's values (its QE curve stays: the series measures no absolute QE).
 """
 
@@ -23,7 +23,7 @@ from dataclasses import replace
 from pathlib import Path
 
 __all__ = [
-    "measured_camera",
+    "measured_sensor",
     "measured_values",
     "read_camera_file",
     "write_camera_file",
@@ -125,13 +125,13 @@ def measured_values(path) -> dict:
     doc = read_camera_file(path)
     values = dict(doc["values"])
     if "gain" in values:
-        from inspect_validate.components.cameras import gain_factor
+        from inspect_validate.components.sensors import gain_factor
 
         values["gain"] /= gain_factor(doc["measured"]["gain_db"])
     return values
 
 
-def measured_camera(scene_camera, path):
+def measured_sensor(scene_camera, path):
     """``scene_camera`` with the values of the camera file at ``path``
     (:func:`measured_values`)."""
     name = f"{scene_camera.name} (measured: {Path(path).name})"

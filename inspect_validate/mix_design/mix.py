@@ -57,7 +57,7 @@ import numpy as np
 from inspect_validate.errors import InputError
 
 if TYPE_CHECKING:
-    from inspect_validate.components.cameras import Camera
+    from inspect_validate.components.sensors import SensorModel
 
 __all__ = [
     "JOINT_MAX",
@@ -94,13 +94,13 @@ class ChannelResponse:
         e⁻ per sample at 100 % drive and the exposure time, channels in the
         problem's order.
     sample_class : ndarray of int, (S,)
-    camera : Camera
+    sensor : SensorModel
         K (DN/e⁻), dark noise (e⁻), dark offset and largest grey value (DN).
     """
 
     electrons: np.ndarray
     sample_class: np.ndarray
-    camera: Camera
+    sensor: SensorModel
 
     @cached_property
     def class_statistics(self) -> tuple[np.ndarray, np.ndarray]:
@@ -122,14 +122,14 @@ class ChannelResponse:
         """The response of ``channels`` (indices) only, its class statistics sliced, not
         recomputed."""
         idx = np.asarray(channels, dtype=int)
-        sub = ChannelResponse(self.electrons[idx], self.sample_class, self.camera)
+        sub = ChannelResponse(self.electrons[idx], self.sample_class, self.sensor)
         m, c = self.class_statistics
         sub.__dict__["class_statistics"] = (m[:, idx], c[:, idx][:, :, idx])
         return sub
 
     def signal(self, levels) -> np.ndarray:
         """Each sample's mean signal K·μ_e above the dark offset at ``levels``, DN."""
-        return self.camera.gain * (np.asarray(levels, float) @ self.electrons)
+        return self.sensor.gain * (np.asarray(levels, float) @ self.electrons)
 
     def ceiling(self, max_saturated: float) -> float:
         """Largest mean signal K·μ_e (DN above the offset) a sample may reach."""
@@ -137,16 +137,16 @@ class ChannelResponse:
 
         from inspect_validate.model.acquisition import QUANTISATION_VARIANCE
 
-        cam = self.camera
+        cam = self.sensor
         z = -float(special.ndtri(max_saturated))  # the normal's isf, as scipy.stats.norm
         top = cam.max_dn - cam.dark_offset
         noise = np.sqrt(cam.gain**2 * cam.dark_noise**2 + cam.gain * top + QUANTISATION_VARIANCE)
         return top - z * noise
 
 
-def channel_response(channels: dict, optics, camera, classes, *, grid, exposure_time: float):
+def channel_response(channels: dict, optics, sensor, classes, *, grid, exposure_time: float):
     """:class:`ChannelResponse` of scene lights (label → Light with its irradiance) through
-    ``optics`` onto ``camera`` at ``exposure_time`` s.
+    ``optics`` onto ``sensor`` at ``exposure_time`` s.
 
     Raises
     ------
@@ -160,7 +160,7 @@ def channel_response(channels: dict, optics, camera, classes, *, grid, exposure_
     p = predict(
         lights,
         [optics],
-        [camera],
+        [sensor],
         list(classes),
         exposure=Exposure("fixed", time=float(exposure_time)),
         grid=grid,
@@ -174,7 +174,7 @@ def channel_response(channels: dict, optics, camera, classes, *, grid, exposure_
             f"channel {label} ({lights[int(np.argmax(bad))].name}) cannot be predicted: "
             + "; ".join(p.skipped[:1])
         )
-    return ChannelResponse(np.ascontiguousarray(electrons), np.asarray(p.sample_class), camera)
+    return ChannelResponse(np.ascontiguousarray(electrons), np.asarray(p.sample_class), sensor)
 
 
 def mix_moments(response: ChannelResponse, levels, *, jacobian: bool = False):
@@ -182,7 +182,7 @@ def mix_moments(response: ChannelResponse, levels, *, jacobian: bool = False):
     with ``jacobian`` also ∂μ/∂w and ∂σ²/∂w, (K, N) each."""
     from inspect_validate.model.acquisition import QUANTISATION_VARIANCE
 
-    cam = response.camera
+    cam = response.sensor
     w = np.asarray(levels, dtype=np.float64)
     m, c = response.class_statistics
     k2 = cam.gain**2
@@ -381,7 +381,7 @@ def optimise_mix(
             seed=seed,
             progress=progress,
         )
-    a = response.camera.gain * response.electrons.T  # (S, N): DN per sample per unit level
+    a = response.sensor.gain * response.electrons.T  # (S, N): DN per sample per unit level
     ceiling = response.ceiling(max_saturated)
     if not ceiling > 0:
         raise InputError(
@@ -508,7 +508,7 @@ def first_order_slopes(
         return g[active].max(axis=0)
     signal = response.signal(w)
     brightest = int(np.argmax(signal))
-    scale = response.camera.gain * response.electrons[:, brightest] / max(signal[brightest], 1e-300)
+    scale = response.sensor.gain * response.electrons[:, brightest] / max(signal[brightest], 1e-300)
     return (g[active] - np.outer(g[active] @ w, scale)).max(axis=0)
 
 
@@ -520,7 +520,7 @@ def single_losses(
     key = (id(comparisons), objective, max_saturated, max_level)
     if key in response.screened:  # solve and the screened optimiser both ask
         return response.screened[key]
-    peaks = response.camera.gain * response.electrons.max(axis=1)
+    peaks = response.sensor.gain * response.electrons.max(axis=1)
     ceiling = response.ceiling(max_saturated)
     with np.errstate(divide="ignore"):
         levels = np.where(peaks > 0, np.minimum(ceiling / peaks, max_level), 0.0)

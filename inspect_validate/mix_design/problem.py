@@ -13,8 +13,8 @@ if TYPE_CHECKING:
     import numpy as np
 
     from inspect_validate.comparisons import Comparisons
-    from inspect_validate.components.cameras import Camera
     from inspect_validate.components.optics import Optics
+    from inspect_validate.components.sensors import SensorModel
     from inspect_validate.station.file import Station
 
 __all__ = ["MAX_EXPOSURE_TIME", "DesignProblem", "design_problem"]
@@ -38,7 +38,7 @@ class DesignProblem:
     kind: str  # "station" or "scene"
     channels: dict
     optics: Optics
-    camera: Camera
+    sensor: SensorModel
     classes: tuple
     grid: np.ndarray  # nm
     exposure_time: float  # s
@@ -116,7 +116,7 @@ def _from_station(path: Path, auto_exposure: bool) -> DesignProblem:
         kind="station",
         channels=dict(model.channels),
         optics=model.optics,
-        camera=model.camera,
+        sensor=model.sensor,
         classes=classes,
         grid=model.scene.grid,
         skipped=model.scene.skipped,
@@ -160,7 +160,7 @@ def _from_scene(path: Path, auto_exposure: bool) -> DesignProblem:
         kind="scene",
         channels=channels,
         optics=sc.optics[0],
-        camera=sc.cameras[0],
+        sensor=sc.cameras[0],
         classes=tuple(sc.classes),
         grid=sc.grid,
         # auto: any reference exposure will do (the levels rescale), below the longest

@@ -96,7 +96,7 @@ def solve(
     response = channel_response(
         problem.channels,
         problem.optics,
-        problem.camera,
+        problem.sensor,
         problem.classes,
         grid=problem.grid,
         exposure_time=problem.exposure_time,
@@ -212,7 +212,7 @@ def _predict(problem, levels: dict, name: str, exposure_time: float):
     return predict(
         [light],
         [problem.optics],
-        [problem.camera],
+        [problem.sensor],
         list(problem.classes),
         exposure=Exposure("fixed", time=exposure_time),
         grid=problem.grid,

@@ -9,7 +9,7 @@ mean number of photo-electrons in a pixel is
 object of reflectance R imaged by an aberration-free lens, cos⁴ fall-off
 neglected) — the chapter's (32) with its constant C made explicit so that
 camera noise can be added. Grey values follow the EMVA 1288 model
-(:mod:`inspect_validate.components.cameras`) and are clipped at saturation.
+(:mod:`inspect_validate.components.sensors`) and are clipped at saturation.
 
 All combinations are computed at once: light×optics products form the rows of
 one matrix, camera×sample products those of another, and one BLAS product gives
@@ -34,9 +34,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from inspect_validate.comparisons import Comparisons, gaussian_separation
-from inspect_validate.components.cameras import Camera
 from inspect_validate.components.lights import Light
 from inspect_validate.components.optics import Optics
+from inspect_validate.components.sensors import SensorModel
 from inspect_validate.constants import C, H
 from inspect_validate.errors import InputError
 from inspect_validate.spectra import Spectrum
@@ -178,7 +178,7 @@ class _Chain:
     absolute: np.ndarray  # (L,)
     onehot: np.ndarray  # (S, K)
     per_class: np.ndarray  # (K,)
-    camera: dict[str, np.ndarray]  # gain, dark_noise, saturation, dark_offset, max_dn,
+    sensor: dict[str, np.ndarray]  # gain, dark_noise, saturation, dark_offset, max_dn,
     # dark_current, dsnu, prnu: (C,)
     _rows: dict = dataclasses.field(default_factory=dict, repr=False)  # the last cameras'
 
@@ -252,7 +252,7 @@ def _prepare(lights, optics, cameras, classes, *, exposure, grid, comparisons) -
     comparisons = comparisons or Comparisons.of(names)
     if comparisons.classes != names:
         raise InputError(f"the comparisons are of classes {comparisons.classes}, not {names}")
-    camera = {
+    sensor = {
         f: np.array([getattr(c, f) for c in cameras], dtype=float)
         for f in (
             "gain",
@@ -281,7 +281,7 @@ def _prepare(lights, optics, cameras, classes, *, exposure, grid, comparisons) -
         absolute=absolute,
         onehot=onehot,
         per_class=per_class,
-        camera=camera,
+        sensor=sensor,
     )
 
 
@@ -293,7 +293,7 @@ a larger scene is :func:`~inspect_validate.model.sweep`'s (blocks, best rows kep
 def predict(
     lights: list[Light],
     optics: list[Optics],
-    cameras: list[Camera],
+    cameras: list[SensorModel],
     classes: list[ObjectClass],
     *,
     exposure: Exposure = Exposure(),
@@ -390,7 +390,7 @@ class _Signal:
     class_rate: np.ndarray  # mean e⁻/s per class, (l, o, c, K)
     deviation: np.ndarray  # each sample's e⁻/s minus its class's, (l, o, c, S)
     exposure_time: np.ndarray  # s, (l, o, c), stand-ins where skipped
-    camera: dict[str, np.ndarray]  # the block's cameras, (c,)
+    sensor: dict[str, np.ndarray]  # the block's cameras, (c,)
     sample_class: np.ndarray  # (S,)
 
     def samples(self, li, oi, ci) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
@@ -400,7 +400,7 @@ class _Signal:
         rate = self.class_rate[li, oi, ci][..., self.sample_class]
         t = self.exposure_time[li, oi, ci][..., None]
         mu_e = (rate + self.deviation[li, oi, ci]) * t
-        cam = {f: v[ci][..., None] for f, v in self.camera.items()}
+        cam = {f: v[ci][..., None] for f, v in self.sensor.items()}
         mean, var = grey_value(mu_e + cam["dark_current"] * t, *_temporal(cam))
         # A sample's pixels spread by the non-uniformities too (clipped as if Gaussian).
         var = var + _fixed_pattern(mu_e, cam)
@@ -434,7 +434,7 @@ def _predict_block(chain: _Chain, ls: slice, os: slice, cs: slice, *, mixtures=N
     clipped sample by sample.
     """
     e, t, q = chain.e[ls], chain.t[os], chain.q[cs]
-    cam = {f: v[cs] for f, v in chain.camera.items()}
+    cam = {f: v[cs] for f, v in chain.sensor.items()}
     onehot, per_class, sample_class = chain.onehot, chain.per_class, chain.sample_class
     n_l, n_o, n_c = e.shape[0], t.shape[0], q.shape[0]
     lo_rows = (e[:, None, :] * t[None, :, :]).reshape(n_l * n_o, chain.grid.size)

@@ -98,7 +98,7 @@ def expected_grey(
     ----------
     electrons : ndarray
         Mean photo-electrons μ_e per pixel, e⁻.
-    camera : Camera
+    camera : SensorModel
         Dark offset (DN), dark noise σ_d (e⁻), dark current (e⁻/s) and gain K (DN/e⁻).
     gain : float, keyword-only, optional
         K in DN/e⁻, by default the camera's.

@@ -406,7 +406,7 @@ def plot_design_spectrum(design, path):
                 alpha=0.15,
             )
     sensitivity = np.nan_to_num(p.optics.transmission.resample(grid)[0]) * np.nan_to_num(
-        p.camera.qe.resample(grid)[0]
+        p.sensor.qe.resample(grid)[0]
     )
     if sensitivity.max() > 0:
         right.plot(

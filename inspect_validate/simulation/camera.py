@@ -17,8 +17,8 @@ so that verification has a reality to notice; and faults: a camera that
 times out, or one that repeats a frame. ``watch`` evolves the world over its
 cycles (:meth:`~inspect_validate.station.file.World.at`).
 
-It triggers as a GenICam camera does (:meth:`SimulatedCamera.arm`): free-running
-through its pipeline, one frame per :meth:`~SimulatedCamera.trigger` exposed at
+It triggers as a GenICam camera does (:meth:`SimulatedGrabber.arm`): free-running
+through its pipeline, one frame per :meth:`~SimulatedGrabber.trigger` exposed at
 the trigger, or one per pulse of the controller (each ``TR`` command counts in the
 controller's state) on ``Line1``. A channel in pulse mode lights a frame only when
 it fires — on that trigger, or on the camera's ``ExposureActive`` strobe output
@@ -40,19 +40,19 @@ import numpy as np
 
 from inspect_validate.camera.frame import Frame
 from inspect_validate.camera.grabbers.base import Features, Grabber
-from inspect_validate.components.cameras import gain_factor
+from inspect_validate.components.sensors import gain_factor
 from inspect_validate.errors import DeviceError, InputError
 
 if TYPE_CHECKING:
-    from inspect_validate.components.cameras import Camera
     from inspect_validate.components.optics import Optics
+    from inspect_validate.components.sensors import SensorModel
     from inspect_validate.model import ObjectClass
 from inspect_validate.model.render import class_bands, expected_grey, expose, sensor_pattern
 
-__all__ = ["SimulatedCamera", "lit_by_simulator", "scene_camera"]
+__all__ = ["SimulatedGrabber", "lit_by_simulator", "scene_grabber"]
 
 
-def world_components(model, world) -> tuple[dict, Optics, Camera, list[ObjectClass]]:
+def world_components(model, world) -> tuple[dict, Optics, SensorModel, list[ObjectClass]]:
     """The simulated world: the station's components with ``world``'s deviations.
 
     Returns the channel lights (with an always-on ambient light as channel 0
@@ -102,7 +102,7 @@ def world_components(model, world) -> tuple[dict, Optics, Camera, list[ObjectCla
         if getattr(world, name) is not None
     }
     camera = replace(
-        model.scene_camera, gain=model.scene_camera.gain * (1.0 + world.gain_error), **sensor
+        model.scene_sensor, gain=model.scene_sensor.gain * (1.0 + world.gain_error), **sensor
     )
     classes = list(model.scene.classes)
     if world.reflectance_seed is not None:
@@ -127,7 +127,7 @@ def _power(light) -> float:
     return float(np.trapezoid(np.nan_to_num(light.spd.values[0]), light.spd.wavelengths))
 
 
-class SimulatedCamera(Grabber):
+class SimulatedGrabber(Grabber):
     """Render frames of a station's scene lit by the channels in ``state_path``.
 
     Parameters
@@ -170,10 +170,10 @@ class SimulatedCamera(Grabber):
         from inspect_validate.station.world import World
 
         world = world or World()
-        self.name = f"simulated camera ({model.scene_camera.name})"
+        self.name = f"simulated camera ({model.scene_sensor.name})"
         self.missing = set()
         self.state_path = Path(state_path)
-        lights, optics, self.camera, classes = world_components(model, world)
+        lights, optics, self.sensor, classes = world_components(model, world)
         self.width, self.height = width, height
         self.latency = latency
         self.interval = frame_interval_s
@@ -196,7 +196,7 @@ class SimulatedCamera(Grabber):
         p = predict(
             list(lights.values()),
             [optics],
-            [self.camera],
+            [self.sensor],
             [*classes, white],
             exposure=Exposure("fixed", time=1.0),
             grid=grid,
@@ -224,7 +224,7 @@ class SimulatedCamera(Grabber):
             )
         # The sensor's own fixed pattern (PRNU, DSNU), as fixed as the objects.
         sensor = objects if sensor_seed is None else np.random.default_rng(sensor_seed)
-        self._pattern = sensor_pattern(self.camera, (height, width), rng=sensor)
+        self._pattern = sensor_pattern(self.sensor, (height, width), rng=sensor)
         yy, xx = np.mgrid[0:height, 0:width]
         r2 = ((yy - (height - 1) / 2) ** 2 + (xx - (width - 1) / 2) ** 2) / (
             ((height - 1) / 2) ** 2 + ((width - 1) / 2) ** 2
@@ -370,7 +370,7 @@ class SimulatedCamera(Grabber):
             electrons *= exposure_us / self.exposure_us
         return expose(
             electrons,
-            self.camera,
+            self.sensor,
             rng=self.noise,
             gain=self._gain(),
             exposure_s=exposure_us * 1e-6,
@@ -382,14 +382,14 @@ class SimulatedCamera(Grabber):
         temporal variance (DN²) under ``state`` (:func:`expected_grey`)."""
         return expected_grey(
             self._electrons(state),
-            self.camera,
+            self.sensor,
             gain=self._gain(),
             exposure_s=self.exposure_us * 1e-6,
             pattern=self._pattern,
         )
 
     def _gain(self) -> float:
-        return self.camera.gain * gain_factor(self.gain_db)
+        return self.sensor.gain * gain_factor(self.gain_db)
 
     def _electrons(self, state: dict[int, float]) -> np.ndarray:
         """Mean photo-electrons of each pixel (e⁻) under ``state``, world deviations included."""
@@ -432,7 +432,7 @@ class SimulatedCamera(Grabber):
             if self.world.chunk_lag:  # firmware that appends the previous frame's values
                 chunk, self._last_chunk = self._last_chunk or chunk, chunk
             extra["chunk"] = chunk
-        cam = self.camera
+        sensor = self.sensor
         return Frame(
             data=data,
             frame_id=self.frame_id,
@@ -440,7 +440,7 @@ class SimulatedCamera(Grabber):
             exposure_us=self.exposure_us,
             gain_db=self.gain_db,
             pixel_format="Mono16",
-            bit_depth=cam.bit_depth,
+            bit_depth=sensor.bit_depth,
             device=self.name,
             clock="exposure",
             extra=extra,
@@ -458,14 +458,14 @@ def lit_by_simulator(station, state_path: Path | None) -> None:
         )
 
 
-def scene_camera(station, state_path: Path | None, target: str = "scene") -> SimulatedCamera:
+def scene_grabber(station, state_path: Path | None, target: str = "scene") -> SimulatedGrabber:
     """The simulated camera of the station's scene, lit by the simulated controller's state."""
     spec = station.camera
     lit_by_simulator(station, state_path)
     from inspect_validate.station.model import station_model
 
     assert state_path is not None  # lit_by_simulator refused a station without it
-    return SimulatedCamera(
+    return SimulatedGrabber(
         station_model(station),
         state_path,
         world=spec.world,

@@ -98,25 +98,25 @@ def open_simulated_controller(settings: SimulatedControllerSettings, opening: Op
 
 
 def open_simulated_camera(settings: SimulatedCameraSettings, opening: Opening):
-    from inspect_validate.simulation.camera import scene_camera
+    from inspect_validate.simulation.camera import scene_grabber
 
-    return scene_camera(opening.station, opening.state, opening.target)
+    return scene_grabber(opening.station, opening.state, opening.target)
 
 
 def open_pylon_emulator(settings, opening: Opening):
     """The station's simulated scene through pylon's camera emulator (``simulate: true``)."""
     from inspect_validate.camera.grabbers.emulator_feed import EmulatorFeed
-    from inspect_validate.camera.grabbers.pylon import PylonCamera
-    from inspect_validate.simulation.camera import scene_camera
+    from inspect_validate.camera.grabbers.pylon import PylonGrabber
+    from inspect_validate.simulation.camera import scene_grabber
 
     station = opening.station
-    renderer = scene_camera(station, opening.state, opening.target)
+    renderer = scene_grabber(station, opening.state, opening.target)
     # Enough noise realisations that no step's frames repeat, even after discards.
     per_light = (
         max(station.frames, station.dark_frames) + station.discard_max + settings.flush_frames
     )
     return EmulatorFeed(
-        PylonCamera(serial=settings.serial, index=settings.index),
+        PylonGrabber(serial=settings.serial, index=settings.index),
         renderer,
         frames_per_light=per_light,
     )
@@ -127,7 +127,7 @@ def open_aravis_fake(settings, opening: Opening):
     """Aravis' fake GigE Vision camera in a process of its own on ``lo``, streaming the
     station's scene under the simulated controller's lights, opened through Aravis
     (``simulate: true``)."""
-    from inspect_validate.camera.grabbers.aravis import AravisCamera
+    from inspect_validate.camera.grabbers.aravis import AravisGrabber
     from inspect_validate.simulation.camera import lit_by_simulator
     from inspect_validate.simulation.fake_gige import SENSOR as FAKE_SENSOR
 
@@ -175,7 +175,7 @@ def open_aravis_fake(settings, opening: Opening):
             raise DeviceError(
                 "Aravis' fake GigE Vision camera did not start (is libaravis-0.8 installed?)"
             )
-        with AravisCamera(serial=serial, num_buffers=settings.num_buffers) as camera:
+        with AravisGrabber(serial=serial, num_buffers=settings.num_buffers) as camera:
             yield camera
     finally:
         proc.kill()

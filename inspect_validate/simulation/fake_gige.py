@@ -6,7 +6,7 @@ streams GVSP on the loopback interface like a real camera (discovered as
 ``Aravis-Fake-SERIAL``), with Aravis' own test pattern: a diagonal ramp.
 
 With ``--station FILE --state FILE`` every frame it streams is instead the station's
-scene rendered with the EMVA 1288 model (:class:`~camera.grabbers.simulated.SimulatedCamera`,
+scene rendered with the EMVA 1288 model (:class:`~camera.grabbers.simulated.SimulatedGrabber`,
 world deviations included) under the lights the simulated controller has on *when the
 frame is filled*, at the exposure in the camera's ``ExposureTimeAbs`` register. This is
 what ``camera: {backend: aravis, simulate: true}`` starts: capture, verify and watch
@@ -110,7 +110,7 @@ def main(argv=None) -> None:
     fake = lib.arv_gv_fake_camera_get_fake_camera(gv)
     keep = None
     if args.station is not None:
-        from inspect_validate.simulation.camera import scene_camera
+        from inspect_validate.simulation.camera import scene_grabber
         from inspect_validate.station.file import read_station
         from inspect_validate.station.world import World
 
@@ -119,7 +119,7 @@ def main(argv=None) -> None:
             world = World.model_validate_json(args.world)
             camera = station.camera.model_copy(update={"world": world})
             station = station.model_copy(update={"camera": camera})
-        renderer = scene_camera(station, args.state, args.target)
+        renderer = scene_grabber(station, args.state, args.target)
         lib.arv_fake_camera_write_register(fake, _REGISTER_WIDTH, renderer.width)
         lib.arv_fake_camera_write_register(fake, _REGISTER_HEIGHT, renderer.height)
         keep = scene_fill(lib, renderer)  # referenced for the process's life

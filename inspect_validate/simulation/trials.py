@@ -10,7 +10,7 @@ shifted, the lens soiled…: a failure is a detection). What varies from capture
 capture besides the noise is the world's (``irradiance_jitter``: lights that vary).
 
 The frames are rendered by the station's own simulated camera
-(:class:`~inspect_validate.simulation.camera.SimulatedCamera`) under each
+(:class:`~inspect_validate.simulation.camera.SimulatedGrabber`) under each
 illumination's channels, measured by the one measuring path
 (:func:`~inspect_validate.measurement.measure_stack`) and verified by
 :func:`~inspect_validate.verification.verify.verify_capture`: the same code as
@@ -102,19 +102,19 @@ def render_capture(
         What the camera renders (the station file's, or changed).
     seed, sensor_seed, noise_seed : keyword-only
         The parts' placement, the sensor's fixed pattern and the noise
-        (:class:`~inspect_validate.simulation.camera.SimulatedCamera`).
+        (:class:`~inspect_validate.simulation.camera.SimulatedGrabber`).
     renderer_model : StationModel, keyword-only, optional
         ``station_model(station)``, made here if not given (a caller rendering many
         captures makes it once).
     """
     from inspect_validate.measurement import measure_stack
-    from inspect_validate.simulation.camera import SimulatedCamera
+    from inspect_validate.simulation.camera import SimulatedGrabber
     from inspect_validate.station.model import station_model
     from inspect_validate.verification.measured import Capture
 
     model = renderer_model or station_model(station)
     spec = station.camera
-    camera = SimulatedCamera(
+    camera = SimulatedGrabber(
         model,
         Path(os.devnull),
         world=world,
@@ -126,7 +126,7 @@ def render_capture(
     )
     camera.configure(exposure_us=spec.exposure_us, gain_db=spec.gain_db)
     acc = station.acceptance
-    level = float(2**model.camera.bit_depth - 1)
+    level = float(2**model.sensor.bit_depth - 1)
     options: dict[str, Any] = {"comparisons": plan.comparisons, "saturation_level": level}
 
     def stack(state, n):
@@ -297,7 +297,7 @@ def watch_trials(
             tool_version=__version__,
             station_sha256="",
         )
-        monitor = DriftMonitor(golden, dark_offset=model.camera.dark_offset, snr_floor_db=floor)
+        monitor = DriftMonitor(golden, dark_offset=model.sensor.dark_offset, snr_floor_db=floor)
         alarms = failures = 0
         for c in range(cycles):
             v = verify_capture(plain, capture(world, run, repeats + c), plan=plan)

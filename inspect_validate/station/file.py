@@ -46,9 +46,9 @@ from inspect_validate.scene import Irradiance
 from inspect_validate.station.world import Rendered
 
 __all__ = [
-    "CameraSpec",
+    "CameraSection",
     "ChannelLight",
-    "ControllerSpec",
+    "ControllerSection",
     "Illumination",
     "Precision",
     "Station",
@@ -108,13 +108,13 @@ if TYPE_CHECKING:
     # The sections are composed at run time from whatever backends are installed: to a
     # type checker, any of them (their common keys are CameraSettings' and
     # ControllerSettings', a backend's own are its own).
-    CameraSpec = Any
-    ControllerSpec = Any
+    CameraSection = Any
+    ControllerSection = Any
 else:
-    CameraSpec = one_of(
+    CameraSection = one_of(
         _sections("cameras", extra=(StationCamera,)), what="camera", field="backend"
     )
-    ControllerSpec = one_of(_sections("controllers"), what="controller", field="backend")
+    ControllerSection = one_of(_sections("controllers"), what="controller", field="backend")
 
 
 class ChannelLight(StrictModel):
@@ -180,9 +180,9 @@ class Station(StrictModel):
 
     name: str = "station"
     """Shown in reports, metrics and the history."""
-    camera: CameraSpec
+    camera: CameraSection
     """The camera and how frames start; ``backend`` chooses the kind."""
-    controller: ControllerSpec
+    controller: ControllerSection
     """The light controller; ``backend`` chooses the kind."""
     illuminations: list[Illumination] = Field(min_length=1)
     """The lighting states to capture, in order."""

@@ -25,14 +25,14 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from inspect_validate.components.cameras import gain_factor
 from inspect_validate.components.lights import Light
+from inspect_validate.components.sensors import gain_factor
 from inspect_validate.errors import InputError
 from inspect_validate.spectra import Spectrum, SpectrumKind
 
 if TYPE_CHECKING:
-    from inspect_validate.components.cameras import Camera
     from inspect_validate.components.optics import Optics
+    from inspect_validate.components.sensors import SensorModel
     from inspect_validate.scene import Scene
 
 __all__ = ["StationModel", "illumination_light", "station_model"]
@@ -52,10 +52,11 @@ class StationModel:
     nominal : frozenset of int
         Channels whose irradiance is not known (set to 1 W/m²).
     optics : Optics
-    camera : Camera
-        The scene camera with the station's gain applied.
-    scene_camera : Camera
-        The scene camera as the scene gives it (what a simulated camera starts from).
+    sensor : SensorModel
+        The station camera's sensor model: the scene's (or the one ``characterize``
+        measured), with the station's gain applied.
+    scene_sensor : SensorModel
+        The sensor model as the scene gives it (what a simulated camera renders).
     exposure_time : float or None
         The station's exposure, s (None: the scene's exposure control).
     """
@@ -64,8 +65,8 @@ class StationModel:
     channels: dict
     nominal: frozenset
     optics: Optics
-    camera: Camera  # as measured, where the station names a camera file
-    scene_camera: Camera  # as the scene declares it
+    sensor: SensorModel  # as measured, where the station names a camera file
+    scene_sensor: SensorModel  # as the scene declares it
     exposure_time: float | None
 
     def lights(self, station, *, scale=None) -> list[Light]:
@@ -95,7 +96,7 @@ class StationModel:
         return predict(
             self.lights(station, scale=scale),
             [self.optics],
-            [self.camera],
+            [self.sensor],
             list(self.scene.classes),
             exposure=exposure,
             grid=self.scene.grid,
@@ -161,26 +162,26 @@ def station_model(station, scene=None) -> StationModel:
             nominal.add(ch)
         channels[ch] = replace(light, irradiance=float(irradiance))
     optics = _pick(scene.optics, station.optics, what="optics", field="optics", source=source)
-    camera = scene_camera = _pick(
+    sensor = scene_sensor = _pick(
         scene.cameras, station.camera.model, what="cameras", field="camera.model", source=source
     )
     if station.camera.measured:
         # What characterize measured replaces the declared values in the model; the
-        # scene camera stays what a simulated camera renders (the world's sensor).
-        from inspect_validate.components.camera_file import measured_camera
+        # scene's sensor stays what a simulated camera renders (the world's sensor).
+        from inspect_validate.components.camera_file import measured_sensor
 
-        camera = measured_camera(scene_camera, station.resolve(station.camera.measured))
+        sensor = measured_sensor(scene_sensor, station.resolve(station.camera.measured))
     if station.camera.gain_db:
-        gain = camera.gain * gain_factor(station.camera.gain_db)
-        camera = replace(camera, gain=gain, name=f"{camera.name} at {station.camera.gain_db:g} dB")
+        gain = sensor.gain * gain_factor(station.camera.gain_db)
+        sensor = replace(sensor, gain=gain, name=f"{sensor.name} at {station.camera.gain_db:g} dB")
     t = station.camera.exposure_us
     return StationModel(
         scene,
         channels,
         frozenset(nominal),
         optics,
-        camera,
-        scene_camera,
+        sensor,
+        scene_sensor,
         None if t is None else t * 1e-6,
     )
 

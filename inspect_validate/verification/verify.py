@@ -135,7 +135,7 @@ def verify_folder(station, frames_dir: Path, *, plan: Plan | None = None) -> Ver
         comparisons=plan.comparisons,
         limits=acc.limits(),
         kde="always" if acc.needs_kde else "never",
-        camera=plan.model.camera,
+        camera=plan.model.sensor,
     )
     return verify_capture(station, capture, plan=plan, folder=frames_dir)
 
@@ -173,7 +173,7 @@ def verify_capture(
     # The prediction at the stated irradiances.
     nominal = model.predict(station, comparisons=predicted_comparisons)
     method = station.calibration.method
-    offset = model.camera.dark_offset
+    offset = model.sensor.dark_offset
     dark_means = {c.name: c.mean for c in dark.classes} if dark else None
     if dark is None:
         skipped.append("dark level: no dark frames; the camera's dark offset is used")
@@ -185,7 +185,7 @@ def verify_capture(
         offset=offset,
         dark_means=dark_means,
         irradiance=stated,
-        gain=model.camera.gain,
+        gain=model.sensor.gain,
         reference=station.calibration.reference,
         max_saturated=limits.max_saturated,
     )
@@ -200,7 +200,7 @@ def verify_capture(
         photon_transfer(
             list(measurements.values()),
             dark,
-            declared=model.camera.gain,
+            declared=model.sensor.gain,
             saturation_level=capture.saturation_level,
         )
         if dark is not None

@@ -342,7 +342,7 @@ class DriftMonitor:
 
         What moved most, in half-widths of the bands, leads: the class means (a light
         level or the spectrum) or the classes' noise and contrast at steady means (focus,
-        haze). A level change moves an illumination's classes by one factor; a spectral
+        haze); so does σ² where it moved over ten times as much as the means, relatively. A level change moves an illumination's classes by one factor; a spectral
         change (an LED's peak) moves them by different factors, as their reflectances
         differ.
         """
@@ -353,9 +353,21 @@ class DriftMonitor:
             (v for k, v in severity.items() if k[1] == "class" and k[3] == "mean"), default=0
         )
         noise = max((v for k, v in severity.items() if k[3] != "mean"), default=0)
-        if noise > 3 * level:
-            return self._noise_cause(alarms)
         per_class = self.relative_means()
+        # In relative terms too: where the trained spread is the noise of the estimates
+        # alone, a mean that moved 0.1 % is as far out as a variance that moved 25 %, and
+        # the half-widths cannot tell a blur from a light.
+        moves = [abs(x) for c in per_class.values() for x in c.values()]
+        mean_move = float(np.median(moves)) if moves else 0.0
+        variance_moves = [
+            abs(self.charts[k].ewma / self.charts[k].target - 1)
+            for k in alarms
+            if k[3] == "variance" and self.charts[k].target > 0
+        ]
+        if noise > 3 * level or (
+            variance_moves and float(np.median(variance_moves)) > 10 * max(mean_move, 1e-9)
+        ):
+            return self._noise_cause(alarms)
         r = _medians(per_class)
         # An illumination counts as moved with its class means, by its median change (of
         # the signal above dark: classes at the dark offset have none).

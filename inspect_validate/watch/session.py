@@ -125,7 +125,7 @@ def watch_session(
     try:
         monitor = DriftMonitor(
             plan.golden,
-            dark_offset=plan.model.camera.dark_offset,
+            dark_offset=plan.model.sensor.dark_offset,
             snr_floor_db=drift.snr_floor_db,
         )
     except InputError as exc:

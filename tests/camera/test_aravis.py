@@ -20,7 +20,7 @@ from conftest import run_cli
 from inspect_validate.errors import DeviceError
 
 try:
-    from inspect_validate.camera.grabbers.aravis import AravisCamera, import_aravis
+    from inspect_validate.camera.grabbers.aravis import AravisGrabber, import_aravis
 
     import_aravis()
 except DeviceError as exc:  # no Aravis on this machine
@@ -52,7 +52,7 @@ def fake_gige():
 
 def test_configure_trigger_grab_by_legacy_names(fake_gige):
     serial, _ = fake_gige()
-    with AravisCamera(serial=serial) as cam:
+    with AravisGrabber(serial=serial) as cam:
         assert cam.name == f"Aravis Fake (serial {serial})"
         # ExposureTimeAbs stands in for ExposureTime; GainRaw is not dB, so gain is missing.
         assert cam.missing == {"gain"}
@@ -70,7 +70,7 @@ def test_configure_trigger_grab_by_legacy_names(fake_gige):
             assert frame.data.flags.writeable
         with pytest.raises(DeviceError, match="pixel format Mono12 not offered"):
             cam.configure(pixel_format="Mono12")
-    with AravisCamera(serial=serial, gain_raw=3) as cam:  # the camera's own gain units
+    with AravisGrabber(serial=serial, gain_raw=3) as cam:  # the camera's own gain units
         cam.configure()
         assert cam._dev.get_integer_feature_value("GainRaw") == 3
 
@@ -78,9 +78,9 @@ def test_configure_trigger_grab_by_legacy_names(fake_gige):
 def test_selection_errors_name_what_was_found(fake_gige):
     serial, _ = fake_gige()
     with pytest.raises(DeviceError, match=rf"no Aravis camera with serial NOPE; found: .*{serial}"):
-        AravisCamera(serial="NOPE")
+        AravisGrabber(serial="NOPE")
     with pytest.raises(DeviceError, match="cannot open Aravis camera Nowhere-1"):
-        AravisCamera(device_id="Nowhere-1")
+        AravisGrabber(device_id="Nowhere-1")
 
 
 def _station(tmp_path, serial, camera="", controller="", frames=3):
@@ -244,3 +244,19 @@ def test_characterize_over_gige(cli, tmp_path):
     assert code == 0, out + err
     camera = yaml.safe_load((tmp_path / "series" / "camera.yaml").read_text())["camera"]
     assert abs(camera["gain"] / 0.0255 - 1) < 0.05 and camera["bit_depth"] == 16, camera
+
+
+def test_devices_lists_the_fake_camera_and_what_it_offers(fake_gige, cli):
+    serial, _ = fake_gige()
+    code, out, err = cli(["devices", "--backend", "aravis", "--features", serial, "--json", "-"])
+    assert code == 0, err
+    doc = json.loads(out)
+    (cam,) = [c for c in doc["cameras"] if c["serial"] == serial]
+    assert (cam["vendor"], cam["model"]) == ("Aravis", "Fake")
+    assert cam["interface"] == "GigEVision 127.0.0.1"
+    assert cam["station"] == {"backend": "aravis", "serial": serial}
+    f = doc["features"]
+    assert f["monochrome"] == ["Mono8", "Mono16"] and f["bit_depth"] == 16
+    assert f["exposure_us"] == [10.0, 10_000_000.0] and f["gain_db"] is None  # GainRaw only
+    assert f["trigger_lines"] == ["Line0"] and f["software_trigger"] is True
+    assert f["max_size"][0] >= 512

@@ -10,7 +10,7 @@ from conftest import ROOT, run_cli
 
 from inspect_validate.camera.capture import verified_frames
 from inspect_validate.camera.frame import Frame
-from inspect_validate.errors import DeviceError
+from inspect_validate.errors import DeviceError, IncompleteFrame
 
 STATION = ROOT / "sample_images" / "station"
 
@@ -267,6 +267,9 @@ class FakeCamera:
         self.clock = clock
 
     def grab(self, n, *, timeout_s=1.0):
+        if self.frames[0] is None:  # as Aravis and pylon report a frame with packets lost
+            self.frames.pop(0)
+            raise IncompleteFrame("fake: frame arrived incomplete")
         stamp, mean = self.frames.pop(0)
         return [
             Frame(
@@ -306,6 +309,18 @@ def test_frames_are_handed_out_as_soon_as_verified():
         for frame, _ in got:
             handed.append(frame.mean)
     assert handed == [100, 100, 100]
+
+
+def test_incomplete_frames_are_discarded_and_counted():
+    cam = FakeCamera([(20, 100), None, (21, 100), None, (22, 100)])
+    frames, discarded = _verified(
+        cam, 3, switched_ns=10, discard_max=2, tolerance=0.02, timeout_s=1
+    )
+    assert [f.data.mean() for f in frames] == [100, 100, 100]
+    assert discarded == {"arrived incomplete (data lost on the way)": 2}
+    lossy = FakeCamera([(20, 100), None, None, None, (21, 100)])
+    with pytest.raises(DeviceError, match=r"3 frames were discarded \(arrived incomplete.*network"):
+        _verified(lossy, 2, switched_ns=10, discard_max=2, tolerance=0.02, timeout_s=1)
 
 
 def test_verification_fails_loudly():

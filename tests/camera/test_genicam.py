@@ -5,7 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from inspect_validate.camera.grabbers.genicam import GenICamCamera, find_producers
+from inspect_validate.camera.grabbers.genicam import GenICamGrabber, find_producers
 from inspect_validate.errors import DeviceError
 
 genicam = pytest.importorskip("genicam")
@@ -16,7 +16,7 @@ pytestmark = pytest.mark.skipif(
 
 
 def test_enumerate_configure_grab():
-    with GenICamCamera(str(CTI), serial="1") as cam:
+    with GenICamGrabber(str(CTI), serial="1") as cam:
         assert "Viky" in cam.name and "serial 1" in cam.name
         # viky has no ExposureTime or Gain node: reported, not fatal.
         assert {"exposure", "gain"} <= cam.missing
@@ -41,7 +41,7 @@ def test_enumerate_configure_grab():
 
 
 def test_fetch_timeout_is_a_clear_error():
-    with GenICamCamera(str(CTI), index=0) as cam:
+    with GenICamGrabber(str(CTI), index=0) as cam:
         cam.configure(pixel_format="Mono8")
         cam._nodes.AcquisitionFrameRate.value = 1.0
         cam.grab(1, timeout_s=3)
@@ -52,7 +52,7 @@ def test_fetch_timeout_is_a_clear_error():
 
 
 def test_colour_format_is_refused():
-    with GenICamCamera(str(CTI), index=2) as cam:
+    with GenICamGrabber(str(CTI), index=2) as cam:
         cam.configure()
         cam._nodes.PixelFormat.value = "RGBa8"
         with pytest.raises(DeviceError, match=r"RGBa8.*not a supported monochrome format"):
@@ -66,9 +66,9 @@ def test_selection_and_producer_errors(tmp_path, monkeypatch):
         DeviceError,
         match=r"no GenICam camera with serial 42; found: .*Viky \(serial 0\), .*\(serial 2\)",
     ):
-        GenICamCamera(str(CTI), serial="42")
+        GenICamGrabber(str(CTI), serial="42")
     with pytest.raises(DeviceError, match="camera index 7 does not exist"):
-        GenICamCamera(str(CTI), index=7)
+        GenICamGrabber(str(CTI), index=7)
     with pytest.raises(DeviceError, match=r"producer .* not found"):
         find_producers(str(tmp_path / "none.cti"))
     monkeypatch.setenv("GENICAM_GENTL64_PATH", str(CTI.parent))
@@ -162,7 +162,7 @@ def test_software_trigger_on_tlsimu(tmp_path, capsys, tlsimu_cti):
     frame per verified frame after each switch; nothing untriggered arrives."""
     import json
 
-    with GenICamCamera(str(tlsimu_cti), serial="SN_InterfaceA_0") as cam:
+    with GenICamGrabber(str(tlsimu_cti), serial="SN_InterfaceA_0") as cam:
         has = cam.features()
         assert has.software_trigger and not has.trigger_lines and not has.chunks
         cam.configure(pixel_format="Mono8")

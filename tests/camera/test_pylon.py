@@ -30,10 +30,10 @@ def test_emulator_serves_files_pixel_exactly(tmp_path):
     out = run_with_emulator(
         f"""
         import numpy as np, cv2
-        from inspect_validate.camera.grabbers.pylon import PylonCamera
+        from inspect_validate.camera.grabbers.pylon import PylonGrabber
         img = (np.arange(48 * 64).reshape(48, 64) * 7 % 256).astype(np.uint8)
         cv2.imwrite("{tmp_path}/a.png", img)
-        with PylonCamera(index=0) as cam:
+        with PylonGrabber(index=0) as cam:
             cam.configure(pixel_format="Mono8", region=(0, 0, 64, 48), exposure_us=5000, gain_db=0)
             cam.nodes.TestImageSelector.Value = "Off"
             cam.nodes.ImageFileMode.Value = "On"
@@ -52,13 +52,13 @@ def test_emulator_serves_files_pixel_exactly(tmp_path):
 def test_emulator_errors(tmp_path):
     out = run_with_emulator(
         """
-        from inspect_validate.camera.grabbers.pylon import PylonCamera
+        from inspect_validate.camera.grabbers.pylon import PylonGrabber
         from inspect_validate.errors import DeviceError
         try:
-            PylonCamera(serial="nope")
+            PylonGrabber(serial="nope")
         except DeviceError as e:
             print("serial:", e)
-        with PylonCamera() as cam:
+        with PylonGrabber() as cam:
             try:
                 cam.configure(pixel_format="RGB8Packed")
             except DeviceError as e:
@@ -85,8 +85,8 @@ def test_restart_drops_the_frames_pylon_queued_before_the_switch(tmp_path):
     out = run_with_emulator(
         """
         import time
-        from inspect_validate.camera.grabbers.pylon import PylonCamera
-        with PylonCamera() as cam:
+        from inspect_validate.camera.grabbers.pylon import PylonGrabber
+        with PylonGrabber() as cam:
             cam.configure(region=(0, 0, 64, 64))
             cam.nodes.AcquisitionFrameRateEnable.Value = True
             cam.nodes.AcquisitionFrameRate.Value = 50
@@ -217,8 +217,8 @@ def test_legacy_node_names_and_software_trigger(tmp_path):
         """
         from inspect_validate.camera.grabbers import pylon as backend
         from inspect_validate.errors import DeviceError
-        backend.PylonCamera._EXPOSURE_NODES = ("NoSuchExposureNode", "ExposureTimeAbs")
-        with backend.PylonCamera(index=0) as cam:
+        backend.PylonGrabber._EXPOSURE_NODES = ("NoSuchExposureNode", "ExposureTimeAbs")
+        with backend.PylonGrabber(index=0) as cam:
             cam.configure(pixel_format="Mono8", exposure_us=5000)
             has = cam.features()
             cam.arm("software-trigger")

@@ -7,7 +7,7 @@ import cv2
 import numpy as np
 import pytest
 
-from inspect_validate.camera.grabbers.v4l2 import V4l2Camera, _fourcc, _fourcc_text
+from inspect_validate.camera.grabbers.v4l2 import V4l2Grabber, _fourcc, _fourcc_text
 from inspect_validate.errors import DeviceError
 
 
@@ -116,7 +116,7 @@ class FakeCapture:
 
 def test_grab_y16_with_settings_read_back():
     fake = FakeCapture()
-    with V4l2Camera("/dev/video3", opener=fake) as cam:
+    with V4l2Grabber("/dev/video3", opener=fake) as cam:
         assert fake.opened_with == ("/dev/video3", cv2.CAP_V4L2)  # the backend is forced
         assert fake.props[cv2.CAP_PROP_CONVERT_RGB] == 0
         assert cam.pipeline_frames == 2  # one queued buffer + the one being filled
@@ -134,7 +134,7 @@ def test_grab_y16_with_settings_read_back():
 
 def test_default_format_switches_a_colour_device_to_grey():
     fake = FakeCapture(formats=("YUYV", "GREY"))
-    cam = V4l2Camera(0, opener=fake)
+    cam = V4l2Grabber(0, opener=fake)
     assert cam.pixel_format is None and fake.opened_with[0] == "/dev/video0"
     frames = cam.grab(1)
     assert fake.palette == "GREY" and frames[0].data.dtype == np.uint8
@@ -165,43 +165,43 @@ def test_default_format_switches_a_colour_device_to_grey():
     ],
 )
 def test_settings_the_driver_does_not_take_fail_loudly(fake, settings, message):
-    with V4l2Camera(0, opener=fake) as cam, pytest.raises(DeviceError, match=message) as info:
+    with V4l2Grabber(0, opener=fake) as cam, pytest.raises(DeviceError, match=message) as info:
         cam.configure(**settings)
     assert "/dev/video0" in str(info.value)
 
 
 def test_missing_exposure_is_reported_not_fatal():
-    with V4l2Camera(0, opener=FakeCapture(exposure=None, fixed_buffers=True)) as cam:
+    with V4l2Grabber(0, opener=FakeCapture(exposure=None, fixed_buffers=True)) as cam:
         cam.configure(exposure_us=1000)
         assert cam.missing == {"gain", "exposure"} and cam.pipeline_frames == 5
         assert cam.grab(1)[0].exposure_us is None
 
 
 def test_read_failures_and_foreign_buffers():
-    with V4l2Camera(0, opener=FakeCapture(reads=1)) as cam:
+    with V4l2Grabber(0, opener=FakeCapture(reads=1)) as cam:
         cam.grab(1)
         with pytest.raises(DeviceError, match=r"no frame \(frame 1 of 2, timeout 0.5 s\)"):
             cam.grab(2, timeout_s=0.5)
     fake = FakeCapture(formats=("GREY", "MJPG"))
-    with V4l2Camera(0, opener=fake) as cam:
+    with V4l2Grabber(0, opener=fake) as cam:
         cam.grab(1)
         fake.palette = "MJPG"  # changed behind our back (another program)
         with pytest.raises(DeviceError, match=r"got a \(1, 614400\) uint8 buffer"):
             cam.grab(1)
     with pytest.raises(DeviceError, match=r"cannot open it with OpenCV's V4L2 backend"):
-        V4l2Camera("/dev/video7", opener=FakeCapture(opens=False))
+        V4l2Grabber("/dev/video7", opener=FakeCapture(opens=False))
 
 
 def test_real_opencv_without_a_device_gives_a_clear_error():
     with pytest.raises(DeviceError, match=r"/dev/video99: cannot open it"):
-        V4l2Camera("/dev/video99")
+        V4l2Grabber("/dev/video99")
 
 
 @pytest.mark.v4l2_device
 @pytest.mark.skipif(not glob.glob("/dev/video*"), reason="no V4L2 device on this machine")
 def test_device_grabs_grey_frames():
     device = sorted(glob.glob("/dev/video*"))[0]
-    with V4l2Camera(device) as cam:
+    with V4l2Grabber(device) as cam:
         try:
             cam.configure(pixel_format="Mono8")
         except DeviceError as exc:  # a colour-only webcam: the refusal must say so

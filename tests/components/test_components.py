@@ -7,7 +7,7 @@ import pytest
 from inspect_validate.components import (
     MATERIALS,
     blackbody,
-    builtin_camera,
+    builtin_sensor,
     cie_daylight,
     cie_illuminant,
     energy_efficiency,
@@ -105,16 +105,16 @@ def test_lens_is_material_times_coating():
 
 
 def test_cameras_and_energy_efficiency():
-    cam = builtin_camera("cmos-visible")
+    cam = builtin_sensor("cmos-visible")
     assert "(model)" in cam.name and cam.max_dn == pytest.approx(min(4095, 0.39 * 10500))
     assert energy_efficiency(0.5, 600) == pytest.approx(0.5 * 600e-9 / (H * C))
     with pytest.raises(InputError, match="built-in cameras"):
-        builtin_camera("ccd-9000")
+        builtin_sensor("ccd-9000")
     assert blackbody(3000).spd.values.max() > 0
 
 
 def test_gain_factor_is_an_amplitude_ratio():
-    from inspect_validate.components.cameras import gain_factor
+    from inspect_validate.components.sensors import gain_factor
 
     assert gain_factor(0.0) == 1.0
     assert gain_factor(20.0) == pytest.approx(10.0, rel=1e-15)

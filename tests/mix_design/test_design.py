@@ -104,7 +104,7 @@ def brute_force(response, comparisons, channels, points, *, objective="error", r
     best = np.inf
     for n in range(1, len(channels) + 1):
         for face in itertools.combinations(channels, n):
-            a = response.camera.gain * response.electrons[list(face)].T
+            a = response.sensor.gain * response.electrons[list(face)].T
 
             def worst(x, face=face, a=a):
                 direction = np.r_[x[:-1], 1.0 - x[:-1].sum()]
@@ -191,7 +191,7 @@ def test_auto_exposure_designs_the_exposure(tmp_path):
     # ceiling, with the mix or the single channel (whichever needs the longer exposure).
     p = auto[0].problem
     at = channel_response(
-        p.channels, p.optics, p.camera, p.classes, grid=p.grid, exposure_time=auto[0].exposure_time
+        p.channels, p.optics, p.sensor, p.classes, grid=p.grid, exposure_time=auto[0].exposure_time
     )
     mix = np.array([auto[0].levels.get(c, 0.0) for c in p.channels])
     single = np.array([auto[0].single[1] if c == auto[0].single[0] else 0.0 for c in p.channels])
@@ -421,7 +421,7 @@ def catalogue(tmp_path_factory):
 
     p = design_problem(_catalogue_scene(tmp_path_factory.mktemp("cat"), range(420, 700, 25)))
     response = channel_response(
-        p.channels, p.optics, p.camera, p.classes, grid=p.grid, exposure_time=p.exposure_time
+        p.channels, p.optics, p.sensor, p.classes, grid=p.grid, exposure_time=p.exposure_time
     )
     return p, response
 
@@ -474,7 +474,7 @@ def wide_catalogue(tmp_path_factory):
     path = _catalogue_scene(tmp_path_factory.mktemp("wide"), peaks)
     p = design_problem(path)
     response = channel_response(
-        p.channels, p.optics, p.camera, p.classes, grid=p.grid, exposure_time=p.exposure_time
+        p.channels, p.optics, p.sensor, p.classes, grid=p.grid, exposure_time=p.exposure_time
     )
     return path, p, response
 

@@ -10,7 +10,15 @@
 import numpy as np
 import pytest
 
-from inspect_validate.components import Camera, Light, Optics, builtin_camera, ideal_lens, led, lens
+from inspect_validate.components import (
+    Light,
+    Optics,
+    SensorModel,
+    builtin_sensor,
+    ideal_lens,
+    led,
+    lens,
+)
 from inspect_validate.components.lights import C, H
 from inspect_validate.errors import InputError
 from inspect_validate.model import Exposure, ObjectClass, predict, rank
@@ -28,7 +36,7 @@ def flat_class(name, level, spread=0.0, n=5, lo=400, hi=700):
 def test_integral_matches_brute_force():
     light = led(550, 40, irradiance=10.0)
     optics = lens("visible", f_number=2.0)
-    camera = builtin_camera("cmos-visible")
+    camera = builtin_sensor("cmos-visible")
     g = np.arange(400, 701, 10.0)
     refl = Spectrum(g, 0.3 + 0.4 * (g - 400) / 300, "reflectance", "ramp", "t")
     other = flat_class("flat", 0.5)
@@ -53,7 +61,7 @@ def test_integral_matches_brute_force():
 
 def test_mean_and_variance_match_a_photon_count_simulation():
     rng = np.random.default_rng(30)
-    camera = Camera(
+    camera = SensorModel(
         "sim",
         Spectrum([300, 1100], [0.5, 0.5], "qe", "qe", "t"),
         gain=0.4,
@@ -91,7 +99,7 @@ def test_dark_current_and_fixed_pattern_match_a_pixel_simulation():
     simulated directly — each its own gain factor and dark signal, Poisson electrons,
     dark noise, rounding — within 5 standard errors."""
     rng = np.random.default_rng(32)
-    camera = Camera(
+    camera = SensorModel(
         "sim",
         Spectrum([300, 1100], [0.5, 0.5], "qe", "qe", "t"),
         gain=0.4,
@@ -132,7 +140,7 @@ def test_expected_grey_is_the_truth_behind_expose(gain, dark_noise, dimmest, bri
     is some 20 standard errors of the pooled variance: leaving it out fails."""
     from inspect_validate.model.render import expected_grey, expose
 
-    camera = Camera(
+    camera = SensorModel(
         "sim",
         Spectrum([300, 1100], [0.5, 0.5], "qe", "qe", "t"),
         gain=gain,
@@ -153,7 +161,7 @@ def test_expected_grey_is_the_truth_behind_expose(gain, dark_noise, dimmest, bri
 
 
 def test_auto_exposure_puts_the_brightest_class_at_target():
-    cam = builtin_camera("cmos-visible")
+    cam = builtin_sensor("cmos-visible")
     p = predict(
         [led(520, 30)],
         [ideal_lens()],
@@ -167,7 +175,7 @@ def test_auto_exposure_puts_the_brightest_class_at_target():
 
 
 def test_saturation_is_clipped_and_reported():
-    cam = builtin_camera("cmos-visible")
+    cam = builtin_sensor("cmos-visible")
     p = predict(
         [led(520, 30, irradiance=100.0)],
         [ideal_lens()],
@@ -209,7 +217,7 @@ def test_paperboard_amber_beats_red():
 
 
 def test_errors_name_the_component():
-    cam = builtin_camera("cmos-visible")
+    cam = builtin_sensor("cmos-visible")
     classes = [flat_class("A", 0.2), flat_class("B", 0.8)]
     with pytest.raises(InputError, match=r"relative SPD.*irradiance"):
         predict(
@@ -220,7 +228,7 @@ def test_errors_name_the_component():
             exposure=Exposure("fixed", time=1e-3),
             grid=GRID,
         )
-    swir = builtin_camera("ingaas-swir")
+    swir = builtin_sensor("ingaas-swir")
     with pytest.raises(
         InputError, match="no wavelength where light, optics and camera all respond"
     ):
@@ -238,7 +246,7 @@ def test_vectorised_shapes():
     p = predict(
         [led(450, 20), led(590, 15), led(630, 18)],
         [ideal_lens(), lens("visible")],
-        [builtin_camera("cmos-visible"), builtin_camera("cmos-nir-enhanced")],
+        [builtin_sensor("cmos-visible"), builtin_sensor("cmos-nir-enhanced")],
         [flat_class("A", 0.3), flat_class("B", 0.5), flat_class("C", 0.7)],
         grid=GRID,
     )

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from conftest import run_cli as run
 
-from inspect_validate.components import builtin_camera, ideal_lens, led
+from inspect_validate.components import builtin_sensor, ideal_lens, led
 from inspect_validate.model import Exposure, ObjectClass, predict, predicted_kde_error, rank
 from inspect_validate.spectra import Spectrum
 
@@ -34,7 +34,7 @@ def flat(name, level, spread=0.05, n=6, lo=380, hi=780):
 
 
 def test_over_exposing_candidate_is_kept_marked_and_ranked_last():
-    cam = builtin_camera("cmos-visible")
+    cam = builtin_sensor("cmos-visible")
     dim = led(550, 30, irradiance=0.5, name="dim")
     blinding = led(550, 30, irradiance=5000.0, name="blinding")  # every class clipped
     classes = [flat("A", 0.3), flat("B", 0.6)]
@@ -57,7 +57,7 @@ def test_over_exposing_candidate_is_kept_marked_and_ranked_last():
 
 def test_partly_saturated_light_does_not_outrank_a_correctly_exposed_one():
     """Clipping shrinks the variance: unpenalised, the clipped light would win."""
-    cam = builtin_camera("cmos-visible")
+    cam = builtin_sensor("cmos-visible")
     good = led(550, 30, irradiance=5.0, name="exposed right")
     hot = led(550, 30, irradiance=7.0, name="half clipped")
     classes = [flat("A", 0.75, spread=0.3), flat("B", 0.9, spread=0.3)]
@@ -77,9 +77,9 @@ def test_partly_saturated_light_does_not_outrank_a_correctly_exposed_one():
 
 def test_blind_camera_is_skipped_and_the_rest_ranked():
     classes = [flat("A", 0.3), flat("B", 0.6)]
-    swir = builtin_camera("ingaas-swir")  # blind at 380-780 nm
+    swir = builtin_sensor("ingaas-swir")  # blind at 380-780 nm
     p = predict(
-        [led(550, 30)], [ideal_lens()], [builtin_camera("cmos-visible"), swir], classes, grid=GRID
+        [led(550, 30)], [ideal_lens()], [builtin_sensor("cmos-visible"), swir], classes, grid=GRID
     )
     assert p.valid.tolist() == [[[True, False]]]
     assert len(p.skipped) == 1 and "ingaas-swir" in p.skipped[0] and "no wavelength" in p.skipped[0]
@@ -89,7 +89,7 @@ def test_blind_camera_is_skipped_and_the_rest_ranked():
     # The skip costs the others nothing: their numbers are those of a sweep without it
     # (to 1e-12 relative: the products are summed in other blocks).
     alone = predict(
-        [led(550, 30)], [ideal_lens()], [builtin_camera("cmos-visible")], classes, grid=GRID
+        [led(550, 30)], [ideal_lens()], [builtin_sensor("cmos-visible")], classes, grid=GRID
     )
     np.testing.assert_allclose(p.mean[:, :, :1], alone.mean, rtol=1e-12)
     np.testing.assert_allclose(p.error_gaussian[:, :, :1], alone.error_gaussian, rtol=1e-12)
@@ -99,14 +99,14 @@ def test_class_that_misses_the_light_band_is_not_a_perfect_separation():
     blue_only = flat("B", 0.6, lo=380, hi=475)
     classes = [flat("A", 0.3), blue_only]
     amber, blue = led(590, 15, name="amber"), led(430, 15, name="blue")
-    p = predict([amber, blue], [ideal_lens()], [builtin_camera("cmos-visible")], classes, grid=GRID)
+    p = predict([amber, blue], [ideal_lens()], [builtin_sensor("cmos-visible")], classes, grid=GRID)
     assert p.valid[:, 0, 0].tolist() == [False, True]
     assert "class 'B' is measured over 380–475 nm" in p.skipped[0]
 
 
 def test_worst_pair_is_the_key_and_the_listed_comparison(tmp_path):
     """The row's key comparison is the worst *pair*, never a one-vs-rest group."""
-    cam = builtin_camera("cmos-visible")
+    cam = builtin_sensor("cmos-visible")
     classes = [flat("A", 0.3), flat("B", 0.32), flat("C", 0.8)]
     p = predict([led(550, 30)], [ideal_lens()], [cam], classes, grid=GRID)
     _, key, column, _ = rank(p)
@@ -161,7 +161,7 @@ def test_irradiance_is_stated_over_the_visible_band():
     assert bb.band == (380.0, 780.0)
     grid = np.arange(300.0, 1801.0, 1.0)
     classes = [flat("A", 0.3, lo=300, hi=1800), flat("B", 0.6, lo=300, hi=1800)]
-    p = predict([bb], [ideal_lens()], [builtin_camera("cmos-visible")], classes, grid=grid)
+    p = predict([bb], [ideal_lens()], [builtin_sensor("cmos-visible")], classes, grid=grid)
     assert p.valid.all()
     from inspect_validate.model.acquisition import _irradiance_scale
 

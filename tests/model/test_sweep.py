@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from conftest import run_cli as run
 
-from inspect_validate.components import Camera, Optics, builtin_camera, led
+from inspect_validate.components import Optics, SensorModel, builtin_sensor, led
 from inspect_validate.errors import InputError
 from inspect_validate.model import ObjectClass, predict, rank, sweep
 from inspect_validate.model.sweep import _blocks
@@ -46,7 +46,7 @@ def station(n_l, n_o, n_c, *, seed=0, blind=True, n_classes=3):
         for i in range(n_o)
     ]
     cameras = [
-        Camera(
+        SensorModel(
             f"C{i}",
             Spectrum(
                 GRID,
@@ -63,7 +63,7 @@ def station(n_l, n_o, n_c, *, seed=0, blind=True, n_classes=3):
         for i in range(n_c - blind)
     ]
     if blind:
-        cameras.append(builtin_camera("ingaas-swir"))
+        cameras.append(builtin_sensor("ingaas-swir"))
     classes = []
     for k in range(n_classes):
         base = 0.4 + 0.2 * np.sin(GRID / (90 + 30 * k)) ** 2
@@ -158,7 +158,7 @@ def test_a_sweep_where_nothing_can_be_predicted_names_why():
     _, optics, _, classes = station(2, 2, 1, blind=False)
     lights = [led(450, 20, name="blue"), led(520, 20, name="green")]
     with pytest.raises(InputError, match="no combination of the scene can be predicted"):
-        sweep(lights, optics, [builtin_camera("ingaas-swir")], classes, grid=GRID, memory=1)
+        sweep(lights, optics, [builtin_sensor("ingaas-swir")], classes, grid=GRID, memory=1)
 
 
 def test_cli_lists_what_the_ranking_did_not_compute(tmp_path, capsys):

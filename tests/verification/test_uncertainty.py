@@ -105,9 +105,9 @@ def test_predicted_standard_errors_match_the_spread_over_draws_of_the_samples(tm
     """The scene's classes are S = 12 spectra drawn from a population; the prediction's
     class μ and SNR_dB vary over 300 draws by what predicted_standard_errors says of one
     draw (normal theory for σ²: the population is Gaussian here)."""
-    from inspect_validate.components.cameras import Camera
     from inspect_validate.components.lights import Light
     from inspect_validate.components.optics import Optics
+    from inspect_validate.components.sensors import SensorModel
     from inspect_validate.model import Exposure, ObjectClass, predict
     from inspect_validate.spectra import Spectrum, SpectrumKind
 
@@ -116,7 +116,7 @@ def test_predicted_standard_errors_match_the_spread_over_draws_of_the_samples(tm
     flat = np.ones((1, grid.size))
     light = Light("flat", Spectrum(grid, flat, SpectrumKind.SPD, "flat", "test"), irradiance=5.0)
     optics = Optics("ideal", Spectrum(grid, flat, SpectrumKind.TRANSMISSION, "ideal", "test"))
-    camera = Camera(
+    camera = SensorModel(
         "cam",
         Spectrum(grid, 0.5 * flat, SpectrumKind.QE, "qe", "test"),
         gain=0.05,

@@ -76,6 +76,7 @@ def test_ewma_in_control_run_length_by_simulation():
         ({"peak_shift_nm": {1: 8.0}}, 1, "the light's spectrum changed"),
         ({"blur_px": 1.5}, 1, "class noise (σ²) up"),  # defocus: classes blur into each other
         ({"blur_px": 0.7}, 1, "class noise (σ²) down"),  # slight defocus: texture smoothed
+        ({"blur_px": 1.0}, 1, "class noise (σ²)"),  # the means move too, but far less
     ],
 )
 def test_watch_attributes_each_change_to_its_cause(cli, tmp_path, golden, change, within, cause):

@@ -27,8 +27,8 @@ from inspect_validate.spectra import Spectrum, SpectrumKind
 
 __all__ = [
     "BUILT_IN_CAMERAS",
-    "Camera",
-    "builtin_camera",
+    "SensorModel",
+    "builtin_sensor",
     "energy_efficiency",
     "gain_factor",
     "qe_model",
@@ -36,7 +36,7 @@ __all__ = [
 
 
 @dataclass(frozen=True)
-class Camera:
+class SensorModel:
     """A monochrome camera.
 
     Attributes
@@ -165,7 +165,7 @@ BUILT_IN_CAMERAS: dict[str, tuple[dict[str, float], dict[str, Any]]] = {
 }
 
 
-def builtin_camera(name: str) -> Camera:
+def builtin_sensor(name: str) -> SensorModel:
     """One of :data:`BUILT_IN_CAMERAS`: typical sensors with modelled QE curves."""
     try:
         qe_args, emva = BUILT_IN_CAMERAS[name]
@@ -181,4 +181,4 @@ def builtin_camera(name: str) -> Camera:
         label,
         f"model: QE peak {qe_args['peak']} nm",
     )
-    return Camera(label, qe, **emva)
+    return SensorModel(label, qe, **emva)
