@@ -132,6 +132,11 @@ def test_saturation_limit_exits_1_and_still_writes(tmp_path, capsys):
             "classes:\n  A:\n    - rect: [0, 0, 1, 1]\n  B:\n    - rect: [5, 5, 3, 3]\n",
             "at least 2 pixels",
         ),
+        (
+            ["f.png"],
+            "frame: [10, 10]\nclasses:\n  A:\n    - rect: [0, 0, 5, 5]\n",
+            r"r.yaml: the regions were drawn on a 10×10 frame.*this frame is 20×20",
+        ),
     ],
 )
 def test_bad_input_exits_2_with_a_message(tmp_path, capsys, files, rois, message):

@@ -48,20 +48,29 @@ class ClassRoi:
 
 @dataclass(frozen=True)
 class RoiSet:
-    """Classes in file order, with the file they came from."""
+    """Classes in file order, with the file they came from and, where the file records
+    it, the size of the frame they were drawn on: ``(width, height)`` [px]."""
 
     classes: tuple[ClassRoi, ...]
     source: str
+    frame: tuple[int, int] | None = None
 
 
 class _ShapeModel(StrictModel):
     rect: tuple[int, int, Annotated[int, Field(gt=0)], Annotated[int, Field(gt=0)]] | None = None
+    """``[x, y, width, height]``: the width × height pixels from column x, row y."""
     polygon: list[tuple[float, float]] | None = None
+    """``[[x, y], ...]``, at least 3 vertices in pixel-corner coordinates."""
     ellipse: (
         tuple[float, float, Annotated[float, Field(gt=0)], Annotated[float, Field(gt=0)]] | None
     ) = None
+    """``[cx, cy, rx, ry]``: centre and semi-axes, px, axis-aligned."""
     mask: str | None = None
+    """An image file of the frame's size whose non-zero pixels are the region (relative
+    to the ROI file)."""
     imagej: str | None = None
+    """An ImageJ ``.roi`` or ``RoiSet.zip`` (relative to the ROI file): every ROI in it,
+    each named for this class (``A:1``) or not named for any."""
 
     @field_validator("polygon")
     @classmethod
@@ -73,16 +82,24 @@ class _ShapeModel(StrictModel):
 
 class _ClassModel(StrictModel):
     shapes: list[dict[str, Any]] = Field(min_length=1)
+    """The class's shapes; its region is their union."""
     erode: NonNegativeInt | None = None
+    """Pixels to erode this class by (default: the file's ``erode``)."""
 
 
 class _FileModel(StrictModel):
     version: int = 1
+    """The file format's version (1)."""
+    frame: tuple[Annotated[int, Field(gt=0)], Annotated[int, Field(gt=0)]] | None = None
+    """The size of the frame the regions were drawn on, ``[width, height]`` px: a frame of
+    another size is refused (a region drawn elsewhere would measure other objects)."""
     erode: NonNegativeInt = 0
+    """Pixels to erode every class by (keeps edge pixels, blurred by the lens, out)."""
     classes: dict[
         Annotated[str, Field(min_length=1, max_length=100, pattern=r"^[^,]+$")],
         _ClassModel | Annotated[list[dict[str, Any]], Field(min_length=1)],
     ] = Field(min_length=1)
+    """Class name → its shapes (a list), or ``{shapes: [...], erode: n}``."""
 
 
 _SHAPE_KEYS = ("rect", "polygon", "ellipse", "mask", "imagej")
@@ -106,18 +123,21 @@ def read_rois(path: str | Path) -> RoiSet:
             f"ROI file version {model.version} is not supported (1 is)", source=str(path)
         )
     classes = []
+    names = {str(n) for n in model.classes}
     for name, spec in model.classes.items():
         spec = spec if isinstance(spec, _ClassModel) else _ClassModel(shapes=spec)
         shapes = []
         for i, raw in enumerate(spec.shapes):
             where = f"{path}: classes.{name}[{i}]"
-            shapes.extend(_parse_shape(raw, path.parent, where))
+            shapes.extend(_parse_shape(raw, path.parent, where, str(name), names))
         erode = spec.erode if spec.erode is not None else model.erode
         classes.append(ClassRoi(str(name), tuple(shapes), erode))
-    return RoiSet(tuple(classes), str(path))
+    return RoiSet(tuple(classes), str(path), model.frame)
 
 
-def _parse_shape(raw, base: Path, where: str) -> list[tuple[Shape, str]]:
+def _parse_shape(
+    raw, base: Path, where: str, name: str, names: set[str]
+) -> list[tuple[Shape, str]]:
     if not isinstance(raw, dict) or len(raw) != 1 or next(iter(raw)) not in _SHAPE_KEYS:
         raise InputError(
             f"unknown shape {raw!r}: a shape is one of "
@@ -141,7 +161,21 @@ def _parse_shape(raw, base: Path, where: str) -> list[tuple[Shape, str]]:
     target = base / getattr(m, kind)
     if kind == "mask":
         return [(MaskImage(target), where)]
-    return [(shape, f"{where} {w}") for shape, _, w in _imagej_shapes(target)]
+    found = []
+    for shape, roi_name, w in _imagej_shapes(target):
+        # "B:1" names class B; a bare "B" does when the file has a class B (ImageJ's own
+        # names, "0123-0456", name none).
+        named = roi_name.split(":")[0].strip()
+        if named != name and (":" in roi_name or named in names):
+            other = f"class {named!r}" + ("" if named in names else " (not in this file)")
+            raise InputError(
+                f"ROI {roi_name!r} is named for {other} but listed under class {name!r}; "
+                f"give {target.name} itself as the ROI file (each ROI's name gives its "
+                "class), or rename the ROI",
+                source=f"{where} {w}",
+            )
+        found.append((shape, f"{where} {w}"))
+    return found
 
 
 def _imagej_shapes(path: Path):
@@ -184,9 +218,18 @@ def class_masks(rois: RoiSet, frame_shape: tuple[int, int]) -> dict[str, np.ndar
     Raises
     ------
     InputError
-        A shape outside the frame, a class empty after erosion, or two classes
-        sharing pixels (each message names the file, class and shape).
+        A frame of another size than the one the file records, a shape outside the
+        frame, a class empty after erosion, or two classes sharing pixels (each message
+        names the file, class and shape).
     """
+    if rois.frame is not None and rois.frame != (frame_shape[1], frame_shape[0]):
+        w, h = rois.frame
+        raise InputError(
+            f"the regions were drawn on a {w}×{h} frame (frame: [{w}, {h}]), this frame is "
+            f"{frame_shape[1]}×{frame_shape[0]}: they would measure other objects; capture at "
+            "the size they were drawn on (camera.region, binning) or draw them on this frame",
+            source=rois.source,
+        )
     masks: dict[str, np.ndarray] = {}
     boxes: dict[str, tuple[int, int, int, int]] = {}
     for cls in rois.classes:

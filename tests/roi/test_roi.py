@@ -69,9 +69,33 @@ def test_imagej_roiset(tmp_path):
     assert [c.name for c in rois.classes] == ["A", "B"]
     masks = class_masks(rois, (40, 40))
     assert masks["A"].any() and masks["B"].any()
-    # Referenced from YAML as well.
+    # Referenced from YAML, under a class its ROIs are not named for: refused, not merged.
     y = write(tmp_path, "classes:\n  X:\n    - imagej: RoiSet.zip\n")
-    assert class_masks(read_rois(y), (40, 40))["X"].sum() == masks["A"].sum() + masks["B"].sum()
+    with pytest.raises(InputError, match=r"ROI 'A:1' is named for class 'A' \(not in this file\)"):
+        read_rois(y)
+    y = write(
+        tmp_path, "classes:\n  A:\n    - imagej: RoiSet.zip\n  B:\n    - rect: [0, 30, 5, 5]\n"
+    )
+    with pytest.raises(
+        InputError, match=r"ROI 'B' is named for class 'B' but listed under class 'A'"
+    ):
+        read_rois(y)
+    # Named for the class it is listed under, or ImageJ's own names: taken.
+    poly.name = "0020-0025"
+    roifile.roiwrite(path, [rect, poly], mode="w")
+    y = write(tmp_path, "classes:\n  A:\n    - imagej: RoiSet.zip\n")
+    assert class_masks(read_rois(y), (40, 40))["A"].sum() == masks["A"].sum() + masks["B"].sum()
+
+
+def test_a_recorded_frame_size_refuses_another(tmp_path):
+    y = write(tmp_path, "frame: [320, 240]\nclasses:\n  A:\n    - rect: [10, 10, 20, 20]\n")
+    rois = read_rois(y)
+    assert rois.frame == (320, 240)
+    assert class_masks(rois, (240, 320))["A"].sum() == 400
+    with pytest.raises(InputError, match=r"drawn on a 320×240 frame.*this frame is 640×480"):
+        class_masks(rois, (480, 640))
+    with pytest.raises(InputError, match="frame"):
+        read_rois(write(tmp_path, "frame: [0, 240]\nclasses:\n  A:\n    - rect: [1, 1, 2, 2]\n"))
 
 
 @pytest.mark.parametrize(
