@@ -312,7 +312,7 @@ def capture_steps(
             raise
         store.finish(step)
 
-    def abort(step, exc):
+    def abort(step, exc) -> None:
         """Record why ``step`` failed once every frame grabbed before is written."""
         nonlocal pending
         unsaved = store.close()  # the frames grabbed before the failure are kept

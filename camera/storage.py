@@ -63,7 +63,9 @@ def read_manifest(path: Path) -> dict:
 class CaptureStore:
     """The output folder of one capture of one station file."""
 
-    def __init__(self, folder: Path, *, station_path: Path, station_sha256: str, resume: bool):
+    def __init__(
+        self, folder: Path, *, station_path: Path, station_sha256: str, resume: bool
+    ) -> None:
         self.folder = Path(folder)
         self._writer: ThreadPoolExecutor | None = None  # started with the first queued frame
         self._slots = threading.BoundedSemaphore(QUEUED_FRAMES)
@@ -185,7 +187,7 @@ class CaptureStore:
             self._writer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="frame-writer")
         self._slots.acquire()
 
-        def write():
+        def write() -> None:
             try:
                 self.save(step, index, frame, info)
             finally:

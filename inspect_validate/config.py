@@ -117,8 +117,8 @@ def _loader():
     # libyaml's parser where PyYAML was built with it (3x faster); the constructor and
     # resolvers below are Python either way.
     class StrictLoader(getattr(yaml, "CSafeLoader", yaml.SafeLoader)):
-        def construct_mapping(self, node, deep=False):
-            seen = {}
+        def construct_mapping(self, node, deep: bool = False):
+            seen: dict = {}
             for key_node, _ in node.value:
                 try:
                     key = self.construct_object(key_node, deep=True)

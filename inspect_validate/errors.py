@@ -39,7 +39,7 @@ class InputError(InspectValidateError, ValueError):
 
     exit_code = EXIT_INPUT
 
-    def __init__(self, message: str, *, source: str | None = None):
+    def __init__(self, message: str, *, source: str | None = None) -> None:
         self.source = source
         super().__init__(f"{source}: {message}" if source else message)
 

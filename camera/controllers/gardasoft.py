@@ -82,7 +82,7 @@ class SerialAscii:
         error: bytes = rb"Err\s*(\d+)",
         timeout: float = 1.0,
         error_codes: dict[int, str] | None = None,
-    ):
+    ) -> None:
         import serial
 
         self.port = port
@@ -191,7 +191,7 @@ class GardasoftController(LedController):
         channels: int = 4,
         timeout: float = 1.0,
         error_codes: dict[int, str] | None = None,
-    ):
+    ) -> None:
         self.name = f"Gardasoft RT on {port}"
         self.channels = channels
         self.link = SerialAscii(port, timeout=timeout, error_codes=error_codes)

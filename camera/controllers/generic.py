@@ -72,7 +72,7 @@ class GenericAsciiController(LedController):
         error: bytes = rb"(?i)err\w*\s*(\d+)",
         timeout: float = 1.0,
         error_codes: dict[int, str] | None = None,
-    ):
+    ) -> None:
         if "set" not in commands:
             raise DeviceError(f"controller on {port}: the protocol needs a 'set' command template")
         self.name = f"ASCII controller on {port}"

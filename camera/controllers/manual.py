@@ -18,7 +18,7 @@ __all__ = ["BACKEND", "ManualController", "ManualSettings"]
 class ManualController(LedController):
     """For stations without a controller: prompts on the terminal and waits for Enter."""
 
-    def __init__(self, *, channels: int = 4, prompt=None):
+    def __init__(self, *, channels: int = 4, prompt=None) -> None:
         self.name = "manual switching"
         self.channels = channels
         self._prompt = prompt or (lambda text: input(text))

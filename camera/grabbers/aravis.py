@@ -108,7 +108,7 @@ class AravisGrabber(NodeMapGrabber):
         index: int = 0,
         num_buffers: int = 8,
         gain_raw: int | None = None,
-    ):
+    ) -> None:
         self._aravis, self._glib = import_aravis()
         Aravis = self._aravis
         Aravis.update_device_list()
@@ -233,7 +233,7 @@ class AravisGrabber(NodeMapGrabber):
             ) from None
         self._stream = stream
 
-    def _stop(self):
+    def _stop(self) -> None:
         if self._stream is None:
             return
         try:

@@ -277,7 +277,7 @@ class Grabber(ABC):
     def __enter__(self):
         return self
 
-    def __exit__(self, *exc):
+    def __exit__(self, *exc) -> None:
         self.close()
 
 
@@ -507,8 +507,8 @@ class NodeMapGrabber(Grabber):
         *,
         trigger_line=None,
         strobe_line=None,
-        chunks=False,
-        trigger_delay_us=0.0,
+        chunks: bool = False,
+        trigger_delay_us: float = 0.0,
     ) -> None:
         self._stop()
         self._arm_nodes(

@@ -35,7 +35,7 @@ class EmulatorFeed(Grabber):
         through them, so a step should keep fewer frames than this.
     """
 
-    def __init__(self, camera, renderer, *, frames_per_light: int = 16):
+    def __init__(self, camera, renderer, *, frames_per_light: int = 16) -> None:
         self.grabber, self.renderer = camera, renderer
         self.frames_per_light = frames_per_light
         self.name = f"{camera.name} fed by the {renderer.name}"

@@ -142,7 +142,7 @@ class GenICamGrabber(NodeMapGrabber):
         serial: str | None = None,
         index: int = 0,
         num_buffers: int | None = None,
-    ):
+    ) -> None:
         from harvesters.core import Harvester
 
         self._harvester = Harvester()
@@ -217,7 +217,7 @@ class GenICamGrabber(NodeMapGrabber):
 
     # -- stream --------------------------------------------------------------------------
 
-    def _stop(self):
+    def _stop(self) -> None:
         if self._acquiring:
             self._ia.stop()
             self._acquiring = False

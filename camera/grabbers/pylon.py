@@ -66,7 +66,7 @@ def discover_pylon(search: Search) -> list[DeviceInfo]:
 class PylonGrabber(NodeMapGrabber):
     """A pylon camera chosen by serial number or index."""
 
-    def __init__(self, *, serial: str | None = None, index: int = 0):
+    def __init__(self, *, serial: str | None = None, index: int = 0) -> None:
         pylon, genicam = _import_pylon()
         self._pylon, self._genicam = pylon, genicam
         factory = pylon.TlFactory.GetInstance()
@@ -152,11 +152,11 @@ class PylonGrabber(NodeMapGrabber):
 
     # -- stream --------------------------------------------------------------------------
 
-    def _stop(self):
+    def _stop(self) -> None:
         if self._cam.IsGrabbing():
             self._cam.StopGrabbing()
 
-    def _start(self):
+    def _start(self) -> None:
         if not self._cam.IsGrabbing():
             self._cam.StartGrabbing(self._pylon.GrabStrategy_OneByOne)
 

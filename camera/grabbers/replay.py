@@ -52,7 +52,9 @@ class ReplayGrabber(Grabber):
         replay a capture, where it selects the recorded frames to serve.
     """
 
-    def __init__(self, folder, *, lights: Callable[[], dict[int, float] | None] | None = None):
+    def __init__(
+        self, folder, *, lights: Callable[[], dict[int, float] | None] | None = None
+    ) -> None:
         from inspect_validate.images import expand_paths
 
         self.folder = Path(folder)

@@ -109,7 +109,7 @@ class V4l2Grabber(Grabber):
         ``opener(path, api) -> VideoCapture``; ``cv2.VideoCapture`` by default.
     """
 
-    def __init__(self, device: str | int = 0, *, buffers: int = 1, opener=None):
+    def __init__(self, device: str | int = 0, *, buffers: int = 1, opener=None) -> None:
         import cv2
 
         self._cv2 = cv2

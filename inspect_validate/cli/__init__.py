@@ -36,7 +36,7 @@ from inspect_validate.errors import (
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="inspect-validate")
-def cli():
+def cli() -> None:
     """Design and verify machine-vision inspection stations from spectra and images."""
 
 
@@ -62,7 +62,7 @@ def _terminated(signum, frame):
     raise KeyboardInterrupt
 
 
-def main(argv=None):
+def main(argv=None) -> None:
     """Console entry point: run the CLI and map errors to documented exit codes."""
     import signal
 

@@ -30,7 +30,7 @@ from inspect_validate.text import labelled
     help="Bands to list per comparison.",
 )
 @click.option("--no-kde", is_flag=True, help="Parametric error only.")
-def analyze_spectra(scene, json_path, plot_path, best, no_kde):
+def analyze_spectra(scene, json_path, plot_path, best, no_kde) -> None:
     """Classification error per wavelength between the classes of SCENE, from reflectances alone.
 
     Shows which bands separate the classes before any hardware is chosen

@@ -25,7 +25,7 @@ from inspect_validate.text import labelled
     is_flag=True,
     help="Continue an interrupted capture in --out, skipping finished steps.",
 )
-def capture(station, out, resume):
+def capture(station, out, resume) -> None:
     """Capture every illumination of STATION (and dark frames), verified and saved as they come.
 
     Switches each illumination, waits for the controller, discards frames

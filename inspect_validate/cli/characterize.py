@@ -64,7 +64,7 @@ def characterize(station, out, report_dir, resume):
     total = 2 * 2 * (series.points + 10) + 2 * series.frames_spatial  # 10 near saturation
     with click.progressbar(length=total, label="characterizing", file=sys.stderr) as bar:
 
-        def progress(step, _done, _total):
+        def progress(step, _done, _total) -> None:
             bar.label = f"characterizing {step}"
             bar.update(1)
 

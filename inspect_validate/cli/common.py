@@ -11,7 +11,9 @@ import click
 PATH = click.Path(path_type=Path)
 
 
-def verify_and_report(st, *, frames_dir, out, report_dir, history=None, skip_dominated=True):
+def verify_and_report(
+    st, *, frames_dir, out, report_dir, history=None, skip_dominated: bool = True
+):
     """:func:`~inspect_validate.verification.verify.verify_station` with a progress bar,
     the verdict printed and the reports written into ``report_dir`` (with ``history``'s
     trends); the :class:`Verification`."""
@@ -24,7 +26,7 @@ def verify_and_report(st, *, frames_dir, out, report_dir, history=None, skip_dom
     )
     from inspect_validate.verification.verify import verify_station
 
-    def capture(station, folder, *, resume=False):
+    def capture(station, folder, *, resume: bool = False) -> None:
         capture_with_progress(station, folder, resume=resume)
         if not resume:
             click.echo(f"frames: {folder}")
@@ -50,7 +52,7 @@ def verify_and_report(st, *, frames_dir, out, report_dir, history=None, skip_dom
     return result
 
 
-def capture_with_progress(station, out, *, resume=False):
+def capture_with_progress(station, out, *, resume: bool = False):
     """Capture ``station`` into ``out`` with a progress bar on stderr."""
     from inspect_validate.station.capture import capture
 
@@ -58,7 +60,7 @@ def capture_with_progress(station, out, *, resume=False):
     with click.progressbar(length=total, label="capturing", file=sys.stderr) as bar:
         last = [0]
 
-        def progress(step, done, _total):
+        def progress(step, done, _total) -> None:
             bar.label = f"capturing {step}"
             bar.update(done - last[0])
             last[0] = done
@@ -73,7 +75,7 @@ def new_folder(command: str, source) -> Path:
     return Path(f"{command}-{Path(source).stem}-{time.strftime('%Y%m%dT%H%M%S')}")
 
 
-def check_outputs(*, files=(), folders=()):
+def check_outputs(*, files=(), folders=()) -> None:
     """Check output paths before the work starts, so a typo does not cost a sweep or a capture."""
     from inspect_validate.files import output_file, output_folder
 

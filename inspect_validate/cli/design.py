@@ -87,7 +87,7 @@ def design(source, json_path, check, out_dir, choose, objective, auto_exposure):
         )
     if choose is None:
 
-        def note(message):
+        def note(message) -> None:
             click.echo(f"design: {message}", err=True)
 
         result = solve(problem, objective=objective, note=note)
@@ -96,7 +96,7 @@ def design(source, json_path, check, out_dir, choose, objective, auto_exposure):
             length=1, label=f"choosing {choose} of {len(problem.channels)}", file=sys.stderr
         ) as bar:
 
-            def progress(done, total):
+            def progress(done, total) -> None:
                 bar.length = total
                 bar.update(done - bar.pos)
 
@@ -119,7 +119,7 @@ def design(source, json_path, check, out_dir, choose, objective, auto_exposure):
         verify_design(problem, result, out_dir)
 
 
-def verify_design(problem, result, out_dir):
+def verify_design(problem, result, out_dir) -> None:
     """Capture ``result``'s mix and best single channel on ``problem``'s station, verify them
     and print measured against predicted ε; exit 1 when the design does not hold."""
     from inspect_validate.mix_design.station import design_station

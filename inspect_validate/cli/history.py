@@ -29,7 +29,7 @@ from inspect_validate.cli.common import (
 @click.option(
     "--csv", "csv_path", type=PATH, help="Export one row per cycle and chart (UTF-8 CSV)."
 )
-def history(db, last, recent, plot_dir, csv_path):
+def history(db, last, recent, plot_dir, csv_path) -> None:
     """Print, plot and export the history DB that 'watch' keeps.
 
     Prints the cycles' statuses, the last cycles, and per drift chart its golden

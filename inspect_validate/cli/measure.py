@@ -88,7 +88,7 @@ def measure(
     no_kde,
     comparison_texts,
     weights,
-):
+) -> None:
     """Measure object classes in FRAMES (one setting; several files, a folder or a quoted glob make a stack).
 
     Prints per-class μ and σ² (chapter Table 4) and, for every pair of classes

@@ -39,7 +39,7 @@ from inspect_validate.cli.common import (
     type=PATH,
     help="Where to keep the captures (default: <golden file's stem>-frames next to it).",
 )
-def train(station, golden_path, repeats, frames_dirs, frames_out):
+def train(station, golden_path, repeats, frames_dirs, frames_out) -> None:
     """Store the golden statistics of STATION in a known-good state.
 
     Captures the station --repeats times (or reads --frames folders), measures

@@ -85,7 +85,7 @@ def watch(
     keep_every,
     status_path,
     http_port,
-):
+) -> None:
     """Verify a running station cycle after cycle and chart its drift.
 
     Each cycle captures STATION's illuminations, verifies them (the acceptance
@@ -128,7 +128,7 @@ def watch(
             f"limit {s.monitor.limit:.2f} σ"
         )
 
-        def on_cycle(outcome):
+        def on_cycle(outcome) -> None:
             doc = status_document(outcome, s.station, interval=interval)
             write_json(doc, s.status_path)
             if s.server is not None:

@@ -139,7 +139,7 @@ def material_transmission(material: str, *, thickness_mm: float = 10.0, grid=Non
     )
 
 
-def _coating(grid, centre, half_width, surfaces, r_in=0.005, r_out=0.04):
+def _coating(grid, centre, half_width, surfaces, r_in: float = 0.005, r_out: float = 0.04):
     """t_coat of ``surfaces`` AR-coated surfaces: residual reflection r_in inside the band."""
     band = np.exp(-(np.abs((grid - centre) / half_width) ** 8))
     return (1.0 - (r_in + (r_out - r_in) * (1.0 - band))) ** surfaces

@@ -266,7 +266,9 @@ def comparison_cnr(response, levels, comparisons, *, gradient: bool = False):
     return cnr, grad
 
 
-def comparison_losses(response, levels, comparisons, *, objective: str = "error", gradient=False):
+def comparison_losses(
+    response, levels, comparisons, *, objective: str = "error", gradient: bool = False
+):
     """What :func:`optimise_mix` minimises per comparison, (P,): log ε_tot, or −log CNR;
     with ``gradient`` also its ∂/∂w, (P, N)."""
     if objective not in OBJECTIVES:
@@ -447,7 +449,7 @@ def optimise_mix(
     ]
     bounds = [(0.0, max_level / u) for u in unit] + [(None, None)]
 
-    def run(w0, maxiter, ftol=1e-12):
+    def run(w0, maxiter, ftol: float = 1e-12):
         x0 = np.r_[w0 / unit, losses(w0 / unit)[0].max()]
         res = optimize.minimize(
             epigraph,

@@ -21,7 +21,7 @@ def format_characterization(result, plan) -> str:
     """The datasheet as terminal lines: value ± standard error, unit."""
     r = result
 
-    def pm(value, se, unit, fmt=".4g"):
+    def pm(value, se, unit, fmt: str = ".4g"):
         if not np.isfinite(value):
             return "not measured"
         return f"{value:{fmt}} ± {se:.2g} {unit}" if np.isfinite(se) else f"{value:{fmt}} {unit}"

@@ -136,7 +136,7 @@ def _numeric(text: str) -> bool:
     return True
 
 
-def _g(x, digits=4) -> str:
+def _g(x, digits: int = 4) -> str:
     return "—" if x is None or not np.isfinite(x) else f"{x:.{digits}g}"
 
 

@@ -49,7 +49,7 @@ def _save(fig, target, *, rect=None):
     return target
 
 
-def _colour(k: int):
+def _colour(k: int) -> str:
     return f"C{k % 10}"
 
 
@@ -297,7 +297,7 @@ def plot_agreement(
     markers = "osD^v<>ph*"
     floor = getattr(agreement, "snr_floor_db", None)
 
-    def panel(ax, rows, get, tolerance, title, x_unit, y_unit, checked=lambda r: True):
+    def panel(ax, rows, get, tolerance, title, x_unit, y_unit, checked=lambda r: True) -> None:
         values = np.array([get(r) for r in rows], dtype=float).reshape(-1, 2)
         for i, ill in enumerate(illuminations):
             for on in (True, False):

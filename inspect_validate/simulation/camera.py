@@ -164,7 +164,7 @@ class SimulatedGrabber(Grabber):
         sensor_seed: int | None = None,
         noise_seed: int | None = None,
         target: str = "scene",
-    ):
+    ) -> None:
         from inspect_validate.model import Exposure, ObjectClass, predict
         from inspect_validate.spectra import Spectrum, SpectrumKind
         from inspect_validate.station.world import World
@@ -255,8 +255,8 @@ class SimulatedGrabber(Grabber):
         *,
         trigger_line=None,
         strobe_line=None,
-        chunks=False,
-        trigger_delay_us=0.0,
+        chunks: bool = False,
+        trigger_delay_us: float = 0.0,
     ) -> None:
         self.acquisition, self.strobe_line, self.chunks = acquisition, strobe_line, chunks
         self.trigger_delay_us = float(trigger_delay_us)

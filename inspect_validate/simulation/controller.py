@@ -54,7 +54,7 @@ def _time_us(arg: str) -> float:
 
 
 class Controller:
-    def __init__(self, channels: int, state_path: Path, errors: dict[str, int]):
+    def __init__(self, channels: int, state_path: Path, errors: dict[str, int]) -> None:
         self.channels = channels
         self.state_path = state_path
         self.errors = errors
@@ -203,7 +203,7 @@ def end_with_parent(state_folder: Path | None = None) -> None:
     which it can no longer remove — so no orphan or litter outlives it."""
     import signal
 
-    def leave(*_):
+    def leave(*_) -> None:
         if state_folder is not None and state_folder.name.startswith("iv-sim-"):
             import shutil
 

@@ -71,7 +71,7 @@ def scene_fill(lib, renderer):
     controller's current lights into each buffer (Mono8: clipped to 255; Mono16: the
     DN as rendered), cropped or zero-padded to the buffer's width and height."""
 
-    def fill(buffer, _data, exposure_us, _gain_raw, pixel_format):
+    def fill(buffer, _data, exposure_us, _gain_raw, pixel_format) -> None:
         try:
             w = lib.arv_buffer_get_image_width(buffer)
             h = lib.arv_buffer_get_image_height(buffer)

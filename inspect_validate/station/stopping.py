@@ -56,7 +56,7 @@ class SequentialStop:
         Frames before the first check.
     """
 
-    def __init__(self, rois, *, mean: float, variance: float, min_frames: int):
+    def __init__(self, rois, *, mean: float, variance: float, min_frames: int) -> None:
         self._rois = rois
         self._masks: dict[str, np.ndarray] | None = None
         self._target = (mean, variance)

@@ -30,7 +30,7 @@ _GL_NODES, _GL_WEIGHTS = _scalar._GL_NODES, _scalar._GL_WEIGHTS
 
 
 @nb.njit(cache=True, error_model="numpy", parallel=True)
-def error_and_log(m1, v1, m2, v2, eps, log_eps):
+def error_and_log(m1, v1, m2, v2, eps, log_eps) -> None:
     """ε_tot and log ε_tot of every pair (1-d float64 arrays, finite, variances ≥ 0)."""
     for i in nb.prange(m1.size):
         eps[i], log_eps[i] = _one(m1[i], v1[i], m2[i], v2[i], _GL_NODES, _GL_WEIGHTS)

@@ -39,7 +39,7 @@ def masked_code_range(frames, mask, dark_sum, scale) -> tuple[int, int]:
     return lo, hi
 
 
-def _count(hist, codes, lo):
+def _count(hist, codes, lo) -> None:
     """Add the codes' counts to ``hist`` (bin 0 is code ``lo``)."""
     if hist.size <= 4 * codes.size:
         hist += np.bincount((codes - lo).ravel(), minlength=hist.size)

@@ -67,7 +67,7 @@ class Mixture:
     weights: np.ndarray
     sigmas: np.ndarray
 
-    def __init__(self, centres, weights, sigmas):
+    def __init__(self, centres, weights, sigmas) -> None:
         c = np.asarray(centres, float)
         object.__setattr__(self, "centres", c)
         object.__setattr__(self, "weights", np.asarray(weights, float))
@@ -154,7 +154,7 @@ def _log_density(x, parts):
     return total.reshape(np.shape(x)) - _LOG_SQRT_2PI
 
 
-def _log_density_windowed(flat, out, centres, log_w, h):
+def _log_density_windowed(flat, out, centres, log_w, h) -> None:
     """:func:`_log_density_all` over the components near each chunk of x (sorted centres)."""
     order = np.argsort(flat, kind="stable")
     xs = flat[order]
@@ -170,7 +170,7 @@ def _log_density_windowed(flat, out, centres, log_w, h):
     out[order] = values
 
 
-def _log_density_all(flat, out, centres, log_w, sigma):
+def _log_density_all(flat, out, centres, log_w, sigma) -> None:
     """Unnormalised log-density of every component at every point, in memory-bounded chunks."""
     chunk = max(1, 2**22 // max(1, centres.size))
     for i in range(0, flat.size, chunk):
@@ -441,7 +441,7 @@ def _region_masses(regions, centres, sigmas):
     return value.reshape(za.shape), za, zb
 
 
-def _densities_error(first: Mixture, second: Mixture, *, gradient=False):
+def _densities_error(first: Mixture, second: Mixture, *, gradient: bool = False):
     """ε of two mixtures of components with σ > 0 (:func:`mixture_error_gradient`'s value,
     and with ``gradient`` its gradient)."""
     order, cs, ws, ss = _sorted_components(first, second)

@@ -98,7 +98,7 @@ def photon_transfer(
     dark_by = {c.name: c for c in dark.classes}
     left_out: dict[str, int] = {}
 
-    def leave(reason):
+    def leave(reason) -> None:
         left_out[reason] = left_out.get(reason, 0) + 1
 
     candidates = []

@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 from functools import lru_cache
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 __all__ = [
     "FAMILY_ARL",
@@ -57,31 +58,33 @@ _DESIGN_NODES = 12  # quadrature nodes per tail and dimension (target error, spr
 SeriesKey = tuple  # (illumination, "class" | "comparison", name, quantity)
 
 
-def ewma_arl(limit, *, lam: float = LAMBDA, shift=0.0, states: int = 201):
+def ewma_arl(
+    limit: ArrayLike, *, lam: float = LAMBDA, shift: ArrayLike = 0.0, states: int = 201
+) -> float | np.ndarray:
     """Average run length of an asymptotic-limit EWMA chart of unit-variance normal data
     whose mean is ``shift`` σ off target (Brook & Evans' Markov chain, ``states`` states
     across the in-control band ± ``limit`` σ_z), from the target. ``limit`` and ``shift``
     may be arrays (broadcast together): one ARL each."""
     from scipy.special import ndtr  # the normal CDF; scipy.stats would add 0.4 s of import
 
-    limit, shift = np.broadcast_arrays(np.asarray(limit, float), np.asarray(shift, float))
+    band, mean = np.broadcast_arrays(np.asarray(limit, float), np.asarray(shift, float))
     scale = math.sqrt(lam / (2.0 - lam))  # σ_z of unit data
     # A band of no width alarms at once, and one whose edge lies more than 9 σ_z beyond
     # the chart's mean never does (an ARL past 1e17): either would make the chain's
     # matrix singular in floating point.
-    never = limit - np.abs(shift) / scale > 9.0
-    limit = np.clip(limit, 1e-3, np.abs(shift) / scale + 9.0)
-    h = limit[..., None, None] * scale
+    never = band - np.abs(mean) / scale > 9.0
+    band = np.clip(band, 1e-3, np.abs(mean) / scale + 9.0)
+    h = band[..., None, None] * scale
     width = 2.0 * h / states
     k = np.arange(states) + 0.5
     centres = -h + width * k[None, :]  # (..., 1, S)
     # From state i, z' = (1 − λ) c_i + λ x falls in state j with x ~ N(shift, 1).
     lo = (centres - width / 2) - (1 - lam) * np.swapaxes(centres, -1, -2)
     hi = lo + width
-    s = shift[..., None, None]
+    s = mean[..., None, None]
     q = ndtr(hi / lam - s) - ndtr(lo / lam - s)
     with np.errstate(all="ignore"):
-        arl = np.linalg.solve(np.eye(states) - q, np.ones((*limit.shape, states, 1)))
+        arl = np.linalg.solve(np.eye(states) - q, np.ones((*band.shape, states, 1)))
     out = np.where(never, np.inf, arl[..., states // 2, 0])
     return float(out) if out.ndim == 0 else out
 
@@ -213,7 +216,7 @@ def golden_targets(golden, *, snr_floor_db: float = -20.0) -> dict[SeriesKey, tu
     description)."""
     targets = {}
 
-    def put(key, spread, quantity):
+    def put(key, spread, quantity) -> None:
         v = np.array([np.nan if x is None else x for x in spread.values], float)
         se = spread.standard_error
         if quantity == "log_error":
@@ -277,7 +280,7 @@ class DriftMonitor:
         dark_offset: float,
         snr_floor_db: float = -20.0,
         family_arl: float = FAMILY_ARL,
-    ):
+    ) -> None:
         from inspect_validate.errors import InputError
         from inspect_validate.verification.golden import GOOD_WIDENING, MAX_WIDENING
 

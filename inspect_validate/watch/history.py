@@ -99,7 +99,7 @@ class History:
         charted against another golden file (its charts would continue on other targets).
     """
 
-    def __init__(self, path: str | Path, *, station: str, golden: str | None):
+    def __init__(self, path: str | Path, *, station: str, golden: str | None) -> None:
         self.path = Path(path)
         self._lock = _exclusive(self.path)
         try:

@@ -97,7 +97,7 @@ class _Budget:
     used its bytes or its time: the standard library alone allows 100 header lines of
     64 KB, sent as slowly as the client likes."""
 
-    def __init__(self, raw):
+    def __init__(self, raw) -> None:
         self.raw, self.left = raw, MAX_REQUEST_BYTES
         self.deadline = time.monotonic() + TIMEOUT_S
         self.cut: int | None = None  # the HTTP status for a request cut short
@@ -118,23 +118,23 @@ class _Budget:
 class _Server(ThreadingHTTPServer):
     daemon_threads = True
 
-    def __init__(self, address, handler):
+    def __init__(self, address, handler) -> None:
         self.slots = threading.BoundedSemaphore(MAX_CONNECTIONS)
         super().__init__(address, handler)
 
-    def process_request(self, request, client_address):
+    def process_request(self, request, client_address) -> None:
         if not self.slots.acquire(blocking=False):
             self.shutdown_request(request)  # full: closed at once, no thread
             return
         super().process_request(request, client_address)
 
-    def process_request_thread(self, request, client_address):
+    def process_request_thread(self, request, client_address) -> None:
         try:
             super().process_request_thread(request, client_address)
         finally:
             self.slots.release()
 
-    def handle_error(self, request, client_address):
+    def handle_error(self, request, client_address) -> None:
         pass  # a client that left early or timed out; the scraper retries
 
 
@@ -148,40 +148,43 @@ class StatusServer:
         The port cannot be bound (in use, or privileged).
     """
 
-    def __init__(self, port: int):
+    def __init__(self, port: int) -> None:
         self.doc: dict | None = None
         server = self
 
         class Handler(BaseHTTPRequestHandler):
             timeout = TIMEOUT_S  # an idle connection is closed after this
 
-            def setup(self):
+            def setup(self) -> None:
                 super().setup()
-                self.rfile = _Budget(self.rfile)
+                self.budget = _Budget(self.rfile)
+                self.rfile = self.budget  # type: ignore[assignment]  # reads as the stream does
                 # The socket's timeout is per read: a request trickled a byte at a time
                 # would outlast it. Past its time the connection is shut, mid-read too.
                 self.watchdog = threading.Timer(TIMEOUT_S, self._shut)
                 self.watchdog.daemon = True
                 self.watchdog.start()
 
-            def _shut(self):
+            def _shut(self) -> None:
                 with contextlib.suppress(OSError):
                     self.connection.shutdown(socket.SHUT_RDWR)
 
-            def finish(self):
+            def finish(self) -> None:
                 self.watchdog.cancel()
                 with contextlib.suppress(OSError):
                     super().finish()
 
-            def version_string(self):
+            def version_string(self) -> str:
                 return "inspect-validate"  # not the Python version
 
-            def do_GET(self):
+            def do_GET(self) -> None:
                 doc = server.doc
                 path = urlsplit(self.path).path.rstrip("/")
                 host = self.headers.get("Host")
-                if self.rfile.cut:
-                    self._send(self.rfile.cut, "text/plain", "refused: request too large or slow\n")
+                if self.budget.cut:
+                    self._send(
+                        self.budget.cut, "text/plain", "refused: request too large or slow\n"
+                    )
                 elif host is not None and host.lower() not in server.hosts:
                     self._send(403, "text/plain", "refused: Host must be this machine's loopback\n")
                 elif path not in ("/status", "/metrics"):
@@ -195,7 +198,7 @@ class StatusServer:
                 else:
                     self._send(200, "text/plain; version=0.0.4", prometheus_text(doc))
 
-            def _send(self, code, kind, text):
+            def _send(self, code, kind, text) -> None:
                 body = text.encode()
                 self.send_response(code)
                 self.send_header("Content-Type", kind)
@@ -203,7 +206,7 @@ class StatusServer:
                 self.end_headers()
                 self.wfile.write(body)
 
-            def log_message(self, *args):  # the watch's own output is the log
+            def log_message(self, *args) -> None:  # the watch's own output is the log
                 pass
 
         self.httpd = _Server(("127.0.0.1", port), Handler)
