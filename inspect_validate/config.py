@@ -23,7 +23,7 @@ from pydantic import BaseModel, ConfigDict, ValidationError
 
 from inspect_validate.errors import InputError
 
-__all__ = ["StrictModel", "explain", "load_yaml", "one_of", "parse_yaml"]
+__all__ = ["StrictModel", "explain", "field_docs", "load_yaml", "one_of", "parse_yaml"]
 
 M = TypeVar("M", bound=BaseModel)
 
@@ -79,6 +79,36 @@ def one_of(models: dict, *, what: str, field: str | None = None, shorthand=None)
         Discriminator(tag, custom_error_type="kind", custom_error_message=message),
     ]
     return Annotated[union, BeforeValidator(shorthand)] if shorthand else union
+
+
+def field_docs(model: type[BaseModel]) -> dict[str, str]:
+    """The docstring under each field of ``model`` and its bases (a string literal right
+    after the field's annotated assignment), read from the source: what each key of a
+    file means, for the manual's format pages and the comments ``init`` writes."""
+    import ast
+    import inspect
+    import itertools
+    import textwrap
+
+    docs: dict[str, str] = {}
+    for cls in reversed(model.__mro__):
+        if not (isinstance(cls, type) and issubclass(cls, BaseModel)) or cls is BaseModel:
+            continue
+        try:
+            source = ast.parse(textwrap.dedent(inspect.getsource(cls))).body[0]
+        except (OSError, TypeError, IndexError):  # made at run time: no source
+            continue
+        body = source.body if isinstance(source, ast.ClassDef) else []
+        for node, after in itertools.pairwise(body):
+            if (
+                isinstance(node, ast.AnnAssign)
+                and isinstance(node.target, ast.Name)
+                and isinstance(after, ast.Expr)
+                and isinstance(after.value, ast.Constant)
+                and isinstance(after.value.value, str)
+            ):
+                docs[node.target.id] = inspect.cleandoc(after.value.value)
+    return docs
 
 
 def explain(exc: ValidationError) -> str:

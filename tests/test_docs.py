@@ -84,13 +84,14 @@ def test_format_pages_read_each_fields_docstring_and_constraints(monkeypatch):
     # The format pages come from the models; a field's docstring is its meaning (read by
     # the docs build, not by pydantic at import: that cost the command line 50 ms).
     monkeypatch.syspath_prepend(str(DOCS / "_ext"))
-    from file_models import _field_docs, model_rst
+    from file_models import model_rst
 
     from inspect_validate.camera.controllers.gardasoft import GardasoftSettings
+    from inspect_validate.config import field_docs
     from inspect_validate.station.file import Station
 
-    assert _field_docs(Station)["frames"].startswith("Frames per illumination")
-    controller = _field_docs(GardasoftSettings)  # a field of its base too
+    assert field_docs(Station)["frames"].startswith("Frames per illumination")
+    controller = field_docs(GardasoftSettings)  # a field of its base too
     assert controller["timeout_s"].startswith("How long to wait for a reply")
     assert controller["port"].startswith("Serial port")
     text = "\n".join(model_rst(Station, "station file"))

@@ -10,11 +10,7 @@ manual's format pages are the models the tool validates files with.
 
 from __future__ import annotations
 
-import ast
 import importlib
-import inspect
-import itertools
-import textwrap
 import types
 import typing
 from pathlib import Path
@@ -25,6 +21,8 @@ from docutils.parsers.rst import Directive
 from docutils.statemachine import StringList
 from pydantic import BaseModel, Discriminator, Tag
 from pydantic.fields import FieldInfo
+
+from inspect_validate.config import field_docs
 
 _NAMES = {str: "text", int: "integer", float: "number", bool: "true/false", Path: "path"}
 _BOUNDS = ((at.Gt, "gt", ">"), (at.Ge, "ge", "≥"), (at.Lt, "lt", "<"), (at.Le, "le", "≤"))
@@ -96,29 +94,6 @@ class _Formatter:
         return _NAMES.get(tp, getattr(tp, "__name__", str(tp)))
 
 
-def _field_docs(model: type[BaseModel]) -> dict[str, str]:
-    """The docstring under each field of ``model`` and its bases (a string literal right
-    after the field's annotated assignment), read from the source."""
-    docs: dict[str, str] = {}
-    for cls in reversed(model.__mro__):
-        if not (isinstance(cls, type) and issubclass(cls, BaseModel)) or cls is BaseModel:
-            continue
-        try:
-            body = ast.parse(textwrap.dedent(inspect.getsource(cls))).body[0].body
-        except (OSError, TypeError, IndexError):  # defined inside a function: no source
-            continue
-        for node, after in itertools.pairwise(body):
-            if (
-                isinstance(node, ast.AnnAssign)
-                and isinstance(node.target, ast.Name)
-                and isinstance(after, ast.Expr)
-                and isinstance(after.value, ast.Constant)
-                and isinstance(after.value.value, str)
-            ):
-                docs[node.target.id] = inspect.cleandoc(after.value.value)
-    return docs
-
-
 def _default(field: FieldInfo) -> str:
     if field.is_required():
         return "**required**"
@@ -163,7 +138,7 @@ def model_rst(model: type[BaseModel], title: str) -> list[str]:
             "  - default",
             "  - meaning",
         ]
-        docs = _field_docs(current)
+        docs = field_docs(current)
         for name, field in current.model_fields.items():
             if name == "path" and field.exclude:
                 continue

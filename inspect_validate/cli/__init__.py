@@ -21,6 +21,7 @@ from inspect_validate.cli import (
     design,
     devices,
     history,
+    init,
     measure,
     predict,
     train,
@@ -52,6 +53,7 @@ for _command in (
     design.design,
     characterize.characterize,
     devices.devices,
+    init.init,
 ):
     cli.add_command(_command)
 

@@ -33,6 +33,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, Literal, overload
 
 from pydantic import (
+    BaseModel,
     BeforeValidator,
     Field,
     model_validator,
@@ -369,12 +370,15 @@ def station_hash(path: str | Path) -> str:
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
-def write_station(station: Station, path: str | Path, *, comment: str = "") -> Station:
+def write_station(
+    station: Station, path: str | Path, *, comment: str = "", explained: bool = False
+) -> Station:
     """Write ``station`` as a station file at ``path`` and read it back from there.
 
     The paths it names (scene, ROIs, GenTL producer, replay folder, golden
     file) are written absolute, so the file means the same wherever it lies;
-    ``comment`` heads the file (one ``#`` line per line).
+    ``comment`` heads the file (one ``#`` line per line). ``explained``: every key
+    comes with a comment saying what it means (its model's field docstring).
     """
     import yaml
 
@@ -389,8 +393,57 @@ def write_station(station: Station, path: str | Path, *, comment: str = "") -> S
     if drift:
         drift["golden"] = str(station.resolve(drift["golden"]).resolve())
     head = "".join(f"# {line}\n" for line in comment.splitlines())
-    Path(path).write_text(head + yaml.safe_dump(doc, sort_keys=False, allow_unicode=True))
+    if explained:
+        body = "\n".join(_explained(station, doc)) + "\n"
+    else:
+        body = yaml.safe_dump(doc, sort_keys=False, allow_unicode=True)
+    Path(path).write_text(head + body)
     return read_station(path)
+
+
+def _explained(model: BaseModel, doc: dict, indent: str = "") -> list[str]:
+    """``doc`` (``model`` dumped) as block YAML, each key under a comment of what it
+    means: the first sentence of its field's docstring. A nested model is a block of
+    its own; lists and mappings of models are written one flow-style line per entry."""
+    import yaml
+
+    from inspect_validate.config import field_docs
+
+    def flow(value) -> str:
+        text = yaml.safe_dump(
+            value, default_flow_style=True, allow_unicode=True, width=10**6, sort_keys=False
+        )
+        return text.strip().removesuffix("...").strip()
+
+    def keys(value):  # channel numbers as numbers (JSON made them text)
+        if isinstance(value, dict):
+            return {int(k) if str(k).isdigit() else k: keys(v) for k, v in value.items()}
+        return [keys(v) for v in value] if isinstance(value, list) else value
+
+    meanings = {
+        "backend": "Which backend drives it (`inspect-validate devices` lists what it finds)",
+        **field_docs(type(model)),
+    }
+    lines = []
+    # The backend first: it says which keys may follow.
+    for key, value in sorted(keys(doc).items(), key=lambda kv: kv[0] != "backend"):
+        meaning = " ".join(meanings.get(key, "").split())
+        if meaning:
+            first = meaning.split(". ")[0].rstrip(". ").replace("``", "`")
+            lines.append(f"{indent}# {first}")
+        inner = getattr(model, key, None)
+        if isinstance(value, dict) and value and isinstance(inner, BaseModel):
+            lines.append(f"{indent}{key}:")
+            lines += _explained(inner, value, indent + "  ")
+        elif isinstance(value, dict) and value:
+            lines.append(f"{indent}{key}:")
+            lines += [f"{indent}  {flow(k)}: {flow(v)}" for k, v in value.items()]
+        elif isinstance(value, list) and value:
+            lines.append(f"{indent}{key}:")
+            lines += [f"{indent}  - {flow(v)}" for v in value]
+        else:
+            lines.append(f"{indent}{key}: {flow(value)}")
+    return lines
 
 
 def simulated_at(station: Station, cycle: int, *, hours: float = 0.0) -> Station:

@@ -1,0 +1,222 @@
+"""`init`: a station file from a camera, a controller and a scene, commented, checked
+against the camera's ranges, on which `capture` and `verify` run at once."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+import yaml
+from click.testing import CliRunner
+from conftest import ROOT
+
+from inspect_validate.camera.grabbers.base import Features
+from inspect_validate.cli import cli as click_group
+from inspect_validate.config import field_docs
+from inspect_validate.station.draft import pixel_format_for
+from inspect_validate.station.file import Station, read_station
+
+SCENE = ROOT / "sample_images" / "scenes" / "paperboard" / "scene.yaml"
+ROIS = ROOT / "sample_images" / "station" / "rois.yaml"
+
+
+def test_simulated_station_from_init_captures_and_verifies(cli, tmp_path):
+    out = tmp_path / "station.yaml"
+    code, _, err = cli(
+        [
+            "init",
+            out,
+            "--scene",
+            SCENE,
+            "--camera",
+            "simulated",
+            "--irradiance",
+            "1=5",
+            "--irradiance",
+            "2=5",
+            "--rois",
+            ROIS,
+            "--no-interactive",
+        ]
+    )
+    assert code == 0, err
+    st = read_station(out)
+    assert [i.name for i in st.illuminations] == ["amber_LED", "red_LED"]
+    assert {c: s.light for c, s in st.channels.items()} == {1: "amber LED", 2: "red LED"}
+    assert st.name == "paperboard station" and st.controller.channels == 2
+    # The exposure the scene predicts puts the brightest class near half of saturation.
+    assert 1000 < st.camera.exposure_us < 50_000 and "half of saturation" in err
+    text = out.read_text()
+    meaning = " ".join(field_docs(Station)["illuminations"].split())
+    assert f"# {meaning.split('. ')[0].rstrip('.')}" in text  # each key under its meaning
+    code, outp, err = cli(["verify", out, "--report", tmp_path / "report"])
+    assert code == 0, outp + err
+    assert "PASS" in outp
+
+
+def test_the_camera_is_read_and_its_ranges_checked_on_pylons_emulator(tmp_path):
+    env = {**os.environ, "PYLON_CAMEMU": "1"}
+
+    def init(*args):
+        return subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "inspect_validate",
+                "init",
+                str(tmp_path / "s.yaml"),
+                "--force",
+                "--scene",
+                str(SCENE),
+                "--camera",
+                "pylon",
+                "--controller",
+                "simulated",
+                "--no-interactive",
+                *args,
+            ],
+            capture_output=True,
+            text=True,
+            env=env,
+            timeout=120,
+        )
+
+    run = init("--irradiance", "1=5", "--irradiance", "2=5")
+    if "pypylon is not installed" in run.stderr:
+        pytest.skip("pypylon is not installed")
+    assert run.returncode == 0, run.stderr
+    doc = yaml.safe_load((tmp_path / "s.yaml").read_text())
+    assert doc["camera"]["serial"] == "0815-0000"  # the only emulated camera
+    assert doc["camera"]["pixel_format"] == "Mono16"  # its deepest monochrome format
+    run = init("--exposure-us", "0.5")
+    assert run.returncode == 2 and "--exposure-us 0.5: the camera takes 1–1e+07 µs" in run.stderr
+    run = init("--exposure-us", "5000", "--pixel-format", "Mono12p")
+    assert run.returncode == 2 and "offers Mono8, Mono10, Mono12, Mono16" in run.stderr
+    run = init("--exposure-us", "5000", "--serial", "NOPE")
+    assert run.returncode == 3 and "no pylon camera with serial or id 'NOPE'" in run.stderr
+
+
+def test_a_generic_controller_on_tcp_is_written_with_its_protocol_and_probed(
+    cli, simulator, tmp_path
+):
+    port, _, _ = simulator("--tcp", "--dialect", "line")
+    protocol = tmp_path / "protocol.yaml"
+    protocol.write_text(
+        'commands: {set: "SET {channel} {value:.0f}", off: "OFF {channel}", status: "STATUS?"}\n'
+        'terminator: "\\n"\nmax_value: 255\n'
+    )
+    out = tmp_path / "s.yaml"
+    code, _, err = cli(
+        [
+            "init",
+            out,
+            "--scene",
+            SCENE,
+            "--camera",
+            "simulated",
+            "--controller",
+            "generic",
+            "--port",
+            port,
+            "--protocol",
+            protocol,
+            "--exposure-us",
+            "8000",
+            "--channel",
+            "3=red LED",
+            "--no-interactive",
+        ]
+    )
+    assert code == 0, err
+    assert "nothing answered" not in err
+    st = read_station(out)
+    assert st.controller.port == port and st.controller.protocol.max_value == 255
+    assert st.controller.channels == 4 and list(st.channels) == [3]
+    assert [i.channels for i in st.illuminations] == [{3: 100.0}]
+    code, _, err = cli(
+        [
+            "init",
+            tmp_path / "t.yaml",
+            "--scene",
+            SCENE,
+            "--camera",
+            "simulated",
+            "--controller",
+            "gardasoft",
+            "--port",
+            port,
+            "--exposure-us",
+            "8000",
+            "--no-interactive",
+        ]
+    )
+    assert code == 0 and "nothing answered on" in err  # a line-protocol device is no Gardasoft
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--camera", "simulated"], "give --exposure-us"),  # no irradiance: not predictable
+        (["--camera", "acme", "--exposure-us", "1"], "no camera backend 'acme' is installed"),
+        (
+            ["--camera", "simulated", "--channel", "1=blue LED", "--exposure-us", "1"],
+            "no light 'blue LED'",
+        ),
+        (["--camera", "simulated", "--channel", "one=red LED"], "write CHANNEL=VALUE"),
+        (
+            ["--camera", "simulated", "--irradiance", "3=5", "--exposure-us", "1"],
+            "channel 3, which drives no light",
+        ),
+        (["--camera", "simulated", "--size", "640", "--exposure-us", "1"], "write WIDTHxHEIGHT"),
+        (["--camera", "v4l2", "--simulate"], "no emulator to render into"),
+        (
+            [
+                "--camera",
+                "simulated",
+                "--controller",
+                "generic",
+                "--port",
+                "x",
+                "--exposure-us",
+                "1",
+            ],
+            "needs --protocol",
+        ),
+        ([], "give --camera"),
+    ],
+)
+def test_what_init_cannot_write_is_named(cli, tmp_path, args, message):
+    out = tmp_path / "s.yaml"
+    code, _, err = cli(["init", out, "--scene", SCENE, "--no-interactive", *args])
+    assert code == 2 and message in err
+    assert not out.exists()
+
+
+def test_an_existing_file_is_kept_without_force(cli, tmp_path):
+    out = tmp_path / "s.yaml"
+    out.write_text("mine\n")
+    code, _, err = cli(["init", out, "--scene", SCENE, "--camera", "simulated", "--no-interactive"])
+    assert code == 2 and "--force" in err and out.read_text() == "mine\n"
+
+
+def test_on_a_terminal_what_is_missing_is_asked(tmp_path):
+    out = tmp_path / "s.yaml"
+    answers = f"{SCENE}\nsimulated\n7000\n"
+    result = CliRunner().invoke(click_group, ["init", str(out), "--interactive"], input=answers)
+    assert result.exit_code == 0, result.output
+    st = read_station(out)
+    assert st.camera.backend == "simulated" and st.camera.exposure_us == 7000
+
+
+def test_pixel_format_choice_prefers_depth_then_unpacked():
+    assert (
+        pixel_format_for(Features(pixel_formats=("Mono8", "Mono12Packed", "Mono12", "RGB8")))
+        == "Mono12"
+    )
+    assert pixel_format_for(Features(pixel_formats=("Mono8", "Mono10p"))) == "Mono10p"
+    assert pixel_format_for(Features(pixel_formats=("RGB8",))) is None
+    assert pixel_format_for(Features()) is None
+    assert json.dumps(Features().monochrome) == "[]"
