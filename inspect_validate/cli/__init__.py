@@ -24,6 +24,7 @@ from inspect_validate.cli import (
     init,
     measure,
     predict,
+    rois,
     train,
     verify,
     watch,
@@ -54,6 +55,7 @@ for _command in (
     characterize.characterize,
     devices.devices,
     init.init,
+    rois.rois,
 ):
     cli.add_command(_command)
 

@@ -297,7 +297,14 @@ def init(
                 err=True,
             )
     click.echo(f"next: inspect-validate capture {out} --out first_capture")
-    if rois is None:
+    if rois is None or not rois.exists():
+        from inspect_validate.scene import read_scene
+
+        classes = ",".join(c.name for c in read_scene(scene).classes)
         click.echo(
-            "then: draw the classes' regions (rois:) on a captured frame; verify needs them",
+            "then: inspect-validate rois propose "
+            f"first_capture/{station.illuminations[0].name} --dark first_capture/dark "
+            f"--out {rois or 'rois.yaml'}, look at its overlay, and name the numbered regions "
+            f"with --names (the scene's classes: {classes})"
+            + ("" if rois else f"; then add 'rois: rois.yaml' to {out}")
         )

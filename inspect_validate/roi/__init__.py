@@ -1,6 +1,6 @@
 """Regions of interest: which pixels belong to which object class."""
 
-from inspect_validate.roi.roiset import ClassRoi, RoiSet, class_masks, read_rois
+from inspect_validate.roi.roiset import ClassRoi, RoiSet, class_masks, read_rois, write_rois
 from inspect_validate.roi.shapes import Ellipse, MaskImage, Polygon, Rect, rasterise
 
 __all__ = [
@@ -13,4 +13,5 @@ __all__ = [
     "class_masks",
     "rasterise",
     "read_rois",
+    "write_rois",
 ]

@@ -32,7 +32,7 @@ from inspect_validate.config import StrictModel, explain, load_yaml
 from inspect_validate.errors import InputError
 from inspect_validate.roi.shapes import Ellipse, MaskImage, Polygon, Rect, Shape, rasterise
 
-__all__ = ["ClassRoi", "RoiSet", "class_masks", "read_rois"]
+__all__ = ["ClassRoi", "RoiSet", "class_masks", "read_rois", "write_rois"]
 
 NonNegativeInt = Annotated[int, Field(ge=0)]
 
@@ -133,6 +133,49 @@ def read_rois(path: str | Path) -> RoiSet:
         erode = spec.erode if spec.erode is not None else model.erode
         classes.append(ClassRoi(str(name), tuple(shapes), erode))
     return RoiSet(tuple(classes), str(path), model.frame)
+
+
+def write_rois(rois: RoiSet, path: str | Path, *, comment: str = "") -> RoiSet:
+    """Write ``rois`` as a YAML ROI file (with its frame size, where known) and read it back.
+
+    ``comment`` heads the file (one ``#`` line per line). Shapes are written as rectangles,
+    polygons (vertices to 0.01 px) and ellipses; a mask image keeps its file, named
+    relative to ``path``.
+    """
+    import os
+
+    path = Path(path)
+
+    def flow(shape: Shape) -> str:
+        if isinstance(shape, Rect):
+            return f"rect: [{shape.x}, {shape.y}, {shape.width}, {shape.height}]"
+        if isinstance(shape, Ellipse):
+            return f"ellipse: [{shape.cx:g}, {shape.cy:g}, {shape.rx:g}, {shape.ry:g}]"
+        if isinstance(shape, Polygon):
+            return "polygon: [" + ", ".join(f"[{x:.2f}, {y:.2f}]" for x, y in shape.vertices) + "]"
+        return f"mask: {os.path.relpath(shape.path, path.parent.resolve())}"
+
+    lines = [f"# {line}" for line in comment.splitlines()]
+    if rois.frame is not None:
+        lines.append(f"frame: [{rois.frame[0]}, {rois.frame[1]}]  # width, height it was drawn on")
+    lines.append("classes:")
+    for cls in rois.classes:
+        name = yaml_text(cls.name)
+        if cls.erode:
+            lines += [f"  {name}:", f"    erode: {cls.erode}", "    shapes:"]
+            lines += [f"      - {flow(shape)}" for shape, _ in cls.shapes]
+        else:
+            lines.append(f"  {name}:")
+            lines += [f"    - {flow(shape)}" for shape, _ in cls.shapes]
+    path.write_text("\n".join(lines) + "\n")
+    return read_rois(path)
+
+
+def yaml_text(text: str) -> str:
+    """``text`` as a YAML scalar that reads back as this string (quoted where needed)."""
+    import yaml
+
+    return yaml.safe_dump(text, default_style=None).strip().removesuffix("...").strip()
 
 
 def _parse_shape(

@@ -1,0 +1,243 @@
+"""`inspect-validate rois`: regions proposed from a frame, imported from other tools'
+annotations, and shown over a frame."""
+
+from __future__ import annotations
+
+import click
+
+from inspect_validate.cli.common import PATH
+
+
+@click.group()
+def rois():
+    """Make, import and look at ROI files (which pixels belong to which class)."""
+
+
+def _mean_frame(frames, dark):
+    """The mean of FRAMES, the mean of --dark frames (or None), and the stack."""
+    from inspect_validate.images import read_frames
+
+    stack = read_frames(frames)
+    darks = read_frames(dark) if dark else None
+    if darks is not None and darks.shape[1:] != stack.shape[1:]:
+        from inspect_validate.errors import InputError
+
+        raise InputError(
+            f"dark frames are {darks.shape[2]}×{darks.shape[1]}, the frames "
+            f"{stack.shape[2]}×{stack.shape[1]}",
+            source="--dark",
+        )
+    return stack.mean(axis=0), (None if darks is None else darks.mean(axis=0)), stack
+
+
+def _write_picture(path, picture) -> None:
+    import cv2
+
+    from inspect_validate.errors import InputError
+
+    if path.suffix.lower() not in (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp"):
+        raise InputError("give a picture file (.png)", source=str(path))
+    if not cv2.imwrite(str(path), picture):
+        raise InputError(
+            "cannot write the picture (folder missing or not writable)", source=str(path)
+        )
+
+
+@rois.command()
+@click.argument("frames", nargs=-1, required=True, type=PATH)
+@click.option("--out", type=PATH, required=True, help="The ROI file to write (YAML).")
+@click.option(
+    "--overlay", type=PATH, help="The numbered regions over the frame (default: OUT as .png)."
+)
+@click.option(
+    "--names",
+    help="Class names in the order of the regions' numbers, comma-separated (a name given "
+    "twice merges those regions; default: 1, 2, …).",
+)
+@click.option(
+    "--dark", multiple=True, type=PATH, help="Dark frames: what counts as unlit background."
+)
+@click.option(
+    "--min-area",
+    type=click.IntRange(min=1),
+    help="Smallest region, px (default: 0.5 % of the frame).",
+)
+@click.option(
+    "--margin",
+    type=click.IntRange(min=0, max=100),
+    default=2,
+    show_default=True,
+    help="Pixels kept clear of each region's edge.",
+)
+@click.option(
+    "--edge",
+    type=click.FloatRange(min=0.5, max=100),
+    default=4.0,
+    show_default=True,
+    help="An edge: a gradient above this many times its noise.",
+)
+@click.option("--force", is_flag=True, help="Overwrite OUT if it exists.")
+def propose(frames, out, overlay, names, dark, min_area, margin, edge, force):
+    """Find the uniform lit objects in FRAMES and write them as a draft ROI file.
+
+    FRAMES are image files, or a capture step's folder (their mean is used: less noise,
+    cleaner edges). Each region found becomes a class, numbered top to bottom and left
+    to right on the overlay picture; give --names to name them (A,B,C) or rename the
+    classes in the file. The file records the frame's size.
+    """
+    from inspect_validate.errors import InputError
+    from inspect_validate.report.tables import render_table
+    from inspect_validate.roi.overlay import draw_regions
+    from inspect_validate.roi.propose import draft_rois, find_regions
+    from inspect_validate.roi.roiset import write_rois
+
+    if out.exists() and not force:
+        raise InputError(f"{out} exists; give --force to overwrite it", source="rois propose")
+    image, dark_image, _ = _mean_frame(frames, dark)
+    dark_level = None if dark_image is None else float(dark_image.mean())
+    regions = find_regions(
+        image, min_area=min_area, margin=margin, edge=edge, dark_level=dark_level
+    )
+    listed = [n.strip() for n in names.split(",")] if names else None
+    if listed is not None and not all(listed):
+        raise click.BadParameter("an empty name; write e.g. A,B,C", param_hint="--names")
+    roiset = draft_rois(
+        regions, frame=(image.shape[1], image.shape[0]), names=listed, source=str(frames[0])
+    )
+    write_rois(
+        roiset,
+        out,
+        comment=f"Proposed by inspect-validate rois propose from {frames[0]}: check the "
+        "overlay, name the classes as the scene does.",
+    )
+    picture = draw_regions(
+        image,
+        {str(r.number): r.mask for r in regions},
+        labels={
+            str(r.number): f"{r.number}" + (f" {listed[r.number - 1]}" if listed else "")
+            for r in regions
+        },
+    )
+    overlay = overlay or out.with_suffix(".png")
+    _write_picture(overlay, picture)
+    rows = [
+        [
+            str(r.number),
+            (listed[r.number - 1] if listed else str(r.number)),
+            str(r.pixels),
+            f"{r.mean:.1f}",
+            f"{r.std:.2f}",
+            type(r.shape).__name__.lower(),
+        ]
+        for r in regions
+    ]
+    click.echo(render_table(["region", "class", "pixels", "μ [DN]", "σ [DN]", "shape"], rows))
+    click.echo(f"ROI file: {out}\noverlay: {overlay}")
+
+
+@rois.command()
+@click.argument("roi_file", type=PATH)
+@click.argument("frames", nargs=-1, required=True, type=PATH)
+@click.option("--out", type=PATH, required=True, help="The picture to write (.png).")
+@click.option("--dark", multiple=True, type=PATH, help="Dark frames, subtracted before μ and σ.")
+def show(roi_file, frames, out, dark):
+    """Draw ROI_FILE's classes over FRAMES (their mean) and list each class's pixels, μ and σ.
+
+    σ is over every pixel of the class in every frame: the spread a measurement of it
+    sees. A class far wider than the others, or one whose outline crosses an object's
+    edge, is what to look for.
+    """
+    import numpy as np
+
+    from inspect_validate.report.tables import render_table
+    from inspect_validate.roi import class_masks, read_rois
+    from inspect_validate.roi.overlay import draw_regions
+
+    roiset = read_rois(roi_file)
+    image, dark_image, stack = _mean_frame(frames, dark)
+    masks = class_masks(roiset, image.shape)
+    offset = 0.0 if dark_image is None else dark_image
+    stats = {}
+    for name, mask in masks.items():
+        values = (stack[:, mask] - (offset[mask] if dark_image is not None else 0.0)).ravel()
+        stats[name] = (
+            int(np.count_nonzero(mask)),
+            float(values.mean()),
+            float(values.std(ddof=1)) if values.size > 1 else 0.0,
+        )
+    labels = {n: f"{n}: {p} px, {m:.1f} ± {s:.1f} DN" for n, (p, m, s) in stats.items()}
+    _write_picture(out, draw_regions(image - offset, masks, labels=labels))
+    rows = [[n, str(p), f"{m:.2f}", f"{s:.2f}"] for n, (p, m, s) in stats.items()]
+    click.echo(render_table(["class", "pixels", "μ [DN]", "σ [DN]"], rows))
+    click.echo(f"picture: {out}")
+
+
+@rois.command(name="import")
+@click.argument("annotations", type=PATH)
+@click.option("--out", type=PATH, required=True, help="The ROI file to write (YAML).")
+@click.option(
+    "--names",
+    help="Rename classes: LABEL=NAME pairs, comma-separated (e.g. 1=A,2=B; a name given "
+    "twice merges those labels).",
+)
+@click.option("--image", help="COCO: the image whose annotations to take (file name or id).")
+@click.option(
+    "--frame",
+    "frame_size",
+    metavar="WxH",
+    help="The frame size to record where the file has none (napari).",
+)
+@click.option("--force", is_flag=True, help="Overwrite OUT if it exists.")
+def import_(annotations, out, names, image, frame_size, force):
+    """Read another tool's ANNOTATIONS as an ROI file.
+
+    Integer label images (PNG, TIFF: napari, ilastik, QuPath; 0 is background), labelme
+    JSON (polygons, rectangles, circles), COCO JSON (polygons and RLE) and napari's
+    shapes CSV. Pixel masks are written exactly, one PNG per class beside OUT. The frame
+    size is recorded from the file (or --frame), so a frame of another size is refused.
+    """
+    from dataclasses import replace
+
+    from inspect_validate.errors import InputError
+    from inspect_validate.roi.annotations import read_annotations
+    from inspect_validate.roi.roiset import write_rois
+
+    if out.exists() and not force:
+        raise InputError(f"{out} exists; give --force to overwrite it", source="rois import")
+    renames = {}
+    for pair in (names or "").split(","):
+        if not pair.strip():
+            continue
+        label, sep, name = pair.partition("=")
+        if not sep or not label.strip() or not name.strip():
+            raise click.BadParameter(f"{pair!r}: write LABEL=NAME, e.g. 1=A", param_hint="--names")
+        renames[label.strip()] = name.strip()
+    roiset = read_annotations(
+        annotations, masks=out.with_suffix(""), names=renames or None, image=image
+    )
+    if frame_size is not None:
+        width, sep, height = frame_size.lower().partition("x")
+        if not (sep and width.isdigit() and height.isdigit() and int(width) and int(height)):
+            raise click.BadParameter(
+                f"{frame_size!r}: write WIDTHxHEIGHT, e.g. 640x480", param_hint="--frame"
+            )
+        given = (int(width), int(height))
+        if roiset.frame is not None and roiset.frame != given:
+            raise InputError(
+                f"the file says its image is {roiset.frame[0]}×{roiset.frame[1]}, --frame says "
+                f"{given[0]}×{given[1]}",
+                source=str(annotations),
+            )
+        roiset = replace(roiset, frame=given)
+    written = write_rois(
+        roiset, out, comment=f"Imported by inspect-validate rois import from {annotations}."
+    )
+    for cls in written.classes:
+        click.echo(f"{cls.name}: {len(cls.shapes)} shape{'s' if len(cls.shapes) != 1 else ''}")
+    if written.frame is None:
+        click.echo(
+            "warning: no frame size recorded (the file has none); give --frame WxH so that a "
+            "frame of another size is refused",
+            err=True,
+        )
+    click.echo(f"ROI file: {out}")

@@ -1,0 +1,66 @@
+"""Regions drawn over a frame: each class's outline in a colour of its own and its label
+(name, pixels, μ ± σ), for a person to check that the regions cover the right objects
+(``inspect-validate rois show`` and ``rois propose``)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["draw_regions"]
+
+# Tableau's ten colours (matplotlib's default cycle), as OpenCV's BGR.
+_COLOURS = [
+    (180, 119, 31), (14, 127, 255), (44, 160, 44), (40, 39, 214), (189, 103, 148),
+    (75, 86, 140), (194, 119, 227), (127, 127, 127), (34, 189, 188), (207, 190, 23),
+]  # fmt: skip
+
+
+def draw_regions(
+    image: np.ndarray, masks: dict[str, np.ndarray], *, labels: dict[str, str] | None = None
+) -> np.ndarray:
+    """``image`` (H, W) as an 8-bit colour picture with every mask's outline and label.
+
+    Parameters
+    ----------
+    image : ndarray
+        The frame, DN; shown stretched from its 0.5th to its 99.5th percentile.
+    masks : dict of str to ndarray of bool
+        Class name → its pixels.
+    labels : dict of str to str, optional
+        Class name → the text written at it (default: the name).
+
+    Returns
+    -------
+    ndarray of uint8, (h, w, 3), BGR
+        Enlarged by a whole factor where the frame is small, so that the text reads.
+    """
+    import cv2
+
+    frame = np.asarray(image, dtype=np.float64)
+    low, high = np.percentile(frame, [0.5, 99.5])
+    grey = np.clip((frame - low) / max(high - low, 1e-12) * 255, 0, 255).astype(np.uint8)
+    scale = max(1, int(np.ceil(480 / min(frame.shape))))
+    grey = np.repeat(np.repeat(grey, scale, axis=0), scale, axis=1)
+    picture = cv2.cvtColor(grey, cv2.COLOR_GRAY2BGR)
+    font, size = cv2.FONT_HERSHEY_SIMPLEX, 0.5
+    for i, (name, mask) in enumerate(masks.items()):
+        colour = _COLOURS[i % len(_COLOURS)]
+        # Enlarged by repeating pixels: the outline stays on the pixels' edges.
+        big = np.repeat(np.repeat(mask.astype(np.uint8), scale, axis=0), scale, axis=1)
+        contours, _ = cv2.findContours(big, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+        cv2.drawContours(picture, contours, -1, colour, 2)
+        # The label well inside the region: of the points at least half as far from its
+        # edges as its deepest one, the one nearest its centre.
+        inside = cv2.distanceTransform(np.pad(big, 1), cv2.DIST_L2, 3)[1:-1, 1:-1]
+        ys, xs = np.nonzero(inside >= 0.5 * inside.max())
+        centre = np.argwhere(big).mean(axis=0)
+        k = int(np.argmin((ys - centre[0]) ** 2 + (xs - centre[1]) ** 2))
+        y, x = int(ys[k]), int(xs[k])
+        # Hershey fonts are ASCII: the label's ± and σ are spelt out.
+        text = (labels or {}).get(name, name).replace("±", "+/-").replace("μ", "mu")
+        (w, h), base = cv2.getTextSize(text, font, size, 1)
+        x0 = int(np.clip(x - w // 2, 2, max(picture.shape[1] - w - 2, 2)))
+        y0 = int(np.clip(y + h // 2, h + 2, picture.shape[0] - base - 2))
+        cv2.rectangle(picture, (x0 - 2, y0 - h - 2), (x0 + w + 2, y0 + base), (0, 0, 0), -1)
+        cv2.putText(picture, text, (x0, y0), font, size, colour, 1, cv2.LINE_AA)
+    return picture
