@@ -35,6 +35,7 @@ __all__ = [
     "measure_classes",
     "measure_files",
     "measure_stack",
+    "two_populations",
 ]
 
 
@@ -392,8 +393,60 @@ def measure_stack(
     return replace(
         result,
         violations=limits.violations(result.classes),
-        warnings=unsteady_classes(classes),
+        warnings=unsteady_classes(classes) + two_populations(stack, masks, rois=rois),
     )
+
+
+#: Ashman's D between the two halves of a class split at its Otsu threshold above which it
+#: counts as two populations. The halves of one normal population give 2.65 whatever its
+#: width; two populations 4σ apart give about 4.4 and 6σ apart about 6.
+BIMODAL_D = 5.0
+
+
+def two_populations(
+    stack: np.ndarray, masks: dict[str, np.ndarray], *, rois=None
+) -> tuple[str, ...]:
+    """Classes whose pixels (averaged over the frames) look like two populations: a
+    region reaching over an object's edge, or drawn on a frame of another size or
+    framing. Each class is split at its Otsu threshold; where both parts hold at least
+    1 % of its pixels (and 10) and lie more than :data:`BIMODAL_D` apart in Ashman's D
+    (|μ₁ − μ₂| / √((σ₁² + σ₂²)/2)), it is named.
+    """
+    out = []
+    recorded = getattr(rois, "frame", None) is not None
+    for name, mask in masks.items():
+        values = stack[:, mask].mean(axis=0) if stack.ndim == 3 else stack[mask]
+        if values.size < 40:
+            continue
+        counts, edges = np.histogram(values, bins=256)
+        centres = (edges[:-1] + edges[1:]) / 2
+        w0 = np.cumsum(counts)[:-1].astype(float)
+        w1 = values.size - w0
+        m0 = np.cumsum(counts * centres)[:-1]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            between = w0 * w1 * (m0 / w0 - (m0[-1] + counts[-1] * centres[-1] - m0) / w1) ** 2
+        if not np.any(np.isfinite(between)):
+            continue
+        cut = edges[int(np.nanargmax(between)) + 1]
+        low, high = values[values < cut], values[values >= cut]
+        if min(low.size, high.size) < max(0.01 * values.size, 10):
+            continue  # a few hot or dead pixels are not a second population
+        spread = np.sqrt((low.var(ddof=1) + high.var(ddof=1)) / 2)
+        d = abs(high.mean() - low.mean()) / spread if spread > 0 else np.inf
+        if d > BIMODAL_D:
+            why = (
+                "a region over an object's edge?"
+                if recorded
+                else "a region drawn on a frame of another size or framing, or over an "
+                "object's edge? (an ROI file that records its frame: [width, height] refuses "
+                "another frame)"
+            )
+            out.append(
+                f"class {name}: its pixels look like two populations ({low.size} around "
+                f"{low.mean():.4g} DN, {high.size} around {high.mean():.4g} DN; Ashman's D "
+                f"{d:.3g}): {why}"
+            )
+    return tuple(out)
 
 
 def unsteady_classes(classes: tuple[ClassMeasurement, ...]) -> tuple[str, ...]:

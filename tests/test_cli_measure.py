@@ -376,3 +376,27 @@ def test_a_bad_comparison_on_the_command_line_names_the_option(paperboard, capsy
     err = capsys.readouterr().err
     assert err.startswith("error: --comparison:") and "no class 'Q'" in err
     assert "rois.yaml" not in err
+
+
+def test_a_region_over_two_populations_is_warned_about(tmp_path, capsys):
+    """An ROI reaching over an object's edge (as one drawn on a frame of another size
+    does) measures a mixture: named, with the two levels; a uniform region is not."""
+    rng = np.random.default_rng(3)
+    frame = rng.normal(150, 2, (60, 80))
+    frame[:, 60:] = rng.normal(20, 2, (60, 20))  # a dark background on the right
+    frame[:, 70:75] = 2000  # a saturated strip nobody asked about is outside every region
+    tifffile = pytest.importorskip("tifffile")
+    tifffile.imwrite(tmp_path / "f.tif", np.clip(frame, 0, 4095).astype(np.uint16))
+    rois = tmp_path / "r.yaml"
+    rois.write_text(
+        "classes:\n  A:\n    - rect: [0, 0, 30, 60]\n  B:\n    - rect: [32, 0, 33, 60]\n"
+    )
+    assert run_cli(["measure", tmp_path / "f.tif", "--rois", rois]) == 0
+    err = capsys.readouterr().err
+    assert "class B: its pixels look like two populations" in err and "class A" not in err
+    assert "drawn on a frame of another size" in err
+    rois.write_text(
+        "classes:\n  A:\n    - rect: [0, 0, 30, 60]\n  B:\n    - rect: [32, 0, 26, 60]\n"
+    )
+    assert run_cli(["measure", tmp_path / "f.tif", "--rois", rois]) == 0
+    assert "two populations" not in capsys.readouterr().err

@@ -100,3 +100,59 @@ def test_format_pages_read_each_fields_docstring_and_constraints(monkeypatch):
     # A backend's section is its settings and the station's keys: the docs read both.
     assert "* - `camera.cti`" in text or "`cti`" in text
     assert "which of the scene's cameras" in text.lower()
+
+
+def test_own_station_page_runs_as_written(tmp_path):
+    """Every command of "Your own station, step by step", in order, on pylon's emulator:
+    no coordinate typed, and verify passes."""
+    import os
+    import shlex
+    import subprocess
+    import sys
+
+    import pytest
+
+    pytest.importorskip("pypylon")
+    page = (DOCS / "guide" / "own-station.md").read_text()
+    blocks = re.findall(r"```console\n(.*?)```", page, re.S)
+    commands = [
+        line[2:] for block in blocks for line in block.splitlines() if line.startswith("$ ")
+    ]
+    assert [c.split()[1] for c in commands if c.startswith("inspect-validate")] == [
+        "devices",
+        "init",
+        "capture",
+        "rois",
+        "rois",
+        "rois",
+        "predict",
+        "verify",
+        "train",
+        "watch",
+    ]
+    (tmp_path / "sample_images").symlink_to(ROOT / "sample_images")
+    env = dict(os.environ)
+    for command in commands:
+        words = shlex.split(command)
+        if words[0] == "export":
+            key, _, value = words[1].partition("=")
+            env[key] = value
+            continue
+        assert words[0] == "inspect-validate"
+        run = subprocess.run(
+            [sys.executable, "-m", "inspect_validate", *words[1:]],
+            cwd=tmp_path,
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=600,
+        )
+        assert run.returncode == 0, f"{command}\n{run.stdout[-2000:]}\n{run.stderr[-2000:]}"
+        if words[1] == "verify":
+            assert "PASS" in run.stdout
+        if words[1] == "devices":
+            assert "Basler" in run.stdout and "exposure (exposure_us)" in run.stdout
+    assert "coordinate" not in (tmp_path / "my" / "rois.yaml").read_text()
+    assert (tmp_path / "my" / "rois.png").is_file() and (
+        tmp_path / "my" / "rois-check.png"
+    ).is_file()

@@ -135,10 +135,17 @@ class AravisGrabber(NodeMapGrabber):
                 f"cannot open Aravis camera {key} ({exc.message}); found: {listing}"
             ) from None
         self._dev = self._cam.get_device()
-        self.name = (
-            f"{self._cam.get_vendor_name()} {self._cam.get_model_name()} "
-            f"(serial {self._cam.get_device_serial_number()})"
-        )
+        opened = str(self._cam.get_device_serial_number())
+        self.name = f"{self._cam.get_vendor_name()} {self._cam.get_model_name()} (serial {opened})"
+        if serial is not None and opened != str(serial):
+            # Two cameras answering at one address (two fake cameras on lo, a duplicate
+            # IP): the one that answered is not the one asked for.
+            self._cam = self._dev = None
+            raise DeviceError(
+                f"asked for the Aravis camera with serial {serial}, but {self.name} answered "
+                f"at its address ({key}): two cameras share it (a duplicate IP address, "
+                "another fake camera on lo); give each camera its own address"
+            )
         self._num_buffers = num_buffers
         self._gain_raw = gain_raw
         self._stream: Any = None

@@ -209,8 +209,8 @@ class Golden(_Frozen):
     """SHA-256 of the station file's bytes at training."""
     exposure_us: float | None
     """The camera's exposure, µs (a verification at another is refused)."""
-    gain_db: float
-    """The camera's gain, dB (likewise)."""
+    gain_db: float | None
+    """The camera's gain, dB (likewise; null: the station left the camera's own)."""
     weighting: str
     """How groups of classes were weighted (``equal``, ``pixels``, ``priors``)."""
     repeats: Annotated[int, Field(ge=1, le=100_000)]

@@ -260,3 +260,21 @@ def test_devices_lists_the_fake_camera_and_what_it_offers(fake_gige, cli):
     assert f["exposure_us"] == [10.0, 10_000_000.0] and f["gain_db"] is None  # GainRaw only
     assert f["trigger_lines"] == ["Line0"] and f["software_trigger"] is True
     assert f["max_size"][0] >= 512
+
+
+def test_a_camera_answering_for_another_is_refused(fake_gige):
+    """Two fake cameras on lo share 127.0.0.1: the first answers for both. The camera
+    that opened is checked against the serial asked for, not trusted (it captured the
+    other camera's 512 × 512 frames before)."""
+    first, _ = fake_gige()
+    second, _ = fake_gige()
+    refused = 0
+    for serial in (first, second):
+        try:
+            with AravisGrabber(serial=serial) as cam:
+                assert cam.name == f"Aravis Fake (serial {serial})"
+        except DeviceError as exc:
+            assert f"asked for the Aravis camera with serial {serial}" in str(exc)
+            assert "two cameras share it" in str(exc)
+            refused += 1
+    assert refused == 1
