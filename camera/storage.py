@@ -96,6 +96,8 @@ class CaptureStore:
                 "station_sha256": station_sha256,
                 "tool_version": __version__,
                 "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+                # Every step records its frames' SHA-256: an audit requires them.
+                "frame_hashes": True,
                 "steps": {},
             }
 
@@ -252,15 +254,25 @@ def audit_capture(folder: Path, manifest: dict, steps) -> dict[str, str]:
     hashes: dict[str, str] = {}
     seen: dict[str, str] = {}
     stamps: dict[tuple, str] = {}
+    hashed = manifest.get("frame_hashes") is True
     for step in steps:
         record = manifest.get("steps", {}).get(step, {})
         recorded = record.get("sha256")
         files = sorted((folder / step).glob("frame_*.tif"))
         names = [p.name for p in files]
         count = record.get("frames")
-        if isinstance(count, int) and count != len(files):
+        if count is not None and (not isinstance(count, int) or isinstance(count, bool)):
+            problems.append(f"{step}: the manifest's frame count {count!r} is not a whole number")
+        elif isinstance(count, int) and count != len(files):
             problems.append(
                 f"{step}: the manifest records {count} frames, the folder holds {len(files)}"
+            )
+        if hashed and not (
+            isinstance(recorded, dict) and all(isinstance(v, str) for v in recorded.values())
+        ):
+            problems.append(
+                f"{step}: the manifest's frame hashes (sha256) are missing or damaged, so the "
+                "frames cannot be checked"
             )
         if isinstance(recorded, dict) and recorded:
             missing = sorted(set(recorded) - set(names))
@@ -271,6 +283,9 @@ def audit_capture(folder: Path, manifest: dict, steps) -> dict[str, str]:
                 problems.append(f"{step}: {', '.join(extra)} not written by this capture")
         for path in files:
             where = f"{step}/{path.name}"
+            if not path.is_file():  # a pipe would block the read, a device never end it
+                problems.append(f"{where} is not a regular file")
+                continue
             data = path.read_bytes()  # read once: hashed, and its description parsed
             digest = hashlib.sha256(data).hexdigest()
             hashes[where] = digest

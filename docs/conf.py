@@ -46,6 +46,8 @@ sphinx_gallery_conf = {
     "download_all_examples": False,
     "remove_config_comments": True,
     "within_subsection_order": "FileNameSortKey",
+    # Not a page of the manual: a build must leave the checkout as it found it.
+    "write_computation_times": False,
 }
 
 html_theme = "pydata_sphinx_theme"

@@ -136,6 +136,7 @@ def explain(exc: ValidationError) -> str:
 
 
 _MAX_DEPTH = 64
+_MAX_VALUES = 2_000_000  # a scene of 100 spectra of 10,000 samples each is 10⁶
 
 
 @functools.cache
@@ -178,18 +179,38 @@ def _loader():
     return StrictLoader
 
 
-def _depth(node, limit: int) -> int:
-    """Nesting depth of a composed YAML node, iteratively (no recursion to exhaust)."""
-    stack, deepest = [(node, 1)], 0
+def _extent(node) -> tuple[int, int]:
+    """Nesting depth and number of values of a composed YAML node as it would expand,
+    each node measured once: an alias (``*a``) shares its anchor's node, so an alias
+    bomb (a billion values from a few lines) is measured in the time of its text, not
+    expanded. Iterative: no recursion to exhaust. A node that contains itself (a
+    recursive alias) counts as unbounded."""
+    memo: dict[int, tuple[int, int]] = {}
+    open_: set[int] = set()
+    stack = [(node, False)]
+
+    def children(n):
+        if not isinstance(n.value, list):
+            return []
+        return [x for item in n.value for x in (item if isinstance(item, tuple) else (item,))]
+
     while stack:
-        n, d = stack.pop()
-        deepest = max(deepest, d)
-        if deepest > limit:
-            return deepest
-        if isinstance(n.value, list):
-            for item in n.value:
-                stack += [(x, d + 1) for x in (item if isinstance(item, tuple) else (item,))]
-    return deepest
+        n, done = stack.pop()
+        if id(n) in memo:
+            continue
+        kids = children(n)
+        if not done:
+            if id(n) in open_:
+                return (1 << 62, 1 << 62)  # reached again while open: it contains itself
+            open_.add(id(n))
+            stack.append((n, True))
+            stack += [(c, False) for c in kids if id(c) not in memo]
+            continue
+        open_.discard(id(n))
+        depth = 1 + max((memo[id(c)][0] for c in kids), default=0)
+        values = 1 + sum(memo[id(c)][1] for c in kids)
+        memo[id(n)] = (depth, values)
+    return memo[id(node)]
 
 
 def parse_yaml(text: str, *, source: str):
@@ -201,9 +222,16 @@ def parse_yaml(text: str, *, source: str):
         node = loader.get_single_node()
         if node is None:
             return None
-        if _depth(node, _MAX_DEPTH) > _MAX_DEPTH:
+        depth, values = _extent(node)
+        if depth > _MAX_DEPTH:
             raise InputError(
                 f"nested more than {_MAX_DEPTH} levels deep; this is not a configuration file",
+                source=source,
+            )
+        if values > _MAX_VALUES:
+            raise InputError(
+                f"expands to more than {_MAX_VALUES:.0e} values (through aliases, *name, or "
+                "sheer size); this is not a configuration file",
                 source=source,
             )
         return loader.construct_document(node)

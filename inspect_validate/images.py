@@ -31,6 +31,10 @@ def read_image(path: str | Path) -> np.ndarray:
     """
     path = Path(path)
     if not path.is_file():
+        if path.exists():  # a device (/dev/zero) or a pipe: no size, or no end
+            raise InputError(
+                "not a regular file (a device or a pipe); give an image file", source=str(path)
+            )
         raise InputError("image file not found", source=str(path))
     suffix = path.suffix.lower()
     colour: bool | None = None  # known from the file where it says (samples per pixel)

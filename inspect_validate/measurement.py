@@ -415,10 +415,17 @@ def two_populations(
     out = []
     recorded = getattr(rois, "frame", None) is not None
     for name, mask in masks.items():
-        values = stack[:, mask].mean(axis=0) if stack.ndim == 3 else stack[mask]
+        values = stack[:, mask].mean(axis=0, dtype=np.float64) if stack.ndim == 3 else stack[mask]
+        values = values[np.isfinite(values)]
         if values.size < 40:
             continue
-        counts, edges = np.histogram(values, bins=256)
+        low_end, high_end = float(values.min()), float(values.max())
+        span = high_end - low_end
+        if not (np.isfinite(span) and span > 0):
+            continue  # one grey value, or a range beyond floating point: nothing to split
+        # Binned on [0, 1]: the histogram of values near ±1e308 has no finite bins.
+        counts, edges = np.histogram((values - low_end) / span, bins=256, range=(0.0, 1.0))
+        edges = low_end + edges * span
         centres = (edges[:-1] + edges[1:]) / 2
         w0 = np.cumsum(counts)[:-1].astype(float)
         w1 = values.size - w0

@@ -137,6 +137,11 @@ def test_saturation_limit_exits_1_and_still_writes(tmp_path, capsys):
             "frame: [10, 10]\nclasses:\n  A:\n    - rect: [0, 0, 5, 5]\n",
             r"r.yaml: the regions were drawn on a 10×10 frame.*this frame is 20×20",
         ),
+        (
+            ["/dev/zero"],  # a device reads for ever (6–8 GB before "out of memory")
+            "classes:\n  A:\n    - rect: [0, 0, 5, 5]\n",
+            "/dev/zero: not a regular file",
+        ),
     ],
 )
 def test_bad_input_exits_2_with_a_message(tmp_path, capsys, files, rois, message):

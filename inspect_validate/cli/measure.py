@@ -37,7 +37,8 @@ def finite(value, param):
     "--saturation-level",
     type=float,
     callback=lambda ctx, param, v: finite(v, param),
-    help="Raw value counted as saturated [DN]; default the data type's maximum.",
+    help="Raw value counted as saturated [DN]; default 2^bits − 1 of the bit depth a "
+    "captured frame records (Mono12 in uint16: 4095), else the data type's maximum.",
 )
 @click.option(
     "--max-saturated",

@@ -56,13 +56,29 @@ class RoiSet:
     frame: tuple[int, int] | None = None
 
 
+Coordinate = Annotated[float, Field(allow_inf_nan=False, ge=-1e7, le=1e7)]
+#: The most vertices a polygon may have: a drawn outline has hundreds; a million would
+#: take minutes to rasterise and is no hand-made region.
+MAX_VERTICES = 100_000
+#: The most classes an ROI file may have.
+MAX_CLASSES = 1000
+
+
 class _ShapeModel(StrictModel):
     rect: tuple[int, int, Annotated[int, Field(gt=0)], Annotated[int, Field(gt=0)]] | None = None
     """``[x, y, width, height]``: the width × height pixels from column x, row y."""
-    polygon: list[tuple[float, float]] | None = None
+    polygon: (
+        Annotated[list[tuple[Coordinate, Coordinate]], Field(max_length=MAX_VERTICES)] | None
+    ) = None
     """``[[x, y], ...]``, at least 3 vertices in pixel-corner coordinates."""
     ellipse: (
-        tuple[float, float, Annotated[float, Field(gt=0)], Annotated[float, Field(gt=0)]] | None
+        tuple[
+            Coordinate,
+            Coordinate,
+            Annotated[float, Field(gt=0, le=1e7, allow_inf_nan=False)],
+            Annotated[float, Field(gt=0, le=1e7, allow_inf_nan=False)],
+        ]
+        | None
     ) = None
     """``[cx, cy, rx, ry]``: centre and semi-axes, px, axis-aligned."""
     mask: str | None = None
@@ -98,7 +114,7 @@ class _FileModel(StrictModel):
     classes: dict[
         Annotated[str, Field(min_length=1, max_length=100, pattern=r"^[^,]+$")],
         _ClassModel | Annotated[list[dict[str, Any]], Field(min_length=1)],
-    ] = Field(min_length=1)
+    ] = Field(min_length=1, max_length=MAX_CLASSES)
     """Class name → its shapes (a list), or ``{shapes: [...], erode: n}``."""
 
 
@@ -244,9 +260,14 @@ def _imagej_shapes(path: Path):
             rx, ry = (roi.right - roi.left) / 2, (roi.bottom - roi.top) / 2
             shape = Ellipse(roi.left + rx, roi.top + ry, rx, ry)
         elif kind in (roifile.ROI_TYPE.POLYGON, roifile.ROI_TYPE.FREEHAND, roifile.ROI_TYPE.TRACED):
-            shape = Polygon(
-                tuple((float(x), float(y)) for x, y in np.asarray(roi.coordinates(), float))
-            )
+            points = np.asarray(roi.coordinates(), float).reshape(-1, 2)
+            if len(points) < 3 or len(points) > MAX_VERTICES or not np.isfinite(points).all():
+                raise InputError(
+                    f"a polygon of {len(points)} vertices (3 to {MAX_VERTICES}, finite, are "
+                    "needed)",
+                    source=where,
+                )
+            shape = Polygon(tuple((float(x), float(y)) for x, y in points))
         else:
             raise InputError(
                 f"{kind.name.lower()} ROIs have no area; use rectangles, ovals or polygons",

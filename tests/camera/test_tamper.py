@@ -58,6 +58,28 @@ def _flip(cap):
     frame.write_bytes(bytes(data))
 
 
+def _manifest(cap, edit):
+    manifest = json.loads((cap / "manifest.json").read_text())
+    edit(manifest)
+    (cap / "manifest.json").write_text(json.dumps(manifest))
+
+
+def _unhash(cap):  # one step's hashes deleted: the audit must not quietly turn off
+    _manifest(cap, lambda m: m["steps"]["amber"].pop("sha256"))
+    _flip(cap)
+
+
+def _text_count(cap):
+    _manifest(cap, lambda m: m["steps"]["amber"].update(frames="4"))
+
+
+def _fifo(cap):  # a pipe would block the audit's read for ever
+    import os
+
+    (cap / "amber" / "frame_0002.tif").unlink()
+    os.mkfifo(cap / "amber" / "frame_0002.tif")
+
+
 def _added(cap):
     for ext in ("tif", "json"):
         shutil.copy(cap / "amber" / f"frame_0004.{ext}", cap / "amber" / f"frame_0005.{ext}")
@@ -73,6 +95,9 @@ def _added(cap):
         (_red_with_sidecar, "amber/frame_0002.tif: its sidecar is of red/frame_0002.tif"),
         (_flip, "dark/frame_0004.tif changed since it was written"),
         (_added, "amber: frame_0005.tif not written by this capture"),
+        (_unhash, "amber: the manifest's frame hashes (sha256) are missing or damaged"),
+        (_text_count, "amber: the manifest's frame count '4' is not a whole number"),
+        (_fifo, "amber/frame_0002.tif is not a regular file"),
     ],
 )
 def test_verify_refuses_a_tampered_capture_naming_what_disagrees(
@@ -95,6 +120,7 @@ def test_the_untouched_capture_and_one_without_hashes_pass(cli, tmp_path, captur
     assert all(len(step["sha256"]) == step["frames"] for step in manifest["steps"].values())
     for step in manifest["steps"].values():
         del step["sha256"]
+    del manifest["frame_hashes"]  # as a capture of a version before hashes wrote it
     (cap / "manifest.json").write_text(json.dumps(manifest))
     code, out, err = cli(["verify", path, "--frames", cap])
     assert code == 0, out + err

@@ -215,3 +215,50 @@ def test_shared_pixels_are_counted_only_where_boxes_meet(tmp_path):
         assert (
             found and int(found[3]) == dict(((a, b), n) for a, b, n in shared)[found[1], found[2]]
         ), trial
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("classes:\n  A:\n    - ellipse: [.nan, 40, 20, 20]\n", "finite number"),
+        ("classes:\n  A:\n    - ellipse: [10, 10, .inf, 20]\n", "finite number"),
+        (
+            "classes:\n  A:\n    - polygon: [[0, 0], [1e308, 0], [5, 5]]\n",
+            "less than or equal to 10000000",
+        ),
+        (
+            "classes:\n  A:\n    - polygon: [" + ", ".join(["[1, 1]"] * 100_001) + "]\n",
+            "at most 100000",
+        ),
+        (
+            "classes:\n" + "".join(f"  c{i}:\n    - rect: [0, 0, 1, 1]\n" for i in range(1001)),
+            "at most 1000",
+        ),
+        (
+            "a: &a [1, 1, 1, 1, 1, 1, 1, 1, 1, 1]\n"
+            + "".join(
+                f"{c}: &{c} [{', '.join([f'*{p}'] * 10)}]\n" for p, c in zip("abcdefg", "bcdefgh")
+            )
+            + "classes:\n  A:\n    - rect: [0, 0, 1, 1]\n",
+            "expands to more than",
+        ),
+    ],
+)
+def test_hostile_roi_files_are_refused_quickly(tmp_path, text, message):
+    import time
+
+    p = write(tmp_path, text)
+    start = time.perf_counter()
+    with pytest.raises(InputError, match=message):
+        class_masks(read_rois(p), (50, 50))
+    assert time.perf_counter() - start < 30  # was minutes (a 10⁶-vertex polygon, an alias bomb)
+
+
+def test_an_imagej_polygon_without_vertices_is_refused(tmp_path):
+    import roifile
+
+    empty = roifile.ImagejRoi(roitype=roifile.ROI_TYPE.POLYGON, name="A:1")
+    path = tmp_path / "RoiSet.zip"
+    roifile.roiwrite(path, [empty])
+    with pytest.raises(InputError, match="a polygon of 0 vertices"):
+        read_rois(path)
