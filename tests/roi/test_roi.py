@@ -237,7 +237,8 @@ def test_shared_pixels_are_counted_only_where_boxes_meet(tmp_path):
         (
             "a: &a [1, 1, 1, 1, 1, 1, 1, 1, 1, 1]\n"
             + "".join(
-                f"{c}: &{c} [{', '.join([f'*{p}'] * 10)}]\n" for p, c in zip("abcdefg", "bcdefgh")
+                f"{c}: &{c} [{', '.join([f'*{p}'] * 10)}]\n"
+                for p, c in zip("abcdefg", "bcdefgh", strict=True)
             )
             + "classes:\n  A:\n    - rect: [0, 0, 1, 1]\n",
             "expands to more than",
