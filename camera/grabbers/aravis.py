@@ -50,8 +50,9 @@ def import_aravis():
         from gi.repository import Aravis, GLib
     except (ImportError, ValueError) as exc:
         raise DeviceError(
-            f"Aravis is not available ({exc}): install Debian's gir1.2-aravis-0.8 and "
-            "pip install 'inspect-validate[aravis]' (PyGObject)"
+            f"Aravis is not available ({exc}): install Debian's gir1.2-aravis-0.8, and "
+            "libgirepository1.0-dev libcairo2-dev pkg-config (PyGObject builds against "
+            "them), then pip install 'inspect-validate[aravis]'"
         ) from None
     return Aravis, GLib
 

@@ -181,3 +181,19 @@ def test_v4l2_devices_read_from_the_kernels_sysfs_layout(tmp_path):
     assert first.interface == "USB" and first.source == "index 0" and first.backend == "v4l2"
     if not Path("/dev/video0").exists():
         assert first.access == "no device node"
+
+
+def test_a_backend_whose_library_is_missing_says_what_to_install(tmp_path):
+    """PyGObject made unimportable (as on a machine without it): `devices` lists aravis
+    as unable to look, with every package it needs."""
+    code = (
+        "import sys; sys.modules['gi'] = None\n"
+        "from inspect_validate.cli import main\n"
+        "main(['devices', '--backend', 'aravis'])\n"
+    )
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr
+    line = next(x for x in run.stdout.splitlines() if x.startswith("aravis: cannot look"))
+    for package in ("gir1.2-aravis-0.8", "libgirepository1.0-dev", "libcairo2-dev", "pkg-config"):
+        assert package in line
+    assert "inspect-validate[aravis]" in line
