@@ -467,9 +467,17 @@ def _arm(settings: CameraSettings, grabber, source: str) -> tuple[str, dict | No
     if settings.chunks and not {"ExposureTime", "Gain"} & set(has.chunks):
         lacks.append("exposure or gain chunks (camera.chunks: true)")
     if lacks:
+        # Free-running frames are the way out, except for a strobed light: it needs them
+        # triggered, so leaving out the strobe comes first.
+        way = (
+            "leave out camera.strobe_line and controller.pulse to light continuously "
+            "(camera.acquisition: free-run then runs on every camera)"
+            if settings.strobe_line
+            else "camera.acquisition: free-run runs on every camera"
+        )
         raise InputError(
             f"{grabber.name} lacks {'; '.join(lacks)}. Nothing was switched: choose what the "
-            "camera has (camera.acquisition: free-run runs on every camera)",
+            f"camera has ({way})",
             source=f"{source}: camera",
         )
     use_chunks = bool(has.chunks) if settings.chunks is None else settings.chunks

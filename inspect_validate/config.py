@@ -23,7 +23,15 @@ from pydantic import BaseModel, ConfigDict, ValidationError
 
 from inspect_validate.errors import InputError
 
-__all__ = ["StrictModel", "explain", "field_docs", "load_yaml", "one_of", "parse_yaml"]
+__all__ = [
+    "StrictModel",
+    "explain",
+    "field_docs",
+    "known_keys",
+    "load_yaml",
+    "one_of",
+    "parse_yaml",
+]
 
 M = TypeVar("M", bound=BaseModel)
 
@@ -111,12 +119,36 @@ def field_docs(model: type[BaseModel]) -> dict[str, str]:
     return docs
 
 
-def explain(exc: ValidationError) -> str:
+def known_keys(model: type[BaseModel]) -> set[str]:
+    """Every key ``model`` and the models nested in it take (through unions, lists and
+    mappings), for suggesting the one a misspelt key meant."""
+    import typing
+
+    keys: set[str] = set()
+    seen: set[type] = set()
+    todo: list[Any] = [model]
+    while todo:
+        tp = todo.pop()
+        if isinstance(tp, type) and issubclass(tp, BaseModel):
+            if tp in seen:
+                continue
+            seen.add(tp)
+            for name, info in tp.model_fields.items():
+                keys.add(info.alias or name)
+                todo.append(info.annotation)
+        else:
+            todo.extend(a for a in typing.get_args(tp) if not isinstance(a, str | int | float))
+    return keys
+
+
+def explain(exc: ValidationError, *, known: set[str] | None = None) -> str:
     """pydantic's errors as ``field.path: message; ...``.
 
     Union members that pydantic adds to the path (``_ClassModel``,
-    ``list[dict[str,any]]``) are left out: the user wrote neither.
+    ``list[dict[str,any]]``) are left out: the user wrote neither. An unknown key gets
+    the nearest of ``known`` as a suggestion (``exposure_ms`` → ``exposure_us``).
     """
+    import difflib
 
     def field(part) -> bool:
         return isinstance(part, int) or not (str(part).startswith("_") or "[" in str(part))
@@ -128,7 +160,12 @@ def explain(exc: ValidationError) -> str:
         return out
 
     def message(e) -> str:
-        return e["msg"].removeprefix("Value error, ")
+        text = e["msg"].removeprefix("Value error, ")
+        if e["type"] == "extra_forbidden" and known and e["loc"]:
+            near = difflib.get_close_matches(str(e["loc"][-1]), sorted(known), n=1, cutoff=0.6)
+            if near:
+                text += f"; did you mean '{near[0]}'?"
+        return text
 
     return "; ".join(
         f"{path(e['loc'])}: {message(e)}" if e["loc"] else message(e) for e in exc.errors()
@@ -277,7 +314,7 @@ def load_yaml(path: str | Path, model: type[M], *, what: str) -> M:
         return model.model_validate(doc)
     except ValidationError as exc:
         other = _other_kind(doc, model, what)
-        raise InputError(other or explain(exc), source=str(path)) from None
+        raise InputError(other or explain(exc, known=known_keys(model)), source=str(path)) from None
 
 
 # Top-level keys that only one kind of file has: a file of another kind given in its

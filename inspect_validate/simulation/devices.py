@@ -141,9 +141,18 @@ def open_aravis_fake(settings, opening: Opening):
         )
     if settings.acquisition == "hardware-trigger":
         raise InputError(
-            "camera.acquisition: hardware-trigger cannot run on Aravis' fake camera: its Line0 "
-            "has no wire from the simulated controller's trigger output; use software-trigger "
-            "or free-run (or camera.backend: simulated, which models the wiring)",
+            "camera.acquisition: hardware-trigger cannot run on Aravis' fake camera: its "
+            f"{settings.trigger_line or 'trigger'} input has no wire from the simulated "
+            "controller's trigger output; use software-trigger or free-run (or "
+            "camera.backend: simulated, which models the wiring)",
+            source=opening.source,
+        )
+    if settings.strobe_line is not None:
+        raise InputError(
+            f"camera.strobe_line: Aravis' fake camera has no {settings.strobe_line} output "
+            "wired to the simulated controller; leave out strobe_line and controller.pulse, "
+            "keeping camera.acquisition: software-trigger (or camera.backend: simulated, "
+            "which models the wiring)",
             source=opening.source,
         )
     # One per tool process at a time, and the same on each opening: a capture is resumed,

@@ -222,10 +222,11 @@ def test_simulated_fake_camera_refuses_a_hardware_trigger(cli, tmp_path):
         copy_station(tmp_path, controller=controller),
         "aravis",
         acquisition="hardware-trigger",
-        trigger_line="Line0",
+        trigger_line="Line1",
     )
     code, _, err = cli(["capture", path, "--out", tmp_path / "cap"])
     assert code == 2 and "hardware-trigger cannot run on Aravis' fake camera" in err
+    assert "its Line1 input" in err and "Line0" not in err  # the line the station named
     assert str(path) in err and not (tmp_path / "cap" / "manifest.json").exists()
 
 

@@ -640,3 +640,24 @@ def test_resume_on_a_damaged_capture_is_refused_naming_the_file(tmp_path, capsys
     err = capsys.readouterr().err
     assert f"error: {where}: " in err and "Traceback" not in err
     assert all(p.exists() for p in saved if p.parent.name == "amber")
+
+
+@pytest.mark.parametrize(
+    "camera, suggestion",
+    [
+        (
+            "{backend: simulated, exposure_ms: 8}",
+            "camera.exposure_ms: Extra inputs are not permitted; did you mean 'exposure_us'?",
+        ),
+        ("{backend: simulated, gain: 2}", "did you mean 'gain_db'?"),
+        ("{backend: simulated, zzzz: 1}", "camera.zzzz: Extra inputs are not permitted\n"),
+    ],
+)
+def test_a_misspelt_key_gets_the_key_it_meant(tmp_path, capsys, camera, suggestion):
+    path = tmp_path / "s.yaml"
+    path.write_text(
+        f"camera: {camera}\ncontroller: {{backend: simulated, channels: 1}}\n"
+        "illuminations: [{name: a, channels: {1: 100}}]\n"
+    )
+    assert run_cli(["capture", path, "--out", tmp_path / "o"]) == 2
+    assert suggestion in capsys.readouterr().err

@@ -225,4 +225,7 @@ def test_a_mode_the_camera_lacks_is_refused_before_any_light(tmp_path, capsys):
         assert code == 2, err
         assert "Viky (serial 0) lacks " in err and feature in err, err
         assert "Nothing was switched" in err
+        # A strobed light needs triggered frames: free-running is no way out for it.
+        strobed = "strobe_line" in camera
+        assert ("leave out camera.strobe_line" in err) == strobed, err
         assert not (out / "manifest.json").exists()  # no step began
