@@ -306,7 +306,7 @@ def gaussian_separation(
         Every one by default; the others' ε are NaN.
     """
     from inspect_validate.stats import cnr_db, fisher_db, gaussian_error_and_log, snr_db
-    from inspect_validate.stats.kde_error import Mixture, mixture_error
+    from inspect_validate.stats.kde_error import gaussian_mixture_errors
 
     means = np.asarray(means, dtype=np.float64)
     variances = np.asarray(variances, dtype=np.float64)
@@ -332,18 +332,23 @@ def gaussian_separation(
     valid = np.ones(lead, bool) if valid is None else np.asarray(valid, bool)
     sd = np.sqrt(variances)
     groups = [j for j in range(len(comparisons.groups)) if j not in pairs]
+    # Every valid combination at once (a group's density is a small Gaussian mixture),
+    # on the combinations flattened to rows.
+    keep = np.broadcast_to(valid, lead).reshape(-1)
+    k = means.shape[-1]
+    rows_mean, rows_sd = means.reshape(-1, k)[keep], sd.reshape(-1, k)[keep]
+    n_comparisons = len(comparisons.groups)
+    flat_eps, flat_log = eps.reshape(-1, n_comparisons), log_eps.reshape(-1, n_comparisons)
     for p in groups if mixtures is None else sorted(set(mixtures) & set(groups)):
         g1, g2 = (list(g) for g in comparisons.groups[p])
-        for idx in np.ndindex(lead):
-            if not valid[idx]:
-                continue
-            e = mixture_error(
-                Mixture(means[idx][g1], w[g1] / w[g1].sum(), sd[idx][g1]),
-                Mixture(means[idx][g2], w[g2] / w[g2].sum(), sd[idx][g2]),
-            )
-            eps[(*idx, p)] = e
-            with np.errstate(divide="ignore"):
-                log_eps[(*idx, p)] = np.log(e)
+        share1 = np.broadcast_to(w[g1] / w[g1].sum(), (rows_mean.shape[0], len(g1)))
+        share2 = np.broadcast_to(w[g2] / w[g2].sum(), (rows_mean.shape[0], len(g2)))
+        e = gaussian_mixture_errors(
+            rows_mean[:, g1], share1, rows_sd[:, g1], rows_mean[:, g2], share2, rows_sd[:, g2]
+        )
+        flat_eps[keep, p] = e
+        with np.errstate(divide="ignore"):
+            flat_log[keep, p] = np.log(e)
     return GaussianSeparation(
         m1,
         v1,

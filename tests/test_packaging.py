@@ -27,7 +27,7 @@ def _tracked_modules() -> set[str]:
     ).stdout.split()
     modules = set()
     for name in listed:
-        if name.endswith(".py"):
+        if name.endswith(".py") or "/static/" in name:  # the report's embedded scripts too
             top, _, rest = name.partition("/")
             modules.add(f"{_ROOTS[top]}/{rest}")
     return modules
@@ -56,6 +56,7 @@ def test_wheel_holds_every_module(tmp_path):
     in_wheel = set(zipfile.ZipFile(wheel).namelist())
     modules = _tracked_modules()
     assert "inspect_validate/watch/loop.py" in modules  # the list is the tree's, not empty
+    assert "inspect_validate/report/static/uPlot.iife.min.js" in modules
     assert sorted(modules - in_wheel) == []
 
 

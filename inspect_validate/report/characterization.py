@@ -59,7 +59,7 @@ def write_characterization_report(folder, result, plan, *, inputs: dict) -> list
     """``characterization.json`` and the 1288 plots (PNG) in ``folder``; their paths."""
     from inspect_validate.files import output_folder
     from inspect_validate.report.jsonfile import write_json
-    from inspect_validate.report.plots import _pyplot, _save
+    from inspect_validate.report.plots import _figures, _save
 
     folder = output_folder(folder)
     doc = {
@@ -79,7 +79,7 @@ def write_characterization_report(folder, result, plan, *, inputs: dict) -> list
         "datasheet": result.datasheet(),
     }
     written = [write_json(doc, folder / "characterization.json")]
-    plt = _pyplot()
+    plt = _figures()
     r = result
     signal, noise = r.mean - r.dark_mean, r.variance - r.dark_variance
     x = r.exposure_us

@@ -27,6 +27,7 @@ __all__ = ["verification_html", "write_verification_html"]
 _STYLE = """
 body { font-family: system-ui, sans-serif; margin: 2em auto; max-width: 1200px; color: #222; }
 h1 { margin-bottom: 0.2em; } h2 { border-bottom: 1px solid #ccc; margin-top: 2em; }
+.charts { display: flex; flex-wrap: wrap; gap: 1em; } .charts > .chart { flex: 0 0 auto; }
 .verdict { font-size: 1.6em; font-weight: bold; padding: 0.3em 0.6em; display: inline-block; }
 .pass { color: #0a6b2d; } .fail { color: #b00020; }
 .verdict.pass { background: #e3f5e8; } .verdict.fail { background: #fde7ea; }
@@ -51,7 +52,7 @@ def verification_html(v, *, history=None) -> str:
     """The page of a :class:`~inspect_validate.verification.Verification`, as text;
     ``history``, a :class:`~inspect_validate.watch.history.HistoryLog` of the station,
     adds its trends."""
-    from inspect_validate.report.plots import plot_agreement
+    from inspect_validate.report.charts import agreement_charts, chart, runtime
     from inspect_validate.report.verification import (
         count_failed,
         describe_acquisition,
@@ -87,19 +88,20 @@ def verification_html(v, *, history=None) -> str:
         "<h2>Predicted against measured</h2>",
         "<p>Deviation of the measurement from the calibrated prediction; the band is the "
         "acceptance section's tolerance (none drawn where it sets none).</p>",
-        _figure(
-            plot_agreement,
-            v.classes,
-            v.comparisons,
-            agreement=v.station.acceptance.agreement,
-            alt="measured against predicted μ, σ² and SNR_dB",
+        '<div class="charts">',
+        *(
+            chart(spec, alt=f"measured against predicted: {spec['title']}")
+            for spec in agreement_charts(
+                v.classes, v.comparisons, agreement=v.station.acceptance.agreement
+            )
         ),
+        "</div>",
         _comparisons_table(v),
     ]
     parts += _spectra(v)
     if history is not None:
         parts += _trends(history)
-    parts.append("</body></html>")
+    parts += [runtime(), "</body></html>"]
     return "\n".join(parts)
 
 
@@ -205,7 +207,8 @@ def _calibration(v) -> str:
 
 def _illuminations(v) -> list[str]:
     from inspect_validate.images import read_image
-    from inspect_validate.report.plots import plot_class_histograms, plot_frame_regions
+    from inspect_validate.report.charts import chart, histogram_chart
+    from inspect_validate.report.plots import plot_frame_regions
     from inspect_validate.roi import class_masks
 
     masks = {}  # frame shape → class masks: every illumination has the same frames
@@ -216,21 +219,22 @@ def _illuminations(v) -> list[str]:
         frame = read_image(first)
         if frame.shape not in masks:
             masks[frame.shape] = class_masks(v.rois, frame.shape)
+        buffer = io.BytesIO()
+        lo, hi = plot_frame_regions(frame, masks[frame.shape], buffer)
+        data = base64.b64encode(buffer.getvalue()).decode("ascii")
         out.append(
-            _figure(
-                plot_frame_regions,
-                frame,
-                masks[frame.shape],
-                title=f"{ill}: {Path(first).name} with the class regions",
-                alt=f"{ill}: frame with regions",
-            )
+            f'<figure><img src="data:image/jpeg;base64,{data}" '
+            f'alt="{html.escape(ill)}: frame with regions"><figcaption>'
+            f"{html.escape(ill)}: {html.escape(Path(first).name)} with the class regions "
+            f"(display stretched to {lo:.4g}–{hi:.4g} DN)</figcaption></figure>"
         )
         out.append(
-            _figure(
-                plot_class_histograms,
-                m.classes,
-                title=f"{ill}: grey values of the classes over {m.classes[0].n_frames} frames",
-                kde_bandwidths=_bandwidths(m.classes),
+            chart(
+                histogram_chart(
+                    m.classes,
+                    title=f"{ill}: grey values of the classes over {m.classes[0].n_frames} frames",
+                    kde_bandwidths=_bandwidths(m.classes),
+                ),
                 alt=f"{ill}: class histograms",
             )
         )
@@ -316,7 +320,7 @@ def _comparisons_table(v) -> str:
 def _spectra(v) -> list[str]:
     from inspect_validate.errors import InputError
     from inspect_validate.model import analyse_spectra
-    from inspect_validate.report.plots import plot_component_spectra, plot_spectral_errors
+    from inspect_validate.report.charts import chart, error_charts, spectra_charts
 
     model = v.model
     marked = {}
@@ -330,7 +334,12 @@ def _spectra(v) -> list[str]:
         "<p>The scene's candidate lights (dashed), those the station's channels drive (bold); "
         "the classes' reflectances (mean and range of the samples); the station's optics and "
         "camera among the scene's.</p>",
-        _figure(plot_component_spectra, model.scene, marked=marked, alt="component spectra"),
+        '<div class="charts">',
+        *(
+            chart(spec, alt=f"component spectra: {spec['title']}")
+            for spec in spectra_charts(model.scene, marked=marked)
+        ),
+        "</div>",
     ]
     try:
         separation = analyse_spectra(
@@ -345,11 +354,9 @@ def _spectra(v) -> list[str]:
         "<p>ε_tot (Gaussian) between the classes' reflectance samples at each wavelength: "
         "where a narrow light would separate them; dotted lines mark the peaks of the "
         "station's lights.</p>",
-        _figure(
-            plot_spectral_errors,
-            separation,
-            marked=peaks,
-            alt="classification error per wavelength",
+        *(
+            chart(spec, alt=f"classification error per wavelength, {spec['title']}")
+            for spec in error_charts(separation, marked=peaks)
         ),
     ]
     return out

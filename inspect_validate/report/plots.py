@@ -33,19 +33,26 @@ __all__ = [
 ]
 
 
-def _pyplot():
-    import matplotlib
+class _Figures:
+    """``subplots`` as pyplot has it, without pyplot: each figure is a
+    :class:`matplotlib.figure.Figure` of its own, drawn by Agg and freed with its last
+    reference (no figure manager, no backend switch, nothing to close)."""
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    @staticmethod
+    def subplots(nrows: int = 1, ncols: int = 1, *, figsize, **options):
+        from matplotlib.figure import Figure
 
-    return plt
+        fig = Figure(figsize=figsize)
+        return fig, fig.subplots(nrows, ncols, **options)
+
+
+def _figures() -> type[_Figures]:
+    return _Figures
 
 
 def _save(fig, target, *, rect=None):
     fig.tight_layout(rect=rect)
     fig.savefig(target, dpi=110, format="png")
-    _pyplot().close(fig)
     return target
 
 
@@ -59,7 +66,7 @@ def plot_component_spectra(scene, path, *, marked: dict[str, str] | None = None)
     ``marked`` maps light names to a note (e.g. the controller channel driving
     it): those are drawn bold and labelled with it, the other candidates thin.
     """
-    plt = _pyplot()
+    plt = _figures()
     marked = marked or {}
     fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharex=True)
     panels = [
@@ -112,7 +119,7 @@ def plot_spectral_errors(separation, path, *, marked: dict[str, float] | None = 
     ``marked`` maps labels to wavelengths (nm) drawn as vertical lines, e.g. the
     peaks of the lights a station uses.
     """
-    plt = _pyplot()
+    plt = _figures()
     fig, axes = plt.subplots(
         1,
         2 if separation.error_kde is not None else 1,
@@ -169,7 +176,7 @@ def plot_spectral_errors(separation, path, *, marked: dict[str, float] | None = 
 def plot_ranked_separation(rows: list[dict], path, *, by: str = "error"):
     """The ranked combinations, best first, by the value the table ranks them by: each
     row's key comparison's ε Gauss (log scale), SNR_dB or CNR_dB, written at each bar."""
-    plt = _pyplot()
+    plt = _figures()
     labels = [f"{r['rank']}: {r['light']} / {r['optics']} / {r['camera']}" for r in rows]
     keys = [r["comparisons"][r["key_comparison"]] for r in rows]
     quantity = {"error": "error_gaussian"}.get(by, by)
@@ -199,10 +206,17 @@ def plot_ranked_separation(rows: list[dict], path, *, by: str = "error"):
     return _save(fig, path)
 
 
-def plot_frame_regions(frame: np.ndarray, masks: dict[str, np.ndarray], target, *, title: str):
-    """One frame with each class's region outlined and labelled, contrast-stretched to the
-    0.5–99.5 percentiles of the regions' pixels (the background does not set the stretch)."""
-    plt = _pyplot()
+def plot_frame_regions(
+    frame: np.ndarray, masks: dict[str, np.ndarray], target
+) -> tuple[float, float]:
+    """One frame with each class's region outlined and named (a JPEG, by OpenCV: a picture
+    of pixels needs no plotting library), contrast-stretched to the 0.5–99.5 percentiles
+    of the regions' pixels (the background does not set the stretch). Returns that
+    stretch, DN, for the caption."""
+    import cv2
+
+    from inspect_validate.roi.overlay import draw_regions
+
     frame = np.asarray(frame, dtype=np.float64)
     inside = np.logical_or.reduce(list(masks.values())) if masks else np.ones(frame.shape, bool)
     values = frame[inside & np.isfinite(frame)]
@@ -210,28 +224,17 @@ def plot_frame_regions(frame: np.ndarray, masks: dict[str, np.ndarray], target, 
     lo, hi = np.percentile(values[::step], [0.5, 99.5]) if values.size else (0.0, 1.0)
     if not hi > lo:
         hi = lo + 1.0
-    h, w = frame.shape
-    fig, ax = plt.subplots(figsize=(7, 6 * h / w + 0.8))
-    image = ax.imshow(frame, cmap="gray", vmin=lo, vmax=hi, interpolation="antialiased")
-    for k, (name, mask) in enumerate(masks.items()):
-        ax.contour(mask.astype(np.uint8), levels=[0.5], colors=[_colour(k)], linewidths=1.5)
-        ys, xs = np.nonzero(mask)
-        ax.text(
-            xs.mean(),
-            ys.mean(),
-            name,
-            color=_colour(k),
-            fontsize=11,
-            weight="bold",
-            ha="center",
-            va="center",
-            bbox={"facecolor": "white", "alpha": 0.7, "edgecolor": "none", "pad": 1},
-        )
-    ax.set_title(f"{title}\n(display stretched to {lo:.4g}–{hi:.4g} DN)", fontsize=10)
-    ax.set_xlabel("x [px]")
-    ax.set_ylabel("y [px]")
-    fig.colorbar(image, ax=ax, label="grey value [DN]", shrink=0.8)
-    return _save(fig, target)
+    picture = draw_regions(np.nan_to_num(frame), masks, limits=(float(lo), float(hi)))
+    # JPEG: a noisy frame does not compress as PNG (2.5 MB a 5 MP frame's picture).
+    encoded, jpeg = cv2.imencode(".jpg", picture, [cv2.IMWRITE_JPEG_QUALITY, 90])
+    if not encoded:
+        raise RuntimeError("OpenCV could not encode the frame as JPEG")
+    data = jpeg.tobytes()
+    if isinstance(target, str | Path):
+        Path(target).write_bytes(data)
+    else:
+        target.write(data)
+    return float(lo), float(hi)
 
 
 def plot_class_histograms(classes, target, *, title: str, kde_bandwidths=None):
@@ -244,7 +247,7 @@ def plot_class_histograms(classes, target, *, title: str, kde_bandwidths=None):
     from inspect_validate.stats import LatticeSample
     from inspect_validate.stats.kde_error import kernel_density
 
-    plt = _pyplot()
+    plt = _figures()
     fig, ax = plt.subplots(figsize=(9, 4))
     for k, c in enumerate(classes):
         sample = c.region.sample
@@ -291,7 +294,7 @@ def plot_agreement(
     the dark level), σ² (%) per illumination and class, SNR_dB (dB) per comparison; the
     acceptance tolerance as a band. Comparisons both predicted and measured below the
     agreement floor are not checked and drawn hollow."""
-    plt = _pyplot()
+    plt = _figures()
     fig, axes = plt.subplots(1, 3, figsize=(13, 4.2))
     illuminations = list(dict.fromkeys(r.illumination for r in class_rows))
     markers = "osD^v<>ph*"
@@ -370,7 +373,7 @@ def plot_design_spectrum(design, path):
     from inspect_validate.errors import InputError
     from inspect_validate.station.model import illumination_light
 
-    plt = _pyplot()
+    plt = _figures()
     p = design.problem
     grid = p.grid
     fig, ax = plt.subplots(figsize=(10, 4.5))
@@ -421,7 +424,7 @@ def plot_design_spectrum(design, path):
 def plot_design_path(design, path):
     """ε and CNR_dB of the objective's comparisons along the straight path from the best
     single channel (0) to the designed mix (1): how much the mix gains, and where."""
-    plt = _pyplot()
+    plt = _figures()
     p = design.problem
     fraction, errors, cnr = (design.path[k] for k in ("fraction", "errors", "cnr"))
     fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4), sharex=True)
@@ -454,7 +457,7 @@ def plot_history_overview(log, target):
     """A watch history at a glance: each cycle's status, and per illumination every chart's
     smoothed value off its golden target in band half-widths (beyond ±1 is an alarm;
     charts that alarmed are labelled, the others grey)."""
-    plt = _pyplot()
+    plt = _figures()
     illuminations = log.illuminations
     fig, axes = plt.subplots(
         1 + len(illuminations),
@@ -498,7 +501,7 @@ def plot_history_overview(log, target):
 def plot_history_charts(log, illumination: str, target):
     """The EWMA charts of one illumination: each cycle's value (dots), the smoothed value
     (line), the control band around the golden target (shaded) and alarms (red)."""
-    plt = _pyplot()
+    plt = _figures()
     charts = sorted((k, s) for k, s in log.charts.items() if k[0] == illumination)
     ncols = min(4, max(len(charts), 1))
     nrows = max(math.ceil(len(charts) / ncols), 1)

@@ -16,14 +16,19 @@ _COLOURS = [
 
 
 def draw_regions(
-    image: np.ndarray, masks: dict[str, np.ndarray], *, labels: dict[str, str] | None = None
+    image: np.ndarray,
+    masks: dict[str, np.ndarray],
+    *,
+    labels: dict[str, str] | None = None,
+    limits: tuple[float, float] | None = None,
 ) -> np.ndarray:
     """``image`` (H, W) as an 8-bit colour picture with every mask's outline and label.
 
     Parameters
     ----------
     image : ndarray
-        The frame, DN; shown stretched from its 0.5th to its 99.5th percentile.
+        The frame, DN; shown stretched from ``limits`` (default: its 0.5th to its 99.5th
+        percentile) black to white.
     masks : dict of str to ndarray of bool
         Class name → its pixels.
     labels : dict of str to str, optional
@@ -32,21 +37,30 @@ def draw_regions(
     Returns
     -------
     ndarray of uint8, (h, w, 3), BGR
-        Enlarged by a whole factor where the frame is small, so that the text reads.
+        Enlarged by a whole factor where the frame is small, so that the text reads;
+        averaged down to 1600 px where it is larger.
     """
     import cv2
 
     frame = np.asarray(image, dtype=np.float64)
-    low, high = np.percentile(frame, [0.5, 99.5])
+    low, high = limits if limits is not None else np.percentile(frame, [0.5, 99.5])
     grey = np.clip((frame - low) / max(high - low, 1e-12) * 255, 0, 255).astype(np.uint8)
     scale = max(1, int(np.ceil(480 / min(frame.shape))))
-    grey = np.repeat(np.repeat(grey, scale, axis=0), scale, axis=1)
-    picture = cv2.cvtColor(grey, cv2.COLOR_GRAY2BGR)
-    font, size = cv2.FONT_HERSHEY_SIMPLEX, 0.5
+    # A large frame is shown at most 1600 px wide (averaged down: a page of 5 MP frames
+    # would weigh megabytes each), a small one enlarged by repeating pixels.
+    shrink = max(1.0, max(frame.shape) / 1600)
+    fitted = (round(frame.shape[1] / shrink), round(frame.shape[0] / shrink))
+
+    def shown(plane: np.ndarray, interpolation) -> np.ndarray:
+        if shrink > 1:
+            return cv2.resize(plane, fitted, interpolation=interpolation)
+        return np.repeat(np.repeat(plane, scale, axis=0), scale, axis=1)
+
+    picture = cv2.cvtColor(shown(grey, cv2.INTER_AREA), cv2.COLOR_GRAY2BGR)
+    font = cv2.FONT_HERSHEY_SIMPLEX
     for i, (name, mask) in enumerate(masks.items()):
         colour = _COLOURS[i % len(_COLOURS)]
-        # Enlarged by repeating pixels: the outline stays on the pixels' edges.
-        big = np.repeat(np.repeat(mask.astype(np.uint8), scale, axis=0), scale, axis=1)
+        big = shown(mask.astype(np.uint8), cv2.INTER_NEAREST)
         contours, _ = cv2.findContours(big, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
         cv2.drawContours(picture, contours, -1, colour, 2)
         # The label well inside the region: of the points at least half as far from its
@@ -58,9 +72,10 @@ def draw_regions(
         y, x = int(ys[k]), int(xs[k])
         # Hershey fonts are ASCII: the label's ± and σ are spelt out.
         text = (labels or {}).get(name, name).replace("±", "+/-").replace("μ", "mu")
-        (w, h), base = cv2.getTextSize(text, font, size, 1)
+        size, weight = (0.9, 2) if len(text) <= 8 else (0.5, 1)  # a class name reads from afar
+        (w, h), base = cv2.getTextSize(text, font, size, weight)
         x0 = int(np.clip(x - w // 2, 2, max(picture.shape[1] - w - 2, 2)))
         y0 = int(np.clip(y + h // 2, h + 2, picture.shape[0] - base - 2))
         cv2.rectangle(picture, (x0 - 2, y0 - h - 2), (x0 + w + 2, y0 + base), (0, 0, 0), -1)
-        cv2.putText(picture, text, (x0, y0), font, size, colour, 1, cv2.LINE_AA)
+        cv2.putText(picture, text, (x0, y0), font, size, colour, weight, cv2.LINE_AA)
     return picture

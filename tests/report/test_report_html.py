@@ -3,6 +3,7 @@ and looked at as a page in headless Chromium (skipped where Debian's chromium is
 
 import base64
 import io
+import json
 import re
 import shutil
 import subprocess
@@ -48,15 +49,29 @@ def report(tmp_path_factory):
     return out / "report.html"
 
 
-def test_every_figure_is_an_inline_png_that_decodes(report):
+def test_every_figure_is_an_inline_picture_or_a_chart_with_its_data(report):
+    text = report.read_text()
     page = _Page()
-    page.feed(report.read_text())
-    # Per illumination the frame and the histograms; agreement, spectra, ε per wavelength.
-    assert len(page.images) == 2 * 2 + 3
+    page.feed(text)
+    # Per illumination the frame (a picture) and the histograms (a chart); the agreement
+    # (3 panels), the spectra (4) and ε per wavelength (1) are charts.
+    assert len(page.images) == 2
+    charts = re.findall(
+        r'<div class="chart" role="img" aria-label="([^"]+)"><script type="application/json">(.*?)</script>',
+        text,
+    )
+    assert len(charts) == 2 + 3 + 4 + 1
+    for label, data in charts:
+        spec = json.loads(data.replace("<\\/", "</"))
+        assert label and spec["title"] and spec["series"]
+        assert all(
+            s.get("xref") is not None or len(s["x"]) == len(s["y"]) > 0 for s in spec["series"]
+        )
+    assert "uPlot 1.6.32, MIT licence" in text  # embedded, not loaded
     for img in page.images:
         assert img["alt"]
         head, data = img["src"].split(",", 1)
-        assert head == "data:image/png;base64"
+        assert head == "data:image/jpeg;base64"
         image = Image.open(io.BytesIO(base64.b64decode(data)))
         image.load()
         assert image.width > 300 and image.height > 200
@@ -97,7 +112,15 @@ def test_skipped_work_is_rows_of_the_checks_table(report):
 _PROBE = """<script>
 window.addEventListener('load', () => {
   const bad = [...document.images].filter(i => !(i.complete && i.naturalWidth > 0));
-  document.body.setAttribute('data-probe', document.images.length + ':' + bad.length);
+  // A chart drawn: its canvas has pixels that are not the background.
+  const canvases = [...document.querySelectorAll('div.chart canvas')];
+  const drawn = canvases.filter(c => {
+    const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+    for (let i = 3; i < d.length; i += 4) { if (d[i] > 0) return true; }
+    return false;
+  });
+  document.body.setAttribute('data-probe', document.images.length + ':' + bad.length +
+    ':' + document.querySelectorAll('div.chart').length + ':' + drawn.length);
 });
 </script>"""
 
@@ -125,8 +148,9 @@ def test_report_renders_in_headless_chromium(report, tmp_path):
         timeout=120,
     )
     assert run.returncode == 0, run.stderr[-2000:]
-    found = re.search(r'data-probe="(\d+):(\d+)"', run.stdout)
+    found = re.search(r'data-probe="(\d+):(\d+):(\d+):(\d+)"', run.stdout)
     assert found, "the page did not finish loading"
-    assert int(found[1]) == 7 and int(found[2]) == 0  # every image decoded
+    assert int(found[1]) == 2 and int(found[2]) == 0  # every picture decoded
+    assert int(found[3]) == 10 and int(found[4]) == 10  # every chart drawn by the browser
     console = [line for line in run.stderr.splitlines() if ":CONSOLE" in line]
     assert console == []

@@ -1,0 +1,104 @@
+"""What the HTML report adds to a verification: ``verify --report`` against ``verify`` of
+the same station in the same run, through the CLI in fresh processes (imports included),
+on the shipped station and on a 5 MP station of four illuminations; with the page's
+weight.
+
+Run: ``python benchmarks/bench_report.py [--runs 3]`` (about a minute).
+
+Target (issue: the report at the speed of the verification): ``verify --report`` ≤ 1.3 ×
+``verify``, and the page no heavier than before the charts (1.54 MB on the shipped
+station, seven matplotlib PNGs).
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import yaml
+from machine import machine_line
+
+ROOT = Path(__file__).resolve().parent.parent
+STATION = ROOT / "sample_images" / "station"
+TARGET = 1.3
+WEIGHT_BEFORE = 1_543_379  # bytes: report.html of the shipped station, matplotlib figures
+
+
+def big_station(folder: Path) -> Path:
+    """The shipped station at 2592 × 1944 (5 MP) with four illuminations; its ROIs scaled
+    to the frame (the simulated world scales its class bands with the frame)."""
+    doc = yaml.safe_load((STATION / "station.yaml").read_text())
+    doc["scene"] = str((STATION / doc["scene"]).resolve())
+    doc["camera"].update(width=2592, height=1944)
+    doc["illuminations"] = [
+        {"name": "amber", "channels": {1: 100}},
+        {"name": "red", "channels": {2: 100}},
+        {"name": "both", "channels": {1: 60, 2: 60}},
+        {"name": "amber_half", "channels": {1: 50}},
+    ]
+    scale = 2592 / 320
+    rois = yaml.safe_load((STATION / "rois.yaml").read_text())
+    for shapes in rois["classes"].values():
+        for shape in shapes:
+            shape["rect"] = [round(v * scale) for v in shape["rect"]]
+    rois["erode"] = 3
+    (folder / "rois.yaml").write_text(yaml.safe_dump(rois))
+    doc["rois"] = str(folder / "rois.yaml")
+    doc["acceptance"].pop("ranking", None)
+    path = folder / "big.yaml"
+    path.write_text(yaml.safe_dump(doc, sort_keys=False))
+    return path
+
+
+def seconds(args: list[str]) -> float:
+    start = time.perf_counter()
+    run = subprocess.run(
+        [sys.executable, "-m", "inspect_validate", *args], capture_output=True, text=True
+    )
+    elapsed = time.perf_counter() - start
+    if run.returncode not in (0, 1):
+        raise SystemExit(f"{' '.join(args)} failed ({run.returncode}): {run.stderr[-500:]}")
+    return elapsed
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--runs", type=int, default=3)
+    args = parser.parse_args()
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        stations = {
+            "shipped station (320 × 240, 2 illuminations)": STATION / "station.yaml",
+            "5 MP, 4 illuminations": big_station(tmp),
+        }
+        seconds(["verify", str(STATION / "station.yaml")])  # compile caches, warm the disk
+        for name, station in stations.items():
+            plain, report, weight = [], [], 0
+            for run in range(args.runs):
+                plain.append(
+                    seconds(["verify", str(station), "--out", str(tmp / f"v{name[:3]}{run}")])
+                )
+                out = tmp / f"r{name[:3]}{run}"
+                report.append(seconds(["verify", str(station), "--report", str(out)]))
+                weight = (out / "report.html").stat().st_size
+            rows.append((name, statistics.median(plain), statistics.median(report), weight))
+    print(machine_line())
+    print(f"medians of {args.runs} runs each, fresh processes\n")
+    print("| station | verify [s] | verify --report [s] | ratio | target | report.html [kB] |")
+    print("|---|---|---|---|---|---|")
+    for name, plain, report, weight in rows:
+        print(
+            f"| {name} | {plain:.2f} | {report:.2f} | {report / plain:.2f} | ≤ {TARGET} | "
+            f"{weight / 1000:.0f} |"
+        )
+    print(f"\nreport.html of the shipped station before the charts: {WEIGHT_BEFORE / 1000:.0f} kB")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,311 @@
+"""Charts a report's browser draws from their data: class histograms, component spectra,
+ε per wavelength and predicted against measured, as in :mod:`~inspect_validate.report.plots`
+but without a picture. The page carries each chart's numbers as JSON and
+`uPlot <https://github.com/leeoniya/uPlot>`_ (1.6.32 from the npm registry, MIT licence,
+50 kB, in ``static/``) with a small script of ours draws them: the value under the
+pointer in the legend, drag to zoom, double-click to zoom out; the page stays one file
+that opens offline.
+
+Drawing figures in matplotlib cost a verification report about 2 s on the shipped
+station (its import alone 0.4 s, then 0.1–0.2 s a figure) against 1.3 s for the whole
+verification; these cost milliseconds (benchmarks/bench_report.py).
+"""
+
+from __future__ import annotations
+
+import html
+import json
+from functools import cache
+from importlib import resources
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from inspect_validate.verification.results import ClassAgreement, ComparisonAgreement
+
+__all__ = [
+    "agreement_charts",
+    "chart",
+    "error_charts",
+    "histogram_chart",
+    "runtime",
+    "spectra_charts",
+]
+
+# matplotlib's default cycle (tab10), as the PNG figures have it.
+COLOURS = [
+    "#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd",
+    "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf",
+]  # fmt: skip
+
+
+def _colour(k: int) -> str:
+    return COLOURS[k % len(COLOURS)]
+
+
+def _alpha(colour: str, alpha: float) -> str:
+    r, g, b = (int(colour[i : i + 2], 16) for i in (1, 3, 5))
+    return f"rgba({r}, {g}, {b}, {alpha})"
+
+
+def _numbers(values) -> list[float | None]:
+    """Values to 5 significant digits (what a chart resolves; the page stays small),
+    None where not finite."""
+    out: list[float | None] = []
+    for v in np.asarray(values, dtype=float).ravel():
+        out.append(float(f"{v:.5g}") if np.isfinite(v) else None)
+    return out
+
+
+def _series(label: str, x, y, **options) -> dict[str, Any]:
+    return {"label": label, "x": _numbers(x), "y": _numbers(y), **options}
+
+
+@cache
+def runtime() -> str:
+    """uPlot, its stylesheet and the drawing script, inline: once per page."""
+    static = resources.files("inspect_validate.report") / "static"
+    css = (static / "uPlot.min.css").read_text()
+    library = (static / "uPlot.iife.min.js").read_text()
+    script = (static / "charts.js").read_text()
+    return (
+        f"<style>{css}\n.chart {{ margin: 0.5em 0 1.5em; }}</style>\n"
+        f"<script>/* uPlot 1.6.32, MIT licence (c) Leon Sorokin */\n{library}</script>\n"
+        f"<script>{script}</script>"
+    )
+
+
+def chart(spec: dict[str, Any], *, alt: str) -> str:
+    """A ``<div>`` the page's script draws ``spec`` into; ``alt`` describes it (for a
+    screen reader, and where scripts are off)."""
+    data = json.dumps(spec, separators=(",", ":"), allow_nan=False).replace("</", "<\\/")
+    return (
+        f'<div class="chart" role="img" aria-label="{html.escape(alt)}">'
+        f'<script type="application/json">{data}</script>'
+        f"<noscript>{html.escape(alt)}: the chart needs JavaScript</noscript></div>"
+    )
+
+
+def histogram_chart(classes, *, title: str, kde_bandwidths=None) -> dict[str, Any]:
+    """Each class's grey-value histogram (as a density) with its Gaussian N(μ, σ²) (dashed)
+    and its kernel density estimate (41) (solid), 1/DN against DN."""
+    from inspect_validate.stats import LatticeSample
+    from inspect_validate.stats.kde_error import kernel_density
+
+    series = []
+    for k, c in enumerate(classes):
+        sample = c.region.sample
+        if isinstance(sample, LatticeSample):
+            points = sample.points
+            step = 1.0 / sample.denominator
+            merge = max(1, int(np.ceil(points.size / 256)))  # ≤ 256 bars a class
+            n_bins = int(np.ceil(points.size / merge))
+            counts = np.add.reduceat(sample.counts, np.arange(0, points.size, merge))
+            edges = points[0] - step / 2 + np.arange(n_bins + 1) * merge * step
+            density = counts / (sample.n * merge * step)
+        else:
+            density, edges = np.histogram(sample, bins="auto", density=True)
+            if density.size > 256:
+                density, edges = np.histogram(sample, bins=256, density=True)
+        colour = _colour(k)
+        series.append(
+            _series(
+                f"{c.name} histogram",
+                edges,
+                np.append(density, density[-1]),
+                kind="step",
+                color=colour,
+                fill=_alpha(colour, 0.3),
+                width=1,
+            )
+        )
+        sd = float(np.sqrt(c.variance))
+        x = np.linspace(min(edges[0], c.mean - 4 * sd), max(edges[-1], c.mean + 4 * sd), 200)
+        if sd > 0:
+            gauss = np.exp(-0.5 * ((x - c.mean) / sd) ** 2) / (sd * np.sqrt(2 * np.pi))
+            series.append(_series(f"{c.name} Gaussian", x, gauss, color=colour, dash=True))
+        h = (kde_bandwidths or {}).get(c.name, c.kde_bandwidth)
+        if h is not None and h > 0:
+            series.append(
+                _series(f"{c.name} KDE", x, kernel_density(sample, h, x), color=colour, width=2)
+            )
+    return {
+        "title": title,
+        "xlabel": "grey value [DN]",
+        "ylabel": "density [1/DN]",
+        "series": series,
+    }
+
+
+def spectra_charts(scene, *, marked: dict[str, str] | None = None) -> list[dict[str, Any]]:
+    """Lights (normalised), reflectances (mean and sample range), optics and QE: four
+    charts, as the chapter's Fig. 18. ``marked`` (light name → a note, e.g. its channel)
+    draws those lights bold, the other candidates thin and dashed."""
+    marked = marked or {}
+    lo, hi = scene.grid[0], scene.grid[-1]
+    panels = [
+        ("lights", "relative SPD", [(x.name, x.spd) for x in scene.lights], True),
+        ("object reflectance", "reflectance", [(c.name, c.reflectance) for c in scene.classes], False),
+        ("optics transmission", "transmission", [(o.name, o.transmission) for o in scene.optics], False),
+        ("camera QE", "quantum efficiency [e⁻/photon]", [(c.name, c.qe) for c in scene.cameras], False),
+    ]  # fmt: skip
+    charts = []
+    for title, ylabel, items, normalise in panels:
+        series: list[dict[str, Any]] = []
+        bands = []
+        for k, (name, s) in enumerate(items):
+            keep = (s.wavelengths >= lo) & (s.wavelengths <= hi)
+            wl, v = s.wavelengths[keep], s.values[:, keep]
+            if normalise:
+                v = v / np.nanmax(v)
+            colour = _colour(k)
+            bold = normalise and name in marked
+            label = f"{name} ({marked[name]})" if bold else name
+            thin = normalise and bool(marked) and not bold
+            leader = len(series)
+            series.append(
+                _series(
+                    label,
+                    wl,
+                    np.nanmean(v, axis=0),
+                    color=colour,
+                    width=1 if thin else 2,
+                    dash=thin,
+                )
+            )
+            if v.shape[0] > 1:
+                for edge, values in (("max", np.nanmax(v, axis=0)), ("min", np.nanmin(v, axis=0))):
+                    series.append(
+                        {
+                            "label": f"{name} sample {edge}",
+                            "xref": leader,
+                            "y": _numbers(values),
+                            "color": _alpha(colour, 0.5),
+                            "width": 0.5,
+                        }
+                    )
+                bands.append([leader + 1, leader + 2, _alpha(colour, 0.2)])
+        charts.append(
+            {
+                "title": title,
+                "xlabel": "wavelength [nm]",
+                "ylabel": ylabel,
+                "series": series,
+                "bands": bands,
+                "width": 560,
+                "height": 280,
+            }
+        )
+    return charts
+
+
+def error_charts(separation, *, marked: dict[str, float] | None = None) -> list[dict[str, Any]]:
+    """ε per wavelength for every comparison, parametric and (where computed) kernel
+    density (Fig. 22), on a log axis; ``marked`` (label → wavelength, nm) as vertical
+    lines. A complete separation (ε below 1e-16) is drawn at 1e-16."""
+    floor = 1e-16
+    charts = []
+    for title, data in (
+        ("parametric (Gaussian)", separation.error_gaussian),
+        ("nonparametric (KDE, LSCV)", separation.error_kde),
+    ):
+        if data is None:
+            continue
+        series = [
+            _series(
+                f"{','.join(a)} vs {','.join(b)}",
+                separation.wavelengths,
+                np.maximum(eps, floor),
+                color=_colour(k),
+            )
+            for k, ((a, b), eps) in enumerate(zip(separation.comparisons, data, strict=True))
+        ]
+        below = bool(np.nanmin(data) < floor)
+        charts.append(
+            {
+                "title": f"ε_tot per wavelength, {title}"
+                + (f" (ε < {floor:g}, complete separation, drawn at {floor:g})" if below else ""),
+                "xlabel": "wavelength [nm]",
+                "ylabel": "ε_tot",
+                "logy": True,
+                "series": series,
+                "vlines": [{"x": float(x), "label": name} for name, x in (marked or {}).items()],
+            }
+        )
+    return charts
+
+
+def agreement_charts(
+    class_rows: list[ClassAgreement],
+    comparison_rows: list[ComparisonAgreement],
+    *,
+    agreement=None,
+) -> list[dict[str, Any]]:
+    """Measured − predicted against predicted: μ (% of the signal above the dark level),
+    σ² (%) per illumination and class, SNR_dB (dB) per comparison, the acceptance
+    tolerance as a band. Comparisons predicted and measured below the agreement floor
+    are not checked and drawn hollow."""
+    illuminations = list(dict.fromkeys(r.illumination for r in class_rows))
+    floor = getattr(agreement, "snr_floor_db", None)
+
+    def pct(x):
+        return None if x is None else 100.0 * x
+
+    def panel(rows, get, tolerance, title, x_unit, y_unit, checked=lambda r: True):
+        values = np.array([get(r) for r in rows], dtype=float).reshape(-1, 2)
+        series = []
+        for i, ill in enumerate(illuminations):
+            for on in (True, False):
+                sel = [j for j, r in enumerate(rows) if r.illumination == ill and checked(r) == on]
+                if sel:
+                    label = ill if on else f"{ill} (below floor, not checked)"
+                    series.append(
+                        _series(label, values[sel, 0], values[sel, 1], kind="points",
+                                color=_colour(i), hollow=not on)
+                    )  # fmt: skip
+        finite = values[np.isfinite(values[:, 1]), 1]
+        reach = max([*np.abs(finite), 1.5 * (tolerance or 0.0), 1e-3])
+        xs = values[np.isfinite(values[:, 0]), 0]
+        left, right = (float(xs.min()), float(xs.max())) if xs.size else (0.0, 1.0)
+        pad = 0.06 * (right - left) or max(1.0, 0.06 * abs(left))  # no point on the frame
+        return {
+            "title": title,
+            "xlabel": f"predicted [{x_unit}]",
+            "ylabel": f"measured − predicted [{y_unit}]",
+            "series": series,
+            "xrange": [left - pad, right + pad],
+            "yrange": [-1.15 * reach, 1.15 * reach],
+            "zero": True,
+            **({"hband": [-tolerance, tolerance]} if tolerance is not None else {}),
+            "width": 380,
+            "height": 300,
+        }
+
+    return [
+        panel(
+            class_rows,
+            lambda r: (r.predicted.mean, 100.0 * r.mean_relative),
+            pct(getattr(agreement, "mean_relative", None)),
+            "class mean μ",
+            "DN",
+            "% of signal",
+        ),
+        panel(
+            class_rows,
+            lambda r: (r.predicted.variance, 100.0 * r.variance_relative),
+            pct(getattr(agreement, "variance_relative", None)),
+            "class variance σ²",
+            "DN²",
+            "%",
+        ),
+        panel(
+            comparison_rows,
+            lambda r: (r.predicted.snr_db, r.snr_db_difference),
+            getattr(agreement, "snr_db", None),
+            "SNR_dB per comparison",
+            "dB",
+            "dB",
+            checked=lambda r: floor is None or max(r.predicted.snr_db, r.measured.snr_db) >= floor,
+        ),
+    ]

@@ -1,0 +1,62 @@
+"""ε of many small Gaussian mixtures at once (the spectral analysis's groups, the
+prediction's one-against-the-rest): against the closed form of two Gaussians and against
+the one-at-a-time search, with the extremes that broke a linear-density version (narrow
+components hundreds of σ apart, where both densities underflow)."""
+
+import numpy as np
+import pytest
+
+from inspect_validate.stats import gaussian_error
+from inspect_validate.stats.kde_error import Mixture, gaussian_mixture_errors, mixture_error
+
+
+def test_two_gaussians_match_the_closed_form():
+    rng = np.random.default_rng(0)
+    n = 500
+    m1, m2 = rng.normal(100, 20, n), rng.normal(100, 20, n)
+    s1, s2 = rng.uniform(0.3, 15, n), rng.uniform(0.3, 15, n)
+    got = gaussian_mixture_errors(
+        m1[:, None], np.ones((n, 1)), s1[:, None], m2[:, None], np.ones((n, 1)), s2[:, None]
+    )
+    want = gaussian_error(m1, s1**2, m2, s2**2)
+    tiny = want < 1e-290
+    np.testing.assert_allclose(got[~tiny], want[~tiny], rtol=1e-9, atol=0)  # stated: 1e-9 relative
+    assert np.all(got[tiny] < 1e-280)
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_mixtures_match_the_search_one_at_a_time(seed):
+    rng = np.random.default_rng(seed)
+    n = 200
+    k1, k2 = 1 + seed % 3, 1 + (seed + 1) % 3
+    c1, c2 = rng.normal(100, 30, (n, k1)), rng.normal(100, 30, (n, k2))
+    # σ from 0.05 to 20 DN: ratios up to 400 (narrow components far apart underflow)
+    s1 = np.exp(rng.uniform(np.log(0.05), np.log(20), (n, k1)))
+    s2 = np.exp(rng.uniform(np.log(0.05), np.log(20), (n, k2)))
+    w1, w2 = rng.dirichlet(np.ones(k1), n), rng.dirichlet(np.ones(k2), n)
+    got = gaussian_mixture_errors(c1, w1, s1, c2, w2, s2)
+    want = np.array(
+        [
+            mixture_error(Mixture(c1[i], w1[i], s1[i]), Mixture(c2[i], w2[i], s2[i]))
+            for i in range(n)
+        ]
+    )
+    shown = want > 1e-250
+    np.testing.assert_allclose(got[shown], want[shown], rtol=1e-9, atol=1e-15)
+    assert np.all(got[~shown] < 1e-240)
+
+
+def test_point_masses_and_empty_input_take_the_exact_path():
+    got = gaussian_mixture_errors(
+        [[10.0]], [[1.0]], [[0.0]], [[10.0, 12.0]], [[0.5, 0.5]], [[0.0, 1.0]]
+    )
+    want = mixture_error(Mixture([10.0], [1.0], 0.0), Mixture([10.0, 12.0], [0.5, 0.5], [0.0, 1.0]))
+    assert got[0] == pytest.approx(want, rel=1e-12)
+    assert gaussian_mixture_errors(
+        np.zeros((0, 1)),
+        np.zeros((0, 1)),
+        np.zeros((0, 1)),
+        np.zeros((0, 2)),
+        np.zeros((0, 2)),
+        np.zeros((0, 2)),
+    ).shape == (0,)
