@@ -1,4 +1,5 @@
-"""The report of ``characterize``: the EMVA 1288 plots and the JSON datasheet."""
+"""The report of ``characterize``: the JSON datasheet, the EMVA 1288 plots (PNG) and a
+page with both (``characterization.html``)."""
 
 from __future__ import annotations
 
@@ -56,7 +57,8 @@ def format_characterization(result, plan) -> str:
 
 
 def write_characterization_report(folder, result, plan, *, inputs: dict) -> list[Path]:
-    """``characterization.json`` and the 1288 plots (PNG) in ``folder``; their paths."""
+    """``characterization.json``, the 1288 plots (PNG) and ``characterization.html`` in
+    ``folder``; their paths."""
     from inspect_validate.files import output_folder
     from inspect_validate.report.jsonfile import write_json
     from inspect_validate.report.plots import _figures, _save
@@ -132,4 +134,41 @@ def write_characterization_report(folder, result, plan, *, inputs: dict) -> list
             axes[row, 1].hist(centred.ravel(), bins=100, log=True)
             axes[row, 1].set(xlabel="DN", ylabel="pixels", title=f"{name} histogram")
         written.append(_save(fig, folder / "nonuniformity.png"))
+    written.append(_write_page(folder / "characterization.html", result, plan, inputs, written))
     return written
+
+
+def _write_page(path: Path, result, plan, inputs: dict, pictures: list[Path]) -> Path:
+    """``characterization.html``: the datasheet and the 1288 plots as charts the browser
+    draws (the nonuniformity maps as the picture written beside it), one file."""
+    import base64
+    import html
+
+    from inspect_validate.files import atomic_write
+    from inspect_validate.report.charts import characterization_charts, chart
+    from inspect_validate.report.html import page, table
+
+    rows = []
+    for line in format_characterization(result, plan).splitlines()[1:]:
+        name, _, value = line.partition("  ")
+        rows.append([name.strip(), value.strip()])
+    body = [
+        "<h1>EMVA 1288 characterization</h1>",
+        f'<p class="meta">{html.escape(format_characterization(result, plan).splitlines()[0])}; '
+        f"station {html.escape(str(inputs.get('station', '')))}, "
+        f"inspect-validate {html.escape(__version__)}</p>",
+        "<h2>Datasheet</h2>",
+        table(["quantity", "value"], rows),
+        "<h2>Measurements</h2>",
+        '<div class="charts">',
+        *(chart(spec, alt=spec["title"]) for spec in characterization_charts(result, plan)),
+        "</div>",
+    ]
+    maps = [p for p in pictures if p.name == "nonuniformity.png"]
+    if maps:
+        data = base64.b64encode(maps[0].read_bytes()).decode("ascii")
+        body += [
+            "<h2>Nonuniformity</h2>",
+            f'<img src="data:image/png;base64,{data}" alt="DSNU and PRNU maps and histograms">',
+        ]
+    return atomic_write(path, page("EMVA 1288 characterization", body).encode())

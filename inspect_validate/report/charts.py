@@ -26,6 +26,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "agreement_charts",
+    "characterization_charts",
     "chart",
     "error_charts",
     "histogram_chart",
@@ -308,4 +309,63 @@ def agreement_charts(
             "dB",
             checked=lambda r: floor is None or max(r.predicted.snr_db, r.measured.snr_db) >= floor,
         ),
+    ]
+
+
+def characterization_charts(result, plan) -> list[dict[str, Any]]:
+    """The EMVA 1288 series as charts: photon transfer (with the fitted K and the 70 %
+    limit of the fit), SNR against the photons' electrons (log–log, with the linear
+    model), linearity, dark signal and dark noise against the series' abscissa."""
+    r = result
+    signal, noise = r.mean - r.dark_mean, r.variance - r.dark_variance
+    x = r.exposure_us
+    abscissa = "exposure [µs]" if plan.varies == "exposure" else "LED level [%]"
+    top = float(signal[r.saturation_index])
+    fit = np.linspace(0.0, top, 50)
+    electrons = np.maximum(signal / r.gain, 1e-3)
+    model = electrons / np.sqrt(r.dark_noise**2 + electrons + 1 / 12 / r.gain**2)
+    size = {"width": 520, "height": 300}
+    return [
+        {
+            "title": f"Photon transfer: K = {r.gain:.4g} DN/e⁻",
+            "xlabel": "μ_y − μ_y.dark [DN]",
+            "ylabel": "σ²_y − σ²_y.dark [DN²]",
+            "series": [
+                _series("measured", signal, noise, kind="points", color=_colour(0)),
+                _series("K · μ (fit)", fit, r.gain * fit, color=_colour(1)),
+            ],
+            "vlines": [{"x": 0.7 * top, "label": "70 % of saturation"}],
+            **size,
+        },
+        {
+            "title": "Signal-to-noise ratio",
+            "xlabel": "μ_e [e⁻]",
+            "ylabel": "SNR",
+            "logx": True,
+            "logy": True,
+            "series": [
+                _series(
+                    "measured", electrons, np.maximum(r.snr, 1e-3), kind="points", color=_colour(0)
+                ),
+                _series("EMVA 1288 linear model", electrons, model, color=_colour(1)),
+            ],
+            **size,
+        },
+        {
+            "title": f"Linearity (error {100 * r.linearity_error:.2g} %)",
+            "xlabel": abscissa,
+            "ylabel": "μ_y − μ_y.dark [DN]",
+            "series": [_series("signal", x, signal, kind="points", color=_colour(0))],
+            **size,
+        },
+        {
+            "title": "Dark signal and dark noise",
+            "xlabel": abscissa,
+            "ylabel": "μ_y.dark [DN], σ²_y.dark [DN²]",
+            "series": [
+                _series("μ_y.dark [DN]", x, r.dark_mean, kind="points", color=_colour(0)),
+                _series("σ²_y.dark [DN²]", x, r.dark_variance, kind="points", color=_colour(1)),
+            ],
+            **size,
+        },
     ]

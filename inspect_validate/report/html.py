@@ -48,11 +48,25 @@ def write_verification_html(v, path: str | Path, *, history=None) -> Path:
     return atomic_write(path, verification_html(v, history=history).encode())
 
 
+def page(title: str, body: list[str]) -> str:
+    """A whole report page: ``title``, the report style, ``body`` (HTML fragments) and the
+    chart script, in one self-contained file."""
+    from inspect_validate.report.charts import runtime
+
+    head = [
+        "<!DOCTYPE html>",
+        '<html lang="en"><head><meta charset="utf-8">',
+        f"<title>{html.escape(title)}</title>",
+        f"<style>{_STYLE}</style></head><body>",
+    ]
+    return "\n".join([*head, *body, runtime(), "</body></html>"])
+
+
 def verification_html(v, *, history=None) -> str:
     """The page of a :class:`~inspect_validate.verification.Verification`, as text;
     ``history``, a :class:`~inspect_validate.watch.history.HistoryLog` of the station,
     adds its trends."""
-    from inspect_validate.report.charts import agreement_charts, chart, runtime
+    from inspect_validate.report.charts import agreement_charts, chart
     from inspect_validate.report.verification import (
         count_failed,
         describe_acquisition,
@@ -62,10 +76,6 @@ def verification_html(v, *, history=None) -> str:
     e = html.escape
     verdict = "pass" if v.passed else "fail"
     parts = [
-        "<!DOCTYPE html>",
-        '<html lang="en"><head><meta charset="utf-8">',
-        f"<title>verify {e(v.station.name)}: {verdict.upper()}</title>",
-        f"<style>{_STYLE}</style></head><body>",
         f"<h1>{e(v.station.name)}</h1>",
         f'<div class="verdict {verdict}">{verdict.upper()}: {e(count_failed(v.checks))}</div>',
         f'<p class="meta">station {e(str(v.inputs["station"]))} (SHA-256 '
@@ -101,8 +111,7 @@ def verification_html(v, *, history=None) -> str:
     parts += _spectra(v)
     if history is not None:
         parts += _trends(history)
-    parts += [runtime(), "</body></html>"]
-    return "\n".join(parts)
+    return page(f"verify {v.station.name}: {verdict.upper()}", parts)
 
 
 def _figure(plot, *args, alt: str, **options) -> str:
@@ -114,7 +123,7 @@ def _figure(plot, *args, alt: str, **options) -> str:
     return f'<img src="data:image/png;base64,{data}" alt="{html.escape(alt)}">'
 
 
-def _table(header, rows, *, failed=None, classes=None) -> str:
+def table(header, rows, *, failed=None, classes=None) -> str:
     """``rows`` under ``header``; a row is marked ``fail`` where ``failed[i]``, else with
     ``classes[i]`` (a CSS class) where given."""
     e = html.escape
@@ -151,7 +160,7 @@ def _checks_table(v) -> str:
     # What was not computed, and why, is read where the checks are: rows of their own,
     # whole (a "what: why" split at a colon would cut "amber: C vs A,B" apart).
     skipped = [["skipped", item, "", "", "", "", ""] for item in v.skipped]
-    return _table(
+    return table(
         CHECK_COLUMNS,
         [cells for _, cells in rows] + skipped,
         failed=[not c.passed for c, _ in rows] + [False] * len(skipped),
@@ -183,7 +192,7 @@ def _calibration(v) -> str:
         for s in v.scales.values()
     ]
     out.append(
-        _table(
+        table(
             [
                 "illumination",
                 "method",
@@ -254,7 +263,7 @@ def _illuminations(v) -> list[str]:
             if r.illumination == ill
         ]
         out.append(
-            _table(
+            table(
                 [
                     "class",
                     "μ predicted [DN]",
@@ -300,7 +309,7 @@ def _comparisons_table(v) -> str:
         ]
         for r in v.comparisons
     ]
-    return _table(
+    return table(
         [
             "illumination",
             "comparison",
@@ -386,7 +395,7 @@ def _trends(log) -> list[str]:
         return out
     out.append(_figure(plot_history_overview, log, alt="status per cycle and charts off target"))
     header, cells, alarmed = trend_table(log, limit=12)
-    out.append(_table(header, cells, failed=alarmed))
+    out.append(table(header, cells, failed=alarmed))
     for ill in log.illuminations:
         out.append(_figure(plot_history_charts, log, ill, alt=f"drift charts of {ill}"))
     return out

@@ -111,6 +111,11 @@ def test_the_simulated_sensor_is_measured_within_emva_tolerances(characterized):
     assert values["quantum_efficiency_scale"] == pytest.approx(0.9, rel=0.02)
     for name in ("photon_transfer", "snr", "linearity", "dark_signal", "nonuniformity"):
         assert (characterized / "report" / f"{name}.png").stat().st_size > 10_000
+    # One page with the datasheet and the series as charts, the maps embedded: offline.
+    page = (characterized / "report" / "characterization.html").read_text()
+    assert "<h2>Datasheet</h2>" in page and "system gain K" in page and "DN/e⁻" in page
+    assert page.count('<div class="chart" role') == 4 and "data:image/png;base64," in page
+    assert "uPlot 1.6.32" in page and 'src="http' not in page
     camera = yaml.safe_load((characterized / "cap" / "camera.yaml").read_text())
     assert camera["camera"]["gain"] == pytest.approx(values["system_gain"], rel=1e-5)
     assert camera["measured"]["standard_errors"]["gain"] > 0
@@ -344,3 +349,45 @@ def test_photon_transfer_on_the_emva1288_simulators_frames(tmp_path, emva1288_py
     as_uint16 = measured("lit_7.npy", None).classes[0].saturated_fraction
     if u_esat == 60_000:  # the bit depth clips: every pixel at 4095
         assert clipped == 1.0 and as_uint16 == 0.0
+
+
+_PROBE = """<script>window.addEventListener('load', () => {
+  const drawn = [...document.querySelectorAll('div.chart canvas')].filter(c => {
+    const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+    for (let i = 3; i < d.length; i += 4) { if (d[i] > 0) return true; }
+    return false;
+  });
+  document.body.setAttribute('data-probe',
+    document.querySelectorAll('div.chart').length + ':' + drawn.length);
+});</script>"""
+
+
+def test_the_characterization_page_draws_in_headless_chromium(characterized, tmp_path):
+    import re
+    import shutil
+    import subprocess
+
+    if shutil.which("chromium") is None:
+        pytest.skip("Debian's chromium is not installed")
+    page = (characterized / "report" / "characterization.html").read_text()
+    probe = tmp_path / "probe.html"
+    probe.write_text(page.replace("</body>", _PROBE + "</body>"))
+    run = subprocess.run(
+        [
+            "chromium",
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--virtual-time-budget=5000",
+            "--enable-logging=stderr",
+            "--v=0",
+            "--dump-dom",
+            probe.as_uri(),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    found = re.search(r'data-probe="(\d+):(\d+)"', run.stdout)
+    assert found and found[1] == found[2] == "4", run.stderr[-1000:]  # every chart drawn
+    assert [line for line in run.stderr.splitlines() if ":CONSOLE" in line] == []

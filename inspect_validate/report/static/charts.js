@@ -1,5 +1,5 @@
 /* inspect-validate: draws each <div class="chart"> of a report from the JSON beside it,
-   with uPlot (embedded above this script). A spec: {title, xlabel, ylabel, logy, xrange, yrange,
+   with uPlot (embedded above this script). A spec: {title, xlabel, ylabel, logx, logy, xrange, yrange,
    vlines: [{x, label}], hband: [lo, hi], zero, series: [{label, color, x, y | xref, kind:
    "line" | "step" | "points", dash, width, fill, hollow, hidden}], bands: [[hi, lo, fill]]}.
    Every series keeps its own x values: the chart's x axis holds them all, sorted, each
@@ -83,6 +83,7 @@
     });
     var x = { time: false }, y = {};
     if (spec.xrange) { x.range = function () { return spec.xrange; }; }
+    if (spec.logx) { x.distr = 3; }
     if (spec.logy) { y.distr = 3; }
     if (spec.yrange) { y.range = function () { return spec.yrange; }; }
     return {
