@@ -9,8 +9,10 @@ fails before a capture or a long sweep, not after it.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 
 from inspect_validate.errors import InputError
@@ -28,13 +30,21 @@ def _umask() -> int:
 _FILE_MODE = 0o666 & ~_umask()
 
 
+#: The outermost folder each :func:`output_folder` call created, in this process: what a
+#: refused run removes again where it holds no file (:func:`remove_empty_outputs`).
+_CREATED: list[Path] = []
+
+
 def output_folder(path: str | Path) -> Path:
     """Create ``path`` (and parents) as a folder, or raise an error naming what is in the way."""
     path = Path(path)
     if path.exists() and not path.is_dir():
         raise InputError("is a file, not a folder; give a folder for the output", source=str(path))
+    missing = [p for p in (path, *path.parents) if not p.exists()]
     try:
         path.mkdir(parents=True, exist_ok=True)
+        if missing:
+            _CREATED.append(missing[-1])
     except (FileExistsError, NotADirectoryError):
         raise InputError(
             "cannot create this folder: part of the path is a file", source=str(path)
@@ -42,6 +52,29 @@ def output_folder(path: str | Path) -> Path:
     except OSError as exc:
         raise InputError(f"cannot create this folder ({exc.strerror})", source=str(path)) from None
     return path
+
+
+@contextlib.contextmanager
+def cleaned_outputs() -> Iterator[None]:
+    """Within it, a run that fails (an error, Ctrl-C, a failed verdict's exit) removes the
+    folders it created that hold no file: a run refused before it wrote anything must not
+    leave folders that block a rerun or look like results. A folder with any file in it,
+    a frame, a manifest, is kept."""
+    import shutil
+
+    start = len(_CREATED)
+    try:
+        yield
+    except BaseException:
+        for top in reversed(_CREATED[start:]):
+            try:
+                if top.is_dir() and not any(p.is_file() or p.is_symlink() for p in top.rglob("*")):
+                    shutil.rmtree(top)
+            except OSError:
+                continue  # not ours to fight over: left as it is
+        raise
+    finally:
+        del _CREATED[start:]
 
 
 def output_file(path: str | Path) -> Path:

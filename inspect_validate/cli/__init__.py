@@ -78,7 +78,10 @@ def main(argv=None) -> None:
     except ValueError:  # not the main thread (an embedding program): its own handling
         pass
     try:
-        cli.main(args=argv, prog_name="inspect-validate", standalone_mode=False)
+        from inspect_validate.files import cleaned_outputs
+
+        with cleaned_outputs():  # a refused or failed run leaves no empty folders
+            cli.main(args=argv, prog_name="inspect-validate", standalone_mode=False)
     except (click.exceptions.Abort, KeyboardInterrupt):
         click.echo(
             "interrupted; frames saved so far are kept (capture: rerun with --resume)", err=True

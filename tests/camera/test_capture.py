@@ -661,3 +661,28 @@ def test_a_misspelt_key_gets_the_key_it_meant(tmp_path, capsys, camera, suggesti
     )
     assert run_cli(["capture", path, "--out", tmp_path / "o"]) == 2
     assert suggestion in capsys.readouterr().err
+
+
+def test_a_run_refused_before_any_frame_leaves_no_folders(tmp_path, capsys):
+    """A camera that is not there (pylon without its emulator): capture, verify, train and
+    characterize refuse it, and the folders they had made for their output are gone
+    again (they blocked a rerun, and looked like results); a capture that saved frames
+    keeps them (tests above)."""
+    import yaml
+
+    doc = yaml.safe_load((ROOT / "sample_images" / "station" / "station.yaml").read_text())
+    doc["camera"] = {"backend": "pylon", "serial": "NOT-THERE", "exposure_us": 8000}
+    doc["scene"] = str(ROOT / "sample_images" / "scenes" / "paperboard" / "scene.yaml")
+    doc["rois"] = str(ROOT / "sample_images" / "station" / "rois.yaml")
+    station = tmp_path / "s.yaml"
+    station.write_text(yaml.safe_dump(doc))
+    out = tmp_path / "out"
+    for args in (
+        ["capture", station, "--out", out / "c" / "deep"],
+        ["verify", station, "--report", out / "r"],
+        ["train", station, "--out", out / "g.json"],
+        ["characterize", station, "--out", out / "ch", "--report", out / "chr"],
+    ):
+        code = run_cli(args)
+        assert code in (2, 3), capsys.readouterr().err
+    assert not out.exists() or sorted(p.name for p in out.rglob("*")) == []
