@@ -149,6 +149,27 @@ class Measurement:
     skipped: tuple[str, ...] = ()
     warnings: tuple[str, ...] = ()
 
+    def __repr__(self) -> str:
+        classes = ", ".join(
+            f"{c.name} μ {c.mean:.4g} DN σ² {c.variance:.4g} DN²" for c in self.classes[:4]
+        )
+        more = f", … {len(self.classes) - 4} more" if len(self.classes) > 4 else ""
+        return (
+            f"<Measurement: {len(self.classes)} classes ({classes}{more}), "
+            f"{len(self.comparisons)} comparisons; .table() for the chapter's Tables 3–4>"
+        )
+
+    def table(self) -> str:
+        """The class and separation tables as text (as ``measure`` prints them)."""
+        from inspect_validate.report.tables import format_measurement
+
+        return format_measurement(self)
+
+    def _repr_html_(self) -> str:
+        import html
+
+        return f"<pre>{html.escape(self.table())}</pre>"
+
     def comparison(self, text: str) -> Comparison:
         """The comparison written ``text`` (``"A vs B,C"``)."""
         from inspect_validate.comparisons import find_comparison

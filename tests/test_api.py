@@ -98,3 +98,25 @@ def test_iv_verify_and_the_cli_skip_the_same_illuminations_by_default(tmp_path):
     assert set(result.measurements) == {"amber"}
     every = iv.verify(path, out=tmp_path / "all", all_illuminations=True)
     assert set(every.measurements) == {"amber", "red"}
+
+
+def test_results_print_short_and_show_their_numbers_as_tables(paperboard, tmp_path):
+    """repr of a prediction was 11 kB of arrays, of a measurement 4.9 kB: a line now, with
+    the numbers as a text table (.table()) and in a notebook as HTML."""
+    import inspect_validate as iv
+
+    scene = iv.read_scene(ROOT / "sample_images" / "scenes" / "paperboard" / "scene.yaml")
+    results = [
+        iv.predict(scene),
+        iv.sweep(scene),
+        iv.measure(paperboard / "optimized.png", paperboard / "rois.yaml"),
+        iv.verify(ROOT / "sample_images" / "station" / "station.yaml", out=tmp_path / "v"),
+    ]
+    for result in results:
+        text = repr(result)
+        assert len(text) < 300 and "\n" not in text and "array(" not in text, text
+        table = result.table()
+        assert "\n" in table and len(table) > 100
+        assert result._repr_html_().startswith("<pre>")
+    assert "amber LED" in results[0].table() and "A vs B,C" in results[0].table()
+    assert "SNR_dB" in results[2].table() and "PASS" in repr(results[3])

@@ -91,7 +91,7 @@ class Exposure:
             raise InputError("exposure target must be a fraction of saturation in (0, 1]")
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, repr=False)  # a short repr: __repr__
 class _Combinations:
     """The light × optics × camera axes, the classes and the comparisons of a prediction
     or a ranking."""
@@ -112,14 +112,50 @@ class _Combinations:
     def shape(self) -> tuple[int, int, int]:
         return len(self.lights), len(self.optics), len(self.cameras)
 
+    def __repr__(self) -> str:
+        lights, optics, cameras = self.shape
+        return (
+            f"<{type(self).__name__}: {lights} lights × {optics} optics × {cameras} cameras, "
+            f"{len(self.classes)} classes ({', '.join(self.classes[:6])}), "
+            f"{len(self.comparison_set.named)} comparisons; .table() for the numbers>"
+        )
 
-@dataclass(frozen=True, eq=False)
+
+@dataclass(frozen=True, eq=False, repr=False)  # a short repr: __repr__
 class Prediction(_Combinations):
     """Predicted statistics for every light × optics × camera combination.
 
     Arrays are indexed ``[light, optics, camera, ...]``; the last axis is the
     class (``mean``, ``variance``, ...) or the comparison (``snr_db``, ...).
     """
+
+    def _repr_html_(self) -> str:
+        import html
+
+        return f"<pre>{html.escape(self.table())}</pre>"
+
+    def table(self) -> str:
+        """Each combination's class means and each comparison's SNR_dB and ε Gauss, as text."""
+        from inspect_validate.report.tables import format_error, render_table
+
+        names = [f"{','.join(a)} vs {','.join(b)}" for a, b in self.comparisons]
+        header = ["light", "optics", "camera"]
+        header += [f"μ {c} [DN]" for c in self.classes]
+        header += [f"{n} SNR_dB" for n in names] + [f"{n} ε" for n in names]
+        rows = []
+        for at, (li, oi, ci) in self._rows():
+            rows.append(
+                [self.lights[li], self.optics[oi], self.cameras[ci]]
+                + [f"{m:.4g}" for m in self.mean[at]]
+                + [f"{x:.2f}" for x in self.snr_db[at]]
+                + [format_error(e) for e in self.error_gaussian[at]]
+            )
+        return render_table(header, rows)
+
+    def _rows(self):
+        """(where a combination's values are, its (light, optics, camera) indices)."""
+        for at in np.ndindex(self.shape):
+            yield at, at
 
     exposure_time: np.ndarray  # s, (L, O, C)
     electrons: np.ndarray  # mean μ_e per class, (L, O, C, K)

@@ -70,7 +70,7 @@ _ROW_FIELDS = (
 )
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, repr=False)  # a short repr: __repr__
 class Ranking(_Combinations):
     """The best rows of a sweep, best first, with what the whole sweep found.
 
@@ -79,6 +79,17 @@ class Ranking(_Combinations):
     comparison or the reflectance sample); ``index`` gives each row's
     (light, optics, camera).
     """
+
+    def table(self) -> str:
+        """The ranking as ``predict`` prints it, best first."""
+        from inspect_validate.report.prediction import format_prediction
+
+        return format_prediction(self)
+
+    def _repr_html_(self) -> str:
+        import html
+
+        return f"<pre>{html.escape(self.table())}</pre>"
 
     by: str
     comparison: str | None

@@ -146,3 +146,22 @@ class Verification:
     @property
     def passed(self) -> bool:
         return all(c.passed for c in self.checks)
+
+    def __repr__(self) -> str:
+        failed = sum(not c.passed for c in self.checks)
+        verdict = "PASS" if self.passed else "FAIL"
+        return (
+            f"<Verification of {self.station.name!r}: {verdict}, {len(self.checks)} checks, "
+            f"{failed} failed; .table() for the checks>"
+        )
+
+    def table(self) -> str:
+        """The checks and the verdict as ``verify`` prints them."""
+        from inspect_validate.report.verification import format_verdict
+
+        return format_verdict(self)
+
+    def _repr_html_(self) -> str:
+        import html
+
+        return f"<pre>{html.escape(self.table())}</pre>"
