@@ -222,3 +222,44 @@ def lenient_history(path, cycles=(), points=(), meta=None):
     con.commit()
     con.close()
     return path
+
+
+_PROBE = """<script>
+window.addEventListener('load', () => {
+  const bad = [...document.images].filter(i => !(i.complete && i.naturalWidth > 0));
+  // A chart drawn: its canvas has pixels that are not the background.
+  const drawn = [...document.querySelectorAll('div.chart canvas')].filter(c => {
+    const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+    for (let i = 3; i < d.length; i += 4) { if (d[i] > 0) return true; }
+    return false;
+  });
+  document.body.setAttribute('data-probe', document.images.length + ':' + bad.length +
+    ':' + document.querySelectorAll('div.chart').length + ':' + drawn.length);
+});
+</script>"""
+
+
+def chromium_probe(page: Path, tmp_path: Path) -> dict:
+    """A report page as headless Chromium loads it: pictures and pictures not decoded,
+    charts and charts drawn, and the console's messages. A copy of the page gets a probe
+    script that writes them into the DOM once the page has loaded. Skips where Debian's
+    chromium is absent."""
+    import re
+    import shutil
+
+    if shutil.which("chromium") is None:
+        pytest.skip("Debian's chromium is not installed")
+    probe = tmp_path / "probe.html"
+    probe.write_text(page.read_text().replace("</body>", _PROBE + "</body>"))
+    run = subprocess.run(
+        ["chromium", "--headless", "--no-sandbox", "--disable-gpu",
+         "--virtual-time-budget=10000", "--enable-logging=stderr", "--v=0", "--dump-dom",
+         probe.as_uri()],
+        capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert run.returncode == 0, run.stderr[-2000:]
+    found = re.search(r'data-probe="(\d+):(\d+):(\d+):(\d+)"', run.stdout)
+    assert found, "the page did not finish loading"
+    images, bad, charts, drawn = map(int, found.groups())
+    console = [line for line in run.stderr.splitlines() if ":CONSOLE" in line]
+    return {"images": images, "bad": bad, "charts": charts, "drawn": drawn, "console": console}

@@ -237,16 +237,20 @@ def init(
 
     # -- the station ----------------------------------------------------------------------
     camera = {"backend": camera_backend, **camera}
-    draft = draft_station(
-        scene,
-        camera=camera,
-        controller=controller,
-        channels=channel_lights or None,
-        irradiance=irradiance,
-        rois=rois,
-        name=name,
-        path=out.resolve(),
-    )
+
+    def drafted():
+        return draft_station(
+            scene,
+            camera=camera,
+            controller=controller,
+            channels=channel_lights or None,
+            irradiance=irradiance,
+            rois=rois,
+            name=name,
+            path=out.resolve(),
+        )
+
+    draft = drafted()
     limits = features.exposure_us if features is not None else None
     if exposure_us is None:
         exposure_us = fitting_exposure_us(draft, limits=limits)
@@ -268,16 +272,7 @@ def init(
             source="init",
         )
     camera["exposure_us"] = exposure_us
-    station = draft_station(
-        scene,
-        camera=camera,
-        controller=controller,
-        channels=channel_lights or None,
-        irradiance=irradiance,
-        rois=rois,
-        name=name,
-        path=out.resolve(),
-    )
+    station = drafted()
     if not out.parent.exists():
         out.parent.mkdir(parents=True)
     write_station(

@@ -1,27 +1,22 @@
 """PNG plots: component spectra, per-wavelength errors, ranked separation (a prediction);
-frames with their regions, class histograms, predicted against measured (a verification);
+a frame with its regions (a verification's page, whose charts are
+:mod:`~inspect_validate.report.charts`);
 the mixed spectrum and the path from the best single channel to the mix (a design);
 a watch history's trends.
 
 Each function draws to ``target``, a path or a binary file object (the HTML
-report embeds the bytes). matplotlib is imported here only (Agg backend, no
-display needed).
+report embeds the bytes). matplotlib is imported here only (figures drawn by Agg,
+without pyplot: no display needed).
 """
 
 from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-if TYPE_CHECKING:
-    from inspect_validate.verification.results import ClassAgreement, ComparisonAgreement
-
 __all__ = [
-    "plot_agreement",
-    "plot_class_histograms",
     "plot_component_spectra",
     "plot_design_path",
     "plot_design_spectrum",
@@ -235,135 +230,6 @@ def plot_frame_regions(
     else:
         target.write(data)
     return float(lo), float(hi)
-
-
-def plot_class_histograms(classes, target, *, title: str, kde_bandwidths=None):
-    """Each class's grey-value histogram (as a density) with its Gaussian N(μ, σ²) (dashed)
-    and its kernel density estimate (41) (solid), 1/DN against DN.
-
-    ``classes`` are :class:`~inspect_validate.measurement.ClassMeasurement`;
-    ``kde_bandwidths`` (DN per class, optional) default to each class's own.
-    """
-    from inspect_validate.stats import LatticeSample
-    from inspect_validate.stats.kde_error import kernel_density
-
-    plt = _figures()
-    fig, ax = plt.subplots(figsize=(9, 4))
-    for k, c in enumerate(classes):
-        sample = c.region.sample
-        if isinstance(sample, LatticeSample):
-            points = sample.points
-            step = 1.0 / sample.denominator
-            merge = max(1, int(np.ceil(points.size / 256)))  # ≤ 256 bars a class
-            n_bins = int(np.ceil(points.size / merge))
-            counts = np.add.reduceat(sample.counts, np.arange(0, points.size, merge))
-            edges = points[0] - step / 2 + np.arange(n_bins + 1) * merge * step
-            density = counts / (sample.n * merge * step)
-        else:
-            density, edges = np.histogram(sample, bins="auto", density=True)
-            if density.size > 256:
-                density, edges = np.histogram(sample, bins=256, density=True)
-        ax.stairs(density, edges, color=_colour(k), alpha=0.35, fill=True, label=f"{c.name}")
-        sd = np.sqrt(c.variance)
-        lo = min(edges[0], c.mean - 4 * sd)
-        hi = max(edges[-1], c.mean + 4 * sd)
-        x = np.linspace(lo, hi, 400)
-        if sd > 0:
-            gauss = np.exp(-0.5 * ((x - c.mean) / sd) ** 2) / (sd * np.sqrt(2 * np.pi))
-            ax.plot(x, gauss, color=_colour(k), ls="--", lw=1.2)
-        h = (kde_bandwidths or {}).get(c.name, c.kde_bandwidth)
-        if h is not None and h > 0:
-            ax.plot(x, kernel_density(sample, h, x), color=_colour(k), lw=1.4)
-    ax.plot([], [], color="0.3", ls="--", label="Gaussian N(μ, σ²)")
-    ax.plot([], [], color="0.3", label="kernel density (LSCV h)")
-    ax.set_xlabel("grey value [DN]")
-    ax.set_ylabel("density [1/DN]")
-    ax.set_title(title)
-    ax.legend(fontsize=8)
-    return _save(fig, target)
-
-
-def plot_agreement(
-    class_rows: list[ClassAgreement],
-    comparison_rows: list[ComparisonAgreement],
-    target,
-    *,
-    agreement=None,
-):
-    """Deviation of measured from predicted against the prediction: μ (% of the signal above
-    the dark level), σ² (%) per illumination and class, SNR_dB (dB) per comparison; the
-    acceptance tolerance as a band. Comparisons both predicted and measured below the
-    agreement floor are not checked and drawn hollow."""
-    plt = _figures()
-    fig, axes = plt.subplots(1, 3, figsize=(13, 4.2))
-    illuminations = list(dict.fromkeys(r.illumination for r in class_rows))
-    markers = "osD^v<>ph*"
-    floor = getattr(agreement, "snr_floor_db", None)
-
-    def panel(ax, rows, get, tolerance, title, x_unit, y_unit, checked=lambda r: True) -> None:
-        values = np.array([get(r) for r in rows], dtype=float).reshape(-1, 2)
-        for i, ill in enumerate(illuminations):
-            for on in (True, False):
-                sel = [j for j, r in enumerate(rows) if r.illumination == ill and checked(r) == on]
-                if sel:
-                    ax.scatter(
-                        values[sel, 0],
-                        values[sel, 1],
-                        marker=markers[i % len(markers)],
-                        facecolors=_colour(i) if on else "none",
-                        edgecolors=_colour(i),
-                        label=ill if on else f"{ill} (below floor, not checked)",
-                        zorder=3,
-                    )
-        ax.axhline(0.0, color="0.4", lw=1)
-        if tolerance is not None:
-            ax.axhspan(-tolerance, tolerance, color="tab:green", alpha=0.15, label="tolerance")
-        finite = values[np.isfinite(values[:, 1]), 1]
-        reach = max([*np.abs(finite), 1.5 * (tolerance or 0.0), 1e-3])
-        ax.set_ylim(-1.15 * reach, 1.15 * reach)
-        ax.set_title(title)
-        ax.set_xlabel(f"predicted [{x_unit}]")
-        ax.set_ylabel(f"measured − predicted [{y_unit}]")
-
-    def pct(x):
-        return None if x is None else 100.0 * x
-
-    panel(
-        axes[0],
-        class_rows,
-        lambda r: (r.predicted.mean, 100.0 * r.mean_relative),
-        pct(getattr(agreement, "mean_relative", None)),
-        "class mean μ",
-        "DN",
-        "% of signal",
-    )
-    panel(
-        axes[1],
-        class_rows,
-        lambda r: (r.predicted.variance, 100.0 * r.variance_relative),
-        pct(getattr(agreement, "variance_relative", None)),
-        "class variance σ²",
-        "DN²",
-        "%",
-    )
-    panel(
-        axes[2],
-        comparison_rows,
-        lambda r: (r.predicted.snr_db, r.snr_db_difference),
-        getattr(agreement, "snr_db", None),
-        "SNR_dB per comparison",
-        "dB",
-        "dB",
-        checked=lambda r: floor is None or max(r.predicted.snr_db, r.measured.snr_db) >= floor,
-    )
-    labels: dict[str, object] = {}
-    for ax in axes:
-        for handle, label in zip(*ax.get_legend_handles_labels(), strict=True):
-            labels.setdefault(label, handle)
-    fig.legend(
-        labels.values(), labels.keys(), loc="upper center", ncol=6, fontsize=8, frameon=False
-    )
-    return _save(fig, target, rect=(0, 0, 1, 0.9))  # room for the legend above
 
 
 def plot_design_spectrum(design, path):

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from conftest import ROOT, copy_station, run_cli, through_sdk
+from conftest import ROOT, chromium_probe, copy_station, run_cli, through_sdk
 
 TRUTH = {"gain": 0.1 * 1.12, "dark_noise": 12.0, "full_well": 30000.0}
 WORLD = {"gain_error": 0.12, "dark_current": 2000.0, "dsnu": 8.0, "prnu": 0.01, "transmission": 0.9}
@@ -351,43 +351,7 @@ def test_photon_transfer_on_the_emva1288_simulators_frames(tmp_path, emva1288_py
         assert clipped == 1.0 and as_uint16 == 0.0
 
 
-_PROBE = """<script>window.addEventListener('load', () => {
-  const drawn = [...document.querySelectorAll('div.chart canvas')].filter(c => {
-    const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
-    for (let i = 3; i < d.length; i += 4) { if (d[i] > 0) return true; }
-    return false;
-  });
-  document.body.setAttribute('data-probe',
-    document.querySelectorAll('div.chart').length + ':' + drawn.length);
-});</script>"""
-
-
 def test_the_characterization_page_draws_in_headless_chromium(characterized, tmp_path):
-    import re
-    import shutil
-    import subprocess
-
-    if shutil.which("chromium") is None:
-        pytest.skip("Debian's chromium is not installed")
-    page = (characterized / "report" / "characterization.html").read_text()
-    probe = tmp_path / "probe.html"
-    probe.write_text(page.replace("</body>", _PROBE + "</body>"))
-    run = subprocess.run(
-        [
-            "chromium",
-            "--headless",
-            "--no-sandbox",
-            "--disable-gpu",
-            "--virtual-time-budget=5000",
-            "--enable-logging=stderr",
-            "--v=0",
-            "--dump-dom",
-            probe.as_uri(),
-        ],
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    found = re.search(r'data-probe="(\d+):(\d+)"', run.stdout)
-    assert found and found[1] == found[2] == "4", run.stderr[-1000:]  # every chart drawn
-    assert [line for line in run.stderr.splitlines() if ":CONSOLE" in line] == []
+    seen = chromium_probe(characterized / "report" / "characterization.html", tmp_path)
+    assert seen["charts"] == seen["drawn"] == 4 and seen["bad"] == 0  # every chart drawn
+    assert seen["console"] == []

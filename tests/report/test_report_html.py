@@ -5,12 +5,10 @@ import base64
 import io
 import json
 import re
-import shutil
-import subprocess
 from html.parser import HTMLParser
 
 import pytest
-from conftest import ROOT, run_cli
+from conftest import ROOT, chromium_probe, run_cli
 from PIL import Image
 
 STATION = ROOT / "sample_images" / "station"
@@ -109,48 +107,8 @@ def test_skipped_work_is_rows_of_the_checks_table(report):
     assert rows.index("skipped") > max(i for i, v in enumerate(rows) if v != "skipped")
 
 
-_PROBE = """<script>
-window.addEventListener('load', () => {
-  const bad = [...document.images].filter(i => !(i.complete && i.naturalWidth > 0));
-  // A chart drawn: its canvas has pixels that are not the background.
-  const canvases = [...document.querySelectorAll('div.chart canvas')];
-  const drawn = canvases.filter(c => {
-    const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
-    for (let i = 3; i < d.length; i += 4) { if (d[i] > 0) return true; }
-    return false;
-  });
-  document.body.setAttribute('data-probe', document.images.length + ':' + bad.length +
-    ':' + document.querySelectorAll('div.chart').length + ':' + drawn.length);
-});
-</script>"""
-
-
-@pytest.mark.skipif(shutil.which("chromium") is None, reason="Debian's chromium is not installed")
 def test_report_renders_in_headless_chromium(report, tmp_path):
-    # The page itself has no script; a copy gets a probe that counts the images the
-    # browser decoded, read back from the DOM once the page has loaded.
-    probe = tmp_path / "probe.html"
-    probe.write_text(report.read_text().replace("</body>", _PROBE + "</body>"))
-    run = subprocess.run(
-        [
-            "chromium",
-            "--headless",
-            "--no-sandbox",
-            "--disable-gpu",
-            "--virtual-time-budget=10000",
-            "--enable-logging=stderr",
-            "--v=0",
-            "--dump-dom",
-            probe.as_uri(),
-        ],
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    assert run.returncode == 0, run.stderr[-2000:]
-    found = re.search(r'data-probe="(\d+):(\d+):(\d+):(\d+)"', run.stdout)
-    assert found, "the page did not finish loading"
-    assert int(found[1]) == 2 and int(found[2]) == 0  # every picture decoded
-    assert int(found[3]) == 10 and int(found[4]) == 10  # every chart drawn by the browser
-    console = [line for line in run.stderr.splitlines() if ":CONSOLE" in line]
-    assert console == []
+    seen = chromium_probe(report, tmp_path)
+    assert seen["images"] == 2 and seen["bad"] == 0  # every picture decoded
+    assert seen["charts"] == seen["drawn"] == 10  # every chart drawn by the browser
+    assert seen["console"] == []
