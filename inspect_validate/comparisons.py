@@ -332,14 +332,16 @@ def gaussian_separation(
     valid = np.ones(lead, bool) if valid is None else np.asarray(valid, bool)
     sd = np.sqrt(variances)
     groups = [j for j in range(len(comparisons.groups)) if j not in pairs]
-    # Every valid combination at once (a group's density is a small Gaussian mixture),
-    # on the combinations flattened to rows.
-    keep = np.broadcast_to(valid, lead).reshape(-1)
-    k = means.shape[-1]
-    rows_mean, rows_sd = means.reshape(-1, k)[keep], sd.reshape(-1, k)[keep]
-    n_comparisons = len(comparisons.groups)
-    flat_eps, flat_log = eps.reshape(-1, n_comparisons), log_eps.reshape(-1, n_comparisons)
-    for p in groups if mixtures is None else sorted(set(mixtures) & set(groups)):
+    asked = groups if mixtures is None else sorted(set(mixtures) & set(groups))
+    if asked:
+        # Every valid combination at once (a group's density is a small Gaussian
+        # mixture), on the combinations flattened to rows.
+        keep = np.broadcast_to(valid, lead).reshape(-1)
+        k = means.shape[-1]
+        rows_mean, rows_sd = means.reshape(-1, k)[keep], sd.reshape(-1, k)[keep]
+        n_comparisons = len(comparisons.groups)
+        flat_eps, flat_log = eps.reshape(-1, n_comparisons), log_eps.reshape(-1, n_comparisons)
+    for p in asked:
         g1, g2 = (list(g) for g in comparisons.groups[p])
         share1 = np.broadcast_to(w[g1] / w[g1].sum(), (rows_mean.shape[0], len(g1)))
         share2 = np.broadcast_to(w[g2] / w[g2].sum(), (rows_mean.shape[0], len(g2)))

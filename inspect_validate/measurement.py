@@ -159,11 +159,82 @@ class Measurement:
             f"{len(self.comparisons)} comparisons; .table() for the chapter's Tables 3–4>"
         )
 
-    def table(self) -> str:
-        """The class and separation tables as text (as ``measure`` prints them)."""
-        from inspect_validate.report.tables import format_measurement
+    def table(self, *, saturation_limit: float | None = None) -> str:
+        """The class table (μ, σ² (38)–(39)) and the separation table (SNR_dB (36), ε (37))
+        as text, as ``measure`` prints them; a class saturated beyond ``saturation_limit``
+        (a fraction) is marked."""
+        import math
+        import sys
 
-        return format_measurement(self)
+        from inspect_validate.text import format_error, labelled, render_table
+
+        stack = any(c.n_frames > 1 for c in self.classes)
+        header = ["class", "mean [DN]", "var [DN²]", "pixels", "saturated"]
+        if stack:
+            header += ["temporal var", "spatial var"]
+        kde = any(c.kde_bandwidth is not None for c in self.classes)
+        if kde:
+            header += ["KDE h [DN]"]
+        rows = []
+        for c in self.classes:
+            flag = (
+                " !"
+                if saturation_limit is not None and c.saturated_fraction > saturation_limit
+                else ""
+            )
+            row = [
+                c.name,
+                f"{c.mean:.2f}",
+                f"{c.variance:.2f}",
+                f"{c.n_pixels}",
+                f"{100 * c.saturated_fraction:.2f} %{flag}",
+            ]
+            if stack:  # a one-pixel region has a temporal variance but no spatial one
+                row += [
+                    "-" if v is None else f"{v:.2f}"
+                    for v in (c.temporal_variance, c.spatial_variance)
+                ]
+            if kde:
+                h = c.kde_bandwidth
+                row += ["-" if h is None else f"{h:.3g}{'*' if c.kde_bandwidth_at_floor else ''}"]
+            rows.append(row)
+        out = ["Classes (chapter Table 4: μ (38), σ² (39))", render_table(header, rows), ""]
+        header = ["classes", "SNR_dB (36)", "CNR_dB", "Fisher_dB", "ε Gauss", "ε counted", "ε KDE"]
+        rows = [
+            [
+                c.label,
+                f"{c.snr_db:.2f}",
+                f"{c.cnr_db:.2f}",
+                f"{c.fisher_db:.2f}",
+                format_error(c.error_gaussian, c.log_error_gaussian),
+                format_error(None if math.isnan(c.error_counted) else c.error_counted),
+                format_error(c.error_kde),
+            ]
+            for c in self.comparisons
+        ]
+        if not rows:
+            out.append("Separation: one class, nothing to compare (give the ROIs of two or more)")
+            return "\n".join(out)
+        groups = {
+            "equal": "equal weights",
+            "pixels": "weighted by pixels",
+            "priors": "class priors",
+        }
+        out += [
+            labelled(
+                "Separation",
+                "chapter Table 3; ε_tot (37), a fraction, with equal priors between the sides; "
+                f"a group of classes is their mixture, {groups[self.weighting]}",
+                stream=sys.stdout,
+            ),
+            render_table(header, rows),
+        ]
+        if any(c.kde_bandwidth_at_floor for c in self.classes):
+            out.append(
+                "* KDE bandwidth at its floor of one quantisation step: LSCV wants a narrower "
+                "kernel than the grey levels resolve."
+            )
+        return "\n".join(out)
 
     def _repr_html_(self) -> str:
         import html

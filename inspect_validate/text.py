@@ -1,8 +1,12 @@
-"""Running text for the terminal, kept to a readable width."""
+"""Text for the terminal: running text kept to a readable width, tables padded to
+their cells, and ε as every output writes it."""
 
 from __future__ import annotations
 
-__all__ = ["LINE_WIDTH", "labelled", "terminal_width"]
+import math
+import re
+
+__all__ = ["LINE_WIDTH", "format_error", "labelled", "render_table", "terminal_width"]
 
 LINE_WIDTH = 100
 """Longest line of running text the commands print (tables are as wide as their cells)."""
@@ -38,3 +42,40 @@ def labelled(label: str, text: str, *, stream=None) -> str:
         break_long_words=False,
         break_on_hyphens=False,
     )
+
+
+def format_error(value: float | None, log_value: float | None = None) -> str:
+    """ε as a fraction (0 to ½), the unit of every output and every limit, to three
+    significant digits; powers of ten for tiny values."""
+    if value is None:
+        return "-"
+    if value == 0.0 and log_value is not None and math.isfinite(log_value):
+        return f"1e{log_value / math.log(10):.0f}"
+    if value >= 1e-4:
+        return f"{value:#.3g}"
+    return f"{value:.2e}"
+
+
+_NUMBER = re.compile(r"^[-+−]?(\d|\.\d|inf|nan)|^[-—]$")
+
+
+def render_table(header: list[str], rows: list[list[str]], *, left=None) -> str:
+    """Columns padded to their widest cell: text flush left, numbers flush right. A
+    column is text (``left``: its indices, default: found) unless most of its cells
+    begin as a number does (a dash: none)."""
+    widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
+    if left is None:
+        left = set()
+        for i in range(len(header)):
+            cells = [r[i] for r in rows if r[i]]  # an empty cell is neither
+            if 2 * sum(bool(_NUMBER.match(c)) for c in cells) < len(cells):
+                left.add(i)
+
+    def line(r):
+        cells = (
+            c.ljust(w) if i in left else c.rjust(w)
+            for i, (c, w) in enumerate(zip(r, widths, strict=True))
+        )
+        return "  ".join(cells).rstrip()
+
+    return "\n".join([line(header), line(["-" * w for w in widths]), *map(line, rows)])

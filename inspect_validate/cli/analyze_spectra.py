@@ -39,9 +39,9 @@ def analyze_spectra(scene, json_path, plot_path, best, no_kde) -> None:
     import numpy as np
 
     from inspect_validate.model import analyse_spectra
-    from inspect_validate.report import render_table, write_json
-    from inspect_validate.report.tables import format_error
+    from inspect_validate.report import write_json
     from inspect_validate.scene import read_scene
+    from inspect_validate.text import format_error, render_table
 
     check_outputs(files=[json_path, plot_path])
     sc = read_scene(scene)

@@ -123,9 +123,9 @@ def verify_design(problem, result, out_dir) -> None:
     """Capture ``result``'s mix and best single channel on ``problem``'s station, verify them
     and print measured against predicted ε; exit 1 when the design does not hold."""
     from inspect_validate.mix_design.station import design_station
-    from inspect_validate.report import render_table
     from inspect_validate.report.design import design_verification
     from inspect_validate.station.file import write_station
+    from inspect_validate.text import render_table
 
     st = write_station(
         design_station(problem.station, result),

@@ -118,7 +118,7 @@ def devices(cti, only, serial, ports, probe, protocol, json_path):
 
 
 def _text(doc: dict) -> str:
-    from inspect_validate.report.tables import render_table
+    from inspect_validate.text import render_table
 
     out = []
     cameras = doc["cameras"]

@@ -99,7 +99,7 @@ def measure(
     """
     from inspect_validate.comparisons import Comparisons, ComparisonsSpec
     from inspect_validate.measurement import Limits, measure_files
-    from inspect_validate.report import format_measurement, measurement_document, write_json
+    from inspect_validate.report import measurement_document, write_json
     from inspect_validate.roi import read_rois
 
     check_outputs(files=[json_path])
@@ -121,7 +121,7 @@ def measure(
         limits=limits,
         kde="never" if no_kde else kde,
     )
-    click.echo(format_measurement(result, saturation_limit=max_saturated))
+    click.echo(result.table(saturation_limit=max_saturated))
     for reason in result.skipped:
         click.echo(labelled("skipped", reason), err=True)
     for warning in result.warnings:

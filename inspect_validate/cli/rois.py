@@ -86,10 +86,10 @@ def propose(frames, out, overlay, names, dark, min_area, margin, edge, force):
     classes in the file. The file records the frame's size.
     """
     from inspect_validate.errors import InputError
-    from inspect_validate.report.tables import render_table
     from inspect_validate.roi.overlay import draw_regions
     from inspect_validate.roi.propose import draft_rois, find_regions
     from inspect_validate.roi.roiset import write_rois
+    from inspect_validate.text import render_table
 
     if out.exists() and not force:
         raise InputError(f"{out} exists; give --force to overwrite it", source="rois propose")
@@ -149,9 +149,9 @@ def show(roi_file, frames, out, dark):
     """
     import numpy as np
 
-    from inspect_validate.report.tables import render_table
     from inspect_validate.roi import class_masks, read_rois
     from inspect_validate.roi.overlay import draw_regions
+    from inspect_validate.text import render_table
 
     roiset = read_rois(roi_file)
     image, dark_image, stack = _mean_frame(frames, dark)

@@ -155,8 +155,8 @@ def watch(
 
 def show_cycle(outcome, *, live: bool) -> None:
     """One cycle: a table redrawn in place on a terminal, a log line otherwise."""
-    from inspect_validate.report import render_table
     from inspect_validate.report.history import local_time
+    from inspect_validate.text import render_table
 
     r = outcome.record
     line = f"{local_time(r.started)} cycle {r.cycle}: {r.status.upper()}"

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -102,6 +103,10 @@ class _Combinations:
     classes: tuple[str, ...]
     comparison_set: Comparisons
     grid: np.ndarray
+    if TYPE_CHECKING:  # the statistics every kind of result has (its own fields)
+        mean: np.ndarray
+        snr_db: np.ndarray
+        error_gaussian: np.ndarray
 
     @property
     def comparisons(self) -> tuple[tuple[tuple[str, ...], tuple[str, ...]], ...]:
@@ -120,15 +125,6 @@ class _Combinations:
             f"{len(self.comparison_set.named)} comparisons; .table() for the numbers>"
         )
 
-
-@dataclass(frozen=True, eq=False, repr=False)  # a short repr: __repr__
-class Prediction(_Combinations):
-    """Predicted statistics for every light × optics × camera combination.
-
-    Arrays are indexed ``[light, optics, camera, ...]``; the last axis is the
-    class (``mean``, ``variance``, ...) or the comparison (``snr_db``, ...).
-    """
-
     def _repr_html_(self) -> str:
         import html
 
@@ -136,7 +132,7 @@ class Prediction(_Combinations):
 
     def table(self) -> str:
         """Each combination's class means and each comparison's SNR_dB and ε Gauss, as text."""
-        from inspect_validate.report.tables import format_error, render_table
+        from inspect_validate.text import format_error, render_table
 
         names = [f"{','.join(a)} vs {','.join(b)}" for a, b in self.comparisons]
         header = ["light", "optics", "camera"]
@@ -156,6 +152,15 @@ class Prediction(_Combinations):
         """(where a combination's values are, its (light, optics, camera) indices)."""
         for at in np.ndindex(self.shape):
             yield at, at
+
+
+@dataclass(frozen=True, eq=False, repr=False)  # a short repr: __repr__
+class Prediction(_Combinations):
+    """Predicted statistics for every light × optics × camera combination.
+
+    Arrays are indexed ``[light, optics, camera, ...]``; the last axis is the
+    class (``mean``, ``variance``, ...) or the comparison (``snr_db``, ...).
+    """
 
     exposure_time: np.ndarray  # s, (L, O, C)
     electrons: np.ndarray  # mean μ_e per class, (L, O, C, K)

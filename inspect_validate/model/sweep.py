@@ -80,11 +80,10 @@ class Ranking(_Combinations):
     (light, optics, camera).
     """
 
-    def table(self) -> str:
-        """The ranking as ``predict`` prints it, best first."""
-        from inspect_validate.report.prediction import format_prediction
-
-        return format_prediction(self)
+    def _rows(self):
+        """The rows, best first (``predict`` prints its own table of the key comparison)."""
+        for row, (li, oi, ci) in enumerate(self.index):
+            yield row, (int(li), int(oi), int(ci))
 
     def _repr_html_(self) -> str:
         import html

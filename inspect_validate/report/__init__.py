@@ -1,6 +1,6 @@
-"""Presenting results: text tables for the terminal and versioned JSON files."""
+"""Presenting results: versioned JSON files, report pages and plots (text tables for the
+terminal are :mod:`inspect_validate.text`'s and each result's ``table()``)."""
 
 from inspect_validate.report.jsonfile import measurement_document, write_json
-from inspect_validate.report.tables import format_measurement, render_table
 
-__all__ = ["format_measurement", "measurement_document", "render_table", "write_json"]
+__all__ = ["measurement_document", "write_json"]

@@ -166,7 +166,7 @@ def format_design(result, *, source: str) -> str:
     each comparison for both, the drive tolerance and the station file's entry.
     ``source`` names the station or scene file in the first line."""
     from inspect_validate.mix_design.solve import decibel, drive_percent
-    from inspect_validate.report.tables import render_table
+    from inspect_validate.text import render_table
 
     problem, objective = result.problem, result.objective
     out: list[str] = []

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from inspect_validate.report.tables import render_table
+from inspect_validate.text import render_table
 
 __all__ = ["format_golden"]
 

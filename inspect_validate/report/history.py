@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from inspect_validate.report.tables import render_table
+from inspect_validate.text import render_table
 
 __all__ = [
     "chart_label",

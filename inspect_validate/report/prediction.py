@@ -5,7 +5,7 @@ from __future__ import annotations
 from inspect_validate import __version__
 from inspect_validate.model import Ranking, predicted_kde_error
 from inspect_validate.model.ranking import SATURATION_LIMIT
-from inspect_validate.report.tables import format_error, render_table
+from inspect_validate.text import format_error, render_table
 
 __all__ = [
     "PREDICTION_SCHEMA_VERSION",

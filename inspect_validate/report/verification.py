@@ -20,8 +20,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from inspect_validate import __version__
-from inspect_validate.report.tables import render_table
-from inspect_validate.text import labelled, terminal_width
+from inspect_validate.text import labelled, render_table, terminal_width
 
 if TYPE_CHECKING:
     from inspect_validate.verification.checks import Check

@@ -156,10 +156,20 @@ class Verification:
         )
 
     def table(self) -> str:
-        """The checks and the verdict as ``verify`` prints them."""
-        from inspect_validate.report.verification import format_verdict
+        """The checks as text, failures first, and the verdict (``verify`` prints them
+        with the calibration and what was skipped)."""
+        from inspect_validate.text import render_table
 
-        return format_verdict(self)
+        rows = [
+            [c.verdict, c.name, f"{c.value:.4g}", f"{c.relation} {c.limit:.4g}", c.unit, c.basis]
+            for c in sorted(self.checks, key=lambda c: (c.passed, not c.undecided))
+        ]
+        failed = sum(not c.passed for c in self.checks)
+        verdict = (
+            f"{'PASS' if self.passed else 'FAIL'}: {failed} of {len(self.checks)} checks failed"
+        )
+        header = ["verdict", "check", "value", "limit", "unit", "basis"]
+        return render_table(header, rows, left={0, 1, 4, 5}) + "\n" + verdict
 
     def _repr_html_(self) -> str:
         import html
