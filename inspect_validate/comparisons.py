@@ -30,6 +30,7 @@ from itertools import combinations
 from typing import Annotated, Literal
 
 import numpy as np
+from numpy.typing import ArrayLike
 from pydantic import Field
 
 from inspect_validate.config import StrictModel
@@ -248,7 +249,9 @@ class Comparisons:
         return np.asarray(self.weights, dtype=np.float64)
 
 
-def mixture_moments(means, variances, weights) -> tuple[np.ndarray, np.ndarray]:
+def mixture_moments(
+    means: ArrayLike, variances: ArrayLike, weights
+) -> tuple[np.ndarray, np.ndarray]:
     """Mean and variance of a mixture along the last axis: Σπμ and Σπ(σ² + μ²) − μ².
 
     The variance is summed as Σπσ² + Σπ(μ − μ̄)² (no cancellation).
@@ -287,7 +290,13 @@ class GaussianSeparation:
 
 
 def gaussian_separation(
-    means, variances, comparisons: Comparisons, *, pixels=None, valid=None, mixtures=None
+    means: ArrayLike,
+    variances: ArrayLike,
+    comparisons: Comparisons,
+    *,
+    pixels=None,
+    valid=None,
+    mixtures=None,
 ) -> GaussianSeparation:
     """SNR_dB (36), CNR, Fisher ratio and ε Gauss (37) of every comparison.
 
@@ -390,7 +399,7 @@ class CountedSeparation:
 
 
 def counted_separation(
-    samples, means, variances, comparisons: Comparisons, *, pixels=None
+    samples, means: ArrayLike, variances: ArrayLike, comparisons: Comparisons, *, pixels=None
 ) -> CountedSeparation:
     """:class:`CountedSeparation` of every comparison.
 

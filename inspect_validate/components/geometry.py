@@ -25,6 +25,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from inspect_validate.errors import InputError
 
@@ -74,23 +75,25 @@ class CookTorrance:
     f0: float = 0.04
 
 
-def lambert(normal, light) -> np.ndarray:
+def lambert(normal: ArrayLike, light: ArrayLike) -> np.ndarray:
     """cos α = N·L (5), zero for light from behind the surface."""
     return np.maximum(np.sum(_unit(normal) * _unit(light), axis=-1), 0.0)
 
 
-def half_vector(light, view) -> np.ndarray:
+def half_vector(light: ArrayLike, view: ArrayLike) -> np.ndarray:
     """H = (L + V)/‖L + V‖, the corrected (13)."""
     return _unit(_unit(light) + _unit(view))
 
 
-def blinn_phong_specular(normal, light, view, *, ks: float, n: float) -> np.ndarray:
+def blinn_phong_specular(
+    normal: ArrayLike, light: ArrayLike, view: ArrayLike, *, ks: float, n: float
+) -> np.ndarray:
     """k_s·(N·H)^n, the specular term of (16)–(17)."""
     cos = np.maximum(np.sum(_unit(normal) * half_vector(light, view), axis=-1), 0.0)
     return ks * cos**n
 
 
-def beckmann(cos_h, roughness: float) -> np.ndarray:
+def beckmann(cos_h: ArrayLike, roughness: float) -> np.ndarray:
     """Beckmann facet distribution D(θ_h), normalised so ∫ D·cos θ_h dω = 1."""
     c2 = np.asarray(cos_h, float) ** 2
     m2 = roughness**2
@@ -99,7 +102,9 @@ def beckmann(cos_h, roughness: float) -> np.ndarray:
     return np.where(c2 > 0, d, 0.0)
 
 
-def cook_torrance_specular(normal, light, view, *, roughness: float, f0: float) -> np.ndarray:
+def cook_torrance_specular(
+    normal: ArrayLike, light: ArrayLike, view: ArrayLike, *, roughness: float, f0: float
+) -> np.ndarray:
     """π·(N·L)·f_s with f_s = D·F·G / (4(N·L)(N·V)): the specular reflectance factor."""
     n, to_light, v = _unit(normal), _unit(light), _unit(view)
     nl = np.sum(n * to_light, axis=-1)

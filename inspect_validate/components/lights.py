@@ -12,6 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from inspect_validate.constants import K_B, C, H
 from inspect_validate.errors import InputError
@@ -75,7 +76,7 @@ class Light:
         return float(np.trapezoid(np.interp(x, wl, v), x))
 
 
-def planck(wavelength, temperature) -> np.ndarray:
+def planck(wavelength: ArrayLike, temperature: ArrayLike) -> np.ndarray:
     """Blackbody spectral radiance u(λ, T) (2), W·sr⁻¹·m⁻²·nm⁻¹.
 
     Written as 2hc²/λ⁵ · e^{−x} / (1 − e^{−x}) with x = hc/(λkT), which neither
@@ -99,7 +100,9 @@ def planck(wavelength, temperature) -> np.ndarray:
         return 2.0 * H * C**2 / lam**5 * np.exp(-x) / -np.expm1(-x) * 1e-9
 
 
-def blackbody(temperature: float, *, grid=DEFAULT_GRID, irradiance: float | None = None) -> Light:
+def blackbody(
+    temperature: float, *, grid: np.ndarray = DEFAULT_GRID, irradiance: float | None = None
+) -> Light:
     """An incandescent/thermal source at ``temperature`` K (Planck (2))."""
     spd = Spectrum(
         grid,
@@ -118,7 +121,7 @@ def blackbody(temperature: float, *, grid=DEFAULT_GRID, irradiance: float | None
 _G_HALF = 0.8086092632090856
 
 
-def ohno_led_spd(wavelength, peak: float, fwhm: float) -> np.ndarray:
+def ohno_led_spd(wavelength: ArrayLike, peak: float, fwhm: float) -> np.ndarray:
     """Ohno (2005) single-LED model, S = (g + 2g⁵)/3 with g = exp(−((λ−λ₀)/Δ)²), peak 1.
 
     Δ is chosen so that the full width at half maximum equals ``fwhm`` (nm):
@@ -135,7 +138,7 @@ def led(
     peak: float,
     fwhm: float,
     *,
-    grid=DEFAULT_GRID,
+    grid: np.ndarray = DEFAULT_GRID,
     irradiance: float | None = None,
     name: str | None = None,
 ) -> Light:
@@ -158,7 +161,7 @@ def phosphor_white_led(
     phosphor_peak: float = 560.0,
     phosphor_fwhm: float = 120.0,
     phosphor_ratio: float = 2.2,
-    grid=DEFAULT_GRID,
+    grid: np.ndarray = DEFAULT_GRID,
     irradiance: float | None = None,
 ) -> Light:
     """Phosphor-converted white LED (chapter Fig. 8): blue die plus a broad phosphor peak.

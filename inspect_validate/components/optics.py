@@ -16,6 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from inspect_validate.errors import InputError
 from inspect_validate.spectra import Spectrum, SpectrumKind
@@ -88,7 +89,7 @@ class Optics:
             )
 
 
-def refractive_index(material: str, wavelength) -> np.ndarray:
+def refractive_index(material: str, wavelength: ArrayLike) -> np.ndarray:
     """n(λ) from the Sellmeier equation; ``wavelength`` in nm."""
     m = _material(material)
     l2 = (np.asarray(wavelength, float) * 1e-3) ** 2
@@ -103,7 +104,9 @@ def _material(name: str) -> Material:
         raise InputError(f"unknown lens material {name!r}; known: {', '.join(MATERIALS)}") from None
 
 
-def material_transmission(material: str, *, thickness_mm: float = 10.0, grid=None) -> Spectrum:
+def material_transmission(
+    material: str, *, thickness_mm: float = 10.0, grid: np.ndarray | None = None
+) -> Spectrum:
     """Transmission of an uncoated plate: Fresnel losses from n(λ) and modelled absorption edges."""
     m = _material(material)
     lo, hi = m.range_nm
@@ -179,7 +182,7 @@ def lens(kind: str, *, f_number: float | None = None) -> Optics:
     return Optics(name, spectrum, f_number or f_default)
 
 
-def ideal_lens(*, f_number: float = 4.0, grid=None) -> Optics:
+def ideal_lens(*, f_number: float = 4.0, grid: np.ndarray | None = None) -> Optics:
     """t_opt = 1 over 200–2500 nm."""
     grid = np.arange(200.0, 2501.0, 1.0) if grid is None else np.asarray(grid, float)
     return Optics(

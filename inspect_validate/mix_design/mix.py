@@ -144,7 +144,9 @@ class ChannelResponse:
         return top - z * noise
 
 
-def channel_response(channels: dict, optics, sensor, classes, *, grid, exposure_time: float):
+def channel_response(
+    channels: dict, optics, sensor, classes, *, grid: np.ndarray, exposure_time: float
+):
     """:class:`ChannelResponse` of scene lights (label → Light with its irradiance) through
     ``optics`` onto ``sensor`` at ``exposure_time`` s.
 

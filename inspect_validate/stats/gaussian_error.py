@@ -45,6 +45,7 @@ import importlib
 import sys
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from inspect_validate.stats import _gaussian_error_scalar as _scalar
 
@@ -80,7 +81,9 @@ caller with more work ahead in smaller calls (a sweep's blocks) loads it itself:
 :func:`load_kernel`."""
 
 
-def gaussian_error(mean1, var1, mean2, var2) -> np.ndarray:
+def gaussian_error(
+    mean1: ArrayLike, var1: ArrayLike, mean2: ArrayLike, var2: ArrayLike
+) -> np.ndarray:
     """Bayes classification error ε_tot (37) of two Gaussian classes, equal priors.
 
     Parameters
@@ -100,7 +103,9 @@ def gaussian_error(mean1, var1, mean2, var2) -> np.ndarray:
     return gaussian_error_and_log(mean1, var1, mean2, var2)[0]
 
 
-def gaussian_error_and_log(mean1, var1, mean2, var2) -> tuple[np.ndarray, np.ndarray]:
+def gaussian_error_and_log(
+    mean1: ArrayLike, var1: ArrayLike, mean2: ArrayLike, var2: ArrayLike
+) -> tuple[np.ndarray, np.ndarray]:
     """:func:`gaussian_error` and :func:`log_gaussian_error` from one evaluation."""
     eps, log_eps = _error(mean1, var1, mean2, var2)
     with np.errstate(divide="ignore"):
@@ -108,12 +113,14 @@ def gaussian_error_and_log(mean1, var1, mean2, var2) -> tuple[np.ndarray, np.nda
     return np.where(eps >= _LINEAR_FLOOR, eps, np.exp(log_eps))[()], log_out
 
 
-def log_gaussian_error(mean1, var1, mean2, var2) -> np.ndarray:
+def log_gaussian_error(
+    mean1: ArrayLike, var1: ArrayLike, mean2: ArrayLike, var2: ArrayLike
+) -> np.ndarray:
     """Natural logarithm of :func:`gaussian_error`, accurate where ε underflows."""
     return gaussian_error_and_log(mean1, var1, mean2, var2)[1]
 
 
-def gaussian_error_gradient(mean1, sd1, mean2, sd2):
+def gaussian_error_gradient(mean1: ArrayLike, sd1: ArrayLike, mean2: ArrayLike, sd2: ArrayLike):
     """ε_tot (37) of two Gaussian classes, its log, and its gradient, element-wise.
 
     ε = ½ [P_n(outside (x_lo, x_hi)) + P_w(inside)], n the narrower class, the
@@ -233,7 +240,7 @@ def _lower_tail(x):
     return 1.0 - tail, np.log1p(-tail)
 
 
-def normal_cdf_pair(z) -> tuple[np.ndarray, np.ndarray]:
+def normal_cdf_pair(z: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """Φ(z) and Φ(−z) of a 1-d array, each to full relative precision, without
     scipy.special: Q(−z) and Q(z) by :func:`_upper_tail`."""
     z = np.asarray(z, dtype=float)

@@ -24,6 +24,7 @@ import itertools
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from inspect_validate.stats.bandwidth import MAX_BINS, Bandwidth, lscv_bandwidth
 from inspect_validate.stats.gaussian_error import _interval
@@ -107,7 +108,7 @@ def kernel_mixture(sample, h: float) -> tuple[np.ndarray, np.ndarray]:
     return lo + np.flatnonzero(keep) * step, w[keep] / x.size
 
 
-def kernel_density(sample, h: float, x) -> np.ndarray:
+def kernel_density(sample, h: float, x: ArrayLike) -> np.ndarray:
     """The kernel density estimate (41) of ``sample`` with bandwidth ``h`` > 0 at grey values
     ``x``, 1/DN (what ε KDE integrates; for plots against a histogram)."""
     if not h > 0.0:
@@ -243,7 +244,14 @@ _BATCH_GRID_MAX = 16384
 _BATCH_POINTS = 2**20
 
 
-def gaussian_mixture_errors(centres1, weights1, sigmas1, centres2, weights2, sigmas2) -> np.ndarray:
+def gaussian_mixture_errors(
+    centres1: ArrayLike,
+    weights1: ArrayLike,
+    sigmas1: ArrayLike,
+    centres2: ArrayLike,
+    weights2: ArrayLike,
+    sigmas2: ArrayLike,
+) -> np.ndarray:
     """ε_tot (37) of many pairs of small Gaussian mixtures at once: row i compares the
     mixture (centres1[i], weights1[i], sigmas1[i]) with (centres2[i], …), each (N, K₁) and
     (N, K₂), weights summing to 1 in a row.

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from fractions import Fraction
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from inspect_validate.errors import InputError
 
@@ -160,7 +161,7 @@ class Moments:
     variance: float
 
 
-def as_sample(values, *, denominator: int = 1) -> LatticeSample | np.ndarray:
+def as_sample(values: ArrayLike, *, denominator: int = 1) -> LatticeSample | np.ndarray:
     """Turn grey values into a sample: a :class:`LatticeSample` for integers, else float64.
 
     Parameters

@@ -23,6 +23,7 @@ Degenerate cases (all functions are vectorised and never raise for them):
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 __all__ = ["cnr_db", "fisher_db", "snr", "snr_db"]
 
@@ -38,7 +39,7 @@ def _ratio(mean1, var1, mean2, var2, *, power: float) -> np.ndarray:
     return np.where(diff == 0, 0.0, ratio)
 
 
-def snr(mean1, var1, mean2, var2) -> np.ndarray:
+def snr(mean1: ArrayLike, var1: ArrayLike, mean2: ArrayLike, var2: ArrayLike) -> np.ndarray:
     """The chapter's SNR (35): ``|μ1 − μ2| / (σ1² + σ2²)`` in 1/DN.
 
     Parameters
@@ -51,19 +52,19 @@ def snr(mean1, var1, mean2, var2) -> np.ndarray:
     return _ratio(mean1, var1, mean2, var2, power=1.0)
 
 
-def snr_db(mean1, var1, mean2, var2) -> np.ndarray:
+def snr_db(mean1: ArrayLike, var1: ArrayLike, mean2: ArrayLike, var2: ArrayLike) -> np.ndarray:
     """The chapter's SNR_dB (36): ``20·log10(|μ1 − μ2| / (σ1² + σ2²))``, dB."""
     with np.errstate(divide="ignore"):
         return 20.0 * np.log10(snr(mean1, var1, mean2, var2))
 
 
-def cnr_db(mean1, var1, mean2, var2) -> np.ndarray:
+def cnr_db(mean1: ArrayLike, var1: ArrayLike, mean2: ArrayLike, var2: ArrayLike) -> np.ndarray:
     """Contrast-to-noise ratio ``20·log10(|μ1 − μ2| / sqrt(σ1² + σ2²))``, dB."""
     with np.errstate(divide="ignore"):
         return 20.0 * np.log10(_ratio(mean1, var1, mean2, var2, power=0.5))
 
 
-def fisher_db(mean1, var1, mean2, var2) -> np.ndarray:
+def fisher_db(mean1: ArrayLike, var1: ArrayLike, mean2: ArrayLike, var2: ArrayLike) -> np.ndarray:
     """Fisher ratio ``10·log10((μ1 − μ2)² / (σ1² + σ2²))``, dB (equals :func:`cnr_db`)."""
     with np.errstate(divide="ignore"):
         return 10.0 * np.log10(_ratio(mean1, var1, mean2, var2, power=0.5) ** 2)

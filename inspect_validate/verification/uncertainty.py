@@ -29,6 +29,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 __all__ = [
     "StandardErrors",
@@ -74,7 +75,14 @@ def class_standard_errors(c) -> tuple[float, float]:
 
 
 def separation_standard_errors(
-    means, variances, se_means, se_variances, comparisons, *, pixels=None, mixtures=None
+    means: ArrayLike,
+    variances: ArrayLike,
+    se_means,
+    se_variances,
+    comparisons,
+    *,
+    pixels=None,
+    mixtures=None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """SE of every comparison's SNR_dB, CNR_dB (dB) and log₁₀ ε Gauss (decades), by
     central differences over ± one standard error of each class's μ and σ².
