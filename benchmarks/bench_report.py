@@ -126,7 +126,7 @@ def others(runs: int) -> list[tuple[str, float, float]]:
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         db = tmp / "history.sqlite"
-        seconds(["train", station, "--out", str(tmp / "golden.json"), "--repeats", "3"])
+        seconds(["train", station, "--out", str(tmp / "golden.json"), "--repeats", "5"])
         seconds(["watch", station, "--golden", str(tmp / "golden.json"), "--db", str(db),
                  "--cycles", "5", "--interval", "0"])  # fmt: skip
         cases = {
