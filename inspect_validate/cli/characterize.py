@@ -64,8 +64,13 @@ def characterize(station, out, report_dir, resume):
     total = 2 * 2 * (series.points + 10) + 2 * series.frames_spatial  # 10 near saturation
     with click.progressbar(length=total, label="characterizing", file=sys.stderr) as bar:
 
+        # Into a pipe or a log, click writes a line each time the label changes: the
+        # series' hundreds of steps are named on a terminal only.
+        named = sys.stderr.isatty()
+
         def progress(step, _done, _total) -> None:
-            bar.label = f"characterizing {step}"
+            if named:
+                bar.label = f"characterizing {step}"
             bar.update(1)
 
         plan = capture_series(st, out, resume=resume, progress=progress)

@@ -355,3 +355,22 @@ def test_the_characterization_page_draws_in_headless_chromium(characterized, tmp
     seen = chromium_probe(characterized / "report" / "characterization.html", tmp_path)
     assert seen["charts"] == seen["drawn"] == 4 and seen["bad"] == 0  # every chart drawn
     assert seen["console"] == []
+
+
+def test_progress_into_a_pipe_is_one_line_not_one_per_step(tmp_path):
+    """Without a terminal (a log, CI), the series' steps are not each a line of progress
+    (about 245 lines before)."""
+    import subprocess
+    import sys
+
+    doc = yaml.safe_load(copy_station(tmp_path).read_text())
+    doc["characterize"] = {"points": 8, "frames_spatial": 2}
+    station = tmp_path / "quick.yaml"
+    station.write_text(yaml.safe_dump(doc))
+    run = subprocess.run(
+        [sys.executable, "-m", "inspect_validate", "characterize", str(station), "--out", str(tmp_path / "c")],
+        capture_output=True, text=True, timeout=600,
+    )  # fmt: skip
+    assert run.returncode == 0, run.stderr[-1000:]
+    progress = [line for line in run.stderr.splitlines() if "characterizing" in line]
+    assert 1 <= len(progress) <= 2, progress[:5]
