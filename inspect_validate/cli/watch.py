@@ -155,7 +155,7 @@ def watch(
 
 def show_cycle(outcome, *, live: bool) -> None:
     """One cycle: a table redrawn in place on a terminal, a log line otherwise."""
-    from inspect_validate.report.history import local_time
+    from inspect_validate.report.history import QUANTITY_LABELS, local_time
     from inspect_validate.text import render_table
 
     r = outcome.record
@@ -175,7 +175,7 @@ def show_cycle(outcome, *, live: bool) -> None:
                 [
                     ill,
                     name,
-                    q,
+                    QUANTITY_LABELS.get(q, q),  # history's words and units
                     f"{x:.4g}",
                     f"{ewma:.4g}",
                     f"{low:.4g} … {high:.4g}",

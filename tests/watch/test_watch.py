@@ -264,7 +264,19 @@ def test_terminal_view_redraws_a_table(capsys, golden):
     assert out.startswith("\x1b[H\x1b[2J")  # drawn over the last one
     assert "cycle 4: DRIFT — amber dimmer" in out
     (row,) = [line for line in out.splitlines() if line.startswith("amber")]
-    assert row.split() == ["amber", "A", "mean", "158", "159.5", "161.8", "…", "162.6", "ALARM"]
+    # The quantity in history's words and units, not the chart key's.
+    assert row.split() == [
+        "amber",
+        "A",
+        "μ",
+        "[DN]",
+        "158",
+        "159.5",
+        "161.8",
+        "…",
+        "162.6",
+        "ALARM",
+    ]
     _show_cycle(outcome, live=False)
     out = capsys.readouterr().out
     assert "\x1b" not in out and out.count("\n") == 1 and "cycle 4: DRIFT" in out
