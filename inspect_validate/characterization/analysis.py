@@ -152,6 +152,10 @@ class Characterization:
     """Measured responsivity / the model's for a white target: the camera's QE (times the
     lens transmission) relative to the declared curves; NaN where the light's irradiance
     is not stated."""
+    qe_scale_se: float = math.nan
+    """The standard error of :attr:`qe_scale` (from the responsivity's)."""
+    responsivity_se: float = math.nan
+    """The standard error of :attr:`responsivity` (the slope's and K's, combined)."""
 
     @property
     def snr(self) -> np.ndarray:
@@ -261,7 +265,8 @@ def analyse(
         deviation = (signal[lin] - expected) / expected
         linearity = float(0.5 * (deviation.max() - deviation.min()))
 
-    slope = _through_origin(t[use], signal[use])[0]  # DN per µs below saturation
+    slope, slope_se = _through_origin(t[use], signal[use])  # DN per µs below saturation
+    responsivity_se = (slope / k) * math.hypot(slope_se / slope, k_se / k) if slope else math.nan
 
     dsnu = dsnu_se = prnu = prnu_se = math.nan
     if dark_stack is not None:
@@ -298,6 +303,7 @@ def analyse(
         prnu_se=prnu_se,
         dynamic_range=dynamic_range,
         responsivity=slope / k,
+        responsivity_se=responsivity_se,
         bit_depth=bits,
         exposure_us=t,
         mean=mu,

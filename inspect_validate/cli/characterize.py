@@ -63,7 +63,6 @@ def characterize(station, out, report_dir, resume):
     series = st.characterize
     total = 2 * 2 * (series.points + 10) + 2 * series.frames_spatial  # 10 near saturation
     with click.progressbar(length=total, label="characterizing", file=sys.stderr) as bar:
-
         # Into a pipe or a log, click writes a line each time the label changes: the
         # series' hundreds of steps are named on a terminal only.
         named = sys.stderr.isatty()
@@ -77,7 +76,11 @@ def characterize(station, out, report_dir, resume):
     plan, result = read_series(st, out)
     expected = expected_rate(st, plan) if st.scene else None
     if expected:
-        result = replace(result, qe_scale=result.responsivity / expected)
+        result = replace(
+            result,
+            qe_scale=result.responsivity / expected,
+            qe_scale_se=result.responsivity_se / expected,
+        )
     click.echo(format_characterization(result, plan))
     h, w = read_frames([out / "b_000"]).shape[1:]
     descriptor = write_descriptor(out, plan, result, width=w, height=h)

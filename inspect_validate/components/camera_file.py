@@ -49,6 +49,7 @@ def write_camera_file(path, result, *, name: str, gain_db: float, provenance: di
         "dark_current": max(result.dark_current, 0.0),
         "dsnu": result.dsnu,
         "prnu": result.prnu,
+        "qe_scale": result.qe_scale,
     }
     camera: dict[str, str | int | float] = {"name": name}
     for key, value in values.items():
@@ -56,7 +57,7 @@ def write_camera_file(path, result, *, name: str, gain_db: float, provenance: di
             camera[key] = value if isinstance(value, int) else float(f"{value:.6g}")
     errors = {
         key: float(f"{getattr(result, key + '_se'):.3g}")
-        for key in ("gain", "dark_noise", "saturation", "dark_current", "dsnu", "prnu")
+        for key in ("gain", "dark_noise", "saturation", "dark_current", "dsnu", "prnu", "qe_scale")
         if math.isfinite(getattr(result, key + "_se"))
     }
     doc = {
@@ -67,7 +68,12 @@ def write_camera_file(path, result, *, name: str, gain_db: float, provenance: di
             "date": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
             "standard_errors": errors,
             "saturation_reached": result.saturation_reached,
-            "qe": "not measured (the irradiance at the sensor is not known): the scene's",
+            "qe": (
+                "the scene camera's curve × qe_scale (measured through the lens: their product)"
+                if math.isfinite(result.qe_scale)
+                else "the scene camera's curve (not measured: the illumination's irradiance is "
+                "not stated)"
+            ),
         },
     }
     head = "# The camera as `inspect-validate characterize` measured it (EMVA 1288).\n"
@@ -97,6 +103,7 @@ def _file_model():
         dark_current: NonNegative | None = None
         dsnu: NonNegative | None = None
         prnu: Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)] | None = None
+        qe_scale: Annotated[float, Field(gt=0, le=100, allow_inf_nan=False)] | None = None
 
     class Provenance(BaseModel):
         model_config = ConfigDict(extra="allow")  # station, date, standard errors, …
@@ -135,4 +142,9 @@ def measured_sensor(scene_camera, path):
     """``scene_camera`` with the values of the camera file at ``path``
     (:func:`measured_values`)."""
     name = f"{scene_camera.name} (measured: {Path(path).name})"
-    return replace(scene_camera, name=name, **measured_values(path))
+    values = measured_values(path)
+    scale = values.pop("qe_scale", None)
+    if scale is not None:  # the measured QE: the declared curve's shape at its level
+        qe = scene_camera.qe
+        values["qe"] = qe.with_values(qe.values * scale, name=f"{qe.name} × {scale:.3g}")
+    return replace(scene_camera, name=name, **values)

@@ -46,8 +46,8 @@ def format_characterization(result, plan) -> str:
         f"PRNU                 {pm(100 * r.prnu, 100 * r.prnu_se, '%', '.3g')}",
         f"dynamic range        {r.dynamic_range:.4g} ({r.dynamic_range_db:.1f} dB)",
         (
-            f"quantum efficiency   {r.qe_scale:.3g} × the scene camera's curve (through the "
-            "lens: their product), from the illumination's stated irradiance"
+            f"quantum efficiency   {pm(r.qe_scale, r.qe_scale_se, '×', '.3g')} the scene camera's "
+            "curve (through the lens: their product), from the illumination's stated irradiance"
             if np.isfinite(r.qe_scale)
             else "quantum efficiency   relative only (the illumination's irradiance is not "
             f"stated): {r.responsivity:.4g} e⁻ per {'µs' if plan.varies == 'exposure' else '% level'}"

@@ -119,6 +119,21 @@ def test_the_simulated_sensor_is_measured_within_emva_tolerances(characterized):
     camera = yaml.safe_load((characterized / "cap" / "camera.yaml").read_text())
     assert camera["camera"]["gain"] == pytest.approx(values["system_gain"], rel=1e-5)
     assert camera["measured"]["standard_errors"]["gain"] > 0
+    # The QE factor the terminal prints is the camera file's, with its standard error,
+    # and the model uses it (it said "not measured" before, cut off mid-sentence).
+    assert camera["camera"]["qe_scale"] == pytest.approx(
+        values["quantum_efficiency_scale"], rel=1e-5
+    )
+    assert 0 < camera["measured"]["standard_errors"]["qe_scale"] < 0.02
+    assert "× qe_scale" in camera["measured"]["qe"]
+    from inspect_validate.components.camera_file import measured_sensor
+    from inspect_validate.scene import read_scene
+
+    scene = read_scene(ROOT / "sample_images" / "scenes" / "paperboard" / "scene.yaml")
+    declared = scene.cameras[0]
+    measured = measured_sensor(declared, characterized / "cap" / "camera.yaml")
+    ratio = measured.qe.values / declared.qe.values
+    np.testing.assert_allclose(ratio[np.isfinite(ratio)], camera["camera"]["qe_scale"], rtol=1e-12)
 
 
 def test_the_emva1288_reference_reads_the_same_run_alike(characterized, emva1288_python):
