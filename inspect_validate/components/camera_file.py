@@ -12,7 +12,8 @@ folder, the exposure gain in dB, the date, the tool, each value's standard error
     measured: {station: ..., gain_db: 0, standard_errors: {gain: 6.1e-05, ...}}
 
 A station names it with ``camera.measured``; :func:`measured_sensor` then replaces the
-scene camera's values (its QE curve stays: the series measures no absolute QE).
+scene camera's values. The QE curve keeps its shape (the series is lit by one light); where
+the light's irradiance was stated, its level is the measured one (``qe_scale``).
 """
 
 from __future__ import annotations

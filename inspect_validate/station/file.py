@@ -69,7 +69,8 @@ class StationCamera(StrictModel):
     """Which of the scene's cameras this is (default: its only one)."""
     measured: str | None = None
     """A camera file written by ``characterize``: its EMVA 1288 values replace the scene
-    camera's in every prediction of this station (the QE stays the scene's)."""
+    camera's in every prediction of this station (the QE curve keeps the scene's shape, at
+    the measured level where the file has ``qe_scale``)."""
 
 
 def _sections(kind: Literal["cameras", "controllers"], *, extra: tuple = ()) -> dict:
