@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import io
+import itertools
 import math
 import time
 from datetime import datetime
@@ -99,6 +100,12 @@ def trend_table(log, *, limit: int | None = None):
     return header, rows, [-neg > 1 for neg, _ in trends[:limit]]
 
 
+def missing_cycles(cycles: list[int]) -> list[tuple[int, int]]:
+    """The runs of cycle numbers absent between the first and the last of ``cycles``
+    (sorted), as (first missing, last missing)."""
+    return [(a + 1, b - 1) for a, b in itertools.pairwise(cycles) if b - a > 1]
+
+
 def status_counts(log) -> str:
     """``n pass, n fail, n drift, n error`` of the cycles read."""
     return ", ".join(f"{n} {s}" for s, n in log.counts().items())
@@ -120,6 +127,14 @@ def format_history(log, *, recent: int = 10) -> str:
         f"cycles {first.cycle}–{last.cycle}{shown}, {local_time(first.started)} to "
         f"{local_time(last.started)}: {status_counts(log)}"
     )
+    gaps = missing_cycles([r.cycle for r in log.cycles])
+    if gaps:
+        lines.append(
+            "warning: cycles missing from the history (watch numbers them one by one): "
+            + ", ".join(f"{a}" if a == b else f"{a}–{b}" for a, b in gaps[:10])
+            + (f" and {len(gaps) - 10} more gaps" if len(gaps) > 10 else "")
+            + "; deleted from the file, or a file restored from a copy"
+        )
     lines.append(
         f"last: cycle {last.cycle} {last.status.upper()}"
         + (f" — {last.cause}" if last.cause else "")

@@ -452,10 +452,13 @@ def _chart_series(path, rows) -> dict[tuple, ChartSeries]:
         try:
             if not all(isinstance(k, str) for k in key):
                 raise ValueError
-            block = np.array([r[4:] for r in group], dtype=float)  # NULL → NaN
+            rows_of_chart = list(group)
+            # Cycle numbers as integers (a float loses them past 2⁵³), the values as floats.
+            cycles = np.array([r[4] for r in rows_of_chart], dtype=np.int64)
+            block = np.array([r[5:] for r in rows_of_chart], dtype=float)  # NULL → NaN
         except (ValueError, TypeError, OverflowError):
             raise _damaged(path, f"chart {key!r} holds values that are not numbers") from None
-        if not (np.abs(block[:, 2:]) < 1e100).all():  # watch writes finite, physical values
+        if not (np.abs(block[:, 1:]) < 1e100).all():  # watch writes finite, physical values
             raise _damaged(path, f"chart {key!r} has a smoothed value or band that is not finite")
-        charts[key] = ChartSeries(block[:, 0].astype(int), *block[:, 1:].T)
+        charts[key] = ChartSeries(cycles, *block.T)
     return charts

@@ -417,3 +417,41 @@ def test_a_history_that_outgrows_the_file_size_limit(tmp_path):
     done = _limited_watch(path, tmp_path / "g.json", fresh, 24, cycles=1)
     assert done.returncode == 2 and "cannot create the history" in done.stderr, done.stderr
     assert not fresh.exists() and not Path(f"{fresh}-wal").exists()
+
+
+def test_cycles_deleted_from_the_middle_are_named(cli, aged, tmp_path):
+    """A history with cycles removed from the middle (by hand, or a restored copy) says
+    which are missing instead of listing the rest as if nothing happened."""
+    import shutil
+
+    db = tmp_path / "h.sqlite"
+    shutil.copy(aged.db, db)
+    with sqlite3.connect(db) as con:
+        for table in ("points", "cycles"):
+            con.execute(f"DELETE FROM {table} WHERE cycle IN (5, 6, 7, 12)")
+    code, out, err = cli(["history", db, "--last", 100])
+    assert code == 0, err
+    assert "cycles missing from the history" in out and "5–7, 12;" in out
+    code, out, _ = cli(["history", aged.db, "--last", 100])
+    assert "missing" not in out
+
+
+def test_a_cycle_numbered_past_two_to_the_53_is_read_as_written(cli, aged, tmp_path):
+    """Cycle numbers were read as floats: 2⁶³ − 1 leaked a numpy cast warning and lost its
+    digits. Read as integers, and the gap it leaves is named."""
+    import shutil
+    import warnings
+
+    db = tmp_path / "h.sqlite"
+    shutil.copy(aged.db, db)
+    last = 2**63 - 1
+    with sqlite3.connect(db) as con:
+        top = con.execute("SELECT max(cycle) FROM cycles").fetchone()[0]
+        con.execute("PRAGMA foreign_keys = OFF")
+        for table in ("points", "cycles"):
+            con.execute(f"UPDATE {table} SET cycle = ? WHERE cycle = ?", (last, top))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        code, out, err = cli(["history", db, "--last", 100])
+    assert code == 0, err
+    assert f"last: cycle {last} " in out and f"{top}–{last - 1}" in out
