@@ -485,7 +485,7 @@ def measure_stack(
     return replace(
         result,
         violations=limits.violations(result.classes),
-        warnings=unsteady_classes(classes) + two_populations(stack, masks, rois=rois),
+        warnings=unsteady_classes(classes) + two_populations(classes, rois=rois),
     )
 
 
@@ -495,43 +495,53 @@ def measure_stack(
 BIMODAL_D = 5.0
 
 
-def two_populations(
-    stack: np.ndarray, masks: dict[str, np.ndarray], *, rois=None
-) -> tuple[str, ...]:
-    """Classes whose pixels (averaged over the frames) look like two populations: a
-    region reaching over an object's edge, or drawn on a frame of another size or
-    framing. Each class is split at its Otsu threshold; where both parts hold at least
-    1 % of its pixels (and 10) and lie more than :data:`BIMODAL_D` apart in Ashman's D
-    (|μ₁ − μ₂| / √((σ₁² + σ₂²)/2)), it is named.
+def two_populations(classes, *, rois=None) -> tuple[str, ...]:
+    """Classes whose grey values look like two populations: a region reaching over an
+    object's edge, or drawn on a frame of another size or framing. Each class's values
+    (its measured sample: every pixel of every frame, no second pass over the frames)
+    are split at their Otsu threshold; where both parts hold at least 1 % of them (and
+    10) and lie more than :data:`BIMODAL_D` apart in Ashman's D
+    (|μ₁ − μ₂| / √((σ₁² + σ₂²)/2)), the class is named.
     """
+    from inspect_validate.stats import LatticeSample
+
     out = []
     recorded = getattr(rois, "frame", None) is not None
-    for name, mask in masks.items():
-        values = stack[:, mask].mean(axis=0, dtype=np.float64) if stack.ndim == 3 else stack[mask]
-        values = values[np.isfinite(values)]
-        if values.size < 40:
+    for c in classes:
+        sample = c.region.sample
+        if isinstance(sample, LatticeSample):  # each lattice point its own bin: exact
+            centres, counts = np.asarray(sample.points, float), np.asarray(sample.counts, float)
+        else:
+            values = np.asarray(sample, float)
+            values = values[np.isfinite(values)]
+            low_end, span = (float(values.min()), float(np.ptp(values))) if values.size else (0, 0)
+            if not (np.isfinite(span) and span > 0):
+                continue  # one grey value, or a range beyond floating point: nothing to split
+            # Binned on [0, 1]: the histogram of values near ±1e308 has no finite bins.
+            counts, edges = np.histogram((values - low_end) / span, bins=256, range=(0.0, 1.0))
+            centres = low_end + span * (edges[:-1] + edges[1:]) / 2
+            counts = counts.astype(float)
+        n = counts.sum()
+        if n < 40 or centres.size < 2:
             continue
-        low_end, high_end = float(values.min()), float(values.max())
-        span = high_end - low_end
-        if not (np.isfinite(span) and span > 0):
-            continue  # one grey value, or a range beyond floating point: nothing to split
-        # Binned on [0, 1]: the histogram of values near ±1e308 has no finite bins.
-        counts, edges = np.histogram((values - low_end) / span, bins=256, range=(0.0, 1.0))
-        edges = low_end + edges * span
-        centres = (edges[:-1] + edges[1:]) / 2
-        w0 = np.cumsum(counts)[:-1].astype(float)
-        w1 = values.size - w0
+        w0 = np.cumsum(counts)[:-1]
         m0 = np.cumsum(counts * centres)[:-1]
-        with np.errstate(invalid="ignore", divide="ignore"):
-            between = w0 * w1 * (m0 / w0 - (m0[-1] + counts[-1] * centres[-1] - m0) / w1) ** 2
+        total = m0[-1] + counts[-1] * centres[-1]
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            between = w0 * (n - w0) * (m0 / w0 - (total - m0) / (n - w0)) ** 2
         if not np.any(np.isfinite(between)):
             continue
-        cut = edges[int(np.nanargmax(between)) + 1]
-        low, high = values[values < cut], values[values >= cut]
-        if min(low.size, high.size) < max(0.01 * values.size, 10):
+        cut = int(np.nanargmax(between)) + 1
+        parts = [(centres[:cut], counts[:cut]), (centres[cut:], counts[cut:])]
+        sizes = [float(w.sum()) for _, w in parts]
+        if min(sizes) < max(0.01 * n, 10):
             continue  # a few hot or dead pixels are not a second population
-        spread = np.sqrt((low.var(ddof=1) + high.var(ddof=1)) / 2)
-        d = abs(high.mean() - low.mean()) / spread if spread > 0 else np.inf
+        (m_low, v_low), (m_high, v_high) = (
+            (float(np.average(x, weights=w)), float(np.average((x - np.average(x, weights=w)) ** 2, weights=w)))
+            for x, w in parts
+        )  # fmt: skip
+        spread = np.sqrt((v_low + v_high) / 2)
+        d = abs(m_high - m_low) / spread if spread > 0 else np.inf
         if d > BIMODAL_D:
             why = (
                 "a region over an object's edge?"
@@ -541,8 +551,8 @@ def two_populations(
                 "another frame)"
             )
             out.append(
-                f"class {name}: its pixels look like two populations ({low.size} around "
-                f"{low.mean():.4g} DN, {high.size} around {high.mean():.4g} DN; Ashman's D "
+                f"class {c.name}: its pixels look like two populations ({sizes[0]:.0f} around "
+                f"{m_low:.4g} DN, {sizes[1]:.0f} around {m_high:.4g} DN; Ashman's D "
                 f"{d:.3g}): {why}"
             )
     return tuple(out)
