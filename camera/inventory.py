@@ -141,7 +141,7 @@ def read_features(info: DeviceInfo) -> Features:
         It cannot be opened (another program holds it, it vanished).
     """
     chosen = backend("cameras", info.backend)
-    settings = chosen.settings.model_validate({"backend": info.backend, **chosen.keys_for(info)})
+    settings = chosen.settings.model_validate({"backend": info.backend, **chosen.device_keys(info)})
     with chosen.open(settings, Opening(source="devices", base=Path.cwd())) as grabber:
         assert isinstance(grabber, Grabber)
         return grabber.features()

@@ -114,8 +114,8 @@ class Backend:
         :class:`~inspect_validate.camera.grabbers.base.DeviceInfo`; a
         :class:`~inspect_validate.errors.DeviceError` saying what to install where its
         library is missing. None: a backend with nothing to discover (replay, simulated).
-    device_keys : callable, optional
-        ``device_keys(info)`` → the keys of its settings that choose that device
+    device_keys : callable
+        ``device_keys(info)`` → the keys of its settings that choose that found device
         (default: ``{"serial": info.serial}``).
     """
 
@@ -123,13 +123,7 @@ class Backend:
     settings: type[BaseModel]
     open: Callable[[Any, Opening], AbstractContextManager]
     discover: Callable[[Search], list] | None = None
-    device_keys: Callable[[Any], dict[str, Any]] | None = None
-
-    def keys_for(self, info) -> dict[str, Any]:
-        """The settings' keys that choose the found device ``info``."""
-        if self.device_keys is not None:
-            return self.device_keys(info)
-        return {"serial": info.serial}
+    device_keys: Callable[[Any], dict[str, Any]] = lambda info: {"serial": info.serial}
 
 
 @cache

@@ -11,6 +11,23 @@ import click
 PATH = click.Path(path_type=Path)
 
 
+class _FrameSize(click.ParamType):
+    """``WIDTHxHEIGHT`` in pixels, as (width, height)."""
+
+    name = "WxH"
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, tuple):
+            return value
+        width, sep, height = str(value).lower().partition("x")
+        if not (sep and width.isdigit() and height.isdigit() and int(width) and int(height)):
+            self.fail(f"{value!r}: write WIDTHxHEIGHT, e.g. 640x480", param, ctx)
+        return int(width), int(height)
+
+
+SIZE = _FrameSize()
+
+
 def verify_and_report(
     st, *, frames_dir, out, report_dir, history=None, skip_dominated: bool = True
 ):

@@ -91,7 +91,7 @@ def devices(cti, only, serial, ports, probe, protocol, json_path):
         "cameras": [
             {
                 **{f.name: getattr(c, f.name) for f in fields(c) if f.name != "key"},
-                "station": {"backend": c.backend, **backend("cameras", c.backend).keys_for(c)},
+                "station": {"backend": c.backend, **backend("cameras", c.backend).device_keys(c)},
             }
             for c in inventory.cameras
         ],

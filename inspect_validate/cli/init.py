@@ -6,7 +6,7 @@ import sys
 
 import click
 
-from inspect_validate.cli.common import PATH
+from inspect_validate.cli.common import PATH, SIZE
 
 
 def _pairs(values, option: str, convert):
@@ -47,7 +47,7 @@ def _pairs(values, option: str, convert):
     help="pylon or aravis: render the scene into the backend's emulator instead of a camera.",
 )
 @click.option(
-    "--size", metavar="WxH", help="Frame size of a rendered camera (simulated, --simulate)."
+    "--size", type=SIZE, help="Frame size of a rendered camera (simulated, --simulate)."
 )
 @click.option(
     "--controller",
@@ -183,7 +183,7 @@ def init(
             )
             found = [found[pick - 1]]
         info = found[0]
-        camera.update(chosen.keys_for(info))
+        camera.update(chosen.device_keys(info))
         features = read_features(info)
     elif cti is not None:
         camera["cti"] = str(cti.resolve())
@@ -192,12 +192,7 @@ def init(
             raise InputError(
                 "--size is for a rendered camera (simulated, --simulate)", source="init"
             )
-        width, sep, height = size.lower().partition("x")
-        if not (sep and width.isdigit() and height.isdigit()):
-            raise click.BadParameter(
-                f"{size!r}: write WIDTHxHEIGHT, e.g. 640x480", param_hint="--size"
-            )
-        camera.update(width=int(width), height=int(height))
+        camera.update(width=size[0], height=size[1])
     if features is not None:
         offered = features.monochrome
         if pixel_format is None:

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import click
 
-from inspect_validate.cli.common import PATH
+from inspect_validate.cli.common import PATH, SIZE
 
 
 @click.group()
@@ -184,7 +184,7 @@ def show(roi_file, frames, out, dark):
 @click.option(
     "--frame",
     "frame_size",
-    metavar="WxH",
+    type=SIZE,
     help="The frame size to record where the file has none (napari).",
 )
 @click.option("--force", is_flag=True, help="Overwrite OUT if it exists.")
@@ -216,12 +216,7 @@ def import_(annotations, out, names, image, frame_size, force):
         annotations, masks=out.with_suffix(""), names=renames or None, image=image
     )
     if frame_size is not None:
-        width, sep, height = frame_size.lower().partition("x")
-        if not (sep and width.isdigit() and height.isdigit() and int(width) and int(height)):
-            raise click.BadParameter(
-                f"{frame_size!r}: write WIDTHxHEIGHT, e.g. 640x480", param_hint="--frame"
-            )
-        given = (int(width), int(height))
+        given = frame_size
         if roiset.frame is not None and roiset.frame != given:
             raise InputError(
                 f"the file says its image is {roiset.frame[0]}×{roiset.frame[1]}, --frame says "
