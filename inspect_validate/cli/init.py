@@ -121,6 +121,7 @@ def init(
     from inspect_validate.camera.settings import AsciiProtocol
     from inspect_validate.config import load_yaml
     from inspect_validate.errors import DeviceError, InputError
+    from inspect_validate.scene import read_scene
     from inspect_validate.station.draft import draft_station, fitting_exposure_us, pixel_format_for
     from inspect_validate.station.file import write_station
 
@@ -233,6 +234,8 @@ def init(
     # -- the station ----------------------------------------------------------------------
     camera = {"backend": camera_backend, **camera}
 
+    parsed = read_scene(scene)
+
     def drafted():
         return draft_station(
             scene,
@@ -243,12 +246,13 @@ def init(
             rois=rois,
             name=name,
             path=out.resolve(),
+            parsed=parsed,
         )
 
     draft = drafted()
     limits = features.exposure_us if features is not None else None
     if exposure_us is None:
-        exposure_us = fitting_exposure_us(draft, limits=limits)
+        exposure_us = fitting_exposure_us(draft, limits=limits, scene=parsed)
         if exposure_us is None:
             exposure_us = ask(
                 "--exposure-us",
@@ -288,9 +292,7 @@ def init(
             )
     click.echo(f"next: inspect-validate capture {out} --out first_capture")
     if rois is None or not rois.exists():
-        from inspect_validate.scene import read_scene
-
-        classes = ",".join(c.name for c in read_scene(scene).classes)
+        classes = ",".join(c.name for c in parsed.classes)
         click.echo(
             "then: inspect-validate rois propose "
             f"first_capture/{station.illuminations[0].name} --dark first_capture/dark "

@@ -33,11 +33,13 @@ def draft_station(
     rois: str | Path | None = None,
     name: str | None = None,
     path: Path | None = None,
+    parsed=None,
 ) -> Station:
     """A station of ``scene`` with these ``camera`` and ``controller`` sections: each
     channel (default: the scene's lights, in order, on channels 1, 2, …) drives its light
     and is one illumination at 100 %; ``irradiance`` gives a channel's W/m² at the object
-    at 100 % (default: the scene light's own).
+    at 100 % (default: the scene light's own). ``parsed``: the scene already read from
+    ``scene`` (it is read otherwise).
 
     Raises
     ------
@@ -50,7 +52,7 @@ def draft_station(
     from inspect_validate.config import explain
     from inspect_validate.scene import read_scene
 
-    parsed = read_scene(scene)
+    parsed = parsed if parsed is not None else read_scene(scene)
     lights = [light.name for light in parsed.lights]
     chosen = dict(channels) if channels else {i: n for i, n in enumerate(lights, start=1)}
     unlit = sorted(set(irradiance or {}) - set(chosen))
@@ -116,6 +118,7 @@ def fitting_exposure_us(
     *,
     target: float = EXPOSURE_TARGET,
     limits: tuple[float, float] | None = None,
+    scene=None,
 ) -> float | None:
     """The exposure [µs] at which the scene predicts the brightest class of the brightest
     illumination at ``target`` × saturation (the model's automatic exposure: the sensor
@@ -126,7 +129,7 @@ def fitting_exposure_us(
     from inspect_validate.model import Exposure, predict
     from inspect_validate.station.model import station_model
 
-    model = station_model(station)
+    model = station_model(station, scene)
     if model.nominal:
         return None
     prediction = predict(
