@@ -123,8 +123,9 @@ def fitting_exposure_us(
     """The exposure [µs] at which the scene predicts the brightest class of the brightest
     illumination at ``target`` × saturation (the model's automatic exposure: the sensor
     signal (32) is linear in the time), within the camera's ``limits`` [µs], to 2
-    significant digits. None where a channel's light has no irradiance (the scene then predicts
-    relative grey values only, not a time).
+    significant digits. None where a channel's light has no irradiance (the scene then
+    predicts relative grey values only, not a time). ``scene``: the station's scene
+    already read (read from the station otherwise).
     """
     from inspect_validate.model import Exposure, predict
     from inspect_validate.station.model import station_model
