@@ -46,9 +46,7 @@ def _pairs(values, option: str, convert):
     is_flag=True,
     help="pylon or aravis: render the scene into the backend's emulator instead of a camera.",
 )
-@click.option(
-    "--size", type=SIZE, help="Frame size of a rendered camera (simulated, --simulate)."
-)
+@click.option("--size", type=SIZE, help="Frame size of a rendered camera (simulated, --simulate).")
 @click.option(
     "--controller",
     "controller_backend",

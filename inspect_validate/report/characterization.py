@@ -61,7 +61,7 @@ def write_characterization_report(folder, result, plan, *, inputs: dict) -> list
     ``folder``; their paths."""
     from inspect_validate.files import output_folder
     from inspect_validate.report.jsonfile import write_json
-    from inspect_validate.report.plots import _figures, _save
+    from inspect_validate.report.plots import save_figure, subplots
 
     folder = output_folder(folder)
     doc = {
@@ -81,31 +81,30 @@ def write_characterization_report(folder, result, plan, *, inputs: dict) -> list
         "datasheet": result.datasheet(),
     }
     written = [write_json(doc, folder / "characterization.json")]
-    plt = _figures()
     r = result
     signal, noise = r.mean - r.dark_mean, r.variance - r.dark_variance
     x = r.exposure_us
     label = "exposure [µs]" if plan.varies == "exposure" else "LED level [%]"
 
-    fig, ax = plt.subplots(figsize=(6, 4))
+    fig, ax = subplots(figsize=(6, 4))
     ax.plot(signal, noise, "o", ms=3, label="measured")
     fit = np.linspace(0, signal[r.saturation_index], 50)
     ax.plot(fit, r.gain * fit, "-", label=f"K = {r.gain:.4g} DN/e⁻")
     ax.axvline(0.7 * signal[r.saturation_index], ls=":", c="grey", label="70 % of saturation")
     ax.set(xlabel="μ_y − μ_y.dark [DN]", ylabel="σ²_y − σ²_y.dark [DN²]", title="Photon transfer")
     ax.legend()
-    written.append(_save(fig, folder / "photon_transfer.png"))
+    written.append(save_figure(fig, folder / "photon_transfer.png"))
 
-    fig, ax = plt.subplots(figsize=(6, 4))
+    fig, ax = subplots(figsize=(6, 4))
     electrons = np.maximum(signal / r.gain, 1e-3)
     ax.loglog(electrons, np.maximum(r.snr, 1e-3), "o", ms=3, label="measured")
     model = electrons / np.sqrt(r.dark_noise**2 + electrons + 1 / 12 / r.gain**2)
     ax.loglog(electrons, model, "-", label="EMVA 1288 linear model")
     ax.set(xlabel="μ_e [e⁻]", ylabel="SNR", title="Signal-to-noise ratio")
     ax.legend()
-    written.append(_save(fig, folder / "snr.png"))
+    written.append(save_figure(fig, folder / "snr.png"))
 
-    fig, (a1, a2) = plt.subplots(2, 1, figsize=(6, 5), sharex=True)
+    fig, (a1, a2) = subplots(2, 1, figsize=(6, 5), sharex=True)
     a1.plot(x, signal, "o", ms=3)
     a1.set(ylabel="μ_y − μ_y.dark [DN]", title=f"Linearity (error {100 * r.linearity_error:.2g} %)")
     ok = (signal >= 0.05 * signal[r.saturation_index]) & (
@@ -115,17 +114,17 @@ def write_characterization_report(folder, result, plan, *, inputs: dict) -> list
         a, b = np.polyfit(x[ok], signal[ok], 1)
         a2.plot(x[ok], 100 * (signal[ok] - (a * x[ok] + b)) / (a * x[ok] + b), "o", ms=3)
     a2.set(xlabel=label, ylabel="deviation [%]")
-    written.append(_save(fig, folder / "linearity.png"))
+    written.append(save_figure(fig, folder / "linearity.png"))
 
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(8, 3.5))
+    fig, (a1, a2) = subplots(1, 2, figsize=(8, 3.5))
     a1.plot(x, r.dark_mean, "o", ms=3)
     a1.set(xlabel=label, ylabel="μ_y.dark [DN]", title="Dark signal")
     a2.plot(x, r.dark_variance, "o", ms=3)
     a2.set(xlabel=label, ylabel="σ²_y.dark [DN²]", title="Dark noise")
-    written.append(_save(fig, folder / "dark_signal.png"))
+    written.append(save_figure(fig, folder / "dark_signal.png"))
 
     if r.dark_image is not None and r.bright_image is not None:
-        fig, axes = plt.subplots(2, 2, figsize=(8, 6))
+        fig, axes = subplots(2, 2, figsize=(8, 6))
         for row, (image, name) in enumerate(((r.dark_image, "DSNU"), (r.bright_image, "PRNU"))):
             centred = image - image.mean()
             im = axes[row, 0].imshow(centred, cmap="coolwarm")
@@ -133,7 +132,7 @@ def write_characterization_report(folder, result, plan, *, inputs: dict) -> list
             fig.colorbar(im, ax=axes[row, 0])
             axes[row, 1].hist(centred.ravel(), bins=100, log=True)
             axes[row, 1].set(xlabel="DN", ylabel="pixels", title=f"{name} histogram")
-        written.append(_save(fig, folder / "nonuniformity.png"))
+        written.append(save_figure(fig, folder / "nonuniformity.png"))
     written.append(_write_page(folder / "characterization.html", result, plan, inputs, written))
     return written
 

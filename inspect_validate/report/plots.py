@@ -28,24 +28,16 @@ __all__ = [
 ]
 
 
-class _Figures:
-    """``subplots`` as pyplot has it, without pyplot: each figure is a
-    :class:`matplotlib.figure.Figure` of its own, drawn by Agg and freed with its last
-    reference (no figure manager, no backend switch, nothing to close)."""
+def subplots(nrows: int = 1, ncols: int = 1, *, figsize, **options):
+    """pyplot's ``subplots`` without pyplot: a :class:`matplotlib.figure.Figure` of its own,
+    drawn by Agg and freed with its last reference (no figure manager, nothing to close)."""
+    from matplotlib.figure import Figure
 
-    @staticmethod
-    def subplots(nrows: int = 1, ncols: int = 1, *, figsize, **options):
-        from matplotlib.figure import Figure
-
-        fig = Figure(figsize=figsize)
-        return fig, fig.subplots(nrows, ncols, **options)
+    fig = Figure(figsize=figsize)
+    return fig, fig.subplots(nrows, ncols, **options)
 
 
-def _figures() -> type[_Figures]:
-    return _Figures
-
-
-def _save(fig, target, *, rect=None):
+def save_figure(fig, target, *, rect=None):
     fig.tight_layout(rect=rect)
     fig.savefig(target, dpi=110, format="png")
     return target
@@ -61,9 +53,8 @@ def plot_component_spectra(scene, path, *, marked: dict[str, str] | None = None)
     ``marked`` maps light names to a note (e.g. the controller channel driving
     it): those are drawn bold and labelled with it, the other candidates thin.
     """
-    plt = _figures()
     marked = marked or {}
-    fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharex=True)
+    fig, axes = subplots(2, 2, figsize=(11, 7), sharex=True)
     panels = [
         ("lights (relative SPD)", [(x.name, x.spd) for x in scene.lights], True),
         ("object reflectance", [(c.name, c.reflectance) for c in scene.classes], False),
@@ -105,7 +96,7 @@ def plot_component_spectra(scene, path, *, marked: dict[str, str] | None = None)
     axes[0][1].set_ylabel("reflectance")
     axes[1][0].set_ylabel("transmission")
     axes[1][1].set_ylabel("quantum efficiency [e⁻/photon]")
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_spectral_errors(separation, path, *, marked: dict[str, float] | None = None):
@@ -114,8 +105,7 @@ def plot_spectral_errors(separation, path, *, marked: dict[str, float] | None = 
     ``marked`` maps labels to wavelengths (nm) drawn as vertical lines, e.g. the
     peaks of the lights a station uses.
     """
-    plt = _figures()
-    fig, axes = plt.subplots(
+    fig, axes = subplots(
         1,
         2 if separation.error_kde is not None else 1,
         figsize=(11, 4.6),
@@ -165,19 +155,18 @@ def plot_spectral_errors(separation, path, *, marked: dict[str, float] | None = 
         ax.set_xlabel("wavelength [nm]")
         ax.legend(fontsize=7)
     axes[0][0].set_ylabel("classification error ε_tot")
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_ranked_separation(rows: list[dict], path, *, by: str = "error"):
     """The ranked combinations, best first, by the value the table ranks them by: each
     row's key comparison's ε Gauss (log scale), SNR_dB or CNR_dB, written at each bar."""
-    plt = _figures()
     labels = [f"{r['rank']}: {r['light']} / {r['optics']} / {r['camera']}" for r in rows]
     keys = [r["comparisons"][r["key_comparison"]] for r in rows]
     quantity = {"error": "error_gaussian"}.get(by, by)
     values = np.array([k[quantity] for k in keys], dtype=float)
     names = sorted({f"{','.join(k['first'])} vs {','.join(k['second'])}" for k in keys})
-    fig, ax = plt.subplots(figsize=(9, 0.35 * len(rows) + 1.5))
+    fig, ax = subplots(figsize=(9, 0.35 * len(rows) + 1.5))
     if by == "error":
         shown = np.maximum(values, 1e-300)
         ax.barh(range(len(rows)), shown, color="tab:blue")
@@ -198,7 +187,7 @@ def plot_ranked_separation(rows: list[dict], path, *, by: str = "error"):
     ax.set_yticks(range(len(rows)), labels, fontsize=7)
     ax.invert_yaxis()
     ax.set_xlabel(f"{what} of {', '.join(names)}: the table's ranking")
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_frame_regions(
@@ -239,10 +228,9 @@ def plot_design_spectrum(design, path):
     from inspect_validate.errors import InputError
     from inspect_validate.station.model import illumination_light
 
-    plt = _figures()
     p = design.problem
     grid = p.grid
-    fig, ax = plt.subplots(figsize=(10, 4.5))
+    fig, ax = subplots(figsize=(10, 4.5))
     parts, labels = [], []
     for c, percent in design.percent.items():
         try:
@@ -284,16 +272,15 @@ def plot_design_spectrum(design, path):
     right.set_ylabel("reflectance; relative sensitivity")
     right.set_ylim(0, None)
     right.legend(loc="upper right", fontsize=7)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_design_path(design, path):
     """ε and CNR_dB of the objective's comparisons along the straight path from the best
     single channel (0) to the designed mix (1): how much the mix gains, and where."""
-    plt = _figures()
     p = design.problem
     fraction, errors, cnr = (design.path[k] for k in ("fraction", "errors", "cnr"))
-    fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4), sharex=True)
+    fig, (left, right) = subplots(1, 2, figsize=(11, 4), sharex=True)
     with np.errstate(divide="ignore"):
         cnr_db = 20.0 * np.log10(cnr)
     for j, label in enumerate(p.objective.labels):
@@ -313,7 +300,7 @@ def plot_design_path(design, path):
     right.set_ylabel("predicted CNR [dB]")
     left.set_title("classification error along the path")
     right.set_title("contrast-to-noise ratio along the path")
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 _STATUS_COLOURS = {"pass": "#2e8b57", "drift": "#e69500", "fail": "#c8102e", "error": "#777777"}
@@ -323,9 +310,8 @@ def plot_history_overview(log, target):
     """A watch history at a glance: each cycle's status, and per illumination every chart's
     smoothed value off its golden target in band half-widths (beyond ±1 is an alarm;
     charts that alarmed are labelled, the others grey)."""
-    plt = _figures()
     illuminations = log.illuminations
-    fig, axes = plt.subplots(
+    fig, axes = subplots(
         1 + len(illuminations),
         1,
         figsize=(10, 1.2 + 2.6 * len(illuminations)),
@@ -361,17 +347,16 @@ def plot_history_overview(log, target):
         if k:
             ax.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7, frameon=False)
     axes[-1].set_xlabel("cycle")
-    return _save(fig, target)
+    return save_figure(fig, target)
 
 
 def plot_history_charts(log, illumination: str, target):
     """The EWMA charts of one illumination: each cycle's value (dots), the smoothed value
     (line), the control band around the golden target (shaded) and alarms (red)."""
-    plt = _figures()
     charts = sorted((k, s) for k, s in log.charts.items() if k[0] == illumination)
     ncols = min(4, max(len(charts), 1))
     nrows = max(math.ceil(len(charts) / ncols), 1)
-    fig, axes = plt.subplots(
+    fig, axes = subplots(
         nrows, ncols, figsize=(3.2 * ncols, 2.4 * nrows + 0.4), sharex=True, squeeze=False
     )
     units = {"mean": "DN", "variance": "DN²", "snr_db": "dB", "log_error": "log₁₀ ε"}
@@ -390,4 +375,4 @@ def plot_history_charts(log, illumination: str, target):
     for ax in axes[-1]:
         ax.set_xlabel("cycle", fontsize=8)
     fig.suptitle(f"illumination {illumination}: value, EWMA, control band, alarms", fontsize=10)
-    return _save(fig, target, rect=(0, 0, 1, 0.96))
+    return save_figure(fig, target, rect=(0, 0, 1, 0.96))

@@ -137,7 +137,7 @@ def test_ranking_plot_shows_what_the_table_ranks_by(monkeypatch, by):
         for i, (e, s) in enumerate([(0.01, -3.0), (0.02, -5.0), (0.05, -9.0)])
     ]
     shown = {}
-    monkeypatch.setattr(plots, "_save", lambda fig, path: shown.setdefault("fig", fig))
+    monkeypatch.setattr(plots, "save_figure", lambda fig, path: shown.setdefault("fig", fig))
     plots.plot_ranked_separation(rows, "unused.png", by=by)
     ax = shown["fig"].axes[0]
     widths = [bar.get_width() for bar in ax.patches]
@@ -157,7 +157,7 @@ def test_spectral_error_plot_says_where_it_is_floored(monkeypatch):
     sep = analyse_spectra(list(scene.classes), kde=False, comparisons=scene.comparisons)
     assert np.nanmin(sep.error_gaussian) < 1e-16  # the inks separate completely somewhere
     shown = {}
-    monkeypatch.setattr(plots, "_save", lambda fig, path: shown.setdefault("fig", fig))
+    monkeypatch.setattr(plots, "save_figure", lambda fig, path: shown.setdefault("fig", fig))
     plots.plot_spectral_errors(sep, "unused.png", marked={"blue LED": 465})
     texts = {t.get_text(): t for t in shown["fig"].axes[0].texts}
     assert any("complete separation" in t for t in texts)
