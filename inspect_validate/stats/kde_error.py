@@ -300,22 +300,20 @@ def gaussian_mixture_errors(
 def _batch_errors(c1, w1, s1, c2, w2, s2, lo, hi, points) -> np.ndarray:
     """:func:`gaussian_mixture_errors` of rows all of which take the grid (every σ > 0,
     ``points`` grid points each from ``lo`` to ``hi``)."""
-    ss = np.concatenate([s1, s2], axis=1)
-    rows = np.arange(c1.shape[0])
+    n = c1.shape[0]
     # In each row's own units (the widest σ), from its lower end: the arithmetic stays
     # normal whatever the grey values' scale. Each row gets the grid points it needs,
     # all rows' points in one flat array.
-    unit = np.max(ss[rows], axis=1)[:, None]
-    base = lo[rows][:, None]
-    u1, v1 = (c1[rows] - base) / unit, s1[rows] / unit
-    u2, v2 = (c2[rows] - base) / unit, s2[rows] / unit
-    a1, a2 = w1[rows], w2[rows]
-    count = points[rows].astype(np.int64)
-    step = (hi[rows] - lo[rows]) / unit[:, 0] / (count - 1)
-    point_row = np.repeat(np.arange(rows.size), count)
-    first = np.concatenate([[0], np.cumsum(count)[:-1]])
-    grid = (np.arange(point_row.size) - np.repeat(first, count)) * step[point_row]
-    d = _difference_at(grid, point_row, u1, v1, a1, u2, v2, a2)
+    unit = np.maximum(s1.max(axis=1), s2.max(axis=1))[:, None]
+    u1, v1 = (c1 - lo[:, None]) / unit, s1 / unit
+    u2, v2 = (c2 - lo[:, None]) / unit, s2 / unit
+    count = points.astype(np.int64)
+    step = (hi - lo) / unit[:, 0] / (count - 1)
+    point_row = np.repeat(np.arange(n), count)
+    grid = (np.arange(point_row.size) - np.repeat(np.cumsum(count) - count, count)) * step[
+        point_row
+    ]
+    d = _difference_at(grid, point_row, u1, v1, w1, u2, v2, w2)
     change = (np.signbit(d[:-1]) != np.signbit(d[1:])) & (point_row[:-1] == point_row[1:])
     j = np.flatnonzero(change)
     r = point_row[j]
@@ -323,42 +321,34 @@ def _batch_errors(c1, w1, s1, c2, w2, s2, lo, hi, points) -> np.ndarray:
     f_left = np.signbit(d[j])
     for _ in range(40):  # bisection: a crossing to 2⁻⁴⁰ of its cell
         mid = 0.5 * (left + right)
-        f_mid = np.signbit(_difference_at(mid, r, u1, v1, a1, u2, v2, a2))
+        f_mid = np.signbit(_difference_at(mid, r, u1, v1, w1, u2, v2, w2))
         same = f_mid == f_left
         left, right = np.where(same, mid, left), np.where(same, right, mid)
-    roots = 0.5 * (left + right)
-    # Regions between successive crossings (and ±∞), row by row: which density is lower
-    # there, from the grid point inside it (the crossings split cells, not the grid).
-    order = np.lexsort((roots, r))
-    r, roots = r[order], roots[order]
-    counts = np.bincount(r, minlength=rows.size)
-    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
-    edges_per_row = counts + 1
-    region_row = np.repeat(np.arange(rows.size), edges_per_row)
-    k = np.arange(region_row.size) - np.repeat(starts + np.arange(rows.size), edges_per_row)
-    a = np.where(
-        k == 0,
-        -np.inf,
-        roots[np.minimum(starts[region_row] + k - 1, roots.size - 1)] if roots.size else -np.inf,
+    # The crossings come row by row, each row's in order (cells of the flat grid): with
+    # −∞ and +∞ around each row's, successive edges bound its regions.
+    crossings = np.bincount(r, minlength=n)
+    edge_row = np.repeat(np.arange(n), crossings + 2)
+    at = np.arange(edge_row.size) - np.repeat(
+        np.cumsum(crossings + 2) - (crossings + 2), crossings + 2
     )
-    b = np.where(
-        k == counts[region_row],
-        np.inf,
-        roots[np.minimum(starts[region_row] + k, roots.size - 1)] if roots.size else np.inf,
-    )
+    edges = np.full(edge_row.size, np.inf)
+    edges[at == 0] = -np.inf
+    edges[(at > 0) & (at <= crossings[edge_row])] = 0.5 * (left + right)
+    inside = edge_row[:-1] == edge_row[1:]
+    a, b, region_row = edges[:-1][inside], edges[1:][inside], edge_row[:-1][inside]
     # A probe inside each region: its middle, or a point beyond the finite end.
     probe = np.where(
         np.isfinite(a) & np.isfinite(b),
         0.5 * (a + b),
         np.where(np.isfinite(a), a + 1.0, np.where(np.isfinite(b), b - 1.0, 0.0)),
     )
-    first_lower = _difference_at(probe, region_row, u1, v1, a1, u2, v2, a2) <= 0
+    first_lower = _difference_at(probe, region_row, u1, v1, w1, u2, v2, w2) <= 0
     mass = np.where(
         first_lower,
-        _masses(a, b, region_row, u1, v1, a1),
-        _masses(a, b, region_row, u2, v2, a2),
+        _masses(a, b, region_row, u1, v1, w1),
+        _masses(a, b, region_row, u2, v2, w2),
     )
-    return np.minimum(0.5 * np.bincount(region_row, weights=mass, minlength=rows.size), 0.5)
+    return np.minimum(0.5 * np.bincount(region_row, weights=mass, minlength=n), 0.5)
 
 
 def _difference_at(x, row, u1, v1, a1, u2, v2, a2):
