@@ -18,8 +18,9 @@ from inspect_validate.station.file import Station
 __all__ = ["draft_station", "fitting_exposure_us", "pixel_format_for"]
 
 #: The brightest class's predicted mean, as a fraction of saturation, that
-#: :func:`fitting_exposure_us` aims at: room for a light 60 % brighter than the scene
-#: says before a class clips, and well above the dark noise.
+#: :func:`fitting_exposure_us` aims at: the brightest class's mean reaches saturation
+#: only for a light nearly twice as bright as the scene says (less the class's spread),
+#: and stays well above the dark noise.
 EXPOSURE_TARGET = 0.5
 
 

@@ -264,7 +264,7 @@ def gaussian_mixture_errors(
     tails) between successive crossings. Rows with a point mass (σ = 0) or needing a
     grid finer than :data:`_BATCH_GRID_MAX` points go to :func:`mixture_error`.
     The spectral analysis's groups (a class against the rest, at each wavelength) are
-    hundreds of such rows; one at a time they cost about 2 ms each.
+    hundreds of such rows; one at a time they cost about 1 ms each.
 
     Returns
     -------
