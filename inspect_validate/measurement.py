@@ -21,7 +21,12 @@ from inspect_validate.comparisons import (
     label,
 )
 from inspect_validate.errors import InputError
-from inspect_validate.stats import RegionStatistics, region_statistics, sample_moments
+from inspect_validate.stats import (
+    LatticeSample,
+    RegionStatistics,
+    region_statistics,
+    sample_moments,
+)
 from inspect_validate.stats.sample import gaussian_misfit
 
 __all__ = [
@@ -503,7 +508,6 @@ def two_populations(classes, *, rois=None) -> tuple[str, ...]:
     10) and lie more than :data:`BIMODAL_D` apart in Ashman's D
     (|μ₁ − μ₂| / √((σ₁² + σ₂²)/2)), the class is named.
     """
-    from inspect_validate.stats import LatticeSample
 
     out = []
     recorded = getattr(rois, "frame", None) is not None

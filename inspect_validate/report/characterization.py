@@ -147,13 +147,14 @@ def _write_page(path: Path, result, plan, inputs: dict, pictures: list[Path]) ->
     from inspect_validate.report.charts import characterization_charts, chart
     from inspect_validate.report.html import page, table
 
+    heading, *lines = format_characterization(result, plan).splitlines()
     rows = []
-    for line in format_characterization(result, plan).splitlines()[1:]:
+    for line in lines:
         name, _, value = line.partition("  ")
         rows.append([name.strip(), value.strip()])
     body = [
         "<h1>EMVA 1288 characterization</h1>",
-        f'<p class="meta">{html.escape(format_characterization(result, plan).splitlines()[0])}; '
+        f'<p class="meta">{html.escape(heading)}; '
         f"station {html.escape(str(inputs.get('station', '')))}, "
         f"inspect-validate {html.escape(__version__)}</p>",
         "<h2>Datasheet</h2>",
