@@ -274,8 +274,14 @@ def parse_yaml(text: str, *, source: str):
         return loader.construct_document(node)
     except yaml.MarkedYAMLError as exc:
         where = exc.problem_mark or exc.context_mark
-        line = f"line {where.line + 1}: " if where else ""
+        if exc.problem == "found unexpected end of stream" and exc.context_mark is not None:
+            where = exc.context_mark  # an unclosed quote or bracket: where it opened
         what = "; ".join(x for x in (exc.context, exc.problem) if x)
+        colonless = _colonless_line(text, exc)
+        if colonless is not None:
+            key = text.splitlines()[colonless].strip()
+            what = f"{key!r} has no ':' after its key (write 'key: value')"
+        line = f"line {(where.line if colonless is None else colonless) + 1}: " if where else ""
         raise InputError(f"{line}not valid YAML: {what}", source=source) from None
     except yaml.YAMLError as exc:
         raise InputError(f"not valid YAML: {exc}", source=source) from None
@@ -283,6 +289,37 @@ def parse_yaml(text: str, *, source: str):
         raise InputError("nested too deeply to read", source=source) from None
     finally:
         loader.dispose()
+
+
+def _colonless_line(text: str, exc) -> int | None:
+    """The line of a key that lacks its ':', when that is what ``exc`` reports late.
+
+    PyYAML notices a missing ':' only on a later line: 'could not find expected :'
+    at the next key, or 'mapping values are not allowed' when the colonless line was
+    read as the first part of a multi-line scalar whose last line has the colon.
+    """
+    lines = text.splitlines()
+    if exc.context == "while scanning a simple key" and exc.context_mark is not None:
+        return exc.context_mark.line if exc.context_mark.line < len(lines) else None
+    mark = exc.problem_mark
+    if not (exc.problem or "").startswith("mapping values are not allowed") or mark is None:
+        return None
+    if mark.line >= len(lines):
+        return None
+
+    def indent(row: str) -> int:
+        return len(row) - len(row.lstrip(" "))
+
+    first = mark.line
+    while (
+        first > 0
+        and (row := lines[first - 1]).strip()
+        and ":" not in row
+        and indent(row) == indent(lines[mark.line])
+        and not row.lstrip().startswith(("-", "#"))
+    ):
+        first -= 1
+    return first if first < mark.line else None
 
 
 def load_yaml(path: str | Path, model: type[M], *, what: str) -> M:

@@ -146,6 +146,15 @@ BAD = [
     ("- 1\n- 2\n", r"the scene file is a list"),
     ("a: " + "[" * 200 + "]" * 200 + "\n", r"nested"),
     ("classes: {A: [1,\n", r"not valid YAML"),
+    (
+        scene(extra="exposure:\n  mode fixed\n  time: 0.01\n"),
+        r"line 6: not valid YAML: 'mode fixed' has no ':' after its key",
+    ),
+    (
+        scene(extra="exposure: {mode: fixed}\nrank 1\nwavelength: {start: 380}\n"),
+        r"line 6: not valid YAML: 'rank 1' has no ':' after its key",
+    ),
+    ("classes: 'A\nlights: []\n", r"line 1: not valid YAML: while scanning a quoted scalar"),
 ]
 
 
