@@ -116,11 +116,21 @@ class V4l2Grabber(Grabber):
         self.device = f"/dev/video{device}" if isinstance(device, int) else str(device)
         self.name = f"V4L2 camera {self.device}"
         self.missing = {"gain"}
-        cap = (opener or cv2.VideoCapture)(self.device, cv2.CAP_V4L2)
+        # OpenCV logs its own failure ("[ WARN:0@0.04] global cap.cpp:212 …") to stderr,
+        # ahead of and apart from the error below, which says what to do.
+        level = cv2.utils.logging.getLogLevel()
+        cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_ERROR)
+        try:
+            cap = (opener or cv2.VideoCapture)(self.device, cv2.CAP_V4L2)
+        finally:
+            cv2.utils.logging.setLogLevel(level)
         if not cap.isOpened():
+            exists = os.path.exists(self.device)
             raise DeviceError(
-                f"{self.name}: cannot open it with OpenCV's V4L2 backend; check that it exists "
-                "(v4l2-ctl --list-devices), that you may read it (group 'video') and that no other program holds it"
+                f"{self.name}: cannot open it with OpenCV's V4L2 backend; "
+                + ("" if exists else "there is no such device node; ")
+                + "check that it exists (v4l2-ctl --list-devices), that you may read it "
+                "(group 'video') and that no other program holds it"
             )
         self._cap = cap
         self._timeout_ms: float | None = None
