@@ -8,6 +8,7 @@ import click
 
 from inspect_validate.cli.common import (
     PATH,
+    FrameProgress,
     check_outputs,
     new_folder,
 )
@@ -66,11 +67,13 @@ def characterize(station, out, report_dir, resume):
         # Into a pipe or a log, click writes a line each time the label changes: the
         # series' hundreds of steps are named on a terminal only.
         named = sys.stderr.isatty()
+        advance, steps = FrameProgress(bar), [0]
 
         def progress(step, _done, _total) -> None:
             if named:
                 bar.label = f"characterizing {step}"
-            bar.update(1)
+            steps[0] += 1
+            advance(steps[0])
 
         plan = capture_series(st, out, resume=resume, progress=progress)
     plan, result = read_series(st, out)

@@ -69,18 +69,44 @@ def verify_and_report(
     return result
 
 
+class FrameProgress:
+    """Move a click progress bar to ``done`` steps, its ETA timed from the first step.
+
+    click times a bar from its creation, so the seconds a camera takes to open and
+    settle are charged to the first frames (an 11 s capture on Aravis showed an ETA
+    of 00:20:02), and a resumed run's frames already on disk count as instant steps.
+    The clock therefore starts at the first step, and the steps done by then are taken
+    off the length.
+    """
+
+    def __init__(self, bar) -> None:
+        self.bar = bar
+        self.done: int | None = None
+
+    def __call__(self, done: int) -> None:
+        import time
+
+        bar = self.bar
+        if self.done is None:
+            bar.length = max(bar.length - done, 1)
+            bar.start = bar.last_eta = time.time()
+            bar.avg = []
+        else:
+            bar.update(done - self.done)
+        self.done = done
+
+
 def capture_with_progress(station, out, *, resume: bool = False):
     """Capture ``station`` into ``out`` with a progress bar on stderr."""
     from inspect_validate.station.capture import capture
 
     total = sum(station.frames for _ in station.illuminations) + station.dark_frames
     with click.progressbar(length=total, label="capturing", file=sys.stderr) as bar:
-        last = [0]
+        advance = FrameProgress(bar)
 
         def progress(step, done, _total) -> None:
             bar.label = f"capturing {step}"
-            bar.update(done - last[0])
-            last[0] = done
+            advance(done)
 
         return capture(station, out, resume=resume, progress=progress)
 
