@@ -11,6 +11,13 @@ Tables::
     cycles(cycle, started, seconds, status, passed, reason, cause, frames)
     points(cycle, illumination, kind, name, quantity, value, ewma, low, high)
 
+Beside the database, ``<db>.journal`` keeps every committed cycle as a line of JSON,
+written (and synced) before the cycle goes into the database. Before each commit the
+watch checks that the file is still the one it wrote (device, inode, size,
+modification time): a history truncated, replaced by a restored copy or removed under a running
+watch is never written on. The watch stops, and rebuilds its cycles from the journal
+into a new database beside the old one (:func:`rebuild_history`).
+
 ``status`` is ``pass`` (every check passed, no drift), ``fail`` (a check
 failed), ``drift`` (checks passed, a chart alarmed) or ``error`` (no
 measurement: a device fault, with ``reason``). A point alarmed when its
@@ -43,6 +50,7 @@ __all__ = [
     "HistoryLog",
     "read_history",
     "read_station_history",
+    "rebuild_history",
 ]
 
 HISTORY_SCHEMA_VERSION = 1
@@ -99,17 +107,26 @@ class History:
         charted against another golden file (its charts would continue on other targets).
     """
 
-    def __init__(self, path: str | Path, *, station: str, golden: str | None) -> None:
+    def __init__(
+        self, path: str | Path, *, station: str, golden: str | None, created: float | None = None
+    ) -> None:
         self.path = Path(path)
+        self.journal = self.path.with_name(self.path.name + ".journal")
+        self._changed: str | None = None
         self._lock = _exclusive(self.path)
         try:
-            self._open(station, golden)
+            self._open(station, golden, created)
+            self._identity = _identity(self.path)
         except BaseException:
             self._lock.close()
             raise
 
-    def _open(self, station: str, golden: str | None) -> None:
+    def _open(self, station: str, golden: str | None, created: float | None) -> None:
         new = not (self.path.is_file() and self.path.stat().st_size)
+        if new and self.journal.exists():
+            # The journal of a history that is gone (deleted to start afresh): kept aside,
+            # never appended to a new history's, nor deleted.
+            self.journal.rename(_aside(self.journal, "old"))
         if not new:
             # Damage from outside is refused before a cycle is appended to it: the same
             # checks `history` makes, and SQLite's own page check.
@@ -124,7 +141,7 @@ class History:
             "schema_version": str(HISTORY_SCHEMA_VERSION),
             "station": station,
             "golden": golden or "",
-            "created": str(time.time()),
+            "created": str(time.time() if created is None else created),
         }
         try:
             self.db.execute("PRAGMA journal_mode=WAL")
@@ -164,10 +181,16 @@ class History:
                     source=str(path),
                 )
         self.created = float(meta["created"])  # Unix time, s: when the watch began
+        self._meta = {"station": station, "golden": golden, "created": self.created}
 
     def close(self) -> None:
-        self.db.close()
-        self._lock.close()
+        """Close the history; a file changed since the last commit is reported (the
+        cycles rebuilt from the journal) once it is closed."""
+        try:
+            self._check_unchanged()
+        finally:
+            self.db.close()
+            self._lock.close()
 
     def next_cycle(self) -> int:
         (last,) = self.db.execute("SELECT MAX(cycle) FROM cycles").fetchone()
@@ -177,9 +200,11 @@ class History:
         """Store ``record`` and its chart ``points`` (key → value, ewma, low, high) in one
         transaction."""
         rows = [(record.cycle, *key, *values) for key, values in points.items()]
+        self._check_unchanged(record, rows)
         try:
+            self._journal(record, rows)
             self._insert(record, rows)
-        except sqlite3.DatabaseError as exc:  # disk full, read-only, damaged since opened
+        except (sqlite3.DatabaseError, OSError) as exc:  # disk full, read-only, damaged
             raise InputError(
                 f"cannot write cycle {record.cycle} to the history ({exc}); its frames are "
                 f"kept in {record.frames or 'the watch folder'} — free space, raise the file "
@@ -191,6 +216,8 @@ class History:
                 f"cycle number {record.cycle} does not fit the history; start a new --db",
                 source=str(self.path),
             ) from None
+        finally:
+            self._identity = _identity(self.path)  # what this commit wrote, even half, is ours
 
     def _insert(self, record: CycleRecord, rows) -> None:
         self.db.execute("BEGIN IMMEDIATE")
@@ -226,6 +253,52 @@ class History:
                 source=str(self.path),
             ) from None
 
+    def _journal(self, record: CycleRecord, rows) -> None:
+        import json
+        import os
+
+        with open(self.journal, "a", encoding="utf-8") as f:
+            if not f.tell():
+                f.write(json.dumps({"meta": self._meta}) + "\n")
+            line = {**record.__dict__, "points": [list(r[1:]) for r in rows]}
+            f.write(json.dumps(line, allow_nan=True) + "\n")
+            f.flush()
+            os.fsync(f.fileno())
+
+    def _check_unchanged(self, record: CycleRecord | None = None, rows=()) -> None:
+        """Refuse to write on a file this watch did not leave as it is now."""
+        if self._changed is not None:  # reported once: the file is not written again
+            if record is None:
+                return
+            raise InputError(self._changed, source=str(self.path))
+        now = _identity(self.path)
+        if now == self._identity:
+            return
+        was = self._identity
+        if now is None:
+            what = "removed"
+        elif now[:2] != was[:2]:
+            what = "replaced by another file"
+        elif now[2] < was[2]:
+            what = f"truncated ({was[2]} → {now[2]} bytes)"
+        else:
+            what = "rewritten by another program"
+        if record is not None:
+            self._journal(record, rows)  # the cycle is kept, as every one before it
+        rescue = _aside(self.path, "rescued")
+        try:
+            cycles = rebuild_history(self.journal, rescue)
+            kept = f"its {cycles} cycle(s) are rebuilt from {self.journal} into {rescue}"
+        except (InputError, OSError, ValueError) as exc:
+            kept = f"its cycles are in {self.journal} (they could not be rebuilt: {exc})"
+        self._changed = (
+            f"the history was {what} while this watch ran, so the watch stops without "
+            f"writing {'to it' if record is None else f'cycle {record.cycle} to it'}; "
+            f"{kept}. Check which file is right, then "
+            "continue with --db and the one you keep"
+        )
+        raise InputError(self._changed, source=str(self.path))
+
     def chart_states(self) -> dict:
         """Per series its last smoothed value and how many cycles it has seen."""
         rows = self.db.execute(
@@ -235,6 +308,75 @@ class History:
             "ORDER BY cycle DESC LIMIT 1) FROM points p GROUP BY illumination, kind, name, quantity"
         )
         return {tuple(r[:4]): (r[5], r[4]) for r in rows}
+
+
+def _identity(path: Path) -> tuple[int, int, int, int] | None:
+    """What changes when anybody but this process writes, truncates or replaces ``path``:
+    device, inode, size and modification time (a hard link by a backup tool, which
+    changes the change time, is not a change)."""
+    try:
+        st = path.stat()
+    except FileNotFoundError:
+        return None
+    return (st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns)
+
+
+def _aside(path: Path, word: str) -> Path:
+    """A new name beside ``path``: ``<stem>-<word>-<time>[-k]<suffix>``."""
+    stamp = time.strftime("%Y%m%dT%H%M%S")
+    for k in itertools.count(1):
+        aside = path.with_name(
+            f"{path.stem}-{word}-{stamp}{'' if k == 1 else f'-{k}'}{path.suffix}"
+        )
+        if not aside.exists():
+            return aside
+    raise AssertionError("unreachable")
+
+
+def rebuild_history(journal: str | Path, path: str | Path) -> int:
+    """Rebuild a history database at ``path`` (a new file) from a watch's ``journal``.
+
+    Parameters
+    ----------
+    journal : str or Path
+        A ``<db>.journal`` file: a line of meta, then a line of JSON per committed cycle.
+    path : str or Path
+        The database to write; it must not exist.
+
+    Returns
+    -------
+    int
+        The number of cycles rebuilt. A cycle given twice (a restart that committed
+        again after a crash between journal and database) is taken at its last line.
+    """
+    import json
+
+    journal, path = Path(journal), Path(path)
+    if path.exists():
+        raise InputError("exists already; give a new file", source=str(path))
+    lines = journal.read_text(encoding="utf-8").splitlines()
+    try:
+        meta = json.loads(lines[0])["meta"]
+        cycles = {}
+        for line in lines[1:]:
+            if line.strip():  # a last line cut by a crash is not a cycle
+                try:
+                    entry = json.loads(line)
+                except json.JSONDecodeError:
+                    continue
+                cycles[int(entry["cycle"])] = entry
+    except (IndexError, KeyError, TypeError, json.JSONDecodeError) as exc:
+        raise InputError(f"not a watch journal ({exc})", source=str(journal)) from None
+    fields = CycleRecord.__dataclass_fields__
+    history = History(path, station=meta["station"], golden=meta["golden"], created=meta["created"])
+    try:
+        for n in sorted(cycles):
+            entry = cycles[n]
+            record = CycleRecord(**{k: entry[k] for k in fields})
+            history.commit(record, {tuple(p[:4]): tuple(p[4:]) for p in entry["points"]})
+    finally:
+        history.close()
+    return len(cycles)
 
 
 def _exclusive(path: Path):

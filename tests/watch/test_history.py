@@ -5,6 +5,7 @@ trends into its report, and a history that is missing, foreign or damaged is ref
 import csv
 import io
 import math
+import os
 import re
 import shutil
 import sqlite3
@@ -455,3 +456,93 @@ def test_a_cycle_numbered_past_two_to_the_53_is_read_as_written(cli, aged, tmp_p
         code, out, err = cli(["history", db, "--last", 100])
     assert code == 0, err
     assert f"last: cycle {last} " in out and f"{top}–{last - 1}" in out
+
+
+def _rescued(tmp_path):
+    (rescue,) = tmp_path.glob("history-rescued-*.sqlite")
+    return rescue
+
+
+@pytest.mark.parametrize("change", ["truncated", "restored in place", "moved over", "removed"])
+def test_a_history_changed_under_the_watch_is_never_written_on(tmp_path, change):
+    """Truncated, overwritten by a restored copy, replaced, or removed between two cycles:
+    the next commit refuses to write, names what happened, and the watch's cycles are
+    rebuilt from its journal into a new database. (The commit used to write on the
+    changed file: a truncated history became 'malformed', a restored one lost its
+    cycles to the watch's.)"""
+    from inspect_validate.errors import InputError
+    from inspect_validate.watch.history import CycleRecord, read_history
+
+    restored = tmp_path / "restored" / "history.sqlite"
+    restored.parent.mkdir()
+    _history_with_cycles(restored, n=5).close()
+    db = tmp_path / "history.sqlite"
+    history = _history_with_cycles(db, n=3)
+    if change == "truncated":
+        with open(db, "r+b") as f:
+            f.truncate(0)
+    elif change == "restored in place":
+        shutil.copyfile(restored, db)  # same inode, other content
+    elif change == "moved over":
+        shutil.copyfile(restored, tmp_path / "other.sqlite")
+        os.replace(tmp_path / "other.sqlite", db)
+    else:
+        db.unlink()
+    before = db.read_bytes() if db.exists() else None
+    record = CycleRecord(3, 1.7e9 + 3, 0.5, "pass", True, None, None, None)
+    words = {"truncated": "truncated", "removed": "removed"}.get(change, "(replaced|rewritten)")
+    with pytest.raises(InputError, match=rf"history\.sqlite: the history was {words}.*cycle 3"):
+        history.commit(record, {("amber", "class", "A", "mean"): (100.0, 100.0, 99.0, 101.0)})
+    history.close()  # reported once: closing says nothing more and writes nothing
+    assert (db.read_bytes() if db.exists() else None) == before
+    rebuilt = read_history(_rescued(tmp_path))
+    assert [c.cycle for c in rebuilt.cycles] == [0, 1, 2, 3]
+    assert rebuilt.created == history.created and rebuilt.station == "st.yaml"
+    (chart,) = rebuilt.charts.values()
+    assert list(chart.value) == [100.0] * 4
+
+
+def test_a_history_truncated_before_a_stop_is_reported_on_closing(tmp_path):
+    """SIGTERM after the file was truncated: no cycle is committed, and closing reports
+    the change with the cycles rebuilt (they used to be lost without a word)."""
+    from inspect_validate.errors import InputError
+    from inspect_validate.watch.history import read_history
+
+    db = tmp_path / "history.sqlite"
+    history = _history_with_cycles(db, n=2)
+    with open(db, "r+b") as f:
+        f.truncate(0)
+    with pytest.raises(
+        InputError, match=r"the history was truncated .* watch stops without writing to it"
+    ):
+        history.close()
+    assert db.stat().st_size == 0
+    assert [c.cycle for c in read_history(_rescued(tmp_path)).cycles] == [0, 1]
+
+
+def test_a_journal_cut_by_a_crash_or_with_a_cycle_twice_rebuilds(tmp_path):
+    from inspect_validate.errors import InputError
+    from inspect_validate.watch.history import read_history, rebuild_history
+
+    db = tmp_path / "history.sqlite"
+    _history_with_cycles(db, n=3).close()
+    journal = tmp_path / "history.sqlite.journal"
+    lines = journal.read_text().splitlines()
+    journal.write_text("\n".join([*lines, lines[-1], lines[-1][:20]]))  # repeated, then cut
+    assert rebuild_history(journal, tmp_path / "new.sqlite") == 3
+    assert [c.cycle for c in read_history(tmp_path / "new.sqlite").cycles] == [0, 1, 2]
+    with pytest.raises(InputError, match=r"new\.sqlite: exists already"):
+        rebuild_history(journal, tmp_path / "new.sqlite")
+    (tmp_path / "bad.journal").write_text("[1, 2]\n")
+    with pytest.raises(InputError, match=r"bad\.journal: not a watch journal"):
+        rebuild_history(tmp_path / "bad.journal", tmp_path / "other.sqlite")
+
+
+def test_a_new_history_sets_an_old_journal_aside(tmp_path):
+    db = tmp_path / "history.sqlite"
+    _history_with_cycles(db, n=2).close()
+    db.unlink()
+    _history_with_cycles(db, n=1).close()
+    (old,) = tmp_path.glob("history.sqlite-old-*.journal")
+    assert len(old.read_text().splitlines()) == 3  # meta and two cycles, kept
+    assert len((tmp_path / "history.sqlite.journal").read_text().splitlines()) == 2

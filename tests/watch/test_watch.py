@@ -4,6 +4,7 @@ a kill losing nothing committed; the EWMA chart's run lengths against the textbo
 
 import json
 import os
+import re
 import signal
 import sqlite3
 import subprocess
@@ -526,3 +527,42 @@ def test_the_chart_limit_holds_its_false_alarm_rate_over_golden_files(repeats, a
         alarms += int(hit.sum())
         z[hit] = target[hit]
     assert goldens * cycles / alarms == pytest.approx(arl, rel=0.06)
+
+
+def test_a_history_truncated_under_a_running_watch_stops_it_with_every_cycle_kept(
+    tmp_path, golden
+):
+    """The fault-injection case: the history truncated while watch runs. Watch stops at
+    its next commit with exit 2 naming the change, the truncated file is left as it is,
+    and every cycle it printed is in the rebuilt database. (It used to write on, and
+    `history` then found 'database disk image is malformed'.)"""
+    from inspect_validate.watch.history import read_history
+
+    path = copy_station(tmp_path)
+    db = tmp_path / "w" / "history.sqlite"
+    args = [sys.executable, "-m", "inspect_validate", "watch", str(path), "--golden", str(golden)]
+    proc = subprocess.Popen(
+        [*args, "--db", str(db), "--interval", "0.5"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        lines = [proc.stdout.readline()]
+        while "cycle 1:" not in lines[-1]:
+            lines.append(proc.stdout.readline())
+            assert lines[-1], "watch ended before its second cycle"
+        with open(db, "r+b") as f:
+            f.truncate(0)
+        out, err = proc.communicate(timeout=120)
+    finally:
+        proc.kill()
+    printed = [int(m) for m in re.findall(r"cycle (\d+):", "".join(lines) + out)]
+    assert proc.returncode == 2, err
+    assert "Traceback" not in err
+    assert re.search(r"history\.sqlite: the history was truncated .* rebuilt from", err), err
+    assert db.stat().st_size == 0
+    (rescue,) = db.parent.glob("history-rescued-*.sqlite")
+    rebuilt = [c.cycle for c in read_history(rescue).cycles]
+    assert set(printed) <= set(rebuilt) and rebuilt == list(range(len(rebuilt))), (printed, rebuilt)
+    assert run_cli(["history", rescue]) == 0
