@@ -48,6 +48,7 @@ from pydantic import (
 )
 
 from inspect_validate.comparisons import Comparisons, ComparisonsSpec
+from inspect_validate.components.sensors import BIT_DEPTHS
 from inspect_validate.config import StrictModel, load_yaml, one_of
 from inspect_validate.errors import InputError
 
@@ -208,7 +209,8 @@ class _EmvaOverrides(StrictModel):
     """Temporal dark noise σ_d, e⁻."""
     saturation: Annotated[float, Field(gt=0, le=1e9, allow_inf_nan=False)] | None = None
     """Saturation capacity μ_e.sat, e⁻."""
-    bit_depth: Annotated[int, Field(ge=1, le=32)] | None = None
+    bit_depth: Annotated[int, Field(ge=BIT_DEPTHS[0], le=BIT_DEPTHS[1])] | None = None
+    """Bits of a grey value: 8 (Mono8) to 32."""
     dark_offset: NonNegative | None = None
     """Dark offset μ_y.dark, DN."""
     pixel_pitch: Annotated[float, Field(gt=0, le=1000, allow_inf_nan=False)] | None = None
@@ -670,13 +672,18 @@ def _camera(spec, base):
         for k, v in spec.model_dump(exclude={"builtin", "file", "name", "measured"}).items()
         if v is not None
     }
-    if spec.measured is not None:  # what characterize measured, over what the file states
-        from inspect_validate.components.camera_file import measured_values
 
-        given.update(measured_values(base / spec.measured))
-    if isinstance(spec, _Builtin):
-        cam = builtin_sensor(spec.builtin)
-        changed = f"{cam.name}, {', '.join(f'{k} {v:g}' for k, v in given.items())}"
-        return replace(cam, name=spec.name or (changed if given else cam.name), **given)
-    qe = read_spectrum_csv(base / spec.file, kind=SpectrumKind.QE)
-    return SensorModel(spec.name or qe.name, qe, **given)
+    def make(**measured):
+        values = {**given, **measured}  # what characterize measured, over what is stated
+        if isinstance(spec, _Builtin):
+            cam = builtin_sensor(spec.builtin)
+            changed = f"{cam.name}, {', '.join(f'{k} {v:g}' for k, v in values.items())}"
+            return replace(cam, name=spec.name or (changed if values else cam.name), **values)
+        qe = read_spectrum_csv(base / spec.file, kind=SpectrumKind.QE)
+        return SensorModel(spec.name or qe.name, qe, **values)
+
+    if spec.measured is None:
+        return make()
+    from inspect_validate.components.camera_file import build_measured
+
+    return build_measured(make, base / spec.measured, what="the scene's camera")

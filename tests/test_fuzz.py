@@ -897,6 +897,8 @@ def test_acquisition_settings_are_validated_not_crashed_on(capsys, camera, pulse
 )
 @example(values={"gain": 0.03, "dark_noise": 10.0, "saturation": 9000.0}, measured={}, raw=None)
 @example(values={"gain": 0.03, "prnu": 0.02, "dsnu": 3.0}, measured={"gain_db": 6}, raw=None)
+@example(values={"dark_offset": 1e6, "bit_depth": 8}, measured={}, raw=None)
+@example(values={"gain": 1e-300}, measured={}, raw=None)
 def test_measured_camera_files_are_validated_not_crashed_on(
     capsys, verified_capture, values, measured, raw
 ):

@@ -23,7 +23,10 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
+from inspect_validate.errors import InputError
+
 __all__ = [
+    "build_measured",
     "measured_sensor",
     "measured_values",
     "read_camera_file",
@@ -89,6 +92,7 @@ def _file_model():
 
     from pydantic import BaseModel, ConfigDict, Field
 
+    from inspect_validate.components.sensors import BIT_DEPTHS
     from inspect_validate.config import StrictModel
 
     Positive = Annotated[float, Field(gt=0, le=1e9, allow_inf_nan=False)]
@@ -99,7 +103,7 @@ def _file_model():
         gain: Positive | None = None
         dark_noise: NonNegative | None = None
         saturation: Positive | None = None
-        bit_depth: Annotated[int, Field(ge=1, le=32)] | None = None
+        bit_depth: Annotated[int, Field(ge=BIT_DEPTHS[0], le=BIT_DEPTHS[1])] | None = None
         dark_offset: NonNegative | None = None
         dark_current: NonNegative | None = None
         dsnu: NonNegative | None = None
@@ -143,9 +147,43 @@ def measured_sensor(scene_camera, path):
     """``scene_camera`` with the values of the camera file at ``path``
     (:func:`measured_values`)."""
     name = f"{scene_camera.name} (measured: {Path(path).name})"
+    return build_measured(
+        lambda **values: replace(scene_camera, name=name, **values),
+        path,
+        what=f"the scene's camera {scene_camera.name!r}",
+    )
+
+
+def build_measured(make, path, *, what: str):
+    """The sensor ``make(**values)`` builds from the camera file's values at ``path``, its
+    QE curve scaled by the file's ``qe_scale`` (the declared curve's shape at the measured
+    level).
+
+    Parameters
+    ----------
+    make : callable
+        ``make(**values) -> SensorModel``, the file's model values as keywords.
+    path : str or Path
+        The camera file.
+    what : str
+        What the other values come from, for the error.
+
+    Raises
+    ------
+    InputError
+        Naming the file, when its values cannot make a camera with the others.
+    """
     values = measured_values(path)
     scale = values.pop("qe_scale", None)
-    if scale is not None:  # the measured QE: the declared curve's shape at its level
-        qe = scene_camera.qe
-        values["qe"] = qe.with_values(qe.values * scale, name=f"{qe.name} × {scale:.3g}")
-    return replace(scene_camera, name=name, **values)
+    try:
+        sensor = make(**values)
+    except InputError as exc:  # the file's values with the others: name the file
+        raise InputError(
+            f"{exc}; the values come from this camera file and {what}", source=str(path)
+        ) from None
+    if scale is not None:
+        qe = sensor.qe
+        sensor = replace(
+            sensor, qe=qe.with_values(qe.values * scale, name=f"{qe.name} × {scale:.3g}")
+        )
+    return sensor

@@ -92,16 +92,35 @@ class SensorModel:
             if not getattr(self, field) > 0:
                 raise InputError(f"camera {self.name!r}: {field} must be positive")
         negative = min(self.dark_noise, self.dark_offset, self.dark_current, self.dsnu, self.prnu)
-        if negative < 0 or not 1 <= self.bit_depth <= 32:
+        if negative < 0 or not BIT_DEPTHS[0] <= self.bit_depth <= BIT_DEPTHS[1]:
             raise InputError(
                 f"camera {self.name!r}: dark_noise, dark_offset, dark_current, dsnu, prnu ≥ 0 "
-                "and bit_depth 1..32"
+                f"and bit_depth {BIT_DEPTHS[0]}..{BIT_DEPTHS[1]}"
+            )
+        # Values each possible alone but not together: a camera that cannot record a signal.
+        full_scale = 2.0**self.bit_depth - 1.0
+        if self.dark_offset >= full_scale:
+            raise InputError(
+                f"camera {self.name!r}: dark_offset {self.dark_offset:.6g} DN fills the "
+                f"{self.bit_depth}-bit range (at most {full_scale:.0f} DN), leaving no room for "
+                "a signal: check dark_offset and bit_depth"
+            )
+        if self.gain * self.saturation < 1.0:
+            raise InputError(
+                f"camera {self.name!r}: gain × saturation is {self.gain * self.saturation:.3g} "
+                "DN, so the full well spans less than one grey value: check gain (DN/e⁻) and "
+                "saturation (e⁻)"
             )
 
     @property
     def max_dn(self) -> float:
         """Largest grey value: full scale or the saturation capacity, whichever is lower, DN."""
         return min(2.0**self.bit_depth - 1.0, self.dark_offset + self.gain * self.saturation)
+
+
+BIT_DEPTHS = (8, 32)
+"""The bit depths a camera may have: no monochrome machine-vision format (Mono8 and
+deeper) records fewer than 8 bits, and a 32-bit value is the widest read."""
 
 
 def gain_factor(gain_db: float) -> float:

@@ -44,7 +44,11 @@ def _ranking_check(ranking: RankingAgreement, errors, j: int) -> Check:
         + ", predicted "
         + ", ".join(f"{n} {ranking.predicted[n]:.3g}" for n in names)
         + f"; predicted gap to {other} {bad_p[other] - bad_p[best_p]:.2g} {unit}; "
-        f"Kendall τ {ranking.kendall_tau:.2f}",
+        + (
+            f"Kendall τ {ranking.kendall_tau:.2f}"
+            if np.isfinite(ranking.kendall_tau)
+            else "Kendall τ undefined (a ranking tied throughout)"
+        ),
         basis="statistical",
         standard_error=float(np.hypot(se[best_p], se[other])),
         predicted_gap=bad_p[other] - bad_p[best_p],

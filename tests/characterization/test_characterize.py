@@ -310,6 +310,24 @@ def test_a_scene_camera_takes_its_values_from_a_camera_file(tmp_path):
     camera_file.write_text("camera: {gain: -1}\n")
     with pytest.raises(InputError, match=r"camera.yaml: camera.gain: Input should be greater"):
         read_scene(tmp_path / "scene.yaml")
+    # Values possible alone but not together, or with the scene's camera: refused naming
+    # the file and what to check (they were read, and verify failed on "predicted 255 DN").
+    for text, message in (
+        ("camera: {dark_offset: 1.0e6, bit_depth: 8}", r"dark_offset 1e\+06 DN fills the 8-bit"),
+        ("camera: {dark_offset: 300}", r"dark_offset 300 DN fills the 8-bit range"),
+        (
+            "camera: {bit_depth: 1}",
+            r"camera\.bit_depth: Input should be greater than or equal to 8",
+        ),
+        (
+            "camera: {gain: 1.0e-300}",
+            r"gain × saturation is 1e-296 DN, so the full well spans less than one grey",
+        ),
+    ):
+        camera_file.write_text(text + "\n")
+        with pytest.raises(InputError, match=r"camera\.yaml: .*" + message) as caught:
+            read_scene(tmp_path / "scene.yaml")
+        assert "Traceback" not in str(caught.value)
 
 
 EMVA_SIMULATOR = """

@@ -529,9 +529,7 @@ def test_the_chart_limit_holds_its_false_alarm_rate_over_golden_files(repeats, a
     assert goldens * cycles / alarms == pytest.approx(arl, rel=0.06)
 
 
-def test_a_history_truncated_under_a_running_watch_stops_it_with_every_cycle_kept(
-    tmp_path, golden
-):
+def test_a_history_truncated_under_a_running_watch_stops_it_with_every_cycle_kept(tmp_path, golden):
     """The fault-injection case: the history truncated while watch runs. Watch stops at
     its next commit with exit 2 naming the change, the truncated file is left as it is,
     and every cycle it printed is in the rebuilt database. (It used to write on, and
