@@ -307,6 +307,12 @@ def test_a_scene_camera_takes_its_values_from_a_camera_file(tmp_path):
     (camera,) = read_scene(tmp_path / "scene.yaml").cameras
     assert camera.gain == pytest.approx(0.0572 / 10 ** (6 / 20), rel=1e-12)
     assert (camera.dark_noise, camera.saturation, camera.bit_depth) == (13.5, 9100, 8)
+    stated = camera.qe.values
+    camera_file.write_text(
+        "camera: {gain: 0.0572, dark_noise: 13.5, saturation: 9100, qe_scale: 0.5}\n"
+    )
+    (camera,) = read_scene(tmp_path / "scene.yaml").cameras  # qe_scale was a TypeError here
+    np.testing.assert_allclose(camera.qe.values, 0.5 * stated, rtol=1e-12)
     camera_file.write_text("camera: {gain: -1}\n")
     with pytest.raises(InputError, match=r"camera.yaml: camera.gain: Input should be greater"):
         read_scene(tmp_path / "scene.yaml")
