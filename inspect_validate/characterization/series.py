@@ -27,7 +27,6 @@ import json
 import math
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -103,6 +102,8 @@ def capture_series(station, out: Path, *, resume: bool = False, progress=None) -
             source=str(out),
         )
     plan_path = out / PLAN_FILE
+    if resume and (out / "manifest.json").exists():
+        _audit(out)  # frames changed since they were written are not built on
     if resume and plan_path.is_file():
         plan = _read_plan(plan_path)
     else:
@@ -260,16 +261,79 @@ def _write_plan(path: Path, plan: Plan) -> None:
     atomic_write(path, json.dumps(asdict(plan), indent=2).encode())
 
 
+def _plan_model():
+    """The plan file's schema: the bounds a camera's settings have (exposure as a station
+    may set it, bit depths a camera may have), so an edited plan is refused before it
+    captures, not after it wrote a camera file its reader refuses."""
+    from typing import Annotated, Literal
+
+    from pydantic import Field, model_validator
+
+    from inspect_validate.components.sensors import BIT_DEPTHS
+    from inspect_validate.config import StrictModel
+
+    Exposure = Annotated[float, Field(gt=0, le=1e8, allow_inf_nan=False)]  # µs
+    Level = Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)]
+
+    class PlanFile(StrictModel):
+        exposure_us: Annotated[tuple[Exposure, ...], Field(min_length=1, max_length=10_000)]
+        level: Annotated[tuple[Level, ...], Field(min_length=1, max_length=10_000)]
+        spatial_exposure_us: Exposure
+        spatial_level: Level
+        bits: Annotated[int, Field(ge=BIT_DEPTHS[0], le=BIT_DEPTHS[1], strict=True)]
+        varies: Literal["exposure", "level"]
+        illumination: str
+        refined: bool = False
+
+        @model_validator(mode="after")
+        def _paired(self):
+            if len(self.exposure_us) != len(self.level):
+                raise ValueError(f"{len(self.exposure_us)} exposures but {len(self.level)} levels")
+            return self
+
+    return PlanFile
+
+
+def _audit(out: Path, steps=None) -> None:
+    """Check the frames of ``steps`` (default: every complete step) are the ones the
+    capture wrote, as verify checks its captures (:func:`~inspect_validate.camera.storage.
+    audit_capture`)."""
+    from inspect_validate.camera.storage import audit_capture, read_manifest
+
+    manifest = read_manifest(out / "manifest.json")
+    if steps is None:
+        steps = [
+            k for k, v in manifest["steps"].items() if isinstance(v, dict) and v.get("complete")
+        ]
+    else:
+        missing = [k for k in steps if not manifest["steps"].get(k, {}).get("complete")]
+        if missing:
+            raise InputError(
+                f"step {missing[0]} was not captured completely; rerun characterize with --resume",
+                source=str(out),
+            )
+    audit_capture(out, manifest, steps)
+
+
 def _read_plan(path: Path) -> Plan:
+    from pydantic import ValidationError
+
+    from inspect_validate.config import explain
+
+    redo = "start again without --resume and a new --out"
     try:
         doc = json.loads(path.read_text())
-        fields: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v for k, v in doc.items()}
-        return Plan(**fields)
-    except (OSError, ValueError, TypeError) as exc:
+        checked = _plan_model().model_validate(doc, strict=False)
+    except (OSError, ValueError) as exc:
+        if isinstance(exc, ValidationError):
+            why = explain(exc)
+        else:
+            why = str(exc)
         raise InputError(
-            f"the characterization plan cannot be read ({exc}); start again without --resume",
+            f"the characterization plan is not as characterize wrote it ({why}); {redo}",
             source=str(path),
         ) from None
+    return Plan(**dict(checked))
 
 
 def region_mask(station, folder: Path) -> np.ndarray:
@@ -303,15 +367,12 @@ def read_series(station, out: Path):
     from inspect_validate.images import read_frames
 
     plan = _read_plan(out / PLAN_FILE)
+    steps = [f"{k}_{i:03d}" for i in range(len(plan.exposure_us)) for k in "bd"]
+    _audit(out, [*steps, "b_spatial", "d_spatial"])  # a resumed series' frames included
     mask = region_mask(station, out / "b_000")
 
     def frames(step):
-        folder = out / step
-        if not folder.is_dir():
-            raise InputError(
-                f"step {step} was not captured; rerun characterize with --resume", source=str(out)
-            )
-        return read_frames([folder])[:, mask]
+        return read_frames([out / step])[:, mask]
 
     bright, dark = [], []
     for i in range(len(plan.exposure_us)):

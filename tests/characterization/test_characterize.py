@@ -6,6 +6,7 @@ same frames, through pylon's grab engine, and the run's refusals and resumption.
 """
 
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -81,6 +82,64 @@ def characterized(tmp_path_factory):
     )
     assert code == 0
     return folder
+
+
+def _resumable(characterized, tmp_path):
+    import shutil
+
+    out = tmp_path / "cap"
+    shutil.copytree(characterized / "cap", out)
+    station = characterized / "station.yaml"
+    return station, out
+
+
+def test_a_resumed_series_audits_its_frames(characterized, tmp_path, capsys):
+    """Frames of a finished series altered, then --resume: refused naming the frame
+    (it used to rerun the analysis on them, exit 0, and write K 0.146 for 0.026)."""
+    station, out = _resumable(characterized, tmp_path)
+    before = (out / "camera.yaml").read_bytes()
+    frame = sorted((out / "b_003").glob("frame_*.tif"))[0]
+    data = bytearray(frame.read_bytes())
+    data[-64:] = bytes(64)  # pixels changed, the file still a TIFF
+    frame.write_bytes(bytes(data))
+    assert run_cli(["characterize", station, "--out", out, "--resume"]) == 2
+    err = capsys.readouterr().err
+    assert "b_003/frame_0001.tif changed since it was written" in err, err
+    assert (out / "camera.yaml").read_bytes() == before  # nothing written from them
+    frame.unlink()
+    assert run_cli(["characterize", station, "--out", out, "--resume"]) == 2
+    assert "b_003: frame_0001.tif recorded but missing" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("key", "value", "message"),
+    [
+        ("bits", 64, r"bits: Input should be less than or equal to 32"),
+        ("exposure_us", "12345", r"exposure_us: Input should be a valid tuple"),
+        (
+            "exposure_us",
+            [1e300],
+            r"exposure_us\[0\]: Input should be less than or equal to 100000000",
+        ),
+        ("level", [0.5], r"exposures but 1 levels"),
+        ("varies", "luck", r"varies: Input should be 'exposure' or 'level'"),
+    ],
+)
+def test_an_edited_plan_is_refused_before_it_captures(
+    characterized, tmp_path, capsys, key, value, message
+):
+    """An edited characterize.json: refused naming the file and field (they were a
+    TypeError, 'lam value too large', or a camera file its own reader refused)."""
+    station, out = _resumable(characterized, tmp_path)
+    plan = json.loads((out / "characterize.json").read_text())
+    plan[key] = value
+    (out / "characterize.json").write_text(json.dumps(plan))
+    assert run_cli(["characterize", station, "--out", out, "--resume"]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    assert re.search(
+        r"characterize\.json: the characterization plan is not as .*" + message, err
+    ), err
 
 
 @pytest.mark.slow
