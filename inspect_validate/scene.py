@@ -35,6 +35,7 @@ physical range or a wrong type is an error naming the file and the field.
 
 from __future__ import annotations
 
+import contextlib
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, Literal
@@ -322,17 +323,22 @@ class _Wavelength(StrictModel):
     """Grid step, nm."""
 
 
+# 1 ns to 100 s: the longest a station's camera takes (camera.exposure_us ≤ 10⁸ µs).
+ExposureTime = Annotated[float, Field(ge=1e-9, le=100, allow_inf_nan=False)]
+
+
 class _Exposure(StrictModel):
     """How the exposure time of each combination is chosen."""
 
     mode: Literal["auto", "fixed"] = "auto"
     """``auto``: the brightest class at ``target`` × saturation; ``fixed``: ``time``."""
-    time: Positive | None = None
-    """``fixed``: the exposure time, s."""
+    time: ExposureTime | None = None
+    """``fixed``: the exposure time, s (1 ns to 100 s)."""
     target: Annotated[float, Field(gt=0, le=1)] = 0.7
     """``auto``: the brightest class's mean as a fraction of saturation."""
-    max_time: Positive | None = None
-    """``auto``: the longest exposure time allowed, s."""
+    max_time: ExposureTime | None = None
+    """``auto``: the longest exposure time allowed, s (default: 100 s, beyond which a
+    combination is skipped as too dim)."""
 
     @model_validator(mode="after")
     def _fixed_time(self):
@@ -416,12 +422,24 @@ class Scene:
         parts = [list(self.lights), list(self.optics), list(self.cameras), list(self.classes)]
         return parts, {"exposure": self.exposure, "comparisons": self.comparisons}
 
+    @contextlib.contextmanager
+    def _named(self):
+        """Errors of the model that name no file name this scene's (no combination
+        predictable, a comparison unknown): the file is what the user changes."""
+        try:
+            yield
+        except InputError as exc:
+            if exc.source:
+                raise
+            raise InputError(str(exc), source=self.source) from None
+
     def predict(self, *, grid: np.ndarray | None = None):
         """:func:`inspect_validate.model.predict` for every combination of this scene."""
         from inspect_validate.model import predict
 
         parts, options = self._model_inputs()
-        return predict(*parts, grid=self.grid if grid is None else grid, **options)
+        with self._named():
+            return predict(*parts, grid=self.grid if grid is None else grid, **options)
 
     def sweep(
         self,
@@ -440,15 +458,16 @@ class Scene:
         from inspect_validate.model import sweep
 
         parts, options = self._model_inputs()
-        ranking = sweep(
-            *parts,
-            grid=self.grid,
-            by=by or self.rank_by,
-            comparison=comparison if comparison is not None else self.rank_comparison,
-            top=top,
-            client=client,
-            **options,
-        )
+        with self._named():
+            ranking = sweep(
+                *parts,
+                grid=self.grid,
+                by=by or self.rank_by,
+                comparison=comparison if comparison is not None else self.rank_comparison,
+                top=top,
+                client=client,
+                **options,
+            )
         return replace(ranking, skipped_work=(*self.skipped, *ranking.skipped_work))
 
     def notes(self) -> list[str]:

@@ -23,6 +23,7 @@ def write(tmp_path, text, csv_rows=None):
     rows = csv_rows or "\n".join(f"{w},0.3,0.31,0.29" for w in g)
     (tmp_path / "a.csv").write_text(rows + "\n")
     (tmp_path / "b.csv").write_text("\n".join(f"{w},0.6,0.61,0.59" for w in g) + "\n")
+    (tmp_path / "tiny.csv").write_text("\n".join(f"{w},1e-300,1.1e-300" for w in g) + "\n")
     (tmp_path / "s.yaml").write_text(text)
     return tmp_path / "s.yaml"
 
@@ -135,6 +136,18 @@ BAD = [
     (
         scene(extra="exposure: {target: 1.5}\n"),
         r"exposure\.target: Input should be less than or equal to 1",
+    ),
+    (
+        scene(extra="exposure: {mode: fixed, time: 1e300}\n"),
+        r"exposure\.time: Input should be less than or equal to 100",
+    ),
+    (
+        scene(extra="exposure: {mode: fixed, time: 1e-300}\n"),
+        r"exposure\.time: Input should be greater than or equal to",
+    ),
+    (
+        scene(classes="{A: {file: tiny.csv}, B: {file: tiny.csv}}"),
+        r"the brightest class needs an exposure of \S+e\+\d+ s to reach the target",
     ),
     (scene(extra="rank: {by: luck}\n"), r"rank\.by: Input should be 'error', 'snr_db' or 'cnr_db'"),
     (scene(extra="rank: {comparison: A vs Z}\n"), r"rank\.comparison: no comparison 'A vs Z'"),

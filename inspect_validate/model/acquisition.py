@@ -57,6 +57,9 @@ QUANTISATION_VARIANCE = 1.0 / 12.0  # DN²
 _PRESENT = 1e-6  # a component is present where it exceeds this fraction of its peak
 COVERAGE = 0.99
 """A class's reflectance must span this fraction of a combination's spectral response."""
+LONGEST_EXPOSURE = 100.0
+"""The longest exposure an automatic exposure may choose without a ``max_time``, s (a
+station's camera takes at most 10⁸ µs): a combination that needs longer is too dim."""
 _MAX_REASONS = 20  # skipped combinations listed by name; the rest are counted
 
 
@@ -487,6 +490,11 @@ def _predict_block(chain: _Chain, ls: slice, os: slice, cs: slice, *, mixtures=N
         c[s] for c, s in zip(chain.components, (ls, os, cs, slice(None)), strict=True)
     )
     pe, pt, pq = chain.present
+    exposure = chain.exposure
+    needed = None
+    if exposure.mode == "auto" and not exposure.max_time:
+        with np.errstate(divide="ignore", over="ignore"):
+            needed = exposure.target * cam["saturation"][None, None, :] / class_rate.max(axis=-1)
     valid, n_bad, reasons = _feasible(
         lights,
         optics,
@@ -497,6 +505,7 @@ def _predict_block(chain: _Chain, ls: slice, os: slice, cs: slice, *, mixtures=N
         lo_rows,
         chain.inside,
         class_rate,
+        needed=needed,
     )
     if n_bad:
         # Skipped combinations are computed on a stand-in signal (kept finite so no
@@ -504,7 +513,6 @@ def _predict_block(chain: _Chain, ls: slice, os: slice, cs: slice, *, mixtures=N
         class_rate = np.where(valid[..., None], class_rate, 1.0)
         deviation = np.where(valid[..., None], deviation, 0.0)
 
-    exposure = chain.exposure
     if exposure.mode == "auto":
         # The brightest class's *mean* at the target, as the chapter sets its exposure.
         t_exp = exposure.target * cam["saturation"][None, None, :] / class_rate.max(axis=-1)
@@ -647,11 +655,15 @@ def _present(a):
     return a > _PRESENT * a.max(axis=-1, keepdims=True)
 
 
-def _feasible(lights, optics, cameras, classes, present, q, lo_rows, inside, class_rate):
+def _feasible(
+    lights, optics, cameras, classes, present, q, lo_rows, inside, class_rate, *, needed=None
+):
     """Which combinations can be predicted, and why the others cannot.
 
     Model curves (Gaussian tails, logistic edges) are never exactly zero, so a
-    component counts as present where it exceeds 1e-6 of its own peak.
+    component counts as present where it exceeds 1e-6 of its own peak. ``needed``: the
+    automatic exposure each combination would need, s; longer than
+    :data:`LONGEST_EXPOSURE` is too dim (reflectances of 1e-300 asked for 10³⁰⁰ s).
 
     Returns
     -------
@@ -677,7 +689,8 @@ def _feasible(lights, optics, cameras, classes, present, q, lo_rows, inside, cla
         coverage = np.where(total[..., None] > 0, covered / total[..., None], 0.0)
     uncovered = coverage < COVERAGE
     dark = ~(class_rate.max(axis=-1) > 0)
-    valid = shared & ~uncovered.any(axis=-1) & ~dark
+    dim = np.zeros_like(dark) if needed is None else ~dark & ~(needed <= LONGEST_EXPOSURE)
+    valid = shared & ~uncovered.any(axis=-1) & ~dark & ~dim
     reasons = []
     for li, oi, ci in np.argwhere(~valid)[:_MAX_REASONS]:
         combo = f"{lights[li].name} × {optics[oi].name} × {cameras[ci].name}"
@@ -695,6 +708,12 @@ def _feasible(lights, optics, cameras, classes, present, q, lo_rows, inside, cla
                 f"class {classes[k].name!r} is measured over {r.range[0]:g}–{r.range[1]:g} nm "
                 f"({r.source}), {100 * coverage[li, oi, ci, k]:.3g} % of where this chain responds "
                 f"(at least {100 * COVERAGE:g} % needed)"
+            )
+        elif dim[li, oi, ci]:
+            why = (
+                f"the brightest class needs an exposure of {needed[li, oi, ci]:.3g} s to reach "
+                f"the target (at most {LONGEST_EXPOSURE:g} s without exposure.max_time): too "
+                "little light reaches the camera"
             )
         else:
             why = "no class reflects anything the camera sees"

@@ -51,9 +51,9 @@ def analyse_spectra(
     kde : bool, keyword-only
         Also the nonparametric error (slower: one LSCV per class and wavelength).
     resolution : float, keyword-only
-        Reflectance resolution of the measurement, the KDE bandwidth floor.
-        LSCV on a handful of spectra otherwise runs to h → 0 and spiky
-        densities that promise errors no measurement can support.
+        Reflectance resolution of the measurement, the KDE bandwidth floor and the
+        Gaussian standard deviation's. LSCV on a handful of spectra otherwise runs to
+        h → 0 and spiky densities that promise errors no measurement can support.
     comparisons : Comparisons, keyword-only, optional
         Groups and their weighting (default every pair and each class against
         the rest, equal weights): a group is the mixture of its classes.
@@ -79,7 +79,9 @@ def analyse_spectra(
     comparisons = comparisons or Comparisons.of(names)
     valid = np.all([np.all(np.isfinite(v), axis=0) for v in values], axis=0)
     means = np.stack([v.mean(0) for v in values], axis=-1)  # (W, K)
-    variances = np.stack([v.var(0, ddof=1) for v in values], axis=-1)
+    # A spread below the measurement's resolution is not resolved: raised to it, as the
+    # KDE's bandwidth is (else reflectances of 1e-300 gave ε Gauss 0 beside ε KDE ½).
+    variances = np.maximum(np.stack([v.var(0, ddof=1) for v in values], axis=-1), resolution**2)
     gauss = gaussian_separation(means, variances, comparisons, valid=valid).error_gaussian.T
     gauss = np.where(valid[None, :], gauss, np.nan)
     kde_err = np.full(gauss.shape, np.nan)

@@ -83,7 +83,12 @@ def _crossings(d, vn, vw):
     division by σ_w² − σ_n² in t_near)."""
     r2 = vn / vw
     k = (vw - vn) / vw
-    big_l = np.log1p((vw - vn) / vn)
+    q = (vw - vn) / vn
+    # ln(σ_w²/σ_n²): log1p keeps its digits as the variances near each other; a ratio
+    # past 10³⁰⁰ (a subnormal σ_n²) would overflow it, and there the logs' difference
+    # is exact enough. (Arithmetic, not np.where: numba compiles this on floats.)
+    apart = q > 1e300
+    big_l = np.log1p(np.minimum(q, 1e300)) * (1 - apart) + (np.log(vw) - np.log(vn)) * apart
     sqrt_disc = np.sqrt(r2 * d * d + k * big_l)
     t_near = (r2 * d * d + big_l) / (sqrt_disc + r2 * d)
     return t_near, -(r2 * d + sqrt_disc) / k

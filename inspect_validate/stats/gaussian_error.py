@@ -362,7 +362,15 @@ def _error(mean1, var1, mean2, var2):
         raise ValueError("means and variances must be finite")
     if np.any(v1 < 0) or np.any(v2 < 0):
         raise ValueError("variances must be non-negative")
-    if m1.size >= LOAD_MIN or (m1.size >= COMPILED_MIN and _KERNEL in sys.modules):
+    # The kernel takes variances in the range where its products neither overflow nor
+    # lose digits to subnormals; others (1e-315, 1e300) take the rescaled path below.
+    with np.errstate(all="ignore"):
+        ranged = [(v == 0.0) | ((v >= 1e-150) & (v <= 1e150)) for v in (v1, v2)]
+        usual = bool(
+            np.all(ranged[0] & ranged[1])
+            and np.all(np.abs(m1 - m2) <= 1e140 * np.sqrt(np.maximum(v1, v2)))
+        )
+    if usual and (m1.size >= LOAD_MIN or (m1.size >= COMPILED_MIN and _KERNEL in sys.modules)):
         error_and_log = load_kernel()
         eps, log_eps = np.empty(m1.size), np.empty(m1.size)
         error_and_log(*(np.ascontiguousarray(a) for a in (m1, v1, m2, v2)), eps, log_eps)
@@ -371,16 +379,25 @@ def _error(mean1, var1, mean2, var2):
     mn, vn = np.where(swap, m2, m1), np.where(swap, v2, v1)
     mw, vw = np.where(swap, m1, m2), np.where(swap, v1, v2)
     identical = (mn == mw) & (vn == vw)
-    degenerate = (vn == 0.0) | identical
-    # Placeholders keep the arithmetic finite where the answer is set directly.
-    vn = np.where(degenerate, 1.0, vn)
-    vw = np.where(degenerate, 2.0, vw)
     with np.errstate(all="ignore"):
         # Work along the axis t = ±(x − μ_n)/σ_n that points from μ_n to μ_w;
         # μ_w sits at t = d ≥ 0, Δ = |μ_w − μ_n| as a double-double.
         dh, dl = _two_sum(mw, -mn)
         sign = np.where(dh < 0.0, -1.0, 1.0)
         dh, dl = sign * dh, sign * dl
+        # ε depends on lengths in units of σ only: scaled by a power of two that brings
+        # σ_w near 1 (exact, so usual inputs give the same bits), subnormal variances
+        # (1e-315) and huge ones keep their digits. Δ may overflow to inf: apart by more
+        # than any double, which the tails below take as ε = 0.
+        k = np.frexp(vw)[1] // 2
+        vn, vw = np.ldexp(vn, -2 * k), np.ldexp(vw, -2 * k)
+        dh, dl = np.ldexp(dh, -k), np.ldexp(dl, -k)
+        dl = np.where(np.isfinite(dh), dl, 0.0)
+    degenerate = (vn == 0.0) | identical  # σ_n below σ_w by 2⁻¹⁰⁷⁴: a point mass
+    # Placeholders keep the arithmetic finite where the answer is set directly.
+    vn = np.where(degenerate, 1.0, vn)
+    vw = np.where(degenerate, 2.0, vw)
+    with np.errstate(all="ignore"):
         snh, snl = _dd_sqrt(vn)
         swh, swl = _dd_sqrt(vw)
         t_near, t_far = _crossings(dh / snh, vn, vw)
@@ -406,6 +423,11 @@ def _error(mean1, var1, mean2, var2):
             np.logaddexp(np.logaddexp(log_below, log_above), log_inside) - np.log(2.0),
             -_scalar._LOG2,
         )
+        # Apart by more than 10¹⁵⁰ σ_w: d² overflows in the crossings. ε underflows long
+        # before; its log is the exponent at the crossing, −½(Δ/(σ_n + σ_w))².
+        far = ~(dh / swh <= 1e150)
+        eps = np.where(far, 0.0, eps)
+        log_eps = np.where(far, -0.5 * np.square(dh / (snh + swh)), log_eps)
         fixed = np.where(identical, 0.5, 0.0)
         eps = np.where(degenerate, fixed, eps)
         log_eps = np.where(degenerate, np.log(fixed), log_eps)

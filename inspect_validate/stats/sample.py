@@ -283,11 +283,22 @@ def _converted_moments(sample: LatticeSample | np.ndarray) -> Moments:
     n = x.size
     if n < 2:
         raise InputError(f"a class needs at least 2 pixels for its variance (39), has {n}")
+    top = float(np.max(np.abs(x)))
+    k = 0
+    if not 1e-150 < top < 1e150 and top > 0:
+        # Sums of values near 1e308 overflow and squares of 1e-200 underflow: computed
+        # on the values scaled by a power of two (exact) that brings the largest near 1.
+        k = int(np.frexp(top)[1])
+        x = np.ldexp(x, -k)
     mean = float(np.mean(x))
     dev = x - mean
     # The second term removes the rounding error left in `mean` (Chan, Golub & LeVeque).
     variance = (float(np.dot(dev, dev)) - float(dev.sum()) ** 2 / n) / (n - 1)
-    return Moments(n, mean + float(dev.sum()) / n, max(variance, 0.0))
+    mean += float(dev.sum()) / n
+    if k:
+        with np.errstate(over="ignore", under="ignore"):  # beyond doubles: inf or 0, said
+            mean, variance = float(np.ldexp(mean, k)), float(np.ldexp(variance, 2 * k))
+    return Moments(n, mean, max(variance, 0.0))
 
 
 def quantisation_step(sample) -> float | None:

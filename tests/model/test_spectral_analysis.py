@@ -35,6 +35,24 @@ def test_per_wavelength_gaussian_error_is_the_closed_form():
         )
 
 
+@pytest.mark.parametrize("scale", [1e-300, 1e-5])
+def test_spreads_below_the_resolution_agree_between_gauss_and_kde(scale):
+    """Reflectances far below the measurement's resolution (1e-3): the Gaussian ε takes
+    the resolution as its spread floor, as the KDE's bandwidth does, so both say the
+    classes cannot be told apart (it was ε Gauss 0 beside ε KDE ½)."""
+    g = np.array([500.0, 550.0])
+    a = np.array([[1.0, 1.1], [1.1, 1.2], [0.9, 1.0]]) * scale
+    b = np.array([[1.2, 1.3], [1.25, 1.35], [1.3, 1.2]]) * scale
+    sep = analyse_spectra(
+        [
+            ObjectClass("A", Spectrum(g, a, "reflectance", "A", "a")),
+            ObjectClass("B", Spectrum(g, b, "reflectance", "B", "b")),
+        ],
+    )
+    assert np.allclose(sep.error_gaussian, 0.5, atol=1e-3)
+    assert np.allclose(sep.error_kde, 0.5, atol=1e-3)
+
+
 def test_analyze_spectra_cli_finds_the_amber_band(tmp_path, capsys):
     from conftest import ROOT
 

@@ -54,9 +54,9 @@ def test_special_functions_against_mpmath():
     assert np.isnan(implementation._lower_tail(np.array([np.nan]))).all()
 
 
-def reference(m1, v1, m2, v2):
+def reference(m1, v1, m2, v2, *, digits=60):
     """ε_tot from the crossings, all in 60-digit arithmetic, tails taken on the far side."""
-    with mp.workdps(60):
+    with mp.workdps(digits):
         m1, v1, m2, v2 = map(mp.mpf, (m1, v1, m2, v2))
         if v1 > v2:
             m1, v1, m2, v2 = m2, v2, m1, v1
@@ -123,6 +123,50 @@ def test_log_error_beyond_underflow():
         assert got == pytest.approx(float(ref), rel=1e-14)
     assert float(gaussian_error(0, 1, 80, 1)) == 0.0  # underflows; the log does not
     assert np.isfinite(log_gaussian_error(0, 1, 1e6, 1))
+
+
+@pytest.mark.parametrize(
+    "case",
+    [
+        (0, 1e-315, 3.5e-157, 1e-315),  # subnormal variances (ε was NaN)
+        (0, 1e-320, 3, 1),  # a subnormal against a unit variance
+        (0, 1e-320, 1e-157, 1),
+        (0, 1e300, 1e150, 1e300),  # huge variances
+        (0, 1e300, 3e150, 4e300),
+        (-1e300, 1e298, 1e300, 1e298),
+        (1e-300, 1e-310, 3e-300, 2e-310),
+    ],
+)
+def test_extreme_scales_against_mpmath(case):
+    """Within 1e-12 of mpmath where the variances are subnormal or near 1e300: ε depends
+    on lengths in σ only, and the computation scales them to σ near 1 (by a power of
+    two, exactly)."""
+    # 400 digits: the crossings of σ 1e-160 and σ 1 lie 1e-159 apart around 3, which
+    # 60 digits cannot tell from one point.
+    ref = reference(*case, digits=400)
+    eps, log_eps = implementation.gaussian_error_and_log(*case)
+    assert float(eps) == pytest.approx(float(ref), rel=1e-12, abs=0)
+    assert float(log_eps) == pytest.approx(float(mp.log(ref)), rel=1e-12, abs=0)
+
+
+def test_separation_beyond_doubles():
+    """Apart by more than 10¹⁵⁰ σ: ε 0, its log the crossing's exponent or −inf where
+    that passes the doubles; never NaN."""
+    for case in [(0, 1e-315, 1, 1e-315), (0, 1, 1e300, 1), (-1e308, 1e-300, 1e308, 1e-300)]:
+        eps, log_eps = implementation.gaussian_error_and_log(*case)
+        assert float(eps) == 0.0 and float(log_eps) == -np.inf
+    eps, log_eps = implementation.gaussian_error_and_log(0, 1e-300, 1, 1e-300)  # Δ = 10¹⁵⁰ σ
+    assert float(eps) == 0.0 and float(log_eps) == pytest.approx(-1.25e299, rel=1e-12)
+
+
+def test_power_of_two_scaling_changes_no_bit():
+    """The rescaling is exact: usual inputs scaled by 2¹⁰⁰ give the same ε and log ε."""
+    m1, v1, m2, v2 = (np.array(c, float) for c in zip(*cases(), strict=True))
+    base = implementation.gaussian_error_and_log(m1, v1, m2, v2)
+    for k in (-100, 100):
+        c = 2.0**k
+        scaled = implementation.gaussian_error_and_log(m1 * c, v1 * c * c, m2 * c, v2 * c * c)
+        assert np.array_equal(base[0], scaled[0]) and np.array_equal(base[1], scaled[1])
 
 
 def test_equal_variance_closed_form():

@@ -72,3 +72,21 @@ def test_merge_is_the_union():
     assert sorted(merged.values()) == sorted(np.concatenate([a, b]))
     mixed = merge_samples([as_sample(a), as_sample(np.array([0.5, 1.5]))])
     assert sorted(mixed) == sorted([1, 2, 2, 10, 0.5, 1.5])
+
+
+@pytest.mark.parametrize("scale", [5.5e153, 2.0**1000 / 7, 1e-152])
+def test_float_moments_at_the_ends_of_the_doubles(scale):
+    """Values near 1e308 overflowed the sum (mean NaN); at 5.5e153 the squares' sum
+    overflowed (variance inf) though the variance is 8.7e307: both now match the exact
+    rational moments to 1e-15, and a variance beyond the doubles is inf, not NaN."""
+    x = np.array([1.1, 2.3, 2.9, 4.7, 0.3]) * scale
+    exact = [Fraction(float(v)) for v in x]
+    mean = sum(exact) / len(exact)
+    variance = sum((v - mean) ** 2 for v in exact) / (len(exact) - 1)
+    with np.errstate(all="raise"):
+        got = sample_moments(x)
+    assert got.mean == pytest.approx(float(mean), rel=1e-15)
+    if variance < Fraction(np.finfo(float).max):
+        assert got.variance == pytest.approx(float(variance), rel=1e-15)
+    else:  # beyond the doubles: said as inf, not NaN
+        assert got.variance == np.inf
