@@ -21,8 +21,11 @@ _TIFF = (".tif", ".tiff")
 _OPENCV = (".png", ".pgm", ".pnm", ".bmp", ".jpg", ".jpeg")
 
 
-def read_image(path: str | Path) -> np.ndarray:
+def read_image(path: str | Path, *, finite: bool = True) -> np.ndarray:
     """One image file as (H, W) or, for a multi-page TIFF or 3-D NPY, (N, H, W).
+
+    ``finite=False`` lets NaN and infinite pixels of float images through, for a caller
+    that uses some pixels only (a measurement: only its regions' pixels must be numbers).
 
     Raises
     ------
@@ -62,14 +65,15 @@ def read_image(path: str | Path) -> np.ndarray:
     image = np.asarray(image)
     if image.dtype.kind not in "uif" or image.size == 0:
         raise InputError(f"not a grey-value image (dtype {image.dtype})", source=str(path))
-    if image.dtype.kind == "f" and not np.all(np.isfinite(image)):
+    if finite and image.dtype.kind == "f" and not np.all(np.isfinite(image)):
         bad = np.argwhere(~np.isfinite(image))[0]
         raise InputError(
             f"pixel {tuple(int(i) for i in bad[::-1])} (x, y[, frame]) is NaN or infinite; "
             "grey values must be numbers",
             source=str(path),
         )
-    largest = float(np.abs(image).max()) if image.dtype.kind == "f" else 0.0
+    largest = float(np.nanmax(np.abs(image), initial=0.0)) if image.dtype.kind == "f" else 0.0
+    largest = largest if np.isfinite(largest) else 0.0  # inf: let through with finite=False
     if largest >= 2.0**53:
         raise InputError(
             f"grey values up to {largest:.3g}: beyond 2⁵³ they are not a camera's "
@@ -124,7 +128,15 @@ def _read_tiff(path: Path) -> tuple[np.ndarray, bool]:
         pages = list(tif.pages)
         colour = getattr(pages[0], "samplesperpixel", 1) > 1
         if len(pages) == 1 or (len(tif.series) == 1 and tif.series[0].ndim <= 3):
-            return tif.asarray(), colour
+            image = tif.asarray()
+            if colour and getattr(pages[0], "planarconfig", 1) == tifffile.PLANARCONFIG.SEPARATE:
+                shape = (tif.shaped_metadata or ({},))[0].get("shape")
+                if shape is not None and tuple(shape) == image.shape and image.ndim == 3:
+                    # tifffile.imwrite of a (3, H, W) stack tags it planar RGB; the shape
+                    # it records says the array was a stack of frames, not colour planes.
+                    return image, False
+                image = np.moveaxis(image, 0, -1)  # colour planes: samples last
+            return image, colour
         first = pages[0].asarray()
         stack = np.empty((len(pages), *first.shape), first.dtype)  # no list of pages to copy
         stack[0] = first
@@ -202,12 +214,13 @@ def expand_paths(paths) -> list[Path]:
     return out
 
 
-def read_frames(paths) -> np.ndarray:
+def read_frames(paths, *, finite: bool = True) -> np.ndarray:
     """Read frames taken at one setting into one stack (N, H, W).
 
     Paths may be files (one frame or a stack each), folders or glob patterns
     (:func:`expand_paths`). All frames must have the same size and data type,
-    and frames written by a capture must all come from the same step.
+    and frames written by a capture must all come from the same step. ``finite`` as in
+    :func:`read_image`.
     """
     # Frames are copied into one preallocated stack as they are read: peak memory is the
     # stack plus one file, not twice the stack.
@@ -235,7 +248,7 @@ def read_frames(paths) -> np.ndarray:
                     + ": a stack must be one camera setting",
                     source=str(path),
                 )
-        image = read_image(path)
+        image = read_image(path, finite=finite)
         frames = image if image.ndim == 3 else image[np.newaxis]
         if first is None:
             first = (path, frames.shape[1:], frames.dtype)

@@ -430,13 +430,14 @@ def measure_files(
         frames = [frames]
     if isinstance(dark, (str, Path)):
         dark = [dark]
-    stack = read_frames(frames)
+    # Only the regions' pixels must be numbers: NaN elsewhere (a masked border) is fine.
+    stack = read_frames(frames, finite=False)
     if saturation_level is None and stack.dtype.kind in "ui":
         bits = recorded_bit_depth(expand_paths(frames)[0])
         if bits is not None and bits < 8 * stack.dtype.itemsize:
             saturation_level = 2**bits - 1
     dark = list(dark)
-    dark_stack = read_frames(dark) if dark else None
+    dark_stack = read_frames(dark, finite=False) if dark else None
     if dark_stack is not None and dark_stack.shape[1:] != stack.shape[1:]:
         raise InputError(
             f"dark frames are {dark_stack.shape[2]}×{dark_stack.shape[1]}, frames are "
@@ -444,15 +445,21 @@ def measure_files(
             source=str(dark[0]),
         )
     roi_set = read_rois(rois) if isinstance(rois, (str, Path)) else rois
-    result = measure_stack(
-        stack,
-        roi_set,
-        dark=dark_stack,
-        comparisons=comparisons,
-        saturation_level=saturation_level,
-        limits=limits,
-        kde=kde,
-    )
+    try:
+        result = measure_stack(
+            stack,
+            roi_set,
+            dark=dark_stack,
+            comparisons=comparisons,
+            saturation_level=saturation_level,
+            limits=limits,
+            kde=kde,
+        )
+    except InputError as exc:  # of the pixels (a NaN in a region): name the frames
+        if exc.source:
+            raise
+        more = f" and {len(frames) - 1} more" if len(frames) > 1 else ""
+        raise InputError(str(exc), source=f"{frames[0]}{more}") from None
     inputs = {
         "frames": [str(p) for p in frames],
         "dark": [str(p) for p in dark],

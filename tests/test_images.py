@@ -167,3 +167,46 @@ def test_a_stack_of_narrow_frames_is_a_stack_not_colour(tmp_path, identical_colu
     tifffile.imwrite(rgb, rng.integers(0, 255, (10, 4, 3)).astype(np.uint8), photometric="rgb")
     with pytest.raises(InputError, match="colour image"):
         read_image(rgb)
+
+
+@pytest.mark.filterwarnings("ignore:.*stored as RGB with separate component planes")
+def test_a_stack_written_as_one_array_of_three_is_a_stack(tmp_path):
+    """tifffile.imwrite of a (3, H, W) array tags it planar RGB; the shape it records
+    says it was three frames (it was refused as colour). A planar colour image from
+    elsewhere is colour, its planes compared as planes (grey when they are equal)."""
+    import tifffile
+
+    rng = np.random.default_rng(3)
+    stack = rng.integers(0, 255, (3, 12, 16)).astype(np.uint8)
+    tifffile.imwrite(tmp_path / "s.tif", stack)
+    assert np.array_equal(read_image(tmp_path / "s.tif"), stack)
+    grey = np.broadcast_to(stack[0], (3, 12, 16))
+    for planes, grey_ok in ((grey, True), (stack, False)):
+        path = tmp_path / f"planar{grey_ok}.tif"
+        tifffile.imwrite(path, planes, photometric="rgb", planarconfig="separate", metadata=None)
+        if grey_ok:
+            assert np.array_equal(read_image(path), stack[0])
+        else:
+            with pytest.raises(InputError, match="colour image"):
+                read_image(path)
+
+
+def test_nan_outside_every_region_is_measured_inside_is_named(tmp_path):
+    """Only the regions' pixels must be numbers: a NaN border (a masked frame) is
+    measured, a NaN inside a region is refused naming the file, class and pixel."""
+    from inspect_validate.measurement import measure_files
+
+    rng = np.random.default_rng(1)
+    frame = rng.normal(500, 10, (40, 60)).astype(np.float32)
+    frame[0, :] = np.nan
+    frame[:, -1] = np.inf
+    np.save(tmp_path / "f.npy", frame)
+    (tmp_path / "r.yaml").write_text(
+        "classes:\n  A: [{rect: [2, 2, 20, 30]}]\n  B: [{rect: [30, 2, 20, 30]}]\n"
+    )
+    result = measure_files(tmp_path / "f.npy", tmp_path / "r.yaml")
+    assert np.isfinite([c.mean for c in result.classes]).all()
+    frame[10, 35] = np.nan
+    np.save(tmp_path / "f.npy", frame)
+    with pytest.raises(InputError, match=r"f\.npy: class B: pixel \(35, 10\) of frame 1"):
+        measure_files(tmp_path / "f.npy", tmp_path / "r.yaml")

@@ -255,7 +255,12 @@ def _histogram_region(hist, lo, sat, n_pixels) -> RegionStatistics:
 def _float_region(frames, mask, dark, saturation_level, n_pixels) -> RegionStatistics:
     raw = frames[:, mask]
     if not np.all(np.isfinite(raw)):
-        raise InputError("the region contains NaN or infinite pixel values")
+        k, i = (int(v[0]) for v in np.nonzero(~np.isfinite(raw)))
+        y, x = (int(v[i]) for v in np.nonzero(mask))
+        raise InputError(
+            f"pixel ({x}, {y}) of frame {k + 1} in the region is NaN or infinite; grey "
+            "values inside the regions must be numbers"
+        )
     values = raw.astype(np.float64)
     if dark is not None:
         values -= dark[:, mask].astype(np.float64).mean(axis=0)
