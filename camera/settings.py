@@ -137,7 +137,9 @@ class Pulse(StrictModel):
     ``delay_us`` after the trigger."""
 
     width_us: Annotated[float, Field(gt=0, le=1e7, allow_inf_nan=False)]
+    """How long each trigger lights the channel, µs."""
     delay_us: Microseconds = 0.0
+    """From the trigger to the start of the light, µs."""
     max_duty: Annotated[float, Field(gt=0, le=1, allow_inf_nan=False)] = 1.0
     """The most the light may be on (width / trigger period; an overdriven LED's
     datasheet limit): the capture spaces triggers at least ``width_us / max_duty``."""

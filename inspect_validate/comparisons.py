@@ -64,7 +64,12 @@ class ComparisonsSpec(StrictModel):
         Literal["default", "pairs", "rest"]
         | Annotated[list[Annotated[str, Field(min_length=1)]], Field(min_length=1)]
     ) = "default"
+    """``default``: every pair and, with three or more classes, each against the rest;
+    ``pairs`` or ``rest`` alone; or a list of comparisons written ``"A vs B,C"``."""
     weights: Weighting | dict[str, Annotated[float, Field(gt=0, allow_inf_nan=False)]] = "equal"
+    """How the classes of a group of several are weighted: ``equal``, ``pixels`` (by each
+    class's pixel count; measurements only), or each class's prior, ``{A: 0.7, B: 0.3}``
+    (normalised within the group)."""
 
 
 def default_groups(n_classes: int) -> list[tuple[Group, Group]]:

@@ -99,15 +99,23 @@ class _LedParams(StrictModel):
 
 
 class _WhiteLedParams(StrictModel):
+    """A modelled phosphor-converted white LED: a blue die and a broad phosphor peak."""
+
     blue_peak: Nanometre = 450.0
+    """Peak wavelength of the blue die, nm."""
     blue_fwhm: Annotated[float, Field(gt=0, le=2000)] = 20.0
+    """Full width at half maximum of the die's peak, nm."""
     phosphor_peak: Nanometre = 560.0
+    """Peak wavelength of the phosphor's emission, nm."""
     phosphor_fwhm: Annotated[float, Field(gt=0, le=2000)] = 120.0
+    """Full width at half maximum of the phosphor's peak, nm."""
     phosphor_ratio: NonNegative = 2.2
+    """The phosphor peak's power over the die's (their integrals)."""
 
 
 class _Led(_LightCommon):
     led: _LedParams
+    """A modelled LED, by its peak and width."""
 
 
 class _Blackbody(_LightCommon):
@@ -117,6 +125,8 @@ class _Blackbody(_LightCommon):
 
 class _Cie(_LightCommon):
     cie: Name
+    """A tabulated CIE illuminant by name: ``A``, ``D50``, ``D65``, ``FL1`` … ``FL12``,
+    ``HP1`` … ``HP5`` (high-pressure lamps), ``LED-B1`` … (white LEDs)."""
 
 
 class _Daylight(_LightCommon):
@@ -126,10 +136,13 @@ class _Daylight(_LightCommon):
 
 class _WhiteLed(_LightCommon):
     white_led: _WhiteLedParams | None = None
+    """A modelled white LED; ``null`` or ``{}`` takes the typical one."""
 
 
 class _LightFile(_LightCommon):
     file: Name
+    """CSV of the light's spectral power: wavelength in nm, then power (any unit: scaled
+    by ``irradiance`` where given)."""
 
 
 _LIGHT_KINDS = ("led", "blackbody", "cie", "daylight", "white_led", "file")
@@ -161,6 +174,8 @@ class _OpticsCommon(StrictModel):
 
 class _Lens(_OpticsCommon):
     lens: Literal["visible", "uv", "swir"]
+    """A modelled lens: ``visible`` (AR-coated, 400–700 nm), ``uv`` (250–650 nm) or
+    ``swir`` (400–1650 nm)."""
 
 
 def _no_options(v):
@@ -170,15 +185,19 @@ def _no_options(v):
 
 class _Ideal(_OpticsCommon):
     ideal: Annotated[None, BeforeValidator(_no_options)] = None
+    """A lens that transmits everything (``ideal`` alone, or ``ideal: {}``)."""
 
 
 class _Material(_OpticsCommon):
     material: Literal["BK7", "fused_silica", "CaF2", "MgF2", "ZnSe"]
+    """A window or filter substrate, its transmission from its absorption and reflection."""
     thickness_mm: Annotated[float, Field(gt=0, le=1000, allow_inf_nan=False)] = 10.0
+    """The material's thickness along the light's path, mm."""
 
 
 class _OpticsFile(_OpticsCommon):
     file: Name
+    """CSV of the optics' transmission: wavelength in nm, then 0–1 (or percent)."""
 
 
 def _optics_shorthand(v):
@@ -204,6 +223,7 @@ else:
 
 class _EmvaOverrides(StrictModel):
     name: Name | None = None
+    """Shown in tables and reports (default: the built-in's or the QE file's name)."""
     gain: Annotated[float, Field(gt=0, le=1000, allow_inf_nan=False)] | None = None
     """Overall system gain K, DN/e⁻."""
     dark_noise: Annotated[float, Field(ge=0, le=1e6, allow_inf_nan=False)] | None = None
@@ -228,10 +248,14 @@ class _EmvaOverrides(StrictModel):
 
 class _Builtin(_EmvaOverrides):
     builtin: Name
+    """A built-in camera: ``cmos-visible``, ``cmos-nir-enhanced`` or ``ingaas-swir``; the
+    keys beside it replace its values."""
 
 
 class _CameraFile(_EmvaOverrides):
     file: Name
+    """CSV of the camera's quantum efficiency: wavelength in nm, then 0–1 (or percent);
+    its EMVA 1288 values are given beside it."""
 
     @model_validator(mode="after")
     def _emva(self):
@@ -258,21 +282,31 @@ else:
 
 
 class _BlinnPhongParams(StrictModel):
+    """Blinn–Phong gloss (17): k_s·(N·H)ⁿ added to the diffuse reflectance."""
+
     ks: NonNegative
+    """Specular strength k_s (a reflectance factor, spectrally flat)."""
     n: Positive
+    """Shininess exponent n: the higher, the narrower the highlight."""
 
 
 class _CookTorranceParams(StrictModel):
+    """Cook–Torrance microfacet gloss (Beckmann distribution, Schlick's Fresnel term)."""
+
     roughness: Annotated[float, Field(gt=0, le=1)]
+    """Beckmann roughness m: the facets' rms slope."""
     f0: Annotated[float, Field(ge=0, le=1)] = 0.04
+    """Fresnel reflectance at normal incidence (0.04 for most plastics and glass)."""
 
 
 class _BlinnPhong(StrictModel):
     blinn_phong: _BlinnPhongParams
+    """A Blinn–Phong highlight."""
 
 
 class _CookTorrance(StrictModel):
     cook_torrance: _CookTorranceParams
+    """A Cook–Torrance highlight."""
 
 
 if TYPE_CHECKING:  # a union composed at run time (one_of)
@@ -283,6 +317,7 @@ else:
 
 class _ClassCommon(StrictModel):
     gloss: GlossSpec | None = None
+    """A specular highlight on top of the diffuse reflectance (needs ``geometry``)."""
 
 
 class _Spectrometer(StrictModel):
@@ -298,10 +333,13 @@ class _Spectrometer(StrictModel):
 
 class _ClassFile(_ClassCommon):
     file: Name
+    """CSV of the class's reflectance samples: wavelength in nm, then one column per
+    sample (0–1 or percent)."""
 
 
 class _ClassSpectrometer(_ClassCommon):
     spectrometer: _Spectrometer
+    """Raw spectrometer readings, normalised here by black and white references."""
 
 
 if TYPE_CHECKING:  # a union composed at run time (one_of)
@@ -357,9 +395,15 @@ class _Rank(StrictModel):
 
 
 class _Geometry(StrictModel):
+    """Directions at the object, each pointing away from the surface (normalised here):
+    with them, Lambert's cosine and any gloss enter the reflectance."""
+
     light: tuple[Finite, Finite, Finite]
+    """Towards the light, [x, y, z]."""
     view: tuple[Finite, Finite, Finite] = (0.0, 0.0, 1.0)
+    """Towards the camera, [x, y, z]."""
     normal: tuple[Finite, Finite, Finite] = (0.0, 0.0, 1.0)
+    """The surface normal, [x, y, z]."""
 
 
 ClassName = Annotated[str, Field(min_length=1, max_length=100, pattern=r"^[^,]+$")]

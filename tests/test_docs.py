@@ -105,7 +105,9 @@ def test_format_pages_read_each_fields_docstring_and_constraints(monkeypatch):
     assert controller["timeout_s"].startswith("How long to wait for a reply")
     assert controller["port"].startswith("Serial port")
     text = "\n".join(model_rst(Station, "station file"))
-    assert "* - `frames`\n  - integer (≥ 1, ≤ 100000)\n  - `4`\n  - Frames per illumination" in text
+    assert (
+        "* - `frames`\n  - integer (1 ≤ x ≤ 100 000)\n  - `4`\n  - Frames per illumination" in text
+    )
     assert "camera (genicam)" in text and "controller (gardasoft)" in text
     # A backend's section is its settings and the station's keys: the docs read both.
     assert "* - `camera.cti`" in text or "`cti`" in text
@@ -166,3 +168,50 @@ def test_own_station_page_runs_as_written(tmp_path):
     assert (tmp_path / "my" / "rois.png").is_file() and (
         tmp_path / "my" / "rois-check.png"
     ).is_file()
+
+
+FORMAT_MODELS = [
+    "inspect_validate.station.file:Station",
+    "inspect_validate.scene:_Scene",
+    "inspect_validate.components.camera_file:_file_model",
+    "inspect_validate.verification.golden:Golden",
+    "inspect_validate.roi.roiset:_FileModel",
+    "inspect_validate.roi.roiset:_ShapeModel",
+]
+
+
+def test_every_key_of_every_format_page_has_a_meaning_and_a_readable_type(monkeypatch):
+    """Each row of each format page says what the key means, and its type reads as a
+    person writes it (it read "text (at least 1 long, at most 100 long, matches
+    `^[^,]+$`)"; 63 keys had no meaning). The pages' directives name these models."""
+    import importlib
+
+    from pydantic import BaseModel
+
+    monkeypatch.syspath_prepend(str(DOCS / "_ext"))
+    from file_models import model_rst
+
+    pages = "\n".join(p.read_text() for p in (DOCS / "formats").glob("*.md"))
+    named = set(re.findall(r"```\{file-model\} (\S+)", pages))
+    assert named == set(FORMAT_MODELS)
+    empty, unreadable = [], []
+    for target in FORMAT_MODELS:
+        module, _, name = target.partition(":")
+        model = getattr(importlib.import_module(module), name)
+        if not (isinstance(model, type) and issubclass(model, BaseModel)):
+            model = model()
+        lines = model_rst(model, "top")
+        where = "top"
+        for i, line in enumerate(lines):
+            if line.startswith("```{rubric}"):
+                where = line.removeprefix("```{rubric} ")
+            if not line.startswith("* - `"):
+                continue
+            row = f"{name}: {where}: {line[4:]}"
+            if not lines[i + 3].removeprefix("  - ").strip():
+                empty.append(row)
+            kind = lines[i + 1]
+            if re.search(r"\d long|matches `|\) \(|≥ \d+, ≤", kind):
+                unreadable.append(f"{row}: {kind}")
+    assert not empty, "keys without a meaning:\n" + "\n".join(empty)
+    assert not unreadable, "types not in words:\n" + "\n".join(unreadable)

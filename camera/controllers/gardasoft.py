@@ -223,6 +223,7 @@ class GardasoftSettings(ControllerSettings):
     """A Gardasoft RT-series controller."""
 
     backend: Literal["gardasoft"]
+    """A Gardasoft LED controller, by its serial or Ethernet command set."""
     port: Port
     """Serial port (``/dev/ttyUSB0``, ``COM3``) or a pyserial URL (``socket://host:port`` on
     Ethernet)."""

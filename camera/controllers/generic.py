@@ -135,6 +135,7 @@ class GenericSettings(ControllerSettings):
     """Any controller that speaks lines of ASCII, described by ``protocol``."""
 
     backend: Literal["generic"]
+    """Any controller that takes ASCII commands, described by ``protocol``."""
     port: Port
     """Serial port (``/dev/ttyUSB0``, ``COM3``) or a pyserial URL (``socket://host:port`` on
     Ethernet)."""

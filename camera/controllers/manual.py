@@ -49,6 +49,7 @@ class ManualSettings(StrictModel):
     """No controller: the capture asks the operator to switch each illumination."""
 
     backend: Literal["manual"]
+    """No controller: the operator switches the lights when asked."""
     channels: Annotated[int, Field(ge=1, le=64)] = 4
     """How many lights the operator switches."""
 

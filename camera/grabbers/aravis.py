@@ -302,6 +302,7 @@ class AravisSettings(CameraSettings):
     """A GigE Vision or USB3 Vision camera through Aravis."""
 
     backend: Literal["aravis"]
+    """GigE Vision and USB3 Vision cameras through Aravis (``gi``, ``Aravis-0.8``)."""
     simulate: bool = False
     """Stream the station's simulated scene from Aravis' fake GigE Vision camera on ``lo``."""
     serial: str | None = None

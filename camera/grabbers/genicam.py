@@ -319,6 +319,7 @@ class GenicamSettings(CameraSettings):
     """A GenICam camera through harvesters and its vendor's GenTL producer."""
 
     backend: Literal["genicam"]
+    """GenICam cameras through a vendor's GenTL producer and ``harvesters``."""
     cti: str | None = None
     """The GenTL producer (.cti, relative to the station file; default: every one in
     ``GENICAM_GENTL64_PATH``)."""

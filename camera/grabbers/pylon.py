@@ -232,6 +232,7 @@ class PylonSettings(CameraSettings):
     """A Basler camera through pypylon (``pip install 'inspect-validate[pylon]'``)."""
 
     backend: Literal["pylon"]
+    """Basler cameras through pylon (``pypylon``)."""
     serial: str | None = None
     """The camera's serial number (default: by ``index``)."""
     index: Annotated[int, Field(ge=0)] = 0

@@ -178,6 +178,7 @@ class ReplaySettings(CameraSettings):
     """Frames recorded earlier, served per light setting (a capture folder)."""
 
     backend: Literal["replay"]
+    """Frames recorded earlier, replayed from a folder as a camera would deliver them."""
     folder: str
     """The folder of recorded frames (relative to the station file)."""
 

@@ -265,6 +265,7 @@ class V4l2Settings(CameraSettings):
     """A Video4Linux2 camera (USB, UVC) through OpenCV."""
 
     backend: Literal["v4l2"]
+    """USB (UVC) and MIPI cameras through Linux's V4L2, by OpenCV."""
     device: str | int | None = None
     """The device path (``/dev/video0``) or number (default: ``index``)."""
     index: Annotated[int, Field(ge=0)] = 0

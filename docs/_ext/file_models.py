@@ -26,26 +26,79 @@ from inspect_validate.config import field_docs
 
 _NAMES = {str: "text", int: "integer", float: "number", bool: "true/false", Path: "path"}
 _BOUNDS = ((at.Gt, "gt", ">"), (at.Ge, "ge", "≥"), (at.Lt, "lt", "<"), (at.Le, "le", "≤"))
+_PATTERNS = {"^[^,]+$": "no comma"}  # patterns said in words
+_SUPERSCRIPT = str.maketrans("0123456789-", "⁰¹²³⁴⁵⁶⁷⁸⁹⁻")
 
 
-def _constraints(metadata) -> list[str]:
-    out = []
+def _number(x) -> str:
+    """A bound as a person writes it: 100000 → 100 000, 1e+09 → 10⁹, 1e-09 → 10⁻⁹."""
+    if x != 0 and abs(x) >= 1e6 or 0 < abs(x) < 1e-3:
+        mantissa, _, exponent = f"{x:e}".partition("e")
+        power = "10" + str(int(exponent)).translate(_SUPERSCRIPT)
+        m = float(mantissa)
+        return power if m == 1 else ("−" + power if m == -1 else f"{m:g}·{power}")
+    if float(x).is_integer() and abs(x) >= 10_000:
+        return f"{int(x):,}".replace(",", " ").replace("-", "−")
+    return f"{x:g}".replace("-", "−")
+
+
+def _constraints(metadata, kind: str = "") -> list[str]:
+    """The metadata's bounds in words: ``0 ≤ x ≤ 1``, ``1–100 characters``, ``no comma``,
+    ``at least 2 entries``; ``finite`` only where no bound says it already."""
+    low = high = lo_len = hi_len = None
+    out: list[str] = []
+    finite = False
     for m in metadata:
         if isinstance(m, FieldInfo):
-            out += _constraints(m.metadata)
+            out += _constraints(m.metadata, kind)
+            continue
         for cls, attr, sign in _BOUNDS:
             if isinstance(m, cls):
-                out.append(f"{sign} {getattr(m, attr):g}")
+                if sign in (">", "≥"):
+                    low = (sign, getattr(m, attr))
+                else:
+                    high = (sign, getattr(m, attr))
         if isinstance(m, at.MinLen) and m.min_length:
-            out.append(f"at least {m.min_length} long")
+            lo_len = m.min_length
         if isinstance(m, at.MaxLen):
-            out.append(f"at most {m.max_length} long")
+            hi_len = m.max_length
         pattern = getattr(m, "pattern", None)
         if isinstance(pattern, str):
-            out.append(f"matches `{pattern}`")
+            out.append(_PATTERNS.get(pattern, f"matching `{pattern}`"))
         if getattr(m, "allow_inf_nan", None) is False:
-            out.append("finite")
+            finite = True
+    if lo_len or hi_len:
+        unit, one = ("characters", "character") if kind == "text" else ("entries", "entry")
+        if lo_len and hi_len:
+            length = f"{_number(lo_len)}–{_number(hi_len)} {unit}"
+        elif lo_len:
+            length = f"at least {_number(lo_len)} {one if lo_len == 1 else unit}"
+        else:
+            length = f"at most {_number(hi_len)} {unit}"
+        out.insert(0, length)
+    if low and high:
+        left = "<" if low[0] == ">" else "≤"
+        out.insert(0, f"{_number(low[1])} {left} x {high[0]} {_number(high[1])}")
+    elif low or high:
+        sign, value = low or high
+        out.insert(0, f"x {sign} {_number(value)}")
+    if finite and not (low and high):  # bounded on both sides says finite already
+        out.append("finite")
     return out
+
+
+_COUNTS = {2: "a pair", 3: "three"}
+
+
+def _bounded(text: str, bounds: list[str]) -> str:
+    """``text`` with its ``bounds``: a list's count goes next to "list", so that it is not
+    read as its items' (``list (at least 1 entry) of text (at least 1 character)``)."""
+    if not bounds:
+        return text
+    said = ", ".join(bounds)
+    if text.startswith("list of "):
+        return f"list ({said}) of {text.removeprefix('list of ')}"
+    return f"{text} ({said})"
 
 
 class _Formatter:
@@ -66,8 +119,7 @@ class _Formatter:
             text = self(inner, where)
             if any(isinstance(m, Discriminator) for m in meta):
                 return text
-            bounds = _constraints(meta)
-            return f"{text} ({', '.join(bounds)})" if bounds else text
+            return _bounded(text, _constraints(meta, text))
         if origin in (typing.Union, types.UnionType):
             parts = [self(a, where) for a in args if a is not type(None)]
             if any(p.startswith("`") and p.endswith(":` …") for p in parts):
@@ -77,16 +129,24 @@ class _Formatter:
         if origin is typing.Literal:
             return " \\| ".join(f"`{a}`" for a in args)
         if origin is list:
-            return f"list of {self(args[0], f'{where}[]')}" if args else "list"
+            item = self(args[0], f"{where}[]") if args else ""
+            return f"list of {item.replace('a pair of ', 'pairs of ', 1)}" if args else "list"
         if origin is tuple:
-            return "[" + ", ".join(self(a, where) for a in args) + "]"
+            items = [self(a, where) for a in args if a is not Ellipsis]
+            if len(args) == 2 and args[1] is Ellipsis:
+                return f"list of {items[0]}"
+            if len(set(items)) == 1:  # [number (…), number (…)]: said once
+                word, _, rest = items[0].partition(" ")
+                plural = {"number": "numbers", "integer": "integers"}.get(word, word)
+                return f"{_COUNTS.get(len(items), len(items))} of {plural} {rest}".strip()
+            return "[" + ", ".join(items) + "]"
         if origin is dict:
             key, value = args
-            return f"mapping of {self(key, where)} to {self(value, f'{where}.<key>')}"
+            return f"mapping from {self(key, where)} to {self(value, f'{where}.<key>')}"
         if isinstance(tp, type) and issubclass(tp, BaseModel):
             if all(m is not tp for _, m in self.nested):
                 self.nested.append((where, tp))
-            return f"mapping (*{where}* below)"
+            return f"mapping, see *{where}* below"
         if tp is type(None):
             return "null"
         if tp is typing.Any:
@@ -145,9 +205,9 @@ def model_rst(model: type[BaseModel], title: str) -> list[str]:
             key = field.alias or name
             path = key if where == title else f"{where}.{key}"
             kind = fmt(field.annotation, path)
-            bounds = _constraints(field.metadata)
-            if bounds:
-                kind += f" ({', '.join(bounds)})"
+            # The field's own bounds, unless the type's words already hold them.
+            bounds = [b for b in _constraints(field.metadata, kind) if f"({b}" not in kind]
+            kind = _bounded(kind, bounds)
             lines += [
                 f"* - `{key}`",
                 f"  - {kind}",

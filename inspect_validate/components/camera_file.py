@@ -98,25 +98,53 @@ def _file_model():
     Positive = Annotated[float, Field(gt=0, le=1e9, allow_inf_nan=False)]
     NonNegative = Annotated[float, Field(ge=0, le=1e9, allow_inf_nan=False)]
 
+    # Meanings as descriptions: a model built in a function has no source for
+    # config.field_docs to read its docstrings from.
+    def described(text: str, default=None):
+        return Field(default, description=text)
+
     class MeasuredValues(StrictModel):
-        name: str | None = None
-        gain: Positive | None = None
-        dark_noise: NonNegative | None = None
-        saturation: Positive | None = None
-        bit_depth: Annotated[int, Field(ge=BIT_DEPTHS[0], le=BIT_DEPTHS[1])] | None = None
-        dark_offset: NonNegative | None = None
-        dark_current: NonNegative | None = None
-        dsnu: NonNegative | None = None
-        prnu: Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)] | None = None
-        qe_scale: Annotated[float, Field(gt=0, le=100, allow_inf_nan=False)] | None = None
+        """The measured EMVA 1288 values; each left out keeps the scene camera's."""
+
+        name: str | None = described("Shown in tables and reports.")
+        gain: Positive | None = described(
+            "Overall system gain K, DN/e⁻, at the gain ``measured.gain_db`` it was measured at."
+        )
+        dark_noise: NonNegative | None = described("Temporal dark noise σ_d, e⁻.")
+        saturation: Positive | None = described(
+            "Saturation capacity μ_e.sat, e⁻ (where the variance peaks, EMVA 1288)."
+        )
+        bit_depth: Annotated[int, Field(ge=BIT_DEPTHS[0], le=BIT_DEPTHS[1])] | None = described(
+            "Bits of a grey value (8 to 32)."
+        )
+        dark_offset: NonNegative | None = described(
+            "Dark offset μ_y.dark, DN: below the bit depth's largest value."
+        )
+        dark_current: NonNegative | None = described("Dark current, e⁻/s.")
+        dsnu: NonNegative | None = described("Dark signal non-uniformity, e⁻ rms.")
+        prnu: Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)] | None = described(
+            "Photo-response non-uniformity, relative rms (0.01 = 1 %)."
+        )
+        qe_scale: Annotated[float, Field(gt=0, le=100, allow_inf_nan=False)] | None = described(
+            "The measured level of the scene camera's QE curve (its shape kept), through the "
+            "lens: measured where the light's irradiance was stated."
+        )
 
     class Provenance(BaseModel):
+        """Where the values came from: the station and its SHA-256, the capture folder, the
+        date, each value's standard error (``standard_errors``)."""
+
         model_config = ConfigDict(extra="allow")  # station, date, standard errors, …
-        gain_db: Annotated[float, Field(ge=-60, le=100, allow_inf_nan=False)] = 0.0
+        gain_db: Annotated[float, Field(ge=-60, le=100, allow_inf_nan=False)] = described(
+            "The camera's gain during the measurement, dB: K is brought back to 0 dB from it.",
+            0.0,
+        )
 
     class CameraFile(StrictModel):
-        camera: MeasuredValues
-        measured: Provenance = Provenance()
+        """A camera as ``characterize`` measured it."""
+
+        camera: MeasuredValues = described("The model's values.", ...)
+        measured: Provenance = described("How they were measured.", Provenance())
 
     return CameraFile
 

@@ -35,6 +35,7 @@ class SimulatedControllerSettings(ControllerSettings):
     """A simulated Gardasoft controller, started as its own process on a pseudo-terminal."""
 
     backend: Literal["simulated"]
+    """A simulated Gardasoft controller on a pseudo-terminal (no hardware)."""
     protocol: AsciiProtocol | None = None
     """Drive the simulator with the generic ASCII driver in its line dialect instead."""
     simulator_args: list[str] = []
@@ -45,6 +46,7 @@ class SimulatedCameraSettings(CameraSettings, Rendered):
     """A camera that renders the station's scene, lit by the simulated controller."""
 
     backend: Literal["simulated"]
+    """A camera rendering the station's scene and simulated world (no hardware)."""
 
 
 @contextlib.contextmanager

@@ -31,7 +31,9 @@ class WorldChange(StrictModel):
     faulty on a schedule, for ``watch`` to notice."""
 
     start: Annotated[int, Field(ge=0)] = 0
+    """The first cycle of ``watch`` with the change."""
     stop: Annotated[int, Field(ge=1)] | None = None
+    """The first cycle without it again (default: it stays)."""
     irradiance: dict[Channel, Factor] = {}
     """Step: factor on the channel's irradiance (an LED replaced by a weaker one)."""
     percent_per_cycle: dict[Channel, Percent] = {}

@@ -199,6 +199,7 @@ class Golden(_Frozen):
     """A station's golden statistics, as ``golden.json`` holds them."""
 
     schema_: Literal["inspect-validate/golden"] = Field("inspect-validate/golden", alias="schema")
+    """What the file is: always ``inspect-validate/golden``."""
     schema_version: Literal[1, 2] = 2
     """2; files of version 1 (no standard errors) are read too."""
     tool_version: str
