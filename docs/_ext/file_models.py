@@ -32,7 +32,7 @@ _SUPERSCRIPT = str.maketrans("0123456789-", "⁰¹²³⁴⁵⁶⁷⁸⁹⁻")
 
 def _number(x) -> str:
     """A bound as a person writes it: 100000 → 100 000, 1e+09 → 10⁹, 1e-09 → 10⁻⁹."""
-    if x != 0 and abs(x) >= 1e6 or 0 < abs(x) < 1e-3:
+    if abs(x) >= 1e6 or 0 < abs(x) < 1e-3:
         mantissa, _, exponent = f"{x:e}".partition("e")
         power = "10" + str(int(exponent)).translate(_SUPERSCRIPT)
         m = float(mantissa)
