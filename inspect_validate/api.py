@@ -8,9 +8,15 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
+    from collections.abc import Iterable
+
+    from inspect_validate.camera.capture import CaptureResult
+    from inspect_validate.comparisons import Comparisons, ComparisonsSpec
+    from inspect_validate.images import FramePaths
     from inspect_validate.measurement import KdeMode, Limits, Measurement
     from inspect_validate.mix_design.solve import Design
     from inspect_validate.model import Prediction, Ranking
+    from inspect_validate.roi.roiset import RoiSet
     from inspect_validate.scene import Scene
     from inspect_validate.station.file import Station
     from inspect_validate.verification.golden import Golden
@@ -94,7 +100,7 @@ def read_station(path: str | Path) -> Station:
     return read(path)
 
 
-def read_rois(path: str | Path):
+def read_rois(path: str | Path) -> RoiSet:
     """An ROI file (YAML, ImageJ ``.roi`` or RoiSet ``.zip``): the classes' shapes.
 
     Parameters
@@ -197,11 +203,11 @@ def sweep(
 
 
 def measure(
-    frames,
-    rois,
+    frames: FramePaths,
+    rois: str | Path | RoiSet,
     *,
-    dark=(),
-    comparisons=None,
+    dark: FramePaths = (),
+    comparisons: Comparisons | ComparisonsSpec | None = None,
     saturation_level: float | None = None,
     limits: Limits | None = None,
     kde: KdeMode = "auto",
@@ -261,7 +267,9 @@ def measure(
     )
 
 
-def capture(station: Station | str | Path, out: str | Path, *, resume: bool = False):
+def capture(
+    station: Station | str | Path, out: str | Path, *, resume: bool = False
+) -> CaptureResult:
     """Capture a station's illuminations and darks into ``out`` (TIFF frames, sidecars,
     a manifest): what ``inspect-validate capture`` does, without a progress bar.
 
@@ -337,7 +345,7 @@ def verify(
     )
 
 
-def train(station: Station | str | Path, captures) -> Golden:
+def train(station: Station | str | Path, captures: Iterable[str | Path]) -> Golden:
     """The golden statistics of a known-good station from its capture folders (two or
     more independent captures give each value's spread).
 

@@ -25,9 +25,10 @@ comparison ε_tot (37) keeps equal priors, as in the chapter.
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from itertools import combinations
-from typing import Annotated, Literal
+from typing import TYPE_CHECKING, Annotated, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -35,6 +36,9 @@ from pydantic import Field
 
 from inspect_validate.config import StrictModel
 from inspect_validate.errors import InputError
+
+if TYPE_CHECKING:
+    from inspect_validate.stats.sample import EmpiricalCdf, LatticeSample
 
 __all__ = [
     "Comparisons",
@@ -87,7 +91,7 @@ def _rest(n):
     return [((i,), tuple(j for j in range(n) if j != i)) for i in range(n)]
 
 
-def named_groups(names) -> tuple[tuple[tuple[str, ...], tuple[str, ...]], ...]:
+def named_groups(names: Sequence[str]) -> tuple[tuple[tuple[str, ...], tuple[str, ...]], ...]:
     """:func:`default_groups` of ``names``, as groups of names."""
     return tuple(
         (tuple(names[i] for i in a), tuple(names[i] for i in b))
@@ -95,7 +99,7 @@ def named_groups(names) -> tuple[tuple[tuple[str, ...], tuple[str, ...]], ...]:
     )
 
 
-def label(first, second) -> str:
+def label(first: Iterable[str], second: Iterable[str]) -> str:
     """``"A vs B,C"``."""
     return f"{','.join(first)} vs {','.join(second)}"
 
@@ -108,7 +112,7 @@ def _parse(text: str) -> tuple[frozenset, frozenset] | None:
     return (first, second) if first and second else None
 
 
-def find_comparison(comparisons, text: str) -> int:
+def find_comparison(comparisons: Iterable[tuple[Sequence[str], Sequence[str]]], text: str) -> int:
     """Index of the comparison written ``text`` (``"A vs B,C"``; spaces and order
     inside a group do not matter) in a sequence of ``(first, second)`` name groups.
 
@@ -145,7 +149,11 @@ class Comparisons:
 
     @classmethod
     def of(
-        cls, classes, spec: ComparisonsSpec | None = None, *, source: str | None = None
+        cls,
+        classes: Sequence[str],
+        spec: ComparisonsSpec | None = None,
+        *,
+        source: str | None = None,
     ) -> Comparisons:
         """The comparisons a ``comparisons:`` section asks for (default: every pair and each
         class against the rest, equal weights); unknown class names are errors naming
@@ -220,20 +228,20 @@ class Comparisons:
         """Position of the comparison written ``text`` (see :func:`find_comparison`)."""
         return find_comparison(self.named, text)
 
-    def subset(self, texts) -> Comparisons:
+    def subset(self, texts: Iterable[str]) -> Comparisons:
         """Only the comparisons written ``texts`` (each as :meth:`index` reads it), in that order."""
         return Comparisons(
             self.classes, tuple(self.groups[self.index(t)] for t in texts), self.weights
         )
 
-    def with_pixels(self, pixels) -> Comparisons:
+    def with_pixels(self, pixels: ArrayLike) -> Comparisons:
         """These comparisons with ``pixels`` weighting turned into priors from the regions'
         pixel counts, for a prediction of the same regions; others unchanged."""
         if self.weights != "pixels":
             return self
-        return Comparisons(self.classes, self.groups, tuple(float(p) for p in pixels))
+        return Comparisons(self.classes, self.groups, tuple(np.asarray(pixels, float).tolist()))
 
-    def class_weights(self, pixels=None) -> np.ndarray:
+    def class_weights(self, pixels: ArrayLike | None = None) -> np.ndarray:
         """Unnormalised weight of each class, (K,).
 
         Parameters
@@ -255,7 +263,7 @@ class Comparisons:
 
 
 def mixture_moments(
-    means: ArrayLike, variances: ArrayLike, weights
+    means: ArrayLike, variances: ArrayLike, weights: ArrayLike
 ) -> tuple[np.ndarray, np.ndarray]:
     """Mean and variance of a mixture along the last axis: Σπμ and Σπ(σ² + μ²) − μ².
 
@@ -299,9 +307,9 @@ def gaussian_separation(
     variances: ArrayLike,
     comparisons: Comparisons,
     *,
-    pixels=None,
-    valid=None,
-    mixtures=None,
+    pixels: ArrayLike | None = None,
+    valid: np.ndarray | None = None,
+    mixtures: Iterable[int] | None = None,
 ) -> GaussianSeparation:
     """SNR_dB (36), CNR, Fisher ratio and ε Gauss (37) of every comparison.
 
@@ -404,7 +412,12 @@ class CountedSeparation:
 
 
 def counted_separation(
-    samples, means: ArrayLike, variances: ArrayLike, comparisons: Comparisons, *, pixels=None
+    samples: Sequence[LatticeSample | np.ndarray | EmpiricalCdf],
+    means: ArrayLike,
+    variances: ArrayLike,
+    comparisons: Comparisons,
+    *,
+    pixels: ArrayLike | None = None,
 ) -> CountedSeparation:
     """:class:`CountedSeparation` of every comparison.
 
@@ -457,12 +470,12 @@ class KdeSeparation:
 
 
 def kde_separation(
-    samples,
+    samples: Sequence[LatticeSample | ArrayLike],
     comparisons: Comparisons,
     *,
-    pixels=None,
+    pixels: ArrayLike | None = None,
     quantum: float | None = None,
-    only=None,
+    only: Iterable[int] | None = None,
 ) -> KdeSeparation:
     """ε KDE (37) of every comparison: each side the weighted mixture of its classes'
     kernel density estimates (41), one LSCV bandwidth (42)–(43) per class.

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import glob
 import json
+from collections.abc import Iterable
 from pathlib import Path
 
 import numpy as np
@@ -19,6 +20,11 @@ __all__ = ["expand_paths", "read_frames", "read_image", "recorded_bit_depth"]
 
 _TIFF = (".tif", ".tiff")
 _OPENCV = (".png", ".pgm", ".pnm", ".bmp", ".jpg", ".jpeg")
+
+
+FramePaths = str | Path | Iterable[str | Path]
+"""Frames to read: a file (a frame or a stack), a folder of them, a quoted glob pattern,
+or a sequence of these."""
 
 
 def read_image(path: str | Path, *, finite: bool = True) -> np.ndarray:
@@ -188,7 +194,7 @@ def _monochrome(image: np.ndarray, path: Path, *, colour: bool | None = None) ->
 _IMAGE_SUFFIXES = _TIFF + _OPENCV + (".npy",)
 
 
-def expand_paths(paths) -> list[Path]:
+def expand_paths(paths: Iterable[str | Path]) -> list[Path]:
     """Image paths from files, folders (their images, sorted) and quoted glob patterns.
 
     A folder is what ``inspect-validate capture`` writes per step, so
@@ -214,7 +220,7 @@ def expand_paths(paths) -> list[Path]:
     return out
 
 
-def read_frames(paths, *, finite: bool = True) -> np.ndarray:
+def read_frames(paths: Iterable[str | Path], *, finite: bool = True) -> np.ndarray:
     """Read frames taken at one setting into one stack (N, H, W).
 
     Paths may be files (one frame or a stack each), folders or glob patterns

@@ -7,9 +7,10 @@ and the classification error ε_tot (37), parametric and nonparametric.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
@@ -28,6 +29,11 @@ from inspect_validate.stats import (
     sample_moments,
 )
 from inspect_validate.stats.sample import gaussian_misfit
+
+if TYPE_CHECKING:
+    from inspect_validate.comparisons import ComparisonsSpec
+    from inspect_validate.images import FramePaths
+    from inspect_validate.roi.roiset import RoiSet
 
 __all__ = [
     "GAUSSIAN_AGREEMENT",
@@ -123,7 +129,7 @@ class Limits:
     max_saturated: float = 0.001
     max_zero: float = 0.001
 
-    def violations(self, classes) -> tuple[str, ...]:
+    def violations(self, classes: Sequence[ClassMeasurement]) -> tuple[str, ...]:
         """One message per class and limit exceeded."""
         return tuple(
             f"class {c.name}: {100 * frac:.3g} % {what} pixels (limit {100 * limit:.3g} %)"
@@ -385,11 +391,11 @@ def _kde_skipped(kde: KdeMode, comparisons: Comparisons, wanted) -> tuple[str, .
 
 
 def measure_files(
-    frames,
-    rois,
+    frames: FramePaths,
+    rois: str | Path | RoiSet,
     *,
-    dark=(),
-    comparisons=None,
+    dark: FramePaths = (),
+    comparisons: Comparisons | ComparisonsSpec | None = None,
     saturation_level: float | None = None,
     limits: Limits = Limits(),
     kde: KdeMode = "auto",
@@ -426,17 +432,15 @@ def measure_files(
     from inspect_validate.images import expand_paths, read_frames, recorded_bit_depth
     from inspect_validate.roi import read_rois
 
-    if isinstance(frames, (str, Path)):  # one file, folder or pattern, not its letters
-        frames = [frames]
-    if isinstance(dark, (str, Path)):
-        dark = [dark]
+    # One file, folder or pattern, not its letters.
+    frames = [frames] if isinstance(frames, (str, Path)) else list(frames)
+    dark = [dark] if isinstance(dark, (str, Path)) else list(dark)
     # Only the regions' pixels must be numbers: NaN elsewhere (a masked border) is fine.
     stack = read_frames(frames, finite=False)
     if saturation_level is None and stack.dtype.kind in "ui":
         bits = recorded_bit_depth(expand_paths(frames)[0])
         if bits is not None and bits < 8 * stack.dtype.itemsize:
             saturation_level = 2**bits - 1
-    dark = list(dark)
     dark_stack = read_frames(dark, finite=False) if dark else None
     if dark_stack is not None and dark_stack.shape[1:] != stack.shape[1:]:
         raise InputError(
@@ -473,10 +477,10 @@ def measure_files(
 
 def measure_stack(
     stack: np.ndarray,
-    rois,
+    rois: RoiSet,
     *,
     dark: np.ndarray | None = None,
-    comparisons=None,
+    comparisons: Comparisons | ComparisonsSpec | None = None,
     saturation_level: float | None = None,
     limits: Limits = Limits(),
     kde: KdeMode = "auto",
@@ -507,7 +511,9 @@ def measure_stack(
 BIMODAL_D = 5.0
 
 
-def two_populations(classes, *, rois=None) -> tuple[str, ...]:
+def two_populations(
+    classes: Sequence[ClassMeasurement], *, rois: RoiSet | None = None
+) -> tuple[str, ...]:
     """Classes whose grey values look like two populations: a region reaching over an
     object's edge, or drawn on a frame of another size or framing. Each class's values
     (its measured sample: every pixel of every frame, no second pass over the frames)

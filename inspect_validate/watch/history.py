@@ -277,7 +277,7 @@ class History:
         was = self._identity
         if now is None:
             what = "removed"
-        elif now[:2] != was[:2]:
+        elif was is None or now[:2] != was[:2]:
             what = "replaced by another file"
         elif now[2] < was[2]:
             what = f"truncated ({was[2]} → {now[2]} bytes)"
