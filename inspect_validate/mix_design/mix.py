@@ -229,11 +229,11 @@ def comparison_errors(response, levels, comparisons, *, gradient: bool = False):
     for p, (g1, g2) in enumerate(groups):
         if p in single:
             continue
-        e, dm1, ds1, dm2, ds2 = mixture_error_gradient(
+        mixed, dm1, ds1, dm2, ds2 = mixture_error_gradient(
             Mixture(mean[g1], prior[g1] / prior[g1].sum(), sd[g1]),
             Mixture(mean[g2], prior[g2] / prior[g2].sum(), sd[g2]),
         )
-        errors[p] = e
+        errors[p] = mixed
         if gradient:
             for g, dm, ds in ((g1, dm1, ds1), (g2, dm2, ds2)):
                 grads[p] += dm @ d_mean[g] + ds @ d_sd[g]

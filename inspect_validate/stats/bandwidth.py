@@ -30,10 +30,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from inspect_validate.errors import InputError
 from inspect_validate.stats.sample import (
     LatticeSample,
+    Sample,
     _converted_moments,
     as_sample,
     quantisation_step,
@@ -107,7 +109,9 @@ class Bandwidth:
     method: str
 
 
-def pair_counts(sample, *, bin_width: float | None = None, exact: bool = False) -> PairCounts:
+def pair_counts(
+    sample: Sample, *, bin_width: float | None = None, exact: bool = False
+) -> PairCounts:
     """Pair-difference counts of a sample, the sufficient statistic of LSCV.
 
     Parameters
@@ -187,7 +191,7 @@ def _autocorrelate(w: np.ndarray, max_lag: int | None = None) -> np.ndarray:
     return fft.irfft(f.real**2 + f.imag**2, size, workers=-1)[:lags]
 
 
-def lscv_objective(pairs: PairCounts, h) -> np.ndarray:
+def lscv_objective(pairs: PairCounts, h: ArrayLike) -> np.ndarray:
     """LSCV(h) (42) from pair counts, for one or many bandwidths h (DN)."""
     h = np.asarray(h, dtype=np.float64)
     a, b = _sums(pairs, h, derivative=False)
@@ -218,7 +222,9 @@ def _sums(pairs: PairCounts, h, *, derivative: bool):
     return out
 
 
-def lscv_bandwidth(sample, *, quantum: float | None = None, method: str = "auto") -> Bandwidth:
+def lscv_bandwidth(
+    sample: Sample, *, quantum: float | None = None, method: str = "auto"
+) -> Bandwidth:
     """LSCV bandwidth h_LSCV = argmin LSCV(h) (43), with a quantisation floor.
 
     Parameters

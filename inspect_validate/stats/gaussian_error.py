@@ -43,6 +43,7 @@ from __future__ import annotations
 import functools
 import importlib
 import sys
+from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -120,7 +121,9 @@ def log_gaussian_error(
     return gaussian_error_and_log(mean1, var1, mean2, var2)[1]
 
 
-def gaussian_error_gradient(mean1: ArrayLike, sd1: ArrayLike, mean2: ArrayLike, sd2: ArrayLike):
+def gaussian_error_gradient(
+    mean1: ArrayLike, sd1: ArrayLike, mean2: ArrayLike, sd2: ArrayLike
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """ε_tot (37) of two Gaussian classes, its log, and its gradient, element-wise.
 
     ε = ½ [P_n(outside (x_lo, x_hi)) + P_w(inside)], n the narrower class, the
@@ -348,7 +351,7 @@ def _interval(ah, al, bh, bl):
         return _branches(cases, ah, al, bh, bl)
 
 
-def load_kernel():
+def load_kernel() -> Callable[..., None]:
     """Load the compiled kernel (ε of pairs from :data:`COMPILED_MIN` on) and return it."""
     return importlib.import_module(_KERNEL).error_and_log
 

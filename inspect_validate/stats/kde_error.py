@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import functools
 import itertools
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -28,7 +29,7 @@ from numpy.typing import ArrayLike
 
 from inspect_validate.stats.bandwidth import MAX_BINS, Bandwidth, lscv_bandwidth
 from inspect_validate.stats.gaussian_error import _interval
-from inspect_validate.stats.sample import LatticeSample, as_sample
+from inspect_validate.stats.sample import LatticeSample, Sample, as_sample
 
 __all__ = [
     "KdeError",
@@ -68,7 +69,7 @@ class Mixture:
     weights: np.ndarray
     sigmas: np.ndarray
 
-    def __init__(self, centres, weights, sigmas) -> None:
+    def __init__(self, centres: ArrayLike, weights: ArrayLike, sigmas: ArrayLike) -> None:
         c = np.asarray(centres, float)
         object.__setattr__(self, "centres", c)
         object.__setattr__(self, "weights", np.asarray(weights, float))
@@ -84,7 +85,7 @@ class KdeError:
     bandwidth2: Bandwidth
 
 
-def kernel_mixture(sample, h: float) -> tuple[np.ndarray, np.ndarray]:
+def kernel_mixture(sample: Sample, h: float) -> tuple[np.ndarray, np.ndarray]:
     """Kernel centres (DN) and weights (summing to 1) of the density estimate (41)."""
     if not isinstance(sample, LatticeSample):
         sample = as_sample(sample)
@@ -108,7 +109,7 @@ def kernel_mixture(sample, h: float) -> tuple[np.ndarray, np.ndarray]:
     return lo + np.flatnonzero(keep) * step, w[keep] / x.size
 
 
-def kernel_density(sample, h: float, x: ArrayLike) -> np.ndarray:
+def kernel_density(sample: Sample, h: float, x: ArrayLike) -> np.ndarray:
     """The kernel density estimate (41) of ``sample`` with bandwidth ``h`` > 0 at grey values
     ``x``, 1/DN (what ε KDE integrates; for plots against a histogram)."""
     if not h > 0.0:
@@ -198,7 +199,7 @@ def _log_density_all(flat, out, centres, log_w, sigma) -> None:
         out[i : i + chunk] = safe + np.log(np.exp(v - safe[:, None]).sum(axis=1))
 
 
-def kde_error(sample1, sample2, *, quantum: float | None = None) -> KdeError:
+def kde_error(sample1: Sample, sample2: Sample, *, quantum: float | None = None) -> KdeError:
     """ε_tot (37) between the LSCV kernel density estimates of two samples.
 
     Parameters
@@ -389,7 +390,11 @@ def _masses(a, b, row, u, v, w):
     return np.sum(w[row] * value.reshape(za.shape), axis=1)
 
 
-def mixture_errors(mixtures, comparisons) -> np.ndarray:
+def mixture_errors(
+    mixtures: Sequence[tuple[np.ndarray, np.ndarray, float]]
+    | Mapping[int, tuple[np.ndarray, np.ndarray, float]],
+    comparisons: Sequence[Sequence[tuple[Sequence[int], ArrayLike]]],
+) -> np.ndarray:
     """ε_tot (37) of several comparisons among one set of classes' kernel density
     estimates (41), each side a weighted mixture of classes.
 
@@ -507,7 +512,9 @@ def _side(mixtures, classes, shares) -> Mixture:
     )
 
 
-def mixture_error_gradient(first: Mixture, second: Mixture):
+def mixture_error_gradient(
+    first: Mixture, second: Mixture
+) -> tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """ε_tot (37) of two Gaussian mixtures (every σ > 0) and its gradient.
 
     ε = ½ Σ_regions ∫ p_lower over the regions between the densities' crossings.
@@ -525,7 +532,9 @@ def mixture_error_gradient(first: Mixture, second: Mixture):
     return _densities_error(first, second, gradient=True)
 
 
-def misclassified_regions(first: Mixture, second: Mixture):
+def misclassified_regions(
+    first: Mixture, second: Mixture
+) -> tuple[tuple[list[tuple[float, float]], np.ndarray], ...]:
     """Where each of two Gaussian mixtures (every σ > 0) is the lower density — the
     intervals whose values of that side the Bayes rule assigns to the other side —
     and each component's probability mass there.

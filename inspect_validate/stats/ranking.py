@@ -7,11 +7,12 @@ number but importing scipy.stats took 0.4 s of a 1.85 s ``verify`` of the shippe
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 __all__ = ["kendall_tau"]
 
 
-def kendall_tau(x, y) -> float:
+def kendall_tau(x: ArrayLike, y: ArrayLike) -> float:
     """Kendall's τ_b of two equally long sequences, ties counted as in τ_b.
 
     τ_b = Σ_{i<j} sgn(xᵢ − xⱼ)·sgn(yᵢ − yⱼ) / √(Σ_{i<j} sgn(xᵢ − xⱼ)² · Σ_{i<j} sgn(yᵢ − yⱼ)²).

@@ -11,6 +11,7 @@ plain ``float64`` array.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
 from fractions import Fraction
 
@@ -23,6 +24,7 @@ __all__ = [
     "EmpiricalCdf",
     "LatticeSample",
     "Moments",
+    "Sample",
     "as_sample",
     "empirical_cdf",
     "gaussian_misfit",
@@ -104,7 +106,7 @@ class EmpiricalCdf:
         """Number of values."""
         return int(self.cumulative[-1])
 
-    def fraction_between(self, lower, upper) -> np.ndarray:
+    def fraction_between(self, lower: ArrayLike, upper: ArrayLike) -> np.ndarray:
         """Fraction of the values in each interval (lower, upper], DN (±inf allowed;
         the ends broadcast together)."""
         below = [
@@ -113,7 +115,7 @@ class EmpiricalCdf:
         return (below[1] - below[0]) / self.n
 
 
-def empirical_cdf(sample) -> EmpiricalCdf:
+def empirical_cdf(sample: Sample | EmpiricalCdf) -> EmpiricalCdf:
     """:class:`EmpiricalCdf` of a :class:`LatticeSample` or float sample (an
     :class:`EmpiricalCdf` is returned as it is)."""
     if isinstance(sample, EmpiricalCdf):
@@ -128,7 +130,7 @@ def empirical_cdf(sample) -> EmpiricalCdf:
 _MISFIT_GRID = np.linspace(-6.0, 6.0, 241)  # z, in steps of 0.05σ
 
 
-def gaussian_misfit(sample, mean: float, variance: float) -> float:
+def gaussian_misfit(sample: Sample | EmpiricalCdf, mean: float, variance: float) -> float:
     """Kolmogorov distance between a sample (or its :class:`EmpiricalCdf`) and its
     Gaussian N(μ, σ²): the largest difference of their cumulative distributions over
     μ ± 6σ, on a 0.05σ grid.
@@ -159,6 +161,10 @@ class Moments:
     n: int
     mean: float
     variance: float
+
+
+Sample = LatticeSample | ArrayLike
+"""Grey values, DN: a :class:`LatticeSample` (a histogram on integer codes) or an array."""
 
 
 def as_sample(values: ArrayLike, *, denominator: int = 1) -> LatticeSample | np.ndarray:
@@ -203,16 +209,17 @@ def as_sample(values: ArrayLike, *, denominator: int = 1) -> LatticeSample | np.
     return LatticeSample(np.bincount(x - lo), lo, denominator)
 
 
-def merge_samples(samples) -> LatticeSample | np.ndarray:
+def merge_samples(samples: Iterable[Sample]) -> LatticeSample | np.ndarray:
     """Pool several samples into one (the union of their values), e.g. for "A vs B,C"."""
     samples = list(samples)
-    if all(isinstance(s, LatticeSample) for s in samples):
-        den = samples[0].denominator
-        if all(s.denominator == den for s in samples):
-            lo = min(s.origin for s in samples)
-            hi = max(s.origin + s.counts.size for s in samples)
+    lattices = [s for s in samples if isinstance(s, LatticeSample)]
+    if len(lattices) == len(samples):
+        den = lattices[0].denominator
+        if all(s.denominator == den for s in lattices):
+            lo = min(s.origin for s in lattices)
+            hi = max(s.origin + s.counts.size for s in lattices)
             counts = np.zeros(hi - lo, dtype=np.int64)
-            for s in samples:
+            for s in lattices:
                 counts[s.origin - lo : s.origin - lo + s.counts.size] += s.counts
             return LatticeSample(counts, lo, den)
     return np.concatenate([_float_values(s) for s in samples])
@@ -244,7 +251,7 @@ def lattice_power_sums(sample: LatticeSample) -> tuple[int, int, int]:
     return n, r1 + n * o, r2 + 2 * o * r1 + n * o * o
 
 
-def sample_moments(sample) -> Moments:
+def sample_moments(sample: Sample) -> Moments:
     """Mean μ (38) and unbiased variance σ² (39) of a grey-value sample.
 
     Parameters
@@ -301,7 +308,7 @@ def _converted_moments(sample: LatticeSample | np.ndarray) -> Moments:
     return Moments(n, mean, max(variance, 0.0))
 
 
-def quantisation_step(sample) -> float | None:
+def quantisation_step(sample: Sample) -> float | None:
     """The grey-value resolution of a sample, DN: the step all its values are multiples of.
 
     A lattice sample's step is the greatest common divisor of its occupied codes'
