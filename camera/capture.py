@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import time
 from collections import Counter
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -48,12 +49,13 @@ import numpy as np
 from inspect_validate.errors import DeviceError, IncompleteFrame, InputError
 
 if TYPE_CHECKING:
-    from collections.abc import Callable
-
     from inspect_validate.camera.settings import CameraSettings, Pulse
     from inspect_validate.camera.storage import CaptureStore
 
-__all__ = ["CaptureResult", "Step", "capture_steps", "verified_frames"]
+__all__ = ["CaptureResult", "Progress", "Step", "capture_steps", "verified_frames"]
+
+Progress = Callable[[str, int, int], None]
+"""``progress(step, done, total)``: called after every verified frame of a capture."""
 
 
 @dataclass(frozen=True)
@@ -237,7 +239,7 @@ def capture_steps(
     brightness_tolerance: float = 0.02,
     source: str = "the station file",
     stopping: Callable[[str], Any] | None = None,
-    progress=None,
+    progress: Progress | None = None,
 ) -> CaptureResult:
     """Run ``steps`` on an open ``controller`` and ``grabber`` into ``store``.
 

@@ -30,11 +30,14 @@ estimate to a given limit (agreement, separation, gain) shares ``false_alarm``
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from typing import TYPE_CHECKING, Annotated, Literal
 
 from pydantic import Field, model_validator
 
 from inspect_validate.config import StrictModel
+
+if TYPE_CHECKING:
+    from inspect_validate.measurement import Limits
 
 __all__ = ["Acceptance", "Agreement", "Calibration", "Drift", "Separation"]
 
@@ -174,7 +177,7 @@ class Acceptance(StrictModel):
         """Whether a check asks for ε KDE (the kernel densities are computed only then)."""
         return any(s.max_error_kde is not None for s in self.separation)
 
-    def limits(self):
+    def limits(self) -> Limits:
         """The saturated and zero fractions as measurement :class:`~inspect_validate.measurement.Limits`
         (no limit given: any fraction passes)."""
         from inspect_validate.measurement import Limits

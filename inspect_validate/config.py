@@ -16,6 +16,7 @@ The YAML dialect is strict where YAML 1.1 is treacherous for configuration:
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -49,7 +50,13 @@ class StrictModel(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
 
-def one_of(models: dict, *, what: str, field: str | None = None, shorthand=None) -> Any:
+def one_of(
+    models: dict[str, type[BaseModel]],
+    *,
+    what: str,
+    field: str | None = None,
+    shorthand: Callable[[Any], Any] | None = None,
+) -> Any:
     """A union of models told apart by one key: a validated model per kind.
 
     With ``field`` None the kind is the one key of ``models`` that a mapping has
@@ -250,7 +257,7 @@ def _extent(node) -> tuple[int, int]:
     return memo[id(node)]
 
 
-def parse_yaml(text: str, *, source: str):
+def parse_yaml(text: str, *, source: str) -> Any:
     """Parse YAML text with the strict dialect above; errors name ``source`` and the line."""
     import yaml
 

@@ -14,6 +14,7 @@ import os
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
+from typing import TextIO
 
 from inspect_validate.errors import InputError
 
@@ -122,7 +123,7 @@ def atomic_write(path: str | Path, data: bytes) -> Path:
     return path
 
 
-def exclusive_lock(lock_path: Path, *, holder: str, what: str, remedy: str, source: Path):
+def exclusive_lock(lock_path: Path, *, holder: str, what: str, remedy: str, source: Path) -> TextIO:
     """An exclusive ``flock`` on ``lock_path`` (created if need be), held until the
     returned file is closed, with this process's id written in it; a second taker is
     refused at once naming the first.

@@ -35,6 +35,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 __all__ = ["Characterization", "Pair", "Stack", "analyse", "pair_statistics", "stack_statistics"]
 
@@ -199,12 +200,12 @@ class Characterization:
 
 
 def analyse(
-    exposure_us,
+    exposure_us: ArrayLike,
     bright: list[Pair],
     dark: list[Pair],
     *,
-    bright_stack=None,
-    dark_stack=None,
+    bright_stack: Stack | None = None,
+    dark_stack: Stack | None = None,
     bits: int,
 ) -> Characterization:
     """The EMVA 1288 parameters of an exposure series (module docstring).

@@ -12,13 +12,20 @@ while its K, dark noise, saturation, DSNU and PRNU are the camera's.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from inspect_validate.characterization.analysis import Characterization
+    from inspect_validate.characterization.series import Plan
 
 __all__ = ["DESCRIPTOR_FILE", "write_descriptor"]
 
 DESCRIPTOR_FILE = "emva1288_descriptor.txt"
 
 
-def write_descriptor(out: Path, plan, result, *, width: int, height: int) -> Path:
+def write_descriptor(
+    out: Path, plan: Plan, result: Characterization, *, width: int, height: int
+) -> Path:
     """Write ``out/emva1288_descriptor.txt`` for the series captured in ``out``."""
     from inspect_validate.files import atomic_write
 

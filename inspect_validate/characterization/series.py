@@ -27,10 +27,16 @@ import json
 import math
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from inspect_validate.errors import DeviceError, InputError
+
+if TYPE_CHECKING:
+    from inspect_validate.camera.capture import Progress
+    from inspect_validate.characterization.analysis import Characterization
+    from inspect_validate.station.file import Station
 
 __all__ = ["Plan", "capture_series", "expected_rate", "read_series"]
 
@@ -77,7 +83,9 @@ def _mean(folder: Path, mask) -> float:
     return float(frames[:, mask].mean())
 
 
-def capture_series(station, out: Path, *, resume: bool = False, progress=None) -> Plan:
+def capture_series(
+    station: Station, out: Path, *, resume: bool = False, progress: Progress | None = None
+) -> Plan:
     """Probe, plan and capture the series into ``out`` (module docstring); the plan."""
     from inspect_validate.camera.capture import Step
     from inspect_validate.images import recorded_bit_depth
@@ -336,7 +344,7 @@ def _read_plan(path: Path) -> Plan:
     return Plan(**dict(checked))
 
 
-def region_mask(station, folder: Path) -> np.ndarray:
+def region_mask(station: Station, folder: Path) -> np.ndarray:
     """The analysed pixels: ``characterize.region`` or the whole frame (checked against
     the frames' size)."""
     from inspect_validate.images import read_frames
@@ -357,7 +365,7 @@ def region_mask(station, folder: Path) -> np.ndarray:
     return mask
 
 
-def read_series(station, out: Path):
+def read_series(station: Station, out: Path) -> tuple[Plan, Characterization]:
     """The :class:`~.analysis.Characterization` of a captured series in ``out``."""
     from inspect_validate.characterization.analysis import (
         analyse,
@@ -397,7 +405,7 @@ def read_series(station, out: Path):
     return plan, result
 
 
-def expected_rate(station, plan: Plan) -> float | None:
+def expected_rate(station: Station, plan: Plan) -> float | None:
     """Photo-electrons per µs the station's model expects from a white target (R = 1)
     under the series' illumination at its level, through the scene's optics and camera
     QE: what the measured responsivity is held against for an absolute QE. None where

@@ -20,10 +20,16 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from inspect_validate.errors import InputError
+
+if TYPE_CHECKING:
+    from inspect_validate.characterization.analysis import Characterization
+    from inspect_validate.components.sensors import SensorModel
 
 __all__ = [
     "build_measured",
@@ -34,7 +40,14 @@ __all__ = [
 ]
 
 
-def write_camera_file(path, result, *, name: str, gain_db: float, provenance: dict) -> Path:
+def write_camera_file(
+    path: str | Path,
+    result: Characterization,
+    *,
+    name: str,
+    gain_db: float,
+    provenance: dict,
+) -> Path:
     """Write :class:`~.analysis.Characterization` ``result`` as a camera file at ``path``.
 
     Values that could not be measured (NaN: no dark current without an exposure
@@ -149,7 +162,7 @@ def _file_model():
     return CameraFile
 
 
-def read_camera_file(path) -> dict:
+def read_camera_file(path: str | Path) -> dict:
     """The ``camera:`` values of a camera file and its ``measured:`` provenance, checked
     (errors name the file and the field)."""
     from inspect_validate.config import load_yaml
@@ -159,7 +172,7 @@ def read_camera_file(path) -> dict:
     return {"values": values, "name": doc.camera.name, "measured": doc.measured.model_dump()}
 
 
-def measured_values(path) -> dict:
+def measured_values(path: str | Path) -> dict:
     """The camera file's model values, K brought back to 0 dB (the station or scene
     applies its own gain)."""
     doc = read_camera_file(path)
@@ -171,7 +184,7 @@ def measured_values(path) -> dict:
     return values
 
 
-def measured_sensor(scene_camera, path):
+def measured_sensor(scene_camera: SensorModel, path: str | Path) -> SensorModel:
     """``scene_camera`` with the values of the camera file at ``path``
     (:func:`measured_values`)."""
     name = f"{scene_camera.name} (measured: {Path(path).name})"
@@ -182,7 +195,7 @@ def measured_sensor(scene_camera, path):
     )
 
 
-def build_measured(make, path, *, what: str):
+def build_measured(make: Callable[..., SensorModel], path: str | Path, *, what: str) -> SensorModel:
     """The sensor ``make(**values)`` builds from the camera file's values at ``path``, its
     QE curve scaled by the file's ``qe_scale`` (the declared curve's shape at the measured
     level).

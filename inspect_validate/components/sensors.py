@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from inspect_validate.constants import C, H
 from inspect_validate.errors import InputError
@@ -129,13 +130,13 @@ def gain_factor(gain_db: float) -> float:
     return 10.0 ** (gain_db / 20.0)
 
 
-def energy_efficiency(qe, wavelength) -> np.ndarray:
+def energy_efficiency(qe: ArrayLike, wavelength: ArrayLike) -> np.ndarray:
     """EE(λ) = QE(λ)·λ/(hc) (24)–(25), electrons per joule; ``wavelength`` in nm."""
     return np.asarray(qe, float) * np.asarray(wavelength, float) * 1e-9 / (H * C)
 
 
 def qe_model(
-    grid, *, peak: float, peak_qe: float, left: float, right: float, lo: float, hi: float
+    grid: ArrayLike, *, peak: float, peak_qe: float, left: float, right: float, lo: float, hi: float
 ) -> np.ndarray:
     """A smooth single-peaked QE curve: a Gaussian with separate widths left and right of
     the peak, cut off smoothly at the sensor material's limits ``lo``/``hi`` (nm)."""

@@ -11,6 +11,7 @@ from inspect_validate.camera.storage import CaptureStore
 from inspect_validate.station.file import station_hash
 
 if TYPE_CHECKING:
+    from inspect_validate.camera.capture import Progress
     from inspect_validate.station.file import Station
 
 __all__ = ["capture", "station_steps"]
@@ -29,7 +30,7 @@ def capture(
     out: Path,
     *,
     resume: bool = False,
-    progress=None,
+    progress: Progress | None = None,
     devices=None,
     steps: list[Step] | None = None,
 ) -> CaptureResult:
