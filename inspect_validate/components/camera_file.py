@@ -23,12 +23,11 @@ import time
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 from inspect_validate.errors import InputError
 
 if TYPE_CHECKING:
-    from inspect_validate.characterization.analysis import Characterization
     from inspect_validate.components.sensors import SensorModel
 
 __all__ = [
@@ -40,9 +39,26 @@ __all__ = [
 ]
 
 
+class Measured(Protocol):
+    """What :func:`write_camera_file` reads of a measurement (a characterization's
+    result has it, each value with its standard error as ``<name>_se``): EMVA 1288
+    values, NaN where not measured."""
+
+    gain: float
+    dark_noise: float
+    saturation: float
+    bit_depth: int
+    dark_offset: float
+    dark_current: float
+    dsnu: float
+    prnu: float
+    qe_scale: float
+    saturation_reached: bool
+
+
 def write_camera_file(
     path: str | Path,
-    result: Characterization,
+    result: Measured,
     *,
     name: str,
     gain_db: float,
