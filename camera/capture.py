@@ -39,7 +39,7 @@ from __future__ import annotations
 
 import time
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -49,6 +49,9 @@ import numpy as np
 from inspect_validate.errors import DeviceError, IncompleteFrame, InputError
 
 if TYPE_CHECKING:
+    from inspect_validate.camera.controllers.base import LedController
+    from inspect_validate.camera.frame import Frame
+    from inspect_validate.camera.grabbers.base import Grabber
     from inspect_validate.camera.settings import CameraSettings, Pulse
     from inspect_validate.camera.storage import CaptureStore
 
@@ -69,7 +72,7 @@ class CaptureResult:
 
 
 def verified_frames(
-    grabber,
+    grabber: Grabber,
     n: int,
     *,
     switched_ns: int,
@@ -77,9 +80,9 @@ def verified_frames(
     tolerance: float,
     timeout_s: float,
     flush: int = 4,
-    next_frame=None,
-    chunk=None,
-):
+    next_frame: Callable[[], tuple[Frame, int | None, bool]] | None = None,
+    chunk: dict[str, tuple[float, float]] | None = None,
+) -> Iterator[tuple[Frame, dict[str, int]]]:
     """Yield ``n`` frames exposed after ``switched_ns`` with stable brightness, each once verified.
 
     Frames whose timestamp is the exposure start on the host clock are kept
@@ -228,8 +231,8 @@ class Step:
 
 
 def capture_steps(
-    controller,
-    grabber,
+    controller: LedController,
+    grabber: Grabber,
     steps: list[Step],
     store: CaptureStore,
     settings: CameraSettings,

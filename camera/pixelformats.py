@@ -62,7 +62,9 @@ def packed_size(pixel_format: str, n_pixels: int) -> int:
     return (n_pixels * bits + 7) // 8
 
 
-def unpack(buffer, pixel_format: str, width: int, height: int) -> np.ndarray:
+def unpack(
+    buffer: bytes | bytearray | memoryview | np.ndarray, pixel_format: str, width: int, height: int
+) -> np.ndarray:
     """Unpack a raw buffer into a (height, width) uint8 (Mono8) or uint16 array.
 
     Raises

@@ -28,8 +28,10 @@ import io
 import json
 import threading
 import time
+from collections.abc import Iterable
 from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
+from typing import Any
 
 from inspect_validate import __version__
 from inspect_validate.camera.frame import Frame
@@ -106,7 +108,7 @@ class CaptureStore:
             text = json.dumps(self.manifest, indent=2)
         atomic_write(self.manifest_path, text.encode())
 
-    def record(self, key: str, value) -> None:
+    def record(self, key: str, value: Any) -> None:
         """Add ``key`` to the manifest (e.g. the camera and the settings it lacks).
 
         Resuming with another camera than the one that took the saved frames is
@@ -123,7 +125,7 @@ class CaptureStore:
         self.manifest[key] = value
         self._save_manifest()
 
-    def note(self, step: str, key: str, value) -> None:
+    def note(self, step: str, key: str, value: Any) -> None:
         """Record ``key`` for ``step`` (e.g. the light state the controller reports)."""
         self.manifest["steps"][step][key] = value
 
@@ -228,7 +230,7 @@ class CaptureStore:
         self._save_manifest()
 
 
-def audit_capture(folder: Path, manifest: dict, steps) -> dict[str, str]:
+def audit_capture(folder: Path, manifest: dict, steps: Iterable[str]) -> dict[str, str]:
     """Check that the frames of ``steps`` in a capture ``folder`` are the ones written.
 
     Each step's frame files must be those its manifest record counts and hashes, each
@@ -343,7 +345,7 @@ def audit_capture(folder: Path, manifest: dict, steps) -> dict[str, str]:
 
 
 def read_capture(
-    folder: Path, steps
+    folder: Path, steps: Iterable[str]
 ) -> tuple[dict[str, list[Path]], list[Path], dict, dict[str, str]]:
     """Frame files of each of ``steps`` (the illuminations' names) and of the darks in a
     capture folder, its manifest, and each frame file's SHA-256 — after checking that the
@@ -365,11 +367,11 @@ def read_capture(
             source=str(folder),
         )
     manifest = read_manifest(manifest_path)
-    steps = manifest["steps"]
+    records = manifest["steps"]
     frames = {}
     for name in wanted:
         files = sorted((folder / name).glob("frame_*.tif"))
-        if not steps.get(name, {}).get("complete") or not files:
+        if not records.get(name, {}).get("complete") or not files:
             raise InputError(
                 f"illumination {name!r} was not captured completely here; "
                 "rerun the capture with --resume",
@@ -378,7 +380,7 @@ def read_capture(
         frames[name] = files
     dark = (
         sorted((folder / "dark").glob("frame_*.tif"))
-        if steps.get("dark", {}).get("complete")
+        if records.get("dark", {}).get("complete")
         else []
     )
     hashes = audit_capture(folder, manifest, [*frames, *(["dark"] if dark else [])])

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+from collections.abc import Callable
 from typing import Annotated, Literal
 
 from pydantic import Field
@@ -18,7 +19,7 @@ __all__ = ["BACKEND", "ManualController", "ManualSettings"]
 class ManualController(LedController):
     """For stations without a controller: prompts on the terminal and waits for Enter."""
 
-    def __init__(self, *, channels: int = 4, prompt=None) -> None:
+    def __init__(self, *, channels: int = 4, prompt: Callable[[str], str] | None = None) -> None:
         self.name = "manual switching"
         self.channels = channels
         self._prompt = prompt or (lambda text: input(text))

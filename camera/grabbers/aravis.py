@@ -22,6 +22,7 @@ Debian 12's GLib with ``libgirepository1.0-dev``, ``libcairo2-dev`` and ``pkg-co
 from __future__ import annotations
 
 import contextlib
+from types import ModuleType
 from typing import Annotated, Any, Literal
 
 import numpy as np
@@ -41,7 +42,7 @@ from inspect_validate.errors import DeviceError, IncompleteFrame
 __all__ = ["BACKEND", "AravisGrabber", "AravisSettings", "discover_aravis", "import_aravis"]
 
 
-def import_aravis():
+def import_aravis() -> tuple[ModuleType, ModuleType]:
     """The ``Aravis`` and ``GLib`` modules, or a DeviceError saying what to install."""
     try:
         import gi
@@ -217,7 +218,14 @@ class AravisGrabber(NodeMapGrabber):
         except self._glib.Error as exc:
             raise DeviceError(f"{self.name}: {name} failed ({exc.message})") from None
 
-    def configure(self, *, exposure_us=None, gain_db=None, pixel_format=None, region=None) -> None:
+    def configure(
+        self,
+        *,
+        exposure_us: float | None = None,
+        gain_db: float | None = None,
+        pixel_format: str | None = None,
+        region: tuple[int, int, int, int] | None = None,
+    ) -> None:
         super().configure(
             exposure_us=exposure_us, gain_db=gain_db, pixel_format=pixel_format, region=region
         )

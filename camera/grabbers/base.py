@@ -474,7 +474,14 @@ class NodeMapGrabber(Grabber):
         self._start()
         return True
 
-    def configure(self, *, exposure_us=None, gain_db=None, pixel_format=None, region=None) -> None:
+    def configure(
+        self,
+        *,
+        exposure_us: float | None = None,
+        gain_db: float | None = None,
+        pixel_format: str | None = None,
+        region: tuple[int, int, int, int] | None = None,
+    ) -> None:
         self._stop()  # Width/Height/PixelFormat are locked while acquiring
         if pixel_format is not None:
             offered = self._symbolics("PixelFormat")
@@ -487,8 +494,8 @@ class NodeMapGrabber(Grabber):
             self._requested_format = pixel_format
         if region is not None:
             x, y, w, h = region  # offsets to 0 first: a larger size may not fit at them
-            for node, value in (("OffsetX", 0), ("OffsetY", 0), ("Width", w), ("Height", h)):
-                self._write(node, int(value), "region")
+            for node, size in (("OffsetX", 0), ("OffsetY", 0), ("Width", w), ("Height", h)):
+                self._write(node, int(size), "region")
             self._write("OffsetX", int(x), "region")
             self._write("OffsetY", int(y), "region")
         for names, value, label in (
@@ -503,10 +510,10 @@ class NodeMapGrabber(Grabber):
 
     def arm(
         self,
-        acquisition,
+        acquisition: str,
         *,
-        trigger_line=None,
-        strobe_line=None,
+        trigger_line: str | None = None,
+        strobe_line: str | None = None,
         chunks: bool = False,
         trigger_delay_us: float = 0.0,
     ) -> None:

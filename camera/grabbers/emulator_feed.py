@@ -13,10 +13,46 @@ from __future__ import annotations
 
 import tempfile
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, Protocol
 
 from inspect_validate.camera.frame import Frame
-from inspect_validate.camera.grabbers.base import Grabber
+from inspect_validate.camera.grabbers.base import Features, Grabber
 from inspect_validate.errors import DeviceError
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from inspect_validate.camera.grabbers.pylon import PylonGrabber
+
+
+class Renderer(Protocol):
+    """What the feed asks of the simulated camera that renders its frames (the device
+    layer imports nothing of the simulation)."""
+
+    name: str
+    width: int
+    height: int
+
+    def configure(self, *, exposure_us: float | None = None, gain_db: float | None = None) -> None:
+        """Set the exposure (µs) and gain (dB) the frames are rendered with."""
+
+    def arm(
+        self,
+        acquisition: str,
+        *,
+        trigger_line: str | None = None,
+        strobe_line: str | None = None,
+        chunks: bool = False,
+        trigger_delay_us: float = 0.0,
+    ) -> None:
+        """Take the acquisition mode the camera is armed with."""
+
+    def render(self, state: dict[int, float], *, exposure_us: float | None = None) -> np.ndarray:
+        """One frame under ``state`` (channel → % of full output)."""
+
+    def light_state(self, *, fired: str | None = None) -> dict[int, float]:
+        """The channels' light during an exposure starting now."""
+
 
 __all__ = ["EmulatorFeed"]
 
@@ -35,7 +71,9 @@ class EmulatorFeed(Grabber):
         through them, so a step should keep fewer frames than this.
     """
 
-    def __init__(self, camera, renderer, *, frames_per_light: int = 16) -> None:
+    def __init__(
+        self, camera: PylonGrabber, renderer: Renderer, *, frames_per_light: int = 16
+    ) -> None:
         self.grabber, self.renderer = camera, renderer
         self.frames_per_light = frames_per_light
         self.name = f"{camera.name} fed by the {renderer.name}"
@@ -45,7 +83,14 @@ class EmulatorFeed(Grabber):
         self._sets = 0
         self._triggered = False
 
-    def configure(self, *, exposure_us=None, gain_db=None, pixel_format=None, region=None) -> None:
+    def configure(
+        self,
+        *,
+        exposure_us: float | None = None,
+        gain_db: float | None = None,
+        pixel_format: str | None = None,
+        region: tuple[int, int, int, int] | None = None,
+    ) -> None:
         if pixel_format not in (None, "Mono16"):
             raise DeviceError(
                 f"{self.name}: the emulator serves 16-bit files pixel-exactly only in Mono16, not {pixel_format}"
@@ -75,10 +120,10 @@ class EmulatorFeed(Grabber):
     def restart_stream(self) -> bool:
         return self.grabber.restart_stream()
 
-    def features(self):
+    def features(self) -> Features:
         return self.grabber.features()
 
-    def arm(self, acquisition, **options) -> None:
+    def arm(self, acquisition: str, **options: Any) -> None:
         self.grabber.arm(acquisition, **options)
         # The renderer lights a pulsed channel as the station's wiring would.
         self.renderer.arm(acquisition, **options)

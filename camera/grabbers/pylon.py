@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import contextlib
 import time
-from typing import Annotated, Literal
+from pathlib import Path
+from typing import Annotated, Any, Literal
 
 import numpy as np
 from pydantic import Field
@@ -79,7 +80,7 @@ class PylonGrabber(NodeMapGrabber):
         self.missing = self._missing()
 
     @property
-    def nodes(self):
+    def nodes(self) -> Any:
         """The camera's node map (for settings this interface does not cover)."""
         return self._cam
 
@@ -133,7 +134,7 @@ class PylonGrabber(NodeMapGrabber):
         except self._genicam.GenericException as exc:
             raise DeviceError(f"{self.name}: {name} failed ({exc})") from None
 
-    def serve_files(self, folder) -> None:
+    def serve_files(self, folder: str | Path) -> None:
         """Make pylon's camera emulator serve the images in ``folder``, cycling through them.
 
         The emulator reads the files when acquisition starts, so a grab in

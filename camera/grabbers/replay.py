@@ -53,7 +53,7 @@ class ReplayGrabber(Grabber):
     """
 
     def __init__(
-        self, folder, *, lights: Callable[[], dict[int, float] | None] | None = None
+        self, folder: str | Path, *, lights: Callable[[], dict[int, float] | None] | None = None
     ) -> None:
         from inspect_validate.images import expand_paths
 
@@ -96,7 +96,14 @@ class ReplayGrabber(Grabber):
             raise InputError("the capture holds no saved frames", source=str(self.folder))
         return recorded
 
-    def configure(self, *, exposure_us=None, gain_db=None, pixel_format=None, region=None) -> None:
+    def configure(
+        self,
+        *,
+        exposure_us: float | None = None,
+        gain_db: float | None = None,
+        pixel_format: str | None = None,
+        region: tuple[int, int, int, int] | None = None,
+    ) -> None:
         if region is not None:
             raise DeviceError(f"{self.name}: a replay cannot change the region")
         if self.recorded is None:

@@ -21,8 +21,9 @@ from __future__ import annotations
 
 import os
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import Annotated, Any, Literal
 
 import numpy as np
 from pydantic import Field
@@ -109,7 +110,13 @@ class V4l2Grabber(Grabber):
         ``opener(path, api) -> VideoCapture``; ``cv2.VideoCapture`` by default.
     """
 
-    def __init__(self, device: str | int = 0, *, buffers: int = 1, opener=None) -> None:
+    def __init__(
+        self,
+        device: str | int = 0,
+        *,
+        buffers: int = 1,
+        opener: Callable[[str, int], Any] | None = None,
+    ) -> None:
         import cv2
 
         self._cv2 = cv2
@@ -158,7 +165,14 @@ class V4l2Grabber(Grabber):
         code = _fourcc_text(self._cap.get(self._cv2.CAP_PROP_FOURCC))
         return next((name for name, (fc, _, _) in FORMATS.items() if fc == code), None)
 
-    def configure(self, *, exposure_us=None, gain_db=None, pixel_format=None, region=None) -> None:
+    def configure(
+        self,
+        *,
+        exposure_us: float | None = None,
+        gain_db: float | None = None,
+        pixel_format: str | None = None,
+        region: tuple[int, int, int, int] | None = None,
+    ) -> None:
         cv2 = self._cv2
         if pixel_format is not None or self.pixel_format is None:
             want = pixel_format or "Mono8"

@@ -233,7 +233,8 @@ class SimulatedGrabber(Grabber):
         self.world = world
         self._frozen: np.ndarray | None = None  # the frame a frozen camera repeats
         self.pipeline: deque = deque()
-        self.acquisition, self.strobe_line, self.chunks = "free-run", None, False
+        self.acquisition, self.chunks = "free-run", False
+        self.strobe_line: str | None = None
         self.trigger_delay_us = 0.0
         self._triggered: deque = deque()  # software triggers not yet delivered
         self._pulses_seen = 0  # the controller's trigger count already exposed
@@ -251,10 +252,10 @@ class SimulatedGrabber(Grabber):
 
     def arm(
         self,
-        acquisition,
+        acquisition: str,
         *,
-        trigger_line=None,
-        strobe_line=None,
+        trigger_line: str | None = None,
+        strobe_line: str | None = None,
         chunks: bool = False,
         trigger_delay_us: float = 0.0,
     ) -> None:
@@ -274,7 +275,14 @@ class SimulatedGrabber(Grabber):
     def increments(self) -> dict[str, float]:
         return {"exposure_us": 1.0, "gain_db": 0.01}
 
-    def configure(self, *, exposure_us=None, gain_db=None, pixel_format=None, region=None) -> None:
+    def configure(
+        self,
+        *,
+        exposure_us: float | None = None,
+        gain_db: float | None = None,
+        pixel_format: str | None = None,
+        region: tuple[int, int, int, int] | None = None,
+    ) -> None:
         if exposure_us is not None:
             if not exposure_us > 0:
                 raise DeviceError(f"{self.name}: exposure {exposure_us} µs must be positive")
