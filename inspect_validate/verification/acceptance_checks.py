@@ -4,10 +4,16 @@ at the false-alarm rate)."""
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from inspect_validate.verification.checks import Check, at_least, at_most, not_run
 from inspect_validate.verification.results import RankingAgreement
+
+if TYPE_CHECKING:
+    from inspect_validate.acceptance import Acceptance
+    from inspect_validate.measurement import Measurement
 
 __all__ = ["acceptance_checks"]
 
@@ -63,8 +69,8 @@ _RANKED = {  # by → unit, what it is, the StandardErrors field
 
 
 def acceptance_checks(
-    acc,
-    measurements,
+    acc: Acceptance,
+    measurements: dict[str, Measurement],
     class_rows,
     comparison_rows,
     ranking,

@@ -3,6 +3,8 @@ and the ranking of the illuminations by the key comparison."""
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from inspect_validate.verification.results import (
@@ -15,10 +17,19 @@ from inspect_validate.verification.results import (
     RankingAgreement,
 )
 
+if TYPE_CHECKING:
+    from inspect_validate.acceptance import Acceptance
+    from inspect_validate.comparisons import Comparisons
+    from inspect_validate.measurement import Measurement
+    from inspect_validate.model import Prediction
+    from inspect_validate.scene import Scene
+
 __all__ = ["agreement_rows", "ranking_agreement", "ranking_comparison"]
 
 
-def agreement_rows(measurements, p, nominal, dark_means, offset, *, need_kde):
+def agreement_rows(
+    measurements: dict[str, Measurement], p: Prediction, nominal, dark_means, offset, *, need_kde
+):
     """Rows of predicted (calibrated; and ``nominal``, at the stated irradiances, as
     ``predict`` gives them) against measured, per illumination and class / comparison."""
     from inspect_validate.model import predicted_kde_error
@@ -89,7 +100,11 @@ def agreement_rows(measurements, p, nominal, dark_means, offset, *, need_kde):
 
 
 def ranking_agreement(
-    measurements, p, scene, acc, comparisons
+    measurements: dict[str, Measurement],
+    p: Prediction,
+    scene: Scene,
+    acc: Acceptance,
+    comparisons: Comparisons,
 ) -> tuple[RankingAgreement | None, tuple[str, ...]]:
     """The illuminations ranked by the key comparison, measured against predicted, and
     why not (None and the reason) with one illumination."""
@@ -122,7 +137,7 @@ def ranking_agreement(
     return ranking, ()
 
 
-def ranking_comparison(scene, acc, comparisons) -> str:
+def ranking_comparison(scene: Scene, acc: Acceptance, comparisons: Comparisons) -> str:
     """The comparison the illuminations are ranked by: the first separation check's, else
     the scene's ``rank:`` comparison, else the first (the worst pair decides, as predict
     ranks by default)."""

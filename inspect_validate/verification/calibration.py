@@ -20,10 +20,17 @@ irradiance at the object the measurement implies.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from inspect_validate.errors import InputError
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    from inspect_validate.measurement import ClassMeasurement, Measurement
+    from inspect_validate.model import Prediction
 
 __all__ = ["Gain", "IrradianceScale", "fit_scales", "photon_transfer", "photon_transfer_gain"]
 
@@ -46,8 +53,8 @@ class Gain:
 
 
 def photon_transfer_gain(
-    measurements,
-    dark,
+    measurements: Sequence[Measurement],
+    dark: Measurement,
     *,
     declared: float,
     max_saturated: float = 1e-3,
@@ -85,9 +92,16 @@ def photon_transfer_gain(
     )[0]
 
 
+def _sampling_variance(c: ClassMeasurement) -> float:
+    """The sampling variance of a temporal variance averaged over P pixels of N frames,
+    2σ⁴ / (P (N − 1)) (the candidates of a fit all have one)."""
+    variance = c.temporal_variance or 0.0
+    return 2 * variance**2 / (c.n_pixels * (c.n_frames - 1))
+
+
 def photon_transfer(
-    measurements,
-    dark,
+    measurements: Sequence[Measurement],
+    dark: Measurement,
     *,
     declared: float,
     max_saturated: float = 1e-3,
@@ -132,7 +146,7 @@ def photon_transfer(
     points, peak, peak_se = [], -np.inf, 0.0
     for point in candidates:
         variance, c = point[1], point[2]
-        se = np.sqrt(2 * c.temporal_variance**2 / (c.n_pixels * (c.n_frames - 1)))
+        se = np.sqrt(_sampling_variance(c))
         if variance < peak - 3 * np.hypot(se, peak_se):
             leave("beyond the temporal variance's maximum")
             continue
@@ -148,15 +162,8 @@ def photon_transfer(
         resid = y - k * x
         se = float(np.sqrt(resid @ resid / (len(points) - 1) / (x @ x)))
     else:
-        # The sampling error of a temporal variance averaged over P pixels of
-        # N frames: var ≈ 2σ⁴ / (P (N − 1)), propagated to the slope.
-        var_y = np.array(
-            [
-                2 * c.temporal_variance**2 / (c.n_pixels * (c.n_frames - 1))
-                + 2 * d.temporal_variance**2 / (d.n_pixels * (d.n_frames - 1))
-                for _, _, c, d in points
-            ]
-        )
+        # The sampling errors of the two temporal variances, propagated to the slope.
+        var_y = np.array([_sampling_variance(c) + _sampling_variance(d) for _, _, c, d in points])
         se = float(np.sqrt((x**2) @ var_y) / (x @ x))
     gain = Gain(
         k, se, float(declared), tuple((float(a), float(b)) for a, b in zip(x, y, strict=True))
@@ -182,7 +189,7 @@ class IrradianceScale:
 
 
 def fit_scales(
-    prediction,
+    prediction: Prediction,
     measurements: dict,
     *,
     method: str,

@@ -26,7 +26,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
+
+if TYPE_CHECKING:
+    from collections.abc import Iterable
+
 
 __all__ = [
     "DEFAULT_FALSE_ALARM",
@@ -231,12 +235,12 @@ def _tested(c: Check) -> bool:
     )
 
 
-def count_tests(checks) -> int:
+def count_tests(checks: Iterable[Check]) -> int:
     """How many of ``checks`` share the false-alarm rate (:func:`decide`)."""
     return sum(_tested(c) for c in checks)
 
 
-def decide(checks, rate: float) -> tuple[Check, ...]:
+def decide(checks: Iterable[Check], rate: float) -> tuple[Check, ...]:
     """Set every check's limit and verdict at the family-wise false-alarm ``rate``.
 
     The statistical and tolerance checks that ran share ``rate`` equally
@@ -264,13 +268,16 @@ def decide(checks, rate: float) -> tuple[Check, ...]:
             else:
                 out.append(c)
             continue
-        margin = quantile(share, df=c.df, sided=c.sided) * c.standard_error
-        limit = c.given + margin if c.relation == "≤" else c.given - margin
-        undecided = c.predicted_gap is not None and abs(c.predicted_gap) < margin
+        se = c.standard_error or 0.0  # tested: it has one
+        margin = quantile(share, df=c.df, sided=c.sided) * se
+        given = c.limit if c.given is None else c.given  # a check made with its limit
+        limit = given + margin if c.relation == "≤" else given - margin
+        gap = c.predicted_gap
+        undecided = gap is not None and abs(gap) < margin
         detail = c.detail
-        if undecided:
+        if gap is not None and undecided:
             detail = (
-                f"too close to call: predicted {abs(c.predicted_gap):.2g} {c.unit} apart, "
+                f"too close to call: predicted {abs(gap):.2g} {c.unit} apart, "
                 f"these frames resolve {margin:.2g} {c.unit}; {detail}"
             )
         out.append(

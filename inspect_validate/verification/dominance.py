@@ -10,12 +10,17 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
+    from inspect_validate.comparisons import Comparisons
+    from inspect_validate.station.file import Station
+    from inspect_validate.station.model import StationModel
     from inspect_validate.verification.results import Verification
 
 __all__ = ["dominance_unconfirmed", "dominated_illuminations"]
 
 
-def dominated_illuminations(station, model, comparisons) -> dict[str, str]:
+def dominated_illuminations(
+    station: Station, model: StationModel, comparisons: Comparisons
+) -> dict[str, str]:
     """Illuminations that need not be captured: no acceptance check needs them, and the
     prediction shows another illumination clearly better on every comparison.
 

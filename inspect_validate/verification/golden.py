@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import TYPE_CHECKING, Annotated, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
@@ -44,6 +44,13 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 from inspect_validate.config import StrictModel
 from inspect_validate.errors import InputError
 from inspect_validate.verification.checks import Check, at_most
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    from inspect_validate.acceptance import Drift
+    from inspect_validate.comparisons import Comparisons
+    from inspect_validate.station.file import Station
 
 __all__ = [
     "GOLDEN_SCHEMA_VERSION",
@@ -259,7 +266,7 @@ class Golden(_Frozen):
         return doc
 
 
-def train(station, captures: list[Path], *, regions=None) -> Golden:
+def train(station: Station, captures: list[Path], *, regions=None) -> Golden:
     """Measure every capture folder of ``station`` and gather the golden statistics;
     ``regions`` is :func:`~inspect_validate.verification.measured.station_regions` of it,
     read here if not given.
@@ -306,14 +313,14 @@ def train(station, captures: list[Path], *, regions=None) -> Golden:
         comparisons,
         captures=[str(c) for c in captures],
         tool_version=__version__,
-        station_sha256=station_hash(station.path),
+        station_sha256=station_hash(station.file),
     )
 
 
 def golden_of(
-    station,
+    station: Station,
     runs: list[dict],
-    comparisons,
+    comparisons: Comparisons,
     *,
     captures: list[str],
     tool_version: str,
@@ -465,7 +472,9 @@ def detectable_change(spread: Spread, share: float, *, power: float = 0.95) -> f
     return (quantile(share, df=spread.n - 1) + quantile(1.0 - power, sided=1)) * sd
 
 
-def drift_checks(golden: Golden, measurements: dict, drift, errors: dict) -> list[Check]:
+def drift_checks(
+    golden: Golden, measurements: dict, drift: Drift | None, errors: dict
+) -> list[Check]:
     """Drift of each class's μ (DN) and each comparison's SNR_dB (dB) from ``golden``, which
     :func:`check_golden` has accepted for the station.
 
@@ -475,6 +484,8 @@ def drift_checks(golden: Golden, measurements: dict, drift, errors: dict) -> lis
     ``errors`` is illumination → the measurement's
     :class:`~.uncertainty.StandardErrors`.
     """
+    if drift is None:  # no drift section: a golden file alone asks for nothing
+        return []
     checks = []
     for ill, m in measurements.items():
         g, se = golden.illuminations[ill], errors[ill]
@@ -530,11 +541,11 @@ def _drift_check(name, value, ref: Spread, tolerance, standard_error, unit, deta
 
 def check_golden(
     golden: Golden,
-    station,
-    drift,
+    station: Station,
+    drift: Drift,
     *,
-    classes,
-    comparisons,
+    classes: Sequence[str],
+    comparisons: Sequence[str],
     source: str,
     share: float | None = None,
 ) -> None:

@@ -10,7 +10,11 @@ from typing import TYPE_CHECKING
 from inspect_validate.errors import InputError
 
 if TYPE_CHECKING:
-    from inspect_validate.measurement import KdeMode, Measurement
+    from inspect_validate.comparisons import Comparisons
+    from inspect_validate.components.sensors import SensorModel
+    from inspect_validate.measurement import KdeMode, Limits, Measurement
+    from inspect_validate.roi.roiset import RoiSet
+    from inspect_validate.station.file import Station
 
 __all__ = ["Capture", "measure_capture", "saturation_level", "station_regions"]
 
@@ -28,7 +32,7 @@ class Capture:
     sha256: dict = field(default_factory=dict)  # "step/frame_0001.tif" → hex, as audited
 
 
-def station_regions(station):
+def station_regions(station: Station):
     """The station's ROI set and the :class:`~inspect_validate.comparisons.Comparisons` of
     its classes (the station's ``comparisons:``).
 
@@ -54,7 +58,14 @@ def station_regions(station):
 
 
 def measure_capture(
-    station, folder: Path, *, rois, comparisons, limits, kde: KdeMode, camera=None
+    station: Station,
+    folder: Path,
+    *,
+    rois: RoiSet,
+    comparisons: Comparisons,
+    limits: Limits,
+    kde: KdeMode,
+    camera: SensorModel | None = None,
 ) -> Capture:
     """Measure every illumination (and the darks) of a capture folder of ``station``
     with :func:`~inspect_validate.measurement.measure_files`, the one measuring path;
@@ -95,7 +106,7 @@ def measure_capture(
     return Capture(files, dark_files, manifest, measurements, dark, level, hashes)
 
 
-def saturation_level(frame: Path, camera=None) -> float | None:
+def saturation_level(frame: Path, camera: SensorModel | None = None) -> float | None:
     """The grey value of a saturated pixel, DN: 2^bits − 1 of the bit depth ``frame`` was
     recorded with (a Mono12 frame in uint16: 4095), else of ``camera`` (the scene's
     ``bit_depth``); None where neither tells (the storage type's maximum then)."""

@@ -11,8 +11,11 @@ from inspect_validate.errors import InputError
 from inspect_validate.verification.measured import station_regions
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
     from inspect_validate.comparisons import Comparisons
     from inspect_validate.roi import RoiSet
+    from inspect_validate.station.file import Station
     from inspect_validate.station.model import StationModel
     from inspect_validate.verification.golden import Golden
 
@@ -34,7 +37,7 @@ class Plan:
     name → why; listed as skipped."""
 
 
-def plan_verification(station, *, drift_checks: bool = True) -> Plan:
+def plan_verification(station: Station, *, drift_checks: bool = True) -> Plan:
     """Check ``station``'s scene, channels, ROIs, comparisons, acceptance and golden file;
     ``drift_checks``: that the golden file's repeats can set the drift checks' limits at
     the acceptance's false-alarm rate (``watch`` charts drift instead, and checks its
@@ -109,7 +112,14 @@ def plan_verification(station, *, drift_checks: bool = True) -> Plan:
     return Plan(rois, comparisons, replace(model, scene=scene), golden)
 
 
-def planned_tests(station, classes, comparisons, golden=None, *, drift: bool = False) -> int:
+def planned_tests(
+    station: Station,
+    classes: Sequence[str],
+    comparisons: Sequence[str],
+    golden: Golden | None = None,
+    *,
+    drift: bool = False,
+) -> int:
     """How many checks of ``station``'s acceptance will share its false-alarm rate
     (:func:`~.checks.decide`), counted before any frame: every statistical and tolerance
     check it asks for on the ROI ``classes`` and ``comparisons`` (labels), the drift

@@ -27,9 +27,17 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike
+
+if TYPE_CHECKING:
+    from collections.abc import Iterable
+
+    from inspect_validate.comparisons import Comparisons
+    from inspect_validate.measurement import Measurement
+    from inspect_validate.model import Prediction
 
 __all__ = [
     "StandardErrors",
@@ -79,10 +87,10 @@ def separation_standard_errors(
     variances: ArrayLike,
     se_means,
     se_variances,
-    comparisons,
+    comparisons: Comparisons,
     *,
-    pixels=None,
-    mixtures=None,
+    pixels: ArrayLike | None = None,
+    mixtures: Iterable[int] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """SE of every comparison's SNR_dB, CNR_dB (dB) and log₁₀ ε Gauss (decades), by
     central differences over ± one standard error of each class's μ and σ².
@@ -131,7 +139,9 @@ def separation_standard_errors(
     return tuple(out)
 
 
-def measured_standard_errors(measurement, comparisons, *, mixtures=None) -> StandardErrors:
+def measured_standard_errors(
+    measurement: Measurement, comparisons: Comparisons, *, mixtures: Iterable[int] | None = None
+) -> StandardErrors:
     """:class:`StandardErrors` of a :class:`~inspect_validate.measurement.Measurement`
     from its pixels and frames; ``comparisons`` are the ones it was measured with,
     ``mixtures`` as in :func:`separation_standard_errors`."""
@@ -150,7 +160,11 @@ def measured_standard_errors(measurement, comparisons, *, mixtures=None) -> Stan
 
 
 def predicted_standard_errors(
-    prediction, light: int, comparisons, *, mixtures=None
+    prediction: Prediction,
+    light: int,
+    comparisons: Comparisons,
+    *,
+    mixtures: Iterable[int] | None = None,
 ) -> StandardErrors:
     """:class:`StandardErrors` of a prediction's classes under light ``light`` (of its
     first optics and camera) from each class's reflectance samples; ``mixtures`` as in

@@ -39,19 +39,22 @@ from inspect_validate.verification.plan import Plan, plan_verification
 from inspect_validate.verification.results import Verification
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    from inspect_validate.station.file import Station
     from inspect_validate.verification.measured import Capture
 
 __all__ = ["verify_capture", "verify_folder", "verify_station"]
 
 
 def verify_station(
-    station,
+    station: Station,
     *,
     frames: Path | None = None,
     out: Path | None = None,
     skip_dominated: bool = True,
-    capture=None,
-    notify=None,
+    capture: Callable[..., object] | None = None,
+    notify: Callable[[str], None] | None = None,
 ) -> Verification:
     """Verify ``station`` end to end: plan (a mistake in the station file costs no
     capture), capture into ``out`` unless ``frames`` (an earlier capture) is given, and
@@ -79,7 +82,9 @@ def verify_station(
         used. DeviceError: a device that fails while capturing.
     """
     if capture is None:
-        from inspect_validate.station.capture import capture
+        from inspect_validate.station.capture import capture as default_capture
+
+        capture = default_capture
     notify = notify or (lambda message: None)
     plan = plan_verification(station)
     full = station
@@ -117,7 +122,7 @@ def verify_station(
     return result
 
 
-def verify_folder(station, frames_dir: Path, *, plan: Plan | None = None) -> Verification:
+def verify_folder(station: Station, frames_dir: Path, *, plan: Plan | None = None) -> Verification:
     """Verify ``station`` (a :class:`~inspect_validate.station.file.Station`) on the capture
     in ``frames_dir``; ``plan`` is :func:`plan_verification` of it, made here if not given.
 
@@ -141,7 +146,7 @@ def verify_folder(station, frames_dir: Path, *, plan: Plan | None = None) -> Ver
 
 
 def verify_capture(
-    station, capture: Capture, *, plan: Plan, folder: Path | None = None
+    station: Station, capture: Capture, *, plan: Plan, folder: Path | None = None
 ) -> Verification:
     """Verify ``station`` on a capture already measured in its regions
     (:func:`~.measured.measure_capture`, with ``plan``'s regions and comparisons, the
@@ -253,13 +258,13 @@ def verify_capture(
     )
     inputs = {
         "station": str(station.path),
-        "station_sha256": station_hash(station.path),
+        "station_sha256": station_hash(station.file),
         "capture": None if folder is None else str(folder),
         "capture_station_sha256": manifest.get("station_sha256"),
         "frames": {k: [str(p) for p in v] for k, v in files.items()},
         "dark": [str(p) for p in dark_files],
         "rois": rois.source,
-        "golden": str(station.resolve(acc.drift.golden)) if golden else None,
+        "golden": str(station.resolve(acc.drift.golden)) if golden and acc.drift else None,
         "scene": str(station.resolve(station.scene)),
     }
     acquisition = acquisition_record(manifest, {**files, "dark": dark_files})
