@@ -29,8 +29,9 @@ the file: that is a measurement to repeat, not a candidate to skip.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -390,7 +391,7 @@ def predict(
     )
 
 
-def nothing_predictable(reasons, n_bad: int) -> InputError:
+def nothing_predictable(reasons: Sequence[str], n_bad: int) -> InputError:
     """The error of a scene none of whose combinations can be predicted."""
     return InputError(
         "no combination of the scene can be predicted:\n  "
@@ -398,7 +399,7 @@ def nothing_predictable(reasons, n_bad: int) -> InputError:
     )
 
 
-def skipped_reasons(reasons, n_bad: int) -> tuple[str, ...]:
+def skipped_reasons(reasons: Sequence[str], n_bad: int) -> tuple[str, ...]:
     """The first :data:`_MAX_REASONS` reasons, then how many more combinations were skipped."""
     listed = tuple(reasons[:_MAX_REASONS])
     if n_bad > len(listed):
@@ -417,7 +418,12 @@ def _fixed_pattern(mu_e, cam):
     return cam["gain"] ** 2 * (cam["dsnu"] ** 2 + (cam["prnu"] * mu_e) ** 2)
 
 
-def grey_value(mu_e, gain, dark_noise, dark_offset):
+def grey_value(
+    mu_e: np.ndarray | float,
+    gain: np.ndarray | float,
+    dark_noise: np.ndarray | float,
+    dark_offset: np.ndarray | float,
+) -> tuple[Any, Any]:
     """Mean (DN) and temporal variance (DN²) of the grey value of ``mu_e`` mean
     photo-electrons (EMVA 1288, before clipping): offset + K μ_e and
     K² (σ_d² + μ_e) + 1/12 DN², K in DN/e⁻ and σ_d in e⁻."""

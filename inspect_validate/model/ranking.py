@@ -14,9 +14,12 @@ combination that does not, whatever its key. Skipped combinations
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import Protocol
+
 import numpy as np
 
-from inspect_validate.comparisons import find_comparison
+from inspect_validate.comparisons import Comparisons, find_comparison
 from inspect_validate.model.acquisition import Prediction
 from inspect_validate.stats import as_sample, lscv_bandwidth
 from inspect_validate.stats.kde_error import Mixture, mixture_error
@@ -33,7 +36,9 @@ def comparison_index(prediction: Prediction, label: str) -> int:
     return find_comparison(prediction.comparisons, label)
 
 
-def rank_keys(prediction: Prediction, *, by: str = "error", comparison: str | None = None):
+def rank_keys(
+    prediction: Prediction, *, by: str = "error", comparison: str | None = None
+) -> tuple[tuple[np.ndarray, ...], np.ndarray, np.ndarray, np.ndarray]:
     """Each combination's sort keys, flat in ``[light, optics, camera]`` order.
 
     Returns
@@ -71,14 +76,16 @@ def rank_keys(prediction: Prediction, *, by: str = "error", comparison: str | No
     return keys, key, column, saturated
 
 
-def ranked(keys, valid) -> np.ndarray:
+def ranked(keys: Sequence[np.ndarray], valid: np.ndarray) -> np.ndarray:
     """Flat indices of the ``valid`` combinations, best first, from :func:`rank_keys`'s
     ``keys`` (a stable sort: ties keep the order of the combinations)."""
     idx = np.flatnonzero(np.ravel(valid))
     return idx[np.lexsort(tuple(k[idx] for k in keys))]
 
 
-def rank(prediction: Prediction, *, by: str = "error", comparison: str | None = None):
+def rank(
+    prediction: Prediction, *, by: str = "error", comparison: str | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Combinations best first: unsaturated before saturated, then by the key.
 
     Returns
@@ -99,7 +106,23 @@ def rank(prediction: Prediction, *, by: str = "error", comparison: str | None = 
     return combos, key[order], column[order], saturated[order]
 
 
-def predicted_kde_error(prediction, index, column: int) -> float:
+class SampleValues(Protocol):
+    """What :func:`predicted_kde_error` reads: a :class:`Prediction`'s or a ranking's
+    per-sample grey values and its comparisons."""
+
+    @property
+    def sample_mean(self) -> np.ndarray | None: ...
+    @property
+    def sample_variance(self) -> np.ndarray | None: ...
+    @property
+    def sample_class(self) -> np.ndarray: ...
+    @property
+    def comparison_set(self) -> Comparisons: ...
+
+
+def predicted_kde_error(
+    prediction: SampleValues, index: tuple[int, int, int] | int, column: int
+) -> float:
     """Nonparametric ε (37) of one combination and comparison.
 
     ``prediction`` is a :class:`~inspect_validate.model.Prediction` (``index``
@@ -111,6 +134,8 @@ def predicted_kde_error(prediction, index, column: int) -> float:
     widened by the LSCV bandwidth of the sample values (with ≥ 5 samples) —
     no assumption that a class is Gaussian.
     """
+    if prediction.sample_mean is None or prediction.sample_variance is None:
+        raise ValueError("the prediction holds no per-sample grey values (predict them first)")
     means = prediction.sample_mean[index]
     noise = prediction.sample_variance[index]
     class_weights = prediction.comparison_set.class_weights()

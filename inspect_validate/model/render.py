@@ -12,12 +12,17 @@ frame with the ROI file written next to it gives back the predicted μ and σ².
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from inspect_validate import __version__
 from inspect_validate.model.acquisition import Prediction, grey_value
+
+if TYPE_CHECKING:
+    from inspect_validate.components.sensors import SensorModel
 
 __all__ = [
     "class_bands",
@@ -31,14 +36,16 @@ __all__ = [
 BAND_GAP = 8  # pixels of dark background between class bands
 
 
-def class_bands(classes, *, height: int, width: int, gap: int = BAND_GAP) -> dict:
+def class_bands(classes: Sequence[str], *, height: int, width: int, gap: int = BAND_GAP) -> dict:
     """Class name → (x, y, width, height) of its horizontal band, ``gap`` pixels apart."""
     k = len(classes)
     band_h = (height - gap * (k + 1)) // k
     return {name: (0, gap + c * (band_h + gap), width, band_h) for c, name in enumerate(classes)}
 
 
-def sensor_pattern(camera, shape, *, rng) -> tuple[np.ndarray, np.ndarray] | None:
+def sensor_pattern(
+    camera: SensorModel, shape: tuple[int, ...], *, rng: np.random.Generator
+) -> tuple[np.ndarray, np.ndarray] | None:
     """The camera's fixed pattern over a frame of ``shape``: each pixel's gain factor
     1 + PRNU·N(0, 1) and dark signal DSNU·N(0, 1), e⁻ (EMVA 1288 release 4.0, §8); the
     same in every frame of one camera. None for a camera without non-uniformities."""
@@ -52,12 +59,12 @@ def sensor_pattern(camera, shape, *, rng) -> tuple[np.ndarray, np.ndarray] | Non
 
 def expose(
     electrons: np.ndarray,
-    camera,
+    camera: SensorModel,
     *,
-    rng,
+    rng: np.random.Generator,
     gain: float | None = None,
     exposure_s: float = 0.0,
-    pattern=None,
+    pattern: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> np.ndarray:
     """Grey values of pixels with mean photo-electrons ``electrons``, EMVA 1288 noise model.
 
@@ -79,11 +86,11 @@ def expose(
 
 def expected_grey(
     electrons: np.ndarray,
-    camera,
+    camera: SensorModel,
     *,
     gain: float | None = None,
     exposure_s: float = 0.0,
-    pattern=None,
+    pattern: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Expected grey value and temporal variance of each pixel that :func:`expose` renders.
 
@@ -125,8 +132,14 @@ def expected_grey(
 
 
 def render_frame(
-    p: Prediction, index, *, cameras, height: int = 480, width: int = 640, seed: int = 0
-):
+    p: Prediction,
+    index: tuple[int, int, int],
+    *,
+    cameras: Sequence[SensorModel],
+    height: int = 480,
+    width: int = 640,
+    seed: int = 0,
+) -> tuple[np.ndarray, dict[str, tuple[int, int, int, int]]]:
     """A frame (uint16 DN) and the band of each class for combination ``index`` = (light, optics, camera).
 
     Returns
@@ -161,7 +174,13 @@ def render_frame(
 
 
 def write_rendered(
-    p: Prediction, index, folder: Path, *, cameras, stem: str, seed: int = 0
+    p: Prediction,
+    index: tuple[int, int, int],
+    folder: Path,
+    *,
+    cameras: Sequence[SensorModel],
+    stem: str,
+    seed: int = 0,
 ) -> tuple[Path, Path]:
     """Write ``stem.tif`` (16-bit, description = JSON metadata) and ``stem_rois.yaml``."""
     import tifffile

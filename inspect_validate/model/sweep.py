@@ -24,7 +24,9 @@ from __future__ import annotations
 import contextlib
 import itertools
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -42,6 +44,12 @@ from inspect_validate.model.acquisition import (
 )
 from inspect_validate.model.ranking import rank_keys, ranked
 from inspect_validate.stats.gaussian_error import LOAD_MIN, load_kernel
+
+if TYPE_CHECKING:
+    from inspect_validate.components.lights import Light
+    from inspect_validate.components.optics import Optics
+    from inspect_validate.components.sensors import SensorModel
+    from inspect_validate.model.acquisition import ObjectClass
 
 __all__ = ["Ranking", "dask_client", "sweep"]
 
@@ -123,10 +131,10 @@ class Ranking(_Combinations):
 
 
 def sweep(
-    lights,
-    optics,
-    cameras,
-    classes,
+    lights: Sequence[Light],
+    optics: Sequence[Optics],
+    cameras: Sequence[SensorModel],
+    classes: Sequence[ObjectClass],
     *,
     exposure: Exposure | None = None,
     grid: np.ndarray,
@@ -135,7 +143,7 @@ def sweep(
     comparison: str | None = None,
     top: int = 10,
     memory: int = MEMORY,
-    client=None,
+    client: Any = None,
 ) -> Ranking:
     """Predict every light × optics × camera combination in blocks and rank them.
 
@@ -314,7 +322,7 @@ def _on_dask(client, chain, blocks, options):
 
 
 @contextlib.contextmanager
-def dask_client(address: str):
+def dask_client(address: str) -> Any:
     """A Dask client: ``"local"`` starts a LocalCluster on this machine (a worker
     process per core), anything else is a scheduler's address (``tcp://host:8786``).
 
