@@ -53,6 +53,9 @@ from inspect_validate.components.sensors import BIT_DEPTHS
 from inspect_validate.config import StrictModel, load_yaml, one_of
 from inspect_validate.errors import InputError
 
+if TYPE_CHECKING:
+    from inspect_validate.model import Prediction, Ranking
+
 __all__ = ["IRRADIANCE_BAND", "MAX_GRID_POINTS", "Scene", "read_scene"]
 
 IRRADIANCE_BAND = (380.0, 780.0)
@@ -477,7 +480,7 @@ class Scene:
                 raise
             raise InputError(str(exc), source=self.source) from None
 
-    def predict(self, *, grid: np.ndarray | None = None):
+    def predict(self, *, grid: np.ndarray | None = None) -> Prediction:
         """:func:`inspect_validate.model.predict` for every combination of this scene."""
         from inspect_validate.model import predict
 
@@ -491,8 +494,8 @@ class Scene:
         by: str | None = None,
         comparison: str | None = None,
         top: int = 10,
-        client=None,
-    ):
+        client: Any = None,
+    ) -> Ranking:
         """:func:`inspect_validate.model.sweep` of every combination of this scene, ranked as
         ``inspect-validate predict`` ranks it: by the scene's ``rank:`` unless ``by``
         (``"error"``, ``"snr_db"``, ``"cnr_db"``) and ``comparison`` (``"A vs B,C"``) say

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Collection
+from typing import TextIO
 
 __all__ = ["LINE_WIDTH", "format_error", "labelled", "render_table", "terminal_width"]
 
@@ -12,7 +14,7 @@ LINE_WIDTH = 100
 """Longest line of running text the commands print (tables are as wide as their cells)."""
 
 
-def terminal_width(stream) -> int | None:
+def terminal_width(stream: TextIO | None) -> int | None:
     """The width to keep lines within on ``stream``: :data:`LINE_WIDTH` or a narrower
     terminal's; None into a file or a pipe (lines stay whole there)."""
     import shutil
@@ -22,7 +24,7 @@ def terminal_width(stream) -> int | None:
     return max(40, min(LINE_WIDTH, shutil.get_terminal_size((LINE_WIDTH, 24)).columns))
 
 
-def labelled(label: str, text: str, *, stream=None) -> str:
+def labelled(label: str, text: str, *, stream: TextIO | None = None) -> str:
     """``label: text``, wrapped at :data:`LINE_WIDTH` (or a narrower terminal) with the
     continuation lines indented where ``stream`` (default: stderr) is a terminal: notes
     and skipped work read as paragraphs there, not as 250-character lines. Into a file
@@ -59,7 +61,9 @@ def format_error(value: float | None, log_value: float | None = None) -> str:
 _NUMBER = re.compile(r"^[-+−]?(\d|\.\d|inf|nan)|^[-—]$")
 
 
-def render_table(header: list[str], rows: list[list[str]], *, left=None) -> str:
+def render_table(
+    header: list[str], rows: list[list[str]], *, left: Collection[int] | None = None
+) -> str:
     """Columns padded to their widest cell: text flush left, numbers flush right. A
     column is text (``left``: its indices, default: found) unless most of its cells
     begin as a number does (a dash: none)."""

@@ -47,12 +47,17 @@ if TYPE_CHECKING:
     from inspect_validate.components.optics import Optics
     from inspect_validate.components.sensors import SensorModel
     from inspect_validate.model import ObjectClass
+    from inspect_validate.station.file import Station
+    from inspect_validate.station.model import StationModel
+    from inspect_validate.station.world import World
 from inspect_validate.model.render import class_bands, expected_grey, expose, sensor_pattern
 
 __all__ = ["SimulatedGrabber", "lit_by_simulator", "scene_grabber"]
 
 
-def world_components(model, world) -> tuple[dict, Optics, SensorModel, list[ObjectClass]]:
+def world_components(
+    model: StationModel, world: World
+) -> tuple[dict, Optics, SensorModel, list[ObjectClass]]:
     """The simulated world: the station's components with ``world``'s deviations.
 
     Returns the channel lights (with an always-on ambient light as channel 0
@@ -152,10 +157,10 @@ class SimulatedGrabber(Grabber):
 
     def __init__(
         self,
-        model,
+        model: StationModel,
         state_path: Path,
         *,
-        world=None,
+        world: World | None = None,
         width: int = 320,
         height: int = 240,
         latency: int = 2,
@@ -169,7 +174,8 @@ class SimulatedGrabber(Grabber):
         from inspect_validate.spectra import Spectrum, SpectrumKind
         from inspect_validate.station.world import World
 
-        world = world or World()
+        self.world: World = world or World()
+        world = self.world
         self.name = f"simulated camera ({model.scene_sensor.name})"
         self.missing = set()
         self.state_path = Path(state_path)
@@ -230,7 +236,6 @@ class SimulatedGrabber(Grabber):
             ((height - 1) / 2) ** 2 + ((width - 1) / 2) ** 2
         )
         self._falloff = (1.0 - world.vignetting * r2) * world.exposure
-        self.world = world
         self._frozen: np.ndarray | None = None  # the frame a frozen camera repeats
         self.pipeline: deque = deque()
         self.acquisition, self.chunks = "free-run", False
@@ -455,7 +460,7 @@ class SimulatedGrabber(Grabber):
         )
 
 
-def lit_by_simulator(station, state_path: Path | None) -> None:
+def lit_by_simulator(station: Station, state_path: Path | None) -> None:
     """Refuse a camera that renders the scene without the simulated controller, whose
     state file says which lights are on."""
     if state_path is None:
@@ -466,7 +471,9 @@ def lit_by_simulator(station, state_path: Path | None) -> None:
         )
 
 
-def scene_grabber(station, state_path: Path | None, target: str = "scene") -> SimulatedGrabber:
+def scene_grabber(
+    station: Station, state_path: Path | None, target: str = "scene"
+) -> SimulatedGrabber:
     """The simulated camera of the station's scene, lit by the simulated controller's state."""
     spec = station.camera
     lit_by_simulator(station, state_path)

@@ -41,6 +41,7 @@ import socket
 import sys
 import time
 import tty
+from collections.abc import Sequence
 from pathlib import Path
 
 UNKNOWN, MALFORMED, RANGE = 1, 2, 3
@@ -157,7 +158,7 @@ class Controller:
         return "OK"
 
 
-def serve(master: int, controller: Controller, args) -> None:
+def serve(master: int, controller: Controller, args: argparse.Namespace) -> None:
     """Answer command lines on the file descriptor ``master`` (a pseudo-terminal's
     master side or a connected socket) until it closes."""
     pending = b""
@@ -220,7 +221,7 @@ def end_with_parent(state_folder: Path | None = None) -> None:
             leave()
 
 
-def main(argv=None) -> None:
+def main(argv: Sequence[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--state", type=Path, required=True)
     parser.add_argument("--channels", type=int, default=4)

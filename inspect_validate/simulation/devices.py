@@ -11,8 +11,9 @@ import os
 import subprocess
 import sys
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 from inspect_validate.camera.grabbers.aravis import AravisSettings
 from inspect_validate.camera.grabbers.pylon import PylonSettings
@@ -20,6 +21,16 @@ from inspect_validate.camera.registry import Backend, Opening
 from inspect_validate.camera.settings import AsciiProtocol, CameraSettings, ControllerSettings
 from inspect_validate.errors import DeviceError, InputError
 from inspect_validate.station.world import Rendered
+
+if TYPE_CHECKING:
+    # The sections a station file reads for a camera with a simulator: the backend's
+    # settings and Rendered's (station.file composes them at run time).
+    class RenderedPylon(PylonSettings, Rendered): ...
+
+    class RenderedAravis(AravisSettings, Rendered): ...
+
+    from inspect_validate.camera.controllers.base import LedController
+    from inspect_validate.camera.grabbers.base import Grabber
 
 __all__ = [
     "ARAVIS_FAKE",
@@ -50,7 +61,9 @@ class SimulatedCameraSettings(CameraSettings, Rendered):
 
 
 @contextlib.contextmanager
-def open_simulated_controller(settings: SimulatedControllerSettings, opening: Opening):
+def open_simulated_controller(
+    settings: SimulatedControllerSettings, opening: Opening
+) -> Iterator[LedController]:
     """Start the simulated Gardasoft process on a pseudo-terminal and talk to it over
     pyserial; the controller yielded carries ``state_path``, the simulator's state file
     (which lights are on) that a simulated camera renders under."""
@@ -99,13 +112,13 @@ def open_simulated_controller(settings: SimulatedControllerSettings, opening: Op
                 proc.stdout.close()  # else a ResourceWarning reaches the terminal
 
 
-def open_simulated_camera(settings: SimulatedCameraSettings, opening: Opening):
+def open_simulated_camera(settings: SimulatedCameraSettings, opening: Opening) -> Grabber:
     from inspect_validate.simulation.camera import scene_grabber
 
     return scene_grabber(opening.station, opening.state, opening.target)
 
 
-def open_pylon_emulator(settings, opening: Opening):
+def open_pylon_emulator(settings: RenderedPylon, opening: Opening) -> Grabber:
     """The station's simulated scene through pylon's camera emulator (``simulate: true``)."""
     from inspect_validate.camera.grabbers.emulator_feed import EmulatorFeed
     from inspect_validate.camera.grabbers.pylon import PylonGrabber
@@ -125,7 +138,7 @@ def open_pylon_emulator(settings, opening: Opening):
 
 
 @contextlib.contextmanager
-def open_aravis_fake(settings, opening: Opening):
+def open_aravis_fake(settings: RenderedAravis, opening: Opening) -> Iterator[Grabber]:
     """Aravis' fake GigE Vision camera in a process of its own on ``lo``, streaming the
     station's scene under the simulated controller's lights, opened through Aravis
     (``simulate: true``)."""

@@ -25,9 +25,14 @@ import argparse
 import ctypes
 import signal
 import sys
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from inspect_validate.simulation.camera import SimulatedGrabber
 
 __all__ = ["SENSOR", "main", "scene_fill"]
 
@@ -66,7 +71,7 @@ def _library():
     return lib
 
 
-def scene_fill(lib, renderer):
+def scene_fill(lib: ctypes.CDLL, renderer: SimulatedGrabber) -> Callable[..., None]:
     """A fill-pattern callback that writes ``renderer``'s frame of the scene under the
     controller's current lights into each buffer (Mono8: clipped to 255; Mono16: the
     DN as rendered), cropped or zero-padded to the buffer's width and height."""
@@ -90,7 +95,7 @@ def scene_fill(lib, renderer):
     return _FILL(fill)
 
 
-def main(argv=None) -> None:
+def main(argv: Sequence[str] | None = None) -> None:
     """Run Aravis' GigE Vision fake camera until killed; prints ``ready`` once it listens."""
     parser = argparse.ArgumentParser(description=(main.__doc__ or "").splitlines()[0])
     parser.add_argument("serial")

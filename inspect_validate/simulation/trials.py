@@ -30,6 +30,7 @@ import numpy as np
 
 if TYPE_CHECKING:
     from inspect_validate.station.file import Station
+    from inspect_validate.station.model import StationModel
     from inspect_validate.station.world import World
     from inspect_validate.verification.measured import Capture
     from inspect_validate.verification.plan import Plan
@@ -85,8 +86,8 @@ def render_capture(
     world: World,
     seed: int,
     sensor_seed: int | None = None,
-    noise_seed=None,
-    renderer_model=None,
+    noise_seed: int | None = None,
+    renderer_model: StationModel | None = None,
 ) -> Capture:
     """One capture of ``station``'s simulated camera in ``world``, measured in ``plan``'s
     regions: ``station.frames`` frames per illumination and ``station.dark_frames`` darks,

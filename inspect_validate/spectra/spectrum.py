@@ -10,6 +10,7 @@ variance). Values that are invalid (e.g. where the white reference was ≤ 0 in
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from enum import StrEnum
 
@@ -116,7 +117,9 @@ class Spectrum:
                 )
         return out
 
-    def with_values(self, values, *, name: str | None = None, notes=()) -> Spectrum:
+    def with_values(
+        self, values: np.ndarray, *, name: str | None = None, notes: Iterable[str] = ()
+    ) -> Spectrum:
         """A copy with new values on the same wavelengths."""
         return Spectrum(
             self.wavelengths,

@@ -11,7 +11,11 @@ from inspect_validate.camera.storage import CaptureStore
 from inspect_validate.station.file import station_hash
 
 if TYPE_CHECKING:
+    from contextlib import AbstractContextManager
+
     from inspect_validate.camera.capture import Progress
+    from inspect_validate.camera.controllers.base import LedController
+    from inspect_validate.camera.grabbers.base import Grabber
     from inspect_validate.station.file import Station
 
 __all__ = ["capture", "station_steps"]
@@ -31,7 +35,7 @@ def capture(
     *,
     resume: bool = False,
     progress: Progress | None = None,
-    devices=None,
+    devices: AbstractContextManager[tuple[LedController, Grabber]] | None = None,
     steps: list[Step] | None = None,
 ) -> CaptureResult:
     """Run the station's capture sequence into ``out``.

@@ -8,12 +8,15 @@ from __future__ import annotations
 import re
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from inspect_validate.camera.grabbers.base import Features
 from inspect_validate.camera.pixelformats import BIT_DEPTH, PACKED
 from inspect_validate.errors import InputError
 from inspect_validate.station.file import Station
+
+if TYPE_CHECKING:
+    from inspect_validate.scene import Scene
 
 __all__ = ["draft_station", "fitting_exposure_us", "pixel_format_for"]
 
@@ -34,7 +37,7 @@ def draft_station(
     rois: str | Path | None = None,
     name: str | None = None,
     path: Path | None = None,
-    parsed=None,
+    parsed: Scene | None = None,
 ) -> Station:
     """A station of ``scene`` with these ``camera`` and ``controller`` sections: each
     channel (default: the scene's lights, in order, on channels 1, 2, …) drives its light
@@ -119,7 +122,7 @@ def fitting_exposure_us(
     *,
     target: float = EXPOSURE_TARGET,
     limits: tuple[float, float] | None = None,
-    scene=None,
+    scene: Scene | None = None,
 ) -> float | None:
     """The exposure [µs] at which the scene predicts the brightest class of the brightest
     illumination at ``target`` × saturation (the model's automatic exposure: the sensor

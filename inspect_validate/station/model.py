@@ -31,9 +31,14 @@ from inspect_validate.errors import InputError
 from inspect_validate.spectra import Spectrum, SpectrumKind
 
 if TYPE_CHECKING:
+    from collections.abc import Mapping
+
+    from inspect_validate.comparisons import Comparisons
     from inspect_validate.components.optics import Optics
     from inspect_validate.components.sensors import SensorModel
+    from inspect_validate.model import Prediction
     from inspect_validate.scene import Scene
+    from inspect_validate.station.file import Station
 
 __all__ = ["StationModel", "illumination_light", "station_model"]
 
@@ -69,7 +74,7 @@ class StationModel:
     scene_sensor: SensorModel  # as the scene declares it
     exposure_time: float | None
 
-    def lights(self, station, *, scale=None) -> list[Light]:
+    def lights(self, station: Station, *, scale: Mapping[str, float] | None = None) -> list[Light]:
         """One light per illumination of ``station``; ``scale`` (name → factor) multiplies
         each illumination's irradiance (a calibration)."""
         scale = scale or {}
@@ -84,7 +89,13 @@ class StationModel:
             for i in station.illuminations
         ]
 
-    def predict(self, station, *, scale=None, comparisons=None):
+    def predict(
+        self,
+        station: Station,
+        *,
+        scale: Mapping[str, float] | None = None,
+        comparisons: Comparisons | None = None,
+    ) -> Prediction:
         """:func:`~inspect_validate.model.predict` of every illumination, shape (L, 1, 1)."""
         from inspect_validate.model import Exposure, predict
 
@@ -123,7 +134,7 @@ def _pick(items, name, *, what, field, source):
     )
 
 
-def station_model(station, scene=None) -> StationModel:
+def station_model(station: Station, scene: Scene | None = None) -> StationModel:
     """The scene components of ``station`` (a :class:`~inspect_validate.station.file.Station`).
 
     Raises

@@ -19,8 +19,12 @@ from ending a step.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from inspect_validate.roi.roiset import RoiSet
 
 __all__ = ["Known", "SequentialStop"]
 
@@ -56,7 +60,7 @@ class SequentialStop:
         Frames before the first check.
     """
 
-    def __init__(self, rois, *, mean: float, variance: float, min_frames: int) -> None:
+    def __init__(self, rois: RoiSet, *, mean: float, variance: float, min_frames: int) -> None:
         self._rois = rois
         self._masks: dict[str, np.ndarray] | None = None
         self._target = (mean, variance)
