@@ -45,7 +45,10 @@ import numpy as np
 from inspect_validate.errors import InputError
 
 if TYPE_CHECKING:
-    from inspect_validate.mix_design.mix import Mix
+    from collections.abc import Callable
+
+    from inspect_validate.comparisons import Comparisons
+    from inspect_validate.mix_design.mix import ChannelResponse, Mix
 
 __all__ = ["EXHAUSTIVE_MAX", "POOL_MAX", "Choice", "choose_channels"]
 
@@ -82,15 +85,15 @@ class Choice:
 
 
 def choose_channels(
-    response,
-    comparisons,
+    response: ChannelResponse,
+    comparisons: Comparisons,
     k: int,
     *,
     objective: str = "error",
     max_saturated: float = 1e-3,
     max_level: float = 1.0,
     exhaustive_max: int = EXHAUSTIVE_MAX,
-    progress=None,
+    progress: Callable[[int, int], None] | None = None,
 ) -> Choice:
     """The ``k`` channels of ``response`` whose optimal mix is best: lowest worst ε, or
     highest worst CNR.

@@ -48,16 +48,21 @@ and rescales (:func:`~inspect_validate.mix_design.solve.solve`).
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import cached_property
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, Literal, overload
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from inspect_validate.errors import InputError
 
 if TYPE_CHECKING:
+    from inspect_validate.comparisons import Comparisons
+    from inspect_validate.components.optics import Optics
     from inspect_validate.components.sensors import SensorModel
+    from inspect_validate.model.acquisition import ObjectClass
 
 __all__ = [
     "JOINT_MAX",
@@ -118,7 +123,7 @@ class ChannelResponse:
         """:func:`single_losses` already computed, by its arguments."""
         return {}
 
-    def subset(self, channels) -> ChannelResponse:
+    def subset(self, channels: Sequence[int]) -> ChannelResponse:
         """The response of ``channels`` (indices) only, its class statistics sliced, not
         recomputed."""
         idx = np.asarray(channels, dtype=int)
@@ -127,7 +132,7 @@ class ChannelResponse:
         sub.__dict__["class_statistics"] = (m[:, idx], c[:, idx][:, :, idx])
         return sub
 
-    def signal(self, levels) -> np.ndarray:
+    def signal(self, levels: ArrayLike) -> np.ndarray:
         """Each sample's mean signal K·μ_e above the dark offset at ``levels``, DN."""
         return self.sensor.gain * (np.asarray(levels, float) @ self.electrons)
 
@@ -145,8 +150,14 @@ class ChannelResponse:
 
 
 def channel_response(
-    channels: dict, optics, sensor, classes, *, grid: np.ndarray, exposure_time: float
-):
+    channels: dict,
+    optics: Optics,
+    sensor: SensorModel,
+    classes: Sequence[ObjectClass],
+    *,
+    grid: np.ndarray,
+    exposure_time: float,
+) -> ChannelResponse:
     """:class:`ChannelResponse` of scene lights (label → Light with its irradiance) through
     ``optics`` onto ``sensor`` at ``exposure_time`` s.
 
@@ -179,7 +190,9 @@ def channel_response(
     return ChannelResponse(np.ascontiguousarray(electrons), np.asarray(p.sample_class), sensor)
 
 
-def mix_moments(response: ChannelResponse, levels, *, jacobian: bool = False):
+def mix_moments(
+    response: ChannelResponse, levels: ArrayLike, *, jacobian: bool = False
+) -> tuple[np.ndarray, ...]:
     """Class means (DN) and variances (DN²) at drive ``levels`` (N,), before clipping;
     with ``jacobian`` also ∂μ/∂w and ∂σ²/∂w, (K, N) each."""
     from inspect_validate.model.acquisition import QUANTISATION_VARIANCE
@@ -196,7 +209,29 @@ def mix_moments(response: ChannelResponse, levels, *, jacobian: bool = False):
     return mean, variance, cam.gain * m, k2 * (2.0 * cw + m)
 
 
-def comparison_errors(response, levels, comparisons, *, gradient: bool = False):
+@overload
+def comparison_errors(
+    response: ChannelResponse,
+    levels: ArrayLike,
+    comparisons: Comparisons,
+    *,
+    gradient: Literal[False] = False,
+) -> np.ndarray: ...
+@overload
+def comparison_errors(
+    response: ChannelResponse,
+    levels: ArrayLike,
+    comparisons: Comparisons,
+    *,
+    gradient: Literal[True],
+) -> tuple[np.ndarray, np.ndarray]: ...
+def comparison_errors(
+    response: ChannelResponse,
+    levels: ArrayLike,
+    comparisons: Comparisons,
+    *,
+    gradient: bool = False,
+) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
     """ε_tot (37) of every comparison at ``levels``, (P,); with ``gradient`` also ∂ε/∂w, (P, N).
 
     Comparisons of one class against one class are evaluated together in closed
@@ -240,7 +275,29 @@ def comparison_errors(response, levels, comparisons, *, gradient: bool = False):
     return (errors, grads) if gradient else errors
 
 
-def comparison_cnr(response, levels, comparisons, *, gradient: bool = False):
+@overload
+def comparison_cnr(
+    response: ChannelResponse,
+    levels: ArrayLike,
+    comparisons: Comparisons,
+    *,
+    gradient: Literal[False] = False,
+) -> np.ndarray: ...
+@overload
+def comparison_cnr(
+    response: ChannelResponse,
+    levels: ArrayLike,
+    comparisons: Comparisons,
+    *,
+    gradient: Literal[True],
+) -> tuple[np.ndarray, np.ndarray]: ...
+def comparison_cnr(
+    response: ChannelResponse,
+    levels: ArrayLike,
+    comparisons: Comparisons,
+    *,
+    gradient: bool = False,
+) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
     """CNR |μ₁ − μ₂| / √(σ₁² + σ₂²) of every comparison at ``levels``, (P,), each side the
     moments of its classes' mixture; with ``gradient`` also ∂CNR/∂w, (P, N)."""
     mean, var, d_mean, d_var = mix_moments(response, levels, jacobian=True)
@@ -269,8 +326,13 @@ def comparison_cnr(response, levels, comparisons, *, gradient: bool = False):
 
 
 def comparison_losses(
-    response, levels, comparisons, *, objective: str = "error", gradient: bool = False
-):
+    response: ChannelResponse,
+    levels: ArrayLike,
+    comparisons: Comparisons,
+    *,
+    objective: str = "error",
+    gradient: bool = False,
+) -> Any:
     """What :func:`optimise_mix` minimises per comparison, (P,): log ε_tot, or −log CNR;
     with ``gradient`` also its ∂/∂w, (P, N)."""
     if objective not in OBJECTIVES:
@@ -332,15 +394,15 @@ class Mix:
 
 def optimise_mix(
     response: ChannelResponse,
-    comparisons,
+    comparisons: Comparisons,
     *,
     objective: str = "error",
     max_saturated: float = 1e-3,
     max_level: float = 1.0,
     random_starts: int = 4,
     seed: int = 0,
-    starts=None,
-    progress=None,
+    starts: Sequence[np.ndarray] | None = None,
+    progress: Callable[[str], None] | None = None,
 ) -> Mix:
     """Drive levels in [0, ``max_level``]ᴺ that minimise the worst comparison's ε_tot (or
     maximise its CNR), no class saturating (see the module's description).
@@ -415,9 +477,9 @@ def optimise_mix(
     peaks = a.max(axis=0)
     with np.errstate(over="ignore", divide="ignore"):
         unit = np.clip(ceiling / peaks, 1e-300, max_level)  # no signal: inf → max_level
-    starts = [w for w in (scaled(x) for x in starts) if w is not None]
+    kept = [w for w in (scaled(x) for x in starts or ()) if w is not None]
     # Starts that scale to the same mix (every start of a single channel) are run once.
-    starts = list(np.unique(np.round(np.divide(starts, unit), 12), axis=0) * unit) if starts else []
+    starts = list(np.unique(np.round(np.divide(kept, unit), 12), axis=0) * unit) if kept else []
     if not starts:
         raise InputError("no channel gives any signal on these classes")
 
@@ -491,9 +553,9 @@ def optimise_mix(
 
 
 def first_order_slopes(
-    response,
-    levels,
-    comparisons,
+    response: ChannelResponse,
+    levels: ArrayLike,
+    comparisons: Comparisons,
     *,
     objective: str = "error",
     band: float = float(np.log(2.0)),
@@ -517,7 +579,12 @@ def first_order_slopes(
 
 
 def single_losses(
-    response, comparisons, *, objective: str = "error", max_saturated: float, max_level: float
+    response: ChannelResponse,
+    comparisons: Comparisons,
+    *,
+    objective: str = "error",
+    max_saturated: float,
+    max_level: float,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Each channel alone at its saturation limit (where one light's ε is lowest: more
     light, less relative noise): its level (N,) and every comparison's loss (N, P)."""

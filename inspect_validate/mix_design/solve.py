@@ -5,11 +5,13 @@ optimum is."""
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from inspect_validate.mix_design.catalogue import Choice
     from inspect_validate.mix_design.problem import DesignProblem
     from inspect_validate.model import Prediction
@@ -74,7 +76,12 @@ def drive_percent(level: float) -> float:
 
 
 def solve(
-    problem, *, objective: str = "error", choose: int | None = None, progress=None, note=None
+    problem: DesignProblem,
+    *,
+    objective: str = "error",
+    choose: int | None = None,
+    progress: Callable[[int, int], None] | None = None,
+    note: Callable[[str], None] | None = None,
 ) -> Design:
     """The mix of ``problem``'s channels that minimises its objective's worst ε (or, with
     ``objective="cnr"``, maximises the worst CNR); with ``choose``, of the best ``choose`` of
@@ -102,7 +109,7 @@ def solve(
         exposure_time=problem.exposure_time,
     )
     max_level = problem.max_exposure_time / problem.exposure_time if problem.auto_exposure else 1.0
-    options = {
+    options: dict[str, Any] = {
         "objective": objective,
         "max_saturated": problem.max_saturated,
         "max_level": max_level,

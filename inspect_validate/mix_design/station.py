@@ -3,12 +3,18 @@ channel as its illuminations, its acceptance checks on the mix."""
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from inspect_validate.mix_design.solve import Design
+    from inspect_validate.station.file import Station
+
 __all__ = ["DESIGN_ILLUMINATION", "design_station"]
 
 DESIGN_ILLUMINATION = "design"
 
 
-def design_station(station, design):
+def design_station(station: Station, design: Design) -> Station:
     """``station`` (a :class:`~camera.station.Station`) lit by ``design``'s mix and its best
     single channel instead of its own illuminations.
 

@@ -29,9 +29,16 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from functools import lru_cache
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    from inspect_validate.verification.golden import Golden
+    from inspect_validate.verification.results import Verification
 
 __all__ = [
     "FAMILY_ARL",
@@ -191,7 +198,7 @@ class Chart:
         return abs(self.ewma - self.target) / half if half > 0 else 0.0
 
 
-def series_of(verification) -> dict[SeriesKey, float]:
+def series_of(verification: Verification) -> dict[SeriesKey, float]:
     """The monitored values of one cycle's verification."""
     values = {}
     for ill, m in verification.measurements.items():
@@ -211,7 +218,9 @@ def _log_error(error):
     return np.log10(np.maximum(error, 1e-300))
 
 
-def golden_targets(golden, *, snr_floor_db: float = -20.0) -> dict[SeriesKey, tuple[float, float]]:
+def golden_targets(
+    golden: Golden, *, snr_floor_db: float = -20.0
+) -> dict[SeriesKey, tuple[float, float]]:
     """(μ₀, σ₀) of every quantity the golden file holds worth charting (module
     description)."""
     targets = {}
@@ -234,14 +243,14 @@ def golden_targets(golden, *, snr_floor_db: float = -20.0) -> dict[SeriesKey, tu
         targets[key] = (mu, max(sd, floor, 1e-12))
 
     for ill, g in golden.illuminations.items():
-        for name, c in g.classes.items():
-            put((ill, "class", name, "mean"), c.mean, "mean")
-            put((ill, "class", name, "variance"), c.variance, "variance")
-        for label, c in g.comparisons.items():
-            if not c.snr_db.mean >= snr_floor_db:
+        for name, cls in g.classes.items():
+            put((ill, "class", name, "mean"), cls.mean, "mean")
+            put((ill, "class", name, "variance"), cls.variance, "variance")
+        for label, comp in g.comparisons.items():
+            if not comp.snr_db.mean >= snr_floor_db:
                 continue
-            put((ill, "comparison", label, "snr_db"), c.snr_db, "snr_db")
-            put((ill, "comparison", label, "log_error"), c.error_gaussian, "log_error")
+            put((ill, "comparison", label, "snr_db"), comp.snr_db, "snr_db")
+            put((ill, "comparison", label, "log_error"), comp.error_gaussian, "log_error")
     return targets
 
 
@@ -275,7 +284,7 @@ class DriftMonitor:
 
     def __init__(
         self,
-        golden,
+        golden: Golden,
         *,
         dark_offset: float,
         snr_floor_db: float = -20.0,
@@ -340,7 +349,7 @@ class DriftMonitor:
         """Per illumination, the median over its classes of :meth:`relative_means`."""
         return _medians(self.relative_means())
 
-    def cause(self, alarms) -> str:
+    def cause(self, alarms: Sequence[SeriesKey]) -> str:
         """The likely cause of ``alarms`` from their pattern (see the manual's table, "Watch a running station").
 
         What moved most, in half-widths of the bands, leads: the class means (a light

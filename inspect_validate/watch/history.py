@@ -36,10 +36,14 @@ import sqlite3
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from inspect_validate.errors import InputError
+
+if TYPE_CHECKING:
+    from inspect_validate.station.file import Station
 
 __all__ = [
     "HISTORY_SCHEMA_VERSION",
@@ -519,14 +523,14 @@ def read_history(path: str | Path, *, last: int | None = None) -> HistoryLog:
     )
 
 
-def read_station_history(path: str | Path, station) -> HistoryLog:
+def read_station_history(path: str | Path, station: Station) -> HistoryLog:
     """:func:`read_history`, refused unless the history was kept of ``station`` (a
     :class:`~inspect_validate.station.file.Station` read from its file): ``verify
     --history`` puts its trends in that station's report."""
     log = read_history(path)
-    if Path(log.station) != station.path.resolve():
+    if Path(log.station) != station.file.resolve():
         raise InputError(
-            f"this history was kept of station {log.station}, not {station.path.resolve()}; "
+            f"this history was kept of station {log.station}, not {station.file.resolve()}; "
             "give the history of this station",
             source=str(path),
         )

@@ -28,9 +28,13 @@ from typing import TYPE_CHECKING
 from inspect_validate.errors import DeviceError
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    from inspect_validate.station.file import Station
+    from inspect_validate.verification.plan import Plan
     from inspect_validate.verification.results import Verification
-    from inspect_validate.watch.drift import DriftState
-    from inspect_validate.watch.history import CycleRecord
+    from inspect_validate.watch.drift import DriftMonitor, DriftState
+    from inspect_validate.watch.history import CycleRecord, History
 
 __all__ = ["CycleOutcome", "WatchSettings", "status_document", "watch"]
 
@@ -52,7 +56,9 @@ class CycleOutcome:
     failures: int  # consecutive failed cycles, this one included
 
 
-def status_document(outcome: CycleOutcome, station, *, interval: float | None = None) -> dict:
+def status_document(
+    outcome: CycleOutcome, station: Station, *, interval: float | None = None
+) -> dict:
     """The status file's content: the latest cycle's verdict for the line (``interval``:
     the watch's seconds between cycle starts, for a monitor to tell a stopped watch)."""
     r = outcome.record
@@ -90,7 +96,16 @@ def status_document(outcome: CycleOutcome, station, *, interval: float | None = 
     return doc
 
 
-def watch(station, plan, history, monitor, *, folder: Path, settings: WatchSettings, on_cycle=None):
+def watch(
+    station: Station,
+    plan: Plan,
+    history: History,
+    monitor: DriftMonitor,
+    *,
+    folder: Path,
+    settings: WatchSettings,
+    on_cycle: Callable[[CycleOutcome], None] | None = None,
+) -> tuple[CycleOutcome | None, bool]:
     """Run cycles until ``settings.cycles`` are done or a signal stops the watch.
 
     ``station`` is verified by ``plan`` (:func:`~inspect_validate.verification.plan.

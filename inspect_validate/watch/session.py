@@ -123,6 +123,7 @@ def watch_session(
         output_file(f)
     output_folder(folder)
     try:
+        assert plan.golden is not None  # the plan read the golden file given it
         monitor = DriftMonitor(
             plan.golden,
             dark_offset=plan.model.sensor.dark_offset,
