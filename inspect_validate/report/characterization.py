@@ -4,10 +4,15 @@ page with both (``characterization.html``)."""
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from inspect_validate import __version__
+
+if TYPE_CHECKING:
+    from inspect_validate.characterization.analysis import Characterization
+    from inspect_validate.characterization.series import Plan
 
 __all__ = [
     "CHARACTERIZATION_SCHEMA_VERSION",
@@ -18,7 +23,7 @@ __all__ = [
 CHARACTERIZATION_SCHEMA_VERSION = 1
 
 
-def format_characterization(result, plan) -> str:
+def format_characterization(result: Characterization, plan: Plan) -> str:
     """The datasheet as terminal lines: value ± standard error, unit."""
     r = result
 
@@ -56,7 +61,9 @@ def format_characterization(result, plan) -> str:
     return "\n".join(lines)
 
 
-def write_characterization_report(folder, result, plan, *, inputs: dict) -> list[Path]:
+def write_characterization_report(
+    folder: Path, result: Characterization, plan: Plan, *, inputs: dict
+) -> list[Path]:
     """``characterization.json``, the 1288 plots (PNG) and ``characterization.html`` in
     ``folder``; their paths."""
     from inspect_validate.files import output_folder

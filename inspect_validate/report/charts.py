@@ -22,6 +22,14 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 if TYPE_CHECKING:
+    from collections.abc import Mapping, Sequence
+
+    from inspect_validate.acceptance import Agreement
+    from inspect_validate.characterization.analysis import Characterization
+    from inspect_validate.characterization.series import Plan
+    from inspect_validate.measurement import ClassMeasurement
+    from inspect_validate.model.spectral_analysis import SpectralSeparation
+    from inspect_validate.scene import Scene
     from inspect_validate.verification.results import ClassAgreement, ComparisonAgreement
 
 __all__ = [
@@ -88,7 +96,12 @@ def chart(spec: dict[str, Any], *, alt: str) -> str:
     )
 
 
-def histogram_chart(classes, *, title: str, kde_bandwidths=None) -> dict[str, Any]:
+def histogram_chart(
+    classes: Sequence[ClassMeasurement],
+    *,
+    title: str,
+    kde_bandwidths: Mapping[str, float] | None = None,
+) -> dict[str, Any]:
     """Each class's grey-value histogram (as a density) with its Gaussian N(μ, σ²) (dashed)
     and its kernel density estimate (41) (solid), 1/DN against DN."""
     from inspect_validate.stats import LatticeSample
@@ -139,7 +152,7 @@ def histogram_chart(classes, *, title: str, kde_bandwidths=None) -> dict[str, An
     }
 
 
-def spectra_charts(scene, *, marked: dict[str, str] | None = None) -> list[dict[str, Any]]:
+def spectra_charts(scene: Scene, *, marked: dict[str, str] | None = None) -> list[dict[str, Any]]:
     """Lights (normalised), reflectances (mean and sample range), optics and QE: four
     charts, as the chapter's Fig. 18. ``marked`` (light name → a note, e.g. its channel)
     draws those lights bold, the other candidates thin and dashed."""
@@ -201,7 +214,9 @@ def spectra_charts(scene, *, marked: dict[str, str] | None = None) -> list[dict[
     return charts
 
 
-def error_charts(separation, *, marked: dict[str, float] | None = None) -> list[dict[str, Any]]:
+def error_charts(
+    separation: SpectralSeparation, *, marked: dict[str, float] | None = None
+) -> list[dict[str, Any]]:
     """ε per wavelength for every comparison, parametric and (where computed) kernel
     density (Fig. 22), on a log axis; ``marked`` (label → wavelength, nm) as vertical
     lines. A complete separation (ε below 1e-16) is drawn at 1e-16."""
@@ -241,7 +256,7 @@ def agreement_charts(
     class_rows: list[ClassAgreement],
     comparison_rows: list[ComparisonAgreement],
     *,
-    agreement=None,
+    agreement: Agreement | None = None,
 ) -> list[dict[str, Any]]:
     """Measured − predicted against predicted: μ (% of the signal above the dark level),
     σ² (%) per illumination and class, SNR_dB (dB) per comparison, the acceptance
@@ -312,7 +327,7 @@ def agreement_charts(
     ]
 
 
-def characterization_charts(result, plan) -> list[dict[str, Any]]:
+def characterization_charts(result: Characterization, plan: Plan) -> list[dict[str, Any]]:
     """The EMVA 1288 series as charts: photon transfer (with the fitted K and the 70 %
     limit of the fit), SNR against the photons' electrons (log–log, with the linear
     model), linearity, dark signal and dark noise against the series' abscissa."""

@@ -3,8 +3,13 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from inspect_validate import __version__
+
+if TYPE_CHECKING:
+    from inspect_validate.mix_design.solve import Design
+    from inspect_validate.verification.results import Verification
 
 __all__ = [
     "DESIGN_SCHEMA_VERSION",
@@ -17,7 +22,7 @@ __all__ = [
 DESIGN_SCHEMA_VERSION = 1
 
 
-def design_document(d) -> dict:
+def design_document(d: Design) -> dict:
     """Levels, the best single channel, per comparison μ/σ²/SNR/ε of both, the flatness and
     the path from the single channel to the mix."""
     p = d.problem
@@ -108,7 +113,9 @@ class DesignCheck:
         ]
 
 
-def design_verification(verification, objective, *, kind: str = "error") -> DesignCheck:
+def design_verification(
+    verification: Verification, objective: str, *, kind: str = "error"
+) -> DesignCheck:
     """Summarise a :class:`~inspect_validate.verification.results.Verification` of a
     :func:`~inspect_validate.mix_design.station.design_station` over the ``objective`` comparisons
     (labels): the worst ε (``kind="error"``) or CNR (``"cnr"``) of the mix against the single
@@ -160,7 +167,7 @@ def design_verification(verification, objective, *, kind: str = "error") -> Desi
     return DesignCheck(ills, quantity, rows, verdict, holds)
 
 
-def format_design(result, *, source: str) -> str:
+def format_design(result: Design, *, source: str) -> str:
     """What ``inspect-validate design`` prints of a :class:`~inspect_validate.mix_design.solve.Design`:
     the mix, the choice of channels, the best single channel, ε and SNR_dB (or CNR_dB) of
     each comparison for both, the drive tolerance and the station file's entry.

@@ -2,13 +2,18 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from inspect_validate.text import render_table
+
+if TYPE_CHECKING:
+    from inspect_validate.verification.golden import Golden
 
 __all__ = ["format_golden"]
 
 
 def format_golden(
-    golden,
+    golden: Golden,
     *,
     share: float | None = None,
     rate: float | None = None,

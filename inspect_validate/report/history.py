@@ -9,10 +9,14 @@ import math
 import time
 from datetime import datetime
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from inspect_validate.text import render_table
+
+if TYPE_CHECKING:
+    from inspect_validate.watch.history import HistoryLog
 
 __all__ = [
     "chart_label",
@@ -55,7 +59,7 @@ QUANTITY_LABELS = {
 }
 
 
-def chart_label(key) -> str:
+def chart_label(key: tuple[str, str, str, str]) -> str:
     """``illumination: class-or-comparison quantity [unit]`` of a chart key."""
     ill, _, name, quantity = key
     return f"{ill}: {name} {QUANTITY_LABELS.get(quantity, quantity)}"
@@ -70,7 +74,7 @@ def _g(x) -> str:
     return "—" if not math.isfinite(x) else f"{float(x):.5g}"
 
 
-def trend_table(log, *, limit: int | None = None):
+def trend_table(log: HistoryLog, *, limit: int | None = None):
     """Per chart, furthest from its target first: the target, the first and last smoothed
     value, the last band, how far off target in band half-widths (beyond ±1 alarms), the
     alarmed cycles, and the cycle the current run of alarms began ("—" when the last
@@ -106,12 +110,12 @@ def missing_cycles(cycles: list[int]) -> list[tuple[int, int]]:
     return [(a + 1, b - 1) for a, b in itertools.pairwise(cycles) if b - a > 1]
 
 
-def status_counts(log) -> str:
+def status_counts(log: HistoryLog) -> str:
     """``n pass, n fail, n drift, n error`` of the cycles read."""
     return ", ".join(f"{n} {s}" for s, n in log.counts().items())
 
 
-def format_history(log, *, recent: int = 10) -> str:
+def format_history(log: HistoryLog, *, recent: int = 10) -> str:
     """The history's summary, its ``recent`` last cycles and the trend of every chart."""
     lines = [
         f"history {log.path}",
@@ -162,7 +166,7 @@ def format_history(log, *, recent: int = 10) -> str:
     return "\n".join(lines)
 
 
-def history_csv(log) -> str:
+def history_csv(log: HistoryLog) -> str:
     """One row per cycle and chart (tidy: a cycle without measurement, an error, is one row
     with the chart columns empty); times in ISO 8601 with the UTC offset."""
     by_cycle: dict[int, list] = {}
@@ -191,7 +195,7 @@ def history_csv(log) -> str:
     return out.getvalue()
 
 
-def write_history_csv(log, path: str | Path) -> Path:
+def write_history_csv(log: HistoryLog, path: str | Path) -> Path:
     """Write :func:`history_csv` of ``log`` to ``path`` (atomically)."""
     from inspect_validate.files import atomic_write
 

@@ -17,10 +17,17 @@ import base64
 import html
 import io
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from inspect_validate import __version__
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    from inspect_validate.verification.results import Verification
+    from inspect_validate.watch.history import HistoryLog
 
 __all__ = ["verification_html", "write_verification_html"]
 
@@ -41,7 +48,9 @@ img { max-width: 100%; display: block; margin: 0.5em 0; }
 """
 
 
-def write_verification_html(v, path: str | Path, *, history=None) -> Path:
+def write_verification_html(
+    v: Verification, path: str | Path, *, history: HistoryLog | None = None
+) -> Path:
     """Write :func:`verification_html` of ``v`` to ``path`` (atomically)."""
     from inspect_validate.files import atomic_write
 
@@ -62,7 +71,7 @@ def page(title: str, body: list[str]) -> str:
     return "\n".join([*head, *body, runtime(), "</body></html>"])
 
 
-def verification_html(v, *, history=None) -> str:
+def verification_html(v: Verification, *, history: HistoryLog | None = None) -> str:
     """The page of a :class:`~inspect_validate.verification.Verification`, as text;
     ``history``, a :class:`~inspect_validate.watch.history.HistoryLog` of the station,
     adds its trends."""
@@ -123,7 +132,13 @@ def _figure(plot, *args, alt: str, **options) -> str:
     return f'<img src="data:image/png;base64,{data}" alt="{html.escape(alt)}">'
 
 
-def table(header, rows, *, failed=None, classes=None) -> str:
+def table(
+    header: Sequence[str],
+    rows: Sequence[Sequence[str]],
+    *,
+    failed: Sequence[bool] | None = None,
+    classes: Sequence[str] | None = None,
+) -> str:
     """``rows`` under ``header``; a row is marked ``fail`` where ``failed[i]``, else with
     ``classes[i]`` (a CSS class) where given."""
     e = html.escape
@@ -209,7 +224,7 @@ def _calibration(v) -> str:
         out.append(
             f"<p>Ranking by {e(r.comparison)} ({e(r.by)}): predicted best "
             f"{e(r.predicted_best)}, measured best {e(r.measured_best)}, "
-            f"Kendall τ {r.kendall_tau:.2f}.</p>"
+            f"{e(r.tau_text)}.</p>"
         )
     return "\n".join(out)
 

@@ -10,11 +10,15 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from inspect_validate import __version__
 from inspect_validate.measurement import Measurement
+
+if TYPE_CHECKING:
+    from inspect_validate.measurement import Limits
 
 __all__ = [
     "SCHEMA_VERSION",
@@ -30,7 +34,7 @@ later, additively, each class's ``gaussian_misfit``, each comparison's ``error_c
 and ``error_counted_se`` and the top-level ``skipped`` (``error_kde`` is null where it was not computed)."""
 
 
-def json_number(x):
+def json_number(x: float | np.floating | None):
     """A number for JSON: ±inf as "inf"/"-inf", NaN and None as null."""
     if x is None:
         return None
@@ -40,7 +44,7 @@ def json_number(x):
     return x if math.isfinite(x) else ("inf" if x > 0 else "-inf")
 
 
-def measurement_document(m: Measurement, *, limits) -> dict:
+def measurement_document(m: Measurement, *, limits: Limits) -> dict:
     """The document of a measurement (:func:`write_json` makes its numbers JSON-safe)."""
     classes = [
         {
@@ -92,7 +96,7 @@ def measurement_document(m: Measurement, *, limits) -> dict:
     }
 
 
-def json_ready(obj):
+def json_ready(obj: Any):
     """``obj`` with every float (also numpy scalars) passed through :func:`json_number`."""
     if isinstance(obj, dict):
         return {k: json_ready(v) for k, v in obj.items()}

@@ -13,8 +13,19 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from typing import BinaryIO
+
+    from matplotlib.figure import Figure
+
+    from inspect_validate.mix_design.solve import Design
+    from inspect_validate.model.spectral_analysis import SpectralSeparation
+    from inspect_validate.scene import Scene
+    from inspect_validate.watch.history import HistoryLog
 
 __all__ = [
     "plot_component_spectra",
@@ -28,7 +39,7 @@ __all__ = [
 ]
 
 
-def subplots(nrows: int = 1, ncols: int = 1, *, figsize, **options):
+def subplots(nrows: int = 1, ncols: int = 1, *, figsize: tuple[float, float], **options):
     """pyplot's ``subplots`` without pyplot: a :class:`matplotlib.figure.Figure` of its own,
     drawn by Agg and freed with its last reference (no figure manager, nothing to close)."""
     from matplotlib.figure import Figure
@@ -37,7 +48,12 @@ def subplots(nrows: int = 1, ncols: int = 1, *, figsize, **options):
     return fig, fig.subplots(nrows, ncols, **options)
 
 
-def save_figure(fig, target, *, rect=None):
+def save_figure(
+    fig: Figure,
+    target: str | Path | BinaryIO,
+    *,
+    rect: tuple[float, float, float, float] | None = None,
+):
     fig.tight_layout(rect=rect)
     fig.savefig(target, dpi=110, format="png")
     return target
@@ -47,7 +63,7 @@ def _colour(k: int) -> str:
     return f"C{k % 10}"
 
 
-def plot_component_spectra(scene, path, *, marked: dict[str, str] | None = None):
+def plot_component_spectra(scene: Scene, path: str | Path, *, marked: dict[str, str] | None = None):
     """Lights (normalised), reflectances (mean ± sample range), optics and QE, as the chapter's Fig. 18.
 
     ``marked`` maps light names to a note (e.g. the controller channel driving
@@ -99,7 +115,9 @@ def plot_component_spectra(scene, path, *, marked: dict[str, str] | None = None)
     return save_figure(fig, path)
 
 
-def plot_spectral_errors(separation, path, *, marked: dict[str, float] | None = None):
+def plot_spectral_errors(
+    separation: SpectralSeparation, path: str | Path, *, marked: dict[str, float] | None = None
+):
     """ε per wavelength for every comparison, parametric and kernel density (Fig. 22).
 
     ``marked`` maps labels to wavelengths (nm) drawn as vertical lines, e.g. the
@@ -116,10 +134,14 @@ def plot_spectral_errors(separation, path, *, marked: dict[str, float] | None = 
     for ax, (title, data) in zip(
         axes[0],
         [
-            ("parametric (Gaussian)", separation.error_gaussian),
-            ("nonparametric (KDE, LSCV)", separation.error_kde),
+            (title, errors)
+            for title, errors in (
+                ("parametric (Gaussian)", separation.error_gaussian),
+                ("nonparametric (KDE, LSCV)", separation.error_kde),
+            )
+            if errors is not None
         ],
-        strict=False,
+        strict=True,
     ):
         for (a, b), eps in zip(separation.comparisons, data, strict=True):
             ax.semilogy(
@@ -158,7 +180,7 @@ def plot_spectral_errors(separation, path, *, marked: dict[str, float] | None = 
     return save_figure(fig, path)
 
 
-def plot_ranked_separation(rows: list[dict], path, *, by: str = "error"):
+def plot_ranked_separation(rows: list[dict], path: str | Path, *, by: str = "error"):
     """The ranked combinations, best first, by the value the table ranks them by: each
     row's key comparison's ε Gauss (log scale), SNR_dB or CNR_dB, written at each bar."""
     labels = [f"{r['rank']}: {r['light']} / {r['optics']} / {r['camera']}" for r in rows]
@@ -191,7 +213,7 @@ def plot_ranked_separation(rows: list[dict], path, *, by: str = "error"):
 
 
 def plot_frame_regions(
-    frame: np.ndarray, masks: dict[str, np.ndarray], target
+    frame: np.ndarray, masks: dict[str, np.ndarray], target: str | Path | BinaryIO
 ) -> tuple[float, float]:
     """One frame with each class's region outlined and named (a JPEG, by OpenCV: a picture
     of pixels needs no plotting library), contrast-stretched to the 0.5–99.5 percentiles
@@ -221,7 +243,7 @@ def plot_frame_regions(
     return float(lo), float(hi)
 
 
-def plot_design_spectrum(design, path):
+def plot_design_spectrum(design: Design, path: str | Path):
     """The designed mix's irradiance at the object, stacked by channel, over the classes'
     reflectances (mean and sample range) and the camera's relative sensitivity (optics
     transmission × QE)."""
@@ -275,7 +297,7 @@ def plot_design_spectrum(design, path):
     return save_figure(fig, path)
 
 
-def plot_design_path(design, path):
+def plot_design_path(design: Design, path: str | Path):
     """ε and CNR_dB of the objective's comparisons along the straight path from the best
     single channel (0) to the designed mix (1): how much the mix gains, and where."""
     p = design.problem
@@ -306,7 +328,7 @@ def plot_design_path(design, path):
 _STATUS_COLOURS = {"pass": "#2e8b57", "drift": "#e69500", "fail": "#c8102e", "error": "#777777"}
 
 
-def plot_history_overview(log, target):
+def plot_history_overview(log: HistoryLog, target: str | Path | BinaryIO):
     """A watch history at a glance: each cycle's status, and per illumination every chart's
     smoothed value off its golden target in band half-widths (beyond ±1 is an alarm;
     charts that alarmed are labelled, the others grey)."""
@@ -350,7 +372,7 @@ def plot_history_overview(log, target):
     return save_figure(fig, target)
 
 
-def plot_history_charts(log, illumination: str, target):
+def plot_history_charts(log: HistoryLog, illumination: str, target: str | Path | BinaryIO):
     """The EWMA charts of one illumination: each cycle's value (dots), the smoothed value
     (line), the control band around the golden target (shaded) and alarms (red)."""
     charts = sorted((k, s) for k, s in log.charts.items() if k[0] == illumination)

@@ -23,7 +23,10 @@ from inspect_validate import __version__
 from inspect_validate.text import labelled, render_table, terminal_width
 
 if TYPE_CHECKING:
+    from collections.abc import Iterable, Sequence
+
     from inspect_validate.verification.checks import Check
+    from inspect_validate.verification.results import Verification
 
 __all__ = [
     "CHECK_COLUMNS",
@@ -40,7 +43,7 @@ VERIFICATION_SCHEMA_VERSION = 2
 CHECK_COLUMNS = ("verdict", "check", "value", "limit", "unit", "basis", "detail")
 
 
-def check_rows(checks) -> list[tuple[Check, list[str]]]:
+def check_rows(checks: Iterable[Check]) -> list[tuple[Check, list[str]]]:
     """``(check, cells under CHECK_COLUMNS)`` for each check, failures first, then in the
     order the checks were made: the verdict table and the HTML report show these."""
     return [
@@ -49,7 +52,7 @@ def check_rows(checks) -> list[tuple[Check, list[str]]]:
     ]
 
 
-def false_alarm_line(v) -> str:
+def false_alarm_line(v: Verification) -> str:
     """How often these checks fail a station that has not changed, and how the rate is
     shared: ``false-alarm rate 0.27 % (3σ) shared by 24 checks, 0.011 % each; 12 fixed``."""
     from inspect_validate.verification.checks import count_tests, normal_equivalent
@@ -85,7 +88,7 @@ def _checks_table(rows: list[list[str]], width: int | None) -> str:
     return "\n".join(out)
 
 
-def format_verdict(v) -> str:
+def format_verdict(v: Verification) -> str:
     """The calibration lines, the checks table (failures first) and the verdict line."""
     out = []
     if v.gain is not None:
@@ -95,25 +98,25 @@ def format_verdict(v) -> str:
             f"{g.standard_error:.2g} DN/e⁻, declared {g.declared:.4g} "
             f"({100 * g.relative_deviation:+.1f} %)"
         )
-    for s in v.scales.values():
+    for scale in v.scales.values():
         extra = ""
-        if s.residuals:
-            extra = f", residuals up to {100 * max(map(abs, s.residuals)):.2g} %"
+        if scale.residuals:
+            extra = f", residuals up to {100 * max(map(abs, scale.residuals)):.2g} %"
         out.append(
-            f"{s.illumination}: irradiance scale {s.scale:.4g} ± {s.standard_error:.2g} "
-            f"({s.method}{extra}) → {s.irradiance:.4g} W/m² at the object"
+            f"{scale.illumination}: irradiance scale {scale.scale:.4g} ± {scale.standard_error:.2g} "
+            f"({scale.method}{extra}) → {scale.irradiance:.4g} W/m² at the object"
         )
     if v.ranking:
         r = v.ranking
         out.append(
             f"ranking by {r.comparison}: predicted best {r.predicted_best}, measured best "
-            f"{r.measured_best} (Kendall τ {r.kendall_tau:.2f})"
+            f"{r.measured_best} ({r.tau_text})"
         )
     rows = [cells for _, cells in check_rows(v.checks)]
     if rows:
         out += ["", false_alarm_line(v), _checks_table(rows, terminal_width(sys.stdout))]
-    for s in v.skipped:
-        out.append(labelled("skipped", s, stream=sys.stdout))
+    for item in v.skipped:
+        out.append(labelled("skipped", item, stream=sys.stdout))
     for n in v.notes:
         out.append(labelled("note", n, stream=sys.stdout))
     out += [f"frames: {describe_acquisition(a)}" for a in v.acquisition]
@@ -122,7 +125,7 @@ def format_verdict(v) -> str:
     return "\n".join(out)
 
 
-def count_failed(checks) -> str:
+def count_failed(checks: Sequence[Check]) -> str:
     """``all 12 checks passed`` or ``2 of 12 checks failed (1 could not run)``; checks too
     close to call are counted apart (they fail nothing)."""
     failed = sum(not c.passed for c in checks)
@@ -156,7 +159,7 @@ def _row_document(row) -> dict:
     return {("class" if k == "class_name" else k): x for k, x in asdict(row).items()}
 
 
-def verification_document(v) -> dict:
+def verification_document(v: Verification) -> dict:
     """The ``verification.json`` document (:func:`~inspect_validate.report.write_json` makes it JSON-safe)."""
     from inspect_validate.report.jsonfile import measurement_document
 
@@ -226,7 +229,7 @@ def _false_alarm_document(v) -> dict:
     }
 
 
-def write_junit(v, path: str | Path) -> Path:
+def write_junit(v: Verification, path: str | Path) -> Path:
     """One ``<testcase>`` per check in one ``<testsuite>``; failures carry value and limit."""
     import xml.etree.ElementTree as ET
 

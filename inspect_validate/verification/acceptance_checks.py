@@ -50,11 +50,7 @@ def _ranking_check(ranking: RankingAgreement, errors, j: int) -> Check:
         + ", predicted "
         + ", ".join(f"{n} {ranking.predicted[n]:.3g}" for n in names)
         + f"; predicted gap to {other} {bad_p[other] - bad_p[best_p]:.2g} {unit}; "
-        + (
-            f"Kendall τ {ranking.kendall_tau:.2f}"
-            if np.isfinite(ranking.kendall_tau)
-            else "Kendall τ undefined (a ranking tied throughout)"
-        ),
+        + ranking.tau_text,
         basis="statistical",
         standard_error=float(np.hypot(se[best_p], se[other])),
         predicted_gap=bad_p[other] - bad_p[best_p],

@@ -4,6 +4,7 @@ verdict (:class:`Verification`)."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -115,6 +116,13 @@ class RankingAgreement:
     measured_best: str
     agree: bool
     kendall_tau: float
+
+    @property
+    def tau_text(self) -> str:
+        """Kendall's τ as reports say it (undefined where a ranking is tied throughout)."""
+        if math.isfinite(self.kendall_tau):
+            return f"Kendall τ {self.kendall_tau:.2f}"
+        return "Kendall τ undefined (a ranking tied throughout)"
 
 
 @dataclass(frozen=True)

@@ -56,3 +56,14 @@ def test_degenerate_cases_as_scipy(x, y, want):
 def test_unequal_lengths_are_refused():
     with pytest.raises(ValueError, match="one length"):
         kendall_tau([1, 2, 3], [1, 2])
+
+
+def test_a_tied_ranking_says_its_tau_is_undefined():
+    """Reports said "Kendall τ nan" when every prediction was equal."""
+    from inspect_validate.verification.results import RankingAgreement
+
+    def agreement(tau):
+        return RankingAgreement("A vs B", "snr_db", {}, {}, "x", "x", True, tau)
+
+    assert agreement(0.6667).tau_text == "Kendall τ 0.67"
+    assert agreement(float("nan")).tau_text == "Kendall τ undefined (a ranking tied throughout)"
