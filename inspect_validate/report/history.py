@@ -74,7 +74,9 @@ def _g(x) -> str:
     return "—" if not math.isfinite(x) else f"{float(x):.5g}"
 
 
-def trend_table(log: HistoryLog, *, limit: int | None = None):
+def trend_table(
+    log: HistoryLog, *, limit: int | None = None
+) -> tuple[list[str], list[list[str]], list[bool]]:
     """Per chart, furthest from its target first: the target, the first and last smoothed
     value, the last band, how far off target in band half-widths (beyond ±1 alarms), the
     alarmed cycles, and the cycle the current run of alarms began ("—" when the last

@@ -34,7 +34,7 @@ later, additively, each class's ``gaussian_misfit``, each comparison's ``error_c
 and ``error_counted_se`` and the top-level ``skipped`` (``error_kde`` is null where it was not computed)."""
 
 
-def json_number(x: float | np.floating | None):
+def json_number(x: float | np.floating | None) -> float | str | None:
     """A number for JSON: ±inf as "inf"/"-inf", NaN and None as null."""
     if x is None:
         return None
@@ -96,7 +96,7 @@ def measurement_document(m: Measurement, *, limits: Limits) -> dict:
     }
 
 
-def json_ready(obj: Any):
+def json_ready(obj: Any) -> Any:
     """``obj`` with every float (also numpy scalars) passed through :func:`json_number`."""
     if isinstance(obj, dict):
         return {k: json_ready(v) for k, v in obj.items()}

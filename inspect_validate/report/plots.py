@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, BinaryIO, TypeVar
 
 import numpy as np
 
@@ -27,6 +27,9 @@ if TYPE_CHECKING:
     from inspect_validate.scene import Scene
     from inspect_validate.watch.history import HistoryLog
 
+
+Target = TypeVar("Target", bound=str | Path | BinaryIO)  # a file, returned as given
+
 __all__ = [
     "plot_component_spectra",
     "plot_design_path",
@@ -39,7 +42,9 @@ __all__ = [
 ]
 
 
-def subplots(nrows: int = 1, ncols: int = 1, *, figsize: tuple[float, float], **options):
+def subplots(
+    nrows: int = 1, ncols: int = 1, *, figsize: tuple[float, float], **options: Any
+) -> tuple[Figure, Any]:
     """pyplot's ``subplots`` without pyplot: a :class:`matplotlib.figure.Figure` of its own,
     drawn by Agg and freed with its last reference (no figure manager, nothing to close)."""
     from matplotlib.figure import Figure
@@ -50,10 +55,10 @@ def subplots(nrows: int = 1, ncols: int = 1, *, figsize: tuple[float, float], **
 
 def save_figure(
     fig: Figure,
-    target: str | Path | BinaryIO,
+    target: Target,
     *,
     rect: tuple[float, float, float, float] | None = None,
-):
+) -> Target:
     fig.tight_layout(rect=rect)
     fig.savefig(target, dpi=110, format="png")
     return target
@@ -63,7 +68,9 @@ def _colour(k: int) -> str:
     return f"C{k % 10}"
 
 
-def plot_component_spectra(scene: Scene, path: str | Path, *, marked: dict[str, str] | None = None):
+def plot_component_spectra(
+    scene: Scene, path: Target, *, marked: dict[str, str] | None = None
+) -> Target:
     """Lights (normalised), reflectances (mean ± sample range), optics and QE, as the chapter's Fig. 18.
 
     ``marked`` maps light names to a note (e.g. the controller channel driving
@@ -116,8 +123,8 @@ def plot_component_spectra(scene: Scene, path: str | Path, *, marked: dict[str, 
 
 
 def plot_spectral_errors(
-    separation: SpectralSeparation, path: str | Path, *, marked: dict[str, float] | None = None
-):
+    separation: SpectralSeparation, path: Target, *, marked: dict[str, float] | None = None
+) -> Target:
     """ε per wavelength for every comparison, parametric and kernel density (Fig. 22).
 
     ``marked`` maps labels to wavelengths (nm) drawn as vertical lines, e.g. the
@@ -180,7 +187,7 @@ def plot_spectral_errors(
     return save_figure(fig, path)
 
 
-def plot_ranked_separation(rows: list[dict], path: str | Path, *, by: str = "error"):
+def plot_ranked_separation(rows: list[dict], path: Target, *, by: str = "error") -> Target:
     """The ranked combinations, best first, by the value the table ranks them by: each
     row's key comparison's ε Gauss (log scale), SNR_dB or CNR_dB, written at each bar."""
     labels = [f"{r['rank']}: {r['light']} / {r['optics']} / {r['camera']}" for r in rows]
@@ -243,7 +250,7 @@ def plot_frame_regions(
     return float(lo), float(hi)
 
 
-def plot_design_spectrum(design: Design, path: str | Path):
+def plot_design_spectrum(design: Design, path: Target) -> Target:
     """The designed mix's irradiance at the object, stacked by channel, over the classes'
     reflectances (mean and sample range) and the camera's relative sensitivity (optics
     transmission × QE)."""
@@ -297,7 +304,7 @@ def plot_design_spectrum(design: Design, path: str | Path):
     return save_figure(fig, path)
 
 
-def plot_design_path(design: Design, path: str | Path):
+def plot_design_path(design: Design, path: Target) -> Target:
     """ε and CNR_dB of the objective's comparisons along the straight path from the best
     single channel (0) to the designed mix (1): how much the mix gains, and where."""
     p = design.problem
@@ -328,7 +335,7 @@ def plot_design_path(design: Design, path: str | Path):
 _STATUS_COLOURS = {"pass": "#2e8b57", "drift": "#e69500", "fail": "#c8102e", "error": "#777777"}
 
 
-def plot_history_overview(log: HistoryLog, target: str | Path | BinaryIO):
+def plot_history_overview(log: HistoryLog, target: Target) -> Target:
     """A watch history at a glance: each cycle's status, and per illumination every chart's
     smoothed value off its golden target in band half-widths (beyond ±1 is an alarm;
     charts that alarmed are labelled, the others grey)."""
@@ -372,7 +379,7 @@ def plot_history_overview(log: HistoryLog, target: str | Path | BinaryIO):
     return save_figure(fig, target)
 
 
-def plot_history_charts(log: HistoryLog, illumination: str, target: str | Path | BinaryIO):
+def plot_history_charts(log: HistoryLog, illumination: str, target: Target) -> Target:
     """The EWMA charts of one illumination: each cycle's value (dots), the smoothed value
     (line), the control band around the golden target (shaded) and alarms (red)."""
     charts = sorted((k, s) for k, s in log.charts.items() if k[0] == illumination)

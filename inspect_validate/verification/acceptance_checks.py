@@ -12,8 +12,17 @@ from inspect_validate.verification.checks import Check, at_least, at_most, not_r
 from inspect_validate.verification.results import RankingAgreement
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
     from inspect_validate.acceptance import Acceptance
     from inspect_validate.measurement import Measurement
+    from inspect_validate.verification.calibration import Gain
+    from inspect_validate.verification.results import (
+        ClassAgreement,
+        ComparisonAgreement,
+        RankingAgreement,
+    )
+    from inspect_validate.verification.uncertainty import StandardErrors
 
 __all__ = ["acceptance_checks"]
 
@@ -67,18 +76,19 @@ _RANKED = {  # by → unit, what it is, the StandardErrors field
 def acceptance_checks(
     acc: Acceptance,
     measurements: dict[str, Measurement],
-    class_rows,
-    comparison_rows,
-    ranking,
-    gain,
-    gain_missing=None,
-    errors=None,
+    class_rows: Sequence[ClassAgreement],
+    comparison_rows: Sequence[ComparisonAgreement],
+    ranking: RankingAgreement | None,
+    gain: Gain | None,
+    gain_missing: str | None = None,
+    errors: dict[str, StandardErrors] | None = None,
 ) -> tuple[list[Check], list[str]]:
     """The checks ``acc`` asks for, and the work left out (a skip: only what nobody asked
     for). A check that cannot be evaluated is :func:`not_run`, a failure that says why —
     never a skip. ``errors`` is illumination → the measurement's
     :class:`~.uncertainty.StandardErrors`: the tolerance checks' margins
     (:func:`~.checks.decide` sets them)."""
+    errors = {} if errors is None else errors
     checks, skipped = [], []
     targets = [acc.illumination] if acc.illumination else list(measurements)
     for sep in acc.separation:
@@ -151,21 +161,21 @@ def acceptance_checks(
         class_index = {
             (ill, c.name): k for ill, m in measurements.items() for k, c in enumerate(m.classes)
         }
-        for row in class_rows:
-            where = f"{row.illumination}: {row.class_name}"
-            pred = row.predicted
-            k = class_index[row.illumination, row.class_name]
-            se = errors[row.illumination]
+        for class_row in class_rows:
+            where = f"{class_row.illumination}: {class_row.class_name}"
+            pred = class_row.predicted
+            k = class_index[class_row.illumination, class_row.class_name]
+            se = errors[class_row.illumination]
             if agree.mean_relative is not None:
-                signal = pred.mean - row.measured.dark_mean
+                signal = pred.mean - class_row.measured.dark_mean
                 checks.append(
                     at_most(
                         f"{where} μ deviation",
                         "agreement",
-                        100 * abs(row.mean_relative),
+                        100 * abs(class_row.mean_relative),
                         100 * agree.mean_relative,
                         "%",
-                        f"predicted {pred.mean:.4g} DN, measured {row.measured.mean:.4g} DN",
+                        f"predicted {pred.mean:.4g} DN, measured {class_row.measured.mean:.4g} DN",
                         basis="tolerance",
                         standard_error=100 * se.mean[k] / signal if signal > 0 else np.nan,
                     )
@@ -175,11 +185,11 @@ def acceptance_checks(
                     at_most(
                         f"{where} σ² deviation",
                         "agreement",
-                        100 * abs(row.variance_relative),
+                        100 * abs(class_row.variance_relative),
                         100 * agree.variance_relative,
                         "%",
                         f"predicted {pred.variance:.4g} DN², "
-                        f"measured {row.measured.variance:.4g} DN²",
+                        f"measured {class_row.measured.variance:.4g} DN²",
                         basis="tolerance",
                         standard_error=100 * se.variance[k] / pred.variance
                         if pred.variance > 0

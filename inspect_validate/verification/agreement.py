@@ -23,13 +23,20 @@ if TYPE_CHECKING:
     from inspect_validate.measurement import Measurement
     from inspect_validate.model import Prediction
     from inspect_validate.scene import Scene
+    from inspect_validate.verification.results import ClassAgreement, ComparisonAgreement
 
 __all__ = ["agreement_rows", "ranking_agreement", "ranking_comparison"]
 
 
 def agreement_rows(
-    measurements: dict[str, Measurement], p: Prediction, nominal, dark_means, offset, *, need_kde
-):
+    measurements: dict[str, Measurement],
+    p: Prediction,
+    nominal: Prediction,
+    dark_means: dict[str, float] | None,
+    offset: float,
+    *,
+    need_kde: bool,
+) -> tuple[list[ClassAgreement], list[ComparisonAgreement]]:
     """Rows of predicted (calibrated; and ``nominal``, at the stated irradiances, as
     ``predict`` gives them) against measured, per illumination and class / comparison."""
     from inspect_validate.model import predicted_kde_error

@@ -59,7 +59,7 @@ def photon_transfer_gain(
     declared: float,
     max_saturated: float = 1e-3,
     saturation_level: float | None = None,
-):
+) -> Gain | None:
     """K from the temporal variance against the mean over classes and illuminations.
 
     Parameters

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 if TYPE_CHECKING:
     from collections.abc import Iterable
@@ -179,7 +179,7 @@ def _check(
     sided: int = 1,
     predicted_gap: float | None = None,
 ):
-    value = float(value)
+    value = math.nan if value is None else float(value)  # not computed: said so below
     if not math.isfinite(value) and not detail:
         detail = "no value: the quantity could not be computed from these frames"
     se = None if standard_error is None else float(standard_error)
@@ -201,14 +201,20 @@ def _check(
     )
 
 
-def not_run(name: str, kind: str, limit, unit: str, relation: str, why: str) -> Check:
+def not_run(name: str, kind: str, limit: float, unit: str, relation: str, why: str) -> Check:
     """A check the acceptance section asks for that these frames cannot evaluate: it
     fails, saying why (a check asked for is never passed by not being done)."""
     return Check(name, kind, math.nan, float(limit), unit, relation, False, f"could not run: {why}")
 
 
 def at_least(
-    name: str, kind: str, value, limit, unit: str = "", detail: str = "", **options
+    name: str,
+    kind: str,
+    value: float | None,
+    limit: float,
+    unit: str = "",
+    detail: str = "",
+    **options: Any,
 ) -> Check:
     """Passes when ``value ≥ limit`` (less the margin :func:`decide` sets; a NaN value
     fails). ``options``: ``basis`` (default ``"fixed"``), ``standard_error``, ``df``,
@@ -217,7 +223,13 @@ def at_least(
 
 
 def at_most(
-    name: str, kind: str, value, limit, unit: str = "", detail: str = "", **options
+    name: str,
+    kind: str,
+    value: float | None,
+    limit: float,
+    unit: str = "",
+    detail: str = "",
+    **options: Any,
 ) -> Check:
     """Passes when ``value ≤ limit`` (plus the margin :func:`decide` sets; a NaN value
     fails). ``options`` as in :func:`at_least`."""

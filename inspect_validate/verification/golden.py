@@ -50,6 +50,7 @@ if TYPE_CHECKING:
 
     from inspect_validate.acceptance import Drift
     from inspect_validate.comparisons import Comparisons
+    from inspect_validate.roi.roiset import RoiSet
     from inspect_validate.station.file import Station
 
 __all__ = [
@@ -266,7 +267,12 @@ class Golden(_Frozen):
         return doc
 
 
-def train(station: Station, captures: list[Path], *, regions=None) -> Golden:
+def train(
+    station: Station,
+    captures: list[Path],
+    *,
+    regions: tuple[RoiSet, Comparisons] | None = None,
+) -> Golden:
     """Measure every capture folder of ``station`` and gather the golden statistics;
     ``regions`` is :func:`~inspect_validate.verification.measured.station_regions` of it,
     read here if not given.

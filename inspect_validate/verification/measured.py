@@ -32,7 +32,7 @@ class Capture:
     sha256: dict = field(default_factory=dict)  # "step/frame_0001.tif" → hex, as audited
 
 
-def station_regions(station: Station):
+def station_regions(station: Station) -> tuple[RoiSet, Comparisons]:
     """The station's ROI set and the :class:`~inspect_validate.comparisons.Comparisons` of
     its classes (the station's ``comparisons:``).
 

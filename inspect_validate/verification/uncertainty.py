@@ -36,7 +36,7 @@ if TYPE_CHECKING:
     from collections.abc import Iterable
 
     from inspect_validate.comparisons import Comparisons
-    from inspect_validate.measurement import Measurement
+    from inspect_validate.measurement import ClassMeasurement, Measurement
     from inspect_validate.model import Prediction
 
 __all__ = [
@@ -67,7 +67,7 @@ class StandardErrors:
     log_error: np.ndarray
 
 
-def class_standard_errors(c) -> tuple[float, float]:
+def class_standard_errors(c: ClassMeasurement) -> tuple[float, float]:
     """SE(μ) in DN and SE(σ²) in DN² of a :class:`~inspect_validate.measurement.
     ClassMeasurement` from its pixels and frames (module description)."""
     values = c.n_pixels * c.n_frames
@@ -85,8 +85,8 @@ def class_standard_errors(c) -> tuple[float, float]:
 def separation_standard_errors(
     means: ArrayLike,
     variances: ArrayLike,
-    se_means,
-    se_variances,
+    se_means: np.ndarray,
+    se_variances: np.ndarray,
     comparisons: Comparisons,
     *,
     pixels: ArrayLike | None = None,
