@@ -11,7 +11,7 @@ if TYPE_CHECKING:
     from collections.abc import Iterable
 
     from inspect_validate.camera.capture import CaptureResult
-    from inspect_validate.comparisons import Comparisons, ComparisonsSpec
+    from inspect_validate.comparisons import Comparisons, ComparisonsSpec, RankBy
     from inspect_validate.images import FramePaths
     from inspect_validate.measurement import KdeMode, Limits, Measurement
     from inspect_validate.mix_design.solve import Design
@@ -167,7 +167,7 @@ def predict(scene: Scene | str | Path) -> Prediction:
 def sweep(
     scene: Scene | str | Path,
     *,
-    by: str | None = None,
+    by: RankBy | None = None,
     comparison: str | None = None,
     top: int = 10,
 ) -> Ranking:

@@ -46,6 +46,7 @@ __all__ = [
     "CountedSeparation",
     "GaussianSeparation",
     "KdeSeparation",
+    "RankBy",
     "counted_separation",
     "default_groups",
     "find_comparison",
@@ -58,6 +59,8 @@ __all__ = [
 
 Group = tuple[int, ...]
 Weighting = Literal["equal", "pixels"]
+RankBy = Literal["error", "snr_db", "cnr_db"]
+"""What combinations are ranked by: ε Gauss (lowest first), SNR_dB or CNR_dB (highest first)."""
 
 
 class ComparisonsSpec(StrictModel):

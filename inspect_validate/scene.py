@@ -48,7 +48,7 @@ from pydantic import (
     model_validator,
 )
 
-from inspect_validate.comparisons import Comparisons, ComparisonsSpec
+from inspect_validate.comparisons import Comparisons, ComparisonsSpec, RankBy
 from inspect_validate.components.sensors import BIT_DEPTHS
 from inspect_validate.config import StrictModel, load_yaml, one_of
 from inspect_validate.errors import InputError
@@ -391,7 +391,7 @@ class _Exposure(StrictModel):
 class _Rank(StrictModel):
     """How ``predict`` ranks the combinations."""
 
-    by: Literal["error", "snr_db", "cnr_db"] = "error"
+    by: RankBy = "error"
     """ε Gauss (lowest first), SNR_dB or CNR_dB (highest first)."""
     comparison: Name | None = None
     """The comparison ranked by, ``"A vs B,C"`` (default: each combination's worst)."""
@@ -457,7 +457,7 @@ class Scene:
     cameras: tuple
     exposure: Any
     grid: np.ndarray
-    rank_by: str
+    rank_by: RankBy
     rank_comparison: str | None
     comparisons: Comparisons
     skipped: tuple[str, ...] = ()
@@ -491,7 +491,7 @@ class Scene:
     def sweep(
         self,
         *,
-        by: str | None = None,
+        by: RankBy | None = None,
         comparison: str | None = None,
         top: int = 10,
         client: Any = None,

@@ -19,7 +19,7 @@ from typing import Protocol
 
 import numpy as np
 
-from inspect_validate.comparisons import Comparisons, find_comparison
+from inspect_validate.comparisons import Comparisons, RankBy, find_comparison
 from inspect_validate.model.acquisition import Prediction
 from inspect_validate.stats import as_sample, lscv_bandwidth
 from inspect_validate.stats.kde_error import Mixture, mixture_error
@@ -37,7 +37,7 @@ def comparison_index(prediction: Prediction, label: str) -> int:
 
 
 def rank_keys(
-    prediction: Prediction, *, by: str = "error", comparison: str | None = None
+    prediction: Prediction, *, by: RankBy = "error", comparison: str | None = None
 ) -> tuple[tuple[np.ndarray, ...], np.ndarray, np.ndarray, np.ndarray]:
     """Each combination's sort keys, flat in ``[light, optics, camera]`` order.
 
@@ -84,7 +84,7 @@ def ranked(keys: Sequence[np.ndarray], valid: np.ndarray) -> np.ndarray:
 
 
 def rank(
-    prediction: Prediction, *, by: str = "error", comparison: str | None = None
+    prediction: Prediction, *, by: RankBy = "error", comparison: str | None = None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Combinations best first: unsaturated before saturated, then by the key.
 

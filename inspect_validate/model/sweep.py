@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from inspect_validate.comparisons import Comparisons, gaussian_separation
+from inspect_validate.comparisons import Comparisons, RankBy, gaussian_separation
 from inspect_validate.errors import DeviceError, InputError
 from inspect_validate.model.acquisition import (
     _MAX_REASONS,
@@ -98,7 +98,7 @@ class Ranking(_Combinations):
 
         return f"<pre>{html.escape(self.table())}</pre>"
 
-    by: str
+    by: RankBy
     comparison: str | None
     index: np.ndarray  # (N, 3) int
     key: np.ndarray  # ranking value (ε, or dB), (N,)
@@ -139,7 +139,7 @@ def sweep(
     exposure: Exposure | None = None,
     grid: np.ndarray,
     comparisons: Comparisons | None = None,
-    by: str = "error",
+    by: RankBy = "error",
     comparison: str | None = None,
     top: int = 10,
     memory: int = MEMORY,
