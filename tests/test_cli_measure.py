@@ -405,3 +405,18 @@ def test_a_region_over_two_populations_is_warned_about(tmp_path, capsys):
     )
     assert run_cli(["measure", tmp_path / "f.tif", "--rois", rois]) == 0
     assert "two populations" not in capsys.readouterr().err
+
+
+def test_an_int32_frame_of_the_widest_range_is_measured_under_kde_auto(tmp_path, capsys):
+    """The held-out corpus's int32 frame spanning ±2³¹ was refused under --kde auto; it is
+    measured (auto decides on the KDE by the Gaussians' fit, not by the span)."""
+    rng = np.random.default_rng(4)
+    frame = rng.integers(-(2**31), 2**31 - 1, (60, 80), dtype=np.int64).astype(np.int32)
+    np.save(tmp_path / "wide.npy", frame)
+    (tmp_path / "r.yaml").write_text(
+        "classes:\n  A: [{rect: [0, 0, 40, 60]}]\n  B: [{rect: [40, 0, 40, 60]}]\n"
+    )
+    code = run_cli(["measure", tmp_path / "wide.npy", "--rois", tmp_path / "r.yaml"])
+    out, err = capsys.readouterr()
+    assert code in (0, 1), err  # 1: half the pixels are ≤ 0, past the zero-pixel limit
+    assert "A vs B" in out and "nan" not in out.lower() and "Traceback" not in err
