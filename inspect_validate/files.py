@@ -10,15 +10,27 @@ fails before a capture or a long sweep, not after it.
 from __future__ import annotations
 
 import contextlib
+import json
+import math
 import os
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
-from typing import TextIO
+from typing import TYPE_CHECKING, Any, TextIO
 
 from inspect_validate.errors import InputError
 
-__all__ = ["atomic_write", "output_file", "output_folder"]
+if TYPE_CHECKING:
+    import numpy as np
+
+__all__ = [
+    "atomic_write",
+    "json_number",
+    "json_ready",
+    "output_file",
+    "output_folder",
+    "write_json",
+]
 
 
 def _umask() -> int:
@@ -155,3 +167,36 @@ def exclusive_lock(lock_path: Path, *, holder: str, what: str, remedy: str, sour
     handle.write(f"pid {os.getpid()}")
     handle.flush()
     return handle
+
+
+def json_number(x: float | np.floating | None) -> float | str | None:
+    """A number for JSON: ±inf as "inf"/"-inf", NaN and None as null."""
+    if x is None:
+        return None
+    x = float(x)
+    if math.isnan(x):
+        return None
+    return x if math.isfinite(x) else ("inf" if x > 0 else "-inf")
+
+
+def json_ready(obj: Any) -> Any:
+    """``obj`` with every float (also numpy scalars) passed through :func:`json_number`."""
+    import numpy as np
+
+    if isinstance(obj, dict):
+        return {k: json_ready(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [json_ready(v) for v in obj]
+    if isinstance(obj, (float, np.floating)):
+        return json_number(obj)
+    if isinstance(obj, np.integer):
+        return int(obj)
+    if isinstance(obj, np.bool_):
+        return bool(obj)
+    return obj
+
+
+def write_json(doc: dict, path: str | Path) -> Path:
+    """Write ``doc`` (made :func:`json_ready`) atomically: a reader never sees half a file."""
+    text = json.dumps(json_ready(doc), indent=2, allow_nan=False) + "\n"
+    return atomic_write(path, text.encode())

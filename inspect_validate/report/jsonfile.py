@@ -7,14 +7,10 @@ values as ``null``.
 
 from __future__ import annotations
 
-import json
-import math
-from pathlib import Path
-from typing import TYPE_CHECKING, Any
-
-import numpy as np
+from typing import TYPE_CHECKING
 
 from inspect_validate import __version__
+from inspect_validate.files import json_number, json_ready, write_json
 from inspect_validate.measurement import Measurement
 
 if TYPE_CHECKING:
@@ -32,16 +28,6 @@ SCHEMA_VERSION = 2
 """Measurement JSON: 2 moved the KDE bandwidth to the classes and added ``weights``;
 later, additively, each class's ``gaussian_misfit``, each comparison's ``error_counted``
 and ``error_counted_se`` and the top-level ``skipped`` (``error_kde`` is null where it was not computed)."""
-
-
-def json_number(x: float | np.floating | None) -> float | str | None:
-    """A number for JSON: ±inf as "inf"/"-inf", NaN and None as null."""
-    if x is None:
-        return None
-    x = float(x)
-    if math.isnan(x):
-        return None
-    return x if math.isfinite(x) else ("inf" if x > 0 else "-inf")
 
 
 def measurement_document(m: Measurement, *, limits: Limits) -> dict:
@@ -94,26 +80,3 @@ def measurement_document(m: Measurement, *, limits: Limits) -> dict:
         "skipped": list(m.skipped),
         "warnings": list(m.warnings),
     }
-
-
-def json_ready(obj: Any) -> Any:
-    """``obj`` with every float (also numpy scalars) passed through :func:`json_number`."""
-    if isinstance(obj, dict):
-        return {k: json_ready(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [json_ready(v) for v in obj]
-    if isinstance(obj, (float, np.floating)):
-        return json_number(obj)
-    if isinstance(obj, np.integer):
-        return int(obj)
-    if isinstance(obj, np.bool_):
-        return bool(obj)
-    return obj
-
-
-def write_json(doc: dict, path: str | Path) -> Path:
-    """Write ``doc`` (made :func:`json_ready`) atomically: a reader never sees half a file."""
-    from inspect_validate.files import atomic_write
-
-    text = json.dumps(json_ready(doc), indent=2, allow_nan=False) + "\n"
-    return atomic_write(path, text.encode())

@@ -192,7 +192,7 @@ class StatusServer:
                 elif doc is None:
                     self._send(503, "text/plain", "no cycle committed yet\n")
                 elif path == "/status":
-                    from inspect_validate.report.jsonfile import json_ready
+                    from inspect_validate.files import json_ready
 
                     self._send(200, "application/json", json.dumps(json_ready(doc)) + "\n")
                 else:
