@@ -34,6 +34,8 @@ import numpy as np
 from inspect_validate.errors import DeviceError, InputError
 
 if TYPE_CHECKING:
+    from pydantic import BaseModel
+
     from inspect_validate.camera.capture import Progress
     from inspect_validate.characterization.analysis import Characterization
     from inspect_validate.station.file import Station
@@ -269,7 +271,7 @@ def _write_plan(path: Path, plan: Plan) -> None:
     atomic_write(path, json.dumps(asdict(plan), indent=2).encode())
 
 
-def _plan_model():
+def _plan_model() -> type[BaseModel]:
     """The plan file's schema: the bounds a camera's settings have (exposure as a station
     may set it, bit depths a camera may have), so an edited plan is refused before it
     captures, not after it wrote a camera file its reader refuses."""

@@ -23,7 +23,7 @@ import time
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 from inspect_validate.errors import InputError
 
@@ -114,7 +114,7 @@ def write_camera_file(
     return atomic_write(path, text.encode())
 
 
-def _file_model():
+def _file_model() -> Any:
     """The camera file's validation model (built on first use: pydantic is not needed to
     write one)."""
     from typing import Annotated
