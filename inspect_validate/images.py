@@ -78,8 +78,11 @@ def read_image(path: str | Path, *, finite: bool = True) -> np.ndarray:
             "grey values must be numbers",
             source=str(path),
         )
-    largest = float(np.nanmax(np.abs(image), initial=0.0)) if image.dtype.kind == "f" else 0.0
-    largest = largest if np.isfinite(largest) else 0.0  # inf: let through with finite=False
+    largest = 0.0
+    if image.dtype.kind == "f":
+        # Over the finite values: an inf let through (finite=False) must not hide a 1e300.
+        finite_values = np.abs(image[np.isfinite(image)]) if not finite else np.abs(image)
+        largest = float(finite_values.max(initial=0.0))
     if largest >= 2.0**53:
         raise InputError(
             f"grey values up to {largest:.3g}: beyond 2⁵³ they are not a camera's "

@@ -210,3 +210,8 @@ def test_nan_outside_every_region_is_measured_inside_is_named(tmp_path):
     np.save(tmp_path / "f.npy", frame)
     with pytest.raises(InputError, match=r"f\.npy: class B: pixel \(35, 10\) of frame 1"):
         measure_files(tmp_path / "f.npy", tmp_path / "r.yaml")
+    frame = frame.astype(np.float64)
+    frame[10, 35] = 1e300  # beside the inf border: still a value no camera gives
+    np.save(tmp_path / "f.npy", frame)
+    with pytest.raises(InputError, match=r"f\.npy: grey values up to 1e\+300"):
+        measure_files(tmp_path / "f.npy", tmp_path / "r.yaml")
