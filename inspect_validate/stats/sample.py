@@ -337,6 +337,8 @@ def quantisation_step(sample: Sample) -> float | None:
         return None
     denominators = {Fraction(float(r)).limit_denominator(64).denominator for r in ratios[:4096]}
     step = smallest / lcm(*denominators)
+    if not step > 0:  # finer than the smallest double (values near 1e-300): continuous
+        return None
     k = (u - u[0]) / step
     if np.all(np.abs(k - np.round(k)) <= 1e-6):
         return step
