@@ -356,6 +356,17 @@ def load_kernel() -> Callable[..., None]:
     return importlib.import_module(_KERNEL).error_and_log
 
 
+def _usual(m1, v1, m2, v2) -> bool:
+    """Variances in the range where the compiled kernel's products neither overflow nor
+    lose digits to subnormals; others (1e-315, 1e300) take the rescaled numpy path."""
+    with np.errstate(all="ignore"):
+        ranged = [(v == 0.0) | ((v >= 1e-150) & (v <= 1e150)) for v in (v1, v2)]
+        return bool(
+            np.all(ranged[0] & ranged[1])
+            and np.all(np.abs(m1 - m2) <= 1e140 * np.sqrt(np.maximum(v1, v2)))
+        )
+
+
 def _error(mean1, var1, mean2, var2):
     arrays = (np.asarray(a, dtype=float) for a in (mean1, var1, mean2, var2))
     m1, v1, m2, v2 = np.broadcast_arrays(*arrays)
@@ -365,15 +376,9 @@ def _error(mean1, var1, mean2, var2):
         raise ValueError("means and variances must be finite")
     if np.any(v1 < 0) or np.any(v2 < 0):
         raise ValueError("variances must be non-negative")
-    # The kernel takes variances in the range where its products neither overflow nor
-    # lose digits to subnormals; others (1e-315, 1e300) take the rescaled path below.
-    with np.errstate(all="ignore"):
-        ranged = [(v == 0.0) | ((v >= 1e-150) & (v <= 1e150)) for v in (v1, v2)]
-        usual = bool(
-            np.all(ranged[0] & ranged[1])
-            and np.all(np.abs(m1 - m2) <= 1e140 * np.sqrt(np.maximum(v1, v2)))
-        )
-    if usual and (m1.size >= LOAD_MIN or (m1.size >= COMPILED_MIN and _KERNEL in sys.modules)):
+    if (m1.size >= LOAD_MIN or (m1.size >= COMPILED_MIN and _KERNEL in sys.modules)) and _usual(
+        m1, v1, m2, v2
+    ):
         error_and_log = load_kernel()
         eps, log_eps = np.empty(m1.size), np.empty(m1.size)
         error_and_log(*(np.ascontiguousarray(a) for a in (m1, v1, m2, v2)), eps, log_eps)
