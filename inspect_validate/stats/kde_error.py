@@ -147,28 +147,31 @@ def _log_density(x, parts):
     logs = []
     for centres, log_w, sigma in parts:
         out = np.empty(flat.shape)
-        if np.ndim(sigma) or centres.size <= _WINDOW_MIN:
-            _log_density_all(flat, out, centres, log_w, sigma)
-        else:
-            _log_density_windowed(flat, out, centres, log_w, sigma)
+        _summed(_log_density_all, flat, [out], centres, log_w, sigma)
         logs.append(out)
     total = logs[0] if len(logs) == 1 else np.logaddexp.reduce(np.stack(logs), axis=0)
     return total.reshape(np.shape(x)) - _LOG_SQRT_2PI
 
 
-def _log_density_windowed(flat, out, centres, log_w, h) -> None:
-    """:func:`_log_density_all` over the components near each chunk of x (sorted centres)."""
-    order = np.argsort(flat, kind="stable")
-    xs = flat[order]
+def _summed(kernel, x, outs, centres, log_w, sigma) -> None:
+    """``kernel(x, *outs, centres, log_w, sigma)`` over a part's components: in full for a
+    few components or one width each, else over the components near each chunk of x
+    (sorted centres; the rest weigh nothing a double keeps, :func:`_density_parts`)."""
+    if np.ndim(sigma) or centres.size <= _WINDOW_MIN:
+        kernel(x, *outs, centres, log_w, sigma)
+        return
+    order = np.argsort(x, kind="stable")
+    xs = x[order]
     j = np.clip(np.searchsorted(centres, xs), 1, centres.size - 1)
     d0 = np.minimum(np.abs(xs - centres[j - 1]), np.abs(xs - centres[j]))
-    values = np.empty(xs.shape)
-    for part in _chunks(xs, h):
-        reach = d0[part].max() + _WINDOW_REACH * h
+    values = [np.empty(xs.shape) for _ in outs]
+    for part in _chunks(xs, sigma):
+        reach = d0[part].max() + _WINDOW_REACH * sigma
         lo = np.searchsorted(centres, xs[part][0] - reach, side="left")
         hi = np.searchsorted(centres, xs[part][-1] + reach, side="right")
-        _log_density_all(xs[part], values[part], centres[lo:hi], log_w[lo:hi], h)
-    out[order] = values
+        kernel(xs[part], *(v[part] for v in values), centres[lo:hi], log_w[lo:hi], sigma)
+    for out, v in zip(outs, values, strict=True):
+        out[order] = v
 
 
 def _chunks(xs, h):
@@ -745,31 +748,15 @@ def _polish(lo, hi, f_lo, p1, p2, xtol):
 def _log_density_slope(x, parts):
     """log p(x) (unnormalised as in :func:`_log_density`) and d log p / dx.
 
-    Each part is summed as :func:`_log_density` sums it: a kernel density of many
-    components in windows around each chunk of x (a root search over two classes of
-    65,536 distinct grey values otherwise summed every component at every step: minutes),
-    the rest in full; the parts are then combined by their weights.
+    Each part is summed as :func:`_log_density` sums it (:func:`_summed`: a root search
+    over two classes of 65,536 distinct grey values summed every component at every step,
+    minutes), and the parts are combined by their weights.
     """
     x = np.asarray(x, dtype=np.float64)
     logs, slopes = [], []
     for centres, log_w, sigma in parts:
         log_p, slope = np.empty(x.shape), np.empty(x.shape)
-        if np.ndim(sigma) or centres.size <= _WINDOW_MIN:
-            _log_density_slope_all(x, log_p, slope, centres, log_w, sigma)
-        else:
-            order = np.argsort(x, kind="stable")
-            xs = x[order]
-            j = np.clip(np.searchsorted(centres, xs), 1, centres.size - 1)
-            d0 = np.minimum(np.abs(xs - centres[j - 1]), np.abs(xs - centres[j]))
-            lp, sl = np.empty(xs.shape), np.empty(xs.shape)
-            for part in _chunks(xs, sigma):
-                reach = d0[part].max() + _WINDOW_REACH * sigma
-                lo = np.searchsorted(centres, xs[part][0] - reach, side="left")
-                hi = np.searchsorted(centres, xs[part][-1] + reach, side="right")
-                _log_density_slope_all(
-                    xs[part], lp[part], sl[part], centres[lo:hi], log_w[lo:hi], sigma
-                )
-            log_p[order], slope[order] = lp, sl
+        _summed(_log_density_slope_all, x, [log_p, slope], centres, log_w, sigma)
         logs.append(log_p)
         slopes.append(slope)
     if len(logs) == 1:
