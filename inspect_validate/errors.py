@@ -7,6 +7,9 @@ documented interface (the manual, "Exit codes").
 
 from __future__ import annotations
 
+import contextlib
+from collections.abc import Iterator
+
 EXIT_OK = 0
 """Success."""
 EXIT_CHECK_FAILED = 1
@@ -42,6 +45,19 @@ class InputError(InspectValidateError, ValueError):
     def __init__(self, message: str, *, source: str | None = None) -> None:
         self.source = source
         super().__init__(f"{source}: {message}" if source else message)
+
+
+@contextlib.contextmanager
+def sourced(source: str) -> Iterator[None]:
+    """Name ``source`` in an :class:`InputError` raised inside that names no file (the
+    model's "no combination can be predicted", a NaN pixel in a region): the file is
+    what the user changes. One that names its own file is left as it is."""
+    try:
+        yield
+    except InputError as exc:
+        if exc.source:
+            raise
+        raise InputError(str(exc), source=source) from None
 
 
 class DeviceError(InspectValidateError, RuntimeError):

@@ -21,7 +21,7 @@ from inspect_validate.comparisons import (
     kde_separation,
     label,
 )
-from inspect_validate.errors import InputError
+from inspect_validate.errors import InputError, sourced
 from inspect_validate.stats import (
     LatticeSample,
     RegionStatistics,
@@ -449,7 +449,8 @@ def measure_files(
             source=str(dark[0]),
         )
     roi_set = read_rois(rois) if isinstance(rois, (str, Path)) else rois
-    try:
+    more = f" and {len(frames) - 1} more" if len(frames) > 1 else ""
+    with sourced(f"{frames[0]}{more}"):  # errors of the pixels (a NaN in a region)
         result = measure_stack(
             stack,
             roi_set,
@@ -459,11 +460,6 @@ def measure_files(
             limits=limits,
             kde=kde,
         )
-    except InputError as exc:  # of the pixels (a NaN in a region): name the frames
-        if exc.source:
-            raise
-        more = f" and {len(frames) - 1} more" if len(frames) > 1 else ""
-        raise InputError(str(exc), source=f"{frames[0]}{more}") from None
     inputs = {
         "frames": [str(p) for p in frames],
         "dark": [str(p) for p in dark],

@@ -35,7 +35,6 @@ physical range or a wrong type is an error naming the file and the field.
 
 from __future__ import annotations
 
-import contextlib
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, Literal
@@ -51,7 +50,7 @@ from pydantic import (
 from inspect_validate.comparisons import Comparisons, ComparisonsSpec, RankBy
 from inspect_validate.components.sensors import BIT_DEPTHS
 from inspect_validate.config import StrictModel, load_yaml, one_of
-from inspect_validate.errors import InputError
+from inspect_validate.errors import InputError, sourced
 
 if TYPE_CHECKING:
     from inspect_validate.model import Prediction, Ranking
@@ -469,23 +468,12 @@ class Scene:
         parts = [list(self.lights), list(self.optics), list(self.cameras), list(self.classes)]
         return parts, {"exposure": self.exposure, "comparisons": self.comparisons}
 
-    @contextlib.contextmanager
-    def _named(self):
-        """Errors of the model that name no file name this scene's (no combination
-        predictable, a comparison unknown): the file is what the user changes."""
-        try:
-            yield
-        except InputError as exc:
-            if exc.source:
-                raise
-            raise InputError(str(exc), source=self.source) from None
-
     def predict(self, *, grid: np.ndarray | None = None) -> Prediction:
         """:func:`inspect_validate.model.predict` for every combination of this scene."""
         from inspect_validate.model import predict
 
         parts, options = self._model_inputs()
-        with self._named():
+        with sourced(self.source):
             return predict(*parts, grid=self.grid if grid is None else grid, **options)
 
     def sweep(
@@ -505,7 +493,7 @@ class Scene:
         from inspect_validate.model import sweep
 
         parts, options = self._model_inputs()
-        with self._named():
+        with sourced(self.source):
             ranking = sweep(
                 *parts,
                 grid=self.grid,
@@ -542,11 +530,8 @@ def read_scene(path: str | Path) -> Scene:
     geometry = Geometry(**model.geometry.model_dump()) if model.geometry else None
 
     def build(make, spec, where):
-        try:
+        with sourced(where):  # errors from a component's own file name it already
             return make(spec, base)
-        except InputError as exc:
-            # Errors from a component's own file already name it; add the field.
-            raise InputError(str(exc), source=None if exc.source else where) from None
 
     classes = tuple(
         build(
