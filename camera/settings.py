@@ -9,6 +9,7 @@ from typing import Annotated, Literal
 from pydantic import Field, field_validator
 
 from inspect_validate.config import StrictModel
+from inspect_validate.constants import LONGEST_EXPOSURE_S
 
 __all__ = [
     "AsciiProtocol",
@@ -32,7 +33,9 @@ class CameraSettings(StrictModel):
     """The keys every camera backend's section of a station file has: what it is set to
     and how its frames start (a backend adds the keys that choose its device)."""
 
-    exposure_us: Annotated[float, Field(gt=0, le=1e8, allow_inf_nan=False)] | None = None
+    exposure_us: (
+        Annotated[float, Field(gt=0, le=LONGEST_EXPOSURE_S * 1e6, allow_inf_nan=False)] | None
+    ) = None
     """Exposure time set on the camera, µs (default: the camera's own)."""
     gain_db: Annotated[float, Field(ge=-60, le=100, allow_inf_nan=False)] | None = None
     """Analogue gain set on the camera, dB (default: the camera's own)."""

@@ -50,6 +50,7 @@ from pydantic import (
 from inspect_validate.comparisons import Comparisons, ComparisonsSpec, RankBy
 from inspect_validate.components.sensors import BIT_DEPTHS
 from inspect_validate.config import StrictModel, load_yaml, one_of
+from inspect_validate.constants import LONGEST_EXPOSURE_S
 from inspect_validate.errors import InputError, sourced
 
 if TYPE_CHECKING:
@@ -363,8 +364,8 @@ class _Wavelength(StrictModel):
     """Grid step, nm."""
 
 
-# 1 ns to 100 s: the longest a station's camera takes (camera.exposure_us ≤ 10⁸ µs).
-ExposureTime = Annotated[float, Field(ge=1e-9, le=100, allow_inf_nan=False)]
+ExposureTime = Annotated[float, Field(ge=1e-9, le=LONGEST_EXPOSURE_S, allow_inf_nan=False)]
+"""1 ns to the longest exposure a camera is set to, s."""
 
 
 class _Exposure(StrictModel):

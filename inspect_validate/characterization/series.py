@@ -281,8 +281,9 @@ def _plan_model() -> type[BaseModel]:
 
     from inspect_validate.components.sensors import BIT_DEPTHS
     from inspect_validate.config import StrictModel
+    from inspect_validate.constants import LONGEST_EXPOSURE_S
 
-    Exposure = Annotated[float, Field(gt=0, le=1e8, allow_inf_nan=False)]  # µs
+    Exposure = Annotated[float, Field(gt=0, le=LONGEST_EXPOSURE_S * 1e6, allow_inf_nan=False)]  # µs
     Level = Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)]
 
     class PlanFile(StrictModel):

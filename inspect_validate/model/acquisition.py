@@ -39,7 +39,7 @@ from inspect_validate.comparisons import Comparisons, gaussian_separation
 from inspect_validate.components.lights import Light
 from inspect_validate.components.optics import Optics
 from inspect_validate.components.sensors import SensorModel
-from inspect_validate.constants import C, H
+from inspect_validate.constants import LONGEST_EXPOSURE_S, C, H
 from inspect_validate.errors import InputError
 from inspect_validate.spectra import Spectrum
 
@@ -58,9 +58,6 @@ QUANTISATION_VARIANCE = 1.0 / 12.0  # DN²
 _PRESENT = 1e-6  # a component is present where it exceeds this fraction of its peak
 COVERAGE = 0.99
 """A class's reflectance must span this fraction of a combination's spectral response."""
-LONGEST_EXPOSURE = 100.0
-"""The longest exposure an automatic exposure may choose without a ``max_time``, s (a
-station's camera takes at most 10⁸ µs): a combination that needs longer is too dim."""
 _MAX_REASONS = 20  # skipped combinations listed by name; the rest are counted
 
 
@@ -669,7 +666,8 @@ def _feasible(
     Model curves (Gaussian tails, logistic edges) are never exactly zero, so a
     component counts as present where it exceeds 1e-6 of its own peak. ``needed``: the
     automatic exposure each combination would need, s; longer than
-    :data:`LONGEST_EXPOSURE` is too dim (reflectances of 1e-300 asked for 10³⁰⁰ s).
+    :data:`~inspect_validate.constants.LONGEST_EXPOSURE_S` is too dim (reflectances of
+    1e-300 asked for 10³⁰⁰ s).
 
     Returns
     -------
@@ -695,7 +693,7 @@ def _feasible(
         coverage = np.where(total[..., None] > 0, covered / total[..., None], 0.0)
     uncovered = coverage < COVERAGE
     dark = ~(class_rate.max(axis=-1) > 0)
-    dim = np.zeros_like(dark) if needed is None else ~dark & ~(needed <= LONGEST_EXPOSURE)
+    dim = np.zeros_like(dark) if needed is None else ~dark & ~(needed <= LONGEST_EXPOSURE_S)
     valid = shared & ~uncovered.any(axis=-1) & ~dark & ~dim
     reasons = []
     for li, oi, ci in np.argwhere(~valid)[:_MAX_REASONS]:
@@ -718,7 +716,7 @@ def _feasible(
         elif dim[li, oi, ci]:
             why = (
                 f"the brightest class needs an exposure of {needed[li, oi, ci]:.3g} s to reach "
-                f"the target (at most {LONGEST_EXPOSURE:g} s without exposure.max_time): too "
+                f"the target (at most {LONGEST_EXPOSURE_S:g} s without exposure.max_time): too "
                 "little light reaches the camera"
             )
         else:
