@@ -181,19 +181,22 @@ def json_number(x: float | np.floating | None) -> float | str | None:
 
 def json_ready(obj: Any) -> Any:
     """``obj`` with every float (also numpy scalars) passed through :func:`json_number`."""
-    import numpy as np
+    import numpy as np  # once a document, not once per value of it
 
-    if isinstance(obj, dict):
-        return {k: json_ready(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [json_ready(v) for v in obj]
-    if isinstance(obj, (float, np.floating)):
-        return json_number(obj)
-    if isinstance(obj, np.integer):
-        return int(obj)
-    if isinstance(obj, np.bool_):
-        return bool(obj)
-    return obj
+    def ready(o: Any) -> Any:
+        if isinstance(o, dict):
+            return {k: ready(v) for k, v in o.items()}
+        if isinstance(o, (list, tuple)):
+            return [ready(v) for v in o]
+        if isinstance(o, (float, np.floating)):
+            return json_number(o)
+        if isinstance(o, np.integer):
+            return int(o)
+        if isinstance(o, np.bool_):
+            return bool(o)
+        return o
+
+    return ready(obj)
 
 
 def write_json(doc: dict, path: str | Path) -> Path:
