@@ -67,13 +67,12 @@ def characterize(station, out, report_dir, resume):
         # Into a pipe or a log, click writes a line each time the label changes: the
         # series' hundreds of steps are named on a terminal only.
         named = sys.stderr.isatty()
-        advance, steps = FrameProgress(bar), [0]
+        advance = FrameProgress(bar)
 
         def progress(step, _done, _total) -> None:
             if named:
                 bar.label = f"characterizing {step}"
-            steps[0] += 1
-            advance(steps[0])
+            advance.step()
 
         plan = capture_series(st, out, resume=resume, progress=progress)
     plan, result = read_series(st, out)

@@ -4,6 +4,7 @@ capture, and verify's reports (verify, design --verify)."""
 from __future__ import annotations
 
 import sys
+import time
 from pathlib import Path
 
 import click
@@ -84,8 +85,6 @@ class FrameProgress:
         self.done: int | None = None
 
     def __call__(self, done: int) -> None:
-        import time
-
         bar = self.bar
         if self.done is None:
             bar.length = max(bar.length - done, 1)
@@ -94,6 +93,11 @@ class FrameProgress:
         else:
             bar.update(done - self.done)
         self.done = done
+
+    def step(self) -> None:
+        """One step more, for a caller whose steps come from captures that each count
+        from 0 (characterize's series)."""
+        self((self.done or 0) + 1)
 
 
 def capture_with_progress(station, out, *, resume: bool = False):
