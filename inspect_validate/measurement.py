@@ -549,10 +549,11 @@ def two_populations(
         sizes = [float(w.sum()) for _, w in parts]
         if min(sizes) < max(0.01 * n, 10):
             continue  # a few hot or dead pixels are not a second population
-        (m_low, v_low), (m_high, v_high) = (
-            (float(np.average(x, weights=w)), float(np.average((x - np.average(x, weights=w)) ** 2, weights=w)))
-            for x, w in parts
-        )  # fmt: skip
+        moments = []
+        for x, w in parts:
+            mean = float(np.average(x, weights=w))
+            moments.append((mean, float(np.average((x - mean) ** 2, weights=w))))
+        (m_low, v_low), (m_high, v_high) = moments
         spread = np.sqrt((v_low + v_high) / 2)
         d = abs(m_high - m_low) / spread if spread > 0 else np.inf
         if d > BIMODAL_D:

@@ -129,8 +129,10 @@ class _Formatter:
         if origin is typing.Literal:
             return " \\| ".join(f"`{a}`" for a in args)
         if origin is list:
-            item = self(args[0], f"{where}[]") if args else ""
-            return f"list of {item.replace('a pair of ', 'pairs of ', 1)}" if args else "list"
+            if not args:
+                return "list"
+            item = self(args[0], f"{where}[]")
+            return f"list of {item.replace('a pair of ', 'pairs of ', 1)}"
         if origin is tuple:
             items = [self(a, where) for a in args if a is not Ellipsis]
             if len(args) == 2 and args[1] is Ellipsis:

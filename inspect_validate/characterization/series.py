@@ -313,9 +313,7 @@ def _audit(out: Path, steps=None) -> None:
 
     manifest = read_manifest(out / "manifest.json")
     if steps is None:
-        steps = [
-            k for k, v in manifest["steps"].items() if isinstance(v, dict) and v.get("complete")
-        ]
+        steps = [k for k, v in manifest["steps"].items() if v.get("complete")]
     else:
         missing = [k for k in steps if not manifest["steps"].get(k, {}).get("complete")]
         if missing:

@@ -31,7 +31,9 @@ appends to it.
 from __future__ import annotations
 
 import itertools
+import json
 import math
+import os
 import sqlite3
 import time
 from dataclasses import dataclass
@@ -258,9 +260,6 @@ class History:
             ) from None
 
     def _journal(self, record: CycleRecord, rows) -> None:
-        import json
-        import os
-
         with open(self.journal, "a", encoding="utf-8") as f:
             if not f.tell():
                 f.write(json.dumps({"meta": self._meta}) + "\n")
@@ -353,8 +352,6 @@ def rebuild_history(journal: str | Path, path: str | Path) -> int:
         The number of cycles rebuilt. A cycle given twice (a restart that committed
         again after a crash between journal and database) is taken at its last line.
     """
-    import json
-
     journal, path = Path(journal), Path(path)
     if path.exists():
         raise InputError("exists already; give a new file", source=str(path))
