@@ -329,17 +329,14 @@ def _read_plan(path: Path) -> Plan:
 
     from inspect_validate.config import explain
 
-    redo = "start again without --resume and a new --out"
     try:
         doc = json.loads(path.read_text())
-        checked = _plan_model().model_validate(doc, strict=False)
-    except (OSError, ValueError) as exc:
-        if isinstance(exc, ValidationError):
-            why = explain(exc)
-        else:
-            why = str(exc)
+        checked = _plan_model().model_validate(doc, strict=False)  # JSON lists as tuples
+    except (OSError, ValueError) as exc:  # ValidationError is a ValueError
+        why = explain(exc) if isinstance(exc, ValidationError) else str(exc)
         raise InputError(
-            f"the characterization plan is not as characterize wrote it ({why}); {redo}",
+            f"the characterization plan is not as characterize wrote it ({why}); start again "
+            "without --resume and a new --out",
             source=str(path),
         ) from None
     return Plan(**dict(checked))
