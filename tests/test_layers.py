@@ -96,9 +96,12 @@ def test_the_checker_finds_a_cycle():
 
 
 # What the device layer may use of the rest: exit-code errors, atomic files, reading
-# image files (the replay camera), and the strict-model base of its settings.
+# image files (the replay camera), the strict-model base of its settings, and the
+# constants module (numbers only, importing nothing: the longest exposure a camera is set
+# to is the same bound the scene and the model read).
 DEVICE_LAYER_MAY_IMPORT = {
     "inspect_validate",  # the version
+    "inspect_validate.constants",
     "inspect_validate.errors",
     "inspect_validate.files",
     "inspect_validate.images",
@@ -121,6 +124,14 @@ def test_the_device_layer_imports_nothing_of_the_science():
         and target not in DEVICE_LAYER_MAY_IMPORT
     }
     assert not wrong, sorted(wrong)
+    # nor through what it may import: those modules stay among themselves
+    through = {
+        (name, target)
+        for name in DEVICE_LAYER_MAY_IMPORT - {"inspect_validate"}
+        for target in edges.get(name, ())
+        if target not in DEVICE_LAYER_MAY_IMPORT
+    }
+    assert not through, sorted(through)
 
 
 def test_the_layer_check_sees_a_forbidden_import(tmp_path, monkeypatch):
