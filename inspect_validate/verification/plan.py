@@ -34,7 +34,7 @@ class Plan:
     golden: Golden | None  # for acceptance.drift
     dominated: dict[str, str] = field(default_factory=dict)
     """Illuminations left out of the capture as dominated (:func:`dominated_illuminations`):
-    name → why; listed as skipped."""
+    name → why, and how to add it; listed as skipped."""
 
 
 def plan_verification(station: Station, *, drift_checks: bool = True) -> Plan:

@@ -69,6 +69,9 @@ def verify_station(
         Leave out the illuminations the prediction finds dominated (the default, as
         ``inspect-validate verify`` does); capture them after all, into the same folder,
         where the measurement contradicts the prediction. False captures every one.
+        With ``frames``, only the dominated illuminations the capture lacks are left out
+        (a capture ``verify`` made holds none of them); where the measurement contradicts
+        the prediction, it is refused, as they cannot be captured after all.
     capture : callable, keyword-only
         ``capture(station, folder, resume=False)``; default
         :func:`~inspect_validate.camera.capture.capture`.
@@ -88,22 +91,41 @@ def verify_station(
     notify = notify or (lambda message: None)
     plan = plan_verification(station)
     full = station
-    if frames is None:
-        if out is None:
-            raise InputError("give the frames to verify (a capture folder) or where to capture")
-        dominated = (
-            dominated_illuminations(station, plan.model, plan.comparisons) if skip_dominated else {}
+    if frames is None and out is None:
+        raise InputError("give the frames to verify (a capture folder) or where to capture")
+    dominated = (
+        dominated_illuminations(station, plan.model, plan.comparisons) if skip_dominated else {}
+    )
+    if frames is not None:  # an earlier capture: what it holds is measured
+        held = _complete_steps(Path(frames))
+        dominated = {n: why for n, why in dominated.items() if held is not None and n not in held}
+    if dominated:
+        kept = [i for i in station.illuminations if i.name not in dominated]
+        station = station.model_copy(update={"illuminations": kept})
+        how = (
+            "not captured (verify --all-illuminations captures it)"
+            if frames is None
+            else "not in the capture (capture --resume into it adds it)"
         )
-        if dominated:
-            kept = [i for i in station.illuminations if i.name not in dominated]
-            station = station.model_copy(update={"illuminations": kept})
-            plan = replace(plan, dominated=dominated)
-            for name in dominated:
-                notify(f"not capturing {name!r}: predicted dominated (see skipped:)")
+        plan = replace(plan, dominated={n: f"{why}; {how}" for n, why in dominated.items()})
+        for name in dominated:
+            doing = "not capturing" if frames is None else "not in the capture:"
+            notify(f"{doing} {name!r}: predicted dominated (see skipped:)")
+    if frames is None:
+        assert out is not None
         capture(station, Path(out))
         frames = out
     result = verify_folder(station, Path(frames), plan=plan)
     misses = dominance_unconfirmed(result) if plan.dominated else []
+    if misses and out is None:
+        names = ", ".join(repr(n) for n in plan.dominated)
+        raise InputError(
+            f"the capture lacks {names}, which the prediction left out as dominated, but the "
+            f"illuminations it holds do not bear the prediction out ({misses[0]}): capture "
+            "the rest into this folder (inspect-validate capture STATION --out FOLDER "
+            "--resume) or verify without --frames",
+            source=str(frames),
+        )
     if misses:
         # The skip rested on the prediction, which the captured lights contradict: the
         # left-out ones are added to the same capture (its complete steps are kept).
@@ -120,6 +142,18 @@ def verify_station(
         result = verify_folder(full, Path(out), plan=plan)
         result = replace(result, notes=(*result.notes, why))
     return result
+
+
+def _complete_steps(folder: Path) -> set[str] | None:
+    """The steps a capture folder holds complete, by its manifest; None where it has no
+    readable manifest (reading the capture then says what is wrong)."""
+    from inspect_validate.camera.storage import read_manifest
+
+    try:
+        steps = read_manifest(folder / "manifest.json")["steps"]
+    except InputError:
+        return None
+    return {name for name, record in steps.items() if record.get("complete")}
 
 
 def verify_folder(station: Station, frames_dir: Path, *, plan: Plan | None = None) -> Verification:
@@ -161,7 +195,7 @@ def verify_capture(
     skipped = [
         *model.scene.skipped,
         *(
-            f"illumination {name!r}: {why}; not captured (verify --all-illuminations captures it)"
+            f"illumination {name!r}: {why}"
             for name, why in plan.dominated.items()
         ),
     ]

@@ -6,6 +6,7 @@ and the agreement checks must fail on what it cannot (an LED drifted 25 nm).
 """
 
 import json
+import shutil
 import xml.etree.ElementTree as ET
 
 import pytest
@@ -366,6 +367,26 @@ def test_a_dominated_candidate_is_not_captured_and_is_listed(cli, tmp_path):
     verdicts = lambda d: {c["name"]: c["verdict"] for c in d["checks"] if "amber" in c["name"]}  # noqa: E731
     assert verdicts(doc) == verdicts(every)
 
+    # verify --frames of the capture verify made: red is left out again, by the same rule
+    # (it used to be refused: "illumination 'red' was not captured completely here").
+    again = tmp_path / "again"
+    code, out, err = cli(["verify", candidates(tmp_path), "--frames", frames, "--report", again])
+    assert code == 0, out + err
+    assert "not in the capture: 'red'" in err
+    redo = json.loads((again / "verification.json").read_text())
+    (line,) = [s for s in redo["skipped"] if s.startswith("illumination 'red'")]
+    assert "dominated by 'amber'" in line and "capture --resume" in line
+    same = lambda d: [(c["name"], c["verdict"], c["value"]) for c in d["checks"]]  # noqa: E731
+    assert same(redo) == same(doc)
+    # Asked for every illumination, a capture without red is refused naming it.
+    code, out, err = cli(
+        ["verify", candidates(tmp_path), "--frames", frames, "--all-illuminations"]
+    )
+    assert code == 2 and "'red' was not captured" in err
+    # Where the capture holds red, it is measured: nothing is left out.
+    code, out, err = cli(["verify", candidates(all_dir), "--frames", all_dir / "report" / "frames"])
+    assert code == 0 and "not in the capture" not in err and "not capturing" not in err
+
 
 def test_a_left_out_candidate_is_captured_when_the_prediction_fails(cli, tmp_path):
     """A world the prediction does not know: amber's LED 20 nm off its datasheet, red's
@@ -386,6 +407,19 @@ def test_a_left_out_candidate_is_captured_when_the_prediction_fails(cli, tmp_pat
     assert any("captured 'red' after all" in n for n in doc["notes"])
     assert doc["ranking"]["predicted_best"] == "amber"
     assert doc["ranking"]["measured_best"] == "red"
+
+    # The same capture without red, verified with --frames: red cannot be captured
+    # after all, so the verification is refused, saying what to capture.
+    lacking = tmp_path / "lacking"
+    shutil.copytree(frames, lacking)
+    shutil.rmtree(lacking / "red")
+    manifest = json.loads((lacking / "manifest.json").read_text())
+    del manifest["steps"]["red"]
+    (lacking / "manifest.json").write_text(json.dumps(manifest))
+    code, out, err = cli(["verify", path, "--frames", lacking])
+    assert code == 2, out + err
+    assert "lacks 'red'" in err and "amber: A vs C measured" in err and "--resume" in err
+    assert str(lacking) in err and "Traceback" not in err
 
     alone = tmp_path / "alone"
     alone.mkdir()
