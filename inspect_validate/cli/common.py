@@ -22,7 +22,11 @@ class _FrameSize(click.ParamType):
             return value
         width, sep, height = str(value).lower().partition("x")
         if not (sep and width.isdigit() and height.isdigit() and int(width) and int(height)):
-            self.fail(f"{value!r}: write WIDTHxHEIGHT, e.g. 640x480", param, ctx)
+            self.fail(
+                f"{value!r}: write WIDTHxHEIGHT in pixels, each at least 1, e.g. 640x480",
+                param,
+                ctx,
+            )
         return int(width), int(height)
 
 

@@ -126,9 +126,12 @@ def init(
     if interactive is None:
         interactive = sys.stdin.isatty()
 
-    def ask(option: str, question: str, **kwargs):
+    def ask(option: str, question: str, *, why: str | None = None, **kwargs):
         if not interactive:
-            raise InputError(f"give {option} ({question.lower()})", source="init")
+            because = f": {why}" if why else ""
+            raise InputError(f"give {option} ({question.lower()}){because}", source="init")
+        if why:
+            click.echo(why, err=True)
         return click.prompt(question, **kwargs)
 
     if out.exists() and not force:
@@ -254,8 +257,9 @@ def init(
         if exposure_us is None:
             exposure_us = ask(
                 "--exposure-us",
-                "Exposure time, µs (the scene's lights have no irradiance: it cannot be predicted; "
-                "or give --irradiance)",
+                "Exposure time, µs",
+                why="the scene's lights have no irradiance, so the exposure cannot be predicted "
+                "(or give each channel's with --irradiance N=W/m²)",
                 type=click.FloatRange(min=0, min_open=True),
             )
         else:

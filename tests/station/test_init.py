@@ -159,7 +159,10 @@ def test_a_generic_controller_on_tcp_is_written_with_its_protocol_and_probed(
 @pytest.mark.parametrize(
     "args, message",
     [
-        (["--camera", "simulated"], "give --exposure-us"),  # no irradiance: not predictable
+        (
+            ["--camera", "simulated"],  # no irradiance: not predictable
+            "give --exposure-us (exposure time, µs): the scene's lights have no irradiance",
+        ),
         (["--camera", "acme", "--exposure-us", "1"], "no camera backend 'acme' is installed"),
         (
             ["--camera", "simulated", "--channel", "1=blue LED", "--exposure-us", "1"],
@@ -171,6 +174,7 @@ def test_a_generic_controller_on_tcp_is_written_with_its_protocol_and_probed(
             "channel 3, which drives no light",
         ),
         (["--camera", "simulated", "--size", "640", "--exposure-us", "1"], "write WIDTHxHEIGHT"),
+        (["--camera", "simulated", "--size", "0x480", "--exposure-us", "1"], "each at least 1"),
         (["--camera", "v4l2", "--simulate"], "no emulator to render into"),
         (
             [
