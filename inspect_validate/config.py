@@ -23,6 +23,7 @@ from typing import Any, TypeVar
 from pydantic import BaseModel, ConfigDict, ValidationError
 
 from inspect_validate.errors import InputError
+from inspect_validate.files import input_file
 
 __all__ = [
     "StrictModel",
@@ -338,9 +339,7 @@ def load_yaml(path: str | Path, model: type[M], *, what: str) -> M:
         Missing file, YAML syntax error or a field that fails validation, with
         the file (and field) named.
     """
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(f"{what} not found", source=str(path))
+    path = input_file(path, what, todo=f"give the path of a {what} (YAML)")
     try:
         text = path.read_text()
     except UnicodeDecodeError:

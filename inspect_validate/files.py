@@ -1,4 +1,5 @@
-"""Writing output files: atomically, with the user's permissions, with clear errors.
+"""Writing output files: atomically, with the user's permissions, with clear errors; and
+the one check that an input file is there to be read (:func:`input_file`).
 
 Every file the tool writes (JSON reports, captured frames, sidecars, manifests)
 goes through :func:`atomic_write`: a reader never sees half a file, and a crash
@@ -25,6 +26,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "atomic_write",
+    "input_file",
     "json_number",
     "json_ready",
     "output_file",
@@ -46,6 +48,22 @@ _FILE_MODE = 0o666 & ~_umask()
 #: The outermost folder each :func:`output_folder` call created, in this process: what a
 #: refused run removes again where it holds no file (:func:`remove_empty_outputs`).
 _CREATED: list[Path] = []
+
+
+def input_file(path: str | Path, what: str, *, todo: str) -> Path:
+    """``path`` as a regular file to read, else an :class:`InputError` naming it, saying
+    whether it is missing, a folder or a device or pipe (which never end or block a
+    read), and ``todo`` (what to give instead)."""
+    path = Path(path)
+    if path.is_file():
+        return path
+    if path.is_dir():
+        why = "a folder"
+    elif path.exists():
+        why = "not a regular file (a device or a pipe)"
+    else:
+        why = f"{what} not found"
+    raise InputError(f"{why}; {todo}", source=str(path))
 
 
 def output_folder(path: str | Path) -> Path:

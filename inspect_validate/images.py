@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from inspect_validate.errors import InputError
+from inspect_validate.files import input_file
 
 __all__ = ["expand_paths", "read_frames", "read_image", "recorded_bit_depth"]
 
@@ -38,13 +39,7 @@ def read_image(path: str | Path, *, finite: bool = True) -> np.ndarray:
     InputError
         Missing, unreadable, empty or colour files (the message names the file).
     """
-    path = Path(path)
-    if not path.is_file():
-        if path.exists():  # a device (/dev/zero) or a pipe: no size, or no end
-            raise InputError(
-                "not a regular file (a device or a pipe); give an image file", source=str(path)
-            )
-        raise InputError("image file not found", source=str(path))
+    path = input_file(path, "image file", todo="give an image file (TIFF, PNG, NPY…)")
     suffix = path.suffix.lower()
     colour: bool | None = None  # known from the file where it says (samples per pixel)
     image: np.ndarray | None

@@ -425,6 +425,38 @@ def test_output_and_input_paths_that_are_wrong(capsys, paperboard, args):
     assert code == 2
 
 
+@pytest.mark.parametrize("kind", ["folder", "fifo", "device"])
+@pytest.mark.parametrize(
+    "args, what",
+    [
+        (["predict", "{x}"], "scene file"),
+        (["verify", "{x}"], "station file"),
+        (["history", "{x}"], "--db file"),
+        (["rois", "import", "{x}", "--out", "{tmp}/r.yaml"], "labelme"),
+        (["measure", "{p}/optimized.png", "--rois", "{x}"], "ROI file"),
+    ],
+)
+def test_an_input_file_that_is_a_folder_a_pipe_or_a_device(
+    capsys, paperboard, tmp_path, args, what, kind
+):
+    """Every reader of an input file says what the path is, by its name, and what to give;
+    a FIFO is refused without opening it (a read would block until a writer came)."""
+    import os
+
+    if kind == "folder":
+        x = tmp_path / "folder"
+        x.mkdir()
+    elif kind == "fifo":
+        x = tmp_path / "fifo"
+        os.mkfifo(x)
+    else:
+        x = Path("/dev/zero")
+    code, out, err = run([a.format(p=paperboard, x=x, tmp=tmp_path) for a in args], capsys)
+    assert_clean(code, out, err)
+    said = "a folder" if kind == "folder" else "not a regular file (a device or a pipe)"
+    assert code == 2 and f"{x}: {said}; give" in err and what in err, err
+
+
 @pytest.fixture(scope="module")
 def verified_capture(tmp_path_factory):
     """A capture of the simulated station and a golden file trained on six: enough repeats

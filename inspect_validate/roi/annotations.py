@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from inspect_validate.errors import InputError
+from inspect_validate.files import input_file
 from inspect_validate.roi.roiset import ClassRoi, RoiSet
 from inspect_validate.roi.shapes import Ellipse, MaskImage, Polygon, Shape
 
@@ -53,9 +54,11 @@ def read_annotations(
         Not a file of a known format, or a shape this tool cannot use (a line, a point),
         naming the file and the annotation.
     """
-    path = Path(path)
-    if not path.is_file():
-        raise InputError("annotation file not found", source=str(path))
+    path = input_file(
+        path,
+        "annotation file",
+        todo="give a label image, or a labelme, COCO or napari shapes file",
+    )
     reader = _reader(path)
     by_class, frame = reader(path, masks=masks, image=image)
     if not by_class:

@@ -30,6 +30,7 @@ from pydantic import Field, ValidationError, field_validator
 
 from inspect_validate.config import StrictModel, explain, load_yaml
 from inspect_validate.errors import InputError
+from inspect_validate.files import input_file
 from inspect_validate.roi.shapes import Ellipse, MaskImage, Polygon, Rect, Shape, rasterise
 
 __all__ = ["ClassRoi", "RoiSet", "class_masks", "read_rois", "write_rois"]
@@ -123,9 +124,7 @@ _SHAPE_KEYS = ("rect", "polygon", "ellipse", "mask", "imagej")
 
 def read_rois(path: str | Path) -> RoiSet:
     """Read an ROI set from YAML (``.yaml``/``.yml``) or ImageJ (``.roi``/``.zip``)."""
-    path = Path(path)
-    if not path.is_file():
-        raise InputError("ROI file not found", source=str(path))
+    path = input_file(path, "ROI file", todo="give an ROI file (YAML, or ImageJ .roi or .zip)")
     if path.suffix.lower() in (".roi", ".zip"):
         by_class: dict[str, list] = {}
         for shape, name, where in _imagej_shapes(path):
@@ -240,8 +239,7 @@ def _parse_shape(
 def _imagej_shapes(path: Path):
     import roifile
 
-    if not path.is_file():
-        raise InputError("ImageJ ROI file not found", source=str(path))
+    input_file(path, "ImageJ ROI file", todo="give an ImageJ .roi or RoiSet .zip")
     try:
         rois = roifile.roiread(path)
     except Exception as exc:  # roifile raises several types for corrupt files

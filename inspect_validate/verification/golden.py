@@ -43,6 +43,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from inspect_validate.config import StrictModel
 from inspect_validate.errors import InputError
+from inspect_validate.files import input_file
 from inspect_validate.verification.checks import Check, at_most
 
 if TYPE_CHECKING:
@@ -400,15 +401,12 @@ def read_golden(path: str | Path) -> Golden:
 
     from inspect_validate.config import explain
 
-    path = Path(path)
-    if not path.exists():
-        raise InputError(
-            "golden file not found; make it with 'inspect-validate train STATION --out FILE'",
-            source=str(path),
-        )
     # A regular file of bounded size: /dev/zero or a FIFO would read forever or block.
-    if not path.is_file():
-        raise InputError("not a regular file; give the golden.json 'train' wrote", source=str(path))
+    path = input_file(
+        path,
+        "golden file",
+        todo="give the golden.json 'train' wrote (inspect-validate train STATION --out FILE)",
+    )
     if path.stat().st_size > GOLDEN_MAX_BYTES:
         raise InputError(
             f"{path.stat().st_size / 2**20:.0f} MB is no golden file (they are kilobytes); "

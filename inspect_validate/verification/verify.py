@@ -194,10 +194,7 @@ def verify_capture(
     need_kde = acc.needs_kde
     skipped = [
         *model.scene.skipped,
-        *(
-            f"illumination {name!r}: {why}"
-            for name, why in plan.dominated.items()
-        ),
+        *(f"illumination {name!r}: {why}" for name, why in plan.dominated.items()),
     ]
     if not need_kde:
         skipped.append("ε KDE: no check asks for it (acceptance.separation[].max_error_kde)")

@@ -43,6 +43,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from inspect_validate.errors import InputError
+from inspect_validate.files import input_file
 
 if TYPE_CHECKING:
     from inspect_validate.station.file import Station
@@ -477,8 +478,7 @@ def read_history(path: str | Path, *, last: int | None = None) -> HistoryLog:
     """
     path = Path(path)
     todo = "give the --db file 'watch' wrote"
-    if not path.is_file():
-        raise InputError(f"no such history database; {todo}", source=str(path))
+    input_file(path, "history database", todo=todo)
     db = _read_only(path, todo)
     try:
         meta = dict(db.execute("SELECT key, value FROM meta"))

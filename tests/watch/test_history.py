@@ -187,7 +187,7 @@ GOOD_POINT = (0, "amber", "class", "A", "mean", 160.0, 160.0, 159.0, 161.0)
 @pytest.mark.parametrize(
     ("make", "message"),
     [
-        (lambda p: p, "no such history database"),
+        (lambda p: p, "history database not found"),
         (lambda p: p.write_bytes(b"\x00junk" * 100) and p, "not a watch history database"),
         (lambda p: lenient_history(p, meta={}), "no station or start time"),
         (lambda p: lenient_history(p, meta={"station": "s", "created": "never"}), "no station"),
@@ -216,7 +216,7 @@ def test_history_refuses_what_watch_did_not_write(cli, tmp_path, make, message):
     code, _out, err = cli(["history", db, "--csv", tmp_path / "h.csv"])
     assert code == 2 and message in err and str(db) in err, err
     assert "Traceback" not in err and not (tmp_path / "h.csv").exists()
-    if message == "no such history database":
+    if message == "history database not found":
         assert not db.exists()  # reading never creates one
 
 
