@@ -48,6 +48,8 @@ def read_manifest(path: Path) -> dict:
     """A capture's manifest, checked enough to resume or measure from (a damaged one is
     refused naming the file: the frames beside it stay as they are)."""
     try:
+        if path.exists() and not path.is_file():  # a pipe would block the read
+            raise OSError("not a regular file")
         manifest = json.loads(path.read_text())
     except (OSError, UnicodeDecodeError, ValueError, RecursionError) as exc:
         manifest = exc
@@ -297,6 +299,9 @@ def audit_capture(folder: Path, manifest: dict, steps: Iterable[str]) -> dict[st
                 problems.append(f"{where} is the same frame as {seen[digest]} (identical bytes)")
             seen.setdefault(digest, where)
             sidecar = path.with_suffix(".json")
+            if sidecar.exists() and not sidecar.is_file():
+                problems.append(f"{where}: its sidecar {sidecar.name} is not a regular file")
+                continue
             try:
                 meta = json.loads(sidecar.read_text())
             except (OSError, UnicodeDecodeError, ValueError, RecursionError):
@@ -360,7 +365,7 @@ def read_capture(
     folder = Path(folder)
     wanted = list(steps)
     manifest_path = folder / "manifest.json"
-    if not manifest_path.is_file():
+    if not manifest_path.exists():
         raise InputError(
             "not a capture folder (no manifest.json); make one with 'inspect-validate capture' "
             "or leave out --frames to capture now",

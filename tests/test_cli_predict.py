@@ -70,7 +70,7 @@ def test_predict_table2_top_and_rank_by(capsys):
         ),
         (
             "classes: {A: {file: missing.csv}, B: {file: a.csv}}\nlights: [{cie: D65}]\noptics: [ideal]\ncameras: [cmos-visible]\n",
-            "missing.csv: cannot read",
+            "missing.csv: spectrum file not found",
         ),
         (
             "classes: {A: {file: a.csv}, B: {file: a.csv}}\nlights: [{cie: D65}]\noptics: [ideal]\ncameras: [{file: a.csv}]\n",

@@ -430,6 +430,8 @@ def test_output_and_input_paths_that_are_wrong(capsys, paperboard, args):
     "args, what",
     [
         (["predict", "{x}"], "scene file"),
+        (["design", "{x}"], "scene file"),
+        (["analyze-spectra", "{x}"], "scene file"),
         (["verify", "{x}"], "station file"),
         (["history", "{x}"], "--db file"),
         (["rois", "import", "{x}", "--out", "{tmp}/r.yaml"], "labelme"),
@@ -455,6 +457,28 @@ def test_an_input_file_that_is_a_folder_a_pipe_or_a_device(
     assert_clean(code, out, err)
     said = "a folder" if kind == "folder" else "not a regular file (a device or a pipe)"
     assert code == 2 and f"{x}: {said}; give" in err and what in err, err
+
+
+@pytest.mark.parametrize("kind", ["fifo", "device"])
+def test_a_scene_whose_spectrum_file_is_a_pipe_or_a_device(capsys, tmp_path, kind):
+    """A spectrum named by a scene is read as the scene is: a FIFO would block predict, and
+    /dev/zero filled the memory until the kernel killed it."""
+    import os
+    import shutil
+
+    scene = tmp_path / "paperboard"
+    shutil.copytree(ROOT / "sample_images" / "scenes" / "paperboard", scene)
+    shutil.copytree(
+        ROOT / "sample_images" / "scenes" / "chapter_table2", tmp_path / "chapter_table2"
+    )
+    (scene / "A.csv").unlink()
+    if kind == "fifo":
+        os.mkfifo(scene / "A.csv")
+    else:
+        (scene / "A.csv").symlink_to("/dev/zero")
+    code, out, err = run(["predict", scene / "scene.yaml"], capsys)
+    assert_clean(code, out, err)
+    assert code == 2 and "A.csv: not a regular file (a device or a pipe); give a CSV" in err
 
 
 @pytest.fixture(scope="module")

@@ -118,7 +118,7 @@ BAD = [
     ),
     (
         scene(classes="{A: {file: a.csv}, B: {file: missing.csv}}"),
-        r"missing\.csv: cannot read spectrum file",
+        r"missing\.csv: spectrum file not found",
     ),
     (
         scene(extra="wavelength: {start: 380, stop: 780, step: 1e-12}\n"),

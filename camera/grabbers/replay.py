@@ -85,6 +85,8 @@ class ReplayGrabber(Grabber):
         # Top-level frames only: partial-* folders hold interrupted attempts.
         for sidecar in sorted(self.folder.glob("*/frame_*.json")):
             try:
+                if not sidecar.is_file():  # a pipe would block the read
+                    raise OSError("not a regular file")
                 meta = json.loads(sidecar.read_text())
                 setting = _setting(meta["light_setting"])
             except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:

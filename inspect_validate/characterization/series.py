@@ -114,7 +114,7 @@ def capture_series(
     plan_path = out / PLAN_FILE
     if resume and (out / "manifest.json").exists():
         _audit(out)  # frames changed since they were written are not built on
-    if resume and plan_path.is_file():
+    if resume and plan_path.exists():  # refused if it is not a regular file
         plan = _read_plan(plan_path)
     else:
         t0 = station.camera.exposure_us or 10_000.0
@@ -330,6 +330,8 @@ def _read_plan(path: Path) -> Plan:
     from inspect_validate.config import explain
 
     try:
+        if path.exists() and not path.is_file():  # a pipe would block the read
+            raise OSError("not a regular file")
         doc = json.loads(path.read_text())
         checked = _plan_model().model_validate(doc, strict=False)  # JSON lists as tuples
     except (OSError, ValueError) as exc:  # ValidationError is a ValueError

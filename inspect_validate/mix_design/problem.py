@@ -72,8 +72,8 @@ def design_problem(path: str | Path, *, auto_exposure: bool = False) -> DesignPr
     from inspect_validate.config import parse_yaml
 
     path = Path(path)
-    try:
-        doc = parse_yaml(path.read_text(), source=str(path))
+    try:  # not a regular file (a pipe would block): read_scene says so
+        doc = parse_yaml(path.read_text(), source=str(path)) if path.is_file() else None
     except (OSError, UnicodeDecodeError, InputError):
         doc = None  # read_scene says what is wrong with the file
     if isinstance(doc, dict) and "controller" in doc:

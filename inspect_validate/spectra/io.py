@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from inspect_validate.errors import InputError
+from inspect_validate.files import input_file
 from inspect_validate.spectra.spectrum import Spectrum, SpectrumKind
 
 __all__ = ["normalise_reflectance", "read_spectrometer", "read_spectrum_csv"]
@@ -48,7 +49,7 @@ def read_spectrum_csv(
         wavelength, too few rows, or values far below zero; the message names
         the file and line.
     """
-    path = Path(path)
+    path = input_file(path, "spectrum file", todo="give a CSV of wavelength (nm) and value")
     kind = SpectrumKind(kind)
     try:
         text = path.read_text()

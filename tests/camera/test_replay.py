@@ -80,6 +80,20 @@ def test_replay_refuses_what_was_not_recorded(tmp_path, recording, capsys, kwarg
         assert len(list((out / "amber").glob("frame_*.tif"))) == 4
 
 
+def test_replay_refuses_a_recording_whose_sidecar_is_a_pipe(tmp_path, recording, capsys):
+    """A FIFO would block the index's read until a writer came: it is named instead."""
+    import os
+    import shutil
+
+    folder = tmp_path / "rec"
+    shutil.copytree(recording, folder)
+    (folder / "red" / "frame_0002.json").unlink()
+    os.mkfifo(folder / "red" / "frame_0002.json")
+    assert run_cli(["capture", replay_station(tmp_path, folder), "--out", tmp_path / "o"]) == 2
+    err = capsys.readouterr().err
+    assert "frame_0002.json: not a capture sidecar" in err and "not a regular file" in err
+
+
 def manual_station(tmp_path, n_images=6):
     folder = tmp_path / "images"
     folder.mkdir()

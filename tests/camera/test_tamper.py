@@ -80,6 +80,20 @@ def _fifo(cap):  # a pipe would block the audit's read for ever
     os.mkfifo(cap / "amber" / "frame_0002.tif")
 
 
+def _fifo_sidecar(cap):
+    import os
+
+    (cap / "amber" / "frame_0003.json").unlink()
+    os.mkfifo(cap / "amber" / "frame_0003.json")
+
+
+def _fifo_manifest(cap):
+    import os
+
+    (cap / "manifest.json").unlink()
+    os.mkfifo(cap / "manifest.json")
+
+
 def _added(cap):
     for ext in ("tif", "json"):
         shutil.copy(cap / "amber" / f"frame_0004.{ext}", cap / "amber" / f"frame_0005.{ext}")
@@ -98,6 +112,8 @@ def _added(cap):
         (_unhash, "amber: the manifest's frame hashes (sha256) are missing or damaged"),
         (_text_count, "amber: the manifest's frame count '4' is not a whole number"),
         (_fifo, "amber/frame_0002.tif is not a regular file"),
+        (_fifo_sidecar, "amber/frame_0003.tif: its sidecar frame_0003.json is not a regular file"),
+        (_fifo_manifest, "the capture's manifest is damaged (not a regular file)"),
     ],
 )
 def test_verify_refuses_a_tampered_capture_naming_what_disagrees(

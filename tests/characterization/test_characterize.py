@@ -142,6 +142,18 @@ def test_an_edited_plan_is_refused_before_it_captures(
     ), err
 
 
+def test_a_plan_that_is_a_pipe_is_refused_not_waited_on(characterized, tmp_path, capsys):
+    import os
+
+    station, out = _resumable(characterized, tmp_path)
+    (out / "characterize.json").unlink()
+    os.mkfifo(out / "characterize.json")
+    assert run_cli(["characterize", station, "--out", out, "--resume"]) == 2
+    err = capsys.readouterr().err
+    assert "characterize.json: the characterization plan is not as" in err
+    assert "not a regular file" in err
+
+
 @pytest.mark.slow
 def test_the_simulated_sensor_is_measured_within_emva_tolerances(characterized):
     sheet = json.loads((characterized / "report" / "characterization.json").read_text())
