@@ -182,6 +182,9 @@ def explain(exc: ValidationError, *, known: set[str] | None = None) -> str:
 
 _MAX_DEPTH = 64
 _MAX_VALUES = 2_000_000  # a scene of 100 spectra of 10,000 samples each is 10⁶
+YAML_MAX_BYTES = 64 * 2**20
+"""The largest YAML file read (station, scene, ROI, camera file): 2·10⁶ values
+(``_MAX_VALUES``) written out are tens of MB."""
 
 
 @functools.cache
@@ -339,7 +342,7 @@ def load_yaml(path: str | Path, model: type[M], *, what: str) -> M:
         Missing file, YAML syntax error or a field that fails validation, with
         the file (and field) named.
     """
-    path = input_file(path, what, todo=f"give the path of a {what} (YAML)")
+    path = input_file(path, what, todo=f"give the path of a {what} (YAML)", largest=YAML_MAX_BYTES)
     try:
         text = path.read_text()
     except UnicodeDecodeError:

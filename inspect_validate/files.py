@@ -50,13 +50,21 @@ _FILE_MODE = 0o666 & ~_umask()
 _CREATED: list[Path] = []
 
 
-def input_file(path: str | Path, what: str, *, todo: str) -> Path:
-    """``path`` as a regular file to read, else an :class:`InputError` naming it, saying
-    whether it is missing, a folder or a device or pipe (which never end or block a
-    read), and ``todo`` (what to give instead)."""
+def input_file(path: str | Path, what: str, *, todo: str, largest: int | None = None) -> Path:
+    """``path`` as a regular file to read, of at most ``largest`` bytes, else an
+    :class:`InputError` naming it, saying whether it is missing, a folder, a device or
+    pipe (which never end or block a read) or larger than any such file, and ``todo``
+    (what to give instead)."""
     path = Path(path)
     if path.is_file():
-        return path
+        size = path.stat().st_size
+        if largest is None or size <= largest:
+            return path
+        raise InputError(
+            f"{size / 2**20:,.0f} MB is larger than any {what} (at most "
+            f"{largest / 2**20:,.0f} MB is read); {todo}",
+            source=str(path),
+        )
     if path.is_dir():
         why = "a folder"
     elif path.exists():
@@ -124,12 +132,25 @@ def atomic_write(path: str | Path, data: bytes) -> Path:
     umask), not the 0600 of a temporary file, and is flushed to disk before the
     rename.
 
+    A symbolic link is written through (its target replaced, the link kept), and a
+    device, pipe or terminal (``/dev/stdout``, ``/dev/null``, a FIFO) is written to as a
+    stream: a rename would put a regular file in its place.
+
     Raises
     ------
     InputError
         The path is a folder, lies under a file, or cannot be written.
     """
     path = output_file(path)
+    if path.exists() and not path.is_file():
+        try:
+            with open(path, "wb") as f:
+                f.write(data)
+        except OSError as exc:
+            raise InputError(f"cannot write ({exc.strerror or exc})", source=str(path)) from None
+        return path
+    if path.is_symlink():
+        path = path.resolve()
     try:
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     except OSError as exc:

@@ -459,7 +459,29 @@ def test_an_input_file_that_is_a_folder_a_pipe_or_a_device(
     assert code == 2 and f"{x}: {said}; give" in err and what in err, err
 
 
-@pytest.mark.parametrize("kind", ["fifo", "device"])
+@pytest.mark.parametrize(
+    "args, what",
+    [
+        (["predict", "{x}"], "scene file"),
+        (["design", "{x}"], "scene file"),
+        (["verify", "{x}"], "station file"),
+        (["measure", "{p}/optimized.png", "--rois", "{x}"], "ROI file"),
+    ],
+)
+def test_a_file_larger_than_any_of_its_kind_is_refused_unread(
+    capsys, paperboard, tmp_path, args, what
+):
+    """A sparse 8 GB file: refused by its size before a byte is read (it was read whole,
+    then 'out of memory; measure fewer or smaller frames')."""
+    x = tmp_path / "huge.yaml"
+    with open(x, "wb") as f:
+        f.truncate(8 * 2**30)
+    code, out, err = run([a.format(p=paperboard, x=x) for a in args], capsys)
+    assert_clean(code, out, err)
+    assert code == 2 and f"{x}: 8,192 MB is larger than any {what} (at most 64 MB" in err, err
+
+
+@pytest.mark.parametrize("kind", ["fifo", "device", "huge"])
 def test_a_scene_whose_spectrum_file_is_a_pipe_or_a_device(capsys, tmp_path, kind):
     """A spectrum named by a scene is read as the scene is: a FIFO would block predict, and
     /dev/zero filled the memory until the kernel killed it."""
@@ -474,11 +496,19 @@ def test_a_scene_whose_spectrum_file_is_a_pipe_or_a_device(capsys, tmp_path, kin
     (scene / "A.csv").unlink()
     if kind == "fifo":
         os.mkfifo(scene / "A.csv")
-    else:
+    elif kind == "device":
         (scene / "A.csv").symlink_to("/dev/zero")
+    else:
+        with open(scene / "A.csv", "wb") as f:
+            f.truncate(3 * 2**30)
     code, out, err = run(["predict", scene / "scene.yaml"], capsys)
     assert_clean(code, out, err)
-    assert code == 2 and "A.csv: not a regular file (a device or a pipe); give a CSV" in err
+    said = (
+        "3,072 MB is larger than any spectrum file (at most 64 MB is read)"
+        if kind == "huge"
+        else "not a regular file (a device or a pipe)"
+    )
+    assert code == 2 and f"A.csv: {said}; give a CSV" in err, err
 
 
 @pytest.fixture(scope="module")

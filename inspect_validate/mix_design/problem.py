@@ -69,11 +69,13 @@ def design_problem(path: str | Path, *, auto_exposure: bool = False) -> DesignPr
         cameras, a station without ``scene:``, ``channels:`` or (unless
         ``auto_exposure``) ``camera.exposure_us``.
     """
-    from inspect_validate.config import parse_yaml
+    from inspect_validate.config import YAML_MAX_BYTES, parse_yaml
 
     path = Path(path)
-    try:  # not a regular file (a pipe would block): read_scene says so
-        doc = parse_yaml(path.read_text(), source=str(path)) if path.is_file() else None
+    # Not a regular file (a pipe would block), or too large: read_scene says so.
+    readable = path.is_file() and path.stat().st_size <= YAML_MAX_BYTES
+    try:
+        doc = parse_yaml(path.read_text(), source=str(path)) if readable else None
     except (OSError, UnicodeDecodeError, InputError):
         doc = None  # read_scene says what is wrong with the file
     if isinstance(doc, dict) and "controller" in doc:

@@ -32,6 +32,8 @@ UPPER = {
 """Largest accepted value per kind; above it the file is refused (values in percent, wrong column)."""
 WAVELENGTH_RANGE = (1.0, 100_000.0)
 """nm: the first column must lie within (1 nm, 100 µm]."""
+SPECTRUM_MAX_BYTES = 64 * 2**20
+"""The largest spectrum CSV read: a spectrometer's 10⁶ rows are about 20 MB."""
 
 
 def read_spectrum_csv(
@@ -49,7 +51,12 @@ def read_spectrum_csv(
         wavelength, too few rows, or values far below zero; the message names
         the file and line.
     """
-    path = input_file(path, "spectrum file", todo="give a CSV of wavelength (nm) and value")
+    path = input_file(
+        path,
+        "spectrum file",
+        todo="give a CSV of wavelength (nm) and value",
+        largest=SPECTRUM_MAX_BYTES,
+    )
     kind = SpectrumKind(kind)
     try:
         text = path.read_text()

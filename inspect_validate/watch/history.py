@@ -118,6 +118,12 @@ class History:
         self, path: str | Path, *, station: str, golden: str | None, created: float | None = None
     ) -> None:
         self.path = Path(path)
+        if self.path.exists() and not self.path.is_file():
+            # A device or pipe is no database; and one made here would be deleted again
+            # when SQLite failed on it (as root, /dev/zero was).
+            raise InputError(
+                "not a regular file (a device or a pipe); give another --db", source=str(path)
+            )
         self.journal = self.path.with_name(self.path.name + ".journal")
         self._changed: str | None = None
         self._lock = _exclusive(self.path)
@@ -129,7 +135,8 @@ class History:
             raise
 
     def _open(self, station: str, golden: str | None, created: float | None) -> None:
-        new = not (self.path.is_file() and self.path.stat().st_size)
+        existed = self.path.exists()
+        new = not (existed and self.path.stat().st_size)
         if new and self.journal.exists():
             # The journal of a history that is gone (deleted to start afresh): kept aside,
             # never appended to a new history's, nor deleted.
@@ -169,7 +176,7 @@ class History:
         except sqlite3.DatabaseError as exc:
             self.db.close()
             if new:  # nothing of the user's in it: leave no half-made file to refuse later
-                for suffix in ("", "-wal", "-shm"):
+                for suffix in ("", "-wal", "-shm") if not existed else ("-wal", "-shm"):
                     Path(f"{path}{suffix}").unlink(missing_ok=True)
                 raise InputError(
                     f"cannot create the history ({exc}): free space, raise the file size limit "

@@ -316,6 +316,44 @@ def test_a_second_watch_on_one_history_is_refused_naming_the_holder(tmp_path):
     History(db, station="st.yaml", golden=None).close()  # free again once closed
 
 
+@pytest.mark.parametrize("kind", ["fifo", "socket"])
+def test_a_history_that_is_no_regular_file_is_refused_and_left_as_it_is(tmp_path, kind):
+    """As root, --db /dev/zero was taken for a new history, SQLite failed on it, and the
+    half-made history, that is the device node, was deleted. A FIFO and a socket stand
+    in for the device here (a test must not risk the machine's /dev)."""
+    import socket
+    import stat
+
+    from inspect_validate.errors import InputError
+    from inspect_validate.watch.history import History
+
+    db = tmp_path / "history.sqlite"
+    if kind == "fifo":
+        os.mkfifo(db)
+    else:
+        server = socket.socket(socket.AF_UNIX)
+        server.bind(str(db))
+    with pytest.raises(
+        InputError, match=r"history\.sqlite: not a regular file .*give another --db"
+    ):
+        History(db, station="st.yaml", golden=None)
+    mode = db.lstat().st_mode
+    assert stat.S_ISFIFO(mode) if kind == "fifo" else stat.S_ISSOCK(mode)
+    assert not (tmp_path / "history.sqlite.lock").exists()
+    if kind == "socket":
+        server.close()
+
+
+def test_an_empty_history_file_made_by_the_user_is_kept(tmp_path):
+    """An empty file (made with touch) is a new history, not refused."""
+    from inspect_validate.watch.history import History
+
+    db = tmp_path / "history.sqlite"
+    db.touch()
+    History(db, station="st.yaml", golden=None).close()
+    assert db.stat().st_size > 0
+
+
 def test_a_history_damaged_from_outside_is_not_continued(tmp_path):
     """A chart renamed and a value changed behind watch's back, or pages overwritten:
     watch refuses to append to it (history refuses to print it alike)."""

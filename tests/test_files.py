@@ -1,0 +1,52 @@
+"""Output files: written whole or not at all, and never in place of what the path names."""
+
+import os
+import threading
+
+import pytest
+
+from inspect_validate.files import atomic_write, write_json
+
+
+def test_a_symbolic_link_is_written_through(tmp_path):
+    """The target is replaced and the link stays (a rename put a regular file in the
+    link's place, leaving the target as it was)."""
+    target = tmp_path / "shared" / "report.json"
+    target.parent.mkdir()
+    target.write_text("{}")
+    link = tmp_path / "report.json"
+    link.symlink_to(target)
+    write_json({"verdict": "pass"}, link)
+    assert link.is_symlink() and link.resolve() == target
+    assert '"verdict": "pass"' in target.read_text()
+
+
+def test_a_pipe_is_written_as_a_stream_and_stays_a_pipe(tmp_path):
+    """--json /dev/stdout is a link to a pipe or terminal: written to, not replaced (as
+    root, the rename replaced /dev/stdout itself). A FIFO stands in for it here."""
+    fifo = tmp_path / "out"
+    os.mkfifo(fifo)
+    link = tmp_path / "stdout"
+    link.symlink_to(fifo)
+    received = []
+    reader = threading.Thread(target=lambda: received.append(fifo.read_bytes()))
+    reader.start()
+    atomic_write(link, b"frame report\n")
+    reader.join(timeout=10)
+    assert received == [b"frame report\n"]
+    assert link.is_symlink() and fifo.is_fifo()
+
+
+def test_a_regular_file_is_replaced_whole(tmp_path):
+    path = tmp_path / "a.json"
+    path.write_text("old")
+    atomic_write(path, b"new")
+    assert path.read_bytes() == b"new"
+    assert [p.name for p in tmp_path.iterdir()] == ["a.json"]  # no temporary left
+
+
+def test_a_folder_is_refused(tmp_path):
+    from inspect_validate.errors import InputError
+
+    with pytest.raises(InputError, match="is a folder; give a file name"):
+        atomic_write(tmp_path, b"x")
