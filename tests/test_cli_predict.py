@@ -127,3 +127,29 @@ def test_dask_before_the_scene_is_named_not_taken_as_its_address(capsys):
     assert "Missing argument" not in err
     for address in ("tcp://10.0.0.5:8786", "scheduler:8786", "[::1]:8786", "local"):
         assert _scheduler_address(None, None, address) == address  # what Dask's Client takes
+
+
+@pytest.mark.parametrize(
+    ("raised", "code", "said"),
+    [
+        (
+            MemoryError,
+            70,
+            "error: out of memory in predict; predict fewer combinations at a time, or on a "
+            "coarser wavelength grid\n",
+        ),
+        (KeyboardInterrupt, 130, "interrupted\n"),  # predict saves no frames: none are named
+    ],
+)
+def test_what_ends_a_run_is_said_for_the_command_that_ran(monkeypatch, capsys, raised, code, said):
+    """Running out of memory, or Ctrl-C, in the middle of a prediction (raised where the
+    scene is read). 'measure fewer or smaller frames' and 'frames saved so far are kept'
+    were said for every command."""
+    import inspect_validate.scene
+
+    def fail(*args, **kwargs):
+        raise raised
+
+    monkeypatch.setattr(inspect_validate.scene, "read_scene", fail)
+    assert run_cli(["predict", "scene.yaml"]) == code
+    assert capsys.readouterr().err.lstrip("\n") == said  # click ends a ^C line first

@@ -66,6 +66,26 @@ def _terminated(signum, frame):
     raise KeyboardInterrupt
 
 
+# The commands that capture frames (kept on an interruption, resumable), and what lets
+# a command that ran out of memory do with less.
+_CAPTURING = {"capture", "verify", "train", "watch", "characterize", "design"}
+_LESS_MEMORY = {
+    "measure": "measure fewer or smaller frames at a time",
+    "rois": "give fewer or smaller frames",
+    "predict": "predict fewer combinations at a time, or on a coarser wavelength grid",
+    "analyze-spectra": "give fewer or shorter spectra",
+    "design": "give fewer candidate lights, or leave out --choose",
+}
+
+
+def _command_name(argv) -> str | None:
+    """The command a command line runs (its first word that is not an option)."""
+    return next(
+        (str(a) for a in (sys.argv[1:] if argv is None else argv) if not str(a).startswith("-")),
+        None,
+    )
+
+
 def main(argv=None) -> None:
     """Console entry point: run the CLI and map errors to documented exit codes."""
     import signal
@@ -83,9 +103,12 @@ def main(argv=None) -> None:
         with cleaned_outputs():  # a refused or failed run leaves no empty folders
             cli.main(args=argv, prog_name="inspect-validate", standalone_mode=False)
     except (click.exceptions.Abort, KeyboardInterrupt):
-        click.echo(
-            "interrupted; frames saved so far are kept (capture: rerun with --resume)", err=True
+        kept = (
+            "; frames saved so far are kept (capture: rerun with --resume)"
+            if _command_name(argv) in _CAPTURING
+            else ""
         )
+        click.echo(f"interrupted{kept}", err=True)
         sys.exit(130)
     except click.ClickException as exc:
         exc.show()
@@ -94,7 +117,9 @@ def main(argv=None) -> None:
         click.echo(f"error: {exc}", err=True)
         sys.exit(exc.exit_code)
     except MemoryError:
-        click.echo("error: out of memory; measure fewer or smaller frames at a time", err=True)
+        command = _command_name(argv)
+        less = _LESS_MEMORY.get(command or "", "give it smaller inputs")
+        click.echo(f"error: out of memory in {command or 'inspect-validate'}; {less}", err=True)
         sys.exit(EXIT_INTERNAL)
     except Exception:
         traceback.print_exc()
