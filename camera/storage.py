@@ -31,15 +31,17 @@ import time
 from collections.abc import Iterable
 from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
-from typing import Any
+from typing import Any, TextIO
 
 from inspect_validate import __version__
 from inspect_validate.camera.frame import Frame
 from inspect_validate.errors import InputError
-from inspect_validate.files import atomic_write
+from inspect_validate.files import atomic_write, exclusive_lock, output_folder, release_lock
 
 __all__ = ["QUEUED_FRAMES", "CaptureStore", "audit_capture", "read_capture", "read_manifest"]
 
+LOCK_FILE = ".capture.lock"
+"""Held in the capture folder while a capture writes into it (removed when it ends)."""
 QUEUED_FRAMES = 8
 """Grabbed frames that may wait for the writer thread."""
 
@@ -76,6 +78,22 @@ class CaptureStore:
         self._lock = threading.Lock()  # the writer thread adds frames while steps are saved
         self._pending: list[Future] = []
         self.manifest_path = self.folder / "manifest.json"
+        output_folder(self.folder)
+        # Two captures into one folder would overwrite each other's frames and manifest.
+        self._held: TextIO | None = exclusive_lock(
+            self.folder / LOCK_FILE,
+            holder="capture",
+            what="this capture folder",
+            remedy="another --out folder",
+            source=self.folder,
+        )
+        try:
+            self._start(station_path, station_sha256, resume)
+        except BaseException:
+            self.release()
+            raise
+
+    def _start(self, station_path: Path, station_sha256: str, resume: bool) -> None:
         if self.manifest_path.exists():
             manifest = read_manifest(self.manifest_path)
             if manifest.get("station_sha256") != station_sha256:
@@ -90,9 +108,6 @@ class CaptureStore:
                 )
             self.manifest = manifest
         else:
-            from inspect_validate.files import output_folder
-
-            output_folder(self.folder)
             self.manifest = {
                 "schema": "inspect-validate/capture",
                 "schema_version": 1,
@@ -209,6 +224,13 @@ class CaptureStore:
         first = next((e for e in errors if e is not None), None)
         if first is not None:
             raise first
+
+    def release(self) -> None:
+        """Let another capture into the folder (its lock file removed); once the capture
+        ends, whatever the end."""
+        if self._held is not None:
+            release_lock(self._held)
+            self._held = None
 
     def close(self) -> BaseException | None:
         """Write every queued frame and stop the writer thread; the first failure is

@@ -187,25 +187,41 @@ def exclusive_lock(lock_path: Path, *, holder: str, what: str, remedy: str, sour
     """
     import fcntl
 
-    try:
-        handle = open(lock_path, "a+")
-    except OSError as exc:
-        raise InputError(f"cannot lock {what} ({exc.strerror})", source=str(source)) from None
-    try:
-        fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except BlockingIOError:
-        handle.seek(0)
-        pid = handle.read().strip() or "another process"
+    while True:
+        try:
+            handle = open(lock_path, "a+")
+        except OSError as exc:
+            raise InputError(f"cannot lock {what} ({exc.strerror})", source=str(source)) from None
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            handle.seek(0)
+            pid = handle.read().strip() or "another process"
+            handle.close()
+            raise InputError(
+                f"another {holder} ({pid}) is writing {what}; stop it first, or give {remedy}",
+                source=str(source),
+            ) from None
+        # A holder that removes its lock file on release (release_lock) may have done so
+        # between our open and our flock: then this lock is on a file nobody else sees.
+        try:
+            if os.stat(lock_path).st_ino == os.fstat(handle.fileno()).st_ino:
+                break
+        except FileNotFoundError:
+            pass
         handle.close()
-        raise InputError(
-            f"another {holder} ({pid}) is writing {what}; stop it first, or give {remedy}",
-            source=str(source),
-        ) from None
     handle.seek(0)
     handle.truncate()
     handle.write(f"pid {os.getpid()}")
     handle.flush()
     return handle
+
+
+def release_lock(handle: TextIO) -> None:
+    """Release a lock of :func:`exclusive_lock` and remove its file (a folder of results
+    is left without it)."""
+    Path(handle.name).unlink(missing_ok=True)  # before the release: no taker sees it freed
+    handle.close()
 
 
 def json_number(x: float | np.floating | None) -> float | str | None:

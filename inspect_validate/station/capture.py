@@ -58,25 +58,28 @@ def capture(
     """
     from inspect_validate.station.devices import open_devices
 
+    stopping = _stopping(station)
+    pulse = getattr(station.controller, "pulse", None)
     store = CaptureStore(
         out, station_path=station.file, station_sha256=station_hash(station.file), resume=resume
     )
-    stopping = _stopping(station)
-    pulse = getattr(station.controller, "pulse", None)
-    with devices if devices is not None else open_devices(station) as (controller, camera):
-        return capture_steps(
-            controller,
-            camera,
-            station_steps(station) if steps is None else steps,
-            store,
-            station.camera,
-            pulse=pulse,
-            discard_max=station.discard_max,
-            brightness_tolerance=station.brightness_tolerance,
-            source=str(station.path),
-            stopping=stopping,
-            progress=progress,
-        )
+    try:
+        with devices if devices is not None else open_devices(station) as (controller, camera):
+            return capture_steps(
+                controller,
+                camera,
+                station_steps(station) if steps is None else steps,
+                store,
+                station.camera,
+                pulse=pulse,
+                discard_max=station.discard_max,
+                brightness_tolerance=station.brightness_tolerance,
+                source=str(station.path),
+                stopping=stopping,
+                progress=progress,
+            )
+    finally:
+        store.release()
 
 
 def _stopping(station: Station):

@@ -55,6 +55,7 @@ __all__ = [
     "CycleRecord",
     "History",
     "HistoryLog",
+    "history_path",
     "read_history",
     "read_station_history",
     "rebuild_history",
@@ -104,6 +105,23 @@ class CycleRecord:
     frames: str | None
 
 
+def history_path(path: str | Path) -> Path:
+    """``path`` as a history database to write: a regular file, or none yet.
+
+    Raises
+    ------
+    InputError
+        A device or a pipe: no database, and one made there would be deleted again when
+        SQLite failed on it (as root, ``--db /dev/zero`` was).
+    """
+    path = Path(path)
+    if path.exists() and not path.is_file() and not path.is_dir():
+        raise InputError(
+            "not a regular file (a device or a pipe); give another --db", source=str(path)
+        )
+    return path
+
+
 class History:
     """An open history database.
 
@@ -117,13 +135,7 @@ class History:
     def __init__(
         self, path: str | Path, *, station: str, golden: str | None, created: float | None = None
     ) -> None:
-        self.path = Path(path)
-        if self.path.exists() and not self.path.is_file():
-            # A device or pipe is no database; and one made here would be deleted again
-            # when SQLite failed on it (as root, /dev/zero was).
-            raise InputError(
-                "not a regular file (a device or a pipe); give another --db", source=str(path)
-            )
+        self.path = history_path(path)
         self.journal = self.path.with_name(self.path.name + ".journal")
         self._changed: str | None = None
         self._lock = _exclusive(self.path)

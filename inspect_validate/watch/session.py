@@ -93,7 +93,7 @@ def watch_session(
     from inspect_validate.files import exclusive_lock, output_file, output_folder
     from inspect_validate.verification.plan import plan_verification
     from inspect_validate.watch.drift import DriftMonitor
-    from inspect_validate.watch.history import History
+    from inspect_validate.watch.history import History, history_path
 
     drift = station.acceptance.drift
     if golden is not None:
@@ -116,7 +116,7 @@ def watch_session(
     watched = station.model_copy(
         update={"acceptance": station.acceptance.model_copy(update={"drift": None})}
     )
-    db = Path(db or Path(f"watch-{station.file.stem}") / "history.sqlite")
+    db = history_path(db or Path(f"watch-{station.file.stem}") / "history.sqlite")
     folder = Path(folder or db.parent)
     status = Path(status or folder / "status.json")
     for f in (db, status):

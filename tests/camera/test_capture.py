@@ -686,3 +686,34 @@ def test_a_run_refused_before_any_frame_leaves_no_folders(tmp_path, capsys):
         code = run_cli(args)
         assert code in (2, 3), capsys.readouterr().err
     assert not out.exists() or sorted(p.name for p in out.rglob("*")) == []
+
+
+def test_a_second_capture_into_a_folder_being_written_is_refused(tmp_path, capsys):
+    """Two captures into one --out (two terminals, one command repeated) wrote over each
+    other's frames and manifest; the second is now refused at once, naming the first's
+    process, and the folder is free again, without a lock file among the frames, once
+    the first has ended."""
+    import os
+    import subprocess
+    import sys
+
+    from inspect_validate.camera.storage import LOCK_FILE, CaptureStore
+    from inspect_validate.errors import InputError
+
+    out = tmp_path / "cap"
+    first = CaptureStore(out, station_path=tmp_path / "s.yaml", station_sha256="0", resume=False)
+    with pytest.raises(InputError, match=rf"another capture \(pid {os.getpid()}\) is writing"):
+        CaptureStore(out, station_path=tmp_path / "s.yaml", station_sha256="0", resume=False)
+    # Through the CLI, from another process: exit 2, nothing written into the folder.
+    station = ROOT / "sample_images" / "station" / "station.yaml"
+    run = subprocess.run(
+        [sys.executable, "-m", "inspect_validate", "capture", str(station), "--out", str(out)],
+        capture_output=True,
+        text=True,
+    )
+    assert run.returncode == 2 and "another capture" in run.stderr, run.stderr
+    assert sorted(p.name for p in out.iterdir()) == [LOCK_FILE]
+    first.release()
+    assert sorted(out.iterdir()) == []
+    assert run_cli(["capture", station, "--out", out]) == 0
+    assert LOCK_FILE not in {p.name for p in out.iterdir()}

@@ -175,6 +175,14 @@ def test_watch_needs_a_golden_file_that_fits(cli, tmp_path, golden):
     (tmp_path / "db.sqlite").write_text("not a database")
     code, _, err = cli(["watch", path, "--golden", golden, "--db", tmp_path / "db.sqlite"])
     assert code == 2 and "not a watch history database" in err, err
+    # A pipe (as /dev/zero is a device) is refused before anything is made beside it: as
+    # root, --db /dev/zero put the lock and the status in /dev and deleted /dev/zero.
+    pipes = tmp_path / "pipes"
+    pipes.mkdir()
+    os.mkfifo(pipes / "db")
+    code, _, err = cli(["watch", path, "--golden", golden, "--db", pipes / "db"])
+    assert code == 2 and f"{pipes / 'db'}: not a regular file" in err, err
+    assert sorted(p.name for p in pipes.iterdir()) == ["db"] and (pipes / "db").is_fifo()
 
 
 def test_a_kill_mid_cycle_loses_nothing_committed(tmp_path, golden):
