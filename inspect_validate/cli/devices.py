@@ -67,6 +67,7 @@ def devices(cti, only, serial, ports, probe, protocol, json_path):
     from inspect_validate.camera.settings import AsciiProtocol
     from inspect_validate.config import load_yaml
     from inspect_validate.errors import DeviceError
+    from inspect_validate.files import atomic_write
 
     asked = load_yaml(protocol, AsciiProtocol, what="controller protocol") if protocol else None
     inventory = take_inventory(
@@ -113,7 +114,7 @@ def devices(cti, only, serial, ports, probe, protocol, json_path):
         if str(json_path) == "-":
             click.echo(text)
             return
-        json_path.write_text(text + "\n")
+        atomic_write(json_path, (text + "\n").encode())
     click.echo(_text(doc))
 
 

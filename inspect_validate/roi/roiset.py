@@ -30,7 +30,7 @@ from pydantic import Field, ValidationError, field_validator
 
 from inspect_validate.config import StrictModel, explain, load_yaml
 from inspect_validate.errors import InputError
-from inspect_validate.files import input_file
+from inspect_validate.files import atomic_write, input_file
 from inspect_validate.roi.shapes import Ellipse, MaskImage, Polygon, Rect, Shape, rasterise
 
 __all__ = ["ClassRoi", "RoiSet", "class_masks", "read_rois", "write_rois"]
@@ -182,7 +182,7 @@ def write_rois(rois: RoiSet, path: str | Path, *, comment: str = "") -> RoiSet:
         else:
             lines.append(f"  {name}:")
             lines += [f"    - {flow(shape)}" for shape, _ in cls.shapes]
-    path.write_text("\n".join(lines) + "\n")
+    atomic_write(path, ("\n".join(lines) + "\n").encode())
     return read_rois(path)
 
 

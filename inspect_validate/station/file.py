@@ -43,6 +43,7 @@ from inspect_validate.acceptance import Acceptance, Calibration
 from inspect_validate.camera.settings import Channel
 from inspect_validate.comparisons import ComparisonsSpec
 from inspect_validate.config import StrictModel, load_yaml, one_of
+from inspect_validate.files import atomic_write
 from inspect_validate.scene import Irradiance
 from inspect_validate.station.world import Rendered
 
@@ -398,7 +399,7 @@ def write_station(
         body = "\n".join(_explained(station, doc)) + "\n"
     else:
         body = yaml.safe_dump(doc, sort_keys=False, allow_unicode=True)
-    Path(path).write_text(head + body)
+    atomic_write(path, (head + body).encode())
     return read_station(path)
 
 
