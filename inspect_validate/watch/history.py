@@ -504,7 +504,8 @@ def read_history(path: str | Path, *, last: int | None = None) -> HistoryLog:
         (total,) = db.execute("SELECT COUNT(*) FROM cycles").fetchone()
         (since,) = db.execute(
             "SELECT MIN(cycle) FROM (SELECT cycle FROM cycles ORDER BY cycle DESC LIMIT ?)",
-            (-1 if last is None else last,),
+            # SQLite's LIMIT is a 64-bit integer: more than that many is every cycle
+            (-1 if last is None or last >= 2**63 else last,),
         ).fetchone()
         cycles = db.execute(
             "SELECT cycle, started, seconds, status, passed, reason, cause, frames FROM cycles "

@@ -160,6 +160,9 @@ def test_history_last_cycles(cli, aged, tmp_path):
         assert {r["cycle"] for r in csv.DictReader(f)} == {"21", "22", "23"}
     code, out, _ = cli(["history", aged.db, "--last", 100, "--recent", 0])
     assert code == 0 and "cycles 0–23," in out and "recent cycles" not in out
+    # beyond SQLite's 64-bit integers (an OverflowError, exit 70, before): every cycle
+    code, out, err = cli(["history", aged.db, "--last", 10**20, "--recent", 0])
+    assert code == 0 and "cycles 0–23," in out, err
 
 
 def test_verify_report_carries_the_history(cli, aged, tmp_path):
