@@ -425,6 +425,28 @@ def test_output_and_input_paths_that_are_wrong(capsys, paperboard, args):
     assert code == 2
 
 
+@pytest.mark.parametrize("value", ["nan", "-nan", "inf"])
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["measure", "f.png", "--rois", "r.yaml", "--max-saturated"],
+        ["measure", "f.png", "--rois", "r.yaml", "--max-zero"],
+        ["measure", "f.png", "--rois", "r.yaml", "--saturation-level"],
+        ["rois", "propose", "f.png", "--out", "r.yaml", "--edge"],
+        ["watch", "s.yaml", "--interval"],
+        ["watch", "s.yaml", "--retry-delay"],
+    ],
+)
+def test_a_number_option_refuses_nan(capsys, args, value):
+    """click's float range lets NaN through (every comparison with it is false):
+    --interval nan watched without a pause, --max-saturated nan never failed a class."""
+    code, out, err = run([*args, value], capsys)
+    assert_clean(code, out, err)
+    assert (
+        code == 2 and f"{args[-1]}': " in err and ("not a finite number" in err or "range" in err)
+    )
+
+
 @pytest.mark.parametrize("kind", ["folder", "fifo", "device"])
 @pytest.mark.parametrize(
     "args, what",

@@ -33,6 +33,19 @@ class _FrameSize(click.ParamType):
 SIZE = _FrameSize()
 
 
+class Number(click.FloatRange):
+    """A finite number, within ``min``/``max`` where given: click's float and float range
+    let NaN (which every comparison passes) and infinities through."""
+
+    def convert(self, value, param, ctx):
+        import math
+
+        number = super().convert(value, param, ctx)
+        if not math.isfinite(number):
+            self.fail(f"{number} is not a finite number", param, ctx)
+        return number
+
+
 def verify_and_report(
     st, *, frames_dir, out, report_dir, history=None, skip_dominated: bool = True
 ):

@@ -6,7 +6,7 @@ import sys
 
 import click
 
-from inspect_validate.cli.common import PATH, SIZE
+from inspect_validate.cli.common import PATH, SIZE, Number
 
 
 def _pairs(values, option: str, convert):
@@ -260,7 +260,7 @@ def init(
                 "Exposure time, µs",
                 why="the scene's lights have no irradiance, so the exposure cannot be predicted "
                 "(or give each channel's with --irradiance N=W/m²)",
-                type=click.FloatRange(min=0, min_open=True),
+                type=Number(min=0, min_open=True),
             )
         else:
             click.echo(

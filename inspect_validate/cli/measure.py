@@ -8,19 +8,11 @@ import click
 
 from inspect_validate.cli.common import (
     PATH,
+    Number,
     check_outputs,
 )
 from inspect_validate.errors import EXIT_CHECK_FAILED
 from inspect_validate.text import labelled
-
-
-def finite(value, param):
-    """Refuse NaN and infinities, which click's float type lets through."""
-    import math
-
-    if value is not None and not math.isfinite(value):
-        raise click.BadParameter(f"{value} is not a finite number", param=param)
-    return value
 
 
 @click.command()
@@ -35,21 +27,20 @@ def finite(value, param):
 @click.option("--json", "json_path", type=PATH, help="Also write the results as JSON to this file.")
 @click.option(
     "--saturation-level",
-    type=float,
-    callback=lambda ctx, param, v: finite(v, param),
+    type=Number(),
     help="Raw value counted as saturated [DN]; default 2^bits − 1 of the bit depth a "
     "captured frame records (Mono12 in uint16: 4095), else the data type's maximum.",
 )
 @click.option(
     "--max-saturated",
-    type=click.FloatRange(0, 1),
+    type=Number(0, 1),
     default=0.001,
     show_default=True,
     help="Largest acceptable fraction of saturated pixels per class.",
 )
 @click.option(
     "--max-zero",
-    type=click.FloatRange(0, 1),
+    type=Number(0, 1),
     default=0.001,
     show_default=True,
     help="Largest acceptable fraction of zero (underexposed) pixels per class.",

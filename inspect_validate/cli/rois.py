@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import click
 
-from inspect_validate.cli.common import PATH, SIZE
+from inspect_validate.cli.common import PATH, SIZE, Number
 
 
 @click.group()
@@ -71,7 +71,7 @@ def _write_picture(path, picture) -> None:
 )
 @click.option(
     "--edge",
-    type=click.FloatRange(min=0.5, max=100),
+    type=Number(min=0.5, max=100),
     default=4.0,
     show_default=True,
     help="An edge: a gradient above this many times its noise.",

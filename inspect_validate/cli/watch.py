@@ -6,7 +6,7 @@ import sys
 
 import click
 
-from inspect_validate.cli.common import PATH
+from inspect_validate.cli.common import PATH, Number
 from inspect_validate.errors import EXIT_CHECK_FAILED
 
 
@@ -34,7 +34,7 @@ from inspect_validate.errors import EXIT_CHECK_FAILED
 )
 @click.option(
     "--interval",
-    type=click.FloatRange(0, 86400),
+    type=Number(0, 86400),
     default=60.0,
     show_default=True,
     help="Seconds from the start of one cycle to the next.",
@@ -49,7 +49,7 @@ from inspect_validate.errors import EXIT_CHECK_FAILED
 )
 @click.option(
     "--retry-delay",
-    type=click.FloatRange(0, 60),
+    type=Number(0, 60),
     default=1.0,
     show_default=True,
     help="Seconds before the first reconnect after a failed cycle; doubles, at most 60.",
