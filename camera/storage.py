@@ -36,7 +36,13 @@ from typing import Any, TextIO
 from inspect_validate import __version__
 from inspect_validate.camera.frame import Frame
 from inspect_validate.errors import InputError
-from inspect_validate.files import atomic_write, exclusive_lock, output_folder, release_lock
+from inspect_validate.files import (
+    atomic_write,
+    exclusive_lock,
+    output_folder,
+    regular_text,
+    release_lock,
+)
 
 __all__ = ["QUEUED_FRAMES", "CaptureStore", "audit_capture", "read_capture", "read_manifest"]
 
@@ -50,9 +56,7 @@ def read_manifest(path: Path) -> dict:
     """A capture's manifest, checked enough to resume or measure from (a damaged one is
     refused naming the file: the frames beside it stay as they are)."""
     try:
-        if path.exists() and not path.is_file():  # a pipe would block the read
-            raise OSError("not a regular file")
-        manifest = json.loads(path.read_text())
+        manifest = json.loads(regular_text(path))
     except (OSError, UnicodeDecodeError, ValueError, RecursionError) as exc:
         manifest = exc
     steps = manifest.get("steps") if isinstance(manifest, dict) else None

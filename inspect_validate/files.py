@@ -31,6 +31,7 @@ __all__ = [
     "json_ready",
     "output_file",
     "output_folder",
+    "regular_text",
     "write_json",
 ]
 
@@ -72,6 +73,15 @@ def input_file(path: str | Path, what: str, *, todo: str, largest: int | None = 
     else:
         why = f"{what} not found"
     raise InputError(f"{why}; {todo}", source=str(path))
+
+
+def regular_text(path: Path) -> str:
+    """The text of ``path``, refused with an :class:`OSError` where it is not a regular file
+    (a pipe would block the read, a device never end it); for readers that turn an
+    ``OSError`` into their own message."""
+    if path.exists() and not path.is_file():
+        raise OSError("not a regular file")
+    return path.read_text()
 
 
 def output_folder(path: str | Path) -> Path:

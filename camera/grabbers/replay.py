@@ -29,6 +29,7 @@ from inspect_validate.camera.grabbers.base import Grabber
 from inspect_validate.camera.registry import Backend, Opening
 from inspect_validate.camera.settings import CameraSettings
 from inspect_validate.errors import DeviceError, InputError
+from inspect_validate.files import regular_text
 
 __all__ = ["BACKEND", "ReplayGrabber", "ReplaySettings"]
 
@@ -85,9 +86,7 @@ class ReplayGrabber(Grabber):
         # Top-level frames only: partial-* folders hold interrupted attempts.
         for sidecar in sorted(self.folder.glob("*/frame_*.json")):
             try:
-                if not sidecar.is_file():  # a pipe would block the read
-                    raise OSError("not a regular file")
-                meta = json.loads(sidecar.read_text())
+                meta = json.loads(regular_text(sidecar))
                 setting = _setting(meta["light_setting"])
             except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
                 raise InputError(

@@ -328,11 +328,10 @@ def _read_plan(path: Path) -> Plan:
     from pydantic import ValidationError
 
     from inspect_validate.config import explain
+    from inspect_validate.files import regular_text
 
     try:
-        if path.exists() and not path.is_file():  # a pipe would block the read
-            raise OSError("not a regular file")
-        doc = json.loads(path.read_text())
+        doc = json.loads(regular_text(path))
         checked = _plan_model().model_validate(doc, strict=False)  # JSON lists as tuples
     except (OSError, ValueError) as exc:  # ValidationError is a ValueError
         why = explain(exc) if isinstance(exc, ValidationError) else str(exc)

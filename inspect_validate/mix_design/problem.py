@@ -70,12 +70,12 @@ def design_problem(path: str | Path, *, auto_exposure: bool = False) -> DesignPr
         ``auto_exposure``) ``camera.exposure_us``.
     """
     from inspect_validate.config import YAML_MAX_BYTES, parse_yaml
+    from inspect_validate.files import input_file
 
     path = Path(path)
-    # Not a regular file (a pipe would block), or too large: read_scene says so.
-    readable = path.is_file() and path.stat().st_size <= YAML_MAX_BYTES
-    try:
-        doc = parse_yaml(path.read_text(), source=str(path)) if readable else None
+    try:  # what input_file refuses (a pipe, a device, too large) read_scene says
+        input_file(path, "scene file", todo="", largest=YAML_MAX_BYTES)
+        doc = parse_yaml(path.read_text(), source=str(path))
     except (OSError, UnicodeDecodeError, InputError):
         doc = None  # read_scene says what is wrong with the file
     if isinstance(doc, dict) and "controller" in doc:

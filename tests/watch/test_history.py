@@ -347,7 +347,7 @@ def test_a_history_that_is_no_regular_file_is_refused_and_left_as_it_is(tmp_path
         server.close()
 
 
-def test_an_empty_history_file_made_by_the_user_is_kept(tmp_path):
+def test_an_empty_file_is_taken_as_a_new_history(tmp_path):
     """An empty file (made with touch) is a new history, not refused."""
     from inspect_validate.watch.history import History
 
