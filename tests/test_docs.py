@@ -69,6 +69,20 @@ def test_readme_is_a_readme_and_its_links_resolve():
         assert (ROOT / target).exists(), target
 
 
+def test_ci_runs_the_readmes_test_command_as_printed():
+    """The quick start's second command is what CI runs, word for word: CI that installs
+    more than the README says hid a test command that failed on a fresh machine."""
+    text = (ROOT / "README.md").read_text()
+    quick = text.split("## Quick start", 1)[1].split("\n## ", 1)[0]
+    commands = re.findall(r"```sh\n(.*?)\n```", quick, re.S)
+    assert len(commands) == 2 and "pytest" in commands[1]
+    ci = (ROOT / ".ci" / "run").read_text().splitlines()
+    assert commands[1] in ci
+    # Everything the tests import is in the test extra (docutils came only with docs).
+    extras = (ROOT / "pyproject.toml").read_text().split("\ntest = [", 1)[1].split("]", 1)[0]
+    assert '"docutils' in extras
+
+
 def test_every_manual_page_is_in_the_manual():
     # Sphinx warns (an error with -W) about a page outside every toctree; this names it
     # without a docs build. Each section has a page of its own whose toctree lists its
