@@ -141,6 +141,10 @@ def design_verification(
         values = [getattr(getattr(by[ill, label], what), field) for label in objective]
         return max(values) if kind == "error" else min(values)
 
+    if DESIGN_ILLUMINATION not in ills:  # its light never reached the camera: a failed check
+        return DesignCheck(
+            ills, quantity, rows, "FAIL: the mix was not measured (see its light check)", False
+        )
     mix = worst(DESIGN_ILLUMINATION, "measured")
     if len(ills) == 1:
         return DesignCheck(

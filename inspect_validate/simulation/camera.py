@@ -74,7 +74,9 @@ def world_components(
 
     lights = {}
     for ch, light in model.channels.items():
-        irradiance = light.irradiance * world.irradiance.get(ch, 1.0)
+        # A dead channel (factor 0) is rendered at its stated power and its signal then
+        # zeroed by the camera (a Light has a positive irradiance).
+        irradiance = light.irradiance * (world.irradiance.get(ch, 1.0) or 1.0)
         shift, stretch = world.peak_shift_nm.get(ch, 0.0), world.width_scale.get(ch, 1.0)
         if shift or stretch != 1.0:
             # The same power as before, emitted at the shifted/stretched wavelengths:
@@ -209,6 +211,8 @@ class SimulatedGrabber(Grabber):
         )
         assert p.sample_electrons is not None  # a full prediction keeps its samples
         rates = p.sample_electrons[:, 0, 0]  # (channels, samples), e⁻/s at 100 %, unclipped
+        dead = np.array([world.irradiance.get(ch, 1.0) == 0 for ch in lights])
+        rates = np.where(dead[:, None], 0.0, rates)  # the light never reaches the objects
         if world.irradiance_jitter:  # this capture's light levels, drawn once per opening
             level = np.exp(self.noise.normal(0.0, world.irradiance_jitter, len(lights)))
             rates = rates * np.where(np.array(list(lights)) == 0, 1.0, level)[:, None]

@@ -18,6 +18,9 @@ from inspect_validate.config import StrictModel
 __all__ = ["Rendered", "World", "WorldChange"]
 
 Factor = Annotated[float, Field(gt=0, le=100, allow_inf_nan=False)]
+# A channel's irradiance factor: 0 is a light that never reaches the objects (a dead
+# LED, a cut cable, a channel wired to nothing).
+Level = Annotated[float, Field(ge=0, le=100, allow_inf_nan=False)]
 Percent = Annotated[float, Field(gt=-100, lt=100, allow_inf_nan=False)]
 ShiftNm = Annotated[float, Field(ge=-200, le=200, allow_inf_nan=False)]
 Transmission = Annotated[float, Field(gt=0, le=2, allow_inf_nan=False)]
@@ -34,8 +37,8 @@ class WorldChange(StrictModel):
     """The first cycle of ``watch`` with the change."""
     stop: Annotated[int, Field(ge=1)] | None = None
     """The first cycle without it again (default: it stays)."""
-    irradiance: dict[Channel, Factor] = {}
-    """Step: factor on the channel's irradiance (an LED replaced by a weaker one)."""
+    irradiance: dict[Channel, Level] = {}
+    """Step: factor on the channel's irradiance (an LED replaced by a weaker one; 0 dead)."""
     percent_per_cycle: dict[Channel, Percent] = {}
     """Drift: the channel's output changes by this % every cycle (LED ageing: negative)."""
     percent_per_hour: dict[Channel, Percent] = {}
@@ -68,8 +71,9 @@ class World(StrictModel):
     keyed by controller channel.
     """
 
-    irradiance: dict[Channel, Annotated[float, Field(gt=0, le=100, allow_inf_nan=False)]] = {}
-    """Factor on the channel's irradiance at the object (a dimmer or farther light)."""
+    irradiance: dict[Channel, Level] = {}
+    """Factor on the channel's irradiance at the object (a dimmer or farther light; 0: no
+    light of the channel reaches the objects)."""
     peak_shift_nm: dict[Channel, ShiftNm] = {}
     """The channel's spectrum shifted by this many nm (an LED drifted from its datasheet)."""
     width_scale: dict[Channel, Annotated[float, Field(ge=0.2, le=5, allow_inf_nan=False)]] = {}
@@ -140,7 +144,9 @@ class World(StrictModel):
             w["camera_timeout"] |= c.camera_timeout
             w["frozen"] |= c.frozen
         # a drift schedule may not push a factor out of its range
-        w["irradiance"] = {ch: min(max(f, 1e-6), 100.0) for ch, f in w["irradiance"].items()}
+        w["irradiance"] = {
+            ch: 0.0 if f == 0 else min(max(f, 1e-6), 100.0) for ch, f in w["irradiance"].items()
+        }
         return World(**w)
 
     def controller_faults(self, cycle: int) -> list[str]:

@@ -12,7 +12,7 @@ from inspect_validate.verification.checks import Check, at_least, at_most, not_r
 from inspect_validate.verification.results import RankingAgreement
 
 if TYPE_CHECKING:
-    from collections.abc import Sequence
+    from collections.abc import Mapping, Sequence
 
     from inspect_validate.acceptance import Acceptance
     from inspect_validate.measurement import Measurement
@@ -82,17 +82,41 @@ def acceptance_checks(
     gain: Gain | None,
     gain_missing: str | None = None,
     errors: dict[str, StandardErrors] | None = None,
+    *,
+    unlit: Mapping[str, str] | None = None,
 ) -> tuple[list[Check], list[str]]:
     """The checks ``acc`` asks for, and the work left out (a skip: only what nobody asked
     for). A check that cannot be evaluated is :func:`not_run`, a failure that says why —
     never a skip. ``errors`` is illumination → the measurement's
     :class:`~.uncertainty.StandardErrors`: the tolerance checks' margins
-    (:func:`~.checks.decide` sets them)."""
+    (:func:`~.checks.decide` sets them). ``unlit`` is illumination → what was measured,
+    for those whose light does not reach the camera: left out of ``measurements``, their
+    separation checks do not run."""
     errors = {} if errors is None else errors
+    unlit = unlit or {}
     checks, skipped = [], []
-    targets = [acc.illumination] if acc.illumination else list(measurements)
+    targets = [acc.illumination] if acc.illumination else [*measurements, *unlit]
     for sep in acc.separation:
         for ill in targets:
+            if ill in unlit:
+                checks += [
+                    not_run(
+                        f"{ill}: {sep.comparison} {what}",
+                        "separation",
+                        limit,
+                        unit,
+                        rel,
+                        f"no light reaches the camera ({unlit[ill]})",
+                    )
+                    for what, limit, unit, rel in (
+                        ("SNR_dB", sep.min_snr_db, "dB", "≥"),
+                        ("CNR_dB", sep.min_cnr_db, "dB", "≥"),
+                        ("ε Gauss", sep.max_error, "", "≤"),
+                        ("ε KDE", sep.max_error_kde, "", "≤"),
+                    )
+                    if limit is not None
+                ]
+                continue
             m = measurements[ill]
             j = m.comparisons.index(m.comparison(sep.comparison))
             comp, se = m.comparisons[j], errors[ill]
@@ -231,15 +255,11 @@ def acceptance_checks(
                 )
     if acc.ranking:
         if ranking is None:
+            why = "one illumination measured, nothing to rank (leave out acceptance.ranking)"
+            if unlit:
+                why = f"no light reaches the camera under {', '.join(unlit)}: nothing to rank"
             checks.append(
-                not_run(
-                    "ranking: measured best is predicted best",
-                    "ranking",
-                    0.0,
-                    "",
-                    "≤",
-                    "one illumination measured, nothing to rank (leave out acceptance.ranking)",
-                )
+                not_run("ranking: measured best is predicted best", "ranking", 0.0, "", "≤", why)
             )
         else:
             labels = [c.label for c in next(iter(measurements.values())).comparisons]

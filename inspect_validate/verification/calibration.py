@@ -32,9 +32,94 @@ if TYPE_CHECKING:
     from inspect_validate.measurement import ClassMeasurement, Measurement
     from inspect_validate.model import Prediction
 
-__all__ = ["Gain", "IrradianceScale", "fit_scales", "photon_transfer", "photon_transfer_gain"]
+__all__ = [
+    "Gain",
+    "IrradianceScale",
+    "LightLevel",
+    "fit_scales",
+    "light_levels",
+    "photon_transfer",
+    "photon_transfer_gain",
+]
 
 MIN_SIGNAL_DN = 1.0  # a point needs at least this much signal above dark to count
+
+
+@dataclass(frozen=True)
+class LightLevel:
+    """How far an illumination's frames rise above the dark ones, in the class where they
+    rise most against their noise: μ and σ (all its pixels over the frames) lit and dark,
+    DN. The light reaches the camera when the rise exceeds σ (:attr:`reaches`)."""
+
+    illumination: str
+    class_name: str
+    lit: float
+    lit_noise: float
+    dark: float
+    dark_noise: float
+
+    @property
+    def signal(self) -> float:
+        """μ lit − μ dark, DN."""
+        return self.lit - self.dark
+
+    @property
+    def noise(self) -> float:
+        """The larger σ of the two, DN: a rise within it is no light a pixel shows."""
+        return max(self.lit_noise, self.dark_noise)
+
+    @property
+    def reaches(self) -> bool:
+        """The light shows above the dark level beyond a pixel's noise. A camera that
+        returns the same picture whatever the lights do (a test pattern, a lens cap, a
+        controller wired to other channels) does not; a station whose brightest class
+        rises less than one σ could not tell its classes apart anyway."""
+        return bool(self.signal > self.noise)
+
+    @property
+    def text(self) -> str:
+        return (
+            f"lit {self.lit:.1f} ± {self.lit_noise:.2g} DN, dark {self.dark:.1f} ± "
+            f"{self.dark_noise:.2g} DN in class {self.class_name!r}"
+        )
+
+
+def light_levels(
+    measurements: dict[str, Measurement], dark: Measurement | None, *, offset: float | None
+) -> dict[str, LightLevel]:
+    """Each illumination's :class:`LightLevel`.
+
+    Parameters
+    ----------
+    measurements : dict of str to Measurement
+        Illumination → its measurement, raw grey values.
+    dark : Measurement or None
+        The dark stack in the same regions; without it the dark level is ``offset``
+        with no noise of its own.
+    offset : float or None, keyword-only
+        The camera's dark offset, DN; None with no dark stack: nothing is returned
+        (there is no level to rise above).
+    """
+    if dark is None and offset is None:
+        return {}
+    dark_by = {c.name: c for c in dark.classes} if dark is not None else {}
+    out = {}
+    for name, m in measurements.items():
+        levels = []
+        for c in m.classes:
+            d = dark_by.get(c.name)
+            level = LightLevel(
+                name,
+                c.name,
+                c.mean,
+                float(np.sqrt(c.variance)),
+                d.mean if d is not None else float(offset or 0.0),
+                float(np.sqrt(d.variance)) if d is not None else 0.0,
+            )
+            levels.append(level)
+        if levels:
+            out[name] = max(levels, key=lambda v: v.signal / max(v.noise, 1e-300))
+    return out
 
 
 @dataclass(frozen=True)
@@ -269,7 +354,15 @@ def fit_scales(
             r = b - s * a
             se = float(np.sqrt(r @ r / max(a.size - 1, 1) / (a @ a))) if a.size > 1 else 0.0
             used = tuple(c for c, u in zip(classes, usable, strict=True) if u)
-            resid = tuple(float(x) for x in r / (s * a))
+            resid = tuple(float(x) for x in r / (s * a)) if s > 0 else ()
+        if not (np.isfinite(s) and s > 0):
+            # The model cannot hold a light of no, negative or infinite power.
+            raise InputError(
+                f"illumination {name!r}: its {method} irradiance scale is {s:.3g}: the "
+                f"measured signal above dark ({', '.join(f'{x:.3g}' for x in measured)} DN) "
+                "says no light of it reaches the camera; check the controller's channel "
+                "wiring and the station's channels:, the strobe, the lens cap, the exposure"
+            )
         out[name] = IrradianceScale(
             name, method, float(s), float(se), float(s * irradiance[name]), used, resid
         )

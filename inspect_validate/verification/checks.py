@@ -88,7 +88,8 @@ class Check:
     name : str
         What is checked, e.g. ``"amber: A vs B,C SNR_dB"``.
     kind : str
-        ``separation``, ``saturation``, ``agreement``, ``ranking``, ``gain`` or ``drift``.
+        ``light`` (the light reaches the camera), ``separation``, ``saturation``,
+        ``agreement``, ``ranking``, ``gain`` or ``drift``.
     value, limit : float
         The measured value and the limit it was held to (1.0/0.0 for yes/no checks), in
         ``unit``; for statistical and tolerance checks the limit includes the margin.

@@ -28,7 +28,7 @@ from inspect_validate.verification.agreement import (
     ranking_agreement,
     ranking_comparison,
 )
-from inspect_validate.verification.checks import decide
+from inspect_validate.verification.checks import Check, at_least, decide
 from inspect_validate.verification.dominance import (
     dominance_unconfirmed,
     dominated_illuminations,
@@ -186,8 +186,11 @@ def verify_capture(
     (:func:`~.measured.measure_capture`, with ``plan``'s regions and comparisons, the
     acceptance's limits, ε KDE where a check asks for it); ``folder`` is where it lies
     (None for frames that never were files: a simulation's)."""
-    from inspect_validate.station.file import station_hash
-    from inspect_validate.verification.calibration import fit_scales, photon_transfer
+    from inspect_validate.verification.calibration import (
+        fit_scales,
+        light_levels,
+        photon_transfer,
+    )
 
     acc = station.acceptance
     rois, comparisons, model, golden = plan.rois, plan.comparisons, plan.model, plan.golden
@@ -200,16 +203,32 @@ def verify_capture(
         skipped.append("ε KDE: no check asks for it (acceptance.separation[].max_error_kde)")
     limits = acc.limits()
     files, dark_files, manifest = capture.files, capture.dark_files, capture.manifest
-    measurements, dark = capture.measurements, capture.dark
+    dark = capture.dark
+    offset = model.sensor.dark_offset
+    # An illumination whose light does not reach the camera is a finding about the
+    # station (wiring, strobe, lens cap), not about its spectra: it fails its own check
+    # and is neither calibrated nor compared with the model, which has no such light.
+    levels = light_levels(capture.measurements, dark, offset=offset)
+    light = [_light_check(level) for level in levels.values()]
+    unlit = {name: level.text for name, level in levels.items() if not level.reaches}
+    measurements = {k: m for k, m in capture.measurements.items() if k not in unlit}
+    full = station
+    if unlit:
+        station = station.model_copy(
+            update={"illuminations": [i for i in station.illuminations if i.name not in unlit]}
+        )
     # The prediction weights a group's classes as the measured regions do.
     predicted_comparisons = comparisons.with_pixels(
-        [c.n_pixels for c in next(iter(measurements.values())).classes]
+        [c.n_pixels for c in next(iter(capture.measurements.values())).classes]
     )
 
     # The prediction at the stated irradiances.
-    nominal = model.predict(station, comparisons=predicted_comparisons)
+    nominal = model.predict(station if measurements else full, comparisons=predicted_comparisons)
+    if not measurements:
+        return _unlit_verification(
+            full, capture, plan, folder, nominal, light, unlit, skipped, limits
+        )
     method = station.calibration.method
-    offset = model.sensor.dark_offset
     dark_means = {c.name: c.mean for c in dark.classes} if dark else None
     if dark is None:
         skipped.append("dark level: no dark frames; the camera's dark offset is used")
@@ -277,8 +296,17 @@ def verify_capture(
     )
     ranking, not_ranked = ranking_agreement(measurements, prediction, model.scene, acc, comparisons)
     checks, unchecked = acceptance_checks(
-        acc, measurements, class_rows, comparison_rows, ranking, gain, gain_missing, errors
+        acc,
+        measurements,
+        class_rows,
+        comparison_rows,
+        ranking,
+        gain,
+        gain_missing,
+        errors,
+        unlit=unlit,
     )
+    checks = [*light, *checks]
     skipped += [*not_ranked, *unchecked]
     if golden is not None:
         checks += drift_checks(golden, measurements, acc.drift, errors)
@@ -287,17 +315,7 @@ def verify_capture(
     notes += _uncertainty_notes(
         acc, decided, golden, prediction, predicted_comparisons, list(measurements)
     )
-    inputs = {
-        "station": str(station.path),
-        "station_sha256": station_hash(station.file),
-        "capture": None if folder is None else str(folder),
-        "capture_station_sha256": manifest.get("station_sha256"),
-        "frames": {k: [str(p) for p in v] for k, v in files.items()},
-        "dark": [str(p) for p in dark_files],
-        "rois": rois.source,
-        "golden": str(station.resolve(acc.drift.golden)) if golden and acc.drift else None,
-        "scene": str(station.resolve(station.scene)),
-    }
+    inputs = _inputs(station, capture, rois, folder, golden)
     acquisition = acquisition_record(manifest, {**files, "dark": dark_files})
     if manifest.get("station_sha256") not in (None, inputs["station_sha256"]):
         notes.append(
@@ -305,7 +323,7 @@ def verify_capture(
             f"({manifest.get('station')}); its frames are used as they are"
         )
     return Verification(
-        station=station,
+        station=full,
         model=model,
         rois=rois,
         limits=limits,
@@ -324,6 +342,72 @@ def verify_capture(
         notes=tuple(notes),
         acquisition=acquisition,
         false_alarm=rate,
+    )
+
+
+def _light_check(level) -> Check:
+    """Whether an illumination's light reaches the camera
+    (:class:`~.calibration.LightLevel`): its rise above dark against a pixel's noise."""
+    detail = level.text
+    if not level.reaches:
+        detail = (
+            f"no light reaches the camera ({level.text}); check the controller's channel "
+            "wiring and the station's channels:, the strobe, the lens cap, the exposure"
+        )
+    return at_least(
+        f"{level.illumination}: light above dark", "light", level.signal, level.noise, "DN", detail
+    )
+
+
+def _inputs(station, capture, rois, folder, golden) -> dict:
+    """What a verification read: files and their hashes."""
+    from inspect_validate.station.file import station_hash
+
+    acc = station.acceptance
+    return {
+        "station": str(station.path),
+        "station_sha256": station_hash(station.file),
+        "capture": None if folder is None else str(folder),
+        "capture_station_sha256": capture.manifest.get("station_sha256"),
+        "frames": {k: [str(p) for p in v] for k, v in capture.files.items()},
+        "dark": [str(p) for p in capture.dark_files],
+        "rois": rois.source,
+        "golden": str(station.resolve(acc.drift.golden)) if golden and acc.drift else None,
+        "scene": str(station.resolve(station.scene)),
+    }
+
+
+def _unlit_verification(
+    station, capture, plan, folder, nominal, light, unlit, skipped, limits
+) -> Verification:
+    """The verification of a capture in which no illumination's light reaches the camera:
+    the failing light checks, and every check the acceptance asks for not run."""
+    acc = station.acceptance
+    checks, unchecked = acceptance_checks(
+        acc, {}, [], [], None, None, "no light reaches the camera", {}, unlit=unlit
+    )
+    inputs = _inputs(station, capture, plan.rois, folder, plan.golden)
+    return Verification(
+        station=station,
+        model=plan.model,
+        rois=plan.rois,
+        limits=limits,
+        inputs=inputs,
+        measurements={},
+        dark=capture.dark,
+        nominal=nominal,
+        prediction=nominal,
+        scales={},
+        gain=None,
+        classes=[],
+        comparisons=[],
+        ranking=None,
+        checks=decide([*light, *checks], acc.false_alarm_rate),
+        skipped=(*skipped, *unchecked),
+        acquisition=acquisition_record(
+            capture.manifest, {**capture.files, "dark": capture.dark_files}
+        ),
+        false_alarm=acc.false_alarm_rate,
     )
 
 

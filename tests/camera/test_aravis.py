@@ -279,3 +279,37 @@ def test_a_camera_answering_for_another_is_refused(fake_gige):
             assert "two cameras share it" in str(exc)
             refused += 1
     assert refused == 1
+
+
+def test_a_camera_that_does_not_see_the_lights_is_a_verdict(cli, tmp_path, fake_gige):
+    """Aravis' fake camera streams its own test pattern whatever the lights do, as a camera
+    does behind a lens cap or on a controller wired to other channels: verify fails a check
+    per illumination saying no light reaches the camera (exit 1, reports written), and
+    train refuses to make a golden file of such captures (exit 2, the step named)."""
+    import yaml
+    from conftest import copy_station
+
+    serial, _ = fake_gige()
+    path = copy_station(tmp_path)
+    doc = yaml.safe_load(path.read_text())
+    doc["camera"] = {
+        "backend": "aravis",
+        "serial": serial,
+        "pixel_format": "Mono16",
+        "exposure_us": 4000,
+        "timeout_s": 2,
+    }
+    path.write_text(yaml.safe_dump(doc, sort_keys=False))
+    code, out, err = cli(["verify", path, "--out", tmp_path / "c", "--report", tmp_path / "r"])
+    assert code == 1, out + err
+    assert "Traceback" not in err and "no light within" not in err
+    result = json.loads((tmp_path / "r" / "verification.json").read_text())
+    assert result["verdict"] == "fail"
+    light = {c["name"]: c for c in result["checks"] if c["kind"] == "light"}
+    assert set(light) == {"amber: light above dark", "red: light above dark"}
+    assert all(c["verdict"] == "fail" for c in light.values())
+    assert "no light reaches the camera (lit" in light["amber: light above dark"]["detail"]
+    assert result["calibration"]["illuminations"] == {}  # nothing fitted on a dead light
+    code, out, err = cli(["train", path, "--frames", tmp_path / "c", "--out", tmp_path / "g.json"])
+    assert code == 2 and "step 'amber': no light reaches the camera" in err, err
+    assert not (tmp_path / "g.json").exists()

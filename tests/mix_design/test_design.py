@@ -516,3 +516,16 @@ def test_design_cli_on_a_catalogue_reports_its_screening(cli, wide_catalogue):
     assert "design: screened 60 lights alone" in err and "working set of" in err
     listed = out.split("designed mix: ")[1].split("\n")[0]
     assert 1 <= listed.count("channel ") < 60  # the lights in use, not all 60
+
+
+def test_a_designed_mix_whose_light_never_reaches_the_camera_fails(cli, tmp_path):
+    """design --verify on a station whose amber channel is dead: the mix (all amber) fails
+    its light check, its separation checks do not run, and the design's verdict says the
+    mix was not measured (exit 1, no traceback)."""
+    from conftest import copy_station
+
+    path = copy_station(tmp_path, world={"irradiance": {1: 0}})
+    code, out, err = cli(["design", path, "--verify", "--out", tmp_path / "d"])
+    assert code == 1 and "Traceback" not in err, out + err
+    assert "design: light above dark" in out and "no light reaches the camera" in out
+    assert "FAIL: the mix was not measured" in out

@@ -257,3 +257,14 @@ def test_the_same_capture_given_twice_is_refused_before_measuring(cli, tmp_path,
     )
     assert code == 2 and "given twice" in err and str(frames) in err, out + err
     assert not (tmp_path / "g.json").exists()
+
+
+def test_train_refuses_captures_whose_light_never_reached_the_camera(cli, tmp_path):
+    from conftest import copy_station
+
+    path = copy_station(tmp_path, world={"irradiance": {2: 0}})
+    code, _out, err = cli(["train", path, "--repeats", 2, "--out", tmp_path / "g.json"])
+    assert code == 2 and "Traceback" not in err, err
+    assert "step 'red': no light reaches the camera (lit" in err and "repeat_01" in err
+    assert not (tmp_path / "g.json").exists()
+    assert len(list((tmp_path / "g-frames" / "repeat_02" / "red").glob("*.tif"))) == 4  # kept

@@ -487,3 +487,38 @@ def test_a_ranking_against_the_prediction_fails_beyond_what_the_frames_resolve(c
     (rank,) = [c for c in doc["checks"] if c["kind"] == "ranking"]
     assert rank["verdict"] == "fail" and rank["value"] > rank["limit"] > 0, rank
     assert "measured best red" in rank["detail"]
+
+
+@pytest.mark.parametrize("dead", [{1: 0}, {1: 0, 2: 0}])
+def test_a_light_that_never_reaches_the_camera_is_a_failing_check(cli, tmp_path, dead):
+    """A simulated world whose channel is dead (irradiance factor 0): its illumination
+    fails 'light above dark' with the lit and dark levels and what to check; it is neither
+    calibrated nor compared with the model, the checks it would have needed do not run,
+    the other illumination is verified as usual, and the reports are written (exit 1)."""
+    code, out, err, doc = verify(cli, tmp_path, station(tmp_path, world={"irradiance": dead}))
+    assert code == 1 and "Traceback" not in err and "error:" not in err, out + err
+    checks = {c["name"]: c for c in doc["checks"]}
+    amber = checks["amber: light above dark"]
+    assert amber["verdict"] == "fail" and amber["value"] < amber["limit"]
+    assert "no light reaches the camera (lit 4.0 ± 0.3" in amber["detail"]
+    assert "channel wiring" in amber["detail"] and "lens cap" in amber["detail"]
+    assert checks["amber: A vs B,C SNR_dB"]["value"] is None  # could not run: not a pass
+    assert "amber" not in doc["calibration"]["illuminations"]
+    assert not any(r["illumination"] == "amber" for r in doc["classes"])
+    red = checks["red: light above dark"]
+    if 2 in dead:
+        assert red["verdict"] == "fail" and doc["calibration"]["illuminations"] == {}
+    else:
+        assert red["verdict"] == "pass" and red["value"] > 100  # DN above dark
+        assert doc["calibration"]["illuminations"]["red"]["scale"] == pytest.approx(1, rel=0.01)
+        assert all(c["verdict"] == "pass" for n, c in checks.items() if n.startswith("red:"))
+    assert (tmp_path / "report" / "report.html").is_file()
+    assert (tmp_path / "report" / "junit.xml").is_file()
+
+
+def test_every_lit_illumination_checks_its_light_above_dark(cli, tmp_path):
+    code, out, err, doc = verify(cli, tmp_path, station(tmp_path))
+    assert code == 0, out + err
+    light = [c for c in doc["checks"] if c["kind"] == "light"]
+    assert [c["name"] for c in light] == ["amber: light above dark", "red: light above dark"]
+    assert all(c["verdict"] == "pass" and c["value"] > 10 * c["limit"] for c in light)

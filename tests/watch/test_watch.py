@@ -572,3 +572,15 @@ def test_a_history_truncated_under_a_running_watch_stops_it_with_every_cycle_kep
     rebuilt = [c.cycle for c in read_history(rescue).cycles]
     assert set(printed) <= set(rebuilt) and rebuilt == list(range(len(rebuilt))), (printed, rebuilt)
     assert run_cli(["history", rescue]) == 0
+
+
+def test_a_light_that_dies_mid_watch_is_a_failing_cycle_not_an_error(cli, tmp_path, golden):
+    """The red LED dead from cycle 1: every cycle from then fails 'light above dark'
+    (exit 1), every cycle is recorded, and nothing is calibrated on the dead light."""
+    code, out, err, db = _watch(
+        cli, tmp_path, golden, [{"start": 1, "irradiance": {2: 0}}], "--cycles", 3
+    )
+    assert code == 1 and "Traceback" not in err, out + err
+    rows = _rows(db)
+    assert [r[1] for r in rows] == ["pass", "fail", "fail"], rows
+    assert "red: light above dark" in out
