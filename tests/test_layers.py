@@ -98,13 +98,15 @@ def test_the_checker_finds_a_cycle():
 # What the device layer may use of the rest: exit-code errors, atomic files, reading
 # image files (the replay camera), the strict-model base of its settings, and the
 # constants module (numbers only, importing nothing: the longest exposure a camera is set
-# to is the same bound the scene and the model read).
+# to is the same bound the scene and the model read), and the stop a signal asked for
+# (interruption, importing nothing: a capture stops at its next frame).
 DEVICE_LAYER_MAY_IMPORT = {
     "inspect_validate",  # the version
     "inspect_validate.constants",
     "inspect_validate.errors",
     "inspect_validate.files",
     "inspect_validate.images",
+    "inspect_validate.interruption",
     "inspect_validate.config",
 }
 

@@ -60,12 +60,6 @@ for _command in (
     cli.add_command(_command)
 
 
-def _terminated(signum, frame):
-    """SIGTERM (a service manager, ``kill``) ends the tool as Ctrl-C does: saved frames
-    kept, exit 130 with a message — not the bare 143 of the default action."""
-    raise KeyboardInterrupt
-
-
 # The commands that capture frames (kept on an interruption, resumable), and what lets
 # a command that ran out of memory do with less.
 _CAPTURING = {"capture", "verify", "train", "watch", "characterize", "design"}
@@ -88,15 +82,12 @@ def _command_name(argv) -> str | None:
 
 def main(argv=None) -> None:
     """Console entry point: run the CLI and map errors to documented exit codes."""
-    import signal
+    from inspect_validate import interruption
 
-    try:
-        signal.signal(signal.SIGTERM, _terminated)
-        # Ctrl-C too, even where it was inherited as ignored (a job started with '&' from
-        # a script): an interrupted capture writes every grabbed frame and its manifest.
-        signal.signal(signal.SIGINT, signal.default_int_handler)
-    except ValueError:  # not the main thread (an embedding program): its own handling
-        pass
+    # SIGTERM (a service manager, kill) ends the tool as Ctrl-C does: saved frames kept,
+    # exit 130 with a message, not the bare 143 of the default action.
+    interruption.reset()
+    interruption.install()
     try:
         from inspect_validate.files import cleaned_outputs
 

@@ -93,7 +93,8 @@ def watch(
     updates an EWMA chart per class μ, σ² and comparison SNR_dB, log ε against
     the golden spread, names
     the likely cause of a drift, and commits the cycle to the history. Ends
-    after --cycles, on Ctrl-C (after committing the current cycle: exit 130),
+    after --cycles, on Ctrl-C or SIGTERM (at the next frame: the cycle under way
+    is set aside uncommitted; exit 130),
     or with exit 3 after --max-failures failed cycles in a row; exits 1 when
     the last cycle failed a check or drifted.
     """

@@ -8,24 +8,27 @@ fault (a camera timeout, a controller answering ``Err`` or garbage, a port
 that vanishes, a stale camera) is a cycle with status ``error`` and its reason:
 the next cycle reopens the devices after a back-off (doubling from
 ``retry_delay``, at most 60 s), and ``max_failures`` in a row end the watch
-with exit 3. SIGINT and SIGTERM end it after the current cycle is committed.
+with exit 3. SIGINT and SIGTERM end it at the next frame (exit 130): the cycle under
+way is set aside uncommitted, a commit under way is finished first, and every
+committed cycle is in the history.
 
 Frames are kept for every cycle that did not pass and for every
 ``keep_every``-th passing one; the others are deleted once their cycle is
-committed. A folder left by a cycle that never committed (a kill) is renamed
+committed. A folder left by a cycle that never committed (a stop, a kill) is renamed
 ``…-uncommitted``, never reused or deleted.
 """
 
 from __future__ import annotations
 
 import shutil
-import signal
 import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from inspect_validate.errors import DeviceError
+from inspect_validate.interruption import check as check_stop
+from inspect_validate.interruption import deferred
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -129,16 +132,10 @@ def watch(
         if ewma is not None:
             monitor.restore(key, ewma=ewma, n=n)
     folder.mkdir(parents=True, exist_ok=True)
-    stop = []
-    previous = {}
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        try:
-            previous[sig] = signal.signal(sig, lambda *_: stop.append(True))
-        except ValueError:  # not the main thread: the caller stops the watch
-            pass
     failures, done, last = 0, 0, None
     try:
-        while not stop and (settings.cycles is None or done < settings.cycles):
+        while settings.cycles is None or done < settings.cycles:
+            check_stop()
             t0 = time.monotonic()
             last = _cycle(station, plan, history, monitor, folder, settings, failures)
             failures = last.failures
@@ -155,16 +152,21 @@ def watch(
             wait = settings.interval - (time.monotonic() - t0)
             if failures:
                 wait = max(wait, min(settings.retry_delay * 2 ** (failures - 1), 60.0))
-            _sleep(wait, stop)
-    finally:
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
-    return last, bool(stop)
+            _sleep(wait)
+    except KeyboardInterrupt:
+        # The cycle under way is not committed: its frames are set aside, as a restart
+        # would set them aside, and the committed ones are the history.
+        frames = folder / f"cycle-{history.next_cycle():06d}"
+        if frames.exists():
+            set_aside(frames)
+        return last, True
+    return last, False
 
 
-def _sleep(seconds: float, stop: list) -> None:
+def _sleep(seconds: float) -> None:
     end = time.monotonic() + seconds
-    while not stop and time.monotonic() < end:
+    while time.monotonic() < end:
+        check_stop()
         time.sleep(min(0.05, max(end - time.monotonic(), 0.0)))
 
 
@@ -220,7 +222,8 @@ def _cycle(station, plan, history, monitor, folder, settings, failures):
         cause=cause,
         frames=str(frames) if keep and frames.exists() else None,
     )
-    history.commit(record, state.points if state else {})
-    if not keep:
-        shutil.rmtree(frames, ignore_errors=True)
+    with deferred():  # a stop asked for now comes after the commit, not within it
+        history.commit(record, state.points if state else {})
+        if not keep:
+            shutil.rmtree(frames, ignore_errors=True)
     return CycleOutcome(record, state, verification, failures)

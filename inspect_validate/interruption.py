@@ -1,0 +1,76 @@
+"""A stop asked for by a signal: SIGTERM (a service manager, ``kill``) or SIGINT (Ctrl-C).
+
+The command line's handler records the signal and raises :class:`Interrupted`
+where the program is, so that every open device, lock and child process is released
+by the ``with`` and ``finally`` blocks it passes on its way out. An exception can be
+swallowed: a library that imports with a bare ``except:``, a finalizer whose exceptions
+Python ignores. The record cannot: the loops that run for long (a capture's frames, a
+watch's cycles, its pause) call :func:`check` and stop at their next step. A
+:func:`deferred` block — a history's commit — runs to its end first.
+
+This module imports nothing of the tool, so the device layer may use it.
+"""
+
+from __future__ import annotations
+
+import signal
+from collections.abc import Iterator
+from contextlib import contextmanager
+
+__all__ = ["Interrupted", "check", "deferred", "install", "requested", "reset"]
+
+
+class Interrupted(KeyboardInterrupt):
+    """A stop a signal asked for. A subclass, so that what catches Ctrl-C catches it, and
+    not KeyboardInterrupt itself: CPython marks an exact KeyboardInterrupt that passes
+    through code a library runs with ``PyRun_String`` as unhandled, and then ends the
+    process by SIGINT after the tool has exited with 130."""
+
+
+_received: list[int] = []  # the signals received, in order
+_deferring: list[bool] = []  # one entry per deferred() block entered
+
+
+def _on_signal(signum, frame) -> None:
+    _received.append(signum)
+    if not _deferring:
+        raise Interrupted(signal.Signals(signum).name)
+
+
+def install() -> None:
+    """Handle SIGTERM and SIGINT as a stop (:func:`check`); SIGINT too where it was
+    inherited as ignored (a job started with ``&`` from a script). Does nothing outside
+    the main thread, where an embedding program keeps its own handling."""
+    try:
+        for sig in (signal.SIGTERM, signal.SIGINT):
+            signal.signal(sig, _on_signal)
+    except ValueError:  # not the main thread
+        pass
+
+
+def requested() -> int | None:
+    """The first signal that asked for a stop, None if none did."""
+    return _received[0] if _received else None
+
+
+def check() -> None:
+    """Raise :class:`KeyboardInterrupt` if a stop was asked for (also one whose exception
+    was swallowed on the way)."""
+    if _received and not _deferring:
+        raise Interrupted(signal.Signals(_received[0]).name)
+
+
+def reset() -> None:
+    """Forget the signals received (a program that handled a stop and goes on)."""
+    _received.clear()
+
+
+@contextmanager
+def deferred() -> Iterator[None]:
+    """A block a signal does not interrupt: the stop it asks for is raised at its end."""
+    _deferring.append(True)
+    try:
+        yield
+    finally:
+        _deferring.pop()
+    check()

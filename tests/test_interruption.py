@@ -1,0 +1,150 @@
+"""SIGTERM and SIGINT at any moment: a service manager stops `watch` (and `capture`,
+`train`) with SIGTERM; the run must end within a frame's time, with its documented exit
+code, every committed cycle kept, its locks removed and its child processes ended,
+whenever the signal comes (start-up, a child starting, a cycle, a commit, the pause)."""
+
+import os
+import signal
+import sqlite3
+import subprocess
+import sys
+import time
+
+import pytest
+from conftest import copy_station
+
+from inspect_validate import interruption
+
+BOUND_S = 15.0  # a stop must end the process within this (a frame is < 0.1 s here)
+
+
+def _controllers() -> set[int]:
+    """The simulated controller processes running now."""
+    pids = set()
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            try:
+                with open(f"/proc/{entry}/cmdline", "rb") as f:
+                    if b"inspect_validate.simulation.controller" in f.read():
+                        pids.add(int(entry))
+            except OSError:
+                pass
+    return pids
+
+
+def _stop_at(args, delay, sig, cwd) -> tuple[int, float, str]:
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "inspect_validate", *map(str, args)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        cwd=cwd,
+    )
+    time.sleep(delay)
+    t0 = time.monotonic()
+    proc.send_signal(sig)
+    try:
+        out, err = proc.communicate(timeout=BOUND_S)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        out, err = proc.communicate()
+        pytest.fail(f"{args[0]} signalled after {delay:.2f} s did not stop: {out[-500:]}")
+    return proc.returncode, time.monotonic() - t0, out + err
+
+
+def _no_locks(folder) -> list:
+    return [p for p in folder.rglob("*.lock") if p.exists()]
+
+
+def _children_end(before: set[int]) -> set[int]:
+    deadline = time.monotonic() + 5
+    while (left := _controllers() - before) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    return left
+
+
+@pytest.mark.slow
+def test_watch_stops_on_sigterm_at_every_moment(tmp_path, golden):
+    """A sweep of delays over the start-up (imports, the history, the controller process
+    starting) and over cycles: every run ends within the bound, exit 130, the committed
+    cycles contiguous, the cycle under way set aside, no lock file and no controller
+    process left. Before Python has loaded the tool, the default action ends it (-15),
+    before anything is made."""
+    path = copy_station(tmp_path)
+    before = _controllers()
+    delays = [0.02 * k for k in range(1, 6)] + [0.25 * k for k in range(1, 17)]
+    slowest = 0.0
+    for i, delay in enumerate(delays):
+        # Ctrl-C too, once the interpreter is up (within its first hundredths of a second
+        # Python itself reports a KeyboardInterrupt in its site module as a fatal error).
+        sig = signal.SIGINT if delay >= 0.25 and i % 4 == 0 else signal.SIGTERM
+        w = tmp_path / f"w{i}"
+        code, took, out = _stop_at(
+            ["watch", path, "--golden", golden, "--db", w / "h.sqlite", "--interval", 0],
+            delay,
+            sig,
+            tmp_path,
+        )
+        slowest = max(slowest, took)
+        assert "Traceback" not in out, out
+        if code == -sig:  # before the interpreter ran the tool: nothing was made
+            assert not w.exists(), delay
+            continue
+        assert code == 130, (delay, code, out)
+        assert not _no_locks(w) if w.exists() else True, (delay, _no_locks(w))
+        if (w / "h.sqlite").exists():
+            with sqlite3.connect(w / "h.sqlite") as con:
+                cycles = [r[0] for r in con.execute("SELECT cycle FROM cycles ORDER BY cycle")]
+            assert cycles == list(range(len(cycles))), (delay, cycles)
+            plain = {p.name for p in w.glob("cycle-*") if "uncommitted" not in p.name}
+            assert all(int(name[6:]) < len(cycles) for name in plain), (delay, plain)
+        assert not _children_end(before), delay
+    assert slowest < 5.0  # seconds, the longest any stop took (0.5 s here)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("command", ["capture", "train"])
+def test_capture_and_train_stop_on_sigterm_at_every_moment(tmp_path, command):
+    path = copy_station(tmp_path)
+    before = _controllers()
+    for i, delay in enumerate([0.05, 0.3, 0.8, 1.5, 2.2, 3.0, 3.8]):
+        out_path = tmp_path / f"o{i}"
+        args = [command, path, "--out", out_path]
+        if command == "train":
+            args = [command, path, "--out", out_path / "g.json", "--repeats", 5]
+        code, _, out = _stop_at(args, delay, signal.SIGTERM, tmp_path)
+        assert "Traceback" not in out, out
+        if code == 0:  # finished before the signal: nothing to stop
+            continue
+        assert code in (130, -signal.SIGTERM), (delay, code, out)
+        if out_path.exists():
+            assert not _no_locks(out_path), (delay, _no_locks(out_path))
+        assert not (out_path / "g.json").exists()
+        assert not _children_end(before), delay
+
+
+def test_a_swallowed_interrupt_is_still_acted_on():
+    """A library that catches the KeyboardInterrupt (a bare except: around an import)
+    cannot make the stop be forgotten: the next check raises it."""
+    interruption.reset()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            interruption._on_signal(signal.SIGTERM, None)
+        assert interruption.requested() == signal.SIGTERM
+        with pytest.raises(KeyboardInterrupt):
+            interruption.check()
+    finally:
+        interruption.reset()
+    interruption.check()  # nothing asked: nothing raised
+
+
+def test_a_deferred_block_finishes_before_the_stop():
+    interruption.reset()
+    done = []
+    try:
+        with pytest.raises(KeyboardInterrupt), interruption.deferred():
+            interruption._on_signal(signal.SIGTERM, None)  # recorded, not raised here
+            done.append("commit")
+        assert done == ["commit"]
+    finally:
+        interruption.reset()
