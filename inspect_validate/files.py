@@ -11,6 +11,7 @@ fails before a capture or a long sweep, not after it.
 from __future__ import annotations
 
 import contextlib
+import errno
 import json
 import math
 import os
@@ -196,12 +197,32 @@ def exclusive_lock(lock_path: Path, *, holder: str, what: str, remedy: str, sour
         or the lock file cannot be made; naming ``source``.
     """
     import fcntl
+    import stat
+
+    name = Path(lock_path).name
+
+    def opener(path, flags):
+        # Never through a link (its target would be written over), never blocking on a
+        # FIFO someone put in the lock's place.
+        fd = os.open(path, flags | os.O_NOFOLLOW | os.O_NONBLOCK)
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            os.close(fd)
+            raise InputError(
+                f"cannot lock {what}: {name} is not a regular file (a FIFO, socket or "
+                "device in the lock's place); remove it",
+                source=str(source),
+            )
+        os.set_blocking(fd, True)
+        return fd
 
     while True:
         try:
-            handle = open(lock_path, "a+")
+            handle = open(lock_path, "a+", opener=opener)
         except OSError as exc:
-            raise InputError(f"cannot lock {what} ({exc.strerror})", source=str(source)) from None
+            why = exc.strerror or str(exc)
+            if exc.errno == errno.ELOOP:
+                why = f"{name} is a symbolic link, not a lock file; remove it"
+            raise InputError(f"cannot lock {what} ({why})", source=str(source)) from None
         try:
             fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:

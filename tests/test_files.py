@@ -50,3 +50,50 @@ def test_a_folder_is_refused(tmp_path):
 
     with pytest.raises(InputError, match="is a folder; give a file name"):
         atomic_write(tmp_path, b"x")
+
+
+@pytest.mark.parametrize("kind", ["link", "fifo"])
+@pytest.mark.parametrize("command", ["capture", "watch"])
+def test_a_lock_file_that_is_a_link_or_a_fifo_is_refused_untouched(
+    cli, tmp_path, golden, kind, command
+):
+    """A symbolic link where .capture.lock, .watch.lock or <db>.lock goes is never written
+    through (its target's content was replaced by 'pid N'), and a FIFO there does not block
+    or read 'cannot lock (None)': each is refused (exit 2) naming the file and what to do."""
+    from conftest import copy_station
+
+    station = copy_station(tmp_path)
+    out = tmp_path / "out"
+    out.mkdir()
+    target = tmp_path / "precious.txt"
+    target.write_text("keep me")
+    if command == "capture":
+        locks, args = [out / ".capture.lock"], ["capture", station, "--out", out]
+    else:
+        locks = [out / ".watch.lock", out / "h.sqlite.lock"]
+        args = [
+            "watch",
+            station,
+            "--golden",
+            golden,
+            "--db",
+            out / "h.sqlite",
+            "--out",
+            out,
+            "--cycles",
+            1,
+            "--interval",
+            0,
+        ]
+    for lock in locks:
+        for other in locks:
+            other.unlink(missing_ok=True)
+        if kind == "link":
+            lock.symlink_to(target)
+        else:
+            os.mkfifo(lock)
+        code, _, err = cli(args)
+        assert code == 2 and lock.name in err and "remove it" in err, err
+        assert ("symbolic link" if kind == "link" else "not a regular file") in err
+        assert target.read_text() == "keep me"
+        assert lock.is_symlink() if kind == "link" else lock.exists()

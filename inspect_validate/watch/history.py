@@ -43,7 +43,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from inspect_validate.errors import InputError
-from inspect_validate.files import input_file
+from inspect_validate.files import exclusive_lock, input_file, release_lock
 
 if TYPE_CHECKING:
     from inspect_validate.station.file import Station
@@ -143,7 +143,7 @@ class History:
             self._open(station, golden, created)
             self._identity = _identity(self.path)
         except BaseException:
-            self._lock.close()
+            release_lock(self._lock)
             raise
 
     def _open(self, station: str, golden: str | None, created: float | None) -> None:
@@ -216,7 +216,7 @@ class History:
             self._check_unchanged()
         finally:
             self.db.close()
-            self._lock.close()
+            release_lock(self._lock)
 
     def next_cycle(self) -> int:
         (last,) = self.db.execute("SELECT MAX(cycle) FROM cycles").fetchone()
@@ -403,8 +403,6 @@ def rebuild_history(journal: str | Path, path: str | Path) -> int:
 def _exclusive(path: Path):
     """An exclusive lock on ``<db>.lock`` for as long as the history is open: a second
     watch on the same database is refused at once, naming the holder's process."""
-    from inspect_validate.files import exclusive_lock
-
     return exclusive_lock(
         path.with_name(path.name + ".lock"),
         holder="watch",

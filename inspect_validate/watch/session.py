@@ -90,7 +90,7 @@ def watch_session(
         folder another watch writes into, a port in use (nothing is captured).
     """
     from inspect_validate.acceptance import Drift
-    from inspect_validate.files import exclusive_lock, output_file, output_folder
+    from inspect_validate.files import exclusive_lock, output_file, output_folder, release_lock
     from inspect_validate.verification.plan import plan_verification
     from inspect_validate.watch.drift import DriftMonitor
     from inspect_validate.watch.history import History, history_path
@@ -133,15 +133,14 @@ def watch_session(
         raise InputError(str(exc), source=str(golden_file)) from None
     with contextlib.ExitStack() as stack:
         # Two watches on one folder would set each other's cycles aside, even with two --db.
-        stack.enter_context(
-            exclusive_lock(
-                folder / ".watch.lock",
-                holder="watch",
-                what="cycles into this folder",
-                remedy="another --out",
-                source=folder,
-            )
+        lock = exclusive_lock(
+            folder / ".watch.lock",
+            holder="watch",
+            what="cycles into this folder",
+            remedy="another --out",
+            source=folder,
         )
+        stack.callback(release_lock, lock)
         history = History(db, station=str(station.file.resolve()), golden=str(golden_file))
         stack.callback(history.close)
         server = None
