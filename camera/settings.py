@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import Field, field_validator
+from pydantic import AfterValidator, Field, field_validator
 
 from inspect_validate.config import StrictModel
 from inspect_validate.constants import LONGEST_EXPOSURE_S
@@ -26,7 +26,71 @@ Seconds = Annotated[float, Field(gt=0, le=3600, allow_inf_nan=False)]
 Channel = Annotated[int, Field(ge=1, le=64)]
 Microseconds = Annotated[float, Field(ge=0, le=1e8, allow_inf_nan=False)]
 Line = Annotated[str, Field(pattern=r"^Line[0-9]{1,2}$")]
-Port = Annotated[str, Field(min_length=1)]
+
+
+# pyserial's URL schemes (serial.protocol_handler_packages) and which of them name a host.
+_NETWORK_SCHEMES = {"socket", "rfc2217"}
+_LOCAL_SCHEMES = {"loop", "spy", "alt", "hwgrep", "cp2110"}
+
+
+def controller_address(text: str) -> str:
+    """Check a controller's address: a serial port (``/dev/ttyUSB0``, ``COM3``) or a
+    pyserial URL (``socket://host:port``, ``rfc2217://host:port``); returned as given.
+
+    Raises
+    ------
+    ValueError
+        What is wrong with it (no host, no port, a port outside 1–65535, an unknown
+        URL scheme) and what to write instead.
+    """
+    from urllib.parse import urlsplit
+
+    text = text.strip()
+    if not text:
+        raise ValueError("empty: give a serial port (/dev/ttyUSB0, COM3) or socket://host:port")
+    if "://" not in text:
+        return text
+    scheme = text.split("://", 1)[0].lower()
+    if scheme in _LOCAL_SCHEMES:
+        return text
+    if scheme not in _NETWORK_SCHEMES:
+        raise ValueError(
+            f"{text!r}: unknown URL scheme {scheme!r}: give a serial port (/dev/ttyUSB0, "
+            "COM3) or socket://host:port (a controller on Ethernet)"
+        )
+    example = f"{scheme}://192.168.1.20:30313"
+    parts = urlsplit(text)
+    try:
+        port = parts.port
+    except ValueError:
+        digits = parts.netloc.rsplit(":", 1)[-1]
+        if digits.isdigit():
+            raise ValueError(
+                f"{text!r}: port {int(digits)} is out of range: a TCP port is 1–65535"
+            ) from None
+        raise ValueError(
+            f"{text!r}: cannot read host:port after {scheme}:// (write {example}; an IPv6 "
+            "host in brackets, [fe80::1]:30313)"
+        ) from None
+    if not parts.hostname:
+        raise ValueError(f"{text!r}: no host: write {example}")
+    if port is None:
+        raise ValueError(f"{text!r}: no port: write {example} (Gardasoft listens on 30313)")
+    if not 1 <= port <= 65535:
+        raise ValueError(f"{text!r}: port {port} is out of range: a TCP port is 1–65535")
+    if parts.path not in ("", "/"):
+        raise ValueError(f"{text!r}: nothing may follow host:port but options (?…)")
+    if scheme == "socket" and parts.query:
+        name, _, level = parts.query.partition("=")
+        if name != "logging" or level not in ("debug", "info", "warning", "error"):
+            raise ValueError(
+                f"{text!r}: the one option socket:// takes is ?logging=debug (or info, "
+                "warning, error)"
+            )
+    return text
+
+
+Port = Annotated[str, Field(min_length=1), AfterValidator(controller_address)]
 
 
 class CameraSettings(StrictModel):

@@ -1,4 +1,4 @@
-"""What several commands share: the path type, output checks, the progress bar of a
+"""What several commands share: the path, frame size and controller address types, output checks, the progress bar of a
 capture, and verify's reports (verify, design --verify)."""
 
 from __future__ import annotations
@@ -21,9 +21,10 @@ class _FrameSize(click.ParamType):
         if isinstance(value, tuple):
             return value
         width, sep, height = str(value).lower().partition("x")
-        if not (sep and width.isdigit() and height.isdigit() and int(width) and int(height)):
+        digits = [w.isascii() and w.isdigit() and len(w) <= 6 for w in (width, height)]
+        if not (sep and all(digits) and int(width) and int(height)):
             self.fail(
-                f"{value!r}: write WIDTHxHEIGHT in pixels, each at least 1, e.g. 640x480",
+                f"{value!r}: write WIDTHxHEIGHT in pixels, each at least 1 and at most 999999, e.g. 640x480",
                 param,
                 ctx,
             )
@@ -31,6 +32,25 @@ class _FrameSize(click.ParamType):
 
 
 SIZE = _FrameSize()
+
+
+class _Address(click.ParamType):
+    """A controller's serial port or ``socket://host:port``
+    (:func:`~inspect_validate.camera.settings.controller_address`, as the station file's
+    ``controller.port``)."""
+
+    name = "PORT"
+
+    def convert(self, value, param, ctx):
+        from inspect_validate.camera.settings import controller_address
+
+        try:
+            return controller_address(str(value))
+        except ValueError as exc:
+            self.fail(str(exc), param, ctx)
+
+
+ADDRESS = _Address()
 
 
 class Number(click.FloatRange):

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import click
 
-from inspect_validate.cli.common import PATH
+from inspect_validate.cli.common import ADDRESS, PATH
 
 
 @click.command()
@@ -29,7 +29,7 @@ from inspect_validate.cli.common import PATH
     "--port",
     "ports",
     multiple=True,
-    metavar="PORT",
+    type=ADDRESS,
     help="A port to list besides the system's serial ports: a device path or a "
     "controller's socket://host:port (repeatable).",
 )

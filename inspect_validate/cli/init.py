@@ -6,7 +6,7 @@ import sys
 
 import click
 
-from inspect_validate.cli.common import PATH, SIZE, Number
+from inspect_validate.cli.common import ADDRESS, PATH, SIZE, Number
 
 
 def _pairs(values, option: str, convert):
@@ -52,7 +52,7 @@ def _pairs(values, option: str, convert):
     "controller_backend",
     help="Light controller backend (gardasoft, generic, manual, simulated).",
 )
-@click.option("--port", help="The controller's serial port or socket://host:port.")
+@click.option("--port", type=ADDRESS, help="The controller's serial port or socket://host:port.")
 @click.option(
     "--protocol",
     type=PATH,
@@ -221,7 +221,9 @@ def init(
     controller: dict = {"backend": controller_backend}
     if controller_backend in ("gardasoft", "generic"):
         controller["port"] = port or ask(
-            "--port", "Controller port (e.g. /dev/ttyUSB0, socket://192.168.1.20:30313)"
+            "--port",
+            "Controller port (e.g. /dev/ttyUSB0, socket://192.168.1.20:30313)",
+            type=ADDRESS,
         )
     asked_protocol = None
     if controller_backend == "generic":
