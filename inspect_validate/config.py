@@ -372,15 +372,42 @@ _SIGNATURES = (
 )
 
 
-def _other_kind(doc: dict, model, what: str) -> str | None:
+# The JSON documents the tool writes, by their "schema".
+_SCHEMAS = {
+    "inspect-validate/golden": "golden file",
+    "inspect-validate/verification": "verification document",
+    "inspect-validate/measurement": "measurement document",
+    "inspect-validate/prediction": "prediction document",
+    "inspect-validate/design": "design document",
+    "inspect-validate/characterization": "characterization document",
+    "inspect-validate/watch-status": "watch status file",
+    "inspect-validate/spectral-analysis": "spectral analysis",
+}
+
+
+def file_kind(doc: object, *, model=None) -> tuple[str, str] | None:
+    """What kind of the tool's files ``doc`` (a parsed YAML or JSON document) is, and the
+    evidence: a document the tool wrote names its ``schema``; a station, scene or camera
+    file has top-level keys only its kind has (those ``model`` has itself not counted)."""
+    if not isinstance(doc, dict):
+        return None
+    schema = doc.get("schema")
+    if isinstance(schema, str) and schema in _SCHEMAS:
+        return _SCHEMAS[schema], f"its schema is {schema}"
+    fields = model.model_fields if model is not None else {}
     for kind, keys in _SIGNATURES:
-        found = [k for k in keys if k in doc and k not in model.model_fields]
-        if kind != what and found:
-            hint = ""
-            if kind == "station file" and isinstance(doc.get("scene"), str):
-                hint = f" (its scene file is {doc['scene']}, relative to it)"
-            return (
-                f"this is a {kind} (it has {', '.join(found)}), where the command expects "
-                f"the {what}{hint}"
-            )
+        found = [k for k in keys if k in doc and k not in fields]
+        if found:
+            return kind, f"it has {', '.join(found)}"
     return None
+
+
+def _other_kind(doc: dict, model, what: str) -> str | None:
+    known = file_kind(doc, model=model)
+    if known is None or known[0] == what:
+        return None
+    kind, evidence = known
+    hint = ""
+    if kind == "station file" and isinstance(doc.get("scene"), str):
+        hint = f" (its scene file is {doc['scene']}, relative to it)"
+    return f"this is a {kind} ({evidence}), where the command expects the {what}{hint}"

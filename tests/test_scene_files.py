@@ -10,8 +10,8 @@ import re
 
 import numpy as np
 import pytest
+from conftest import ROOT, write_mix_scene
 from conftest import run_cli as run
-from conftest import write_mix_scene
 
 from inspect_validate.scene import read_scene
 
@@ -309,3 +309,32 @@ def test_a_file_of_another_kind_is_named_as_such(capsys, command, path, kind, ex
     err = capsys.readouterr().err
     assert f"this is a {kind}" in err and f"where the command expects the {expects}" in err
     assert err.count("\n") == 1
+
+
+def test_a_golden_file_is_named_as_itself_wherever_it_is_given(cli, tmp_path, golden):
+    """A golden file given as a camera file, a station, a scene or ROIs is called a golden
+    file (it has an 'illuminations' key too: it was once called a station file), and a
+    station file given as the golden file a station file."""
+    import yaml
+    from conftest import copy_station
+
+    station = copy_station(tmp_path)
+    doc = yaml.safe_load(station.read_text())
+    doc["camera"]["measured"] = str(golden)
+    measured = tmp_path / "measured.yaml"
+    measured.write_text(yaml.safe_dump(doc))
+    said = "this is a golden file (its schema is inspect-validate/golden)"
+    for args, expects in (
+        (["verify", measured, "--out", tmp_path / "c"], "the camera file"),
+        (["verify", golden], "the station file"),
+        (["predict", golden], "the scene file"),
+        (
+            ["measure", ROOT / "sample_images/paperboard/optimized.png", "--rois", golden],
+            "the ROI file",
+        ),
+    ):
+        code, _, err = cli(args)
+        assert code == 2 and said in err and f"where the command expects {expects}" in err, err
+    code, _, err = cli(["watch", station, "--golden", station, "--db", tmp_path / "h.sqlite"])
+    assert code == 2 and "this is a station file (it has controller, illuminations)" in err, err
+    assert "where a golden file is expected" in err

@@ -421,20 +421,42 @@ def read_golden(path: str | Path) -> Golden:
         todo="give the golden.json 'train' wrote (inspect-validate train STATION --out FILE)",
         largest=GOLDEN_MAX_BYTES,
     )
+    from inspect_validate.config import file_kind
+
     try:
         doc = json.loads(path.read_text())
     except (OSError, UnicodeDecodeError, ValueError) as exc:
-        raise InputError(f"not a golden JSON file ({exc})", source=str(path)) from None
+        what = _kind_of_yaml(path) or f"not a golden JSON file ({exc})"
+        raise InputError(
+            f"{what}, where a golden file is expected{_WRITTEN}", source=str(path)
+        ) from None
     except RecursionError:
         raise InputError("not a golden JSON file (nested too deeply)", source=str(path)) from None
     if not isinstance(doc, dict) or doc.get("schema") != "inspect-validate/golden":
-        raise InputError(
-            "not a golden file (schema is not 'inspect-validate/golden')", source=str(path)
-        )
+        known = file_kind(doc)
+        what = f"this is a {known[0]} ({known[1]})" if known else "not a golden file"
+        raise InputError(f"{what}, where a golden file is expected{_WRITTEN}", source=str(path))
     try:
         return Golden.model_validate(doc)
     except ValidationError as exc:
         raise InputError(explain(exc), source=str(path)) from None
+
+
+_WRITTEN = " (the JSON file inspect-validate train STATION --out FILE writes)"
+
+
+def _kind_of_yaml(path: Path) -> str:
+    """``this is a station file …`` where a file that is not JSON is one of the tool's
+    YAML files; else nothing."""
+    import yaml
+
+    from inspect_validate.config import file_kind
+
+    try:
+        known = file_kind(yaml.safe_load(path.read_text()))
+    except (OSError, UnicodeDecodeError, RecursionError, yaml.YAMLError):
+        return ""
+    return f"this is a {known[0]} ({known[1]})" if known else ""
 
 
 def prediction_sd(spread: Spread, standard_error: float) -> float:

@@ -140,7 +140,11 @@ def test_an_aged_light_passes_agreement_and_fails_drift(cli, tmp_path, trained):
     [
         ({"golden": "missing.json"}, None, "golden file not found"),
         ({"golden": "golden.json"}, "{not json", "not a golden JSON file"),
-        ({"golden": "golden.json"}, '{"schema": "inspect-validate/measurement"}', "not a golden"),
+        (
+            {"golden": "golden.json"},
+            '{"schema": "inspect-validate/measurement"}',
+            "this is a measurement document",
+        ),
         ({"golden": "golden.json"}, '{"schema": "inspect-validate/golden"}', "repeats"),
     ],
 )
