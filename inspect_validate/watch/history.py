@@ -30,6 +30,7 @@ appends to it.
 
 from __future__ import annotations
 
+import errno
 import itertools
 import json
 import math
@@ -55,6 +56,7 @@ __all__ = [
     "CycleRecord",
     "History",
     "HistoryLog",
+    "Rebuilt",
     "history_path",
     "read_history",
     "read_station_history",
@@ -230,13 +232,16 @@ class History:
         try:
             self._journal(record, rows)
             self._insert(record, rows)
-        except (sqlite3.DatabaseError, OSError) as exc:  # disk full, read-only, damaged
-            raise InputError(
-                f"cannot write cycle {record.cycle} to the history ({exc}); its frames are "
-                f"kept in {record.frames or 'the watch folder'} — free space, raise the file "
-                "size limit (ulimit -f) or give another --db",
+        except OSError as exc:
+            if exc.errno not in (None, errno.ENXIO, errno.ELOOP, errno.EISDIR):
+                raise self._unwritable(record, exc) from None
+            raise InputError(  # a FIFO, socket, device or link in the journal's place
+                f"cannot write cycle {record.cycle}: its journal {self.journal.name} is not a "
+                "regular file; remove it (the history is rebuilt from it after a crash)",
                 source=str(self.path),
             ) from None
+        except sqlite3.DatabaseError as exc:  # disk full, read-only, damaged
+            raise self._unwritable(record, exc) from None
         except OverflowError:
             raise InputError(
                 f"cycle number {record.cycle} does not fit the history; start a new --db",
@@ -244,6 +249,14 @@ class History:
             ) from None
         finally:
             self._identity = _identity(self.path)  # what this commit wrote, even half, is ours
+
+    def _unwritable(self, record: CycleRecord, exc: Exception) -> InputError:
+        return InputError(
+            f"cannot write cycle {record.cycle} to the history ({exc}); its frames are "
+            f"kept in {record.frames or 'the watch folder'} — free space, raise the file "
+            "size limit (ulimit -f) or give another --db",
+            source=str(self.path),
+        )
 
     def _insert(self, record: CycleRecord, rows) -> None:
         self.db.execute("BEGIN IMMEDIATE")
@@ -280,11 +293,28 @@ class History:
             ) from None
 
     def _journal(self, record: CycleRecord, rows) -> None:
-        with open(self.journal, "a", encoding="utf-8") as f:
-            if not f.tell():
-                f.write(json.dumps({"meta": self._meta}) + "\n")
+        import stat
+
+        def opener(path, flags):
+            # A FIFO or a link in the journal's place would block the commit or write
+            # elsewhere: refused (ENXIO for a FIFO nobody reads, else by its type).
+            fd = os.open(path, flags | os.O_NOFOLLOW | os.O_NONBLOCK)
+            if not stat.S_ISREG(os.fstat(fd).st_mode):
+                os.close(fd)
+                raise OSError(f"{Path(path).name} is not a regular file; remove it")
+            os.set_blocking(fd, True)
+            return fd
+
+        with open(self.journal, "ab+", opener=opener) as f:
+            end = f.seek(0, os.SEEK_END)
+            if not end:
+                f.write((json.dumps({"meta": self._meta}) + "\n").encode())
+            else:
+                f.seek(end - 1)
+                if f.read(1) != b"\n":  # a line cut by a crash: ended, so it stays one
+                    f.write(b"\n")
             line = {**record.__dict__, "points": [list(r[1:]) for r in rows]}
-            f.write(json.dumps(line, allow_nan=True) + "\n")
+            f.write((json.dumps(line, allow_nan=True) + "\n").encode())
             f.flush()
             os.fsync(f.fileno())
 
@@ -310,8 +340,8 @@ class History:
             self._journal(record, rows)  # the cycle is kept, as every one before it
         rescue = _aside(self.path, "rescued")
         try:
-            cycles = rebuild_history(self.journal, rescue)
-            kept = f"its {cycles} cycle(s) are rebuilt from {self.journal} into {rescue}"
+            rebuilt = rebuild_history(self.journal, rescue)
+            kept = f"{rebuilt.text} from {self.journal} into {rescue}"
         except (InputError, OSError, ValueError) as exc:
             kept = f"its cycles are in {self.journal} (they could not be rebuilt: {exc})"
         self._changed = (
@@ -356,7 +386,40 @@ def _aside(path: Path, word: str) -> Path:
     raise AssertionError("unreachable")
 
 
-def rebuild_history(journal: str | Path, path: str | Path) -> int:
+@dataclass(frozen=True)
+class Rebuilt:
+    """What :func:`rebuild_history` recovered: the cycles, and the journal's lines it could
+    not read with why (line number → reason)."""
+
+    cycles: tuple[int, ...]
+    lost: dict[int, str]
+
+    @property
+    def text(self) -> str:
+        def runs(ns) -> str:
+            ranges, start = [], None
+            for a, b in zip(ns, [*ns[1:], None], strict=True):
+                start = a if start is None else start
+                if b != a + 1:
+                    ranges.append(f"{start}" if start == a else f"{start}–{a}")
+                    start = None
+            return ", ".join(ranges)
+
+        said = f"cycles {runs(self.cycles)} rebuilt" if self.cycles else "no cycle rebuilt"
+        if self.lost:
+            said += "; not recovered: " + "; ".join(
+                f"line {n} ({why})" for n, why in list(self.lost.items())[:5]
+            )
+            if len(self.lost) > 5:
+                said += f" and {len(self.lost) - 5} more lines"
+        return said
+
+
+#: The longest journal line read (a cycle's points are kilobytes).
+JOURNAL_LINE_MAX = 16 * 2**20
+
+
+def rebuild_history(journal: str | Path, path: str | Path) -> Rebuilt:
     """Rebuild a history database at ``path`` (a new file) from a watch's ``journal``.
 
     Parameters
@@ -368,36 +431,96 @@ def rebuild_history(journal: str | Path, path: str | Path) -> int:
 
     Returns
     -------
-    int
-        The number of cycles rebuilt. A cycle given twice (a restart that committed
-        again after a crash between journal and database) is taken at its last line.
+    Rebuilt
+        The cycles rebuilt, and each line that could not be (cut by a crash, not a
+        cycle, a value no history holds) with why. A cycle given twice (a restart that
+        committed again after a crash between journal and database) is taken at its last
+        line. The journal is read a line at a time, none longer than
+        :data:`JOURNAL_LINE_MAX`.
     """
     journal, path = Path(journal), Path(path)
     if path.exists():
         raise InputError("exists already; give a new file", source=str(path))
-    lines = journal.read_text(encoding="utf-8").splitlines()
-    try:
-        meta = json.loads(lines[0])["meta"]
-        cycles = {}
-        for line in lines[1:]:
-            if line.strip():  # a last line cut by a crash is not a cycle
-                try:
-                    entry = json.loads(line)
-                except json.JSONDecodeError:
-                    continue
-                cycles[int(entry["cycle"])] = entry
-    except (IndexError, KeyError, TypeError, json.JSONDecodeError) as exc:
-        raise InputError(f"not a watch journal ({exc})", source=str(journal)) from None
+    journal = input_file(journal, "watch journal", todo="give the <db>.journal of a watch")
     fields = CycleRecord.__dataclass_fields__
+    cycles: dict[int, tuple[CycleRecord, dict]] = {}
+    lost: dict[int, str] = {}
+    meta = None
+    with open(journal, "rb") as f:
+        for n, raw in enumerate(iter(lambda: f.readline(JOURNAL_LINE_MAX + 1), b""), start=1):
+            if len(raw) > JOURNAL_LINE_MAX:
+                raise InputError(
+                    f"line {n} is longer than {JOURNAL_LINE_MAX // 2**20} MB: not a watch journal",
+                    source=str(journal),
+                )
+            if not raw.strip():
+                continue
+            try:
+                entry = json.loads(raw)
+            except (UnicodeDecodeError, ValueError, RecursionError):
+                lost[n] = "not a line of JSON: cut by a crash?"
+                continue
+            if n == 1:
+                meta = entry.get("meta") if isinstance(entry, dict) else None
+                ok = isinstance(meta, dict) and all(
+                    isinstance(meta.get(k), t)
+                    for k, t in (("station", str), ("created", (int, float)))
+                ) and isinstance(meta.get("golden"), (str, type(None)))  # fmt: skip
+                if not ok:
+                    raise InputError(
+                        "not a watch journal (its first line has no meta with station, "
+                        "golden and created)",
+                        source=str(journal),
+                    )
+                continue
+            try:
+                record = CycleRecord(**{k: entry[k] for k in fields})
+                points = {tuple(p[:4]): tuple(p[4:]) for p in entry["points"]}
+                _check_entry(record, points)
+            except (KeyError, TypeError, ValueError) as exc:
+                lost[n] = (
+                    f"not a cycle: {exc}"
+                    if not isinstance(exc, KeyError)
+                    else (f"not a cycle: no {exc}")
+                )
+                continue
+            cycles[record.cycle] = (record, points)
+    if meta is None:
+        raise InputError("not a watch journal (empty, or no meta line)", source=str(journal))
     history = History(path, station=meta["station"], golden=meta["golden"], created=meta["created"])
     try:
         for n in sorted(cycles):
-            entry = cycles[n]
-            record = CycleRecord(**{k: entry[k] for k in fields})
-            history.commit(record, {tuple(p[:4]): tuple(p[4:]) for p in entry["points"]})
+            history.commit(*cycles[n])
     finally:
         history.close()
-    return len(cycles)
+    return Rebuilt(tuple(sorted(cycles)), lost)
+
+
+def _check_entry(record: CycleRecord, points: dict) -> None:
+    """A journal line's cycle as a history holds it: its types, finite numbers."""
+    if not isinstance(record.cycle, int) or isinstance(record.cycle, bool) or record.cycle < 0:
+        raise ValueError(f"cycle {record.cycle!r} is not a cycle number")
+    if record.status not in ("pass", "fail", "drift", "error"):
+        raise ValueError(f"status {record.status!r}")
+    for name in ("started", "seconds"):
+        value = getattr(record, name)
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, (int, float))
+            or not math.isfinite(value)
+        ):
+            raise ValueError(f"{name} {value!r} is not a finite number")
+    for key, values in points.items():
+        if len(key) != 4 or len(values) != 4 or not all(isinstance(k, str) for k in key):
+            raise ValueError(f"a point {[*key, *values]!r} is not 4 names and 4 values")
+        if key[3] not in _CHARTED.get(key[1], ()):
+            raise ValueError(f"chart {key!r} is not one watch keeps")
+        value, *smoothed = values
+        numbers = [v for v in (value, *smoothed) if v is not None]
+        if any(isinstance(v, bool) or not isinstance(v, (int, float)) for v in numbers) or not all(
+            isinstance(v, (int, float)) and abs(v) < 1e100 for v in smoothed
+        ):  # as the history's reader holds them (_chart_series)
+            raise ValueError(f"a point of {'/'.join(key)} is not a number, or its band not finite")
 
 
 def _exclusive(path: Path):

@@ -570,7 +570,12 @@ def test_a_journal_cut_by_a_crash_or_with_a_cycle_twice_rebuilds(tmp_path):
     journal = tmp_path / "history.sqlite.journal"
     lines = journal.read_text().splitlines()
     journal.write_text("\n".join([*lines, lines[-1], lines[-1][:20]]))  # repeated, then cut
-    assert rebuild_history(journal, tmp_path / "new.sqlite") == 3
+    rebuilt = rebuild_history(journal, tmp_path / "new.sqlite")
+    assert rebuilt.cycles == (0, 1, 2) and list(rebuilt.lost) == [6]
+    assert (
+        rebuilt.text
+        == "cycles 0–2 rebuilt; not recovered: line 6 (not a line of JSON: cut by a crash?)"
+    )
     assert [c.cycle for c in read_history(tmp_path / "new.sqlite").cycles] == [0, 1, 2]
     with pytest.raises(InputError, match=r"new\.sqlite: exists already"):
         rebuild_history(journal, tmp_path / "new.sqlite")
@@ -587,3 +592,84 @@ def test_a_new_history_sets_an_old_journal_aside(tmp_path):
     (old,) = tmp_path.glob("history.sqlite-old-*.journal")
     assert len(old.read_text().splitlines()) == 3  # meta and two cycles, kept
     assert len((tmp_path / "history.sqlite.journal").read_text().splitlines()) == 2
+
+
+def test_a_cycle_after_a_cut_journal_line_is_a_line_of_its_own(tmp_path):
+    """A journal whose last line a crash cut: the next cycle is appended after the line is
+    ended (it was appended onto it: the rebuild then held cycles 0, 2, 3 where the
+    database held 0, 1, 2, 3), and the rebuild names the cut line it could not read."""
+    from inspect_validate.watch.history import CycleRecord, History, rebuild_history
+
+    db = tmp_path / "history.sqlite"
+    _history_with_cycles(db, n=3).close()
+    journal = tmp_path / "history.sqlite.journal"
+    journal.write_bytes(journal.read_bytes()[:-30])  # cycle 2's line cut by a crash
+    history = History(db, station="st.yaml", golden=None)
+    record = CycleRecord(3, 1.7e9 + 3, 0.5, "pass", True, None, None, None)
+    history.commit(record, {("amber", "class", "A", "mean"): (100.0, 100.0, 99.0, 101.0)})
+    history.close()
+    rebuilt = rebuild_history(journal, tmp_path / "new.sqlite")
+    assert rebuilt.cycles == (0, 1, 3) and list(rebuilt.lost) == [4]
+    assert "cycles 0–1, 3 rebuilt; not recovered: line 4" in rebuilt.text
+
+
+@pytest.mark.parametrize(
+    ("line", "says"),
+    [
+        ('{"cycle": 5}', "no 'started'"),
+        ('{"cycle": 5, "started": 1, "seconds": 1, "status": "bogus", "passed": true, '
+         '"reason": null, "cause": null, "frames": null, "points": []}', "status 'bogus'"),
+        ('{"cycle": 5, "started": NaN, "seconds": 1, "status": "pass", "passed": true, '
+         '"reason": null, "cause": null, "frames": null, "points": []}', "started nan"),
+        ('{"cycle": 5, "started": 1, "seconds": 1, "status": "pass", "passed": true, '
+         '"reason": null, "cause": null, "frames": null, '
+         '"points": [["amber", "class", "A", "mean", 1, Infinity, 0, 2]]}', "band not finite"),
+        ('{"cycle": 5, "started": 1, "seconds": 1, "status": "pass", "passed": true, '
+         '"reason": null, "cause": null, "frames": null, "points": [["a", 1]]}', "4 names"),
+    ],
+)  # fmt: skip
+def test_a_journal_line_no_history_holds_is_named_not_rebuilt(tmp_path, line, says):
+    """A line without a status, with NaN or infinite values (the rebuilt database was
+    then refused as damaged) is not rebuilt, and the rebuild says which line and why."""
+    from inspect_validate.watch.history import read_history, rebuild_history
+
+    db = tmp_path / "history.sqlite"
+    _history_with_cycles(db, n=2).close()
+    journal = tmp_path / "history.sqlite.journal"
+    journal.write_text(journal.read_text() + line + "\n")
+    rebuilt = rebuild_history(journal, tmp_path / "new.sqlite")
+    assert rebuilt.cycles == (0, 1) and says in rebuilt.lost[4], rebuilt.lost
+    assert [c.cycle for c in read_history(tmp_path / "new.sqlite").cycles] == [0, 1]
+
+
+@pytest.mark.parametrize("meta", ["{}", '{"meta": {}}', '{"meta": {"station": 1}}', "[]"])
+def test_a_journal_without_its_meta_is_refused_not_a_traceback(tmp_path, meta):
+    from inspect_validate.errors import InputError
+    from inspect_validate.watch.history import rebuild_history
+
+    (tmp_path / "j.journal").write_text(meta + "\n")
+    with pytest.raises(InputError, match=r"j\.journal: not a watch journal"):
+        rebuild_history(tmp_path / "j.journal", tmp_path / "new.sqlite")
+    assert not (tmp_path / "new.sqlite").exists()
+
+
+def test_a_journal_that_is_a_fifo_is_refused_at_the_commit_not_blocked(tmp_path):
+    """A FIFO in the journal's place blocked the first commit for good (SIGTERM did not
+    end it): the commit is refused naming it."""
+    import os
+
+    from inspect_validate.errors import InputError
+
+    db = tmp_path / "history.sqlite"
+    history = _history_with_cycles(db, n=1)
+    history.close()
+    journal = tmp_path / "history.sqlite.journal"
+    journal.unlink()
+    os.mkfifo(journal)
+    from inspect_validate.watch.history import CycleRecord, History
+
+    history = History(db, station="st.yaml", golden=None)
+    record = CycleRecord(1, 1.7e9, 0.5, "pass", True, None, None, None)
+    with pytest.raises(InputError, match="cannot write cycle 1: its journal .* is not a regular file; remove it"):
+        history.commit(record, {("amber", "class", "A", "mean"): (1.0, 1.0, 0.0, 2.0)})
+    history.close()
