@@ -192,6 +192,9 @@ def _chunks(xs, h):
 
 def _log_density_all(flat, out, centres, log_w, sigma) -> None:
     """Unnormalised log-density of every component at every point, in memory-bounded chunks."""
+    if centres.size == 0:  # a window with no component in reach: a density of 0
+        out[: flat.size] = -np.inf
+        return
     chunk = max(1, 2**22 // max(1, centres.size))
     for i in range(0, flat.size, chunk):
         z = (flat[i : i + chunk, None] - centres[None, :]) / sigma
