@@ -118,3 +118,14 @@ def test_degenerate_inputs():
     # A constant float class (e.g. clipped, read as float) is a point mass, not an error.
     bw = lscv_bandwidth(np.array([0.5, 0.5, 0.5]))
     assert bw.at_floor and bw.h == 0.0
+
+
+@pytest.mark.parametrize("exponent", [-640, -100, 100, 640])
+def test_lscv_is_scale_invariant_down_to_values_whose_variance_underflows(exponent):
+    """Values spread over 1e-191 (the fuzz corpus's frame): their variance underflows to 0,
+    and the bandwidth was the quantum, ε KDE then NaN. Searched at a power of two, the
+    bandwidth scales with the data (to the search's tolerance, 1e-6)."""
+    x = np.random.default_rng(3).standard_normal(400)
+    reference = lscv_bandwidth(x)
+    scaled = lscv_bandwidth(x * 2.0**exponent)
+    assert scaled.h == pytest.approx(reference.h * 2.0**exponent, rel=1e-6) and not scaled.at_floor
