@@ -177,8 +177,13 @@ def show(roi_file, frames, out, dark):
 @click.option("--out", type=PATH, required=True, help="The ROI file to write (YAML).")
 @click.option(
     "--names",
-    help="Rename classes: LABEL=NAME pairs, comma-separated (e.g. 1=A,2=B; a name given "
-    "twice merges those labels).",
+    help="Rename classes: LABEL=NAME pairs, comma-separated (e.g. 1=A,2=B, or "
+    "person=A; a name given twice merges those labels).",
+)
+@click.option(
+    "--drop",
+    help="Labels to leave out, comma-separated (labelme's __ignore__ and _background_ "
+    "are left out unless --names names them).",
 )
 @click.option("--image", help="COCO: the image whose annotations to take (file name or id).")
 @click.option(
@@ -187,52 +192,49 @@ def show(roi_file, frames, out, dark):
     type=SIZE,
     help="The frame size to record where the file has none (napari).",
 )
-@click.option("--force", is_flag=True, help="Overwrite OUT if it exists.")
-def import_(annotations, out, names, image, frame_size, force):
-    """Read another tool's ANNOTATIONS as an ROI file.
+@click.option("--force", is_flag=True, help="Overwrite OUT (and the masks it names) if it exists.")
+def import_(annotations, out, names, drop, image, frame_size, force):
+    """Read another tool's ANNOTATIONS as an ROI file every command accepts.
 
     Integer label images (PNG, TIFF: napari, ilastik, QuPath; 0 is background), labelme
-    JSON (polygons, rectangles, circles), COCO JSON (polygons and RLE) and napari's
-    shapes CSV. Pixel masks are written exactly, one PNG per class beside OUT. The frame
-    size is recorded from the file (or --frame), so a frame of another size is refused.
+    JSON (polygons, rectangles, circles, masks), COCO JSON (polygons and RLE) and
+    napari's shapes CSV. Shapes are clipped to the frame; pixels two classes share are
+    left out of both; lines and points (no area) are skipped; each change is listed.
+    Pixel masks are written exactly, one PNG per class beside OUT. The frame size is
+    recorded from the file (or --frame), so a frame of another size is refused. Nothing
+    is written when the import is refused.
     """
-    from dataclasses import replace
+    from inspect_validate.roi.annotations import import_annotations
 
-    from inspect_validate.errors import InputError
-    from inspect_validate.roi.annotations import read_annotations
-    from inspect_validate.roi.roiset import write_rois
-
-    if out.exists() and not force:
-        raise InputError(f"{out} exists; give --force to overwrite it", source="rois import")
     renames = {}
     for pair in (names or "").split(","):
         if not pair.strip():
             continue
         label, sep, name = pair.partition("=")
         if not sep or not label.strip() or not name.strip():
-            raise click.BadParameter(f"{pair!r}: write LABEL=NAME, e.g. 1=A", param_hint="--names")
-        renames[label.strip()] = name.strip()
-    roiset = read_annotations(
-        annotations, masks=out.with_suffix(""), names=renames or None, image=image
-    )
-    if frame_size is not None:
-        given = frame_size
-        if roiset.frame is not None and roiset.frame != given:
-            raise InputError(
-                f"the file says its image is {roiset.frame[0]}×{roiset.frame[1]}, --frame says "
-                f"{given[0]}×{given[1]}",
-                source=str(annotations),
+            raise click.BadParameter(
+                f"{pair!r}: write LABEL=NAME, e.g. 1=A or person=A", param_hint="--names"
             )
-        roiset = replace(roiset, frame=given)
-    written = write_rois(
-        roiset, out, comment=f"Imported by inspect-validate rois import from {annotations}."
+        renames[label.strip()] = name.strip()
+    dropped = [d.strip() for d in (drop or "").split(",") if d.strip()]
+    written, notes = import_annotations(
+        annotations,
+        out,
+        names=renames,
+        image=image,
+        drop=dropped,
+        frame=frame_size,
+        force=force,
+        comment=f"Imported by inspect-validate rois import from {annotations}.",
     )
+    for note in notes:
+        click.echo(f"note: {note}", err=True)
     for cls in written.classes:
         click.echo(f"{cls.name}: {len(cls.shapes)} shape{'s' if len(cls.shapes) != 1 else ''}")
     if written.frame is None:
         click.echo(
             "warning: no frame size recorded (the file has none); give --frame WxH so that a "
-            "frame of another size is refused",
+            "frame of another size is refused (and shapes past its border clipped)",
             err=True,
         )
     click.echo(f"ROI file: {out}")

@@ -322,7 +322,8 @@ def class_masks(rois: RoiSet, frame_shape: tuple[int, int]) -> dict[str, np.ndar
             if overlap:
                 raise InputError(
                     f"classes {other!r} and {cls.name!r} share {overlap} pixels; "
-                    "a pixel can belong to one class only",
+                    "a pixel can belong to one class only: draw them apart, or give both "
+                    "an 'erode:' of a pixel or more (their edge pixels are mixed anyway)",
                     source=rois.source,
                 )
         masks[cls.name] = union

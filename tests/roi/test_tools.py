@@ -135,7 +135,7 @@ def test_import_label_image_exactly(cli, tmp_path):
     assert rois.frame == (W, H) and [c.name for c in rois.classes] == ["A", "B"]
     masks = class_masks(rois, (H, W))
     assert np.array_equal(masks["A"], labels == 1) and np.array_equal(masks["B"], labels == 7)
-    assert "mask: rois.1.png" in out.read_text()  # beside the ROI file, relative
+    assert "mask: rois.A.png" in out.read_text()  # beside the ROI file, relative
 
 
 def test_import_labelme_json(cli, tmp_path):
@@ -180,9 +180,14 @@ def test_import_labelme_json(cli, tmp_path):
     assert np.array_equal(masks["B"], rect_mask(200, 100, 100, 40))
     assert abs(masks["C"].sum() - np.pi * 100) < 20
     doc["shapes"].append({"label": "D", "points": [[1, 1], [5, 5]], "shape_type": "line"})
+    (tmp_path / "line.json").write_text(json.dumps(doc))
+    code, _out, err = cli(["rois", "import", tmp_path / "line.json", "--out", tmp_path / "b.yaml"])
+    assert code == 0 and "1 line shape: no area; left out" in err, err
+    assert [c.name for c in read_rois(tmp_path / "b.yaml").classes] == ["A", "B", "C"]
+    doc["shapes"][-1]["shape_type"] = "trapezoid"
     (tmp_path / "bad.json").write_text(json.dumps(doc))
-    code, _, err = cli(["rois", "import", tmp_path / "bad.json", "--out", tmp_path / "b.yaml"])
-    assert code == 2 and "shapes[3] 'D' (line)" in err and "no area" in err
+    code, _, err = cli(["rois", "import", tmp_path / "bad.json", "--out", tmp_path / "c.yaml"])
+    assert code == 2 and "shapes[3] 'D' (trapezoid)" in err and "unknown labelme shape" in err
 
 
 def test_import_coco_polygons_and_rle(cli, tmp_path):
