@@ -385,7 +385,7 @@ _SCHEMAS = {
 }
 
 
-def file_kind(doc: object, *, model=None) -> tuple[str, str] | None:
+def file_kind(doc: object, *, model: type[BaseModel] | None = None) -> tuple[str, str] | None:
     """What kind of the tool's files ``doc`` (a parsed YAML or JSON document) is, and the
     evidence: a document the tool wrote names its ``schema``; a station, scene or camera
     file has top-level keys only its kind has (those ``model`` has itself not counted)."""

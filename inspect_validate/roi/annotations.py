@@ -33,7 +33,7 @@ from pydantic import BaseModel, ConfigDict, Field, StrictFloat, StrictInt, Valid
 from inspect_validate.errors import InputError
 from inspect_validate.files import input_file
 from inspect_validate.roi.roiset import MAX_CLASSES, MAX_VERTICES, ClassRoi, RoiSet
-from inspect_validate.roi.shapes import Ellipse, MaskImage, Polygon, Shape
+from inspect_validate.roi.shapes import Ellipse, MaskImage, Polygon, Rect, Shape
 
 __all__ = ["FORMATS", "IGNORED_LABELS", "Imported", "import_annotations", "read_annotations"]
 
@@ -284,8 +284,6 @@ def _fitted(
     """The classes within the frame and apart: polygons clipped to it, other shapes that
     reach past it drawn as masks; pixels of several classes left out of each, those
     classes then one exact mask each; a shape or class with no pixel left out."""
-    from inspect_validate.roi.shapes import rasterise
-
     width, height = frame
     fitted: dict[str, list[Part]] = {}
     unions: dict[str, np.ndarray] = {}
@@ -294,29 +292,7 @@ def _fitted(
         kept: list[Part] = []
         union = np.zeros((height, width), dtype=bool)
         for part, where in parts:
-            if isinstance(part, np.ndarray):
-                mask = part
-            else:
-                x0, y0, x1, y1 = part.bounds()
-                inside = x0 >= 0 and y0 >= 0 and x1 <= width and y1 <= height
-                if not inside and isinstance(part, Polygon):
-                    clipped = _clip(np.asarray(part.vertices, dtype=float), width, height)
-                    notes.append(f"{where}: clipped to the {width}×{height} frame")
-                    part = Polygon(tuple(map(tuple, clipped))) if len(clipped) >= 3 else None
-                if part is None:
-                    mask = np.zeros((height, width), dtype=bool)
-                elif isinstance(part, Ellipse) and not inside:
-                    notes.append(f"{where}: clipped to the {width}×{height} frame")
-                    ys, xs = np.ogrid[0:height, 0:width]
-                    mask = ((xs + 0.5 - part.cx) / part.rx) ** 2 + (
-                        (ys + 0.5 - part.cy) / part.ry
-                    ) ** 2 <= 1.0
-                    part = mask
-                else:
-                    try:
-                        mask = rasterise(part, (height, width), where=where)
-                    except InputError:  # covers no pixel centre: a sliver or a line
-                        mask = np.zeros((height, width), dtype=bool)
+            mask, part = _within(part, where, width, height, notes)
             if not mask.any():
                 notes.append(f"{where}: covers no pixel of the frame; left out")
                 continue
@@ -344,6 +320,40 @@ def _fitted(
                 continue
             fitted[name] = [(region, f"{name}: its shapes less the shared pixels")]
     return fitted
+
+
+def _within(
+    part: Shape | np.ndarray, where: str, width: int, height: int, notes: list[str]
+) -> tuple[np.ndarray, Shape | np.ndarray]:
+    """A shape's pixels in the frame, and the shape to write: a polygon that reaches past
+    the border clipped to it, another shape that does as its mask inside the frame."""
+    from inspect_validate.roi.shapes import rasterise
+
+    none = np.zeros((height, width), dtype=bool)
+    if isinstance(part, np.ndarray):
+        return part, part
+    if isinstance(part, MaskImage):
+        return rasterise(part, (height, width), where=where), part
+    x0, y0, x1, y1 = part.bounds()
+    if not (x0 >= 0 and y0 >= 0 and x1 <= width and y1 <= height):
+        notes.append(f"{where}: clipped to the {width}×{height} frame")
+        if isinstance(part, Polygon):
+            clipped = _clip(np.asarray(part.vertices, dtype=float), width, height)
+            if len(clipped) < 3:
+                return none, part
+            part = Polygon(tuple(map(tuple, clipped)))
+        else:
+            ys, xs = np.ogrid[0:height, 0:width]
+            cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
+            rx, ry = (x1 - x0) / 2, (y1 - y0) / 2
+            mask = ((xs + 0.5 - cx) / rx) ** 2 + ((ys + 0.5 - cy) / ry) ** 2 <= 1.0
+            if isinstance(part, Rect):
+                mask = (xs >= x0) & (xs < x1) & (ys >= y0) & (ys < y1)
+            return mask, mask
+    try:
+        return rasterise(part, (height, width), where=where), part
+    except InputError:  # covers no pixel centre: a sliver or a line
+        return none, part
 
 
 def _clip(vertices: np.ndarray, width: float, height: float) -> np.ndarray:
@@ -651,11 +661,11 @@ def _napari_csv(path: Path, *, image: str | None):
             raise InputError(
                 "a row with missing or extra values (every row has every column)", source=where
             )
-        index = str(row["index"]).strip()
-        if not (index.isascii() and index.isdigit() and len(index) < 10) or (
-            index != str(int(index))
+        number = str(row["index"]).strip()
+        if not (number.isascii() and number.isdigit() and len(number) < 10) or (
+            number != str(int(number))
         ):
-            raise InputError(f"index {index!r} is not a shape number (0, 1, 2…)", source=where)
+            raise InputError(f"index {number!r} is not a shape number (0, 1, 2…)", source=where)
         try:
             # Only the last two axes: a 3-D layer's frame axis comes first.
             axes = ("axis-2", "axis-1") if three else ("axis-1", "axis-0")
@@ -664,7 +674,7 @@ def _napari_csv(path: Path, *, image: str | None):
             raise InputError("a coordinate is not a number", source=where) from None
         if not (np.isfinite(x) and np.isfinite(y) and abs(x) <= 1e7 and abs(y) <= 1e7):
             raise InputError("a coordinate is not a finite number within ±10⁷", source=where)
-        shapes.setdefault(int(index), (str(row["shape-type"]).strip(), []))[1].append((x, y))
+        shapes.setdefault(int(number), (str(row["shape-type"]).strip(), []))[1].append((x, y))
     found: dict[str, list[Part]] = {}
     notes: list[str] = []
     for index, (kind, pts) in shapes.items():

@@ -254,7 +254,11 @@ def lscv_bandwidth(
     if not isinstance(sample, LatticeSample):
         sample = as_sample(sample)
     lattice = isinstance(sample, LatticeSample)
-    spread = float(np.ptp(sample)) if not lattice and np.size(sample) else 0.0
+    spread = (
+        float(np.ptp(sample))
+        if not isinstance(sample, LatticeSample) and np.asarray(sample).size
+        else 0.0
+    )
     if 0.0 < spread < 2.0**-64 or 2.0**64 < spread < np.inf:
         # Values spread over 1e-190 (their variance underflows to 0) or 1e+190: search at
         # a power of two that brings the spread near 1 (exact), and scale back.

@@ -75,7 +75,7 @@ def test_a_trial_decides_as_the_cli_does(tmp_path):
     assert trial.passed and report["verdict"] == "pass"
     assert report["false_alarm"]["rate"] == 0.0027
     kinds = {c["kind"] for c in report["checks"]}
-    assert kinds == {"separation", "saturation", "agreement", "ranking", "drift"}
+    assert kinds == {"light", "separation", "saturation", "agreement", "ranking", "drift"}
 
 
 def test_too_few_repeats_for_the_rate_are_refused_in_trials_too():
