@@ -16,7 +16,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from inspect_validate.camera.controllers.gardasoft import GardasoftController
+from inspect_validate.camera.controllers.gardasoft import GardasoftController, shown_text
 from inspect_validate.camera.controllers.generic import protocol_controller
 from inspect_validate.camera.grabbers.base import DeviceInfo, Features, Grabber
 from inspect_validate.camera.registry import Opening, Search, backend, backends, broken
@@ -27,6 +27,7 @@ __all__ = [
     "Inventory",
     "SerialPort",
     "find_ports",
+    "port_problem",
     "probe_port",
     "read_features",
     "take_inventory",
@@ -44,9 +45,12 @@ class SerialPort:
     description, hardware_id, serial : str
         What the operating system says of it (a USB adapter's name, VID:PID, serial).
     answer : str
-        What answered a probe (``Gardasoft RT: <firmware>``); "" where nothing did or
-        the port was not probed.
+        What answered a probe (``Gardasoft RT: <firmware>``), device text with its
+        control characters escaped; "" where nothing did or the port was not probed.
     probed : bool
+    problem : str
+        Why the port cannot be a controller's, where that is known without asking (no
+        such device, a folder, a regular file); it is then not probed.
     """
 
     device: str
@@ -55,6 +59,28 @@ class SerialPort:
     serial: str = ""
     answer: str = ""
     probed: bool = False
+    problem: str = ""
+
+
+def port_problem(port: str) -> str:
+    """Why ``port`` cannot be a serial port, as far as the file system tells; "" where it
+    may be one (a character device, or a URL, whose connection tells)."""
+    import os
+    import stat
+
+    if "://" in port:
+        return ""
+    try:
+        mode = os.stat(port).st_mode
+    except FileNotFoundError:
+        return "no such device"
+    except OSError as exc:
+        return exc.strerror or str(exc)
+    if stat.S_ISDIR(mode):
+        return "a folder, not a serial port"
+    if not stat.S_ISCHR(mode):
+        return "not a device (a serial port is a character device)"
+    return ""
 
 
 @dataclass(frozen=True)
@@ -168,7 +194,7 @@ def find_ports(
         for p in sorted(list_ports.comports(), key=lambda p: p.device)
     ]
     listed = {p.device for p in ports}
-    ports += [SerialPort(d) for d in extra if d not in listed]
+    ports += [SerialPort(d, problem=port_problem(d)) for d in extra if d not in listed]
     if not probe:
         return ports
     return [
@@ -177,8 +203,11 @@ def find_ports(
             p.description,
             p.hardware_id,
             p.serial,
-            answer=probe_port(p.device, protocol=protocol, timeout_s=timeout_s),
-            probed=True,
+            answer=""
+            if p.problem
+            else probe_port(p.device, protocol=protocol, timeout_s=timeout_s),
+            probed=not p.problem,
+            problem=p.problem,
         )
         for p in ports
     ]
@@ -191,7 +220,7 @@ def probe_port(port: str, *, protocol: AsciiProtocol | None = None, timeout_s: f
     left in its buffer as the start of its next command. "" where neither answers; never
     raises for a port that does not answer."""
     if protocol is not None:
-        if "status" not in protocol.commands and "init" not in protocol.commands:
+        if "status" not in protocol.commands and not protocol.commands.get("init"):
             raise InputError(
                 "the protocol has neither a 'status' nor an 'init' command: nothing to probe "
                 "with; add the controller's status query",
@@ -199,7 +228,7 @@ def probe_port(port: str, *, protocol: AsciiProtocol | None = None, timeout_s: f
             )
         try:
             with protocol_controller(port, protocol, ControllerSettings(timeout_s=timeout_s)) as c:
-                return f"ASCII protocol: {c.status() or 'answers'}"
+                return f"ASCII protocol: {shown_text((c.status() or 'answers').encode())}"
         except DeviceError:
             pass
     try:
@@ -208,6 +237,6 @@ def probe_port(port: str, *, protocol: AsciiProtocol | None = None, timeout_s: f
                 # End the other protocol's command line left unanswered in its buffer.
                 with contextlib.suppress(DeviceError):
                     gardasoft.link.query("")
-            return f"Gardasoft RT: {gardasoft.version() or 'answers'}"
+            return f"Gardasoft RT: {shown_text((gardasoft.version() or 'answers').encode())}"
     except DeviceError:
         return ""

@@ -176,26 +176,85 @@ class AsciiProtocol(StrictModel):
             if key != "init" and not isinstance(template, str):
                 raise ValueError(f"{key}: one command template, not a list")
             for line in lines:
-                try:
-                    line.format(**_TEMPLATE_FIELDS)
-                except (KeyError, IndexError, ValueError) as exc:
-                    raise ValueError(
-                        f"{key}: template {line!r} does not format ({exc!r}); "
-                        f"fields are {{{'}, {'.join(_TEMPLATE_FIELDS)}}}"
-                    ) from None
+                _check_template(key, line)
+        return v
+
+    @field_validator("terminator", "reply_end")
+    @classmethod
+    def _ascii(cls, v):
+        if not v.isascii():
+            raise ValueError(f"{v!r} is not ASCII (the controller's line is bytes of ASCII)")
         return v
 
     @field_validator("ok", "error")
     @classmethod
     def _regex(cls, v):
-        import re
-
         if v is not None:
-            try:
-                re.compile(v)
-            except re.error as exc:
-                raise ValueError(f"not a regular expression: {exc}") from None
+            _check_pattern(v)
         return v
+
+
+#: The longest reply matched against a protocol's patterns, bytes.
+REPLY_MAX = 4096
+
+
+def _check_template(key: str, line: str) -> None:
+    """A command template: ASCII, its fields the protocol's own, by name only, with a
+    format spec of at most a few characters (``{percent:>1500000000}`` asked for 1.5 GB)."""
+    import re
+    import string
+
+    fields = f"{{{'}, {'.join(_TEMPLATE_FIELDS)}}}"
+    if not line.isascii():
+        raise ValueError(f"{key}: template {line!r} is not ASCII (a controller reads ASCII)")
+    try:
+        parsed = list(string.Formatter().parse(line))
+    except ValueError as exc:
+        raise ValueError(
+            f"{key}: template {line!r} does not parse ({exc}); fields are {fields}"
+        ) from None
+    for _, name, spec, conversion in parsed:
+        if name is None:
+            continue
+        if name not in _TEMPLATE_FIELDS:
+            raise ValueError(
+                f"{key}: template {line!r} has the field {{{name}}}; fields are {fields}, "
+                "by name (no index or attribute)"
+            )
+        widths = [int(n) for n in re.findall(r"\d+", spec or "")]
+        if conversion or len(spec or "") > 12 or any(w > 64 for w in widths):
+            raise ValueError(
+                f"{key}: template {line!r}: the format of {{{name}}} is at most a width and "
+                "a precision up to 64, e.g. {value:.0f} or {channel:02d}"
+            )
+    try:
+        line.format(**_TEMPLATE_FIELDS)
+    except (KeyError, IndexError, ValueError) as exc:
+        raise ValueError(f"{key}: template {line!r} does not format ({exc})") from None
+
+
+def _check_pattern(pattern: str) -> None:
+    """A reply pattern: ASCII (replies are bytes), a valid expression, and no repeated
+    group that repeats inside (``(a+)+``: backtracking that takes years on a reply of 40
+    characters)."""
+    import re
+
+    if not pattern.isascii():
+        raise ValueError(f"{pattern!r} is not ASCII (replies are matched as bytes)")
+    try:
+        re.compile(pattern.encode())
+    except re.error as exc:
+        raise ValueError(f"not a regular expression of bytes: {exc}") from None
+    # A group that is one repeated atom, itself repeated: (a+)+, (\w*)*, ([a-z]{1,3})+.
+    atom = r"(?:\\.|\[(?:\\.|[^\]])*\]|[^()\\|])"
+    repeat = r"(?:[+*]|\{\d*,\d*\})"
+    nested = re.search(rf"\((?:\?:)?{atom}{repeat}\){repeat}", pattern)
+    if nested:
+        raise ValueError(
+            f"{nested.group(0)!r} repeats a group that repeats inside: on some replies the "
+            "match backtracks for years; write it without the nested repetition "
+            "(e.g. (a+)+ as a+)"
+        )
 
 
 class Pulse(StrictModel):

@@ -29,7 +29,7 @@ from typing import Literal
 
 from inspect_validate.camera.controllers.base import LedController
 from inspect_validate.camera.registry import Backend, Opening
-from inspect_validate.camera.settings import ControllerSettings, Port
+from inspect_validate.camera.settings import REPLY_MAX, ControllerSettings, Port
 from inspect_validate.errors import DeviceError
 
 __all__ = ["BACKEND", "GardasoftController", "GardasoftSettings", "SerialAscii"]
@@ -128,6 +128,12 @@ class SerialAscii:
                 reply += self._serial.read(self._serial.in_waiting or 1)
                 if self._complete(bytes(reply)):
                     break
+                if len(reply) > REPLY_MAX:
+                    raise DeviceError(
+                        f"{self.port}: the reply to {command!r} runs past {REPLY_MAX} bytes "
+                        f"without {self.reply_end.decode()!r} ({bytes(reply[:60])!r}…); check the "
+                        "baud rate, reply_end and that this is the right device"
+                    )
             else:
                 if reply:
                     raise DeviceError(
@@ -152,13 +158,14 @@ class SerialAscii:
         m = self.error.search(text)
         if m:
             code = m.groupdict().get("code") or (m.group(1) if self.error.groups else None)
-            if code is not None and code.isdigit():
+            said = shown_text(m.group(0).strip())  # device text: its control characters escaped
+            if code is not None and code.isdigit() and len(code) <= 9:
                 meaning = (
                     f" ({self.error_codes[int(code)]})" if int(code) in self.error_codes else ""
                 )
-                what = f"'{m.group(0).decode('ascii', 'replace').strip()}'{meaning}"
+                what = f"'{said}'{meaning}"
             else:
-                what = f"{m.group(0).decode('ascii', 'replace').strip()!r}"
+                what = f"'{said}'"
             raise DeviceError(
                 f"{self.port}: controller answered {what} to {command!r}; check the channel number and the value's range for this model"
             )
@@ -179,6 +186,14 @@ class SerialAscii:
             self._serial.close()
         except _PORT_ERRORS:
             pass
+
+
+def shown_text(text: bytes, most: int = 80) -> str:
+    """Device text as it may be printed: printable ASCII as it is, anything else (a
+    terminal's escape codes, a bell) escaped, at most ``most`` bytes."""
+    cut = text[:most]
+    shown = "".join(chr(b) if 32 <= b < 127 else f"\\x{b:02x}" for b in cut)
+    return shown + ("…" if len(text) > most else "")
 
 
 class GardasoftController(LedController):

@@ -159,7 +159,8 @@ def _text(doc: dict) -> str:
                 p["device"],
                 p["description"] or "-",
                 p["hardware_id"] or "-",
-                (p["answer"] or "no answer") if p["probed"] else "not probed (--probe)",
+                p["problem"]
+                or ((p["answer"] or "no answer") if p["probed"] else "not probed (--probe)"),
             ]
             for p in ports
         ]

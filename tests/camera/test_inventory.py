@@ -197,3 +197,17 @@ def test_a_backend_whose_library_is_missing_says_what_to_install(tmp_path):
     for package in ("gir1.2-aravis-0.8", "libgirepository1.0-dev", "libcairo2-dev", "pkg-config"):
         assert package in line
     assert "inspect-validate[aravis]" in line
+
+
+def test_a_port_that_cannot_be_a_controller_says_why(cli, tmp_path):
+    """A missing path, a folder and a regular file each read 'no answer' before."""
+    (tmp_path / "file").write_text("")
+    for port, says in (
+        (tmp_path / "nope", "no such device"),
+        (tmp_path, "a folder, not a serial port"),
+        (tmp_path / "file", "not a device (a serial port is a character device)"),
+    ):
+        code, out, err = cli(["devices", "--port", port, "--probe", "--backend", "replay"])
+        assert code in (0, 3) and "Traceback" not in err, err
+        line = next(line for line in out.splitlines() if line.startswith(str(port)))
+        assert says in line and "no answer" not in line, out

@@ -1,6 +1,7 @@
 """LED controller drivers against the simulated controller process on a pseudo-terminal."""
 
 import json
+import re
 
 import pytest
 
@@ -177,3 +178,94 @@ def test_unreachable_tcp_controller_names_the_address(simulator):
         GardasoftController(port)
     with pytest.raises(DeviceError, match=r"socket://nowhere: cannot connect"):
         GardasoftController("socket://nowhere")
+
+
+def _replying(reply: bytes):
+    """A pseudo-terminal whose other end answers every command with ``reply``: a real tty,
+    as a USB serial adapter is."""
+    import os
+    import threading
+    import tty
+
+    master, slave = os.openpty()
+    tty.setraw(slave)
+    done = threading.Event()
+
+    def answer():
+        while not done.is_set():
+            try:
+                if os.read(master, 4096):
+                    os.write(master, reply)
+            except OSError:
+                return
+
+    threading.Thread(target=answer, daemon=True).start()
+    return os.ttyname(slave), lambda: (done.set(), os.close(master), os.close(slave))
+
+
+def test_hostile_replies_are_named_escaped_and_bounded():
+    """An error code of 5000 digits (int() refuses past 4300: a ValueError, exit 70) or of
+    4000, a
+    reply with a terminal's escape codes (printed raw, it retitled the terminal), and a
+    reply that never ends are each a DeviceError that says what came."""
+    from inspect_validate.camera.controllers.gardasoft import SerialAscii
+    from inspect_validate.camera.settings import REPLY_MAX
+
+    for reply, says in (
+        (b"Err " + b"9" * 4000 + b">", r"answered 'Err 9{70}"),  # a code no table has
+        (b"Err " + b"9" * 5000 + b">", r"answered 'Err 9{70}"),
+        (b"Err 7\x1b]0;x\x07>", r"answered 'Err 7' \(overload\)"),
+        (b"x" * (REPLY_MAX + 10), f"runs past {REPLY_MAX} bytes"),
+    ):
+        port, close = _replying(reply)
+        try:
+            link = SerialAscii(port, timeout=2.0, error_codes={7: "overload"})
+            with pytest.raises(DeviceError, match=says):
+                link.query("ST1")
+            link.close()
+        finally:
+            close()
+    # What a device says is printed with its control characters escaped.
+    from inspect_validate.camera.inventory import probe_port
+
+    port, close = _replying(b"RT: PWNED\x07\x1b]0;title\x07\r\n>")
+    try:
+        answer = probe_port(port, timeout_s=1.0)
+    finally:
+        close()
+    assert "\x1b" not in answer and "\x07" not in answer
+    assert "PWNED\\x07\\x1b]0;title\\x07" in answer, answer
+
+
+@pytest.mark.parametrize(
+    ("protocol", "says"),
+    [
+        ({"commands": {"set": "SET {channel[0]}"}}, "by name (no index or attribute)"),
+        ({"commands": {"set": "SET {channel.foo}"}}, "by name (no index or attribute)"),
+        ({"commands": {"set": "SÉT {channel}"}}, "not ASCII"),
+        ({"commands": {"set": "SET {percent:>1500000000}"}}, "at most a width"),
+        ({"commands": {"set": "SET {channel!r}"}}, "at most a width"),
+        ({"commands": {"set": "SET {"}}, "does not parse"),
+        ({"commands": {"set": "SET {channel}"}, "ok": "(?u)^OK"}, "bytes"),
+        ({"commands": {"set": "SET {channel}"}, "ok": "^(a+)+$"}, "repeats a group"),
+        ({"commands": {"set": "SET {channel}"}, "error": "É(\\d+)"}, "not ASCII"),
+        ({"commands": {"set": "SET {channel}"}, "terminator": "→"}, "not ASCII"),
+    ],
+)
+def test_a_protocol_that_would_hang_or_crash_is_refused(protocol, says):
+    """Each was a traceback, a 1.5 GB template or a match that backtracked until killed."""
+    from pydantic import ValidationError
+
+    from inspect_validate.camera.settings import AsciiProtocol
+
+    with pytest.raises(ValidationError, match=re.escape(says)):
+        AsciiProtocol.model_validate(protocol)
+
+
+def test_a_valid_protocol_is_taken():
+    from inspect_validate.camera.settings import AsciiProtocol
+
+    AsciiProtocol.model_validate(
+        {"commands": {"set": "SET {channel:02d} {value:.0f}", "init": ["ECHO OFF"]},
+         "ok": "^OK", "error": "(?i)err\\w*\\s*(\\d+)|(\\d+,)*\\d+ FAIL"}
+    )  # fmt: skip

@@ -670,6 +670,8 @@ def test_a_journal_that_is_a_fifo_is_refused_at_the_commit_not_blocked(tmp_path)
 
     history = History(db, station="st.yaml", golden=None)
     record = CycleRecord(1, 1.7e9, 0.5, "pass", True, None, None, None)
-    with pytest.raises(InputError, match="cannot write cycle 1: its journal .* is not a regular file; remove it"):
+    with pytest.raises(
+        InputError, match=r"cannot write cycle 1: its journal .* is not a regular file; remove it"
+    ):
         history.commit(record, {("amber", "class", "A", "mean"): (1.0, 1.0, 0.0, 2.0)})
     history.close()
