@@ -155,10 +155,16 @@ def atomic_write(path: str | Path, data: bytes) -> Path:
     path = output_file(path)
     if path.exists() and not path.is_file():
         try:
-            with open(path, "wb") as f:
+            # Not blocking on a FIFO nobody reads (ENXIO): devices --json FIFO waited for good.
+            fd = os.open(path, os.O_WRONLY | os.O_NONBLOCK)
+            os.set_blocking(fd, True)
+            with open(fd, "wb") as f:
                 f.write(data)
         except OSError as exc:
-            raise InputError(f"cannot write ({exc.strerror or exc})", source=str(path)) from None
+            why = exc.strerror or str(exc)
+            if exc.errno == errno.ENXIO:
+                why = "a pipe no program reads; start its reader first, or give a file"
+            raise InputError(f"cannot write ({why})", source=str(path)) from None
         return path
     if path.is_symlink():
         path = path.resolve()

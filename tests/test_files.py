@@ -97,3 +97,14 @@ def test_a_lock_file_that_is_a_link_or_a_fifo_is_refused_untouched(
         assert ("symbolic link" if kind == "link" else "not a regular file") in err
         assert target.read_text() == "keep me"
         assert lock.is_symlink() if kind == "link" else lock.exists()
+
+
+def test_a_pipe_nobody_reads_is_refused_not_waited_on(tmp_path):
+    """devices --json FIFO with no reader blocked for good."""
+    from inspect_validate.errors import InputError
+
+    fifo = tmp_path / "out.json"
+    os.mkfifo(fifo)
+    with pytest.raises(InputError, match="a pipe no program reads"):
+        write_json({"a": 1}, fifo)
+    assert fifo.exists() and not fifo.is_file()

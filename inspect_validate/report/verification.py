@@ -264,7 +264,18 @@ def write_junit(v: Verification, path: str | Path) -> Path:
     root.append(suite)
     ET.indent(root)
     text = ET.tostring(root, encoding="unicode", xml_declaration=True)
-    return atomic_write(path, (text + "\n").encode())
+    return atomic_write(path, (_xml_chars(text) + "\n").encode())
+
+
+def _xml_chars(text: str) -> str:
+    """``text`` with the characters XML 1.0 forbids (control characters but tab, line
+    feed and carriage return; a station name or a device's reply may hold them) written
+    as ``\\xNN``: ElementTree writes them as they are, and no reader takes the file."""
+    import re
+
+    return re.sub(
+        r"[\x00-\x08\x0b\x0c\x0e-\x1f\ufffe\uffff]", lambda m: f"\\x{ord(m[0]):02x}", text
+    )
 
 
 def describe_acquisition(a: dict) -> str:

@@ -136,8 +136,10 @@ def _channel_shorthand(v):
 class Illumination(StrictModel):
     """One lighting state to capture: which channels are on, and at what drive level."""
 
-    name: str = Field(pattern=r"^[A-Za-z0-9_.-]+$", max_length=100)
-    """The step's name: its frames go to ``OUT/<name>/``."""
+    name: str = Field(pattern=r"^[A-Za-z0-9][A-Za-z0-9_.-]*$", max_length=100)
+    """The step's name: its frames go to ``OUT/<name>/`` (so it starts with a letter or
+    digit: ``..`` wrote them outside ``OUT``; ``dark`` and ``manifest.json`` are the
+    capture's own)."""
     channels: dict[Channel, Annotated[float, Field(ge=0, le=100, allow_inf_nan=False)]]
     """Channel → drive level, % (channels not named are off)."""
 
@@ -181,8 +183,10 @@ class Station(StrictModel):
     """A station: its camera, its light controller, the illuminations to capture, and
     the scene, regions and checks that predict, measure and verify them."""
 
-    name: str = "station"
-    """Shown in reports, metrics and the history."""
+    name: str = Field(
+        default="station", min_length=1, max_length=200, pattern=r"^[^\x00-\x1f\x7f]*$"
+    )
+    """Shown in reports, metrics and the history (one line, no control characters)."""
     camera: CameraSection
     """The camera and how frames start; ``backend`` chooses the kind."""
     controller: ControllerSection
@@ -357,11 +361,12 @@ def read_station(path: str | Path) -> Station:
     """Read and validate a station file; errors name the file and field."""
     station = load_yaml(path, Station, what="station file")
     names = [i.name for i in station.illuminations]
-    if len(set(names)) != len(names) or "dark" in names:
+    if len(set(names)) != len(names) or {"dark", "manifest.json"} & set(names):
         from inspect_validate.errors import InputError
 
         raise InputError(
-            "illumination names must be unique and not 'dark' (reserved for the dark frames)",
+            "illumination names must be unique and not 'dark' or 'manifest.json' (the "
+            "capture's dark frames and its manifest)",
             source=str(path),
         )
     return station.model_copy(update={"path": Path(path)})

@@ -1,0 +1,43 @@
+"""The station file's names: an illumination's is a folder of the capture, the station's
+is written into reports that XML readers parse."""
+
+import xml.etree.ElementTree as ET
+
+import pytest
+import yaml
+from conftest import copy_station
+
+
+@pytest.mark.parametrize(
+    ("name", "says"),
+    [
+        ("..", "illuminations[0].name"),  # its frames were written outside --out
+        (".", "illuminations[0].name"),
+        (".capture.lock", "illuminations[0].name"),
+        ("manifest.json", "not 'dark' or 'manifest.json'"),
+        ("dark", "not 'dark' or 'manifest.json'"),
+    ],
+)
+def test_an_illumination_named_as_a_path_is_refused(cli, tmp_path, name, says):
+    path = copy_station(tmp_path)
+    doc = yaml.safe_load(path.read_text())
+    doc["illuminations"][0]["name"] = name
+    path.write_text(yaml.safe_dump(doc))
+    code, _, err = cli(["capture", path, "--out", tmp_path / "c" / "d"])
+    assert code == 2 and says in err, err
+    assert not (tmp_path / "c").exists()
+
+
+def test_a_station_name_with_control_characters_is_refused(cli, tmp_path):
+    """verify wrote a junit.xml that was no XML for a name with a bell in it."""
+    path = copy_station(tmp_path, name="line 3\x07")
+    code, _, err = cli(["verify", path, "--out", tmp_path / "c"])
+    assert code == 2 and "name" in err, err
+
+
+def test_junit_text_is_xml_whatever_it_holds():
+    from inspect_validate.report.verification import _xml_chars
+
+    element = ET.Element("testcase", name="Err 7\x1b]0;x\x07")
+    text = _xml_chars(ET.tostring(element, encoding="unicode"))
+    assert ET.fromstring(text).get("name") == "Err 7\\x1b]0;x\\x07"
