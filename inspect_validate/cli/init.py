@@ -14,12 +14,16 @@ def _pairs(values, option: str, convert):
     out = {}
     for text in values:
         channel, sep, value = text.partition("=")
-        if not sep or not channel.strip().isdigit() or not value.strip():
+        number = channel.strip()
+        if not sep or not (number.isascii() and number.isdigit() and len(number) <= 2):
             raise click.BadParameter(
-                f"{text!r}: write CHANNEL=VALUE, e.g. 1=amber LED", param_hint=option
+                f"{text!r}: write CHANNEL=VALUE, the channel a number 1–64, e.g. 1=amber LED",
+                param_hint=option,
             )
+        if not value.strip():
+            raise click.BadParameter(f"{text!r}: nothing after '='", param_hint=option)
         try:
-            out[int(channel)] = convert(value.strip())
+            out[int(number)] = convert(value.strip())
         except ValueError:
             raise click.BadParameter(
                 f"{text!r}: {value!r} is not a number", param_hint=option
@@ -121,10 +125,11 @@ def init(
     from inspect_validate.errors import DeviceError, InputError
     from inspect_validate.scene import read_scene
     from inspect_validate.station.draft import draft_station, fitting_exposure_us, pixel_format_for
+    from inspect_validate.files import output_file
     from inspect_validate.station.file import write_station
 
-    if interactive is None:
-        interactive = sys.stdin.isatty()
+    if interactive is None:  # standard input may be closed (0<&-): then nobody to ask
+        interactive = sys.stdin is not None and sys.stdin.isatty()
 
     def ask(option: str, question: str, *, why: str | None = None, **kwargs):
         if not interactive:
@@ -132,8 +137,21 @@ def init(
             raise InputError(f"give {option} ({question.lower()}){because}", source="init")
         if why:
             click.echo(why, err=True)
-        return click.prompt(question, **kwargs)
+        try:
+            return click.prompt(question, **kwargs)
+        except click.exceptions.Abort:
+            from inspect_validate import interruption
 
+            if interruption.requested() is not None:
+                raise  # Ctrl-C: interrupted
+            raise InputError(  # the end of the input (a script's here-document ran out)
+                f"the input ended before {option} ({question.lower()}) was answered; give "
+                f"{option} on the command line",
+                source="init",
+            ) from None
+
+    if out.is_dir():
+        raise InputError("is a folder; give the station file's name", source=str(out))
     if out.exists() and not force:
         raise InputError(f"{out} exists; give --force to overwrite it", source="init")
     scene = scene or PATH.convert(ask("--scene", "Scene file"), None, None)
@@ -276,8 +294,7 @@ def init(
         )
     camera["exposure_us"] = exposure_us
     station = drafted()
-    if not out.parent.exists():
-        out.parent.mkdir(parents=True)
+    output_file(out)  # its folder made, or what is in the way named
     write_station(
         station,
         out,

@@ -190,6 +190,8 @@ def test_a_generic_controller_on_tcp_is_written_with_its_protocol_and_probed(
             "needs --protocol",
         ),
         ([], "give --camera"),
+        (["--camera", "simulated", "--channel", "²=red LED"], "the channel a number 1–64"),
+        (["--camera", "simulated", "--channel", "1="], "nothing after '='"),
     ],
 )
 def test_what_init_cannot_write_is_named(cli, tmp_path, args, message):
@@ -224,3 +226,31 @@ def test_pixel_format_choice_prefers_depth_then_unpacked():
     assert pixel_format_for(Features(pixel_formats=("RGB8",))) is None
     assert pixel_format_for(Features()) is None
     assert json.dumps(Features().monochrome) == "[]"
+
+
+def test_init_without_a_terminal_or_a_writable_place_says_so(tmp_path):
+    """Standard input closed ('NoneType' object has no attribute 'isatty'), the input
+    ending mid-question (exit 130 'interrupted'), a folder that cannot be made (a
+    PermissionError traceback) and a folder given as the file ('give --force')."""
+    import subprocess
+    import sys
+
+    def run(*args, stdin=None, **kw):
+        return subprocess.run(
+            [sys.executable, "-m", "inspect_validate", "init", *map(str, args)],
+            capture_output=True, text=True, stdin=stdin, **kw,
+        )  # fmt: skip
+
+    import os
+
+    closed = run(tmp_path / "a.yaml", "--scene", SCENE, preexec_fn=lambda: os.close(0))
+    assert closed.returncode == 2 and "give --camera" in closed.stderr, closed.stderr
+    ended = run(tmp_path / "b.yaml", "--scene", SCENE, "--interactive", stdin=subprocess.DEVNULL)
+    assert ended.returncode == 2 and "the input ended before --camera" in ended.stderr
+    simulated = ["--scene", SCENE, "--camera", "simulated", "--exposure-us", 8000,
+                 "--channel", "1=amber LED", "--no-interactive"]  # fmt: skip
+    blocked = run("/proc/1/nowhere/s.yaml", *simulated)
+    assert blocked.returncode == 2 and "cannot create this folder" in blocked.stderr
+    folder = run(tmp_path, *simulated)
+    assert folder.returncode == 2 and "is a folder" in folder.stderr
+    assert "Traceback" not in closed.stderr + ended.stderr + blocked.stderr + folder.stderr
