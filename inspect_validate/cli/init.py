@@ -123,9 +123,9 @@ def init(
     from inspect_validate.camera.settings import AsciiProtocol
     from inspect_validate.config import load_yaml
     from inspect_validate.errors import DeviceError, InputError
+    from inspect_validate.files import output_file
     from inspect_validate.scene import read_scene
     from inspect_validate.station.draft import draft_station, fitting_exposure_us, pixel_format_for
-    from inspect_validate.files import output_file
     from inspect_validate.station.file import write_station
 
     if interactive is None:  # standard input may be closed (0<&-): then nobody to ask
