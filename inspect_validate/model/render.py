@@ -37,9 +37,25 @@ BAND_GAP = 8  # pixels of dark background between class bands
 
 
 def class_bands(classes: Sequence[str], *, height: int, width: int, gap: int = BAND_GAP) -> dict:
-    """Class name → (x, y, width, height) of its horizontal band, ``gap`` pixels apart."""
+    """Class name → (x, y, width, height) of its horizontal band, ``gap`` pixels apart.
+
+    Raises
+    ------
+    InputError
+        A frame too low for a band of at least 4 rows per class (the simulated camera's
+        ``camera.height``, named in the message).
+    """
+    from inspect_validate.errors import InputError
+
     k = len(classes)
-    band_h = (height - gap * (k + 1)) // k
+    band_h = (height - gap * (k + 1)) // k if k else 0
+    if band_h < 4:
+        need = gap * (k + 1) + 4 * k
+        raise InputError(
+            f"a frame of {height} rows has no room for the bands of {k} classes "
+            f"({', '.join(classes)}: each at least 4 rows, {gap} rows apart); give "
+            f"camera.height {need} or more"
+        )
     return {name: (0, gap + c * (band_h + gap), width, band_h) for c, name in enumerate(classes)}
 
 

@@ -483,13 +483,16 @@ def scene_grabber(
     lit_by_simulator(station, state_path)
     from inspect_validate.station.model import station_model
 
+    from inspect_validate.errors import sourced
+
     assert state_path is not None  # lit_by_simulator refused a station without it
-    return SimulatedGrabber(
-        station_model(station),
-        state_path,
-        world=spec.world,
-        width=spec.width,
-        height=spec.height,
-        latency=spec.latency,
-        target=target,
-    )
+    with sourced(str(station.path)):  # a frame too small for the classes: the file's fault
+        return SimulatedGrabber(
+            station_model(station),
+            state_path,
+            world=spec.world,
+            width=spec.width,
+            height=spec.height,
+            latency=spec.latency,
+            target=target,
+        )

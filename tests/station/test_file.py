@@ -41,3 +41,13 @@ def test_junit_text_is_xml_whatever_it_holds():
     element = ET.Element("testcase", name="Err 7\x1b]0;x\x07")
     text = _xml_chars(ET.tostring(element, encoding="unicode"))
     assert ET.fromstring(text).get("name") == "Err 7\\x1b]0;x\\x07"
+
+
+def test_a_simulated_frame_too_low_for_its_classes_is_refused_naming_the_height(cli, tmp_path):
+    """20 rows for 3 classes: 'negative dimensions are not allowed' (exit 70) before."""
+    path = copy_station(tmp_path)
+    doc = yaml.safe_load(path.read_text())
+    doc["camera"]["height"] = 20
+    path.write_text(yaml.safe_dump(doc))
+    code, _, err = cli(["capture", path, "--out", tmp_path / "c"])
+    assert code == 2 and "station.yaml" in err and "give camera.height 36 or more" in err, err
