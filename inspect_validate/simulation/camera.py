@@ -481,9 +481,8 @@ def scene_grabber(
     """The simulated camera of the station's scene, lit by the simulated controller's state."""
     spec = station.camera
     lit_by_simulator(station, state_path)
-    from inspect_validate.station.model import station_model
-
     from inspect_validate.errors import sourced
+    from inspect_validate.station.model import station_model
 
     assert state_path is not None  # lit_by_simulator refused a station without it
     with sourced(str(station.path)):  # a frame too small for the classes: the file's fault
