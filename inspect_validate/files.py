@@ -292,6 +292,13 @@ def json_ready(obj: Any) -> Any:
 
 
 def write_json(doc: dict, path: str | Path) -> Path:
-    """Write ``doc`` (made :func:`json_ready`) atomically: a reader never sees half a file."""
+    """Write ``doc`` (made :func:`json_ready`) atomically: a reader never sees half a file.
+    ``-`` is standard output."""
     text = json.dumps(json_ready(doc), indent=2, allow_nan=False) + "\n"
+    if str(path) == "-":
+        import sys
+
+        sys.stdout.write(text)
+        sys.stdout.flush()
+        return Path("-")
     return atomic_write(path, text.encode())

@@ -7,6 +7,7 @@ import click
 from inspect_validate.cli.common import (
     PATH,
     check_outputs,
+    printer,
 )
 from inspect_validate.text import labelled
 
@@ -14,7 +15,10 @@ from inspect_validate.text import labelled
 @click.command("analyze-spectra")
 @click.argument("scene", type=PATH)
 @click.option(
-    "--json", "json_path", type=PATH, help="Also write the per-wavelength errors as JSON."
+    "--json",
+    "json_path",
+    type=PATH,
+    help="Also write the per-wavelength errors as JSON ('-': to stdout only).",
 )
 @click.option(
     "--plot",
@@ -61,8 +65,9 @@ def analyze_spectra(scene, json_path, plot_path, best, no_kde) -> None:
                     kde,
                 ]
             )
-    click.echo(f"{sc.name}: best bands per comparison (ε_tot (37) from the reflectance samples)")
-    click.echo(render_table(["comparison", "λ [nm]", "ε Gauss", "ε KDE"], rows))
+    echo = printer(json_path)
+    echo(f"{sc.name}: best bands per comparison (ε_tot (37) from the reflectance samples)")
+    echo(render_table(["comparison", "λ [nm]", "ε Gauss", "ε KDE"], rows))
 
     if json_path:
         doc = {
@@ -81,7 +86,7 @@ def analyze_spectra(scene, json_path, plot_path, best, no_kde) -> None:
             ],
         }
         write_json(doc, json_path)
-        click.echo(f"\nwrote {json_path}")
+        echo(f"\nwrote {json_path}")
     if plot_path:
         from inspect_validate.report.plots import plot_spectral_errors
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import click
@@ -159,12 +160,21 @@ def new_folder(command: str, source) -> Path:
     return Path(f"{command}-{Path(source).stem}-{time.strftime('%Y%m%dT%H%M%S')}")
 
 
+def printer(json_path) -> Callable[..., None]:
+    """What prints a command's tables: ``click.echo``, or nothing where ``--json -`` puts
+    the JSON document on standard output in its place (every command's ``--json`` takes
+    ``-`` so; messages stay on standard error)."""
+    if json_path is not None and str(json_path) == "-":
+        return lambda *args, **kwargs: None
+    return click.echo
+
+
 def check_outputs(*, files=(), folders=()) -> None:
     """Check output paths before the work starts, so a typo does not cost a sweep or a capture."""
     from inspect_validate.files import output_file, output_folder
 
     for f in files:
-        if f is not None:
+        if f is not None and str(f) != "-":
             output_file(f)
     for d in folders:
         if d is not None:

@@ -11,6 +11,7 @@ from inspect_validate.cli.common import (
     PATH,
     check_outputs,
     new_folder,
+    printer,
     verify_and_report,
 )
 from inspect_validate.errors import EXIT_CHECK_FAILED
@@ -19,7 +20,9 @@ from inspect_validate.text import labelled
 
 @click.command()
 @click.argument("source", type=PATH)
-@click.option("--json", "json_path", type=PATH, help="Write the design as JSON.")
+@click.option(
+    "--json", "json_path", type=PATH, help="Write the design as JSON ('-': to stdout only)."
+)
 @click.option(
     "--verify",
     "check",
@@ -101,12 +104,13 @@ def design(source, json_path, check, out_dir, choose, objective, auto_exposure):
                 bar.update(done - bar.pos)
 
             result = solve(problem, objective=objective, choose=choose, progress=progress)
-    click.echo(format_design(result, source=Path(source).name))
+    echo = printer(json_path)
+    echo(format_design(result, source=Path(source).name))
     document = design_document(result)
     for path in (json_path, out_dir and out_dir / "design.json"):
         if path:
             write_json(document, path)
-            click.echo(f"wrote {path}")
+            echo(f"wrote {path}")
     if out_dir:
         from inspect_validate.report.plots import plot_design_path, plot_design_spectrum
 

@@ -10,6 +10,7 @@ from inspect_validate.cli.common import (
     PATH,
     Number,
     check_outputs,
+    printer,
 )
 from inspect_validate.errors import EXIT_CHECK_FAILED
 from inspect_validate.text import labelled
@@ -24,7 +25,12 @@ from inspect_validate.text import labelled
     type=PATH,
     help="Dark frame(s) at the same exposure and gain; repeat for several.",
 )
-@click.option("--json", "json_path", type=PATH, help="Also write the results as JSON to this file.")
+@click.option(
+    "--json",
+    "json_path",
+    type=PATH,
+    help="Also write the results as JSON to this file ('-': to stdout only).",
+)
 @click.option(
     "--saturation-level",
     type=Number(),
@@ -112,14 +118,15 @@ def measure(
         limits=limits,
         kde="never" if no_kde else kde,
     )
-    click.echo(result.table(saturation_limit=max_saturated))
+    echo = printer(json_path)
+    echo(result.table(saturation_limit=max_saturated))
     for reason in result.skipped:
         click.echo(labelled("skipped", reason), err=True)
     for warning in result.warnings:
         click.echo(labelled("warning", warning), err=True)
     if json_path:
         write_json(measurement_document(result, limits=limits), json_path)
-        click.echo(f"\nwrote {json_path}")
+        echo(f"\nwrote {json_path}")
     for v in result.violations:
         click.echo(f"limit exceeded: {v}", err=True)
     if result.violations:

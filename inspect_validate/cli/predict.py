@@ -9,6 +9,7 @@ import click
 from inspect_validate.cli.common import (
     PATH,
     check_outputs,
+    printer,
 )
 from inspect_validate.text import labelled
 
@@ -30,7 +31,12 @@ def scheduler_address(_ctx, _param, value):
 
 @click.command()
 @click.argument("scene", type=PATH)
-@click.option("--json", "json_path", type=PATH, help="Also write the ranking as JSON to this file.")
+@click.option(
+    "--json",
+    "json_path",
+    type=PATH,
+    help="Also write the ranking as JSON to this file ('-': to stdout only).",
+)
 @click.option(
     "--top",
     type=click.IntRange(1),
@@ -113,17 +119,18 @@ def predict(scene, json_path, top, rank_by, comparison, no_kde, plot_dir, render
     rows = prediction_rows(result, kde=not no_kde)
     n = result.combinations
     n_skipped = n - result.predicted
-    click.echo(
+    echo = printer(json_path)
+    echo(
         f"{sc.name}: {n} combinations{f' ({n_skipped} skipped)' if n_skipped else ''}, "
         f"{sc.grid[0]:g}–{sc.grid[-1]:g} nm in {sc.grid[1] - sc.grid[0]:g} nm steps"
     )
-    click.echo(format_prediction(result, rows))
+    echo(format_prediction(result, rows))
     if json_path:
         write_json(
             prediction_document(result, rows, scene=str(scene)),
             json_path,
         )
-        click.echo(f"\nwrote {json_path}")
+        echo(f"\nwrote {json_path}")
     if plot_dir:
         from inspect_validate.model import analyse_spectra
         from inspect_validate.report.plots import (

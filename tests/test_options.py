@@ -1,0 +1,47 @@
+"""The command line's options as one vocabulary: a concept is spelled one way in every
+command. Here: ``--json`` writes the command's document, and ``--json -`` puts it on
+standard output in place of the table (``predict --json -`` wrote a file named ``-``)."""
+
+import json
+
+import pytest
+from conftest import ROOT
+
+from inspect_validate.cli import cli as group
+
+SCENE = ROOT / "sample_images" / "scenes" / "paperboard" / "scene.yaml"
+STATION = ROOT / "sample_images" / "station" / "station.yaml"
+
+
+def _commands():
+    for name, command in group.commands.items():
+        subs = getattr(command, "commands", None)
+        yield from ((f"{name} {s}", c) for s, c in subs.items()) if subs else [(name, command)]
+
+
+def test_every_json_option_takes_a_dash_for_standard_output():
+    with_json = {n: c for n, c in _commands() if any("--json" in p.opts for p in c.params)}
+    assert set(with_json) >= {"predict", "measure", "analyze-spectra", "design", "devices"}
+    for name, command in with_json.items():
+        (option,) = [p for p in command.params if "--json" in p.opts]
+        assert "'-': to stdout only" in option.help, name
+
+
+@pytest.mark.parametrize(
+    ("args", "schema"),
+    [
+        (["predict", SCENE], "inspect-validate/prediction"),
+        (["analyze-spectra", SCENE], "inspect-validate/spectral-analysis"),
+        (["design", STATION], "inspect-validate/design"),
+        (
+            ["measure", ROOT / "sample_images/paperboard/optimized.png", "--rois",
+             ROOT / "sample_images/paperboard/rois.yaml"],
+            "inspect-validate/measurement",
+        ),
+    ],
+)  # fmt: skip
+def test_json_dash_is_the_document_alone_on_standard_output(cli, tmp_path, args, schema):
+    code, out, err = cli([*args, "--json", "-"])
+    assert code in (0, 1), err
+    assert json.loads(out)["schema"] == schema  # nothing but the document
+    assert not (tmp_path / "-").exists()
