@@ -45,3 +45,26 @@ def test_json_dash_is_the_document_alone_on_standard_output(cli, tmp_path, args,
     assert code in (0, 1), err
     assert json.loads(out)["schema"] == schema  # nothing but the document
     assert not (tmp_path / "-").exists()
+
+
+def test_no_help_shows_a_range_of_none():
+    """measure --saturation-level's help read '[x<=None]'."""
+    from click.testing import CliRunner
+
+    for name, _ in _commands():
+        result = CliRunner().invoke(group, [*name.split(), "--help"])
+        assert result.exit_code == 0 and "None]" not in result.output, name
+
+
+@pytest.mark.parametrize(
+    ("args", "says"),
+    [
+        (["measure", "f.png", "--rois", "r.yaml", "--saturation-level", "-3"], "x>0"),
+        (["init", "s.yaml", "--exposure-us", "0"], "--exposure-us"),
+    ],
+)
+def test_an_impossible_number_is_refused_naming_the_option(cli, args, says):
+    """--saturation-level -3 called every class 100 % saturated; init --exposure-us 0
+    named the file's key camera.exposure_us instead of the option."""
+    code, _, err = cli(args)
+    assert code == 2 and says in err and "camera.exposure_us" not in err, err

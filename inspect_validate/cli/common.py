@@ -58,6 +58,12 @@ class Number(click.FloatRange):
     """A finite number, within ``min``/``max`` where given: click's float and float range
     let NaN (which every comparison passes) and infinities through."""
 
+    name = "number"
+
+    def _describe_range(self) -> str:
+        # click writes '[x<=None]' for a range without bounds
+        return super()._describe_range() if (self.min, self.max) != (None, None) else ""
+
     def convert(self, value, param, ctx):
         import math
 

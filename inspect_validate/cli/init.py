@@ -78,7 +78,9 @@ def _pairs(values, option: str, convert):
     help="Channel N's irradiance at the object at 100 % (repeatable; default: the scene's).",
 )
 @click.option(
-    "--exposure-us", type=float, help="Exposure time, µs (default: from the scene's prediction)."
+    "--exposure-us",
+    type=Number(min=0, min_open=True, max=1e8),
+    help="Exposure time, µs (default: from the scene's prediction).",
 )
 @click.option("--pixel-format", help="Monochrome pixel format (default: the camera's deepest).")
 @click.option("--rois", type=PATH, help="The ROI file of the classes in the frames.")

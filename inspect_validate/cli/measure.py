@@ -33,7 +33,7 @@ from inspect_validate.text import labelled
 )
 @click.option(
     "--saturation-level",
-    type=Number(),
+    type=Number(min=0, min_open=True),
     help="Raw value counted as saturated [DN]; default 2^bits − 1 of the bit depth a "
     "captured frame records (Mono12 in uint16: 4095), else the data type's maximum.",
 )
