@@ -224,6 +224,8 @@ def init(
                 f"--pixel-format {pixel_format}: the camera offers {', '.join(offered) or 'no monochrome format'}",
                 source="init",
             )
+    if simulate and pixel_format is None:
+        pixel_format = "Mono16"  # the deepest pylon's emulator and Aravis' fake camera offer
     if pixel_format is not None:
         camera["pixel_format"] = pixel_format
 

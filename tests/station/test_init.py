@@ -254,3 +254,28 @@ def test_init_without_a_terminal_or_a_writable_place_says_so(tmp_path):
     folder = run(tmp_path, *simulated)
     assert folder.returncode == 2 and "is a folder" in folder.stderr
     assert "Traceback" not in closed.stderr + ended.stderr + blocked.stderr + folder.stderr
+
+
+def test_a_station_on_pylons_emulator_from_init_captures_16_bit_frames(cli, tmp_path):
+    """init --simulate wrote no pixel_format, so the emulator's frames were Mono8 uint8
+    where the manual and capture --help promise 16-bit TIFFs of the deepest format."""
+    pytest.importorskip("pypylon")
+    import json
+
+    out = tmp_path / "station.yaml"
+    args = ["init", out, "--scene", SCENE, "--camera", "pylon", "--simulate", "--irradiance",
+            "1=5", "--irradiance", "2=5", "--rois", ROIS, "--no-interactive"]  # fmt: skip
+    code, _, err = cli(args)
+    assert code == 0, err
+    assert read_station(out).camera.pixel_format == "Mono16"
+    import os
+    import subprocess
+    import sys
+
+    done = subprocess.run(  # pylon reads PYLON_CAMEMU as its transport layers start
+        [sys.executable, "-m", "inspect_validate", "capture", str(out), "--out", str(tmp_path / "c")],
+        env={**os.environ, "PYLON_CAMEMU": "1"}, capture_output=True, text=True,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    meta = json.loads(next((tmp_path / "c").glob("*/frame_0001.json")).read_text())
+    assert meta["pixel_format"] == "Mono16"
