@@ -126,7 +126,8 @@ def watch(
         click.echo(
             f"watching {s.station.name}: history {s.history.path} (from cycle "
             f"{s.history.next_cycle()}), {len(s.monitor.charts)} drift charts, "
-            f"limit {s.monitor.limit:.2f} σ"
+            f"alarm beyond ±{s.monitor.limit:.2f} σ of each chart's smoothed value (EWMA "
+            f"limit L, widened for the golden file's few repeats)"
         )
 
         def on_cycle(outcome) -> None:
