@@ -109,7 +109,7 @@ class Drift(StrictModel):
     verification's false-alarm rate."""
 
     golden: Annotated[str, Field(min_length=1)]
-    """The golden file ``train`` wrote (relative to the station file)."""
+    """The golden file ``train`` wrote (a relative path is from the station file's folder)."""
     k: Annotated[float, Field(gt=0, le=30, allow_inf_nan=False)] | None = None
     """The false-alarm rate as a normal-equivalent two-sided level: k = 3 is
     ``acceptance.false_alarm: 0.0027`` (give one of the two)."""

@@ -321,8 +321,8 @@ class GenicamSettings(CameraSettings):
     backend: Literal["genicam"]
     """GenICam cameras through a vendor's GenTL producer and ``harvesters``."""
     cti: str | None = None
-    """The GenTL producer (.cti, relative to the station file; default: every one in
-    ``GENICAM_GENTL64_PATH``)."""
+    """The GenTL producer (.cti; a relative path is from the station file's folder;
+    default: every one in ``GENICAM_GENTL64_PATH``)."""
     serial: str | None = None
     """The camera's serial number (default: by ``index``)."""
     index: Annotated[int, Field(ge=0)] = 0

@@ -188,7 +188,7 @@ class ReplaySettings(CameraSettings):
     backend: Literal["replay"]
     """Frames recorded earlier, replayed from a folder as a camera would deliver them."""
     folder: str
-    """The folder of recorded frames (relative to the station file)."""
+    """The folder of recorded frames (a relative path is from the station file's folder)."""
 
 
 def open_replay(settings: ReplaySettings, opening: Opening) -> ReplayGrabber:

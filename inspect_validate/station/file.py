@@ -204,9 +204,10 @@ class Station(StrictModel):
     brightness_tolerance: float = Field(default=0.02, gt=0, le=1)
     """Relative change of a frame's mean that counts as the light still settling."""
     scene: str | None = None
-    """The scene file that predicts this station (relative to this file)."""
+    """The scene file that predicts this station (a relative path is from this file's folder)."""
     rois: str | None = None
-    """The ROI file of the classes in the camera's frames (relative to this file)."""
+    """The ROI file of the classes in the camera's frames (a relative path is from this
+    file's folder)."""
     channels: dict[Channel, Annotated[ChannelLight, BeforeValidator(_channel_shorthand)]] = {}
     """Controller channel → the scene light it drives (a name, or ``{light, irradiance}``)."""
     optics: str | None = None
