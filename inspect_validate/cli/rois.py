@@ -93,7 +93,7 @@ def propose(frames, out, overlay, names, dark, min_area, margin, edge, force):
 
     if out.exists() and not force:
         raise InputError(f"{out} exists; give --force to overwrite it", source="rois propose")
-    image, dark_image, _ = _mean_frame(frames, dark)
+    image, dark_image, stack = _mean_frame(frames, dark)
     dark_level = None if dark_image is None else float(dark_image.mean())
     regions = find_regions(
         image, min_area=min_area, margin=margin, edge=edge, dark_level=dark_level
@@ -126,13 +126,45 @@ def propose(frames, out, overlay, names, dark, min_area, margin, edge, force):
             (listed[r.number - 1] if listed else str(r.number)),
             str(r.pixels),
             f"{r.mean:.1f}",
+            *([] if dark_image is None else [f"{r.mean - float(dark_image[r.mask].mean()):.1f}"]),
             f"{r.std:.2f}",
             type(r.shape).__name__.lower(),
         ]
         for r in regions
     ]
-    click.echo(render_table(["region", "class", "pixels", "μ [DN]", "σ [DN]", "shape"], rows))
+    above = [] if dark_image is None else ["μ − dark [DN]"]
+    header = ["region", "class", "pixels", "μ [DN]", *above, "σ [DN]", "shape"]
+    click.echo(render_table(header, rows))
+    for warning in _propose_warnings(image, dark_image, regions, stack):
+        click.echo(f"warning: {warning}", err=True)
     click.echo(f"ROI file: {out}\noverlay: {overlay}")
+
+
+def _propose_warnings(image, dark_image, regions, stack) -> list[str]:
+    """What makes proposed regions suspect: frames no brighter than the darks (the regions
+    are then the sensor's or a test pattern's, not lit objects), regions that clip."""
+    import numpy as np
+
+    warnings = []
+    if dark_image is not None:
+        rise = float(image.mean() - dark_image.mean())
+        noise = float(dark_image.std())
+        if rise <= max(noise, 0.5):
+            warnings.append(
+                f"the frames are no brighter than the dark frames ({image.mean():.1f} against "
+                f"{dark_image.mean():.1f} DN): no light reached the camera, and what was "
+                "outlined is no lit object; check the light, the lens cap and the channel"
+            )
+    if stack.dtype.kind in "ui":
+        top = np.iinfo(stack.dtype).max
+        for r in regions:
+            clipped = float(np.mean(stack[:, r.mask] >= top))
+            if clipped > 0.001:
+                warnings.append(
+                    f"region {r.number}: {100 * clipped:.1f} % of its pixels saturated "
+                    f"({top} DN): lower the exposure or the light before measuring it"
+                )
+    return warnings
 
 
 @rois.command()
@@ -168,7 +200,8 @@ def show(roi_file, frames, out, dark):
     labels = {n: f"{n}: {p} px, {m:.1f} ± {s:.1f} DN" for n, (p, m, s) in stats.items()}
     _write_picture(out, draw_regions(image - offset, masks, labels=labels))
     rows = [[n, str(p), f"{m:.2f}", f"{s:.2f}"] for n, (p, m, s) in stats.items()]
-    click.echo(render_table(["class", "pixels", "μ [DN]", "σ [DN]"], rows))
+    mean = "μ [DN]" if dark_image is None else "μ − dark [DN]"  # as propose's column says
+    click.echo(render_table(["class", "pixels", mean, "σ [DN]"], rows))
     click.echo(f"picture: {out}")
 
 

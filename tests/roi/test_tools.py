@@ -298,3 +298,26 @@ def test_import_refuses_what_it_cannot_read(cli, tmp_path, name, content, args, 
     code, _, err = cli(["rois", "import", tmp_path / name, "--out", tmp_path / "r.yaml", *args])
     assert code == 2 and message in err
     assert not (tmp_path / "r.yaml").exists()
+
+
+def test_propose_warns_of_frames_no_brighter_than_dark_and_of_clipped_regions(cli, tmp_path):
+    """Regions outlined in frames that are no brighter than their darks (a test pattern, a
+    lens cap) and regions that clip were proposed with exit 0 and no word. With --dark,
+    propose gives μ above dark as show does (131.7 against show's 127.75 before)."""
+    frame, truth, _ = scene_frame()
+    frame = np.clip(frame, 0, 255).astype(np.uint8)
+    frame[truth["rect"]] = 255  # a saturated object
+    cv2.imwrite(str(tmp_path / "f.png"), frame)
+    code, out, err = cli(
+        ["rois", "propose", tmp_path / "f.png", "--dark", tmp_path / "f.png", "--out",
+         tmp_path / "r.yaml"]
+    )  # fmt: skip
+    assert code == 0, err
+    assert "warning: the frames are no brighter than the dark frames" in err
+    assert "% of its pixels saturated (255 DN)" in err
+    assert "μ − dark [DN]" in out
+    code, shown, err = cli(
+        ["rois", "show", tmp_path / "r.yaml", tmp_path / "f.png", "--dark", tmp_path / "f.png",
+         "--out", tmp_path / "s.png"]
+    )  # fmt: skip
+    assert code == 0 and "μ − dark [DN]" in shown, err
