@@ -142,6 +142,41 @@ def test_an_edited_plan_is_refused_before_it_captures(
     ), err
 
 
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        (lambda p: {**p, "bits": 16}, "bits 16, where the frames were recorded at 12 bits"),
+        (
+            lambda p: {**p, "exposure_us": [2 * t for t in p["exposure_us"]]},
+            "step b_000 was exposed",
+        ),
+        (lambda p: {**p, "exposure_us": p["exposure_us"][::-1]}, "was exposed"),
+        (
+            lambda p: {**p, "exposure_us": p["exposure_us"][:5], "level": p["level"][:5]},
+            "step b_005 was captured, but the plan has no such point",
+        ),
+        (lambda p: {**p, "varies": "level"}, "varies the level, but its exposures differ"),
+        (lambda p: {**p, "illumination": "red"}, "illumination 'red', where the station"),
+    ],
+    ids=["bits", "doubled", "reversed", "fewer", "varies", "illumination"],
+)
+def test_a_plan_edited_to_contradict_its_frames_is_refused(
+    characterized, tmp_path, capsys, edit, message
+):
+    """After a kill, --resume took an edited plan that still parsed (exit 0): bits 16 went
+    into the camera file; exposures doubled gave a linearity error of 35 % and QE 0.62
+    where it is 0.97. The plan is checked against what its frames recorded."""
+    station, out = _resumable(characterized, tmp_path)
+    before = (out / "camera.yaml").read_bytes()
+    plan = json.loads((out / "characterize.json").read_text())
+    (out / "characterize.json").write_text(json.dumps(edit(plan)))
+    assert run_cli(["characterize", station, "--out", out, "--resume"]) == 2
+    err = capsys.readouterr().err
+    assert "the characterization plan contradicts the frames captured by it" in err, err
+    assert message in err, err
+    assert (out / "camera.yaml").read_bytes() == before
+
+
 def test_a_plan_that_is_a_pipe_is_refused_not_waited_on(characterized, tmp_path, capsys):
     import os
 
