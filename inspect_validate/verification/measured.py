@@ -84,6 +84,7 @@ def measure_capture(
     files, dark_files, manifest, hashes = read_capture(
         folder, [i.name for i in station.illuminations]
     )
+    _settings_agree(station, folder, manifest, files, dark_files)
     level = saturation_level(next(iter(files.values()))[0], camera)
     measurements = {
         name: measure_files(
@@ -104,6 +105,52 @@ def measure_capture(
         else None
     )
     return Capture(files, dark_files, manifest, measurements, dark, level, hashes)
+
+
+def _settings_agree(station: Station, folder: Path, manifest: dict, files, dark_files) -> None:
+    """Refuse frames whose recorded settings contradict the station they are verified as:
+    each step's channel levels (the manifest) and exposure (the frames' sidecars). The
+    prediction is made at the station's settings, so a measurement at others would be
+    compared with the wrong numbers (a manifest edited to the station's channels, or
+    sidecars saying 4000 µs where the station says 8000 µs, were measured)."""
+    import json
+
+    def lit(channels) -> dict[int, float]:
+        return {int(ch): float(pct) for ch, pct in (channels or {}).items() if float(pct) > 0}
+
+    problems = []
+    steps = manifest.get("steps", {})
+    wanted = {i.name: lit(i.channels) for i in station.illuminations}
+    for name, paths in [*files.items(), *([("dark", dark_files)] if dark_files else [])]:
+        recorded = lit(steps.get(name, {}).get("channels"))
+        want = wanted.get(name, {})
+        if set(recorded) != set(want) or any(abs(recorded[c] - want[c]) > 1e-6 for c in want):
+            problems.append(
+                f"{name} was captured with channels {recorded or 'off'}, the station file "
+                f"says {want or 'off'}"
+            )
+        t = station.camera.exposure_us
+        not_applied = manifest.get("camera", {}).get("not_applied") or []
+        sidecar = paths[0].with_suffix(".json")
+        if t is None or "exposure" in not_applied or not sidecar.is_file():
+            continue
+        try:
+            exposure = json.loads(sidecar.read_text()).get("exposure_us")
+        except (OSError, ValueError):
+            continue  # the audit has read it: a sidecar that is not JSON is named there
+        if isinstance(exposure, (int, float)) and abs(exposure - t) > 0.02 * t + 1.0:
+            problems.append(
+                f"{name}'s frames were exposed {exposure:g} µs, the station file says {t:g} µs"
+            )
+    if problems:
+        raise InputError(
+            "these frames were taken with other settings than the station file's ("
+            + "; ".join(problems[:3])
+            + (f"; and {len(problems) - 3} more" if len(problems) > 3 else "")
+            + "): they would be compared with a prediction of other settings; capture again "
+            "with this station file, or verify with the station file they were taken with",
+            source=str(folder),
+        )
 
 
 def saturation_level(frame: Path, camera: SensorModel | None = None) -> float | None:

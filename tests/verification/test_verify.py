@@ -522,3 +522,23 @@ def test_every_lit_illumination_checks_its_light_above_dark(cli, tmp_path):
     light = [c for c in doc["checks"] if c["kind"] == "light"]
     assert [c["name"] for c in light] == ["amber: light above dark", "red: light above dark"]
     assert all(c["verdict"] == "pass" and c["value"] > 10 * c["limit"] for c in light)
+
+
+def test_frames_whose_recorded_settings_contradict_the_station_are_refused(cli, tmp_path):
+    """verify --frames took a manifest whose channel settings were edited, and frames
+    exposed 8000 µs as a station of 4000 µs: measured, and compared with a prediction of
+    other settings. Refused (exit 2), naming the step and both settings."""
+    path = station(tmp_path)
+    code, out, err = cli(["verify", path, "--out", tmp_path / "f"])
+    assert code == 0, out + err
+    doc = yaml.safe_load(path.read_text())
+    doc["camera"]["exposure_us"] = 4000
+    other = tmp_path / "other.yaml"
+    other.write_text(yaml.safe_dump(doc))
+    code, _, err = cli(["verify", other, "--frames", tmp_path / "f"])
+    assert code == 2 and "amber's frames were exposed 8000 µs, the station file says 4000" in err
+    manifest = json.loads((tmp_path / "f" / "manifest.json").read_text())
+    manifest["steps"]["red"]["channels"] = {"2": 50.0}
+    (tmp_path / "f" / "manifest.json").write_text(json.dumps(manifest))
+    code, _, err = cli(["verify", path, "--frames", tmp_path / "f"])
+    assert code == 2 and "red was captured with channels {2: 50.0}" in err, err
