@@ -103,8 +103,8 @@ def test_watch_stops_on_sigterm_at_every_moment(tmp_path, golden):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("command", ["capture", "train"])
-def test_capture_and_train_stop_on_sigterm_at_every_moment(tmp_path, command):
+@pytest.mark.parametrize("command", ["capture", "train", "characterize"])
+def test_capture_train_and_characterize_stop_on_sigterm_at_every_moment(tmp_path, command):
     path = copy_station(tmp_path)
     before = _controllers()
     for i, delay in enumerate([0.05, 0.3, 0.8, 1.5, 2.2, 3.0, 3.8]):
