@@ -64,7 +64,9 @@ def read_image(path: str | Path, *, finite: bool = True) -> np.ndarray:
     except Exception as exc:  # decoders raise many types for corrupt files
         raise InputError(f"cannot read image: {exc}", source=str(path)) from None
     image = np.asarray(image)
-    if image.dtype.kind not in "uif" or image.size == 0:
+    if image.size == 0:
+        raise InputError(f"an empty image (shape {image.shape}): no pixel", source=str(path))
+    if image.dtype.kind not in "uif":
         raise InputError(f"not a grey-value image (dtype {image.dtype})", source=str(path))
     if finite and image.dtype.kind == "f" and not np.all(np.isfinite(image)):
         bad = np.argwhere(~np.isfinite(image))[0]

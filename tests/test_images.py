@@ -215,3 +215,16 @@ def test_nan_outside_every_region_is_measured_inside_is_named(tmp_path):
     np.save(tmp_path / "f.npy", frame)
     with pytest.raises(InputError, match=r"f\.npy: grey values up to 1e\+300"):
         measure_files(tmp_path / "f.npy", tmp_path / "r.yaml")
+
+
+def test_an_empty_array_is_called_empty(tmp_path):
+    """An empty NPY of uint8 read 'not a grey-value image (dtype uint8)'."""
+    import numpy as np
+    import pytest
+
+    from inspect_validate.errors import InputError
+    from inspect_validate.images import read_image
+
+    np.save(tmp_path / "e.npy", np.zeros((0, 32), np.uint8))
+    with pytest.raises(InputError, match=r"an empty image \(shape \(0, 32\)\)"):
+        read_image(tmp_path / "e.npy")

@@ -64,8 +64,19 @@ def find_producers(
     ``GENICAM_GENTL64_PATH``'s folders (``given_as``: where a user gives ``cti``)."""
     if cti:
         path = Path(cti)
-        if not path.is_file():
+        if not path.exists():
             raise DeviceError(f"GenTL producer {path} not found; check {given_as}")
+        if not path.is_file():  # a folder, a FIFO, /dev/null: nothing to load
+            what = "a folder" if path.is_dir() else "not a regular file (a device or pipe)"
+            raise DeviceError(
+                f"GenTL producer {path} is {what}; give the vendor's .cti file in {given_as}"
+            )
+        with path.open("rb") as f:
+            if path.suffix.lower() != ".cti" or f.read(4) not in (b"\x7fELF", b"MZ\x90\x00"):
+                raise DeviceError(
+                    f"{path} is no GenTL producer (a .cti is a shared library); give the "
+                    f"vendor's .cti file in {given_as}"
+                )
         return [path]
     found = []
     for folder in filter(None, os.environ.get("GENICAM_GENTL64_PATH", "").split(os.pathsep)):

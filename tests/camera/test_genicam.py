@@ -229,3 +229,20 @@ def test_a_mode_the_camera_lacks_is_refused_before_any_light(tmp_path, capsys):
         strobed = "strobe_line" in camera
         assert ("leave out camera.strobe_line" in err) == strobed, err
         assert not (out / "manifest.json").exists()  # no step began
+
+
+@pytest.mark.parametrize("kind", ["folder", "fifo", "devnull", "text"])
+def test_a_cti_that_is_no_producer_says_so(cli, tmp_path, kind):
+    """--cti a folder, a FIFO or /dev/null read 'GenTL producer … not found'; a text file
+    'cameras: none found'."""
+    import os
+
+    path = {"folder": tmp_path, "devnull": "/dev/null"}.get(kind, tmp_path / "x.cti")
+    if kind == "fifo":
+        os.mkfifo(path)
+    elif kind == "text":
+        path.write_text("not a library")
+    code, out, err = cli(["devices", "--cti", path, "--backend", "genicam"])
+    said = out + err
+    assert "not found" not in said and "Traceback" not in said, said
+    assert "is a folder" in said or "not a regular file" in said or "no GenTL producer" in said
