@@ -244,5 +244,5 @@ def test_a_cti_that_is_no_producer_says_so(cli, tmp_path, kind):
         path.write_text("not a library")
     code, out, err = cli(["devices", "--cti", path, "--backend", "genicam"])
     said = out + err
-    assert "not found" not in said and "Traceback" not in said, said
+    assert code in (0, 2, 3) and "not found" not in said and "Traceback" not in said, said
     assert "is a folder" in said or "not a regular file" in said or "no GenTL producer" in said
