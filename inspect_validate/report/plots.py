@@ -376,7 +376,15 @@ def plot_history_overview(log: HistoryLog, target: Target) -> Target:
         if k:
             ax.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7, frameon=False)
     axes[-1].set_xlabel("cycle")
+    _whole_cycles(axes[-1])
     return save_figure(fig, target)
+
+
+def _whole_cycles(ax) -> None:
+    """Ticks at whole cycles only (a history of three cycles had ticks at 0.5, 1.5)."""
+    from matplotlib.ticker import MaxNLocator
+
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
 
 
 def plot_history_charts(log: HistoryLog, illumination: str, target: Target) -> Target:
@@ -403,5 +411,6 @@ def plot_history_charts(log: HistoryLog, illumination: str, target: Target) -> T
         ax.set_visible(False)
     for ax in axes[-1]:
         ax.set_xlabel("cycle", fontsize=8)
+        _whole_cycles(ax)  # the axes share x
     fig.suptitle(f"illumination {illumination}: value, EWMA, control band, alarms", fontsize=10)
     return save_figure(fig, target, rect=(0, 0, 1, 0.96))

@@ -675,3 +675,29 @@ def test_a_journal_that_is_a_fifo_is_refused_at_the_commit_not_blocked(tmp_path)
     ):
         history.commit(record, {("amber", "class", "A", "mean"): (1.0, 1.0, 0.0, 2.0)})
     history.close()
+
+
+def test_history_charts_tick_whole_cycles(tmp_path, monkeypatch):
+    """Three cycles were ticked at 0.5, 1.0, 1.5…: a cycle is a whole number."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from inspect_validate.report import plots
+    from inspect_validate.watch.history import read_history
+
+    drawn = []
+    monkeypatch.setattr(plots, "save_figure", lambda fig, target, **kw: drawn.append(fig))
+    db = tmp_path / "history.sqlite"
+    _history_with_cycles(db, n=3).close()
+    log = read_history(db)
+    plots.plot_history_overview(log, tmp_path / "o.png")
+    plots.plot_history_charts(log, "amber", tmp_path / "c.png")
+    assert len(drawn) == 2
+    for fig in drawn:
+        fig.canvas.draw()
+        for ax in fig.axes:
+            if not ax.get_visible():
+                continue
+            lo, hi = ax.get_xlim()
+            ticks = [t for t in ax.get_xticks() if lo <= t <= hi]
+            assert ticks and all(float(t).is_integer() for t in ticks), ticks
