@@ -303,7 +303,7 @@ def test_analyze_spectra_with_hostile_csv(capsys, rows):
         (tmp / "s.yaml").write_text(
             "classes: {A: {file: a.csv}, B: {file: b.csv}}\nlights: [{cie: D65}]\noptics: [ideal]\ncameras: [cmos-visible]\n"
         )
-        code, out, err = run(["analyze-spectra", tmp / "s.yaml", "--no-kde"], capsys)
+        code, out, err = run(["analyze-spectra", tmp / "s.yaml", "--kde", "never"], capsys)
         assert_clean(code, out, err)
 
 

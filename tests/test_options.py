@@ -3,7 +3,9 @@ command. Here: ``--json`` writes the command's document, and ``--json -`` puts i
 standard output in place of the table (``predict --json -`` wrote a file named ``-``)."""
 
 import json
+import re
 
+import click
 import pytest
 from conftest import ROOT
 
@@ -68,3 +70,44 @@ def test_an_impossible_number_is_refused_naming_the_option(cli, args, says):
     named the file's key camera.exposure_us instead of the option."""
     code, _, err = cli(args)
     assert code == 2 and says in err and "camera.exposure_us" not in err, err
+
+
+#: Retired spellings and the one that replaces them (kept a release, hidden, deprecated).
+RETIRED = {"--no-kde": "--kde", "--frame": "--size"}
+
+
+def test_one_spelling_per_concept():
+    """A frame size is --size WxH (rois import had --frame), the nonparametric error is
+    --kde auto|always|never (predict and analyze-spectra had --no-kde), the ROI file is
+    --rois (rois show took it as its first argument), a JSON document --json, plots go
+    into a folder given by --plot (analyze-spectra took a PNG file). A retired spelling is
+    hidden and deprecated."""
+    from inspect_validate.cli.common import KDE_MODES, SIZE
+
+    seen = {}
+    for name, command in _commands():
+        for p in command.params:
+            if not isinstance(p, click.Option):
+                continue
+            (spelling,) = [o for o in p.opts if o.startswith("--")]
+            if spelling in RETIRED:
+                assert p.hidden and p.deprecated, f"{name} {spelling}: not retired"
+                continue
+            if p.type is SIZE:
+                assert spelling == "--size", f"{name} {spelling}: a frame size is --size"
+            if spelling == "--kde":
+                assert tuple(p.type.choices) == KDE_MODES, name
+            if re.match(r"(the )?roi file\b", (p.help or "").lower()) and spelling != "--out":
+                assert spelling == "--rois", f"{name} {spelling}: the ROI file is --rois"
+            if spelling == "--plot":
+                assert "folder" in (p.help or "") or "into" in (p.help or ""), name
+            seen.setdefault(spelling, []).append(name)
+    assert {"--size", "--kde", "--rois", "--json", "--plot"} <= set(seen)
+    assert not {"--frame", "--no-kde"} & set(seen)
+
+
+def test_retired_spellings_still_work_saying_what_to_write(cli, tmp_path):
+    code, out, err = cli(["analyze-spectra", SCENE, "--no-kde", "--json", "-"])
+    assert code == 0 and "write --kde never" in err and json.loads(out)["comparisons"]
+    code, _, err = cli(["analyze-spectra", SCENE, "--plot", tmp_path / "old.png"])
+    assert code == 0 and "--plot takes a folder now" in err and (tmp_path / "old.png").is_file()

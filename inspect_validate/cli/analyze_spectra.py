@@ -7,6 +7,8 @@ import click
 from inspect_validate.cli.common import (
     PATH,
     check_outputs,
+    kde_mode,
+    kde_option,
     printer,
 )
 from inspect_validate.text import labelled
@@ -22,9 +24,10 @@ from inspect_validate.text import labelled
 )
 @click.option(
     "--plot",
-    "plot_path",
+    "plot_dir",
     type=PATH,
-    help="Write the error curves as a PNG (the chapter's Fig. 22).",
+    help="Write the error curves into this folder as spectral_error.png (the chapter's "
+    "Fig. 22), as predict's --plot writes its plots into a folder.",
 )
 @click.option(
     "--best",
@@ -33,8 +36,12 @@ from inspect_validate.text import labelled
     show_default=True,
     help="Bands to list per comparison.",
 )
-@click.option("--no-kde", is_flag=True, help="Parametric error only.")
-def analyze_spectra(scene, json_path, plot_path, best, no_kde) -> None:
+@kde_option(
+    default="always",
+    help="The nonparametric (kernel density) error per wavelength: always, or never "
+    "(the parametric error only; auto: as always).",
+)
+def analyze_spectra(scene, json_path, plot_dir, best, kde, no_kde) -> None:
     """Classification error per wavelength between the classes of SCENE, from reflectances alone.
 
     Shows which bands separate the classes before any hardware is chosen
@@ -47,22 +54,34 @@ def analyze_spectra(scene, json_path, plot_path, best, no_kde) -> None:
     from inspect_validate.scene import read_scene
     from inspect_validate.text import format_error, render_table
 
+    plot_path = None
+    if plot_dir is not None and plot_dir.suffix.lower() == ".png":  # a file, as it was once
+        click.echo(
+            f"DeprecationWarning: --plot takes a folder now; {plot_dir} is written as the "
+            f"file it names this once (write --plot {plot_dir.parent})",
+            err=True,
+        )
+        plot_path = plot_dir
+    elif plot_dir is not None:
+        plot_path = plot_dir / "spectral_error.png"  # the name predict --plot gives it
     check_outputs(files=[json_path, plot_path])
     sc = read_scene(scene)
     for note in sc.notes():
         click.echo(labelled("note", note), err=True)
-    sep = analyse_spectra(list(sc.classes), kde=not no_kde, comparisons=sc.comparisons)
+    sep = analyse_spectra(
+        list(sc.classes), kde=kde_mode(kde, no_kde) != "never", comparisons=sc.comparisons
+    )
     rows = []
     for j, (a, b) in enumerate(sep.comparisons):
         eps = sep.error_gaussian[j]
         for i in np.argsort(np.where(np.isnan(eps), np.inf, eps))[:best]:
-            kde = format_error(sep.error_kde[j][i]) if sep.error_kde is not None else "-"
+            kde_text = format_error(sep.error_kde[j][i]) if sep.error_kde is not None else "-"
             rows.append(
                 [
                     f"{','.join(a)} vs {','.join(b)}",
                     f"{sep.wavelengths[i]:g}",
                     format_error(eps[i]),
-                    kde,
+                    kde_text,
                 ]
             )
     echo = printer(json_path)

@@ -166,6 +166,31 @@ def new_folder(command: str, source) -> Path:
     return Path(f"{command}-{Path(source).stem}-{time.strftime('%Y%m%dT%H%M%S')}")
 
 
+#: How a command computes ε KDE, the nonparametric error (37): one option, ``--kde``, in
+#: every command that computes it.
+KDE_MODES = ("auto", "always", "never")
+
+
+def kde_option(*, default: str, help: str) -> Callable:
+    """``--kde auto|always|never`` and its retired spelling ``--no-kde`` (kept a release,
+    hidden, saying what to write); the command reads :func:`kde_mode` of the two."""
+
+    def decorate(command: Callable) -> Callable:
+        command = click.option(
+            "--no-kde", is_flag=True, hidden=True, deprecated="write --kde never"
+        )(command)
+        return click.option(
+            "--kde", type=click.Choice(KDE_MODES), default=default, show_default=True, help=help
+        )(command)
+
+    return decorate
+
+
+def kde_mode(kde: str, no_kde: bool) -> str:
+    """The ``--kde`` mode, ``never`` where the retired ``--no-kde`` was given."""
+    return "never" if no_kde else kde
+
+
 def printer(json_path) -> Callable[..., None]:
     """What prints a command's tables: ``click.echo``, or nothing where ``--json -`` puts
     the JSON document on standard output in its place (every command's ``--json`` takes

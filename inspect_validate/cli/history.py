@@ -24,7 +24,8 @@ from inspect_validate.cli.common import (
     "--plot",
     "plot_dir",
     type=PATH,
-    help="Write history-overview.png and one history-<illumination>.png per illumination.",
+    help="Write history-overview.png and one history-<illumination>.png per illumination "
+    "into this folder.",
 )
 @click.option(
     "--csv", "csv_path", type=PATH, help="Export one row per cycle and chart (UTF-8 CSV)."

@@ -10,6 +10,8 @@ from inspect_validate.cli.common import (
     PATH,
     Number,
     check_outputs,
+    kde_mode,
+    kde_option,
     printer,
 )
 from inspect_validate.errors import EXIT_CHECK_FAILED
@@ -51,15 +53,11 @@ from inspect_validate.text import labelled
     show_default=True,
     help="Largest acceptable fraction of zero (underexposed) pixels per class.",
 )
-@click.option(
-    "--kde",
-    type=click.Choice(["auto", "always", "never"]),
+@kde_option(
     default="auto",
-    show_default=True,
     help="The nonparametric (kernel density) error: auto computes it only where the classes' "
     "Gaussians do not fit the pixels (their rule's counted error differs from ε Gauss).",
 )
-@click.option("--no-kde", is_flag=True, help="Same as --kde never.")
 @click.option(
     "--comparison",
     "comparison_texts",
@@ -116,7 +114,7 @@ def measure(
         comparisons=comparisons,
         saturation_level=saturation_level,
         limits=limits,
-        kde="never" if no_kde else kde,
+        kde=kde_mode(kde, no_kde),
     )
     echo = printer(json_path)
     echo(result.table(saturation_limit=max_saturated))

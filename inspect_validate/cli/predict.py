@@ -9,6 +9,8 @@ import click
 from inspect_validate.cli.common import (
     PATH,
     check_outputs,
+    kde_mode,
+    kde_option,
     printer,
 )
 from inspect_validate.text import labelled
@@ -52,7 +54,11 @@ def scheduler_address(_ctx, _param, value):
 @click.option(
     "--comparison", help='Rank by one comparison, e.g. "A vs B,C" (default: the worst pair).'
 )
-@click.option("--no-kde", is_flag=True, help="Skip the nonparametric error of the listed rows.")
+@kde_option(
+    default="always",
+    help="The nonparametric (kernel density) error of the listed rows, from the reflectance "
+    "samples: always, or never (auto: as always; the samples are not pixels).",
+)
 @click.option(
     "--plot",
     "plot_dir",
@@ -75,7 +81,9 @@ def scheduler_address(_ctx, _param, value):
     help="Predict the blocks of combinations on Dask: a LocalCluster, or the scheduler "
     "at ADDRESS (tcp://host:8786).",
 )
-def predict(scene, json_path, top, rank_by, comparison, no_kde, plot_dir, render_dir, dask_address):
+def predict(
+    scene, json_path, top, rank_by, comparison, kde, no_kde, plot_dir, render_dir, dask_address
+):
     """Predict class separation for every light × optics × camera of SCENE and rank them.
 
     Per combination: μ and σ² of every class in DN (reflectance spread plus
@@ -116,7 +124,8 @@ def predict(scene, json_path, top, rank_by, comparison, no_kde, plot_dir, render
         click.echo(labelled("skipped", reason), err=True)
     for work in result.skipped_work:
         click.echo(labelled("not computed", work), err=True)
-    rows = prediction_rows(result, kde=not no_kde)
+    with_kde = kde_mode(kde, no_kde) != "never"
+    rows = prediction_rows(result, kde=with_kde)
     n = result.combinations
     n_skipped = n - result.predicted
     echo = printer(json_path)
@@ -142,7 +151,7 @@ def predict(scene, json_path, top, rank_by, comparison, no_kde, plot_dir, render
         written = [
             plot_component_spectra(sc, plot_dir / "spectra.png"),
             plot_spectral_errors(
-                analyse_spectra(list(sc.classes), kde=not no_kde, comparisons=sc.comparisons),
+                analyse_spectra(list(sc.classes), kde=with_kde, comparisons=sc.comparisons),
                 plot_dir / "spectral_error.png",
             ),
             plot_ranked_separation(rows, plot_dir / "ranking.png", by=result.by),

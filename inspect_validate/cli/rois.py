@@ -51,8 +51,8 @@ def _write_picture(path, picture) -> None:
 )
 @click.option(
     "--names",
-    help="Class names in the order of the regions' numbers, comma-separated (a name given "
-    "twice merges those regions; default: 1, 2, …).",
+    help="Class names in the order of the regions' numbers (A,B,C), or NUMBER=NAME pairs as "
+    "rois import takes (1=A,3=B); a name given twice merges those regions (default: 1, 2, …).",
 )
 @click.option(
     "--dark", multiple=True, type=PATH, help="Dark frames: what counts as unlit background."
@@ -101,6 +101,16 @@ def propose(frames, out, overlay, names, dark, min_area, margin, edge, force):
     listed = [n.strip() for n in names.split(",")] if names else None
     if listed is not None and not all(listed):
         raise click.BadParameter("an empty name; write e.g. A,B,C", param_hint="--names")
+    if listed is not None and all("=" in n for n in listed):
+        # LABEL=NAME pairs, as rois import takes them: the label is the region's number.
+        pairs = dict(n.split("=", 1) for n in listed)
+        unknown = sorted(set(pairs) - {str(r.number) for r in regions})
+        if unknown:
+            raise click.BadParameter(
+                f"no region {', '.join(unknown)} (the regions are 1–{len(regions)})",
+                param_hint="--names",
+            )
+        listed = [pairs.get(str(r.number), str(r.number)).strip() for r in regions]
     roiset = draft_rois(
         regions, frame=(image.shape[1], image.shape[0]), names=listed, source=str(frames[0])
     )
@@ -168,12 +178,18 @@ def _propose_warnings(image, dark_image, regions, stack) -> list[str]:
 
 
 @rois.command()
-@click.argument("roi_file", type=PATH)
 @click.argument("frames", nargs=-1, required=True, type=PATH)
+@click.option(
+    "--rois",
+    "roi_file",
+    type=PATH,
+    help="ROI file: YAML, ImageJ .roi or RoiSet.zip (as measure's).",
+)
 @click.option("--out", type=PATH, required=True, help="The picture to write (.png).")
 @click.option("--dark", multiple=True, type=PATH, help="Dark frames, subtracted before μ and σ.")
-def show(roi_file, frames, out, dark):
-    """Draw ROI_FILE's classes over FRAMES (their mean) and list each class's pixels, μ and σ.
+def show(frames, roi_file, out, dark):
+    """Draw the --rois file's classes over FRAMES (their mean) and list each class's pixels,
+    μ and σ.
 
     σ is over every pixel of the class in every frame: the spread a measurement of it
     sees. A class far wider than the others, or one whose outline crosses an object's
@@ -185,6 +201,15 @@ def show(roi_file, frames, out, dark):
     from inspect_validate.roi.overlay import draw_regions
     from inspect_validate.text import render_table
 
+    if roi_file is None:  # the ROI file first, as this command took it before --rois
+        if len(frames) < 2:
+            raise click.UsageError("give the ROI file with --rois ROIS (as measure takes it)")
+        roi_file, frames = frames[0], frames[1:]
+        click.echo(
+            f"DeprecationWarning: the ROI file as the first argument is deprecated; write "
+            f"rois show FRAMES --rois {roi_file}",
+            err=True,
+        )
     roiset = read_rois(roi_file)
     image, dark_image, stack = _mean_frame(frames, dark)
     masks = class_masks(roiset, image.shape)
@@ -220,13 +245,14 @@ def show(roi_file, frames, out, dark):
 )
 @click.option("--image", help="COCO: the image whose annotations to take (file name or id).")
 @click.option(
-    "--frame",
+    "--size",
     "frame_size",
     type=SIZE,
-    help="The frame size to record where the file has none (napari).",
+    help="The frame size to record where the file has none (napari), as init's --size.",
 )
+@click.option("--frame", "old_frame_size", type=SIZE, hidden=True, deprecated="write --size WxH")
 @click.option("--force", is_flag=True, help="Overwrite OUT (and the masks it names) if it exists.")
-def import_(annotations, out, names, drop, image, frame_size, force):
+def import_(annotations, out, names, drop, image, frame_size, old_frame_size, force):
     """Read another tool's ANNOTATIONS as an ROI file every command accepts.
 
     Integer label images (PNG, TIFF: napari, ilastik, QuPath; 0 is background), labelme
@@ -250,6 +276,7 @@ def import_(annotations, out, names, drop, image, frame_size, force):
             )
         renames[label.strip()] = name.strip()
     dropped = [d.strip() for d in (drop or "").split(",") if d.strip()]
+    frame_size = frame_size or old_frame_size
     written, notes = import_annotations(
         annotations,
         out,
@@ -266,7 +293,7 @@ def import_(annotations, out, names, drop, image, frame_size, force):
         click.echo(f"{cls.name}: {len(cls.shapes)} shape{'s' if len(cls.shapes) != 1 else ''}")
     if written.frame is None:
         click.echo(
-            "warning: no frame size recorded (the file has none); give --frame WxH so that a "
+            "warning: no frame size recorded (the file has none); give --size WxH so that a "
             "frame of another size is refused (and shapes past its border clipped)",
             err=True,
         )

@@ -213,7 +213,7 @@ def import_annotations(
     found = read_annotations(path, names=names, image=image, drop=drop)
     if frame is not None and found.frame is not None and found.frame != frame:
         raise InputError(
-            f"the file says its image is {found.frame[0]}×{found.frame[1]}, --frame says "
+            f"the file says its image is {found.frame[0]}×{found.frame[1]}, --size says "
             f"{frame[0]}×{frame[1]}",
             source=src,
         )
@@ -221,7 +221,7 @@ def import_annotations(
     notes = list(found.notes)
     classes = _fitted(found.classes, size, notes) if size is not None else found.classes
     if size is None and any(isinstance(p, np.ndarray) for ps in classes.values() for p, _ in ps):
-        raise InputError("a pixel mask needs the image size; give --frame WxH", source=src)
+        raise InputError("a pixel mask needs the image size; give --size WxH", source=src)
 
     out = Path(out)
     if out.is_dir():

@@ -56,7 +56,7 @@ def test_spreads_below_the_resolution_agree_between_gauss_and_kde(scale):
 def test_analyze_spectra_cli_finds_the_amber_band(tmp_path, capsys):
     from conftest import ROOT
 
-    out, png = tmp_path / "s.json", tmp_path / "err.png"
+    out, png = tmp_path / "s.json", tmp_path / "plots" / "spectral_error.png"
     assert (
         run_cli(
             [
@@ -65,7 +65,7 @@ def test_analyze_spectra_cli_finds_the_amber_band(tmp_path, capsys):
                 "--json",
                 out,
                 "--plot",
-                png,
+                png.parent,
             ]
         )
         == 0

@@ -76,7 +76,9 @@ def test_a_labelme_file_as_people_draw_imports_into_a_file_every_command_accepts
     cv2.imwrite(str(tmp_path / "f.png"), frame)
     code, _, err = cli(["measure", tmp_path / "f.png", "--rois", out])
     assert code == 0, err
-    code, _, err = cli(["rois", "show", out, tmp_path / "f.png", "--out", tmp_path / "s.png"])
+    code, _, err = cli(
+        ["rois", "show", tmp_path / "f.png", "--rois", out, "--out", tmp_path / "s.png"]
+    )
     assert code == 0, err
     # --drop leaves a label out; --names can keep an ignored one.
     code, _, err = cli(

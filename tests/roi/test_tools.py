@@ -79,7 +79,9 @@ def test_propose_and_show_from_the_command_line(cli, tmp_path):
     assert [c.name for c in rois.classes] == ["A", "B", "C", "D"]  # 1 and 4 merged into A
     assert len(rois.classes[0].shapes) == 2
     assert (tmp_path / "rois.png").is_file() and "region" in text
-    code, text, err = cli(["rois", "show", out, tmp_path / "f.tif", "--out", tmp_path / "s.png"])
+    code, text, err = cli(
+        ["rois", "show", tmp_path / "f.tif", "--rois", out, "--out", tmp_path / "s.png"]
+    )
     assert code == 0, err
     masks = class_masks(rois, frame.shape)
     row = next(line for line in text.splitlines() if line.startswith("B "))
@@ -94,7 +96,8 @@ def test_propose_and_show_from_the_command_line(cli, tmp_path):
     # A frame of another size is refused by show as by measure.
     tifffile.imwrite(tmp_path / "small.tif", frame[:120, :160])
     code, _, err = cli(["rois", "show", out, tmp_path / "small.tif", "--out", tmp_path / "t.png"])
-    assert code == 2 and "drawn on a 320×240 frame" in err
+    assert code == 2 and "drawn on a 320×240 frame" in err  # the ROI file first: still read
+    assert "the ROI file as the first argument is deprecated" in err
 
 
 @pytest.mark.parametrize(
@@ -259,7 +262,7 @@ def test_import_napari_shapes_csv(cli, tmp_path):
             tmp_path / "r.yaml",
             "--names",
             "1=A,2=B",
-            "--frame",
+            "--size",
             f"{W}x{H}",
         ]
     )
@@ -288,8 +291,8 @@ def test_import_napari_shapes_csv(cli, tmp_path):
         (
             "x.json",
             '{"shapes": [{"label": "A", "points": [[0, 0], [4, 4]], "shape_type": "rectangle"}], "imageWidth": 10, "imageHeight": 10}',
-            ["--frame", "20x20"],
-            "its image is 10×10, --frame says 20×20",
+            ["--size", "20x20"],
+            "its image is 10×10, --size says 20×20",
         ),
     ],
 )
@@ -317,7 +320,7 @@ def test_propose_warns_of_frames_no_brighter_than_dark_and_of_clipped_regions(cl
     assert "% of its pixels saturated (255 DN)" in err
     assert "μ − dark [DN]" in out
     code, shown, err = cli(
-        ["rois", "show", tmp_path / "r.yaml", tmp_path / "f.png", "--dark", tmp_path / "f.png",
+        ["rois", "show", tmp_path / "f.png", "--rois", tmp_path / "r.yaml", "--dark", tmp_path / "f.png",
          "--out", tmp_path / "s.png"]
     )  # fmt: skip
     assert code == 0 and "μ − dark [DN]" in shown, err
