@@ -401,8 +401,10 @@ def _read_plan(path: Path) -> Plan:
     try:
         doc = json.loads(regular_text(path))
         checked = _plan_model().model_validate(doc, strict=False)  # JSON lists as tuples
-    except (OSError, ValueError) as exc:  # ValidationError is a ValueError
+    except (OSError, ValueError, RecursionError) as exc:  # ValidationError is a ValueError
         why = explain(exc) if isinstance(exc, ValidationError) else str(exc)
+        if isinstance(exc, RecursionError):
+            why = "nested too deeply"
         raise InputError(
             f"the characterization plan is not as characterize wrote it ({why}); start again "
             "without --resume and a new --out",

@@ -123,6 +123,7 @@ def test_a_resumed_series_audits_its_frames(characterized, tmp_path, capsys):
         ),
         ("level", [0.5], r"exposures but 1 levels"),
         ("varies", "luck", r"varies: Input should be 'exposure' or 'level'"),
+        ("level", "DEEP", r"nested too deeply"),
     ],
 )
 def test_an_edited_plan_is_refused_before_it_captures(
@@ -133,7 +134,10 @@ def test_an_edited_plan_is_refused_before_it_captures(
     station, out = _resumable(characterized, tmp_path)
     plan = json.loads((out / "characterize.json").read_text())
     plan[key] = value
-    (out / "characterize.json").write_text(json.dumps(plan))
+    text = json.dumps(plan)
+    if value == "DEEP":  # JSON nested 10⁵ deep: a RecursionError traceback before
+        text = text.replace('"DEEP"', "[" * 100_000 + "]" * 100_000)
+    (out / "characterize.json").write_text(text)
     assert run_cli(["characterize", station, "--out", out, "--resume"]) == 2
     err = capsys.readouterr().err
     assert "Traceback" not in err
