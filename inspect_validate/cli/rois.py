@@ -98,6 +98,17 @@ def propose(frames, out, overlay, names, dark, min_area, margin, edge, force):
     regions = find_regions(
         image, min_area=min_area, margin=margin, edge=edge, dark_level=dark_level
     )
+    if not regions and stack.dtype.kind in "ui":
+        import numpy as np
+
+        top = np.iinfo(stack.dtype).max
+        clipped = float(np.mean(stack >= top))
+        if clipped > 0.5:  # nothing uniform to find in a clipped frame: say why
+            raise InputError(
+                f"no region found: {100 * clipped:.0f} % of the frame's pixels are saturated "
+                f"({top} DN); lower the exposure or the light, and capture again",
+                source=str(frames[0]),
+            )
     listed = [n.strip() for n in names.split(",")] if names else None
     if listed is not None and not all(listed):
         raise click.BadParameter("an empty name; write e.g. A,B,C", param_hint="--names")

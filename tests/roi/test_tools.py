@@ -324,3 +324,11 @@ def test_propose_warns_of_frames_no_brighter_than_dark_and_of_clipped_regions(cl
          "--out", tmp_path / "s.png"]
     )  # fmt: skip
     assert code == 0 and "μ − dark [DN]" in shown, err
+
+
+def test_propose_on_a_saturated_frame_says_it_is_saturated(cli, tmp_path):
+    """It suggested lowering --min-area."""
+    cv2.imwrite(str(tmp_path / "f.png"), np.full((H, W), 255, np.uint8))
+    code, _, err = cli(["rois", "propose", tmp_path / "f.png", "--out", tmp_path / "r.yaml"])
+    assert code == 2 and "100 % of the frame's pixels are saturated (255 DN)" in err, err
+    assert "--min-area" not in err and not (tmp_path / "r.yaml").exists()
