@@ -111,3 +111,14 @@ def test_retired_spellings_still_work_saying_what_to_write(cli, tmp_path):
     assert code == 0 and "write --kde never" in err and json.loads(out)["comparisons"]
     code, _, err = cli(["analyze-spectra", SCENE, "--plot", tmp_path / "old.png"])
     assert code == 0 and "--plot takes a folder now" in err and (tmp_path / "old.png").is_file()
+
+
+def test_a_fraction_is_taken_in_per_cent_too(cli):
+    """--max-saturated took only a fraction (0.001) that verify and measure show as
+    '≤ 0.1 %': 0.1% is the same."""
+    from inspect_validate.cli.common import Share
+
+    assert Share().convert("0.1%", None, None) == pytest.approx(0.001)
+    assert Share().convert("0.001", None, None) == pytest.approx(0.001)
+    code, _, err = cli(["measure", "f.png", "--rois", "r.yaml", "--max-saturated", "200%"])
+    assert code == 2 and "0<=x<=1" in err

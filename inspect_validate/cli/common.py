@@ -73,6 +73,23 @@ class Number(click.FloatRange):
         return number
 
 
+class Share(Number):
+    """A fraction 0–1 (``0.001``), or the same in per cent (``0.1%``), as reports show it."""
+
+    name = "fraction"
+
+    def __init__(self) -> None:
+        super().__init__(0, 1)
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, str) and value.strip().endswith("%"):
+            try:
+                value = float(value.strip()[:-1]) / 100
+            except ValueError:
+                self.fail(f"{value!r} is not a number of per cent", param, ctx)
+        return super().convert(value, param, ctx)
+
+
 def verify_and_report(
     st, *, frames_dir, out, report_dir, history=None, skip_dominated: bool = True
 ):

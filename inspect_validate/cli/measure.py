@@ -9,6 +9,7 @@ import click
 from inspect_validate.cli.common import (
     PATH,
     Number,
+    Share,
     check_outputs,
     kde_mode,
     kde_option,
@@ -41,17 +42,17 @@ from inspect_validate.text import labelled
 )
 @click.option(
     "--max-saturated",
-    type=Number(0, 1),
+    type=Share(),
     default=0.001,
     show_default=True,
-    help="Largest acceptable fraction of saturated pixels per class.",
+    help="Largest acceptable fraction of saturated pixels per class (0.001, or 0.1%).",
 )
 @click.option(
     "--max-zero",
-    type=Number(0, 1),
+    type=Share(),
     default=0.001,
     show_default=True,
-    help="Largest acceptable fraction of zero (underexposed) pixels per class.",
+    help="Largest acceptable fraction of zero (underexposed) pixels per class (0.001, or 0.1%).",
 )
 @kde_option(
     default="auto",
