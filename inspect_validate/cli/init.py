@@ -183,6 +183,8 @@ def init(
                 source="init",
             )
         camera["simulate"] = True
+        if camera_backend == "aravis":
+            _warn_other_fake_cameras(chosen)
     if not renders and chosen.discover is not None:
         found = [
             c
@@ -324,4 +326,24 @@ def init(
             f"--out {rois or 'rois.yaml'}, look at its overlay, and name the numbered regions "
             f"with --names (the scene's classes: {classes})"
             + ("" if rois else f"; then add 'rois: rois.yaml' to {out}")
+        )
+
+
+def _warn_other_fake_cameras(chosen) -> None:
+    """Aravis' fake cameras all answer on the loopback interface: one already running
+    answers for the one a simulated station starts, and its capture then stops ("asked
+    for serial …, but Aravis Fake … answered"). Said now, while the station is made."""
+    from inspect_validate.camera.registry import Search
+    from inspect_validate.errors import DeviceError
+
+    try:
+        found = [c for c in chosen.discover(Search()) if "fake" in (c.model or "").lower()]
+    except DeviceError:  # Aravis not installed: the capture says so
+        return
+    for c in found:
+        click.echo(
+            f"warning: Aravis' fake camera {c.serial or c.device_id} already runs on this "
+            "machine; the simulated station starts a fake camera of its own, which the running "
+            "one answers for: stop it before capturing",
+            err=True,
         )

@@ -313,3 +313,18 @@ def test_a_camera_that_does_not_see_the_lights_is_a_verdict(cli, tmp_path, fake_
     code, out, err = cli(["train", path, "--frames", tmp_path / "c", "--out", tmp_path / "g.json"])
     assert code == 2 and "step 'amber': no light reaches the camera" in err, err
     assert not (tmp_path / "g.json").exists()
+
+
+def test_init_simulate_warns_of_a_fake_camera_already_running(cli, tmp_path, fake_gige):
+    """init --camera aravis --simulate did not notice another fake camera on the loopback,
+    which then answered for the station's own (capture exit 3)."""
+    from conftest import ROOT
+
+    serial, _ = fake_gige()
+    code, _, err = cli(
+        ["init", tmp_path / "s.yaml", "--scene", ROOT / "sample_images/scenes/paperboard/scene.yaml",
+         "--camera", "aravis", "--simulate", "--irradiance", "1=5", "--irradiance", "2=5",
+         "--no-interactive"]
+    )  # fmt: skip
+    assert code == 0, err
+    assert f"Aravis' fake camera {serial} already runs on this machine" in err, err
