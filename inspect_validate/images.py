@@ -88,13 +88,13 @@ def read_image(path: str | Path, *, finite: bool = True) -> np.ndarray:
         )
     if image.dtype.itemsize == 8 and image.dtype.kind in "ui":
         lo, hi = int(image.min()), int(image.max())
-        if hi >= 2**62 or lo <= -(2**62):
+        if max(hi, -lo) >= 2**53:  # the bound float frames have: 1.2e17 was measured
             raise InputError(
-                f"grey values up to {hi} DN: beyond ±2⁶² they are not a camera's grey values "
-                "(check the data type the file was written with)",
+                f"grey values up to {max(hi, -lo)} DN: beyond ±2⁵³ they are not a camera's "
+                "grey values (check the data type the file was written with)",
                 source=str(path),
             )
-        image = image.astype(np.int64)  # uint64 below 2⁶² converts exactly
+        image = image.astype(np.int64)  # uint64 below 2⁵³ converts exactly
     return _monochrome(image, path, colour=colour)
 
 

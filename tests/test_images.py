@@ -228,3 +228,19 @@ def test_an_empty_array_is_called_empty(tmp_path):
     np.save(tmp_path / "e.npy", np.zeros((0, 32), np.uint8))
     with pytest.raises(InputError, match=r"an empty image \(shape \(0, 32\)\)"):
         read_image(tmp_path / "e.npy")
+
+
+def test_integers_beyond_2_53_are_no_camera_s(tmp_path):
+    """int64 frames of 1.2e17 were taken by rois propose and measure (only floats were
+    held to 2⁵³)."""
+    import numpy as np
+    import pytest
+
+    from inspect_validate.errors import InputError
+    from inspect_validate.images import read_image
+
+    np.save(tmp_path / "big.npy", np.full((4, 4), 120_000_000_000_000_000, np.int64))
+    with pytest.raises(InputError, match="beyond ±2⁵³"):
+        read_image(tmp_path / "big.npy")
+    np.save(tmp_path / "ok.npy", np.full((4, 4), 2**40, np.int64))
+    assert read_image(tmp_path / "ok.npy").max() == 2**40

@@ -332,3 +332,22 @@ def test_propose_on_a_saturated_frame_says_it_is_saturated(cli, tmp_path):
     code, _, err = cli(["rois", "propose", tmp_path / "f.png", "--out", tmp_path / "r.yaml"])
     assert code == 2 and "100 % of the frame's pixels are saturated (255 DN)" in err, err
     assert "--min-area" not in err and not (tmp_path / "r.yaml").exists()
+
+
+def test_propose_outlines_no_mixture_of_objects_and_background(cli, tmp_path):
+    """A frame of small lit squares gave one region over the whole frame (σ 78 DN here,
+    87 in the fault round's 1200 squares): no region is uniform there."""
+    frame = np.full((H, W), 20.0)
+    for y in range(1, H - 2, 4):
+        for x in range(1, W - 2, 4):
+            frame[y : y + 2, x : x + 2] = 200  # 4800 squares finer than the smoothing
+    frame = np.random.default_rng(0).poisson(frame).astype(np.uint8)
+    cv2.imwrite(str(tmp_path / "f.png"), frame)
+    code, out, err = cli(["rois", "propose", tmp_path / "f.png", "--out", tmp_path / "r.yaml"])
+    if code == 0:  # any region proposed is uniform, not the whole frame
+        for line in out.splitlines()[2:]:
+            cells = line.split()
+            if cells and cells[0].isdigit():
+                assert float(cells[-2]) < 20 and int(cells[2]) < H * W // 4, out
+    else:
+        assert code == 2 and "no uniform lit region found" in err, err
