@@ -165,6 +165,18 @@ def capture_with_progress(station, out, *, resume: bool = False):
     """Capture ``station`` into ``out`` with a progress bar on stderr."""
     from inspect_validate.station.capture import capture
 
+    if station.camera.backend == "simulated" or getattr(station.camera, "simulate", False):
+        from inspect_validate.station.model import NOMINAL_IRRADIANCE, station_model
+
+        model = station_model(station)
+        for ch in sorted(model.nominal):  # rendered at some power: say which
+            click.echo(
+                f"note: channel {ch} ({model.channels[ch].name}) has no irradiance in the station "
+                f"file (channels.{ch}.irradiance) or the scene; the simulated camera lights it at "
+                f"the nominal {NOMINAL_IRRADIANCE:g} W/m²",
+                err=True,
+            )
+
     total = sum(station.frames for _ in station.illuminations) + station.dark_frames
     with click.progressbar(length=total, label="capturing", file=sys.stderr) as bar:
         advance = FrameProgress(bar)

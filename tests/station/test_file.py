@@ -51,3 +51,15 @@ def test_a_simulated_frame_too_low_for_its_classes_is_refused_naming_the_height(
     path.write_text(yaml.safe_dump(doc))
     code, _, err = cli(["capture", path, "--out", tmp_path / "c"])
     assert code == 2 and "station.yaml" in err and "give camera.height 36 or more" in err, err
+
+
+def test_a_simulated_channel_without_irradiance_says_what_it_renders(cli, tmp_path):
+    """It was captured at an irradiance nobody stated, without a word."""
+    path = copy_station(tmp_path)
+    doc = yaml.safe_load(path.read_text())
+    doc["channels"][2] = {"light": "red LED"}  # the scene's red LED states none either
+    path.write_text(yaml.safe_dump(doc))
+    code, _, err = cli(["capture", path, "--out", tmp_path / "c"])
+    assert code == 0, err
+    assert "note: channel 2 (red LED) has no irradiance" in err
+    assert "at the nominal 1 W/m²" in err
