@@ -132,13 +132,17 @@ def _settings_agree(station: Station, folder: Path, manifest: dict, files, dark_
         t = station.camera.exposure_us
         not_applied = manifest.get("camera", {}).get("not_applied") or []
         sidecar = paths[0].with_suffix(".json")
-        if t is None or "exposure" in not_applied or not sidecar.is_file():
-            continue
         try:
-            exposure = json.loads(sidecar.read_text()).get("exposure_us")
+            meta = json.loads(sidecar.read_text()) if sidecar.is_file() else {}
         except (OSError, ValueError):
             continue  # the audit has read it: a sidecar that is not JSON is named there
-        if isinstance(exposure, (int, float)) and abs(exposure - t) > 0.02 * t + 1.0:
+        stored = _stored_as(paths[0], meta.get("pixel_format"))
+        if stored:
+            problems.append(stored)
+        exposure = meta.get("exposure_us")
+        if t is None or "exposure" in not_applied or not isinstance(exposure, (int, float)):
+            continue
+        if abs(exposure - t) > 0.02 * t + 1.0:
             problems.append(
                 f"{name}'s frames were exposed {exposure:g} µs, the station file says {t:g} µs"
             )
@@ -151,6 +155,30 @@ def _settings_agree(station: Station, folder: Path, manifest: dict, files, dark_
             "with this station file, or verify with the station file they were taken with",
             source=str(folder),
         )
+
+
+def _stored_as(frame: Path, pixel_format: object) -> str:
+    """Why ``frame``'s pixels cannot be the ``pixel_format`` its sidecar records (a camera's
+    integers stored as floats, or 16-bit where it sent 8), or ""."""
+    import tifffile
+
+    from inspect_validate.camera.pixelformats import BIT_DEPTH
+
+    bits = BIT_DEPTH.get(pixel_format) if isinstance(pixel_format, str) else None
+    if bits is None:
+        return ""
+    try:
+        with tifffile.TiffFile(frame) as tif:
+            dtype = tif.pages[0].dtype
+    except (OSError, ValueError, tifffile.TiffFileError):
+        return ""  # the measurement names an unreadable frame
+    want = "uint8" if bits <= 8 else "uint16"
+    if dtype is None or str(dtype) == want:
+        return ""
+    return (
+        f"{frame.parent.name}/{frame.name} holds {dtype} pixels, where its sidecar records "
+        f"{pixel_format} ({want}): not the camera's frames as captured"
+    )
 
 
 def saturation_level(frame: Path, camera: SensorModel | None = None) -> float | None:

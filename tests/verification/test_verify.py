@@ -542,3 +542,24 @@ def test_frames_whose_recorded_settings_contradict_the_station_are_refused(cli, 
     (tmp_path / "f" / "manifest.json").write_text(json.dumps(manifest))
     code, _, err = cli(["verify", path, "--frames", tmp_path / "f"])
     assert code == 2 and "red was captured with channels {2: 50.0}" in err, err
+
+
+def test_frames_stored_otherwise_than_their_pixel_format_are_refused(cli, tmp_path):
+    """A capture whose frames were rewritten as float (hashes removed, as an old capture
+    has none) was measured: 18 checks failed on numbers of another scale. The sidecar's
+    pixel format says what the frames must hold."""
+    import tifffile
+
+    path = station(tmp_path)
+    assert cli(["verify", path, "--out", tmp_path / "f"])[0] == 0
+    manifest = json.loads((tmp_path / "f" / "manifest.json").read_text())
+    manifest.pop("frame_hashes")
+    for record in manifest["steps"].values():
+        record.pop("sha256")
+    (tmp_path / "f" / "manifest.json").write_text(json.dumps(manifest))
+    for frame in (tmp_path / "f").glob("*/frame_*.tif"):
+        with tifffile.TiffFile(frame) as tif:
+            description, pixels = tif.pages[0].description, tif.asarray()
+        tifffile.imwrite(frame, pixels.astype("float32") / 255, description=description)
+    code, _, err = cli(["verify", path, "--frames", tmp_path / "f"])
+    assert code == 2 and "holds float32 pixels, where its sidecar records Mono16" in err, err
