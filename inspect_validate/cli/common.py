@@ -7,8 +7,12 @@ import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING, cast
 
 import click
+
+if TYPE_CHECKING:
+    from inspect_validate.measurement import KdeMode
 
 PATH = click.Path(path_type=Path)
 
@@ -196,7 +200,7 @@ def new_folder(command: str, source) -> Path:
 
 
 #: How a command computes ε KDE, the nonparametric error (37): one option, ``--kde``, in
-#: every command that computes it.
+#: every command that computes it (measurement.KdeMode, which is not imported at start-up).
 KDE_MODES = ("auto", "always", "never")
 
 
@@ -215,9 +219,11 @@ def kde_option(*, default: str, help: str) -> Callable:
     return decorate
 
 
-def kde_mode(kde: str, no_kde: bool) -> str:
+def kde_mode(kde: str, no_kde: bool) -> KdeMode:
     """The ``--kde`` mode, ``never`` where the retired ``--no-kde`` was given."""
-    return "never" if no_kde else kde
+    mode = "never" if no_kde else kde
+    assert mode in KDE_MODES  # click.Choice(KDE_MODES) took it
+    return cast("KdeMode", mode)
 
 
 def printer(json_path) -> Callable[..., None]:
