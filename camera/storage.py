@@ -114,7 +114,7 @@ class CaptureStore:
         else:
             self.manifest = {
                 "schema": "inspect-validate/capture",
-                "schema_version": 1,
+                "schema_version": 2,  # 2: every step's frame hashes are required
                 "station": str(station_path),
                 "station_sha256": station_sha256,
                 "tool_version": __version__,
@@ -284,7 +284,11 @@ def audit_capture(folder: Path, manifest: dict, steps: Iterable[str]) -> dict[st
     hashes: dict[str, str] = {}
     seen: dict[str, str] = {}
     stamps: dict[tuple, str] = {}
-    hashed = manifest.get("frame_hashes") is True
+    # A version-2 manifest always has hashes: removing them (and the flag) hides nothing.
+    version = manifest.get("schema_version")
+    hashed = manifest.get("frame_hashes") is True or (
+        isinstance(version, int) and not isinstance(version, bool) and version >= 2
+    )
     for step in steps:
         record = manifest.get("steps", {}).get(step, {})
         recorded = record.get("sha256")

@@ -127,8 +127,10 @@ def test_verify_refuses_a_tampered_capture_naming_what_disagrees(
 
 
 def test_the_untouched_capture_and_one_without_hashes_pass(cli, tmp_path, captured):
-    """A capture made before hashes were recorded (no ``sha256`` in the manifest) is
-    still read: a valid capture is never refused."""
+    """A capture made before hashes were recorded (version 1, no ``sha256`` in the
+    manifest) is still read: a valid capture is never refused. A version-2 manifest
+    whose hashes and flag were removed is refused (frames rewritten 16× with their hashes
+    removed were measured: 'lower the exposure')."""
     path, cap = _copy(captured, tmp_path)
     code, out, err = cli(["verify", path, "--frames", cap])
     assert code == 0, out + err
@@ -137,6 +139,10 @@ def test_the_untouched_capture_and_one_without_hashes_pass(cli, tmp_path, captur
     for step in manifest["steps"].values():
         del step["sha256"]
     del manifest["frame_hashes"]  # as a capture of a version before hashes wrote it
+    (cap / "manifest.json").write_text(json.dumps(manifest))
+    code, out, err = cli(["verify", path, "--frames", cap])
+    assert code == 2 and "frame hashes (sha256) are missing" in err, out + err  # version 2
+    manifest["schema_version"] = 1  # as that version wrote it
     (cap / "manifest.json").write_text(json.dumps(manifest))
     code, out, err = cli(["verify", path, "--frames", cap])
     assert code == 0, out + err

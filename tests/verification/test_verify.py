@@ -554,6 +554,7 @@ def test_frames_stored_otherwise_than_their_pixel_format_are_refused(cli, tmp_pa
     assert cli(["verify", path, "--out", tmp_path / "f"])[0] == 0
     manifest = json.loads((tmp_path / "f" / "manifest.json").read_text())
     manifest.pop("frame_hashes")
+    manifest["schema_version"] = 1  # as a capture from before hashes: the audit cannot tell
     for record in manifest["steps"].values():
         record.pop("sha256")
     (tmp_path / "f" / "manifest.json").write_text(json.dumps(manifest))
