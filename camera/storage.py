@@ -23,6 +23,7 @@ writes every frame grabbed before it.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import io
 import json
@@ -30,12 +31,13 @@ import threading
 import time
 from collections.abc import Iterable
 from concurrent.futures import Future, ThreadPoolExecutor
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO
 
 from inspect_validate import __version__
 from inspect_validate.camera.frame import Frame
-from inspect_validate.errors import InputError
+from inspect_validate.errors import InputError, listed
 from inspect_validate.files import (
     atomic_write,
     exclusive_lock,
@@ -44,7 +46,15 @@ from inspect_validate.files import (
     release_lock,
 )
 
-__all__ = ["QUEUED_FRAMES", "CaptureStore", "audit_capture", "read_capture", "read_manifest"]
+__all__ = [
+    "QUEUED_FRAMES",
+    "CaptureStore",
+    "StepRecord",
+    "audit_capture",
+    "read_capture",
+    "read_manifest",
+    "step_record",
+]
 
 LOCK_FILE = ".capture.lock"
 """Held in the capture folder while a capture writes into it (removed when it ends)."""
@@ -368,11 +378,8 @@ def audit_capture(folder: Path, manifest: dict, steps: Iterable[str]) -> dict[st
                 )
             stamps.setdefault(stamp, where)
     if problems:
-        shown = "; ".join(problems[:8]) + (
-            f"; and {len(problems) - 8} more" if len(problems) > 8 else ""
-        )
         raise InputError(
-            f"the capture is not as it was written: {shown}. Measure only what the camera "
+            f"the capture is not as it was written: {listed(problems, 8)}. Measure only what the camera "
             "wrote: capture again (or restore the folder from its copy)",
             source=str(folder),
         )
@@ -455,3 +462,40 @@ def acquisition_record(manifest: dict, files: dict[str, list[Path]]) -> tuple[di
             }
         )
     return tuple(rows)
+
+
+@dataclass(frozen=True)
+class StepRecord:
+    """What a capture recorded of one step's settings: the channels lit (manifest:
+    channel → %, those above 0) and its first frame's sidecar (empty where it has none
+    or it is not JSON: the audit names that)."""
+
+    channels: dict[int, float]
+    sidecar: dict
+
+    def exposure_differs(self, wanted_us: float) -> float | None:
+        """The recorded exposure, µs, where it differs from ``wanted_us`` by more than a
+        camera's rounding of it (2 % and 1 µs); else None."""
+        recorded = self.sidecar.get("exposure_us")
+        if isinstance(recorded, (int, float)) and abs(recorded - wanted_us) > (
+            0.02 * wanted_us + 1.0
+        ):
+            return float(recorded)
+        return None
+
+
+def step_record(folder: Path, manifest: dict, step: str) -> StepRecord:
+    """The settings ``folder``'s capture recorded for ``step`` (:class:`StepRecord`):
+    what a reader compares with the settings the frames are used as."""
+    record = manifest.get("steps", {}).get(step, {})
+    channels = {}
+    for ch, pct in (record.get("channels") or {}).items():
+        with contextlib.suppress(TypeError, ValueError):
+            if float(pct) > 0:
+                channels[int(ch)] = float(pct)
+    sidecar = Path(folder) / step / "frame_0001.json"
+    try:
+        meta = json.loads(sidecar.read_text()) if sidecar.is_file() else {}
+    except (OSError, ValueError, RecursionError):
+        meta = {}
+    return StepRecord(channels, meta if isinstance(meta, dict) else {})

@@ -60,6 +60,13 @@ def sourced(source: str) -> Iterator[None]:
         raise InputError(str(exc), source=source) from None
 
 
+def listed(problems: list[str], most: int) -> str:
+    """The first ``most`` of ``problems`` joined with "; ", and how many more there are:
+    one message that names each disagreement a check found without running to pages."""
+    more = len(problems) - most
+    return "; ".join(problems[:most]) + (f"; and {more} more" if more > 0 else "")
+
+
 class DeviceError(InspectValidateError, RuntimeError):
     """A camera or light controller did not do what it was asked."""
 

@@ -26,12 +26,14 @@ if TYPE_CHECKING:
     import numpy as np
 
 __all__ = [
+    "NotRegularFile",
     "atomic_write",
     "input_file",
     "json_number",
     "json_ready",
     "output_file",
     "output_folder",
+    "regular_opener",
     "regular_text",
     "write_json",
 ]
@@ -191,6 +193,25 @@ def atomic_write(path: str | Path, data: bytes) -> Path:
     return path
 
 
+class NotRegularFile(OSError):
+    """:func:`regular_opener` found a FIFO, socket, device or folder in a file's place."""
+
+
+def regular_opener(path: str, flags: int) -> int:
+    """An ``opener`` for :func:`open` of a file the tool keeps writing (a lock, a journal):
+    never through a symbolic link (``ELOOP``, so its target is not written over), never
+    blocking on a FIFO (``ENXIO`` where nobody reads it), and only a regular file
+    (:class:`NotRegularFile`)."""
+    import stat
+
+    fd = os.open(path, flags | os.O_NOFOLLOW | os.O_NONBLOCK)
+    if not stat.S_ISREG(os.fstat(fd).st_mode):
+        os.close(fd)
+        raise NotRegularFile(f"{Path(path).name} is not a regular file; remove it")
+    os.set_blocking(fd, True)
+    return fd
+
+
 def exclusive_lock(lock_path: Path, *, holder: str, what: str, remedy: str, source: Path) -> TextIO:
     """An exclusive ``flock`` on ``lock_path`` (created if need be), held until the
     returned file is closed, with this process's id written in it; a second taker is
@@ -203,27 +224,17 @@ def exclusive_lock(lock_path: Path, *, holder: str, what: str, remedy: str, sour
         or the lock file cannot be made; naming ``source``.
     """
     import fcntl
-    import stat
 
     name = Path(lock_path).name
-
-    def opener(path, flags):
-        # Never through a link (its target would be written over), never blocking on a
-        # FIFO someone put in the lock's place.
-        fd = os.open(path, flags | os.O_NOFOLLOW | os.O_NONBLOCK)
-        if not stat.S_ISREG(os.fstat(fd).st_mode):
-            os.close(fd)
+    while True:
+        try:
+            handle = open(lock_path, "a+", opener=regular_opener)
+        except NotRegularFile:
             raise InputError(
                 f"cannot lock {what}: {name} is not a regular file (a FIFO, socket or "
                 "device in the lock's place); remove it",
                 source=str(source),
-            )
-        os.set_blocking(fd, True)
-        return fd
-
-    while True:
-        try:
-            handle = open(lock_path, "a+", opener=opener)
+            ) from None
         except OSError as exc:
             why = exc.strerror or str(exc)
             if exc.errno == errno.ELOOP:

@@ -330,11 +330,13 @@ def _check_plan(out: Path, plan: Plan, station: Station) -> None:
     recorded exposure (the frames' sidecars) and channel levels (the manifest), the bit
     depth of the frames, the illumination. An edited plan (exposures doubled: a
     linearity error of 35 %, QE 0.62 where it is 0.97) is not built on."""
-    from inspect_validate.camera.storage import read_manifest
+    from inspect_validate.camera.storage import read_manifest, step_record
+    from inspect_validate.errors import listed
     from inspect_validate.images import recorded_bit_depth
 
     path = out / PLAN_FILE
-    steps = read_manifest(out / "manifest.json")["steps"]
+    manifest = read_manifest(out / "manifest.json")
+    steps = manifest["steps"]
     problems = []
     if plan.illumination != _illumination(station).name:
         problems.append(
@@ -362,32 +364,22 @@ def _check_plan(out: Path, plan: Plan, station: Station) -> None:
             continue
         exposure, level = points[name]
         want = {ch: round(pct, 6) for ch, pct in _channels(station, level).items() if pct > 0}
-        got = {
-            int(ch): round(float(pct), 6)
-            for ch, pct in (record.get("channels") or {}).items()
-            if float(pct) > 0
-        }
+        recorded = step_record(out, manifest, name)
+        got = {ch: round(pct, 6) for ch, pct in recorded.channels.items()}
         if want != got:
             problems.append(
                 f"step {name} was lit at {got or 'nothing'}, the plan says {want or 'dark'}"
             )
-        sidecar = out / name / "frame_0001.json"
-        recorded = json.loads(sidecar.read_text()).get("exposure_us") if sidecar.is_file() else None
-        if (
-            plan.varies == "exposure"
-            and isinstance(recorded, (int, float))
-            and abs(recorded - exposure) > 0.02 * exposure + 1.0
-        ):
+        differs = recorded.exposure_differs(exposure) if plan.varies == "exposure" else None
+        if differs is not None:
             problems.append(
-                f"step {name} was exposed {recorded:g} µs, the plan says {exposure:g} µs"
+                f"step {name} was exposed {differs:g} µs, the plan says {exposure:g} µs"
             )
     if problems:
-        shown = "; ".join(problems[:3]) + (
-            f"; and {len(problems) - 3} more" if len(problems) > 3 else ""
-        )
         raise InputError(
-            f"the characterization plan contradicts the frames captured by it ({shown}): it was "
-            "edited since; start again without --resume and a new --out",
+            f"the characterization plan contradicts the frames captured by it "
+            f"({listed(problems, 3)}): it was edited since; start again without --resume "
+            "and a new --out",
             source=str(path),
         )
 

@@ -33,6 +33,7 @@ if TYPE_CHECKING:
     from inspect_validate.model import Prediction
 
 __all__ = [
+    "NO_LIGHT_REMEDY",
     "Gain",
     "IrradianceScale",
     "LightLevel",
@@ -43,6 +44,13 @@ __all__ = [
 ]
 
 MIN_SIGNAL_DN = 1.0  # a point needs at least this much signal above dark to count
+
+#: What to check when an illumination's light does not reach the camera (verify's light
+#: check, train's refusal, a calibration scale of no light).
+NO_LIGHT_REMEDY = (
+    "check the controller's channel wiring and the station's channels:, the strobe, the "
+    "lens cap, the exposure"
+)
 
 
 @dataclass(frozen=True)
@@ -78,6 +86,7 @@ class LightLevel:
 
     @property
     def text(self) -> str:
+        """``lit 143.2 ± 0.4 DN, dark 143.1 ± 0.4 DN in class 'A'``."""
         return (
             f"lit {self.lit:.1f} ± {self.lit_noise:.2g} DN, dark {self.dark:.1f} ± "
             f"{self.dark_noise:.2g} DN in class {self.class_name!r}"
@@ -360,8 +369,7 @@ def fit_scales(
             raise InputError(
                 f"illumination {name!r}: its {method} irradiance scale is {s:.3g}: the "
                 f"measured signal above dark ({', '.join(f'{x:.3g}' for x in measured)} DN) "
-                "says no light of it reaches the camera; check the controller's channel "
-                "wiring and the station's channels:, the strobe, the lens cap, the exposure"
+                f"says no light of it reaches the camera; {NO_LIGHT_REMEDY}"
             )
         out[name] = IrradianceScale(
             name, method, float(s), float(se), float(s * irradiance[name]), used, resid

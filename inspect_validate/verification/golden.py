@@ -302,7 +302,7 @@ def train(
         measure_capture(station, f, rois=rois, comparisons=comparisons, limits=limits, kde="always")
         for f in captures
     ]
-    from inspect_validate.verification.calibration import light_levels
+    from inspect_validate.verification.calibration import NO_LIGHT_REMEDY, light_levels
 
     for folder, run in zip(captures, runs, strict=True):
         for level in light_levels(run.measurements, run.dark, offset=None).values():
@@ -310,9 +310,8 @@ def train(
                 raise InputError(
                     f"step {level.illumination!r}: no light reaches the camera "
                     f"({level.text}): golden statistics of frames no brighter than the "
-                    "dark ones would hold a dead light as good; check the controller's "
-                    "channel wiring and the station's channels:, the strobe, the lens cap, "
-                    "the exposure, then capture again",
+                    f"dark ones would hold a dead light as good; {NO_LIGHT_REMEDY}, then "
+                    "capture again",
                     source=str(folder),
                 )
     first_seen: dict[str, tuple] = {}

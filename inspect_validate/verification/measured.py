@@ -109,50 +109,46 @@ def measure_capture(
 
 def _settings_agree(station: Station, folder: Path, manifest: dict, files, dark_files) -> None:
     """Refuse frames whose recorded settings contradict the station they are verified as:
-    each step's channel levels (the manifest) and exposure (the frames' sidecars). The
-    prediction is made at the station's settings, so a measurement at others would be
-    compared with the wrong numbers (a manifest edited to the station's channels, or
-    sidecars saying 4000 µs where the station says 8000 µs, were measured)."""
-    import json
-
-    def lit(channels) -> dict[int, float]:
-        return {int(ch): float(pct) for ch, pct in (channels or {}).items() if float(pct) > 0}
+    each step's channel levels (the manifest), exposure and pixel format (the frames'
+    sidecars). The prediction is made at the station's settings, so a measurement at
+    others would be compared with the wrong numbers (a manifest edited to the station's
+    channels, or sidecars saying 4000 µs where the station says 8000 µs, were measured)."""
+    from inspect_validate.camera.storage import step_record
+    from inspect_validate.errors import listed
 
     problems = []
-    steps = manifest.get("steps", {})
-    wanted = {i.name: lit(i.channels) for i in station.illuminations}
+    t = station.camera.exposure_us
+    exposed = t is not None and "exposure" not in (
+        manifest.get("camera", {}).get("not_applied") or []
+    )
+    wanted = {
+        i.name: {ch: float(pct) for ch, pct in i.channels.items() if pct > 0}
+        for i in station.illuminations
+    }
     for name, paths in [*files.items(), *([("dark", dark_files)] if dark_files else [])]:
-        recorded = lit(steps.get(name, {}).get("channels"))
+        record = step_record(folder, manifest, name)
         want = wanted.get(name, {})
-        if set(recorded) != set(want) or any(abs(recorded[c] - want[c]) > 1e-6 for c in want):
+        if set(record.channels) != set(want) or any(
+            abs(record.channels[c] - want[c]) > 1e-6 for c in want
+        ):
             problems.append(
-                f"{name} was captured with channels {recorded or 'off'}, the station file "
-                f"says {want or 'off'}"
+                f"{name} was captured with channels {record.channels or 'off'}, the station "
+                f"file says {want or 'off'}"
             )
-        t = station.camera.exposure_us
-        not_applied = manifest.get("camera", {}).get("not_applied") or []
-        sidecar = paths[0].with_suffix(".json")
-        try:
-            meta = json.loads(sidecar.read_text()) if sidecar.is_file() else {}
-        except (OSError, ValueError):
-            continue  # the audit has read it: a sidecar that is not JSON is named there
-        stored = _stored_as(paths[0], meta.get("pixel_format"))
+        stored = _stored_as(paths[0], record.sidecar.get("pixel_format"))
         if stored:
             problems.append(stored)
-        exposure = meta.get("exposure_us")
-        if t is None or "exposure" in not_applied or not isinstance(exposure, (int, float)):
-            continue
-        if abs(exposure - t) > 0.02 * t + 1.0:
+        recorded = record.exposure_differs(t) if exposed and t is not None else None
+        if recorded is not None:
             problems.append(
-                f"{name}'s frames were exposed {exposure:g} µs, the station file says {t:g} µs"
+                f"{name}'s frames were exposed {recorded:g} µs, the station file says {t:g} µs"
             )
     if problems:
         raise InputError(
-            "these frames were taken with other settings than the station file's ("
-            + "; ".join(problems[:3])
-            + (f"; and {len(problems) - 3} more" if len(problems) > 3 else "")
-            + "): they would be compared with a prediction of other settings; capture again "
-            "with this station file, or verify with the station file they were taken with",
+            f"these frames were taken with other settings than the station file's "
+            f"({listed(problems, 3)}): they would be compared with a prediction of other "
+            "settings; capture again with this station file, or verify with the station "
+            "file they were taken with",
             source=str(folder),
         )
 

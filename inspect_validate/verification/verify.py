@@ -42,6 +42,7 @@ if TYPE_CHECKING:
     from collections.abc import Callable
 
     from inspect_validate.station.file import Station
+    from inspect_validate.verification.calibration import LightLevel
     from inspect_validate.verification.measured import Capture
 
 __all__ = ["verify_capture", "verify_folder", "verify_station"]
@@ -345,15 +346,14 @@ def verify_capture(
     )
 
 
-def _light_check(level) -> Check:
+def _light_check(level: LightLevel) -> Check:
     """Whether an illumination's light reaches the camera
     (:class:`~.calibration.LightLevel`): its rise above dark against a pixel's noise."""
+    from inspect_validate.verification.calibration import NO_LIGHT_REMEDY
+
     detail = level.text
     if not level.reaches:
-        detail = (
-            f"no light reaches the camera ({level.text}); check the controller's channel "
-            "wiring and the station's channels:, the strobe, the lens cap, the exposure"
-        )
+        detail = f"no light reaches the camera ({level.text}); {NO_LIGHT_REMEDY}"
     return at_least(
         f"{level.illumination}: light above dark", "light", level.signal, level.noise, "DN", detail
     )

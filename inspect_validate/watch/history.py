@@ -44,7 +44,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from inspect_validate.errors import InputError
-from inspect_validate.files import exclusive_lock, input_file, release_lock
+from inspect_validate.files import (
+    NotRegularFile,
+    exclusive_lock,
+    input_file,
+    regular_opener,
+    release_lock,
+)
 
 if TYPE_CHECKING:
     from inspect_validate.station.file import Station
@@ -233,7 +239,11 @@ class History:
             self._journal(record, rows)
             self._insert(record, rows)
         except OSError as exc:
-            if exc.errno not in (None, errno.ENXIO, errno.ELOOP, errno.EISDIR):
+            if not isinstance(exc, NotRegularFile) and exc.errno not in (
+                errno.ENXIO,
+                errno.ELOOP,
+                errno.EISDIR,
+            ):
                 raise self._unwritable(record, exc) from None
             raise InputError(  # a FIFO, socket, device or link in the journal's place
                 f"cannot write cycle {record.cycle}: its journal {self.journal.name} is not a "
@@ -293,19 +303,8 @@ class History:
             ) from None
 
     def _journal(self, record: CycleRecord, rows) -> None:
-        import stat
-
-        def opener(path, flags):
-            # A FIFO or a link in the journal's place would block the commit or write
-            # elsewhere: refused (ENXIO for a FIFO nobody reads, else by its type).
-            fd = os.open(path, flags | os.O_NOFOLLOW | os.O_NONBLOCK)
-            if not stat.S_ISREG(os.fstat(fd).st_mode):
-                os.close(fd)
-                raise OSError(f"{Path(path).name} is not a regular file; remove it")
-            os.set_blocking(fd, True)
-            return fd
-
-        with open(self.journal, "ab+", opener=opener) as f:
+        # A FIFO or a link in the journal's place would block the commit or write elsewhere.
+        with open(self.journal, "ab+", opener=regular_opener) as f:
             end = f.seek(0, os.SEEK_END)
             if not end:
                 f.write((json.dumps({"meta": self._meta}) + "\n").encode())
