@@ -126,14 +126,16 @@ class SerialAscii:
                 # What has arrived, or wait for one byte: a fixed-size read would sit out
                 # the port's whole 50 ms timeout on every short reply.
                 reply += self._serial.read(self._serial.in_waiting or 1)
-                if self._complete(bytes(reply)):
-                    break
+                # Bounded before it is complete: the same reply is refused however it
+                # arrives (in one read or in many).
                 if len(reply) > REPLY_MAX:
                     raise DeviceError(
                         f"{self.port}: the reply to {command!r} runs past {REPLY_MAX} bytes "
                         f"without {self.reply_end.decode()!r} ({bytes(reply[:60])!r}…); check the "
                         "baud rate, reply_end and that this is the right device"
                     )
+                if self._complete(bytes(reply)):
+                    break
             else:
                 if reply:
                     raise DeviceError(

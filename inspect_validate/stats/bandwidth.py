@@ -262,13 +262,19 @@ def lscv_bandwidth(
     if 0.0 < spread < 2.0**-64 or 2.0**64 < spread < np.inf:
         # Values spread over 1e-190 (their variance underflows to 0) or 1e+190: search at
         # a power of two that brings the spread near 1 (exact), and scale back.
-        scale = np.ldexp(1.0, -int(np.frexp(spread)[1]))
+        # ldexp, not a product with 2**k: 2**1073 for subnormal values is no double.
+        k = -int(np.frexp(spread)[1])
         found = lscv_bandwidth(
-            np.asarray(sample) * scale,
-            quantum=None if quantum is None else quantum * scale,
+            np.ldexp(np.asarray(sample, dtype=np.float64), k),
+            quantum=None if quantum is None else float(np.ldexp(quantum, k)),
             method=method,
         )
-        return Bandwidth(found.h / scale, found.floor / scale, found.at_floor, found.method)
+        return Bandwidth(
+            float(np.ldexp(found.h, -k)),
+            float(np.ldexp(found.floor, -k)),
+            found.at_floor,
+            found.method,
+        )
     moments = _converted_moments(sample)
     n = moments.n
     sigma = np.sqrt(moments.variance)
