@@ -157,15 +157,17 @@ def atomic_write(path: str | Path, data: bytes) -> Path:
     path = output_file(path)
     if path.exists() and not path.is_file():
         try:
-            # Not blocking on a FIFO nobody reads (ENXIO): devices --json FIFO waited for good.
-            fd = os.open(path, os.O_WRONLY | os.O_NONBLOCK)
+            fd = _stream_fd(path)
             os.set_blocking(fd, True)
             with open(fd, "wb") as f:
                 f.write(data)
         except OSError as exc:
             why = exc.strerror or str(exc)
             if exc.errno == errno.ENXIO:
-                why = "a pipe no program reads; start its reader first, or give a file"
+                why = (
+                    f"a pipe no program read within {READER_WAIT_S:g} s; start its reader "
+                    "first, or give a file"
+                )
             raise InputError(f"cannot write ({why})", source=str(path)) from None
         return path
     if path.is_symlink():
@@ -191,6 +193,26 @@ def atomic_write(path: str | Path, data: bytes) -> Path:
         Path(tmp).unlink(missing_ok=True)
         raise
     return path
+
+
+#: How long an output that is a FIFO waits for a reader to open it, s (one started beside
+#: the command may come a moment later; none at all blocked devices --json FIFO for good).
+READER_WAIT_S = 10.0
+
+
+def _stream_fd(path: Path) -> int:
+    """A descriptor to write ``path`` (a device, pipe or terminal) as a stream: a FIFO's
+    reader is waited for :data:`READER_WAIT_S`, then ENXIO is raised."""
+    import time
+
+    deadline = time.monotonic() + READER_WAIT_S
+    while True:
+        try:
+            return os.open(path, os.O_WRONLY | os.O_NONBLOCK)
+        except OSError as exc:
+            if exc.errno != errno.ENXIO or time.monotonic() >= deadline:
+                raise
+            time.sleep(0.05)
 
 
 class NotRegularFile(OSError):

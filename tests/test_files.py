@@ -29,7 +29,9 @@ def test_a_pipe_is_written_as_a_stream_and_stays_a_pipe(tmp_path):
     link = tmp_path / "stdout"
     link.symlink_to(fifo)
     received = []
-    reader = threading.Thread(target=lambda: received.append(fifo.read_bytes()))
+    # The reader opens the FIFO a moment after the write begins, as a reader started
+    # beside the command may (a refusal then was a race the README's command lost once).
+    reader = threading.Timer(0.3, lambda: received.append(fifo.read_bytes()))
     reader.start()
     atomic_write(link, b"frame report\n")
     reader.join(timeout=10)
@@ -99,12 +101,15 @@ def test_a_lock_file_that_is_a_link_or_a_fifo_is_refused_untouched(
         assert lock.is_symlink() if kind == "link" else lock.exists()
 
 
-def test_a_pipe_nobody_reads_is_refused_not_waited_on(tmp_path):
-    """devices --json FIFO with no reader blocked for good."""
+def test_a_pipe_nobody_reads_is_refused_not_waited_on(tmp_path, monkeypatch):
+    """devices --json FIFO with no reader blocked for good: its reader is waited for a
+    while (one started beside the command comes a moment later), then it is refused."""
+    from inspect_validate import files
     from inspect_validate.errors import InputError
 
+    monkeypatch.setattr(files, "READER_WAIT_S", 0.2)
     fifo = tmp_path / "out.json"
     os.mkfifo(fifo)
-    with pytest.raises(InputError, match="a pipe no program reads"):
+    with pytest.raises(InputError, match=r"a pipe no program read within 0\.2 s"):
         write_json({"a": 1}, fifo)
     assert fifo.exists() and not fifo.is_file()
