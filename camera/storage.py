@@ -124,13 +124,11 @@ class CaptureStore:
         else:
             self.manifest = {
                 "schema": "inspect-validate/capture",
-                "schema_version": 2,  # 2: every step's frame hashes are required
+                "schema_version": 2,  # 2: every step records its frames' hashes
                 "station": str(station_path),
                 "station_sha256": station_sha256,
                 "tool_version": __version__,
                 "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-                # Every step records its frames' SHA-256: an audit requires them.
-                "frame_hashes": True,
                 "steps": {},
             }
 
@@ -274,8 +272,8 @@ def audit_capture(folder: Path, manifest: dict, steps: Iterable[str]) -> dict[st
     Each step's frame files must be those its manifest record counts and hashes, each
     with its sidecar, both naming the step and the file, the TIFF's own description
     agreeing with the sidecar (frame id, time, step, light), and no frame twice (by
-    its bytes, or by its camera frame id and timestamp). Captures written before
-    hashes were recorded are checked for all but the hashes.
+    its bytes, or by its camera frame id and timestamp). A step without its hashes is
+    refused: nothing else tells a rewritten frame from the one captured.
 
     Returns
     -------
@@ -294,11 +292,9 @@ def audit_capture(folder: Path, manifest: dict, steps: Iterable[str]) -> dict[st
     hashes: dict[str, str] = {}
     seen: dict[str, str] = {}
     stamps: dict[tuple, str] = {}
-    # A version-2 manifest always has hashes: removing them (and the flag) hides nothing.
-    version = manifest.get("schema_version")
-    hashed = manifest.get("frame_hashes") is True or (
-        isinstance(version, int) and not isinstance(version, bool) and version >= 2
-    )
+    # Without its hashes a manifest cannot tell rewritten frames from those captured, so
+    # none is read without them, whatever version it claims (an unreleased build wrote
+    # version 1 without hashes for two days; a version number is as easily edited).
     for step in steps:
         record = manifest.get("steps", {}).get(step, {})
         recorded = record.get("sha256")
@@ -311,14 +307,12 @@ def audit_capture(folder: Path, manifest: dict, steps: Iterable[str]) -> dict[st
             problems.append(
                 f"{step}: the manifest records {count} frames, the folder holds {len(files)}"
             )
-        if hashed and not (
-            isinstance(recorded, dict) and all(isinstance(v, str) for v in recorded.values())
-        ):
+        if not (isinstance(recorded, dict) and all(isinstance(v, str) for v in recorded.values())):
             problems.append(
                 f"{step}: the manifest's frame hashes (sha256) are missing or damaged, so the "
                 "frames cannot be checked"
             )
-        if isinstance(recorded, dict) and recorded:
+        if isinstance(recorded, dict):
             missing = sorted(set(recorded) - set(names))
             extra = sorted(set(names) - set(recorded))
             if missing:
@@ -334,6 +328,7 @@ def audit_capture(folder: Path, manifest: dict, steps: Iterable[str]) -> dict[st
             digest = hashlib.sha256(data).hexdigest()
             hashes[where] = digest
             if isinstance(recorded, dict) and recorded.get(path.name) not in (None, digest):
+                # None: the file is already named above as not written by this capture
                 problems.append(f"{where} changed since it was written (SHA-256 differs)")
             if digest in seen:
                 problems.append(f"{where} is the same frame as {seen[digest]} (identical bytes)")

@@ -126,11 +126,11 @@ def test_verify_refuses_a_tampered_capture_naming_what_disagrees(
     assert named in err and str(cap) in err and "PASS" not in out
 
 
-def test_the_untouched_capture_and_one_without_hashes_pass(cli, tmp_path, captured):
-    """A capture made before hashes were recorded (version 1, no ``sha256`` in the
-    manifest) is still read: a valid capture is never refused. A version-2 manifest
-    whose hashes and flag were removed is refused (frames rewritten 16× with their hashes
-    removed were measured: 'lower the exposure')."""
+def test_the_untouched_capture_passes_and_one_without_hashes_is_refused(cli, tmp_path, captured):
+    """Frames rewritten 16× with their hashes removed were measured ('lower the
+    exposure'); then the same with the manifest edited back to version 1, as a build
+    before hashes wrote it. Without hashes nothing tells a rewritten frame from the one
+    captured, so no manifest is read without them, whatever version it claims."""
     path, cap = _copy(captured, tmp_path)
     code, out, err = cli(["verify", path, "--frames", cap])
     assert code == 0, out + err
@@ -138,14 +138,24 @@ def test_the_untouched_capture_and_one_without_hashes_pass(cli, tmp_path, captur
     assert all(len(step["sha256"]) == step["frames"] for step in manifest["steps"].values())
     for step in manifest["steps"].values():
         del step["sha256"]
-    del manifest["frame_hashes"]  # as a capture of a version before hashes wrote it
+    for version in (2, 1):
+        manifest["schema_version"] = version
+        (cap / "manifest.json").write_text(json.dumps(manifest))
+        code, out, err = cli(["verify", path, "--frames", cap])
+        assert code == 2 and "frame hashes (sha256) are missing" in err, out + err
+        assert "capture again" in err
+
+
+def test_a_frame_added_under_empty_hashes_is_refused(cli, tmp_path, captured):
+    """A step whose hash record was emptied ({}) still names every frame as not written
+    by the capture (the comparison ran only on a non-empty record)."""
+    path, cap = _copy(captured, tmp_path)
+    manifest = json.loads((cap / "manifest.json").read_text())
+    step = next(iter(manifest["steps"]))
+    manifest["steps"][step]["sha256"] = {}
     (cap / "manifest.json").write_text(json.dumps(manifest))
     code, out, err = cli(["verify", path, "--frames", cap])
-    assert code == 2 and "frame hashes (sha256) are missing" in err, out + err  # version 2
-    manifest["schema_version"] = 1  # as that version wrote it
-    (cap / "manifest.json").write_text(json.dumps(manifest))
-    code, out, err = cli(["verify", path, "--frames", cap])
-    assert code == 0, out + err
+    assert code == 2 and "not written by this capture" in err, out + err
 
 
 def test_train_refuses_the_same_capture_twice(cli, tmp_path, captured):

@@ -545,22 +545,22 @@ def test_frames_whose_recorded_settings_contradict_the_station_are_refused(cli, 
 
 
 def test_frames_stored_otherwise_than_their_pixel_format_are_refused(cli, tmp_path):
-    """A capture whose frames were rewritten as float (hashes removed, as an old capture
-    has none) was measured: 18 checks failed on numbers of another scale. The sidecar's
-    pixel format says what the frames must hold."""
+    """A capture whose frames were rewritten as float was measured: 18 checks failed on
+    numbers of another scale. The sidecar's pixel format says what the frames must hold,
+    even when the manifest's hashes were rewritten to match the new files."""
+    import hashlib
+
     import tifffile
 
     path = station(tmp_path)
     assert cli(["verify", path, "--out", tmp_path / "f"])[0] == 0
     manifest = json.loads((tmp_path / "f" / "manifest.json").read_text())
-    manifest.pop("frame_hashes")
-    manifest["schema_version"] = 1  # as a capture from before hashes: the audit cannot tell
-    for record in manifest["steps"].values():
-        record.pop("sha256")
-    (tmp_path / "f" / "manifest.json").write_text(json.dumps(manifest))
     for frame in (tmp_path / "f").glob("*/frame_*.tif"):
         with tifffile.TiffFile(frame) as tif:
             description, pixels = tif.pages[0].description, tif.asarray()
         tifffile.imwrite(frame, pixels.astype("float32") / 255, description=description)
+        digest = hashlib.sha256(frame.read_bytes()).hexdigest()
+        manifest["steps"][frame.parent.name]["sha256"][frame.name] = digest
+    (tmp_path / "f" / "manifest.json").write_text(json.dumps(manifest))
     code, _, err = cli(["verify", path, "--frames", tmp_path / "f"])
     assert code == 2 and "holds float32 pixels, where its sidecar records Mono16" in err, err
