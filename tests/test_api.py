@@ -71,7 +71,7 @@ def test_a_scene_sweeps_with_its_own_ranking_and_prints_the_commands_table(cli):
     ranking = read_scene(path).sweep()
     assert ranking.lights[ranking.index[0][0]] == "amber LED"
     table = format_prediction(ranking)
-    code, out, _ = cli(["predict", path, "--no-kde"])
+    code, out, _ = cli(["predict", path, "--kde", "never"])
     assert code == 0
     ours = [line for line in table.splitlines() if line.startswith("1 ")]
     printed = [line for line in out.splitlines() if line.startswith("1 ")]

@@ -165,7 +165,8 @@ def test_console_script_and_module_entry_points(paperboard):
             str(paperboard / "optimized.png"),
             "--rois",
             str(paperboard / "rois.yaml"),
-            "--no-kde",
+            "--kde",
+            "never",
         ],
         capture_output=True,
         text=True,
@@ -182,10 +183,10 @@ def test_cli_start_up_does_not_load_the_numerics():
     )
 
 
-@pytest.mark.parametrize("flags", [["--no-kde"], [], ["--kde", "always"]])
+@pytest.mark.parametrize("flags", [["--kde", "never"], [], ["--kde", "always"]])
 def test_measure_loads_neither_scipy_nor_numba(paperboard, flags):
     """A heavy import is much of what a user waits for (scipy.special's import was 0.18 s
-    of a 0.51 s ``measure --no-kde``). The paperboard classes are Gaussian, so the
+    of a 0.51 s ``measure --kde never``). The paperboard classes are Gaussian, so the
     default (``--kde auto``) computes no ε KDE; ``--kde always`` does, on numpy alone."""
     code = (
         "import sys\n"
@@ -269,6 +270,33 @@ def test_kde_auto_from_the_cli_lists_what_it_skipped(tmp_path):
     assert doc["skipped"] and all(0 <= c["error_counted"] <= 0.5 for c in doc["comparisons"])
 
 
+def test_a_frame_stored_as_float_takes_its_integer_frames_kde_decisions(tmp_path):
+    """A uint8 frame and the same frame saved as float32 / 255 took different ε KDE
+    decisions under --kde auto (skipped in one, computed in the other): the float frame
+    is on the 1/255 lattice and is measured as such, its ε to 1e-9 of the uint8 one's."""
+    import tifffile
+
+    rng = np.random.default_rng(0)
+    frame = np.zeros((100, 300), np.uint8)
+    frame[:, :150] = np.round(rng.normal(100, 2.5, (100, 150)))
+    frame[:, 150:] = np.round(rng.normal(104, 3.0, (100, 150)))
+    tifffile.imwrite(tmp_path / "u8.tif", frame)
+    tifffile.imwrite(tmp_path / "f32.tif", frame.astype(np.float32) / 255)
+    (tmp_path / "r.yaml").write_text(
+        "classes:\n  A: [{rect: [0, 0, 150, 100]}]\n  B: [{rect: [150, 0, 150, 100]}]\n"
+    )
+    docs = []
+    for name in ("u8", "f32"):
+        out = tmp_path / f"{name}.json"
+        args = ["measure", tmp_path / f"{name}.tif", "--rois", tmp_path / "r.yaml"]
+        assert run_cli([*args, "--json", out]) == 0
+        docs.append(json.loads(out.read_text()))
+    (u8,), (f32,) = (doc["comparisons"] for doc in docs)
+    assert u8["error_kde"] is None and f32["error_kde"] is None  # the Gaussians fit
+    assert f32["error_gaussian"] == pytest.approx(u8["error_gaussian"], rel=1e-9)
+    assert docs[0]["skipped"] == docs[1]["skipped"]
+
+
 def test_saturation_comes_from_the_recorded_bit_depth(tmp_path, capsys):
     """Mono12 frames stored in uint16, as capture stores them: a region at 4095 is fully
     saturated, though far below the storage type's 65535. The bit depth comes from the
@@ -287,7 +315,7 @@ def test_saturation_comes_from_the_recorded_bit_depth(tmp_path, capsys):
 
     def saturated(*extra):
         out = tmp_path / "m.json"
-        run_cli(["measure", frames, "--rois", rois, "--json", out, "--no-kde", *extra])
+        run_cli(["measure", frames, "--rois", rois, "--json", out, "--kde", "never", *extra])
         capsys.readouterr()
         return {c["name"]: c["saturated_fraction"] for c in json.loads(out.read_text())["classes"]}
 

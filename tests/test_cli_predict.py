@@ -44,7 +44,8 @@ def test_predict_table2_top_and_rank_by(capsys):
                 "3",
                 "--rank-by",
                 "snr_db",
-                "--no-kde",
+                "--kde",
+                "never",
             ]
         )
         == 0
@@ -106,7 +107,7 @@ def test_masked_wavelengths_are_reported(tmp_path, capsys):
         "classes:\n  A: {spectrometer: {readings: r.csv, black: black.csv, white: white.csv}}\n  B: {file: b.csv}\n"
         "lights: [{led: {peak: 500, fwhm: 20}}]\noptics: [ideal]\ncameras: [cmos-visible]\n"
     )
-    assert run_cli(["predict", d / "s.yaml", "--no-kde"]) == 0
+    assert run_cli(["predict", d / "s.yaml", "--kde", "never"]) == 0
     err = capsys.readouterr().err
     assert (
         "note: A (" in err

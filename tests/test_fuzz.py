@@ -208,7 +208,7 @@ def test_measure_with_hostile_roi_files(capsys, paperboard, classes, erode):
         path = Path(tmp) / "rois.yaml"
         path.write_text(yaml.safe_dump({"erode": erode, "classes": classes}))
         code, out, err = run(
-            ["measure", paperboard / "optimized.png", "--rois", path, "--no-kde"], capsys
+            ["measure", paperboard / "optimized.png", "--rois", path, "--kde", "never"], capsys
         )
         assert_clean(code, out, err, allowed=(0, 1, 2))
 
@@ -414,7 +414,7 @@ def test_sequential_stopping_settings(capsys, precision, frames, rois):
             "{p}/optimized.png/x.json",
         ],
         ["measure", "{p}/optimized.png", "--rois", "{p}/rois.yaml", "--saturation-level", "inf"],
-        ["measure", "{p}/optimized.png", "--rois", "{p}", "--no-kde"],
+        ["measure", "{p}/optimized.png", "--rois", "{p}", "--kde", "never"],
         ["predict", "{p}/optimized.png"],
         ["analyze-spectra", "{p}/rois.yaml"],
     ],

@@ -164,7 +164,7 @@ def _pair_counts(
         raise InputError(
             f"grey values span {hi - lo:.6g} DN, {(hi - lo) / step:.3g} times the kernel "
             "resolution: too wide for a kernel density; check the frames' data type and dark "
-            "frames, or measure with --no-kde"
+            "frames, or measure with --kde never"
         )
     w, self0, self1 = linear_bin(x, lo, step, int(np.ceil((hi - lo) / step)) + 2)
     auto = _autocorrelate(w, None if max_lag is None else int(np.ceil(max_lag / step)) + 1)

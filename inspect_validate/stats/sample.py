@@ -94,7 +94,8 @@ class LatticeSample:
 class EmpiricalCdf:
     """A sample's distribution function: ``cumulative[i + 1]`` of its ``n`` values are
     at or below ``points[i]`` DN (``cumulative[0]`` is 0); ``step`` is a lattice
-    sample's spacing, DN (None for a float sample). Made once per sample by
+    sample's spacing, DN, or a float sample's recovered :func:`quantisation_step`
+    (None for continuous values). Made once per sample by
     :func:`empirical_cdf` (a float sample is sorted), read many times."""
 
     points: np.ndarray
@@ -124,7 +125,7 @@ def empirical_cdf(sample: Sample | EmpiricalCdf) -> EmpiricalCdf:
         cumulative = np.concatenate([[0], np.cumsum(sample.counts)])
         return EmpiricalCdf(sample.points, cumulative, 1.0 / sample.denominator)
     points = np.sort(np.asarray(sample, dtype=np.float64).ravel())
-    return EmpiricalCdf(points, np.arange(points.size + 1))
+    return EmpiricalCdf(points, np.arange(points.size + 1), quantisation_step(points))
 
 
 _MISFIT_GRID = np.linspace(-6.0, 6.0, 241)  # z, in steps of 0.05σ
@@ -135,8 +136,8 @@ def gaussian_misfit(sample: Sample | EmpiricalCdf, mean: float, variance: float)
     Gaussian N(μ, σ²): the largest difference of their cumulative distributions over
     μ ± 6σ, on a 0.05σ grid.
 
-    A quantised sample (:class:`LatticeSample`) is compared with its Gaussian
-    quantised alike: P(X ≤ x) against Φ((x + q/2 − μ)/σ) at lattice points x, q the
+    A quantised sample (a :class:`LatticeSample`, or float values on a lattice:
+    :func:`quantisation_step`) is compared with its Gaussian quantised alike: P(X ≤ x) against Φ((x + q/2 − μ)/σ) at lattice points x, q the
     lattice step. For a Gaussian sample of n values, on average 0.87/√n (the mean of
     Kolmogorov's distribution) or less; NaN for σ = 0.
     """
@@ -148,8 +149,11 @@ def gaussian_misfit(sample: Sample | EmpiricalCdf, mean: float, variance: float)
     cdf = empirical_cdf(sample)
     x, z = mean + sd * _MISFIT_GRID, _MISFIT_GRID
     if cdf.step is not None:
-        x = np.floor(x / cdf.step) * cdf.step
-        z = (x + 0.5 * cdf.step - mean) / sd
+        # Half-way to the next lattice point: P(X ≤ x) is the same, and a float
+        # sample's points (k/255 in float32) are not exactly where k·step puts them.
+        origin = cdf.points[0]
+        x = origin + (np.floor((x - origin) / cdf.step) + 0.5) * cdf.step
+        z = (x - mean) / sd
     model = _upper_tail(-z, np.zeros_like(z))[0]  # Φ(z) = Q(−z)
     return float(np.max(np.abs(cdf.fraction_between(-np.inf, x) - model)))
 
@@ -317,6 +321,9 @@ def quantisation_step(sample: Sample) -> float | None:
     values (e.g. 12-bit frames scaled to 0..1) the step is recovered when every
     distance is a small rational multiple (denominator ≤ 64) of the smallest one,
     to 1e-6 of the step; otherwise the data are continuous and the result is None.
+    Values that are all single-precision numbers (a frame stored as float32) are
+    allowed their rounding, 2⁻²⁴ of their size, where that is below 1 % of the step:
+    ``k / 255`` in float32 is on the 1/255 lattice, as the uint8 frame it came from.
     A sample with a single distinct value has no step (None).
     """
     from fractions import Fraction
@@ -337,9 +344,20 @@ def quantisation_step(sample: Sample) -> float | None:
         return None
     denominators = {Fraction(float(r)).limit_denominator(64).denominator for r in ratios[:4096]}
     step = smallest / lcm(*denominators)
-    if not step > 0:  # finer than the smallest double (values near 1e-300): continuous
+    # Finer than the smallest double (values near 1e-300), or so fine that float64 holds
+    # no 1e-6 of a step across the span (the common multiple of many denominators of
+    # continuous values): continuous.
+    if not step > 0 or (u[-1] - u[0]) / step > 2**32:
         return None
-    k = (u - u[0]) / step
-    if np.all(np.abs(k - np.round(k)) <= 1e-6):
+    k = np.round((u - u[0]) / step)
+    if np.all(np.abs((u - u[0]) / step - k) <= 1e-6):
+        return step
+    # Each float32 value is its lattice point to within half its unit in the last place,
+    # 2⁻²⁴|u|: the smallest gap carries that error, the span does not (relatively).
+    rounding = 2.0**-23 * np.maximum(np.abs(u), abs(u[0]))
+    if not np.all(u.astype(np.float32) == u) or rounding.max() > 0.01 * step:
+        return None
+    step = float(u[-1] - u[0]) / float(k[-1])
+    if np.all(np.abs((u - u[0]) - k * step) <= rounding + 1e-6 * step):
         return step
     return None

@@ -75,7 +75,16 @@ def capture(cli, tmp_path, name, **top):
 
 def measured(cli, out, tmp_path):
     doc = tmp_path / f"{out.parent.name}.json"
-    args = ["measure", out / "amber", "--rois", STATION / "rois.yaml", "--no-kde", "--json", doc]
+    args = [
+        "measure",
+        out / "amber",
+        "--rois",
+        STATION / "rois.yaml",
+        "--kde",
+        "never",
+        "--json",
+        doc,
+    ]
     assert cli([str(a) for a in args])[0] == 0
     return {c["name"]: c for c in json.loads(doc.read_text())["classes"]}
 

@@ -91,7 +91,8 @@ def test_predict_plots_and_render_round_trip(tmp_path):
             [
                 "predict",
                 scene,
-                "--no-kde",
+                "--kde",
+                "never",
                 "--plot",
                 tmp_path / "plots",
                 "--render",
@@ -118,7 +119,8 @@ def test_predict_plots_and_render_round_trip(tmp_path):
                     tif,
                     "--rois",
                     tmp_path / "frames" / f"{stem}_rois.yaml",
-                    "--no-kde",
+                    "--kde",
+                    "never",
                     "--json",
                     out,
                 ]

@@ -172,7 +172,7 @@ def test_cli_lists_what_the_ranking_did_not_compute(tmp_path, capsys):
         f"lights: [{leds}]\noptics: [ideal]\ncameras: [cmos-visible, ingaas-swir]\n"
     )
     out = tmp_path / "p.json"
-    assert run(["predict", tmp_path / "s.yaml", "--top", "3", "--json", out, "--no-kde"]) == 0
+    assert run(["predict", tmp_path / "s.yaml", "--top", "3", "--json", out, "--kde", "never"]) == 0
     err = capsys.readouterr().err
     assert "not computed: ε Gauss of A vs B,C, B vs A,C, C vs A,B" in err
     assert "for the 3 rows listed only, not for 12 other combinations: 36 root searches" in err
@@ -229,7 +229,7 @@ def test_cli_predict_on_dask_by_address_and_locally(tmp_path, capsys, dask_clust
         ("local", ["--dask"]),
     ):
         out = tmp_path / f"{label}.json"
-        assert run(["predict", scene, "--json", out, "--no-kde", *extra]) == 0, label
+        assert run(["predict", scene, "--json", out, "--kde", "never", *extra]) == 0, label
         docs[label] = json.loads(out.read_text())
     assert docs["address"]["ranking"] == docs["here"]["ranking"] == docs["local"]["ranking"]
     capsys.readouterr()

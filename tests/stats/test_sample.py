@@ -101,3 +101,39 @@ def test_the_step_of_values_near_the_smallest_doubles_is_none_without_warnings()
     with np.errstate(all="raise"):
         step = quantisation_step(values)
     assert step is None or step > 0
+
+
+@pytest.mark.parametrize("bits", [8, 12, 16])
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_a_scaled_float_frame_is_on_the_lattice_of_its_integer_frame(bits, dtype):
+    """A uint8 frame and the same frame stored as float32 / 255 took different ε KDE
+    decisions: the float32 values miss k/255 by their rounding (2⁻²⁴ of their size), so
+    no step was found and their Gaussian misfit was that of a staircase. The step is the
+    integer frame's, scaled: to 1e-9 from float64; from float32 to 1e-4, as float32
+    holds it over a span of 20 codes near 0.5 (1/65535 and 1/65536 are the same there,
+    to its 2⁻²⁵). The misfit is the integer frame's to 1e-4."""
+    from inspect_validate.stats.sample import as_sample, gaussian_misfit, quantisation_step
+
+    top = 2**bits - 1
+    codes = np.clip(np.round(np.random.default_rng(bits).normal(top / 2, 3.0, 20000)), 0, top)
+    scaled = (codes / top).astype(dtype)
+    rel = 1e-4 if dtype == np.float32 else 1e-9
+    assert quantisation_step(scaled) == pytest.approx(1 / top, rel=rel)
+    lattice, floats = as_sample(codes.astype(np.uint16)), as_sample(scaled)
+    m, mf = sample_moments(lattice), sample_moments(floats)
+    assert gaussian_misfit(floats, mf.mean, mf.variance) == pytest.approx(
+        gaussian_misfit(lattice, m.mean, m.variance), abs=1e-4
+    )
+
+
+def test_continuous_values_have_no_step():
+    """Continuous float64 values found a 'step' of 1e-35 (the common multiple of the
+    small denominators of their ratios), finer than float64 resolves across the span;
+    float32 continuous values keep their representation's step, far below their spread."""
+    from inspect_validate.stats.sample import quantisation_step
+
+    rng = np.random.default_rng(2)
+    assert quantisation_step(rng.normal(0.5, 0.01, 1000)) is None
+    step = quantisation_step(rng.normal(0.5, 0.01, 100000).astype(np.float32))
+    assert step is None or step <= 2.0**-24
+    assert quantisation_step(np.arange(10) * 0.1 + 0.3) == pytest.approx(0.1, rel=1e-12)

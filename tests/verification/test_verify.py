@@ -129,7 +129,8 @@ def test_measure_and_verify_agree_on_every_shared_number(cli, tmp_path):
             tmp_path / "rois.yaml",
             "--json",
             tmp_path / "m.json",
-            "--no-kde",
+            "--kde",
+            "never",
         ]
     )
     assert code == 0, err
@@ -297,7 +298,7 @@ def test_predict_on_the_station_as_a_scene_gives_verifys_nominal_numbers(cli, tm
     scene["comparisons"] = {"weights": "equal"}
     (tmp_path / "scene.yaml").write_text(yaml.safe_dump(scene))
     code, _out, err = cli(
-        ["predict", tmp_path / "scene.yaml", "--json", tmp_path / "p.json", "--no-kde"]
+        ["predict", tmp_path / "scene.yaml", "--json", tmp_path / "p.json", "--kde", "never"]
     )
     assert code == 0, err
     rows = {r["light"]: r for r in json.loads((tmp_path / "p.json").read_text())["ranking"]}
