@@ -62,21 +62,16 @@ def rate_of_k(k: float) -> float:
 
 def normal_equivalent(rate: float) -> float:
     """The k of :func:`rate_of_k`: the two-sided normal quantile of ``rate``."""
-    from scipy.special import ndtri
-
-    return float(-ndtri(rate / 2.0))
+    return quantile(rate)
 
 
 def quantile(rate: float, *, df: float = math.inf, sided: int = 2) -> float:
     """The multiplier of a standard error that a value exceeds with probability ``rate``
     when nothing changed: the normal quantile, or Student's t with ``df`` degrees of
     freedom (a spread estimated from df + 1 repeats); ``sided`` 2 for |deviation|."""
-    from scipy.special import ndtri, stdtrit
+    from inspect_validate.stats.quantiles import student_quantile
 
-    p = 1.0 - rate / sided
-    if not math.isfinite(df):
-        return float(ndtri(p))
-    return float(stdtrit(df, p))
+    return student_quantile(rate / sided, df)
 
 
 @dataclass(frozen=True)
