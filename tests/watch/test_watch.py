@@ -193,17 +193,20 @@ def test_a_kill_mid_cycle_loses_nothing_committed(tmp_path, golden):
     proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     try:
         deadline = time.monotonic() + 120
-        while time.monotonic() < deadline:  # wait for two committed cycles, then mid-third
+        # Two committed cycles, then the next one's capture under way (a frame written):
+        # a fixed pause after the second commit sometimes killed it between cycles,
+        # with nothing under way to set aside.
+        while time.monotonic() < deadline:
+            n = 0
             if db.exists():
                 with sqlite3.connect(db) as con:
                     try:
                         (n,) = con.execute("SELECT COUNT(*) FROM cycles").fetchone()
                     except sqlite3.OperationalError:
-                        n = 0
-                if n >= 2:
-                    break
-            time.sleep(0.05)
-        time.sleep(0.3)  # inside the next cycle's capture
+                        pass
+            if n >= 2 and list((tmp_path / "w" / f"cycle-{n:06d}").glob("*/frame_*.tif")):
+                break
+            time.sleep(0.02)
         os.kill(proc.pid, signal.SIGKILL)
         proc.wait(10)
     finally:
