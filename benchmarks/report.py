@@ -445,7 +445,7 @@ def skipped_work(quick: bool) -> Knob:
         path.write_text(yaml.safe_dump(doc, sort_keys=False))
         full = read_station(path)
         plan = plan_verification(full)
-        dominated = dominated_illuminations(full, plan.model, plan.comparisons)
+        dominated = dominated_illuminations(full, plan.prediction)
         kept = full.model_copy(
             update={"illuminations": [i for i in full.illuminations if i.name not in dominated]}
         )

@@ -185,7 +185,7 @@ def verification_document(v: Verification) -> dict:
             },
             "illuminations": {k: asdict(s) for k, s in v.scales.items()},
         },
-        "exposure_time_s": float(v.prediction.exposure_time[0, 0, 0]),
+        "exposure_time_s": float(v.prediction.exposure_time[0]),
         "classes": [_row_document(r) for r in v.classes],
         "comparisons": [_row_document(r) for r in v.comparisons],
         "ranking": None if v.ranking is None else asdict(v.ranking),

@@ -36,9 +36,9 @@ if TYPE_CHECKING:
     from inspect_validate.comparisons import Comparisons
     from inspect_validate.components.optics import Optics
     from inspect_validate.components.sensors import SensorModel
-    from inspect_validate.model import Prediction
     from inspect_validate.scene import Scene
     from inspect_validate.station.file import Station
+    from inspect_validate.station.prediction import StationPrediction
 
 __all__ = ["StationModel", "illumination_light", "station_model"]
 
@@ -95,23 +95,27 @@ class StationModel:
         *,
         scale: Mapping[str, float] | None = None,
         comparisons: Comparisons | None = None,
-    ) -> Prediction:
-        """:func:`~inspect_validate.model.predict` of every illumination, shape (L, 1, 1)."""
+    ) -> StationPrediction:
+        """:func:`~inspect_validate.model.predict` of every illumination of ``station``
+        (``scale``: name → factor on its irradiance, a calibration)."""
         from inspect_validate.model import Exposure, predict
+        from inspect_validate.station.prediction import StationPrediction
 
         exposure = (
             Exposure("fixed", time=self.exposure_time)
             if self.exposure_time is not None
             else self.scene.exposure
         )
-        return predict(
-            self.lights(station, scale=scale),
-            [self.optics],
-            [self.sensor],
-            list(self.scene.classes),
-            exposure=exposure,
-            grid=self.scene.grid,
-            comparisons=comparisons or self.scene.comparisons,
+        return StationPrediction.of(
+            predict(
+                self.lights(station, scale=scale),
+                [self.optics],
+                [self.sensor],
+                list(self.scene.classes),
+                exposure=exposure,
+                grid=self.scene.grid,
+                comparisons=comparisons or self.scene.comparisons,
+            )
         )
 
 

@@ -21,8 +21,8 @@ if TYPE_CHECKING:
     from inspect_validate.acceptance import Acceptance
     from inspect_validate.comparisons import Comparisons
     from inspect_validate.measurement import Measurement
-    from inspect_validate.model import Prediction
     from inspect_validate.scene import Scene
+    from inspect_validate.station.prediction import StationPrediction
     from inspect_validate.verification.results import ClassAgreement, ComparisonAgreement
 
 __all__ = ["agreement_rows", "ranking_agreement", "ranking_comparison"]
@@ -30,8 +30,8 @@ __all__ = ["agreement_rows", "ranking_agreement", "ranking_comparison"]
 
 def agreement_rows(
     measurements: dict[str, Measurement],
-    p: Prediction,
-    nominal: Prediction,
+    p: StationPrediction,
+    nominal: StationPrediction,
     dark_means: dict[str, float] | None,
     offset: float,
     *,
@@ -43,9 +43,10 @@ def agreement_rows(
 
     class_rows, comparison_rows = [], []
     temporal = p.variance - p.spectral_variance  # σ² = temporal (mean over samples) + spectral
-    for li, (ill, m) in enumerate(measurements.items()):
+    for ill, m in measurements.items():
+        li = p.index(ill)
         for k, c in enumerate(m.classes):
-            pm, pv = float(p.mean[li, 0, 0, k]), float(p.variance[li, 0, 0, k])
+            pm, pv = float(p.mean[li, k]), float(p.variance[li, k])
             level = (dark_means or {}).get(c.name, offset)
             signal = pm - offset
             class_rows.append(
@@ -55,13 +56,13 @@ def agreement_rows(
                     predicted=PredictedClass(
                         mean=pm,
                         variance=pv,
-                        temporal_variance=float(temporal[li, 0, 0, k]),
-                        spatial_variance=float(p.spectral_variance[li, 0, 0, k]),
-                        saturated_fraction=float(p.saturated_fraction[li, 0, 0, k]),
+                        temporal_variance=float(temporal[li, k]),
+                        spatial_variance=float(p.spectral_variance[li, k]),
+                        saturated_fraction=float(p.saturated_fraction[li, k]),
                     ),
                     nominal=NominalClass(
-                        mean=float(nominal.mean[li, 0, 0, k]),
-                        variance=float(nominal.variance[li, 0, 0, k]),
+                        mean=float(nominal.mean[li, k]),
+                        variance=float(nominal.variance[li, k]),
                     ),
                     measured=MeasuredClass(
                         mean=c.mean,
@@ -78,21 +79,21 @@ def agreement_rows(
                 )
             )
         for j, comp in enumerate(m.comparisons):
-            predicted_kde = predicted_kde_error(p, (li, 0, 0), j) if need_kde else None
+            predicted_kde = predicted_kde_error(p, li, j) if need_kde else None
             comparison_rows.append(
                 ComparisonAgreement(
                     illumination=ill,
                     comparison=comp.label,
                     predicted=ComparisonValues(
-                        snr_db=float(p.snr_db[li, 0, 0, j]),
-                        cnr_db=float(p.cnr_db[li, 0, 0, j]),
-                        error_gaussian=float(p.error_gaussian[li, 0, 0, j]),
+                        snr_db=float(p.snr_db[li, j]),
+                        cnr_db=float(p.cnr_db[li, j]),
+                        error_gaussian=float(p.error_gaussian[li, j]),
                         error_kde=predicted_kde,
                     ),
                     nominal=ComparisonValues(
-                        snr_db=float(nominal.snr_db[li, 0, 0, j]),
-                        cnr_db=float(nominal.cnr_db[li, 0, 0, j]),
-                        error_gaussian=float(nominal.error_gaussian[li, 0, 0, j]),
+                        snr_db=float(nominal.snr_db[li, j]),
+                        cnr_db=float(nominal.cnr_db[li, j]),
+                        error_gaussian=float(nominal.error_gaussian[li, j]),
                     ),
                     measured=ComparisonValues(
                         snr_db=comp.snr_db,
@@ -100,7 +101,7 @@ def agreement_rows(
                         error_gaussian=comp.error_gaussian,
                         error_kde=comp.error_kde,
                     ),
-                    snr_db_difference=comp.snr_db - float(p.snr_db[li, 0, 0, j]),
+                    snr_db_difference=comp.snr_db - float(p.snr_db[li, j]),
                 )
             )
     return class_rows, comparison_rows
@@ -108,7 +109,7 @@ def agreement_rows(
 
 def ranking_agreement(
     measurements: dict[str, Measurement],
-    p: Prediction,
+    p: StationPrediction,
     scene: Scene,
     acc: Acceptance,
     comparisons: Comparisons,
@@ -123,11 +124,11 @@ def ranking_agreement(
     by = scene.rank_by if scene.rank_by in ("snr_db", "cnr_db") else "error"
     names = list(measurements)
     if by == "error":
-        predicted = np.array([p.log_error_gaussian[i, 0, 0, j] for i in range(len(names))])
+        predicted = np.array([p.log_error_gaussian[p.index(n), j] for n in names])
         measured = np.array([measurements[n].comparisons[j].log_error_gaussian for n in names])
         best_p, best_m = names[int(np.argmin(predicted))], names[int(np.argmin(measured))]
     else:
-        predicted = np.array([getattr(p, by)[i, 0, 0, j] for i in range(len(names))])
+        predicted = np.array([getattr(p, by)[p.index(n), j] for n in names])
         measured = np.array([getattr(measurements[n].comparisons[j], by) for n in names])
         best_p, best_m = names[int(np.argmax(predicted))], names[int(np.argmax(measured))]
     tau = kendall_tau(predicted, measured)

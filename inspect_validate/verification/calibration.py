@@ -30,7 +30,7 @@ if TYPE_CHECKING:
     from collections.abc import Sequence
 
     from inspect_validate.measurement import ClassMeasurement, Measurement
-    from inspect_validate.model import Prediction
+    from inspect_validate.station.prediction import StationPrediction
 
 __all__ = [
     "NO_LIGHT_REMEDY",
@@ -283,7 +283,7 @@ class IrradianceScale:
 
 
 def fit_scales(
-    prediction: Prediction,
+    prediction: StationPrediction,
     measurements: dict,
     *,
     method: str,
@@ -298,8 +298,8 @@ def fit_scales(
 
     Parameters
     ----------
-    prediction : Prediction
-        Of the station at its stated irradiances, lights in the order of ``measurements``.
+    prediction : StationPrediction
+        Of the station at its stated irradiances.
     measurements : dict of str to Measurement
         Illumination name → its measurement (raw grey values).
     method : {"fit", "reference", "absolute"}
@@ -318,9 +318,9 @@ def fit_scales(
     """
     out: dict[str, IrradianceScale] = {}
     classes = list(prediction.classes)
-    for li, (name, m) in enumerate(measurements.items()):
+    for name, m in measurements.items():
         by = {c.name: c for c in m.classes}
-        predicted = gain * prediction.electrons[li, 0, 0]
+        predicted = gain * prediction.electrons[prediction.index(name)]
         measured = np.array(
             [by[c].mean - (dark_means or {}).get(c, offset) for c in classes], dtype=float
         )

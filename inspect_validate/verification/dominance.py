@@ -4,27 +4,25 @@ out."""
 
 from __future__ import annotations
 
-from dataclasses import replace
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 if TYPE_CHECKING:
-    from inspect_validate.comparisons import Comparisons
     from inspect_validate.station.file import Station
-    from inspect_validate.station.model import StationModel
+    from inspect_validate.station.prediction import StationPrediction
     from inspect_validate.verification.results import Verification
 
 __all__ = ["dominance_unconfirmed", "dominated_illuminations"]
 
 
-def dominated_illuminations(
-    station: Station, model: StationModel, comparisons: Comparisons
-) -> dict[str, str]:
+def dominated_illuminations(station: Station, prediction: StationPrediction) -> dict[str, str]:
     """Illuminations that need not be captured: no acceptance check needs them, and the
     prediction shows another illumination clearly better on every comparison.
 
-    Illumination X is dominated by Y when, on every comparison, Y's predicted SNR_dB
+    ``prediction`` is the plan's (:attr:`~.plan.Plan.prediction`: before any region is
+    measured, a group of ``pixels`` weights is weighted equally). Illumination X is
+    dominated by Y when, on every comparison, Y's predicted SNR_dB
     exceeds X's by at least twice the agreement tolerance ``acceptance.agreement.snr_db``
     (3 dB if not given) — so even if each measures that far from its prediction, in
     opposite directions, Y still measures better — or both are below
@@ -45,9 +43,7 @@ def dominated_illuminations(
         return {}
     tolerance, floor = _dominance_tolerance(acc)
     margin = 2.0 * tolerance
-    if comparisons.weights == "pixels":  # no regions yet; only the groups' SNR_dB depend on it
-        comparisons = replace(comparisons, weights="equal")
-    snr = model.predict(station, comparisons=comparisons).snr_db[:, 0, 0, :]
+    snr = prediction.select(names).snr_db
     out: dict[str, str] = {}
     for x, name in enumerate(names):
         if name == acc.illumination:

@@ -17,6 +17,7 @@ if TYPE_CHECKING:
     from inspect_validate.roi import RoiSet
     from inspect_validate.station.file import Station
     from inspect_validate.station.model import StationModel
+    from inspect_validate.station.prediction import StationPrediction
     from inspect_validate.verification.golden import Golden
 
 __all__ = ["Plan", "plan_verification", "planned_tests"]
@@ -32,6 +33,10 @@ class Plan:
     comparisons: Comparisons
     model: StationModel
     golden: Golden | None  # for acceptance.drift
+    prediction: StationPrediction
+    """The station at its stated irradiances, every illumination: the one prediction of
+    the spectra before calibration (a group of ``pixels`` weights is weighted equally
+    until the regions are measured: :meth:`~StationPrediction.compared`)."""
     dominated: dict[str, str] = field(default_factory=dict)
     """Illuminations left out of the capture as dominated (:func:`dominated_illuminations`):
     name → why, and how to add it; listed as skipped."""
@@ -109,7 +114,10 @@ def plan_verification(station: Station, *, drift_checks: bool = True) -> Plan:
         )
     # Only the ROI classes are predicted.
     scene = replace(model.scene, classes=tuple(scene_classes[n] for n in names))
-    return Plan(rois, comparisons, replace(model, scene=scene), golden)
+    model = replace(model, scene=scene)
+    unweighted = replace(comparisons, weights="equal") if comparisons.weights == "pixels" else None
+    prediction = model.predict(station, comparisons=unweighted or comparisons)
+    return Plan(rois, comparisons, model, golden, prediction)
 
 
 def planned_tests(

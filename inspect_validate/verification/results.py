@@ -10,10 +10,10 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from inspect_validate.measurement import Limits, Measurement
-    from inspect_validate.model import Prediction
     from inspect_validate.roi import RoiSet
     from inspect_validate.station.file import Station
     from inspect_validate.station.model import StationModel
+    from inspect_validate.station.prediction import StationPrediction
     from inspect_validate.verification.calibration import Gain, IrradianceScale
     from inspect_validate.verification.checks import Check
 
@@ -136,8 +136,8 @@ class Verification:
     inputs: dict
     measurements: dict[str, Measurement]  # illumination → its measurement
     dark: Measurement | None  # of the dark stack
-    nominal: Prediction  # at the stated irradiances
-    prediction: Prediction  # after calibration
+    nominal: StationPrediction  # at the stated irradiances
+    prediction: StationPrediction  # after calibration
     scales: dict[str, IrradianceScale]  # illumination → its scale
     gain: Gain | None
     classes: list[ClassAgreement]  # per illumination and class

@@ -37,7 +37,7 @@ if TYPE_CHECKING:
 
     from inspect_validate.comparisons import Comparisons
     from inspect_validate.measurement import ClassMeasurement, Measurement
-    from inspect_validate.model import Prediction
+    from inspect_validate.station.prediction import StationPrediction
 
 __all__ = [
     "StandardErrors",
@@ -160,24 +160,23 @@ def measured_standard_errors(
 
 
 def predicted_standard_errors(
-    prediction: Prediction,
+    prediction: StationPrediction,
     light: int,
     comparisons: Comparisons,
     *,
     mixtures: Iterable[int] | None = None,
 ) -> StandardErrors:
-    """:class:`StandardErrors` of a prediction's classes under light ``light`` (of its
-    first optics and camera) from each class's reflectance samples; ``mixtures`` as in
+    """:class:`StandardErrors` of a station prediction's classes under its illumination of
+    row ``light``, from each class's reflectance samples; ``mixtures`` as in
     :func:`separation_standard_errors`."""
     counts = np.bincount(prediction.sample_class, minlength=len(prediction.classes))
-    index = (light, 0, 0)
-    spectral = np.maximum(prediction.spectral_variance[index], 0.0)
+    spectral = np.maximum(prediction.spectral_variance[light], 0.0)
     with np.errstate(divide="ignore", invalid="ignore"):
         se_mean = np.sqrt(spectral / counts)
         se_var = np.where(counts > 1, spectral * np.sqrt(2.0 / (counts - 1)), np.nan)
     snr, cnr, log_error = separation_standard_errors(
-        prediction.mean[index],
-        prediction.variance[index],
+        prediction.mean[light],
+        prediction.variance[light],
         se_mean,
         se_var,
         comparisons,

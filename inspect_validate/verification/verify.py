@@ -94,9 +94,7 @@ def verify_station(
     full = station
     if frames is None and out is None:
         raise InputError("give the frames to verify (a capture folder) or where to capture")
-    dominated = (
-        dominated_illuminations(station, plan.model, plan.comparisons) if skip_dominated else {}
-    )
+    dominated = dominated_illuminations(station, plan.prediction) if skip_dominated else {}
     if frames is not None:  # an earlier capture: what it holds is measured
         held = _complete_steps(Path(frames))
         dominated = {n: why for n, why in dominated.items() if held is not None and n not in held}
@@ -213,55 +211,53 @@ def verify_capture(
     light = [_light_check(level) for level in levels.values()]
     unlit = {name: level.text for name, level in levels.items() if not level.reaches}
     measurements = {k: m for k, m in capture.measurements.items() if k not in unlit}
-    full = station
-    if unlit:
-        station = station.model_copy(
-            update={"illuminations": [i for i in station.illuminations if i.name not in unlit]}
-        )
-    # The prediction weights a group's classes as the measured regions do.
+    lit = station.model_copy(
+        update={"illuminations": [i for i in station.illuminations if i.name in measurements]}
+    )
+    # The plan's prediction at the stated irradiances, its groups weighted as the
+    # measured regions are.
     predicted_comparisons = comparisons.with_pixels(
         [c.n_pixels for c in next(iter(capture.measurements.values())).classes]
     )
-
-    # The prediction at the stated irradiances.
-    nominal = model.predict(station if measurements else full, comparisons=predicted_comparisons)
-    if not measurements:
-        return _unlit_verification(
-            full, capture, plan, folder, nominal, light, unlit, skipped, limits
-        )
-    method = station.calibration.method
+    nominal = plan.prediction.compared(predicted_comparisons).select(
+        list(measurements) or [i.name for i in station.illuminations]
+    )
     dark_means = {c.name: c.mean for c in dark.classes} if dark else None
     if dark is None:
         skipped.append("dark level: no dark frames; the camera's dark offset is used")
-    stated = {light.name: light.irradiance for light in model.lights(station)}
-    scales = fit_scales(
-        nominal,
-        measurements,
-        method=method,
-        offset=offset,
-        dark_means=dark_means,
-        irradiance=stated,
-        gain=model.sensor.gain,
-        reference=station.calibration.reference,
-        max_saturated=limits.max_saturated,
-    )
-    prediction = model.predict(
-        station,
-        scale={k: v.scale for k, v in scales.items()},
-        comparisons=predicted_comparisons,
-    )
+
+    scales: dict = {}
+    prediction = nominal
+    if measurements:
+        stated = {light.name: light.irradiance for light in model.lights(lit)}
+        scales = fit_scales(
+            nominal,
+            measurements,
+            method=station.calibration.method,
+            offset=offset,
+            dark_means=dark_means,
+            irradiance=stated,
+            gain=model.sensor.gain,
+            reference=station.calibration.reference,
+            max_saturated=limits.max_saturated,
+        )
+        # The calibrated prediction: the one other prediction of the spectra.
+        prediction = model.predict(
+            lit, scale={k: v.scale for k, v in scales.items()}, comparisons=predicted_comparisons
+        )
 
     # The frames read decide (a --frames folder need not have the station's counts).
-    gain, left_out = (
-        photon_transfer(
+    if not measurements:
+        gain, left_out = None, {"no light reaches the camera": 1}
+    elif dark is None:
+        gain, left_out = None, {"no dark frames": 1}
+    else:
+        gain, left_out = photon_transfer(
             list(measurements.values()),
             dark,
             declared=model.sensor.gain,
             saturation_level=capture.saturation_level,
         )
-        if dark is not None
-        else (None, {"no dark frames": 1})
-    )
     notes = []
     gain_missing = None
     quiet = [
@@ -279,7 +275,9 @@ def verify_capture(
         gain_missing = "no photon-transfer point: " + "; ".join(
             f"{why} ({n})" for why, n in left_out.items()
         )
-        if acc.gain_relative is None:  # nobody asked: a skip, not a failure
+        if not measurements:
+            gain_missing = "no light reaches the camera"
+        elif acc.gain_relative is None:  # nobody asked: a skip, not a failure
             skipped.append(f"system gain K: {gain_missing}")
 
     from inspect_validate.verification.uncertainty import measured_standard_errors
@@ -295,7 +293,11 @@ def verify_capture(
     class_rows, comparison_rows = agreement_rows(
         measurements, prediction, nominal, dark_means, offset, need_kde=need_kde
     )
-    ranking, not_ranked = ranking_agreement(measurements, prediction, model.scene, acc, comparisons)
+    ranking, not_ranked = (
+        ranking_agreement(measurements, prediction, model.scene, acc, comparisons)
+        if measurements
+        else (None, ())
+    )
     checks, unchecked = acceptance_checks(
         acc,
         measurements,
@@ -309,13 +311,11 @@ def verify_capture(
     )
     checks = [*light, *checks]
     skipped += [*not_ranked, *unchecked]
-    if golden is not None:
+    if golden is not None and measurements:
         checks += drift_checks(golden, measurements, acc.drift, errors)
     rate = acc.false_alarm_rate
     decided = decide(checks, rate)
-    notes += _uncertainty_notes(
-        acc, decided, golden, prediction, predicted_comparisons, list(measurements)
-    )
+    notes += _uncertainty_notes(acc, decided, golden, prediction, list(measurements))
     inputs = _inputs(station, capture, rois, folder, golden)
     acquisition = acquisition_record(manifest, {**files, "dark": dark_files})
     if manifest.get("station_sha256") not in (None, inputs["station_sha256"]):
@@ -324,7 +324,7 @@ def verify_capture(
             f"({manifest.get('station')}); its frames are used as they are"
         )
     return Verification(
-        station=full,
+        station=station,
         model=model,
         rois=rois,
         limits=limits,
@@ -377,41 +377,7 @@ def _inputs(station, capture, rois, folder, golden) -> dict:
     }
 
 
-def _unlit_verification(
-    station, capture, plan, folder, nominal, light, unlit, skipped, limits
-) -> Verification:
-    """The verification of a capture in which no illumination's light reaches the camera:
-    the failing light checks, and every check the acceptance asks for not run."""
-    acc = station.acceptance
-    checks, unchecked = acceptance_checks(
-        acc, {}, [], [], None, None, "no light reaches the camera", {}, unlit=unlit
-    )
-    inputs = _inputs(station, capture, plan.rois, folder, plan.golden)
-    return Verification(
-        station=station,
-        model=plan.model,
-        rois=plan.rois,
-        limits=limits,
-        inputs=inputs,
-        measurements={},
-        dark=capture.dark,
-        nominal=nominal,
-        prediction=nominal,
-        scales={},
-        gain=None,
-        classes=[],
-        comparisons=[],
-        ranking=None,
-        checks=decide([*light, *checks], acc.false_alarm_rate),
-        skipped=(*skipped, *unchecked),
-        acquisition=acquisition_record(
-            capture.manifest, {**capture.files, "dark": capture.dark_files}
-        ),
-        false_alarm=acc.false_alarm_rate,
-    )
-
-
-def _uncertainty_notes(acc, checks, golden, prediction, comparisons, illuminations) -> list[str]:
+def _uncertainty_notes(acc, checks, golden, prediction, illuminations) -> list[str]:
     """What a reader should know of the checks' power: drift limits widened by a short
     training, and agreement tolerances within the model's own uncertainty."""
     from inspect_validate.verification.checks import quantile
@@ -440,7 +406,9 @@ def _uncertainty_notes(acc, checks, golden, prediction, comparisons, illuminatio
         return notes
     q = quantile(tested[0].false_alarm, sided=1)
     close = []
-    for li, ill in enumerate(illuminations):
+    comparisons = prediction.comparison_set
+    for ill in illuminations:
+        li = prediction.index(ill)
         se = predicted_standard_errors(prediction, li, comparisons, mixtures=()).snr_db
         for j, text in enumerate(comparisons.labels):
             row = f"{ill}: {text} SNR_dB deviation"

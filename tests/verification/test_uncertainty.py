@@ -13,6 +13,7 @@ import pytest
 
 from inspect_validate.comparisons import Comparisons
 from inspect_validate.measurement import compare, measure_classes
+from inspect_validate.station.prediction import StationPrediction
 from inspect_validate.verification.uncertainty import (
     class_standard_errors,
     measured_standard_errors,
@@ -150,7 +151,7 @@ def test_predicted_standard_errors_match_the_spread_over_draws_of_the_samples(tm
         )
         snr.append(p.snr_db[0, 0, 0, 0])
         mean.append(p.mean[0, 0, 0, 0])
-        e = predicted_standard_errors(p, 0, comparisons)
+        e = predicted_standard_errors(StationPrediction.of(p), 0, comparisons)
         se_snr.append(e.snr_db[0])
         se_mean.append(e.mean[0])
     assert np.std(mean, ddof=1) == pytest.approx(np.mean(se_mean), rel=TOL)

@@ -451,7 +451,7 @@ def test_every_needed_illumination_is_captured(tmp_path, acceptance):
 
     st = read_station(candidates(tmp_path, **acceptance))
     plan = plan_verification(st)
-    assert dominated_illuminations(st, plan.model, plan.comparisons) == {}
+    assert dominated_illuminations(st, plan.prediction) == {}
 
 
 def test_a_ranking_of_illuminations_predicted_nearly_equal_is_too_close_to_call(cli, tmp_path):
