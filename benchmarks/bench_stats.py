@@ -12,7 +12,6 @@ lattice bandwidths, and the exact O(n²) objective for continuous bandwidths.
 
 from __future__ import annotations
 
-import itertools
 import time
 
 import numpy as np
@@ -282,53 +281,15 @@ def general_gaussian_error_rows(rows):
         )
 
 
-def kde_error_by_quadrature(a, b, result, lo: float, hi: float) -> float:
-    """ε_tot of the kernel densities of samples ``a`` and ``b`` with ``result``'s bandwidths,
-    by adaptive quadrature of ½ min(p̂1, p̂2) over 400 panels of [lo, hi] (rel. tol. 1e-12),
-    each panel split where p̂1 = p̂2 (found here by brentq on a 0.01-wide scan of
-    log p̂1 − log p̂2), so that every piece is smooth: the min's kinks otherwise cost quad
-    its accuracy (1e-10 at n = 20000)."""
-    from scipy import integrate, optimize, special
-
-    from inspect_validate.stats.kde_error import kernel_mixture
-
-    h1, h2 = result.bandwidth1.h, result.bandwidth2.h
-    c1, w1 = kernel_mixture(a, h1)
-    c2, w2 = kernel_mixture(b, h2)
-
-    def p(x, c, w, h):
-        return np.sum(w * np.exp(-0.5 * ((x - c) / h) ** 2)) / (h * np.sqrt(2 * np.pi))
-
-    def log_ratio(x):
-        x = np.asarray(x, dtype=float)[..., np.newaxis]
-
-        def log_p(c, w, h):
-            return special.logsumexp(-0.5 * ((x - c) / h) ** 2, b=w, axis=-1) - np.log(h)
-
-        return log_p(c1, w1, h1) - log_p(c2, w2, h2)
-
-    grid = np.arange(lo, hi, 0.01)
-    signs = np.sign(log_ratio(grid))
-    crossings = [
-        optimize.brentq(log_ratio, grid[i], grid[i + 1], xtol=1e-14, rtol=1e-15)
-        for i in np.flatnonzero(signs[:-1] * signs[1:] < 0)
-    ]
-    edges = np.union1d(np.linspace(lo, hi, 400), crossings)
-    return 0.5 * sum(
-        integrate.quad(
-            lambda x: min(p(x, c1, w1, h1), p(x, c2, w2, h2)),
-            u,
-            v,
-            epsabs=0,
-            epsrel=1e-12,
-            limit=200,
-        )[0]
-        for u, v in itertools.pairwise(edges)
-    )
-
-
 def kde_error_row(rows):
+    """ε KDE against the tests' quadrature reference (tests/stats/test_kde_error.py)."""
+    import sys
+    from pathlib import Path
+
     from inspect_validate.stats import as_sample, kde_error
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "stats"))
+    from test_kde_error import reference
 
     rng = np.random.default_rng(5)
     a = as_sample(np.rint(rng.normal(100, 6, 200_000)).astype(int))
@@ -336,7 +297,7 @@ def kde_error_row(rows):
     t_ours = best_time(lambda: kde_error(a, b), 3)
     r = kde_error(a, b)
     t0 = time.perf_counter()
-    ref = kde_error_by_quadrature(a, b, r, 20, 220)
+    ref = reference(a, b, r.bandwidth1.h, r.bandwidth2.h, 20, 220)
     t_ref = time.perf_counter() - t0
     rows.append(
         (

@@ -37,9 +37,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike
 
+from inspect_validate.components.sensors import QUANTISATION_VARIANCE
+
 __all__ = ["Characterization", "Pair", "Stack", "analyse", "pair_statistics", "stack_statistics"]
 
-QUANTISATION = 1 / 12  # DN²
 DARK_VARIANCE_FLOOR = 0.24  # DN², below it the quantisation dominates (emva1288 uses it too)
 
 
@@ -245,8 +246,10 @@ def analyse(
     else:
         s2_dark, s2_dark_se = float(var_d[0]), float(var_d[0]) * math.sqrt(2 / 1000)
     s2_dark = max(s2_dark, DARK_VARIANCE_FLOOR)
-    sigma_d = math.sqrt(s2_dark - QUANTISATION) / k
-    sigma_d_se = sigma_d * math.hypot(0.5 * s2_dark_se / (s2_dark - QUANTISATION), k_se / k)
+    sigma_d = math.sqrt(s2_dark - QUANTISATION_VARIANCE) / k
+    sigma_d_se = sigma_d * math.hypot(
+        0.5 * s2_dark_se / (s2_dark - QUANTISATION_VARIANCE), k_se / k
+    )
 
     mean_fit = _line(t, mu_d)
     dark_current = dark_current_se = math.nan

@@ -28,12 +28,32 @@ from inspect_validate.spectra import Spectrum, SpectrumKind
 
 __all__ = [
     "BUILT_IN_CAMERAS",
+    "QUANTISATION_VARIANCE",
     "SensorModel",
     "builtin_sensor",
     "energy_efficiency",
     "gain_factor",
+    "grey_value",
     "qe_model",
 ]
+
+QUANTISATION_VARIANCE = 1.0 / 12.0
+"""σ_q², DN²: the variance rounding to whole grey values adds (EMVA 1288)."""
+
+
+def grey_value(
+    mu_e: np.ndarray | float,
+    gain: np.ndarray | float,
+    dark_noise: np.ndarray | float,
+    dark_offset: np.ndarray | float,
+) -> tuple[Any, Any]:
+    """Mean (DN) and temporal variance (DN²) of the grey value of ``mu_e`` mean
+    photo-electrons (EMVA 1288, before clipping): offset + K μ_e and
+    K² (σ_d² + μ_e) + 1/12 DN², K in DN/e⁻ and σ_d in e⁻."""
+    return (
+        dark_offset + gain * mu_e,
+        gain**2 * (dark_noise**2 + mu_e) + QUANTISATION_VARIANCE,
+    )
 
 
 @dataclass(frozen=True)

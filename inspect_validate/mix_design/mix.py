@@ -140,13 +140,13 @@ class ChannelResponse:
         """Largest mean signal K·μ_e (DN above the offset) a sample may reach."""
         from scipy import special  # scipy.stats would add 0.4 s of import to this
 
-        from inspect_validate.model.acquisition import QUANTISATION_VARIANCE
+        from inspect_validate.components.sensors import grey_value
 
         cam = self.sensor
         z = -float(special.ndtri(max_saturated))  # the normal's isf, as scipy.stats.norm
         top = cam.max_dn - cam.dark_offset
-        noise = np.sqrt(cam.gain**2 * cam.dark_noise**2 + cam.gain * top + QUANTISATION_VARIANCE)
-        return top - z * noise
+        _, variance = grey_value(top / cam.gain, cam.gain, cam.dark_noise, cam.dark_offset)
+        return top - z * np.sqrt(variance)
 
 
 def channel_response(
@@ -195,15 +195,15 @@ def mix_moments(
 ) -> tuple[np.ndarray, ...]:
     """Class means (DN) and variances (DN²) at drive ``levels`` (N,), before clipping;
     with ``jacobian`` also ∂μ/∂w and ∂σ²/∂w, (K, N) each."""
-    from inspect_validate.model.acquisition import QUANTISATION_VARIANCE
+    from inspect_validate.components.sensors import grey_value
 
     cam = response.sensor
     w = np.asarray(levels, dtype=np.float64)
     m, c = response.class_statistics
     k2 = cam.gain**2
-    mean = cam.dark_offset + cam.gain * (m @ w)
+    mean, temporal = grey_value(m @ w, cam.gain, cam.dark_noise, cam.dark_offset)
     cw = c @ w  # (K, N)
-    variance = k2 * (cw @ w) + k2 * (cam.dark_noise**2 + m @ w) + QUANTISATION_VARIANCE
+    variance = k2 * (cw @ w) + temporal
     if not jacobian:
         return mean, variance
     return mean, variance, cam.gain * m, k2 * (2.0 * cw + m)

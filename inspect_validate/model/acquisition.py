@@ -31,14 +31,14 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from inspect_validate.comparisons import Comparisons, gaussian_separation
 from inspect_validate.components.lights import Light
 from inspect_validate.components.optics import Optics
-from inspect_validate.components.sensors import SensorModel
+from inspect_validate.components.sensors import SensorModel, grey_value
 from inspect_validate.constants import LONGEST_EXPOSURE_S, C, H
 from inspect_validate.errors import InputError
 from inspect_validate.spectra import Spectrum
@@ -48,13 +48,11 @@ __all__ = [
     "Exposure",
     "ObjectClass",
     "Prediction",
-    "grey_value",
     "nothing_predictable",
     "predict",
     "skipped_reasons",
 ]
 
-QUANTISATION_VARIANCE = 1.0 / 12.0  # DN²
 _PRESENT = 1e-6  # a component is present where it exceeds this fraction of its peak
 COVERAGE = 0.99
 """A class's reflectance must span this fraction of a combination's spectral response."""
@@ -413,21 +411,6 @@ def _fixed_pattern(mu_e, cam):
     """The spatial variance the sensor's non-uniformities add over a region, DN²:
     K²(DSNU² + PRNU²·μ_e²) (EMVA 1288, §8)."""
     return cam["gain"] ** 2 * (cam["dsnu"] ** 2 + (cam["prnu"] * mu_e) ** 2)
-
-
-def grey_value(
-    mu_e: np.ndarray | float,
-    gain: np.ndarray | float,
-    dark_noise: np.ndarray | float,
-    dark_offset: np.ndarray | float,
-) -> tuple[Any, Any]:
-    """Mean (DN) and temporal variance (DN²) of the grey value of ``mu_e`` mean
-    photo-electrons (EMVA 1288, before clipping): offset + K μ_e and
-    K² (σ_d² + μ_e) + 1/12 DN², K in DN/e⁻ and σ_d in e⁻."""
-    return (
-        dark_offset + gain * mu_e,
-        gain**2 * (dark_noise**2 + mu_e) + QUANTISATION_VARIANCE,
-    )
 
 
 @dataclass(frozen=True, eq=False)

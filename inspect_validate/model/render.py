@@ -19,7 +19,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from inspect_validate import __version__
-from inspect_validate.model.acquisition import Prediction, grey_value
+from inspect_validate.components.sensors import grey_value
+from inspect_validate.model.acquisition import Prediction
 
 if TYPE_CHECKING:
     from inspect_validate.components.sensors import SensorModel

@@ -105,7 +105,10 @@ def write_characterization_report(
     fig, ax = subplots(figsize=(6, 4))
     electrons = np.maximum(signal / r.gain, 1e-3)
     ax.loglog(electrons, np.maximum(r.snr, 1e-3), "o", ms=3, label="measured")
-    model = electrons / np.sqrt(r.dark_noise**2 + electrons + 1 / 12 / r.gain**2)
+    from inspect_validate.components.sensors import grey_value
+
+    _, temporal = grey_value(electrons, r.gain, r.dark_noise, 0.0)
+    model = r.gain * electrons / np.sqrt(temporal)  # the EMVA 1288 SNR of μ_e
     ax.loglog(electrons, model, "-", label="EMVA 1288 linear model")
     ax.set(xlabel="μ_e [e⁻]", ylabel="SNR", title="Signal-to-noise ratio")
     ax.legend()

@@ -338,7 +338,10 @@ def characterization_charts(result: Characterization, plan: Plan) -> list[dict[s
     top = float(signal[r.saturation_index])
     fit = np.linspace(0.0, top, 50)
     electrons = np.maximum(signal / r.gain, 1e-3)
-    model = electrons / np.sqrt(r.dark_noise**2 + electrons + 1 / 12 / r.gain**2)
+    from inspect_validate.components.sensors import grey_value
+
+    _, temporal = grey_value(electrons, r.gain, r.dark_noise, 0.0)
+    model = r.gain * electrons / np.sqrt(temporal)  # the EMVA 1288 SNR of μ_e
     size = {"width": 520, "height": 300}
     return [
         {
