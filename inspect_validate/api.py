@@ -25,7 +25,6 @@ if TYPE_CHECKING:
 __all__ = [
     "capture",
     "design",
-    "design_mix",
     "measure",
     "predict",
     "read_rois",
@@ -409,7 +408,3 @@ def design(
 
     problem = design_problem(source, auto_exposure=auto_exposure)
     return solve(problem, objective=objective, choose=choose)
-
-
-design_mix = design
-"""The same as :func:`design` (its name before the API was flat)."""

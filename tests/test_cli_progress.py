@@ -3,19 +3,17 @@
 import io
 import time
 
-import click
-
 from inspect_validate.cli.common import FrameProgress
 
 
 def run_bar(*, opening_s: float, already: int = 0, frames: int = 25, frame_s: float = 0.06):
-    with click.progressbar(length=100, file=io.StringIO()) as bar:
-        advance = FrameProgress(bar)
+    with FrameProgress(100, label="capturing", file=io.StringIO()) as advance:
         time.sleep(opening_s)  # the camera opening, configuring and flushing
         for done in range(already + 1, already + frames + 1):
-            advance(done)
+            advance(done, "amber")
             time.sleep(frame_s)
-        advance(already + frames + 1)
+        advance(already + frames + 1, "amber")
+        bar = advance.bar  # read only: the bar's own estimate
         return bar.eta, bar.length - bar.pos
 
 

@@ -55,7 +55,7 @@ class GenericAsciiController(LedController):
     max_value : float
         The controller's value for 100 %.
     baudrate, terminator, reply_end, ok, error, timeout, error_codes
-        As for :class:`~camera.lights.gardasoft.SerialAscii`.
+        As for :class:`~camera.controllers.gardasoft.SerialAscii`.
     """
 
     def __init__(

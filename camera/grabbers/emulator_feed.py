@@ -3,7 +3,7 @@
 A station with ``camera.backend: pylon`` *and* a ``camera.scene`` runs on pylon's
 camera emulator (``PYLON_CAMEMU=1``): whenever the simulated controller's lights
 change, frames of the scene under the new lights are rendered with the EMVA 1288
-model (:class:`~camera.grabbers.simulated.SimulatedGrabber`), written as 16-bit
+model (:class:`~inspect_validate.simulation.camera.SimulatedGrabber`), written as 16-bit
 PNG and served by the emulator in ``ImageFileMode``, pixel-exactly in Mono16.
 Every frame the capture keeps has passed through pylon's grab engine, buffers
 and timestamps — the same path as a real Basler camera.

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import sys
-
 import click
 
 from inspect_validate.cli.common import (
@@ -63,18 +61,10 @@ def characterize(station, out, report_dir, resume):
     check_outputs(folders=(report_dir,))
     series = st.characterize
     total = 2 * 2 * (series.points + 10) + 2 * series.frames_spatial  # 10 near saturation
-    with click.progressbar(length=total, label="characterizing", file=sys.stderr) as bar:
-        # Into a pipe or a log, click writes a line each time the label changes: the
-        # series' hundreds of steps are named on a terminal only.
-        named = sys.stderr.isatty()
-        advance = FrameProgress(bar)
-
-        def progress(step, _done, _total) -> None:
-            if named:
-                bar.label = f"characterizing {step}"
-            advance.step()
-
-        plan = capture_series(st, out, resume=resume, progress=progress)
+    with FrameProgress(total, label="characterizing") as advance:
+        plan = capture_series(
+            st, out, resume=resume, progress=lambda step, _done, _total: advance.step(step)
+        )
     plan, result = read_series(st, out)
     expected = expected_rate(st, plan) if st.scene else None
     if expected:

@@ -7,7 +7,7 @@ import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, cast
+from typing import IO, TYPE_CHECKING, Any, cast
 
 import click
 
@@ -136,33 +136,51 @@ def verify_and_report(
 
 
 class FrameProgress:
-    """Move a click progress bar to ``done`` steps, its ETA timed from the first step.
+    """A click progress bar of frames on standard error, started at the first frame.
 
     click times a bar from its creation, so the seconds a camera takes to open and
-    settle are charged to the first frames (an 11 s capture on Aravis showed an ETA
-    of 00:20:02), and a resumed run's frames already on disk count as instant steps.
-    The clock therefore starts at the first step, and the steps done by then are taken
-    off the length.
+    settle would be charged to the first frames (an 11 s capture on Aravis showed an
+    ETA of 00:20:02), and a resumed run's frames already on disk would count as instant
+    steps. The bar is therefore made when the first frame arrives, for the frames still
+    to come; only click's documented interface is used (the step being captured is the
+    bar's current item, shown beside it on a terminal).
+
+    Use as a context manager; call it with the frames done so far and the step.
     """
 
-    def __init__(self, bar) -> None:
-        self.bar = bar
-        self.done: int | None = None
+    def __init__(self, total: int, *, label: str, file: IO[str] | None = None) -> None:
+        self.total, self.label = total, label
+        self.file = file if file is not None else sys.stderr
+        self.bar: Any = None  # click's ProgressBar, from the first frame
+        self.done = 0
 
-    def __call__(self, done: int) -> None:
-        bar = self.bar
-        if self.done is None:
-            bar.length = max(bar.length - done, 1)
-            bar.start = bar.last_eta = time.time()
-            bar.avg = []
+    def __enter__(self) -> FrameProgress:
+        if self.file.isatty():  # the devices open before any frame: say so until then
+            self.file.write(f"{self.label} (opening the devices)\r")
+            self.file.flush()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self.bar is not None:
+            self.bar.__exit__(*exc)
+
+    def __call__(self, done: int, item: str | None = None) -> None:
+        if self.bar is None:
+            self.bar = click.progressbar(
+                length=max(self.total - done, 1),
+                label=self.label,
+                file=self.file,
+                item_show_func=lambda step: step,
+            ).__enter__()
+            self.bar.update(0, current_item=item)
         else:
-            bar.update(done - self.done)
+            self.bar.update(done - self.done, current_item=item)
         self.done = done
 
-    def step(self) -> None:
-        """One step more, for a caller whose steps come from captures that each count
+    def step(self, item: str | None = None) -> None:
+        """One frame more, for a caller whose steps come from captures that each count
         from 0 (characterize's series)."""
-        self((self.done or 0) + 1)
+        self(self.done + 1, item)
 
 
 def capture_with_progress(station, out, *, resume: bool = False):
@@ -182,19 +200,14 @@ def capture_with_progress(station, out, *, resume: bool = False):
             )
 
     total = sum(station.frames for _ in station.illuminations) + station.dark_frames
-    with click.progressbar(length=total, label="capturing", file=sys.stderr) as bar:
-        advance = FrameProgress(bar)
-
-        def progress(step, done, _total) -> None:
-            bar.label = f"capturing {step}"
-            advance(done)
-
-        return capture(station, out, resume=resume, progress=progress)
+    with FrameProgress(total, label="capturing") as advance:
+        return capture(
+            station, out, resume=resume, progress=lambda step, done, _: advance(done, step)
+        )
 
 
 def new_folder(command: str, source) -> Path:
     """A default output folder in the working directory: <command>-<source's stem>-<time>."""
-    import time
 
     return Path(f"{command}-{Path(source).stem}-{time.strftime('%Y%m%dT%H%M%S')}")
 

@@ -15,7 +15,7 @@ DESIGN_ILLUMINATION = "design"
 
 
 def design_station(station: Station, design: Design) -> Station:
-    """``station`` (a :class:`~camera.station.Station`) lit by ``design``'s mix and its best
+    """``station`` (a :class:`~inspect_validate.station.file.Station`) lit by ``design``'s mix and its best
     single channel instead of its own illuminations.
 
     The acceptance's separation limits apply to the mix; agreement, saturation

@@ -72,7 +72,7 @@ def page(title: str, body: list[str]) -> str:
 
 
 def verification_html(v: Verification, *, history: HistoryLog | None = None) -> str:
-    """The page of a :class:`~inspect_validate.verification.Verification`, as text;
+    """The page of a :class:`~inspect_validate.verification.results.Verification`, as text;
     ``history``, a :class:`~inspect_validate.watch.history.HistoryLog` of the station,
     adds its trends."""
     from inspect_validate.report.charts import agreement_charts, chart

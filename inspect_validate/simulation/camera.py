@@ -15,7 +15,7 @@ reflectance samples, a lens transmission factor, vignetting, ambient light and
 a gain error (:func:`world_components`), an exposure factor and defocus blur,
 so that verification has a reality to notice; and faults: a camera that
 times out, or one that repeats a frame. ``watch`` evolves the world over its
-cycles (:meth:`~inspect_validate.station.file.World.at`).
+cycles (:meth:`~inspect_validate.station.world.World.at`).
 
 It triggers as a GenICam camera does (:meth:`SimulatedGrabber.arm`): free-running
 through its pipeline, one frame per :meth:`~SimulatedGrabber.trigger` exposed at

@@ -6,7 +6,7 @@ streams GVSP on the loopback interface like a real camera (discovered as
 ``Aravis-Fake-SERIAL``), with Aravis' own test pattern: a diagonal ramp.
 
 With ``--station FILE --state FILE`` every frame it streams is instead the station's
-scene rendered with the EMVA 1288 model (:class:`~camera.grabbers.simulated.SimulatedGrabber`,
+scene rendered with the EMVA 1288 model (:class:`~inspect_validate.simulation.camera.SimulatedGrabber`,
 world deviations included) under the lights the simulated controller has on *when the
 frame is filled*, at the exposure in the camera's ``ExposureTimeAbs`` register. This is
 what ``camera: {backend: aravis, simulate: true}`` starts: capture, verify and watch

@@ -75,7 +75,7 @@ def verify_station(
         the prediction, it is refused, as they cannot be captured after all.
     capture : callable, keyword-only
         ``capture(station, folder, resume=False)``; default
-        :func:`~inspect_validate.camera.capture.capture`.
+        :func:`~inspect_validate.station.capture.capture`.
     notify : callable, keyword-only
         ``notify(message)``: what was left out, or captured after all, and why.
 
