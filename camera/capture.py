@@ -47,7 +47,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from inspect_validate.errors import DeviceError, IncompleteFrame, InputError
-from inspect_validate.interruption import check as check_stop
+from inspect_validate.interruption import stop_if_requested
 
 if TYPE_CHECKING:
     from inspect_validate.camera.controllers.base import LedController
@@ -119,7 +119,7 @@ def verified_frames(
     seen_ids: set[int] = set()
     off_level = False  # this frame was off the level though its chunk agreed
     while done < n:
-        check_stop()  # a stop whose exception something swallowed: at the next frame
+        stop_if_requested()  # a stop whose exception something swallowed: at the next frame
         try:
             frame, sent, untriggered = next_frame()
         except IncompleteFrame:

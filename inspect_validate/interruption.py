@@ -5,7 +5,7 @@ where the program is, so that every open device, lock and child process is relea
 by the ``with`` and ``finally`` blocks it passes on its way out. An exception can be
 swallowed: a library that imports with a bare ``except:``, a finalizer whose exceptions
 Python ignores. The record cannot: the loops that run for long (a capture's frames, a
-watch's cycles, its pause) call :func:`check` and stop at their next step. A
+watch's cycles, its pause) call :func:`stop_if_requested` and stop at their next step. A
 :func:`deferred` block — a history's commit — runs to its end first.
 
 This module imports nothing of the tool, so the device layer may use it.
@@ -17,7 +17,7 @@ import signal
 from collections.abc import Iterator
 from contextlib import contextmanager
 
-__all__ = ["Interrupted", "check", "deferred", "install", "requested", "reset"]
+__all__ = ["Interrupted", "deferred", "install", "requested", "reset", "stop_if_requested"]
 
 
 class Interrupted(KeyboardInterrupt):
@@ -38,7 +38,7 @@ def _on_signal(signum, frame) -> None:
 
 
 def install() -> None:
-    """Handle SIGTERM and SIGINT as a stop (:func:`check`); SIGINT too where it was
+    """Handle SIGTERM and SIGINT as a stop (:func:`stop_if_requested`); SIGINT too where it was
     inherited as ignored (a job started with ``&`` from a script). Does nothing outside
     the main thread, where an embedding program keeps its own handling."""
     try:
@@ -53,7 +53,7 @@ def requested() -> int | None:
     return _received[0] if _received else None
 
 
-def check() -> None:
+def stop_if_requested() -> None:
     """Raise :class:`KeyboardInterrupt` if a stop was asked for (also one whose exception
     was swallowed on the way)."""
     if _received and not _deferring:
@@ -73,4 +73,4 @@ def deferred() -> Iterator[None]:
         yield
     finally:
         _deferring.pop()
-    check()
+    stop_if_requested()

@@ -133,10 +133,10 @@ def test_a_swallowed_interrupt_is_still_acted_on():
             interruption._on_signal(signal.SIGTERM, None)
         assert interruption.requested() == signal.SIGTERM
         with pytest.raises(KeyboardInterrupt):
-            interruption.check()
+            interruption.stop_if_requested()
     finally:
         interruption.reset()
-    interruption.check()  # nothing asked: nothing raised
+    interruption.stop_if_requested()  # nothing asked: nothing raised
 
 
 def test_a_deferred_block_finishes_before_the_stop():

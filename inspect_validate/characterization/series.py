@@ -480,7 +480,7 @@ def expected_rate(station: Station, plan: Plan) -> float | None:
     ill = _illumination(station)
     if any(ch in model.nominal for ch in ill.channels) or plan.varies != "exposure":
         return None
-    light = next(lt for lt in model.lights(station) if lt.name == ill.name)
+    light = next(lt for lt in model.illumination_lights(station) if lt.name == ill.name)
     grid = model.scene.grid
     flat = [
         ObjectClass(

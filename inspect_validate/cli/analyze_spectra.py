@@ -6,10 +6,10 @@ import click
 
 from inspect_validate.cli.common import (
     PATH,
-    check_outputs,
     kde_mode,
     kde_option,
     printer,
+    validate_outputs,
 )
 from inspect_validate.text import labelled
 
@@ -64,7 +64,7 @@ def analyze_spectra(scene, json_path, plot_dir, best, kde, no_kde) -> None:
         plot_path = plot_dir
     elif plot_dir is not None:
         plot_path = plot_dir / "spectral_error.png"  # the name predict --plot gives it
-    check_outputs(files=[json_path, plot_path])
+    validate_outputs(files=[json_path, plot_path])
     sc = read_scene(scene)
     for note in sc.notes():
         click.echo(labelled("note", note), err=True)

@@ -7,8 +7,8 @@ import click
 from inspect_validate.cli.common import (
     PATH,
     FrameProgress,
-    check_outputs,
     new_folder,
+    validate_outputs,
 )
 
 
@@ -58,7 +58,7 @@ def characterize(station, out, report_dir, resume):
     if resume and out is None:
         raise click.UsageError("--resume needs the --out folder of the interrupted series")
     out = out or new_folder("characterize", station)
-    check_outputs(folders=(report_dir,))
+    validate_outputs(folders=(report_dir,))
     series = st.characterize
     total = 2 * 2 * (series.points + 10) + 2 * series.frames_spatial  # 10 near saturation
     with FrameProgress(total, label="characterizing") as advance:

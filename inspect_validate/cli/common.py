@@ -109,19 +109,19 @@ def verify_and_report(
     )
     from inspect_validate.verification.verify import verify_station
 
-    def capture(station, folder, *, resume: bool = False) -> None:
-        capture_with_progress(station, folder, resume=resume)
-        if not resume:
-            click.echo(f"frames: {folder}")
-
-    result = verify_station(
-        st,
-        frames=frames_dir,
-        out=out,
-        skip_dominated=skip_dominated,
-        capture=capture,
-        notify=lambda message: click.echo(message, err=True),
-    )
+    if frames_dir is None:
+        simulated_light_notes(st)
+    with FrameProgress(label="capturing") as advance:
+        result = verify_station(
+            st,
+            frames=frames_dir,
+            out=out,
+            skip_dominated=skip_dominated,
+            progress=lambda step, done, total: advance(done, step, total),
+            notify=lambda message: click.echo(message, err=True),
+        )
+    if frames_dir is None:
+        click.echo(f"frames: {out}")
     st = result.station
     click.echo(
         f"{st.name}: {len(st.illuminations)} illumination(s), calibration {st.calibration.method}"
@@ -145,10 +145,14 @@ class FrameProgress:
     to come; only click's documented interface is used (the step being captured is the
     bar's current item, shown beside it on a terminal).
 
-    Use as a context manager; call it with the frames done so far and the step.
+    Use as a context manager; call it with the frames done so far, the step and the
+    frames of the whole capture (a capture of another total, such as one resumed after
+    the first, starts a bar of its own).
     """
 
-    def __init__(self, total: int, *, label: str, file: IO[str] | None = None) -> None:
+    def __init__(
+        self, total: int | None = None, *, label: str, file: IO[str] | None = None
+    ) -> None:
         self.total, self.label = total, label
         self.file = file if file is not None else sys.stderr
         self.bar: Any = None  # click's ProgressBar, from the first frame
@@ -164,10 +168,15 @@ class FrameProgress:
         if self.bar is not None:
             self.bar.__exit__(*exc)
 
-    def __call__(self, done: int, item: str | None = None) -> None:
+    def __call__(self, done: int, item: str | None = None, total: int | None = None) -> None:
+        if total is not None and total != self.total:
+            if self.bar is not None:
+                self.bar.__exit__(None, None, None)
+                self.bar = None
+            self.total = total
         if self.bar is None:
             self.bar = click.progressbar(
-                length=max(self.total - done, 1),
+                length=max((self.total or done) - done, 1),
                 label=self.label,
                 file=self.file,
                 item_show_func=lambda step: step,
@@ -183,10 +192,9 @@ class FrameProgress:
         self(self.done + 1, item)
 
 
-def capture_with_progress(station, out, *, resume: bool = False):
-    """Capture ``station`` into ``out`` with a progress bar on stderr."""
-    from inspect_validate.station.capture import capture
-
+def simulated_light_notes(station) -> None:
+    """Say on stderr which channels a simulated camera lights at a nominal irradiance (the
+    station file and the scene give it none)."""
     if station.camera.backend == "simulated" or getattr(station.camera, "simulate", False):
         from inspect_validate.station.model import NOMINAL_IRRADIANCE, station_model
 
@@ -199,10 +207,18 @@ def capture_with_progress(station, out, *, resume: bool = False):
                 err=True,
             )
 
-    total = sum(station.frames for _ in station.illuminations) + station.dark_frames
-    with FrameProgress(total, label="capturing") as advance:
+
+def capture_with_progress(station, out, *, resume: bool = False):
+    """Capture ``station`` into ``out`` with a progress bar on stderr."""
+    from inspect_validate.station.capture import capture
+
+    simulated_light_notes(station)
+    with FrameProgress(label="capturing") as advance:
         return capture(
-            station, out, resume=resume, progress=lambda step, done, _: advance(done, step)
+            station,
+            out,
+            resume=resume,
+            progress=lambda step, done, total: advance(done, step, total),
         )
 
 
@@ -248,7 +264,7 @@ def printer(json_path) -> Callable[..., None]:
     return click.echo
 
 
-def check_outputs(*, files=(), folders=()) -> None:
+def validate_outputs(*, files=(), folders=()) -> None:
     """Check output paths before the work starts, so a typo does not cost a sweep or a capture."""
     from inspect_validate.files import output_file, output_folder
 

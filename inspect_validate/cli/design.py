@@ -9,9 +9,9 @@ import click
 
 from inspect_validate.cli.common import (
     PATH,
-    check_outputs,
     new_folder,
     printer,
+    validate_outputs,
     verify_and_report,
 )
 from inspect_validate.errors import EXIT_CHECK_FAILED
@@ -77,7 +77,7 @@ def design(source, json_path, check, out_dir, choose, objective, auto_exposure):
 
     if check and out_dir is None:
         out_dir = new_folder("design", source)
-    check_outputs(files=[json_path], folders=[out_dir])
+    validate_outputs(files=[json_path], folders=[out_dir])
     problem = design_problem(source, auto_exposure=auto_exposure)
     for work in problem.skipped:
         click.echo(labelled("not computed", work), err=True)

@@ -6,7 +6,7 @@ import click
 
 from inspect_validate.cli.common import (
     PATH,
-    check_outputs,
+    validate_outputs,
 )
 
 
@@ -43,7 +43,7 @@ def history(db, last, recent, plot_dir, csv_path) -> None:
     from inspect_validate.report.history import format_history, write_history_csv
     from inspect_validate.watch.history import read_history
 
-    check_outputs(files=[csv_path], folders=[plot_dir])
+    validate_outputs(files=[csv_path], folders=[plot_dir])
     log = read_history(db, last=last)
     click.echo(format_history(log, recent=recent))
     if csv_path:

@@ -10,10 +10,10 @@ from inspect_validate.cli.common import (
     PATH,
     Number,
     Share,
-    check_outputs,
     kde_mode,
     kde_option,
     printer,
+    validate_outputs,
 )
 from inspect_validate.errors import EXIT_CHECK_FAILED
 from inspect_validate.text import labelled
@@ -98,7 +98,7 @@ def measure(
     from inspect_validate.report import measurement_document, write_json
     from inspect_validate.roi import read_rois
 
-    check_outputs(files=[json_path])
+    validate_outputs(files=[json_path])
     spec = ComparisonsSpec(groups=list(comparison_texts) or "default", weights=weights)
     roi_set = read_rois(rois)
     # Checked against the ROI file's classes here, so that a mistake names the option.

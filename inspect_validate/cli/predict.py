@@ -8,10 +8,10 @@ import click
 
 from inspect_validate.cli.common import (
     PATH,
-    check_outputs,
     kde_mode,
     kde_option,
     printer,
+    validate_outputs,
 )
 from inspect_validate.text import labelled
 
@@ -110,7 +110,7 @@ def predict(
         except InputError as exc:
             where = "--comparison" if comparison else f"{scene}: rank.comparison"
             raise InputError(str(exc), source=where) from None
-    check_outputs(files=[json_path], folders=[plot_dir, render_dir])
+    validate_outputs(files=[json_path], folders=[plot_dir, render_dir])
     if dask_address:
         from inspect_validate.model.sweep import dask_client
 

@@ -7,7 +7,7 @@ import click
 from inspect_validate.cli.common import (
     PATH,
     capture_with_progress,
-    check_outputs,
+    validate_outputs,
 )
 
 
@@ -55,7 +55,7 @@ def train(station, golden_path, repeats, frames_dirs, frames_out) -> None:
     from inspect_validate.verification.measured import station_regions
 
     st = read_station(station)
-    check_outputs(files=[golden_path], folders=[frames_out])
+    validate_outputs(files=[golden_path], folders=[frames_out])
     regions = station_regions(st)  # a station without ROIs fails before the captures
     captures = list(frames_dirs)
     if not captures:

@@ -8,8 +8,8 @@ import click
 
 from inspect_validate.cli.common import (
     PATH,
-    check_outputs,
     new_folder,
+    validate_outputs,
     verify_and_report,
 )
 from inspect_validate.errors import EXIT_CHECK_FAILED
@@ -62,7 +62,7 @@ def verify(station, frames_dir, out, report_dir, history_path, all_illuminations
     from inspect_validate.station.file import read_station
 
     st = read_station(station)
-    check_outputs(folders=[report_dir])
+    validate_outputs(folders=[report_dir])
     log = None
     if history_path is not None:
         if report_dir is None:

@@ -61,22 +61,22 @@ def class_bands(classes: Sequence[str], *, height: int, width: int, gap: int = B
 
 
 def sensor_pattern(
-    camera: SensorModel, shape: tuple[int, ...], *, rng: np.random.Generator
+    sensor: SensorModel, shape: tuple[int, ...], *, rng: np.random.Generator
 ) -> tuple[np.ndarray, np.ndarray] | None:
     """The camera's fixed pattern over a frame of ``shape``: each pixel's gain factor
     1 + PRNU·N(0, 1) and dark signal DSNU·N(0, 1), e⁻ (EMVA 1288 release 4.0, §8); the
-    same in every frame of one camera. None for a camera without non-uniformities."""
-    if not (camera.prnu or camera.dsnu):
+    same in every frame of one sensor. None for a sensor without non-uniformities."""
+    if not (sensor.prnu or sensor.dsnu):
         return None
     return (
-        1.0 + camera.prnu * rng.standard_normal(shape),
-        camera.dsnu * rng.standard_normal(shape),
+        1.0 + sensor.prnu * rng.standard_normal(shape),
+        sensor.dsnu * rng.standard_normal(shape),
     )
 
 
 def expose(
     electrons: np.ndarray,
-    camera: SensorModel,
+    sensor: SensorModel,
     *,
     rng: np.random.Generator,
     gain: float | None = None,
@@ -90,20 +90,20 @@ def expose(
     (``pattern``, :func:`sensor_pattern`), I_d the camera's dark current over the
     exposure ``exposure_s``; K is ``gain`` (DN/e⁻), by default the camera's.
     """
-    k = camera.gain if gain is None else gain
+    k = sensor.gain if gain is None else gain
     photo = electrons if pattern is None else electrons * pattern[0]
-    e = rng.poisson(np.maximum(photo + camera.dark_current * exposure_s, 0.0)) + rng.normal(
-        0.0, camera.dark_noise, electrons.shape
+    e = rng.poisson(np.maximum(photo + sensor.dark_current * exposure_s, 0.0)) + rng.normal(
+        0.0, sensor.dark_noise, electrons.shape
     )
     if pattern is not None:
         e = e + pattern[1]
-    top = min(camera.max_dn, 2**16 - 1)
-    return np.clip(np.floor(camera.dark_offset + k * e + 0.5), 0, top).astype(np.uint16)
+    top = min(sensor.max_dn, 2**16 - 1)
+    return np.clip(np.floor(sensor.dark_offset + k * e + 0.5), 0, top).astype(np.uint16)
 
 
 def expected_grey(
     electrons: np.ndarray,
-    camera: SensorModel,
+    sensor: SensorModel,
     *,
     gain: float | None = None,
     exposure_s: float = 0.0,
@@ -122,7 +122,7 @@ def expected_grey(
     ----------
     electrons : ndarray
         Mean photo-electrons μ_e per pixel, e⁻.
-    camera : SensorModel
+    sensor : SensorModel
         Dark offset (DN), dark noise σ_d (e⁻), dark current (e⁻/s) and gain K (DN/e⁻).
     gain : float, keyword-only, optional
         K in DN/e⁻, by default the camera's.
@@ -136,12 +136,12 @@ def expected_grey(
     mean, variance : ndarray
         DN and DN², the shape of ``electrons``.
     """
-    k = camera.gain if gain is None else gain
+    k = sensor.gain if gain is None else gain
     photo = np.maximum(electrons, 0.0)
     if pattern is not None:
         photo = photo * pattern[0]
     mean, variance = grey_value(
-        photo + camera.dark_current * exposure_s, k, camera.dark_noise, camera.dark_offset
+        photo + sensor.dark_current * exposure_s, k, sensor.dark_noise, sensor.dark_offset
     )
     if pattern is not None:
         mean = mean + k * pattern[1]

@@ -32,7 +32,7 @@ if TYPE_CHECKING:
     from inspect_validate.station.file import Station
     from inspect_validate.station.model import StationModel
     from inspect_validate.station.world import World
-    from inspect_validate.verification.measured import Capture
+    from inspect_validate.verification.measured import MeasuredCapture
     from inspect_validate.verification.plan import Plan
 
 __all__ = ["Trial", "WatchTrial", "render_capture", "run_trials", "watch_trials"]
@@ -88,7 +88,7 @@ def render_capture(
     sensor_seed: int | None = None,
     noise_seed: int | None = None,
     renderer_model: StationModel | None = None,
-) -> Capture:
+) -> MeasuredCapture:
     """One capture of ``station``'s simulated camera in ``world``, measured in ``plan``'s
     regions: ``station.frames`` frames per illumination and ``station.dark_frames`` darks,
     as ``capture`` takes them (the frames after the switch, settled).
@@ -111,7 +111,7 @@ def render_capture(
     from inspect_validate.measurement import measure_stack
     from inspect_validate.simulation.camera import SimulatedGrabber
     from inspect_validate.station.model import station_model
-    from inspect_validate.verification.measured import Capture
+    from inspect_validate.verification.measured import MeasuredCapture
 
     model = renderer_model or station_model(station)
     spec = station.camera
@@ -148,7 +148,7 @@ def render_capture(
         if station.dark_frames
         else None
     )
-    return Capture({}, [], {}, measurements, dark, level, {})
+    return MeasuredCapture({}, [], {}, measurements, dark, level, {})
 
 
 def _run_capture(station, plan, model, seed):
@@ -204,12 +204,12 @@ def run_trials(
     ------
     InputError
         A station whose golden files these repeats cannot check at its false-alarm rate
-        (too few; :func:`~inspect_validate.verification.golden.check_golden`).
+        (too few; :func:`~inspect_validate.verification.golden.validate_golden`).
     """
     from inspect_validate import __version__
     from inspect_validate.acceptance import Drift
     from inspect_validate.station.model import station_model
-    from inspect_validate.verification.golden import check_golden, golden_of
+    from inspect_validate.verification.golden import golden_of, validate_golden
     from inspect_validate.verification.plan import plan_verification, planned_tests
     from inspect_validate.verification.verify import verify_capture
 
@@ -238,7 +238,7 @@ def run_trials(
             tool_version=__version__,
             station_sha256="",
         )
-        check_golden(
+        validate_golden(
             golden,
             checked,
             drift,

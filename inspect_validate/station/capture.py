@@ -43,7 +43,7 @@ def capture(
     ``progress(step, done, total)`` is called after every verified frame (its
     save may still be under way; a step is complete only once all are written).
     ``devices`` replaces the station's camera and controller with a context
-    manager yielding ``(controller, camera)`` (other setups, tests). ``steps``
+    manager yielding ``(controller, grabber)`` (other setups, tests). ``steps``
     replaces :func:`station_steps` (``characterize``'s exposure series). With
     ``precision:`` each illumination ends once its classes are known that well
     (:class:`~inspect_validate.station.stopping.SequentialStop`).
@@ -64,10 +64,10 @@ def capture(
         out, station_path=station.file, station_sha256=station_hash(station.file), resume=resume
     )
     try:
-        with devices if devices is not None else open_devices(station) as (controller, camera):
+        with devices if devices is not None else open_devices(station) as (controller, grabber):
             return capture_steps(
                 controller,
-                camera,
+                grabber,
                 station_steps(station) if steps is None else steps,
                 store,
                 station.camera,

@@ -138,7 +138,7 @@ def fitting_exposure_us(
     if model.nominal:
         return None
     prediction = predict(
-        model.lights(station),
+        model.illumination_lights(station),
         [model.optics],
         [model.sensor],
         list(model.scene.classes),

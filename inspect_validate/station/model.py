@@ -74,7 +74,9 @@ class StationModel:
     scene_sensor: SensorModel  # as the scene declares it
     exposure_time: float | None
 
-    def lights(self, station: Station, *, scale: Mapping[str, float] | None = None) -> list[Light]:
+    def illumination_lights(
+        self, station: Station, *, scale: Mapping[str, float] | None = None
+    ) -> list[Light]:
         """One light per illumination of ``station``; ``scale`` (name → factor) multiplies
         each illumination's irradiance (a calibration)."""
         scale = scale or {}
@@ -108,7 +110,7 @@ class StationModel:
         )
         return StationPrediction.of(
             predict(
-                self.lights(station, scale=scale),
+                self.illumination_lights(station, scale=scale),
                 [self.optics],
                 [self.sensor],
                 list(self.scene.classes),

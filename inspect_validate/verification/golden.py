@@ -59,13 +59,13 @@ __all__ = [
     "MAX_WIDENING",
     "Golden",
     "Spread",
-    "check_golden",
     "detectable_change",
     "drift_checks",
     "prediction_sd",
     "read_golden",
     "repeats_needed",
     "train",
+    "validate_golden",
     "widening",
 ]
 
@@ -509,7 +509,7 @@ def drift_checks(
     golden: Golden, measurements: dict, drift: Drift | None, errors: dict
 ) -> list[Check]:
     """Drift of each class's μ (DN) and each comparison's SNR_dB (dB) from ``golden``, which
-    :func:`check_golden` has accepted for the station.
+    :func:`validate_golden` has accepted for the station.
 
     ``drift`` is the station's ``acceptance.drift``: a fixed tolerance it gives is held as
     it is; otherwise each check is statistical, its limit the prediction interval (module
@@ -572,7 +572,7 @@ def _drift_check(name, value, ref: Spread, tolerance, standard_error, unit, deta
     )
 
 
-def check_golden(
+def validate_golden(
     golden: Golden,
     station: Station,
     drift: Drift,

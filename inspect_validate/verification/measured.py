@@ -16,11 +16,11 @@ if TYPE_CHECKING:
     from inspect_validate.roi.roiset import RoiSet
     from inspect_validate.station.file import Station
 
-__all__ = ["Capture", "measure_capture", "saturation_level", "station_regions"]
+__all__ = ["MeasuredCapture", "measure_capture", "saturation_level", "station_regions"]
 
 
 @dataclass(frozen=True)
-class Capture:
+class MeasuredCapture:
     """A capture folder of a station, measured in the station's regions."""
 
     files: dict[str, list[Path]]  # illumination → frame files
@@ -65,12 +65,12 @@ def measure_capture(
     comparisons: Comparisons,
     limits: Limits,
     kde: KdeMode,
-    camera: SensorModel | None = None,
-) -> Capture:
+    sensor: SensorModel | None = None,
+) -> MeasuredCapture:
     """Measure every illumination (and the darks) of a capture folder of ``station``
     with :func:`~inspect_validate.measurement.measure_files`, the one measuring path;
-    pixels count as saturated at :func:`saturation_level` (``camera``: the station's
-    camera model, where the frames do not record their bit depth).
+    pixels count as saturated at :func:`saturation_level` (``sensor``: the station's
+    sensor model, where the frames do not record their bit depth).
 
     Raises
     ------
@@ -85,7 +85,7 @@ def measure_capture(
         folder, [i.name for i in station.illuminations]
     )
     _settings_agree(station, folder, manifest, files, dark_files)
-    level = saturation_level(next(iter(files.values()))[0], camera)
+    level = saturation_level(next(iter(files.values()))[0], sensor)
     measurements = {
         name: measure_files(
             paths,
@@ -104,7 +104,7 @@ def measure_capture(
         if dark_files
         else None
     )
-    return Capture(files, dark_files, manifest, measurements, dark, level, hashes)
+    return MeasuredCapture(files, dark_files, manifest, measurements, dark, level, hashes)
 
 
 def _settings_agree(station: Station, folder: Path, manifest: dict, files, dark_files) -> None:
@@ -177,13 +177,13 @@ def _stored_as(frame: Path, pixel_format: object) -> str:
     )
 
 
-def saturation_level(frame: Path, camera: SensorModel | None = None) -> float | None:
+def saturation_level(frame: Path, sensor: SensorModel | None = None) -> float | None:
     """The grey value of a saturated pixel, DN: 2^bits − 1 of the bit depth ``frame`` was
-    recorded with (a Mono12 frame in uint16: 4095), else of ``camera`` (the scene's
+    recorded with (a Mono12 frame in uint16: 4095), else of ``sensor`` (the scene's
     ``bit_depth``); None where neither tells (the storage type's maximum then)."""
     from inspect_validate.images import recorded_bit_depth
 
     bits = recorded_bit_depth(frame)
-    if bits is None and camera is not None:
-        bits = camera.bit_depth
+    if bits is None and sensor is not None:
+        bits = sensor.bit_depth
     return None if bits is None else float(2**bits - 1)

@@ -98,10 +98,10 @@ def plan_verification(station: Station, *, drift_checks: bool = True) -> Plan:
         )
     golden = None
     if acc.drift:
-        from inspect_validate.verification.golden import check_golden
+        from inspect_validate.verification.golden import validate_golden
 
         golden = read_golden(station.resolve(acc.drift.golden))
-        check_golden(
+        validate_golden(
             golden,
             station,
             acc.drift,

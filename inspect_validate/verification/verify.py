@@ -41,9 +41,10 @@ from inspect_validate.verification.results import Verification
 if TYPE_CHECKING:
     from collections.abc import Callable
 
+    from inspect_validate.camera.capture import Progress
     from inspect_validate.station.file import Station
     from inspect_validate.verification.calibration import LightLevel
-    from inspect_validate.verification.measured import Capture
+    from inspect_validate.verification.measured import MeasuredCapture
 
 __all__ = ["verify_capture", "verify_folder", "verify_station"]
 
@@ -54,7 +55,7 @@ def verify_station(
     frames: Path | None = None,
     out: Path | None = None,
     skip_dominated: bool = True,
-    capture: Callable[..., object] | None = None,
+    progress: Progress | None = None,
     notify: Callable[[str], None] | None = None,
 ) -> Verification:
     """Verify ``station`` end to end: plan (a mistake in the station file costs no
@@ -73,9 +74,9 @@ def verify_station(
         With ``frames``, only the dominated illuminations the capture lacks are left out
         (a capture ``verify`` made holds none of them); where the measurement contradicts
         the prediction, it is refused, as they cannot be captured after all.
-    capture : callable, keyword-only
-        ``capture(station, folder, resume=False)``; default
-        :func:`~inspect_validate.station.capture.capture`.
+    progress : callable, keyword-only
+        ``progress(step, frames done, frames in all)`` after every frame of a capture
+        (:func:`~inspect_validate.station.capture.capture`'s).
     notify : callable, keyword-only
         ``notify(message)``: what was left out, or captured after all, and why.
 
@@ -85,10 +86,8 @@ def verify_station(
         Neither ``frames`` nor ``out``; a station file, capture or frame that cannot be
         used. DeviceError: a device that fails while capturing.
     """
-    if capture is None:
-        from inspect_validate.station.capture import capture as default_capture
+    from inspect_validate.station.capture import capture
 
-        capture = default_capture
     notify = notify or (lambda message: None)
     plan = plan_verification(station)
     full = station
@@ -112,7 +111,7 @@ def verify_station(
             notify(f"{doing} {name!r}: predicted dominated (see skipped:)")
     if frames is None:
         assert out is not None
-        capture(station, Path(out))
+        capture(station, Path(out), progress=progress)
         frames = out
     result = verify_folder(station, Path(frames), plan=plan)
     misses = dominance_unconfirmed(result) if plan.dominated else []
@@ -137,7 +136,7 @@ def verify_station(
         notify(why)
         plan = replace(plan, dominated={})
         assert out is not None  # the capture above went there
-        capture(full, Path(out), resume=True)
+        capture(full, Path(out), resume=True, progress=progress)
         result = verify_folder(full, Path(out), plan=plan)
         result = replace(result, notes=(*result.notes, why))
     return result
@@ -173,13 +172,13 @@ def verify_folder(station: Station, frames_dir: Path, *, plan: Plan | None = Non
         comparisons=plan.comparisons,
         limits=acc.limits(),
         kde="always" if acc.needs_kde else "never",
-        camera=plan.model.sensor,
+        sensor=plan.model.sensor,
     )
     return verify_capture(station, capture, plan=plan, folder=frames_dir)
 
 
 def verify_capture(
-    station: Station, capture: Capture, *, plan: Plan, folder: Path | None = None
+    station: Station, capture: MeasuredCapture, *, plan: Plan, folder: Path | None = None
 ) -> Verification:
     """Verify ``station`` on a capture already measured in its regions
     (:func:`~.measured.measure_capture`, with ``plan``'s regions and comparisons, the
@@ -229,7 +228,7 @@ def verify_capture(
     scales: dict = {}
     prediction = nominal
     if measurements:
-        stated = {light.name: light.irradiance for light in model.lights(lit)}
+        stated = {light.name: light.irradiance for light in model.illumination_lights(lit)}
         scales = fit_scales(
             nominal,
             measurements,

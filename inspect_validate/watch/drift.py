@@ -320,7 +320,7 @@ class DriftMonitor:
         for key, x in values.items():
             chart = self.charts.get(key)
             if chart is None:
-                continue  # not in the golden file (check_golden refuses that up front)
+                continue  # not in the golden file (validate_golden refuses that up front)
             ewma, half, alarm = chart.update(x, limit=self.limit)
             points[key] = (x, ewma, chart.target - half, chart.target + half)
             if alarm:

@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from inspect_validate.errors import DeviceError
-from inspect_validate.interruption import check as check_stop
+from inspect_validate.interruption import stop_if_requested
 from inspect_validate.interruption import deferred
 
 if TYPE_CHECKING:
@@ -135,7 +135,7 @@ def watch(
     failures, done, last = 0, 0, None
     try:
         while settings.cycles is None or done < settings.cycles:
-            check_stop()
+            stop_if_requested()
             t0 = time.monotonic()
             last = _cycle(station, plan, history, monitor, folder, settings, failures)
             failures = last.failures
@@ -166,7 +166,7 @@ def watch(
 def _sleep(seconds: float) -> None:
     end = time.monotonic() + seconds
     while time.monotonic() < end:
-        check_stop()
+        stop_if_requested()
         time.sleep(min(0.05, max(end - time.monotonic(), 0.0)))
 
 
