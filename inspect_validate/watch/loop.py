@@ -27,8 +27,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from inspect_validate.errors import DeviceError
-from inspect_validate.interruption import stop_if_requested
-from inspect_validate.interruption import deferred
+from inspect_validate.interruption import deferred, stop_if_requested
 
 if TYPE_CHECKING:
     from collections.abc import Callable
