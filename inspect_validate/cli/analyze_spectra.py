@@ -8,6 +8,7 @@ from inspect_validate.cli.common import (
     PATH,
     kde_mode,
     kde_option,
+    plot_option,
     printer,
     validate_outputs,
 )
@@ -22,12 +23,9 @@ from inspect_validate.text import labelled
     type=PATH,
     help="Also write the per-wavelength errors as JSON ('-': to stdout only).",
 )
-@click.option(
-    "--plot",
-    "plot_dir",
-    type=PATH,
-    help="Write the error curves into this folder as spectral_error.png (the chapter's "
-    "Fig. 22), as predict's --plot writes its plots into a folder.",
+@plot_option(
+    help="Write the error curves (the chapter's Fig. 22) into this folder: "
+    "spectral_error.html, or with --plot-format png spectral_error.png."
 )
 @click.option(
     "--best",
@@ -41,7 +39,7 @@ from inspect_validate.text import labelled
     help="The nonparametric (kernel density) error per wavelength: always, or never "
     "(the parametric error only; auto: as always).",
 )
-def analyze_spectra(scene, json_path, plot_dir, best, kde, no_kde) -> None:
+def analyze_spectra(scene, json_path, plot_dir, plot_format, best, kde, no_kde) -> None:
     """Classification error per wavelength between the classes of SCENE, from reflectances alone.
 
     Shows which bands separate the classes before any hardware is chosen
@@ -62,8 +60,8 @@ def analyze_spectra(scene, json_path, plot_dir, best, kde, no_kde) -> None:
             err=True,
         )
         plot_path = plot_dir
-    elif plot_dir is not None:
-        plot_path = plot_dir / "spectral_error.png"  # the name predict --plot gives it
+    elif plot_dir is not None:  # the names predict --plot gives it
+        plot_path = plot_dir / f"spectral_error.{plot_format}"
     validate_outputs(files=[json_path, plot_path])
     sc = read_scene(scene)
     for note in sc.notes():
@@ -106,7 +104,13 @@ def analyze_spectra(scene, json_path, plot_dir, best, kde, no_kde) -> None:
         }
         write_json(doc, json_path)
         echo(f"\nwrote {json_path}")
-    if plot_path:
+    if plot_path and plot_path.suffix.lower() == ".png":
         from inspect_validate.report.plots import plot_spectral_errors
 
         click.echo(f"wrote {plot_spectral_errors(sep, plot_path)}")
+    elif plot_path:
+        from inspect_validate.report.charts import error_charts
+        from inspect_validate.report.html import charts, write_charts_page
+
+        body = [charts(error_charts(sep), what="ε per wavelength")]
+        click.echo(f"wrote {write_charts_page(plot_path, f'ε per wavelength: {sc.name}', body)}")

@@ -6,6 +6,7 @@ import click
 
 from inspect_validate.cli.common import (
     PATH,
+    plot_option,
     validate_outputs,
 )
 
@@ -20,17 +21,14 @@ from inspect_validate.cli.common import (
     show_default=True,
     help="Cycles listed one by one (the trends cover all that are read).",
 )
-@click.option(
-    "--plot",
-    "plot_dir",
-    type=PATH,
-    help="Write history-overview.png and one history-<illumination>.png per illumination "
-    "into this folder.",
+@plot_option(
+    help="Write the charts into this folder: history.html, or with --plot-format png "
+    "history-overview.png and one history-<illumination>.png per illumination."
 )
 @click.option(
     "--csv", "csv_path", type=PATH, help="Export one row per cycle and chart (UTF-8 CSV)."
 )
-def history(db, last, recent, plot_dir, csv_path) -> None:
+def history(db, last, recent, plot_dir, plot_format, csv_path) -> None:
     """Print, plot and export the history DB that 'watch' keeps.
 
     Prints the cycles' statuses, the last cycles, and per drift chart its golden
@@ -49,7 +47,7 @@ def history(db, last, recent, plot_dir, csv_path) -> None:
     if csv_path:
         write_history_csv(log, csv_path)
         click.echo(f"csv: {csv_path}")
-    if plot_dir and log.charts:
+    if plot_dir and log.charts and plot_format == "png":
         from inspect_validate.report.plots import plot_history_charts, plot_history_overview
 
         written = [plot_history_overview(log, plot_dir / "history-overview.png")]
@@ -57,5 +55,13 @@ def history(db, last, recent, plot_dir, csv_path) -> None:
             slug = re.sub(r"[^A-Za-z0-9_.-]+", "_", ill)
             written.append(plot_history_charts(log, ill, plot_dir / f"history-{slug}.png"))
         click.echo(f"plots: {', '.join(str(w) for w in written)}")
+    elif plot_dir and log.charts:
+        from pathlib import Path
+
+        from inspect_validate.report.html import history_html, write_charts_page
+
+        title = f"history of {Path(log.station).name}"
+        page = write_charts_page(plot_dir / "history.html", title, history_html(log))
+        click.echo(f"plots: {page}")
     elif plot_dir:
         click.echo("plots: none (no measured cycle yet)")

@@ -10,6 +10,7 @@ from inspect_validate.cli.common import (
     PATH,
     kde_mode,
     kde_option,
+    plot_option,
     printer,
     validate_outputs,
 )
@@ -59,11 +60,9 @@ def scheduler_address(_ctx, _param, value):
     help="The nonparametric (kernel density) error of the listed rows, from the reflectance "
     "samples: always, or never (auto: as always; the samples are not pixels).",
 )
-@click.option(
-    "--plot",
-    "plot_dir",
-    type=PATH,
-    help="Write PNG plots (spectra, per-wavelength error, ranking) to this folder.",
+@plot_option(
+    help="Write the charts (component spectra, ε per wavelength, ranking) into this folder: "
+    "prediction.html, or with --plot-format png spectra.png, spectral_error.png, ranking.png."
 )
 @click.option(
     "--render",
@@ -82,7 +81,17 @@ def scheduler_address(_ctx, _param, value):
     "at ADDRESS (tcp://host:8786).",
 )
 def predict(
-    scene, json_path, top, rank_by, comparison, kde, no_kde, plot_dir, render_dir, dask_address
+    scene,
+    json_path,
+    top,
+    rank_by,
+    comparison,
+    kde,
+    no_kde,
+    plot_dir,
+    plot_format,
+    render_dir,
+    dask_address,
 ):
     """Predict class separation for every light × optics × camera of SCENE and rank them.
 
@@ -142,20 +151,25 @@ def predict(
         echo(f"\nwrote {json_path}")
     if plot_dir:
         from inspect_validate.model import analyse_spectra
-        from inspect_validate.report.plots import (
-            plot_component_spectra,
-            plot_ranked_separation,
-            plot_spectral_errors,
-        )
 
-        written = [
-            plot_component_spectra(sc, plot_dir / "spectra.png"),
-            plot_spectral_errors(
-                analyse_spectra(list(sc.classes), kde=with_kde, comparisons=sc.comparisons),
-                plot_dir / "spectral_error.png",
-            ),
-            plot_ranked_separation(rows, plot_dir / "ranking.png", by=result.by),
-        ]
+        separation = analyse_spectra(list(sc.classes), kde=with_kde, comparisons=sc.comparisons)
+        if plot_format == "png":
+            from inspect_validate.report.plots import (
+                plot_component_spectra,
+                plot_ranked_separation,
+                plot_spectral_errors,
+            )
+
+            written = [
+                plot_component_spectra(sc, plot_dir / "spectra.png"),
+                plot_spectral_errors(separation, plot_dir / "spectral_error.png"),
+                plot_ranked_separation(rows, plot_dir / "ranking.png", by=result.by),
+            ]
+        else:
+            from inspect_validate.report.html import prediction_html, write_charts_page
+
+            body = prediction_html(sc, separation, rows, by=result.by)
+            written = [write_charts_page(plot_dir / "prediction.html", f"predict {sc.name}", body)]
         click.echo("wrote " + ", ".join(str(p) for p in written))
     if render_dir:
         import dataclasses

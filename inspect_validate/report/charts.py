@@ -31,6 +31,7 @@ if TYPE_CHECKING:
     from inspect_validate.model.spectral_analysis import SpectralSeparation
     from inspect_validate.scene import Scene
     from inspect_validate.verification.results import ClassAgreement, ComparisonAgreement
+    from inspect_validate.watch.history import HistoryLog
 
 __all__ = [
     "agreement_charts",
@@ -38,9 +39,14 @@ __all__ = [
     "chart",
     "error_charts",
     "histogram_chart",
+    "history_charts",
     "runtime",
     "spectra_charts",
 ]
+
+STATUS_COLOURS = {"pass": "#2e8b57", "drift": "#e69500", "fail": "#c8102e", "error": "#777777"}
+"""A watch cycle's status as a colour, in charts and pictures alike."""
+_UNITS = {"mean": "DN", "variance": "DN²", "snr_db": "dB", "log_error": "log₁₀ ε"}
 
 # matplotlib's default cycle (tab10), as the PNG figures have it.
 COLOURS = [
@@ -387,3 +393,109 @@ def characterization_charts(result: Characterization, plan: Plan) -> list[dict[s
             **size,
         },
     ]
+
+
+def history_charts(log: HistoryLog) -> list[tuple[str, list[dict[str, Any]]]]:
+    """A watch history as charts, in sections (heading, charts): each cycle's status; per
+    illumination every chart's smoothed value off its golden target in band half-widths
+    (beyond ±1 is an alarm; charts that alarmed in colour, the others grey); then each
+    illumination's EWMA charts: each cycle's value (dots), the smoothed value (line),
+    the control band around the golden target (shaded) and the alarms (red)."""
+    cycles = np.array([r.cycle for r in log.cycles], dtype=float)
+    statuses = [r.status for r in log.cycles]
+    status = {
+        "title": "status per cycle",
+        "xlabel": "cycle",
+        "ylabel": "",
+        "height": 140,
+        "yrange": [0, 2],
+        "xinteger": True,
+        "series": [
+            _series(
+                f"{name} ({n})",
+                cycles[at],
+                np.ones(int(n)),
+                kind="points",
+                color=STATUS_COLOURS[name],
+            )
+            for name in STATUS_COLOURS
+            if (n := (at := np.array([x == name for x in statuses], bool)).sum())
+        ],
+    }
+    sections: list[tuple[str, list[dict[str, Any]]]] = [("status", [status])]
+    overview: list[dict[str, Any]] = []
+    for ill in log.illuminations:
+        series: list[dict[str, Any]] = []
+        k = 0
+        for key, c in sorted(log.charts.items()):
+            if key[0] != ill:
+                continue
+            alarmed = bool(c.alarm.any())
+            series.append(
+                _series(
+                    f"{key[2]} {key[3]}",
+                    c.cycle,
+                    c.deviation,
+                    color=_colour(k) if alarmed else "#b3b3b3",
+                    width=1.5 if alarmed else 0.8,
+                )
+            )
+            k += alarmed
+        finite = [
+            v
+            for key, c in log.charts.items()
+            if key[0] == ill
+            for v in c.deviation
+            if np.isfinite(v)
+        ]
+        lowest, highest = (min(finite), max(finite)) if finite else (0.0, 0.0)
+        overview.append(
+            {
+                "title": f"illumination {ill}: charts off target",
+                "xlabel": "cycle",
+                "ylabel": "off target [band]",
+                "hband": [-1, 1],
+                "xinteger": True,
+                # The band's edges (±1, an alarm beyond) stay in sight however close
+                # the charts keep to their targets.
+                "yrange": [min(-1.25, lowest), max(1.25, highest)],
+                "series": series,
+            }
+        )
+    sections.append(("off target", overview))
+    band = _alpha("#2e8b57", 0.6)
+    for ill in log.illuminations:
+        charts: list[dict[str, Any]] = []
+        for key, c in sorted(log.charts.items()):
+            if key[0] != ill:
+                continue
+            alarm = c.alarm
+            charts.append(
+                {
+                    "title": f"{key[2]} {key[3]}",
+                    "xlabel": "cycle",
+                    "xinteger": True,
+                    "ylabel": _UNITS.get(key[3], ""),
+                    "width": 420,
+                    "height": 220,
+                    "series": [
+                        _series("band high", c.cycle, c.high, color=band, width=0.8),
+                        *(
+                            {"label": label, "xref": 0, "y": _numbers(y), **options}
+                            for label, y, options in (
+                                ("band low", c.low, {"color": band, "width": 0.8}),
+                                ("value", c.value, {"kind": "points", "color": "#8c8c8c"}),
+                                ("EWMA", c.ewma, {"color": COLOURS[0], "width": 1.5}),
+                                (
+                                    "alarm",
+                                    np.where(alarm, c.ewma, np.nan),
+                                    {"kind": "points", "color": STATUS_COLOURS["fail"]},
+                                ),
+                            )
+                        ),
+                    ],
+                    "bands": [[0, 1, _alpha("#2e8b57", 0.12)]],
+                }
+            )
+        sections.append((f"illumination {ill}: value, EWMA, control band, alarms", charts))
+    return sections

@@ -26,10 +26,21 @@ from inspect_validate import __version__
 if TYPE_CHECKING:
     from collections.abc import Sequence
 
+    from inspect_validate.model.spectral_analysis import SpectralSeparation
+    from inspect_validate.scene import Scene
     from inspect_validate.verification.results import Verification
     from inspect_validate.watch.history import HistoryLog
 
-__all__ = ["verification_html", "write_verification_html"]
+__all__ = [
+    "charts",
+    "history_html",
+    "page",
+    "prediction_html",
+    "table",
+    "verification_html",
+    "write_charts_page",
+    "write_verification_html",
+]
 
 _STYLE = """
 body { font-family: system-ui, sans-serif; margin: 2em auto; max-width: 1200px; color: #222; }
@@ -69,6 +80,59 @@ def page(title: str, body: list[str]) -> str:
         f"<style>{_STYLE}</style></head><body>",
     ]
     return "\n".join([*head, *body, runtime(), "</body></html>"])
+
+
+def write_charts_page(path: str | Path, title: str, body: list[str]) -> Path:
+    """Write a :func:`page` of ``body`` (HTML fragments, charts among them) to ``path``
+    (atomically): what ``--plot`` writes."""
+    from inspect_validate.files import atomic_write
+
+    return atomic_write(path, page(title, [f"<h1>{html.escape(title)}</h1>", *body]).encode())
+
+
+def charts(specs: list[dict], *, what: str) -> str:
+    """``specs`` drawn side by side, each described as ``what: its title``."""
+    from inspect_validate.report.charts import chart
+
+    drawn = (chart(spec, alt=f"{what}: {spec['title']}") for spec in specs)
+    return "\n".join(['<div class="charts">', *drawn, "</div>"])
+
+
+def prediction_html(
+    scene: Scene, separation: SpectralSeparation | None, rows: list[dict], *, by: str
+) -> list[str]:
+    """``predict --plot``'s page: the scene's component spectra, ε per wavelength (where
+    ``separation`` is given) and the ranked combinations by the value ranked by."""
+    from inspect_validate.report.charts import error_charts, spectra_charts
+
+    e = html.escape
+    out = ["<h2>Components</h2>", charts(spectra_charts(scene), what="component spectra")]
+    if separation is not None:
+        out += [
+            "<h2>ε per wavelength</h2>",
+            "<p>ε_tot between the classes' reflectance samples at each wavelength: where a "
+            "narrow light would separate them.</p>",
+            charts(error_charts(separation), what="ε per wavelength"),
+        ]
+    quantity = {"error": "error_gaussian"}.get(by, by)
+    shown = {"error": "ε Gauss", "snr_db": "SNR_dB [dB]", "cnr_db": "CNR_dB [dB]"}.get(by, by)
+    cells = []
+    for r in rows:
+        key = r["comparisons"][r["key_comparison"]]
+        value = key[quantity]
+        cells.append(
+            [
+                str(r["rank"]),
+                f"{r['light']} / {r['optics']} / {r['camera']}",
+                f"{','.join(key['first'])} vs {','.join(key['second'])}",
+                f"{value:.3g}" if by == "error" else f"{value:.2f}",
+            ]
+        )
+    out += [
+        f"<h2>Ranking by {e(shown)}</h2>",
+        table(["rank", "light / optics / camera", "key comparison", shown], cells),
+    ]
+    return out
 
 
 def verification_html(v: Verification, *, history: HistoryLog | None = None) -> str:
@@ -119,17 +183,8 @@ def verification_html(v: Verification, *, history: HistoryLog | None = None) -> 
     ]
     parts += _spectra(v)
     if history is not None:
-        parts += _trends(history)
+        parts += history_html(history)
     return page(f"verify {v.station.name}: {verdict.upper()}", parts)
-
-
-def _figure(plot, *args, alt: str, **options) -> str:
-    """``plot(*args, target, **options)`` (a :mod:`~inspect_validate.report.plots` function)
-    as an ``<img>`` with the PNG inline."""
-    buffer = io.BytesIO()
-    plot(*args, buffer, **options)
-    data = base64.b64encode(buffer.getvalue()).decode("ascii")
-    return f'<img src="data:image/png;base64,{data}" alt="{html.escape(alt)}">'
 
 
 def table(
@@ -386,11 +441,12 @@ def _spectra(v) -> list[str]:
     return out
 
 
-def _trends(log) -> list[str]:
-    """The watch history's statuses and charts: the overview, the 12 charts furthest from
-    their target (off target in half-widths of the band), and every illumination's charts."""
+def history_html(log: HistoryLog) -> list[str]:
+    """The watch history's statuses and charts (``history --plot``'s page, and a report's
+    trends): the overview, the 12 charts furthest from their target (off target in
+    half-widths of the band), and every illumination's charts."""
+    from inspect_validate.report.charts import history_charts
     from inspect_validate.report.history import status_counts, trend_table
-    from inspect_validate.report.plots import plot_history_charts, plot_history_overview
 
     e = html.escape
     out = ["<h2>Trends (watch history)</h2>"]
@@ -408,9 +464,10 @@ def _trends(log) -> list[str]:
     )
     if not log.charts:
         return out
-    out.append(_figure(plot_history_overview, log, alt="status per cycle and charts off target"))
+    (_, status), (_, overview), *illuminations = history_charts(log)
+    out.append(charts([*status, *overview], what="watch history"))
     header, cells, alarmed = trend_table(log, limit=12)
     out.append(table(header, cells, failed=alarmed))
-    for ill in log.illuminations:
-        out.append(_figure(plot_history_charts, log, ill, alt=f"drift charts of {ill}"))
+    for heading, specs in illuminations:
+        out += [f"<h3>{e(heading)}</h3>", charts(specs, what=heading)]
     return out

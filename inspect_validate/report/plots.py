@@ -332,9 +332,6 @@ def plot_design_path(design: Design, path: Target) -> Target:
     return save_figure(fig, path)
 
 
-_STATUS_COLOURS = {"pass": "#2e8b57", "drift": "#e69500", "fail": "#c8102e", "error": "#777777"}
-
-
 def plot_history_overview(log: HistoryLog, target: Target) -> Target:
     """A watch history at a glance: each cycle's status, and per illumination every chart's
     smoothed value off its golden target in band half-widths (beyond ±1 is an alarm;
@@ -351,7 +348,9 @@ def plot_history_overview(log: HistoryLog, target: Target) -> Target:
     axes = axes[:, 0]
     strip = axes[0]
     cycles = np.array([r.cycle for r in log.cycles])
-    for status, colour in _STATUS_COLOURS.items():
+    from inspect_validate.report.charts import STATUS_COLOURS
+
+    for status, colour in STATUS_COLOURS.items():
         at = cycles[[r.status == status for r in log.cycles]] if cycles.size else cycles
         if at.size:
             strip.bar(at, 1.0, width=1.0, color=colour, label=f"{status} ({at.size})")

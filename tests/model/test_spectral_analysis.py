@@ -66,6 +66,8 @@ def test_analyze_spectra_cli_finds_the_amber_band(tmp_path, capsys):
                 out,
                 "--plot",
                 png.parent,
+                "--plot-format",
+                "png",
             ]
         )
         == 0
@@ -95,6 +97,8 @@ def test_predict_plots_and_render_round_trip(tmp_path):
                 "never",
                 "--plot",
                 tmp_path / "plots",
+                "--plot-format",
+                "png",
                 "--render",
                 tmp_path / "frames",
                 "--json",
@@ -182,3 +186,49 @@ def test_spectral_error_plot_says_where_it_is_floored(monkeypatch):
     texts = {t.get_text(): t for t in shown["fig"].axes[0].texts}
     assert any("complete separation" in t for t in texts)
     assert texts["blue LED"].get_verticalalignment() == "bottom"  # above the axes' top
+
+
+def _charts(page: str) -> list[dict]:
+    """The chart specs a page carries (each ``<div class="chart">``'s JSON)."""
+    import re
+
+    return [
+        json.loads(m) for m in re.findall(r'<script type="application/json">(.*?)</script>', page)
+    ]
+
+
+def test_plot_writes_one_page_of_charts_without_matplotlib(tmp_path):
+    """predict --plot and analyze-spectra --plot write one HTML page of the reports'
+    browser-drawn charts by default; matplotlib is not imported (its PNGs cost 89 % of
+    predict --plot's run, benchmarks/bench_report.py)."""
+    import subprocess
+    import sys
+
+    from conftest import ROOT
+
+    scene = ROOT / "sample_images/scenes/paperboard/scene.yaml"
+    code = (
+        "import sys; from inspect_validate.cli import main\n"
+        "try:\n    main(sys.argv[1:])\nexcept SystemExit as e:\n    assert not e.code, e.code\n"
+        "print('matplotlib' in sys.modules)"
+    )
+    for command, page in (
+        ("predict", "prediction.html"),
+        ("analyze-spectra", "spectral_error.html"),
+    ):
+        folder = tmp_path / command
+        done = subprocess.run(
+            [sys.executable, "-c", code, command, str(scene), "--plot", str(folder)],
+            capture_output=True,
+            text=True,
+        )
+        assert done.returncode == 0, done.stderr
+        assert done.stdout.strip().splitlines()[-1] == "False"
+        assert sorted(p.name for p in folder.iterdir()) == [page]
+        titles = [c["title"] for c in _charts((folder / page).read_text())]
+        assert any(t.startswith("ε_tot per wavelength, parametric") for t in titles), titles
+        if command == "predict":
+            assert {"lights", "object reflectance", "optics transmission", "camera QE"} <= set(
+                titles
+            )
+            assert "Ranking by ε Gauss" in (folder / page).read_text()

@@ -141,9 +141,35 @@ def test_history_exports_every_point_once(cli, aged, tmp_path):
 
 
 def test_history_plots_the_trends(cli, aged, tmp_path):
+    """One page of browser-drawn charts by default: the statuses, each illumination's
+    charts off target (the band's edges in sight), then every chart of each; PNG figures
+    with --plot-format png."""
+    import json
+    import re
+
     from matplotlib.image import imread
 
-    code, _out, err = cli(["history", aged.db, "--plot", tmp_path / "plots"])
+    code, _out, err = cli(["history", aged.db, "--plot", tmp_path / "page"])
+    assert code == 0, err
+    assert sorted(p.name for p in (tmp_path / "page").iterdir()) == ["history.html"]
+    page = (tmp_path / "page" / "history.html").read_text()
+    specs = [
+        json.loads(m) for m in re.findall(r'<script type="application/json">(.*?)</script>', page)
+    ]
+    titles = [c["title"] for c in specs]
+    assert titles[:3] == [
+        "status per cycle",
+        "illumination amber: charts off target",
+        "illumination red: charts off target",
+    ]
+    off = specs[1]
+    assert off["yrange"][0] <= -1 and off["yrange"][1] >= 1 and off["xinteger"]
+    alarmed = [s for s in off["series"] if s["color"] != "#b3b3b3"]
+    assert alarmed and all(max(map(abs, filter(None, s["y"]))) > 1 for s in alarmed)  # LED ageing
+    assert "A mean" in titles and titles.count("A mean") == 2  # one per illumination
+    code, _out, err = cli(
+        ["history", aged.db, "--plot", tmp_path / "plots", "--plot-format", "png"]
+    )
     assert code == 0, err
     names = sorted(p.name for p in (tmp_path / "plots").iterdir())
     assert names == ["history-amber.png", "history-overview.png", "history-red.png"]
@@ -171,7 +197,10 @@ def test_verify_report_carries_the_history(cli, aged, tmp_path):
     page = (tmp_path / "r" / "report.html").read_text()
     trends = page.split("<h2>Trends (watch history)</h2>")[1]
     assert "LED ageing" in trends and "amber: A μ [DN]" in trends
-    assert trends.count("data:image/png") == 3  # the overview and each illumination
+    assert "data:image/png" not in trends  # charts drawn by the page, not pictures
+    for ill in ("amber", "red"):
+        assert f'"title":"illumination {ill}: charts off target"' in trends
+    assert "value, EWMA, control band" in trends
 
 
 def test_verify_refuses_another_stations_history(cli, aged, tmp_path):

@@ -91,7 +91,15 @@
       width: width,
       height: spec.height || 320,
       scales: { x: x, y: y },
-      axes: [{ label: spec.xlabel }, { label: spec.ylabel, size: 70 }],
+      // Whole steps only on an axis of cycles (0.5 of a cycle means nothing).
+      axes: [{ label: spec.xlabel, incrs: spec.xinteger ? [1, 2, 5, 10, 20, 50, 100, 200, 500, 1000, 2000, 5000, 1e4, 2e4, 5e4, 1e5, 1e6] : undefined }, {
+        label: spec.ylabel,
+        size: 70,
+        // A log axis down to 1e-16: uPlot's own labels print every tick below 0.001 as 0.
+        values: spec.logy ? function (u, ticks) {
+          return ticks.map(function (v) { return v === null ? "" : (v < 1e-3 ? v.toExponential(0) : String(v)); });
+        } : undefined
+      }],
       series: series,
       bands: (spec.bands || []).map(function (b) { return { series: [b[0] + 1, b[1] + 1], fill: b[2] }; }),
       cursor: { drag: { x: true, y: false, setScale: true } },
