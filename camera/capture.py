@@ -245,6 +245,7 @@ def capture_steps(
     source: str = "the station file",
     stopping: Callable[[str], Any] | None = None,
     progress: Progress | None = None,
+    completed: Callable[[str], None] | None = None,
 ) -> CaptureResult:
     """Run ``steps`` on an open ``controller`` and ``grabber`` into ``store``.
 
@@ -270,6 +271,9 @@ def capture_steps(
     progress : callable, keyword-only, optional
         ``progress(step, done, total)`` after every verified frame (its save may still be
         under way; a step is complete only once all are written).
+    completed : callable, keyword-only, optional
+        ``completed(step)`` once a step's frames are all written and it is marked
+        complete, while the next step is captured (a caller measures it meanwhile).
     """
     saved: dict[str, int] = {}
     skipped: list[str] = []
@@ -318,6 +322,8 @@ def capture_steps(
             store.fail(step, str(exc))
             raise
         store.finish(step)
+        if completed is not None:
+            completed(step)
 
     def abort(step, exc) -> None:
         """Record why ``step`` failed once every frame grabbed before is written."""

@@ -11,6 +11,7 @@ from inspect_validate.camera.storage import CaptureStore
 from inspect_validate.station.file import station_hash
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
     from contextlib import AbstractContextManager
 
     from inspect_validate.camera.capture import Progress
@@ -35,13 +36,15 @@ def capture(
     *,
     resume: bool = False,
     progress: Progress | None = None,
+    completed: Callable[[str], None] | None = None,
     devices: AbstractContextManager[tuple[LedController, Grabber]] | None = None,
     steps: list[Step] | None = None,
 ) -> CaptureResult:
     """Run the station's capture sequence into ``out``.
 
     ``progress(step, done, total)`` is called after every verified frame (its
-    save may still be under way; a step is complete only once all are written).
+    save may still be under way; a step is complete only once all are written), and
+    ``completed(step)`` once a step's frames are all written, while the next is captured.
     ``devices`` replaces the station's camera and controller with a context
     manager yielding ``(controller, grabber)`` (other setups, tests). ``steps``
     replaces :func:`station_steps` (``characterize``'s exposure series). With
@@ -77,6 +80,7 @@ def capture(
                 source=str(station.path),
                 stopping=stopping,
                 progress=progress,
+                completed=completed,
             )
     finally:
         store.release()

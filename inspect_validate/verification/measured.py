@@ -10,13 +10,21 @@ from typing import TYPE_CHECKING
 from inspect_validate.errors import InputError
 
 if TYPE_CHECKING:
+    from concurrent.futures import Future
+
     from inspect_validate.comparisons import Comparisons
     from inspect_validate.components.sensors import SensorModel
     from inspect_validate.measurement import KdeMode, Limits, Measurement
     from inspect_validate.roi.roiset import RoiSet
     from inspect_validate.station.file import Station
 
-__all__ = ["MeasuredCapture", "measure_capture", "saturation_level", "station_regions"]
+__all__ = [
+    "MeasuredCapture",
+    "StepMeasurer",
+    "measure_capture",
+    "saturation_level",
+    "station_regions",
+]
 
 
 @dataclass(frozen=True)
@@ -57,6 +65,79 @@ def station_regions(station: Station) -> tuple[RoiSet, Comparisons]:
     return rois, comparisons
 
 
+class StepMeasurer:
+    """Measure each step of a capture as soon as its frames are written, on a thread of its
+    own, while the camera takes the next step's (``capture(..., completed=measurer)``):
+    ``verify`` in one pass over its frames. :func:`measure_capture` takes a step's result
+    only where the audited capture holds the same frames and saturation level; anything
+    else, or a step whose measurement failed, is measured again there (so an error is
+    raised where and as it would be without).
+
+    Use as a context manager (the thread ends with it); the arguments are
+    :func:`measure_capture`'s.
+    """
+
+    def __init__(
+        self,
+        folder: Path,
+        *,
+        rois: RoiSet,
+        comparisons: Comparisons,
+        limits: Limits,
+        kde: KdeMode,
+        sensor: SensorModel | None = None,
+    ) -> None:
+        from concurrent.futures import ThreadPoolExecutor
+
+        self.folder = Path(folder)
+        self._options = {"rois": rois, "comparisons": comparisons, "limits": limits, "kde": kde}
+        self._sensor = sensor
+        self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="step-measurer")
+        self._steps: dict[str, Future] = {}
+
+    def __enter__(self) -> StepMeasurer:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._pool.shutdown(wait=True, cancel_futures=True)
+
+    def __call__(self, step: str) -> None:
+        """Start measuring ``step``, whose frames are all written."""
+        self._steps[step] = self._pool.submit(self._measure, step)
+
+    def _measure(self, step: str) -> tuple[list[Path], float | None, Measurement]:
+        files = sorted((self.folder / step).glob("frame_*.tif"))
+        level = saturation_level(files[0], self._sensor)
+        return files, level, _measure_step(step, files, level, **self._options)
+
+    def result(self, step: str, files: list[Path], level: float | None) -> Measurement | None:
+        """``step``'s measurement where it was made of ``files`` at ``level``, else None."""
+        future = self._steps.get(step)
+        if future is None:
+            return None
+        try:
+            measured, at, measurement = future.result()
+        except Exception:  # measured again by the caller, which raises it as it would
+            return None
+        return measurement if measured == list(files) and at == level else None
+
+
+def _measure_step(
+    step: str, files: list[Path], level: float | None, *, rois, comparisons, limits, kde
+):
+    """A step's frames measured as :func:`measure_capture` measures them (the darks
+    without ε KDE and limits)."""
+    from inspect_validate.measurement import measure_files
+
+    if step == "dark":
+        return measure_files(
+            files, rois, comparisons=comparisons, kde="never", saturation_level=level
+        )
+    return measure_files(
+        files, rois, comparisons=comparisons, limits=limits, kde=kde, saturation_level=level
+    )
+
+
 def measure_capture(
     station: Station,
     folder: Path,
@@ -66,11 +147,14 @@ def measure_capture(
     limits: Limits,
     kde: KdeMode,
     sensor: SensorModel | None = None,
+    measured: StepMeasurer | None = None,
 ) -> MeasuredCapture:
     """Measure every illumination (and the darks) of a capture folder of ``station``
     with :func:`~inspect_validate.measurement.measure_files`, the one measuring path;
     pixels count as saturated at :func:`saturation_level` (``sensor``: the station's
-    sensor model, where the frames do not record their bit depth).
+    sensor model, where the frames do not record their bit depth). ``measured``: the
+    steps a :class:`StepMeasurer` measured while they were captured, taken where the
+    audited frames are the ones it measured.
 
     Raises
     ------
@@ -79,31 +163,20 @@ def measure_capture(
         outside the frame.
     """
     from inspect_validate.camera.storage import read_capture
-    from inspect_validate.measurement import measure_files
 
     files, dark_files, manifest, hashes = read_capture(
         folder, [i.name for i in station.illuminations]
     )
     _settings_agree(station, folder, manifest, files, dark_files)
     level = saturation_level(next(iter(files.values()))[0], sensor)
-    measurements = {
-        name: measure_files(
-            paths,
-            rois,
-            comparisons=comparisons,
-            limits=limits,
-            kde=kde,
-            saturation_level=level,
-        )
-        for name, paths in files.items()
-    }
-    dark = (
-        measure_files(
-            dark_files, rois, comparisons=comparisons, kde="never", saturation_level=level
-        )
-        if dark_files
-        else None
-    )
+    options = {"rois": rois, "comparisons": comparisons, "limits": limits, "kde": kde}
+
+    def measure(step: str, paths: list[Path]) -> Measurement:
+        early = measured.result(step, paths, level) if measured is not None else None
+        return early if early is not None else _measure_step(step, paths, level, **options)
+
+    measurements = {name: measure(name, paths) for name, paths in files.items()}
+    dark = measure("dark", dark_files) if dark_files else None
     return MeasuredCapture(files, dark_files, manifest, measurements, dark, level, hashes)
 
 

@@ -34,7 +34,7 @@ from inspect_validate.verification.dominance import (
     dominated_illuminations,
 )
 from inspect_validate.verification.golden import drift_checks
-from inspect_validate.verification.measured import measure_capture
+from inspect_validate.verification.measured import StepMeasurer, measure_capture
 from inspect_validate.verification.plan import Plan, plan_verification
 from inspect_validate.verification.results import Verification
 
@@ -111,9 +111,12 @@ def verify_station(
             notify(f"{doing} {name!r}: predicted dominated (see skipped:)")
     if frames is None:
         assert out is not None
-        capture(station, Path(out), progress=progress)
-        frames = out
-    result = verify_folder(station, Path(frames), plan=plan)
+        # One pass: each step is measured while the camera takes the next.
+        with StepMeasurer(Path(out), **_measuring(station, plan)) as measured:
+            capture(station, Path(out), progress=progress, completed=measured)
+            result = verify_folder(station, Path(out), plan=plan, measured=measured)
+    else:
+        result = verify_folder(station, Path(frames), plan=plan)
     misses = dominance_unconfirmed(result) if plan.dominated else []
     if misses and out is None:
         names = ", ".join(repr(n) for n in plan.dominated)
@@ -154,9 +157,28 @@ def _complete_steps(folder: Path) -> set[str] | None:
     return {name for name, record in steps.items() if record.get("complete")}
 
 
-def verify_folder(station: Station, frames_dir: Path, *, plan: Plan | None = None) -> Verification:
+def _measuring(station: Station, plan: Plan) -> dict:
+    """How a verification measures its frames (:func:`~.measured.measure_capture`'s options)."""
+    acc = station.acceptance
+    return {
+        "rois": plan.rois,
+        "comparisons": plan.comparisons,
+        "limits": acc.limits(),
+        "kde": "always" if acc.needs_kde else "never",
+        "sensor": plan.model.sensor,
+    }
+
+
+def verify_folder(
+    station: Station,
+    frames_dir: Path,
+    *,
+    plan: Plan | None = None,
+    measured: StepMeasurer | None = None,
+) -> Verification:
     """Verify ``station`` (a :class:`~inspect_validate.station.file.Station`) on the capture
-    in ``frames_dir``; ``plan`` is :func:`plan_verification` of it, made here if not given.
+    in ``frames_dir``; ``plan`` is :func:`plan_verification` of it, made here if not given;
+    ``measured``, the steps measured while they were captured (:class:`~.measured.StepMeasurer`).
 
     Raises
     ------
@@ -164,16 +186,7 @@ def verify_folder(station: Station, frames_dir: Path, *, plan: Plan | None = Non
         See :func:`plan_verification`; an unreadable or incomplete capture (exit code 2).
     """
     plan = plan or plan_verification(station)
-    acc = station.acceptance
-    capture = measure_capture(
-        station,
-        frames_dir,
-        rois=plan.rois,
-        comparisons=plan.comparisons,
-        limits=acc.limits(),
-        kde="always" if acc.needs_kde else "never",
-        sensor=plan.model.sensor,
-    )
+    capture = measure_capture(station, frames_dir, **_measuring(station, plan), measured=measured)
     return verify_capture(station, capture, plan=plan, folder=frames_dir)
 
 

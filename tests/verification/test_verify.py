@@ -565,3 +565,34 @@ def test_frames_stored_otherwise_than_their_pixel_format_are_refused(cli, tmp_pa
     (tmp_path / "f" / "manifest.json").write_text(json.dumps(manifest))
     code, _, err = cli(["verify", path, "--frames", tmp_path / "f"])
     assert code == 2 and "holds float32 pixels, where its sidecar records Mono16" in err, err
+
+
+def test_verify_measures_each_step_while_the_next_is_captured(tmp_path, monkeypatch):
+    """One pass: every step (the illuminations and the darks) is measured once, on the
+    measuring thread, as soon as its frames are written; the verification is the one of
+    the same frames measured afterwards (verify --frames), to the last digit."""
+    import threading
+
+    from inspect_validate.station.file import read_station
+    from inspect_validate.verification import measured
+    from inspect_validate.verification.verify import verify_station
+
+    calls = []
+    original = measured._measure_step
+
+    def counted(step, *args, **kwargs):
+        calls.append((step, threading.current_thread().name))
+        return original(step, *args, **kwargs)
+
+    monkeypatch.setattr(measured, "_measure_step", counted)
+    station = read_station(copy_station(tmp_path))
+    once = verify_station(station, out=tmp_path / "f", skip_dominated=False)
+    steps = [*(i.name for i in station.illuminations), "dark"]
+    assert sorted(step for step, _ in calls) == sorted(steps)
+    assert all(name.startswith("step-measurer") for _, name in calls), calls
+    calls.clear()
+    after = verify_station(station, frames=tmp_path / "f", skip_dominated=False)
+    assert sorted(step for step, _ in calls) == sorted(steps)  # measured here, afterwards
+    assert [(c.name, c.value, c.limit) for c in once.checks] == [
+        (c.name, c.value, c.limit) for c in after.checks
+    ]
