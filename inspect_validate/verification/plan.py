@@ -13,6 +13,7 @@ from inspect_validate.verification.measured import station_regions
 if TYPE_CHECKING:
     from collections.abc import Sequence
 
+    from inspect_validate.acceptance import Acceptance
     from inspect_validate.comparisons import Comparisons
     from inspect_validate.roi import RoiSet
     from inspect_validate.station.file import Station
@@ -40,6 +41,18 @@ class Plan:
     dominated: dict[str, str] = field(default_factory=dict)
     """Illuminations left out of the capture as dominated (:func:`dominated_illuminations`):
     name → why, and how to add it; listed as skipped."""
+
+    def measuring(self, acceptance: Acceptance) -> dict:
+        """How the station's frames are measured for its verification: the options of
+        :func:`~.measured.measure_capture` and :class:`~.measured.StepMeasurer` (ε KDE only
+        where a check of ``acceptance`` asks for it)."""
+        return {
+            "rois": self.rois,
+            "comparisons": self.comparisons,
+            "limits": acceptance.limits(),
+            "kde": "always" if acceptance.needs_kde else "never",
+            "sensor": self.model.sensor,
+        }
 
 
 def plan_verification(station: Station, *, drift_checks: bool = True) -> Plan:

@@ -112,7 +112,7 @@ def verify_station(
     if frames is None:
         assert out is not None
         # One pass: each step is measured while the camera takes the next.
-        with StepMeasurer(Path(out), **_measuring(station, plan)) as measured:
+        with StepMeasurer(Path(out), **plan.measuring(station.acceptance)) as measured:
             capture(station, Path(out), progress=progress, completed=measured)
             result = verify_folder(station, Path(out), plan=plan, measured=measured)
     else:
@@ -157,18 +157,6 @@ def _complete_steps(folder: Path) -> set[str] | None:
     return {name for name, record in steps.items() if record.get("complete")}
 
 
-def _measuring(station: Station, plan: Plan) -> dict:
-    """How a verification measures its frames (:func:`~.measured.measure_capture`'s options)."""
-    acc = station.acceptance
-    return {
-        "rois": plan.rois,
-        "comparisons": plan.comparisons,
-        "limits": acc.limits(),
-        "kde": "always" if acc.needs_kde else "never",
-        "sensor": plan.model.sensor,
-    }
-
-
 def verify_folder(
     station: Station,
     frames_dir: Path,
@@ -186,7 +174,9 @@ def verify_folder(
         See :func:`plan_verification`; an unreadable or incomplete capture (exit code 2).
     """
     plan = plan or plan_verification(station)
-    capture = measure_capture(station, frames_dir, **_measuring(station, plan), measured=measured)
+    capture = measure_capture(
+        station, frames_dir, **plan.measuring(station.acceptance), measured=measured
+    )
     return verify_capture(station, capture, plan=plan, folder=frames_dir)
 
 

@@ -183,6 +183,7 @@ def set_aside(frames: Path) -> Path:
 def _cycle(station, plan, history, monitor, folder, settings, failures):
     from inspect_validate.station.capture import capture
     from inspect_validate.station.file import simulated_at
+    from inspect_validate.verification.measured import StepMeasurer
     from inspect_validate.verification.verify import verify_folder
     from inspect_validate.watch.drift import series_of
     from inspect_validate.watch.history import CycleRecord
@@ -194,9 +195,12 @@ def _cycle(station, plan, history, monitor, folder, settings, failures):
     when, t0 = time.time(), time.monotonic()
     state = verification = None
     try:
-        # hours since the history began: a restarted watch goes on ageing its simulated LEDs
-        capture(simulated_at(station, n, hours=(when - history.created) / 3600.0), frames)
-        verification = verify_folder(station, frames, plan=plan)
+        # Each step measured while the next is captured, as verify does.
+        with StepMeasurer(frames, **plan.measuring(station.acceptance)) as measured:
+            # hours since the history began: a restarted watch goes on ageing its simulated LEDs
+            at = simulated_at(station, n, hours=(when - history.created) / 3600.0)
+            capture(at, frames, completed=measured)
+            verification = verify_folder(station, frames, plan=plan, measured=measured)
     except DeviceError as exc:
         failures += 1
         status, passed, reason = "error", None, str(exc)
