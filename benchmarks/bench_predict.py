@@ -133,10 +133,10 @@ def matmul_seconds(parts) -> float:
     """The sweep's matrix products alone: one block's two, timed, times the blocks."""
     from machine import best_time
 
-    from inspect_validate.model.acquisition import Exposure, _prepare
+    from inspect_validate.model.acquisition import Exposure, prepare
     from inspect_validate.model.sweep import MEMORY, _blocks
 
-    chain = _prepare(*parts, exposure=Exposure(), grid=GRID, comparisons=None)
+    chain = prepare(*parts, exposure=Exposure(), grid=GRID, comparisons=None)
     blocks = list(_blocks(chain, memory=MEMORY))
     ls, os, cs = blocks[0]
     lo = (chain.e[ls][:, None, :] * chain.t[os][None, :, :]).reshape(-1, GRID.size)

@@ -13,7 +13,11 @@ camera noise can be added. Grey values follow the EMVA 1288 model
 
 All combinations are computed at once: light×optics products form the rows of
 one matrix, camera×sample products those of another, and one BLAS product gives
-every μ_e — no Python loop over spectra or combinations.
+every μ_e — no Python loop over spectra or combinations. The engine is shared with
+:func:`~inspect_validate.model.sweep` (which streams blocks of a sweep too large to
+hold): :func:`prepare` puts the components on one grid (a :class:`Chain`), and
+:func:`predict_block` predicts any block of its combinations; :func:`predict` is the
+one block of them all.
 
 Integration runs over the wavelengths where every component of a combination
 is defined (outside its measured range a component is taken as absent, never
@@ -44,19 +48,27 @@ from inspect_validate.errors import InputError
 from inspect_validate.spectra import Spectrum
 
 __all__ = [
+    "MAX_REASONS",
     "PREDICT_MAX_BYTES",
+    "Block",
+    "Chain",
+    "Combinations",
     "Exposure",
     "ObjectClass",
     "Prediction",
+    "Signal",
     "nothing_predictable",
     "predict",
+    "predict_block",
+    "prepare",
     "skipped_reasons",
 ]
 
 _PRESENT = 1e-6  # a component is present where it exceeds this fraction of its peak
 COVERAGE = 0.99
 """A class's reflectance must span this fraction of a combination's spectral response."""
-_MAX_REASONS = 20  # skipped combinations listed by name; the rest are counted
+MAX_REASONS = 20
+"""Skipped combinations listed by name; the rest are counted."""
 
 
 @dataclass(frozen=True)
@@ -92,7 +104,7 @@ class Exposure:
 
 
 @dataclass(frozen=True, eq=False, repr=False)  # a short repr: __repr__
-class _Combinations:
+class Combinations:
     """The light × optics × camera axes, the classes and the comparisons of a prediction
     or a ranking."""
 
@@ -154,7 +166,7 @@ class _Combinations:
 
 
 @dataclass(frozen=True, eq=False, repr=False)  # a short repr: __repr__
-class Prediction(_Combinations):
+class Prediction(Combinations):
     """Predicted statistics for every light × optics × camera combination.
 
     Arrays are indexed ``[light, optics, camera, ...]``; the last axis is the
@@ -200,7 +212,7 @@ def _trapezoid_weights(grid: np.ndarray) -> np.ndarray:
 
 
 @dataclass(frozen=True, eq=False)
-class _Chain:
+class Chain:
     """A sweep's components on its grid: what every block of combinations shares."""
 
     components: tuple[list, list, list, list]  # lights, optics, cameras, classes
@@ -248,7 +260,7 @@ class _Chain:
         return self._rows[key]
 
 
-def _prepare(lights, optics, cameras, classes, *, exposure, grid, comparisons) -> _Chain:
+def prepare(lights, optics, cameras, classes, *, exposure, grid, comparisons) -> Chain:
     """Validate the components and put them on the integration grid."""
     if len(classes) < 2:
         raise InputError("a scene needs at least two object classes to separate")
@@ -305,7 +317,7 @@ def _prepare(lights, optics, cameras, classes, *, exposure, grid, comparisons) -
             "prnu",
         )
     }
-    return _Chain(
+    return Chain(
         components=(list(lights), list(optics), list(cameras), list(classes)),
         comparisons=comparisons,
         exposure=exposure,
@@ -368,11 +380,11 @@ def predict(
             "every one; rank them with sweep (Scene.sweep(by=..., comparison=..., top=...), "
             "what 'inspect-validate predict' does), which keeps the best rows of each block"
         )
-    chain = _prepare(
+    chain = prepare(
         lights, optics, cameras, classes, exposure=exposure, grid=grid, comparisons=comparisons
     )
     everything = slice(None)
-    block = _predict_block(chain, everything, everything, everything)
+    block = predict_block(chain, everything, everything, everything)
     p = block.prediction
     if block.n_bad == p.valid.size:
         raise nothing_predictable(block.reasons, block.n_bad)
@@ -395,8 +407,8 @@ def nothing_predictable(reasons: Sequence[str], n_bad: int) -> InputError:
 
 
 def skipped_reasons(reasons: Sequence[str], n_bad: int) -> tuple[str, ...]:
-    """The first :data:`_MAX_REASONS` reasons, then how many more combinations were skipped."""
-    listed = tuple(reasons[:_MAX_REASONS])
+    """The first :data:`MAX_REASONS` reasons, then how many more combinations were skipped."""
+    listed = tuple(reasons[:MAX_REASONS])
     if n_bad > len(listed):
         return (*listed, f"... and {n_bad - len(listed)} more combinations")
     return listed
@@ -414,7 +426,7 @@ def _fixed_pattern(mu_e, cam):
 
 
 @dataclass(frozen=True, eq=False)
-class _Signal:
+class Signal:
     """What a block's per-sample statistics are computed from."""
 
     class_rate: np.ndarray  # mean e⁻/s per class, (l, o, c, K)
@@ -438,19 +450,19 @@ class _Signal:
 
 
 @dataclass(frozen=True, eq=False)
-class _Block:
-    """A block's prediction (no per-sample arrays: :meth:`_Signal.samples`), skips and
+class Block:
+    """A block's prediction (no per-sample arrays: :meth:`Signal.samples`), skips and
     their reasons."""
 
     prediction: Prediction
-    signal: _Signal
+    signal: Signal
     n_bad: int
     reasons: tuple[str, ...]
 
 
-def _predict_block(chain: _Chain, ls: slice, os: slice, cs: slice, *, mixtures=None) -> _Block:
+def predict_block(chain: Chain, ls: slice, os: slice, cs: slice, *, mixtures=None) -> Block:
     """:func:`predict` of the lights ``ls`` × optics ``os`` × cameras ``cs`` of a chain,
-    without the per-sample arrays (:meth:`_Signal.samples` gives them).
+    without the per-sample arrays (:meth:`Signal.samples` gives them).
 
     ``mixtures``: the group comparisons whose ε (a root search per combination)
     to compute; all by default (see :func:`~inspect_validate.comparisons.gaussian_separation`).
@@ -528,7 +540,7 @@ def _predict_block(chain: _Chain, ls: slice, os: slice, cs: slice, *, mixtures=N
     top_var = top_var + _fixed_pattern(brightest, {f: v[None, None, :] for f, v in cam.items()})
     gap = cam["max_dn"][None, None, :] - top_mean
     near = valid & ((gap <= 0) | (gap * gap <= 64.0 * top_var))
-    per_sample = _Signal(class_rate, deviation, t_exp, cam, sample_class)
+    per_sample = Signal(class_rate, deviation, t_exp, cam, sample_class)
     if near.any():
         idx = np.nonzero(near)
         _, sample_mean, sample_var, above = per_sample.samples(*idx)
@@ -574,7 +586,7 @@ def _predict_block(chain: _Chain, ls: slice, os: slice, cs: slice, *, mixtures=N
         skipped=skipped_reasons(reasons, n_bad),
         absolute=chain.absolute[ls],
     )
-    return _Block(prediction, per_sample, n_bad, reasons)
+    return Block(prediction, per_sample, n_bad, reasons)
 
 
 def _irradiance_scale(lights) -> np.ndarray:
@@ -658,7 +670,7 @@ def _feasible(
     n_bad : int
         Combinations skipped.
     reasons : tuple of str
-        Why, for the first :data:`_MAX_REASONS` of them.
+        Why, for the first :data:`MAX_REASONS` of them.
     """
     n_l, n_o, n_c, n_w = len(lights), len(optics), len(cameras), q.shape[-1]
     # Wavelengths where light, optics and camera are all present, counted per
@@ -679,7 +691,7 @@ def _feasible(
     dim = np.zeros_like(dark) if needed is None else ~dark & ~(needed <= LONGEST_EXPOSURE_S)
     valid = shared & ~uncovered.any(axis=-1) & ~dark & ~dim
     reasons = []
-    for li, oi, ci in np.argwhere(~valid)[:_MAX_REASONS]:
+    for li, oi, ci in np.argwhere(~valid)[:MAX_REASONS]:
         combo = f"{lights[li].name} × {optics[oi].name} × {cameras[ci].name}"
         if not shared[li, oi, ci]:
             parts = [lights[li].spd, optics[oi].transmission, cameras[ci].qe]

@@ -33,13 +33,13 @@ import numpy as np
 from inspect_validate.comparisons import Comparisons, RankBy, gaussian_separation
 from inspect_validate.errors import DeviceError, InputError
 from inspect_validate.model.acquisition import (
-    _MAX_REASONS,
+    MAX_REASONS,
+    Chain,
+    Combinations,
     Exposure,
-    _Chain,
-    _Combinations,
-    _predict_block,
-    _prepare,
     nothing_predictable,
+    predict_block,
+    prepare,
     skipped_reasons,
 )
 from inspect_validate.model.ranking import rank_keys, ranked
@@ -79,7 +79,7 @@ _ROW_FIELDS = (
 
 
 @dataclass(frozen=True, eq=False, repr=False)  # a short repr: __repr__
-class Ranking(_Combinations):
+class Ranking(Combinations):
     """The best rows of a sweep, best first, with what the whole sweep found.
 
     Row arrays are indexed ``[row, ...]`` with the fields of
@@ -169,7 +169,7 @@ def sweep(
         arrays at a time); the ranking is merged here as their rows arrive.
         See :func:`dask_client`.
     """
-    chain = _prepare(
+    chain = prepare(
         lights,
         optics,
         cameras,
@@ -206,7 +206,7 @@ def sweep(
         if why:
             why_by_block[i] = why
         kept = rows if kept is None else _merge(kept, rows, top)
-    reasons = [r for i in sorted(why_by_block) for r in why_by_block[i]][:_MAX_REASONS]
+    reasons = [r for i in sorted(why_by_block) for r in why_by_block[i]][:MAX_REASONS]
     if n_bad == total:
         raise nothing_predictable(reasons, n_bad)
     assert kept is not None  # a block ran, or nothing_predictable was raised
@@ -266,7 +266,7 @@ def _duration(seconds: float) -> str:
     return f"{seconds / 3600:.1f} h"
 
 
-def _blocks(chain: _Chain, *, memory: int):
+def _blocks(chain: Chain, *, memory: int):
     """(lights, optics, cameras) slices whose block arrays fit ``memory`` bytes; cameras
     are split only when one light × optics row of them does not fit, and so on."""
     n_l, n_o, n_c = chain.shape
@@ -287,7 +287,7 @@ def _block_rows(chain, block, *, by, comparison, top, mixtures, compiled):
     if compiled:
         load_kernel()
     ls, os, cs = block
-    computed = _predict_block(chain, ls, os, cs, mixtures=mixtures)
+    computed = predict_block(chain, ls, os, cs, mixtures=mixtures)
     p = computed.prediction
     keys, key, column, saturated = rank_keys(p, by=by, comparison=comparison)
     pick = _kept(ranked(keys, p.valid), top)

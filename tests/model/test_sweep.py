@@ -137,9 +137,9 @@ def test_sweep_memory_does_not_grow_with_the_combinations():
 
 def test_blocks_split_the_largest_axis_last():
     parts = station(3, 4, 5, blind=False)
-    from inspect_validate.model.acquisition import Exposure, _prepare
+    from inspect_validate.model.acquisition import Exposure, prepare
 
-    chain = _prepare(*parts, exposure=Exposure(), grid=GRID, comparisons=None)
+    chain = prepare(*parts, exposure=Exposure(), grid=GRID, comparisons=None)
     whole = list(_blocks(chain, memory=10**9))
     assert whole == [(slice(0, 3), slice(0, 4), slice(0, 5))]
     tiny = list(_blocks(chain, memory=1))  # one combination a block, every one once
