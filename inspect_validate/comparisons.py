@@ -331,7 +331,7 @@ def gaussian_separation(
         Every one by default; the others' ε are NaN.
     """
     from inspect_validate.stats import cnr_db, fisher_db, gaussian_error_and_log, snr_db
-    from inspect_validate.stats.kde_error import gaussian_mixture_errors
+    from inspect_validate.stats.mixture_batch import gaussian_mixture_errors
 
     means = np.asarray(means, dtype=np.float64)
     variances = np.asarray(variances, dtype=np.float64)
@@ -435,7 +435,8 @@ def counted_separation(
     pixels : array_like, keyword-only, optional
         Per-class pixel counts (for ``pixels`` weighting).
     """
-    from inspect_validate.stats.kde_error import Mixture, misclassified_regions
+    from inspect_validate.stats.kde_error import misclassified_regions
+    from inspect_validate.stats.mixture import Mixture
     from inspect_validate.stats.sample import empirical_cdf
 
     means, sd = np.asarray(means, float), np.sqrt(np.asarray(variances, float))
@@ -497,7 +498,8 @@ def kde_separation(
         them gets no bandwidth); every one by default.
     """
     from inspect_validate.stats import lscv_bandwidth
-    from inspect_validate.stats.kde_error import kernel_mixture, mixture_errors
+    from inspect_validate.stats.kde_error import mixture_errors
+    from inspect_validate.stats.mixture import kernel_mixture
 
     w = comparisons.class_weights(pixels)
     wanted = sorted(set(range(len(comparisons.groups)) if only is None else only))

@@ -29,7 +29,8 @@ from inspect_validate.stats import (
     sample_moments,
     snr_db,
 )
-from inspect_validate.stats.kde_error import Mixture, mixture_error
+from inspect_validate.stats.kde_error import mixture_error
+from inspect_validate.stats.mixture import Mixture
 
 implementation = importlib.import_module("inspect_validate.stats.gaussian_error")
 STEFAN_BOLTZMANN = 5.670374419e-8  # W·m⁻²·K⁻⁴ (CODATA 2018, exact from h, c, k)

@@ -239,7 +239,8 @@ def comparison_errors(
     a group's side is a mixture of its classes' Gaussians.
     """
     from inspect_validate.stats.gaussian_error import gaussian_error_gradient
-    from inspect_validate.stats.kde_error import Mixture, mixture_error_gradient
+    from inspect_validate.stats.kde_error import mixture_error_gradient
+    from inspect_validate.stats.mixture import Mixture
 
     mean, var, d_mean, d_var = mix_moments(response, levels, jacobian=True)
     sd = np.sqrt(var)

@@ -22,7 +22,8 @@ import numpy as np
 from inspect_validate.comparisons import Comparisons, RankBy, find_comparison
 from inspect_validate.model.acquisition import Prediction
 from inspect_validate.stats import as_sample, lscv_bandwidth
-from inspect_validate.stats.kde_error import Mixture, mixture_error
+from inspect_validate.stats.kde_error import mixture_error
+from inspect_validate.stats.mixture import Mixture
 
 __all__ = ["comparison_index", "predicted_kde_error", "rank", "rank_keys", "ranked"]
 

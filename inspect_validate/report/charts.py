@@ -111,7 +111,7 @@ def histogram_chart(
     """Each class's grey-value histogram (as a density) with its Gaussian N(μ, σ²) (dashed)
     and its kernel density estimate (41) (solid), 1/DN against DN."""
     from inspect_validate.stats import LatticeSample
-    from inspect_validate.stats.kde_error import kernel_density
+    from inspect_validate.stats.mixture import kernel_density
 
     series = []
     for k, c in enumerate(classes):

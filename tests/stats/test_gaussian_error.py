@@ -200,7 +200,8 @@ def test_degenerate_cases():
 
 def test_gradient_matches_central_differences_and_the_mixture_gradient():
     from inspect_validate.stats.gaussian_error import gaussian_error_gradient
-    from inspect_validate.stats.kde_error import Mixture, mixture_error_gradient
+    from inspect_validate.stats.kde_error import mixture_error_gradient
+    from inspect_validate.stats.mixture import Mixture
 
     rng = np.random.default_rng(12)
     m1, m2 = rng.normal(0, 3, (2, 400))

@@ -8,7 +8,8 @@ import pytest
 from scipy import integrate
 
 from inspect_validate.stats import as_sample, gaussian_error, kde_error
-from inspect_validate.stats.kde_error import Mixture, kernel_mixture, mixture_error, mixture_errors
+from inspect_validate.stats.kde_error import mixture_error, mixture_errors
+from inspect_validate.stats.mixture import Mixture, kernel_mixture
 
 
 def reference(s1, s2, h1, h2, lo, hi):
@@ -91,7 +92,7 @@ def test_windowed_density_equals_the_full_sum():
     # Many components (the windowed path) with gaps wider than the window, weights
     # down to 1e-60 and points far in both tails: the sum over each window must
     # equal the sum over every component (float64 relative accuracy).
-    from inspect_validate.stats.kde_error import _density_parts, _log_density, _log_density_all
+    from inspect_validate.stats.mixture import _log_density_all, density_parts, log_density
 
     rng = np.random.default_rng(3)
     centres = np.sort(np.concatenate([rng.normal(0, 3, 600), rng.normal(400, 1, 300), [900.0]]))
@@ -101,8 +102,8 @@ def test_windowed_density_equals_the_full_sum():
     h = 0.7
     full = np.empty(x.size)
     _log_density_all(x, full, centres, np.log(weights) - np.log(h), h)
-    parts = _density_parts(centres, weights, np.full(centres.size, h))
-    windowed = _log_density(x, parts) + 0.5 * np.log(2 * np.pi)
+    parts = density_parts(centres, weights, np.full(centres.size, h))
+    windowed = log_density(x, parts) + 0.5 * np.log(2 * np.pi)
     np.testing.assert_allclose(windowed, full, rtol=1e-12, atol=1e-12)
 
 
@@ -167,23 +168,23 @@ def test_binned_grid_takes_only_signs_it_is_sure_of(seed, monkeypatch):
         shift, unit = min(c1.min(), c2.min()), max(s1.max(), s2.max())
         u1, v1, u2, v2 = (c1 - shift) / unit, s1 / unit, (c2 - shift) / unit, s2 / unit
         o1, o2 = np.argsort(u1, kind="stable"), np.argsort(u2, kind="stable")
-        p1 = k._density_parts(u1[o1], w1[o1], v1[o1])
-        p2 = k._density_parts(u2[o2], w2[o2], v2[o2])
+        p1 = k.density_parts(u1[o1], w1[o1], v1[o1])
+        p2 = k.density_parts(u2[o2], w2[o2], v2[o2])
         grid = k._crossing_grid(np.concatenate([u1, u2]), np.concatenate([v1, v2]))
-        b1, b2 = k._binned_log_density(grid, p1), k._binned_log_density(grid, p2)
+        b1, b2 = k.binned_log_density(grid, p1), k.binned_log_density(grid, p2)
         if b1 is None or b2 is None:
             # Classes 40 σ apart: their tilts would pass the element budget (a 57000 DN
             # gap took 3 s and 660 MB binned, 0.3 s and 60 MB exact), so the grid is exact.
             assert gap == 40.0
         else:
-            exact = k._log_density(grid, p1) - k._log_density(grid, p2)
+            exact = k.log_density(grid, p1) - k.log_density(grid, p2)
             held = np.isfinite(b1 - b2)
             assert held.mean() > 0.95
             assert np.max(np.abs(b1 - b2 - exact)[held]) < 0.5 * k._BINNED_MARGIN
         eps = k.mixture_error(Mixture(c1, w1, s1), Mixture(c2, w2, s2))
         with monkeypatch.context() as m:
             m.setattr(
-                k, "_grid_difference", lambda g, a, b: k._log_density(g, a) - k._log_density(g, b)
+                k, "_grid_difference", lambda g, a, b: k.log_density(g, a) - k.log_density(g, b)
             )
             assert k.mixture_error(Mixture(c1, w1, s1), Mixture(c2, w2, s2)) == eps
 
@@ -203,7 +204,7 @@ def test_two_crossings_within_one_grid_cell_are_both_found():
 
     def d(x, shift):
         p1 = [(np.zeros(2), np.log([0.5, 0.5]) + shift, 1.0)]
-        return k._log_density(np.atleast_1d(x), p1) - k._log_density(np.atleast_1d(x), p2)
+        return k.log_density(np.atleast_1d(x), p1) - k.log_density(np.atleast_1d(x), p2)
 
     peak = minimize_scalar(lambda x: -d(x, 0.0)[0], bracket=(-0.5, 0.5), tol=1e-12).x
     shift = 1e-3 - d(peak, 0.0)[0]
@@ -300,20 +301,17 @@ def test_windowed_sums_equal_the_sums_over_every_component():
     of 65,536 distinct grey values). Against the full sums in scipy: 1e-12."""
     from scipy import special
 
-    from inspect_validate.stats.kde_error import (
-        _density_parts,
-        _log_density_slope,
-        _region_masses,
-    )
+    from inspect_validate.stats.kde_error import _region_masses
+    from inspect_validate.stats.mixture import density_parts, log_density_slope
 
     rng = np.random.default_rng(11)
     h = 3.0
     centres = np.sort(rng.uniform(0, 5000, 4000))
     weights = rng.uniform(0.5, 1.5, centres.size)
     weights /= weights.sum()
-    parts = _density_parts(centres, weights, np.full(centres.size, h))
+    parts = density_parts(centres, weights, np.full(centres.size, h))
     x = np.concatenate([rng.uniform(-50, 5050, 300), [2500.0, 2500.1]])
-    log_p, slope = _log_density_slope(x, parts)
+    log_p, slope = log_density_slope(x, parts)
     z = (x[:, None] - centres) / h
     terms = np.log(weights) - np.log(h) - 0.5 * z * z
     np.testing.assert_allclose(log_p, special.logsumexp(terms, axis=1), rtol=1e-12)

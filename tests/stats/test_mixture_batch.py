@@ -7,7 +7,9 @@ import numpy as np
 import pytest
 
 from inspect_validate.stats import gaussian_error
-from inspect_validate.stats.kde_error import Mixture, gaussian_mixture_errors, mixture_error
+from inspect_validate.stats.kde_error import mixture_error
+from inspect_validate.stats.mixture import Mixture
+from inspect_validate.stats.mixture_batch import gaussian_mixture_errors
 
 
 def test_two_gaussians_match_the_closed_form():
