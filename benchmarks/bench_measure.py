@@ -12,7 +12,7 @@ arithmetic on the ROI's histogram).
 
 Then the held-out corpus's hostile frame (uniform grey values: ε KDE is computed, over
 classes whose densities cross hundreds of times). Then the memory of a stack: 10 frames of 20 MP uint16 (400 MB), as one multi-page
-TIFF and as 10 files, measured with ``--no-kde``; the peak RSS less that of the
+TIFF and as 10 files, measured with ``--kde never``; the peak RSS less that of the
 same command on a 100 × 100 stack (the interpreter and libraries, numba loaded as the
 big stack's compiled kernels load it), against the stack's size.
 """
@@ -104,7 +104,7 @@ def main():
         for label, extra in (
             ("measure (default: --kde auto, skipped here)", []),
             ("measure --kde always", ["--kde", "always"]),
-            ("measure --no-kde", ["--no-kde"]),
+            ("measure --kde never", ["--kde", "never"]),
         ):
             json_path = tmp / "m.json"
             cmd = [sys.executable, "-m", "inspect_validate", "measure", frame, "--rois", rois]
@@ -190,7 +190,7 @@ def stack_memory(tmp: Path):
     (tmp / "small.yaml").write_text(
         yaml.safe_dump({"classes": {k: [{"rect": v}] for k, v in small_rois.items()}})
     )
-    cmd = [sys.executable, "-m", "inspect_validate", "measure", "--no-kde", "--rois"]
+    cmd = [sys.executable, "-m", "inspect_validate", "measure", "--kde", "never", "--rois"]
     # The big stack is measured by the compiled kernels, a small one by numpy: the
     # baseline loads numba first, so that the libraries are the same in both.
     compiled = tmp / "compiled.py"

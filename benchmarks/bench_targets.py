@@ -4,12 +4,12 @@ its in-process work are not what users wait on, and sit near the floors measured
 
 Run: ``python benchmarks/bench_targets.py [--runs 5]`` (about two minutes on 2 cores).
 
-1. ``measure`` CLI, default and ``--no-kde``, on one 5 MP uint16 frame with 3 ROIs,
+1. ``measure`` CLI, default and ``--kde never``, on one 5 MP uint16 frame with 3 ROIs,
    against a plain cv2 + numpy + yaml script (fresh processes, median of ``--runs``);
    guard 2.0× each.
 2. ``measure``'s own work in process (frame read → report text, imports done)
    against the plain script's (read, means, variances); guard 4×.
-3. Peak memory of ``measure --no-kde`` on a 10 × 20 MP uint16 stack above the import
+3. Peak memory of ``measure --kde never`` on a 10 × 20 MP uint16 stack above the import
    baseline, against the stack's size; target 1.2×.
 4. ``Scene.predict()`` on a 100 × 100 × 100 scene: refused at once (target: a clear
    error pointing to ``sweep``), against ``sweep`` of the same scene, top 10.
@@ -165,7 +165,7 @@ def main():
         cmd = [sys.executable, "-m", "inspect_validate", "measure", frame, "--rois", rois]
         for label, extra, target in (
             ("measure CLI, default --kde auto", [], 2.0),
-            ("measure CLI, --no-kde", ["--no-kde"], 2.0),
+            ("measure CLI, --kde never", ["--kde", "never"], 2.0),
         ):
             t = timed([*cmd, *extra], args.runs)[0]
             rows.append((label, f"{t:.3f} s", f"plain script {plain:.3f} s", t / plain, target))

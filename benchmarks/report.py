@@ -167,6 +167,9 @@ def kde_error(quick: bool) -> Knob:
     from inspect_validate.stats import as_sample
     from inspect_validate.stats import kde_error as ours
 
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "stats"))
+    from test_kde_error import reference  # the tests' quadrature, the one ε KDE reference
+
     knob = Knob(
         "ε KDE",
         "Two classes of integer grey values, N(100, 6²) and N(115, 9²), n pixels each. "
@@ -184,7 +187,7 @@ def kde_error(quick: bool) -> Knob:
         t_ours = best_time(lambda a=a, b=b: ours(a, b), 3)
         r = ours(a, b)
         t0 = time.perf_counter()
-        ref = bench_stats.kde_error_by_quadrature(a, b, r, 0, 230)
+        ref = reference(a, b, r.bandwidth1.h, r.bandwidth2.h, 0, 230)
         t_ref = time.perf_counter() - t0
         err = abs(r.error - ref) / ref
         knob.rows.append([f"{n:,}", fmt_t(t_ours), fmt_t(t_ref), ratio(t_ours, t_ref), fmt_e(err)])

@@ -7,7 +7,7 @@ import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import IO, TYPE_CHECKING, Any, cast
+from typing import TYPE_CHECKING, Any, TextIO, cast
 
 import click
 
@@ -151,7 +151,7 @@ class FrameProgress:
     """
 
     def __init__(
-        self, total: int | None = None, *, label: str, file: IO[str] | None = None
+        self, total: int | None = None, *, label: str, file: TextIO | None = None
     ) -> None:
         self.total, self.label = total, label
         self.file = file if file is not None else sys.stderr

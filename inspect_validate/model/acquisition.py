@@ -33,9 +33,9 @@ the file: that is a measurement to repeat, not a candidate to skip.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -260,7 +260,16 @@ class Chain:
         return self._rows[key]
 
 
-def prepare(lights, optics, cameras, classes, *, exposure, grid, comparisons) -> Chain:
+def prepare(
+    lights: Sequence[Light],
+    optics: Sequence[Optics],
+    cameras: Sequence[SensorModel],
+    classes: Sequence[ObjectClass],
+    *,
+    exposure: Exposure,
+    grid: np.ndarray,
+    comparisons: Comparisons | None,
+) -> Chain:
     """Validate the components and put them on the integration grid."""
     if len(classes) < 2:
         raise InputError("a scene needs at least two object classes to separate")
@@ -435,7 +444,9 @@ class Signal:
     sensor: dict[str, np.ndarray]  # the block's cameras, (c,)
     sample_class: np.ndarray  # (S,)
 
-    def samples(self, li, oi, ci) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
+    def samples(
+        self, li: Any, oi: Any, ci: Any
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
         """μ_e (unclipped), clipped mean (DN), temporal variance (DN²) and fraction
         above saturation (``None``: nowhere near) of every reflectance sample of the
         combinations at block indices (or slices) ``li, oi, ci``."""
@@ -460,7 +471,9 @@ class Block:
     reasons: tuple[str, ...]
 
 
-def predict_block(chain: Chain, ls: slice, os: slice, cs: slice, *, mixtures=None) -> Block:
+def predict_block(
+    chain: Chain, ls: slice, os: slice, cs: slice, *, mixtures: Iterable[int] | None = None
+) -> Block:
     """:func:`predict` of the lights ``ls`` × optics ``os`` × cameras ``cs`` of a chain,
     without the per-sample arrays (:meth:`Signal.samples` gives them).
 

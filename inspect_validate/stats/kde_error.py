@@ -200,6 +200,7 @@ def mixture_errors(
                     for u, lw, v in parts[k]
                 ]
             )
+            assert grid is not None  # the classes of a comparison here are spread ones
             for k in g:
                 if k not in binned:
                     binned[k] = binned_log_density(grid, parts[k])

@@ -115,7 +115,7 @@ def kernel_density(sample: Sample, h: float, x: ArrayLike) -> np.ndarray:
     return np.exp(log_density(x, parts))
 
 
-def density_parts(centres, weights, sigma) -> list:
+def density_parts(centres: np.ndarray, weights: np.ndarray, sigma: np.ndarray) -> list:
     """A mixture as parts summed separately by :func:`log_density`.
 
     Many components of one width (a kernel density, or each class of a group's
@@ -137,7 +137,7 @@ def density_parts(centres, weights, sigma) -> list:
     return parts
 
 
-def log_density(x, parts):
+def log_density(x: ArrayLike, parts: list) -> np.ndarray:
     """log p(x) of a mixture given by :func:`density_parts`, for an array of x."""
     flat = np.ravel(np.asarray(x, dtype=np.float64))
     logs = []
@@ -201,7 +201,7 @@ def _log_density_all(flat, out, centres, log_w, sigma) -> None:
         out[i : i + chunk] = safe + np.log(np.exp(v - safe[:, None]).sum(axis=1))
 
 
-def log_density_slope(x, parts):
+def log_density_slope(x: ArrayLike, parts: list) -> tuple[np.ndarray, np.ndarray]:
     """log p(x) (unnormalised as in :func:`log_density`) and d log p / dx.
 
     Each part is summed as :func:`log_density` sums it (:func:`_summed`: a root search
@@ -233,7 +233,7 @@ def _log_density_slope_all(x, log_p, slope, centres, log_w, sigma) -> None:
     slope[:] = (e * np.broadcast_to(-z / sigma, z.shape)).sum(axis=1) / total
 
 
-def binned_log_density(grid, parts):
+def binned_log_density(grid: np.ndarray, parts: list) -> np.ndarray | None:
     """log p (as :func:`log_density`) of linearly binned ``parts`` on the regular ``grid``,
     NaN where no tilt (below) holds it above :data:`_BINNED_FLOOR` of its maximum; None
     when a part has a width per component (no single kernel to convolve with) or its
