@@ -150,9 +150,7 @@ class FrameProgress:
     the first, starts a bar of its own).
     """
 
-    def __init__(
-        self, total: int | None = None, *, label: str, file: TextIO | None = None
-    ) -> None:
+    def __init__(self, total: int | None = None, *, label: str, file: TextIO | None = None) -> None:
         self.total, self.label = total, label
         self.file = file if file is not None else sys.stderr
         self.bar: Any = None  # click's ProgressBar, from the first frame

@@ -24,9 +24,9 @@ def format_golden(
     (:class:`~inspect_validate.verification.golden.Golden`); with ``share`` (a drift
     check's part of the false-alarm ``rate``), the smallest change of μ and SNR_dB each
     drift check catches with 95 % probability
-    (:func:`~inspect_validate.verification.golden.detectable_change`; "—" for comparisons
+    (:func:`~inspect_validate.verification.golden_checks.detectable_change`; "—" for comparisons
     below ``snr_floor_db``, which are not checked)."""
-    from inspect_validate.verification.golden import (
+    from inspect_validate.verification.golden_checks import (
         GOOD_WIDENING,
         detectable_change,
         repeats_needed,

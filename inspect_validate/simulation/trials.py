@@ -204,12 +204,13 @@ def run_trials(
     ------
     InputError
         A station whose golden files these repeats cannot check at its false-alarm rate
-        (too few; :func:`~inspect_validate.verification.golden.validate_golden`).
+        (too few; :func:`~inspect_validate.verification.golden_checks.validate_golden`).
     """
     from inspect_validate import __version__
     from inspect_validate.acceptance import Drift
     from inspect_validate.station.model import station_model
-    from inspect_validate.verification.golden import golden_of, validate_golden
+    from inspect_validate.verification.golden import golden_of
+    from inspect_validate.verification.golden_checks import validate_golden
     from inspect_validate.verification.plan import plan_verification, planned_tests
     from inspect_validate.verification.verify import verify_capture
 

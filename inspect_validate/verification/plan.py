@@ -111,7 +111,7 @@ def plan_verification(station: Station, *, drift_checks: bool = True) -> Plan:
         )
     golden = None
     if acc.drift:
-        from inspect_validate.verification.golden import validate_golden
+        from inspect_validate.verification.golden_checks import validate_golden
 
         golden = read_golden(station.resolve(acc.drift.golden))
         validate_golden(

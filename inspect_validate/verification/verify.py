@@ -33,7 +33,7 @@ from inspect_validate.verification.dominance import (
     dominance_unconfirmed,
     dominated_illuminations,
 )
-from inspect_validate.verification.golden import drift_checks
+from inspect_validate.verification.golden_checks import drift_checks
 from inspect_validate.verification.measured import StepMeasurer, measure_capture
 from inspect_validate.verification.plan import Plan, plan_verification
 from inspect_validate.verification.results import Verification
@@ -383,7 +383,7 @@ def _uncertainty_notes(acc, checks, golden, prediction, illuminations) -> list[s
     """What a reader should know of the checks' power: drift limits widened by a short
     training, and agreement tolerances within the model's own uncertainty."""
     from inspect_validate.verification.checks import quantile
-    from inspect_validate.verification.golden import (
+    from inspect_validate.verification.golden_checks import (
         GOOD_WIDENING,
         repeats_needed,
         widening,

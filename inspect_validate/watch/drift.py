@@ -291,7 +291,7 @@ class DriftMonitor:
         family_arl: float = FAMILY_ARL,
     ) -> None:
         from inspect_validate.errors import InputError
-        from inspect_validate.verification.golden import GOOD_WIDENING, MAX_WIDENING
+        from inspect_validate.verification.golden_checks import GOOD_WIDENING, MAX_WIDENING
 
         self.targets = golden_targets(golden, snr_floor_db=snr_floor_db)
         self.dark_offset = float(dark_offset)

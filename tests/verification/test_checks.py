@@ -17,8 +17,8 @@ from inspect_validate.verification.checks import (
     quantile,
     rate_of_k,
 )
-from inspect_validate.verification.golden import (
-    Spread,
+from inspect_validate.verification.golden import Spread
+from inspect_validate.verification.golden_checks import (
     detectable_change,
     prediction_sd,
     repeats_needed,
