@@ -392,7 +392,7 @@ class DriftMonitor:
             spectral = {
                 ill: per_class[ill]
                 for ill, v in changes.items()
-                if _spread(per_class[ill].values()) > max(0.25 * abs(v), 0.005)
+                if _range(per_class[ill].values()) > max(0.25 * abs(v), 0.005)
             }
             if spectral:
                 parts = [
@@ -406,7 +406,7 @@ class DriftMonitor:
             if len(r) >= 2 and len(changes) == len(r):
                 values = list(changes.values())
                 if all(v < 0 for v in values) or all(v > 0 for v in values):
-                    if _spread(values) <= 0.25 * max(abs(v) for v in values):
+                    if _range(values) <= 0.25 * max(abs(v) for v in values):
                         return (
                             f"every illumination {_percent(float(np.mean(values)))}: exposure, "
                             "gain or "
@@ -444,7 +444,8 @@ def _medians(per_class: dict[str, dict[str, float]]) -> dict[str, float]:
     return {ill: float(np.median(list(r.values()))) for ill, r in per_class.items()}
 
 
-def _spread(values) -> float:
+def _range(values) -> float:
+    """max − min of ``values`` (a spread is a golden file's Spread)."""
     values = list(values)
     return max(values) - min(values)
 
