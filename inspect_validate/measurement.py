@@ -14,14 +14,9 @@ from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
-from inspect_validate.comparisons import (
-    Comparisons,
-    counted_separation,
-    gaussian_separation,
-    kde_separation,
-    label,
-)
+from inspect_validate.comparisons import Comparisons, label
 from inspect_validate.errors import InputError, sourced
+from inspect_validate.separations import counted_separation, gaussian_separation, kde_separation
 from inspect_validate.stats import (
     LatticeSample,
     RegionStatistics,
@@ -102,7 +97,7 @@ class Comparison:
     ``error_counted`` is the fraction of pixels the Gaussians' Bayes rule
     misclassifies (equal priors), ``error_counted_se`` the standard error such a
     count would have were the classes Gaussian
-    (:class:`~inspect_validate.comparisons.CountedSeparation`); ``error_kde`` is
+    (:class:`~inspect_validate.separations.CountedSeparation`); ``error_kde`` is
     None where it was not computed (:attr:`Measurement.skipped` says why).
     """
 

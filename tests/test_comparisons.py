@@ -11,15 +11,14 @@ import numpy as np
 import pytest
 from scipy import optimize, special, stats
 
-from inspect_validate.comparisons import (
-    Comparisons,
-    ComparisonsSpec,
+from inspect_validate.comparisons import Comparisons, ComparisonsSpec
+from inspect_validate.errors import InputError
+from inspect_validate.separations import (
     counted_separation,
     gaussian_separation,
     kde_separation,
     mixture_moments,
 )
-from inspect_validate.errors import InputError
 from inspect_validate.stats import as_sample, kde_error, snr_db
 
 

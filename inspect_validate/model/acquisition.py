@@ -39,12 +39,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from inspect_validate.comparisons import Comparisons, gaussian_separation
+from inspect_validate.comparisons import Comparisons
 from inspect_validate.components.lights import Light
 from inspect_validate.components.optics import Optics
 from inspect_validate.components.sensors import SensorModel, grey_value
 from inspect_validate.constants import LONGEST_EXPOSURE_S, C, H
 from inspect_validate.errors import InputError
+from inspect_validate.separations import gaussian_separation
 from inspect_validate.spectra import Spectrum
 
 __all__ = [
@@ -478,7 +479,7 @@ def predict_block(
     without the per-sample arrays (:meth:`Signal.samples` gives them).
 
     ``mixtures``: the group comparisons whose ε (a root search per combination)
-    to compute; all by default (see :func:`~inspect_validate.comparisons.gaussian_separation`).
+    to compute; all by default (see :func:`~inspect_validate.separations.gaussian_separation`).
 
     One matrix product gives each sample's signal *relative to its class's mean*
     (reflectances centred before the product: the spectral spread (39) without

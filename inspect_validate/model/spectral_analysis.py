@@ -14,9 +14,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from inspect_validate.comparisons import Comparisons, gaussian_separation, kde_separation
+from inspect_validate.comparisons import Comparisons
 from inspect_validate.errors import InputError
 from inspect_validate.model.acquisition import ObjectClass
+from inspect_validate.separations import gaussian_separation, kde_separation
 
 __all__ = ["SpectralSeparation", "analyse_spectra"]
 

@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from inspect_validate.comparisons import Comparisons, RankBy, gaussian_separation
+from inspect_validate.comparisons import Comparisons, RankBy
 from inspect_validate.errors import DeviceError, InputError
 from inspect_validate.model.acquisition import (
     MAX_REASONS,
@@ -43,6 +43,7 @@ from inspect_validate.model.acquisition import (
     skipped_reasons,
 )
 from inspect_validate.model.ranking import rank_keys, ranked
+from inspect_validate.separations import gaussian_separation
 from inspect_validate.stats.gaussian_error import LOAD_MIN, load_kernel
 
 if TYPE_CHECKING:

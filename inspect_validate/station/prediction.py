@@ -120,11 +120,11 @@ class StationPrediction:
 
     def compared(self, comparisons: Comparisons) -> StationPrediction:
         """The same classes' statistics with the separations of ``comparisons``
-        (:func:`~inspect_validate.comparisons.gaussian_separation`): other weights, such
+        (:func:`~inspect_validate.separations.gaussian_separation`): other weights, such
         as the measured regions' pixel counts, need no new prediction of the spectra."""
         if comparisons == self.comparison_set:
             return self
-        from inspect_validate.comparisons import gaussian_separation
+        from inspect_validate.separations import gaussian_separation
 
         sep = gaussian_separation(self.mean, self.variance, comparisons)
         return dataclasses.replace(

@@ -112,7 +112,7 @@ def separation_standard_errors(
     snr_db, cnr_db, log_error : ndarray, (P,)
         NaN where a value is undefined.
     """
-    from inspect_validate.comparisons import gaussian_separation
+    from inspect_validate.separations import gaussian_separation
 
     means = np.asarray(means, float)
     variances = np.asarray(variances, float)
