@@ -250,7 +250,7 @@ def verify_capture(
 
     # The frames read decide (a --frames folder need not have the station's counts).
     if not measurements:
-        gain, left_out = None, {"no light reaches the camera": 1}
+        gain, left_out = None, {}
     elif dark is None:
         gain, left_out = None, {"no dark frames": 1}
     else:
@@ -273,13 +273,13 @@ def verify_capture(
             f"{min(quiet):.2g} DN, below the 0.5 DN EMVA 1288 needs for rounding to add "
             "1/12 DN² (more dark noise, or a higher gain, makes photon transfer exact)"
         )
-    if gain is None:
+    if gain is None and not measurements:
+        gain_missing = "no light reaches the camera"
+    elif gain is None:
         gain_missing = "no photon-transfer point: " + "; ".join(
             f"{why} ({n})" for why, n in left_out.items()
         )
-        if not measurements:
-            gain_missing = "no light reaches the camera"
-        elif acc.gain_relative is None:  # nobody asked: a skip, not a failure
+        if acc.gain_relative is None:  # nobody asked: a skip, not a failure
             skipped.append(f"system gain K: {gain_missing}")
 
     from inspect_validate.verification.uncertainty import measured_standard_errors
