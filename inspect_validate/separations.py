@@ -101,7 +101,7 @@ def gaussian_separation(
         Every one by default; the others' ε are NaN.
     """
     from inspect_validate.stats import cnr_db, fisher_db, gaussian_error_and_log, snr_db
-    from inspect_validate.stats.mixture_batch import gaussian_mixture_errors
+    from inspect_validate.stats.mixture_batch import gaussian_mixture_errors, stacked_mixtures
 
     means = np.asarray(means, dtype=np.float64)
     variances = np.asarray(variances, dtype=np.float64)
@@ -136,16 +136,23 @@ def gaussian_separation(
         rows_mean, rows_sd = means.reshape(-1, k)[keep], sd.reshape(-1, k)[keep]
         n_comparisons = len(comparisons.groups)
         flat_eps, flat_log = eps.reshape(-1, n_comparisons), log_eps.reshape(-1, n_comparisons)
-    for p in asked:
-        g1, g2 = (list(g) for g in comparisons.groups[p])
-        share1 = np.broadcast_to(w[g1] / w[g1].sum(), (rows_mean.shape[0], len(g1)))
-        share2 = np.broadcast_to(w[g2] / w[g2].sum(), (rows_mean.shape[0], len(g2)))
+        # And all asked comparisons as rows of one batch, each side padded to the widest
+        # with components of weight 0.
+        sides = []
+        for p in asked:
+            pair = []
+            for g in map(list, comparisons.groups[p]):
+                share = np.broadcast_to(w[g] / w[g].sum(), (rows_mean.shape[0], len(g)))
+                pair.append((rows_mean[:, g], share, rows_sd[:, g]))
+            sides.append(pair)
         e = gaussian_mixture_errors(
-            rows_mean[:, g1], share1, rows_sd[:, g1], rows_mean[:, g2], share2, rows_sd[:, g2]
-        )
-        flat_eps[keep, p] = e
-        with np.errstate(divide="ignore"):
-            flat_log[keep, p] = np.log(e)
+            *stacked_mixtures([pair[0] for pair in sides]),
+            *stacked_mixtures([pair[1] for pair in sides]),
+        ).reshape(len(asked), -1)
+        for p, ep in zip(asked, e, strict=True):
+            flat_eps[keep, p] = ep
+            with np.errstate(divide="ignore"):
+                flat_log[keep, p] = np.log(ep)
     return GaussianSeparation(
         m1,
         v1,

@@ -5,7 +5,7 @@ numbers; ε_tot (37) between two classes (or a class and the union of the rest)
 shows which bands separate them — before any light, lens or camera is chosen.
 Parametric: the exact two-Gaussian error from the samples' μ (38) and σ² (39),
 vectorised over wavelengths. Nonparametric: kernel densities with the LSCV
-bandwidth (42)–(43), one wavelength at a time.
+bandwidth (42)–(43), also every wavelength at once.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ import numpy as np
 from inspect_validate.comparisons import Comparisons
 from inspect_validate.errors import InputError
 from inspect_validate.model.acquisition import ObjectClass
-from inspect_validate.separations import gaussian_separation, kde_separation
+from inspect_validate.separations import gaussian_separation
 
 __all__ = ["SpectralSeparation", "analyse_spectra"]
 
@@ -50,7 +50,8 @@ def analyse_spectra(
         Wavelengths, nm; default the first class's own wavelengths within the
         range every class covers.
     kde : bool, keyword-only
-        Also the nonparametric error (slower: one LSCV per class and wavelength).
+        Also the nonparametric error (an LSCV per class and wavelength; about 0.1 s for
+        three classes of 20 spectra at 81 wavelengths).
     resolution : float, keyword-only
         Reflectance resolution of the measurement, the KDE bandwidth floor and the
         Gaussian standard deviation's. LSCV on a handful of spectra otherwise runs to
@@ -86,12 +87,28 @@ def analyse_spectra(
     gauss = gaussian_separation(means, variances, comparisons, valid=valid).error_gaussian.T
     gauss = np.where(valid[None, :], gauss, np.nan)
     kde_err = np.full(gauss.shape, np.nan)
-    if kde:
-        for j in np.flatnonzero(valid):
-            # Identical samples are a kernel of the resolution's width, not undefined.
-            kde_err[:, j] = kde_separation(
-                [v[:, j] for v in values], comparisons, quantum=resolution
-            ).error
+    if kde and valid.any():
+        from inspect_validate.stats.bandwidth import lscv_bandwidths
+        from inspect_validate.stats.mixture_batch import class_mixture_errors
+
+        # Every wavelength at once; identical samples are a kernel of the resolution's
+        # width (the bandwidth's floor), not undefined.
+        kernels = [
+            (
+                v[:, valid].T,
+                np.full((int(valid.sum()), v.shape[0]), 1.0 / v.shape[0]),
+                np.array([b.h for b in lscv_bandwidths(v[:, valid], quantum=resolution)]),
+            )
+            for v in values
+        ]
+        w = comparisons.class_weights()
+        kde_err[:, valid] = class_mixture_errors(
+            kernels,
+            [
+                [(list(g), w[list(g)] / w[list(g)].sum()) for g in pair]
+                for pair in comparisons.groups
+            ],
+        )
     return SpectralSeparation(
         grid,
         comparisons.named,

@@ -105,3 +105,62 @@ def test_two_crossings_inside_one_cell_are_not_missed():
                 *(a[None] for a in (sides[1].centres, sides[1].weights, sides[1].sigmas)),
             )
             assert got == pytest.approx(want, rel=1e-12, abs=1e-300), (grid[j], groups)
+
+
+@pytest.mark.parametrize("seed", [4, 5])
+def test_classes_on_one_grid_match_the_comparisons_one_at_a_time(seed):
+    """class_mixture_errors (rows of classes, every comparison on one grid a row) against
+    kde_error.mixture_errors row by row, to 1e-12: kernel counts 1–12 a class,
+    bandwidths over two decades, classes from overlapping to 60 σ apart (ε to 1e-300),
+    and a row with a point mass (h = 0, the exact path)."""
+    from inspect_validate.stats.kde_error import mixture_errors
+    from inspect_validate.stats.mixture_batch import class_mixture_errors
+
+    rng = np.random.default_rng(seed)
+    n, sizes = 60, (1 + seed % 5, 12, 7)
+    classes = []
+    for k, size in enumerate(sizes):
+        c = rng.normal(0, 1, (n, size)) + rng.uniform(0, 60, (n, 1)) * (k == 2)
+        w = rng.dirichlet(np.ones(size), n)
+        h = np.exp(rng.uniform(np.log(0.05), np.log(5), n))
+        classes.append((c, w, h))
+    classes[1][2][0] = 0.0
+    comparisons = [
+        [([0], [1.0]), ([1], [1.0])],
+        [([0], [1.0]), ([1, 2], [0.5, 0.5])],
+        [([2], [1.0]), ([0, 1], [0.3, 0.7])],
+    ]
+    got = class_mixture_errors(classes, comparisons)
+    want = np.array(
+        [mixture_errors([(c[i], w[i], h[i]) for c, w, h in classes], comparisons) for i in range(n)]
+    ).T
+    shown = want > 1e-250
+    np.testing.assert_allclose(got[shown], want[shown], rtol=1e-12, atol=0)
+    assert np.all(got[~shown] < 1e-240)
+    assert (want < 1e-10).any()  # rows searched again out to the far reach
+
+
+def test_stacked_comparisons_are_the_comparisons_one_by_one():
+    """Mixtures of different widths as rows of one batch, padded with components of weight
+    0: the same ε as each comparison alone."""
+    from inspect_validate.stats.mixture_batch import stacked_mixtures
+
+    rng = np.random.default_rng(6)
+    n = 40
+    pairs = []
+    for k1, k2 in ((1, 2), (3, 1), (2, 2)):
+        side = []
+        for k in (k1, k2):
+            side.append(
+                (
+                    rng.normal(100, 10, (n, k)),
+                    rng.dirichlet(np.ones(k), n),
+                    rng.uniform(0.5, 5, (n, k)),
+                )
+            )
+        pairs.append(side)
+    got = gaussian_mixture_errors(
+        *stacked_mixtures([p[0] for p in pairs]), *stacked_mixtures([p[1] for p in pairs])
+    ).reshape(3, n)
+    for row, (s1, s2) in zip(got, pairs, strict=True):
+        np.testing.assert_allclose(row, gaussian_mixture_errors(*s1, *s2), rtol=1e-13)
