@@ -38,6 +38,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from inspect_validate.comparisons import Comparisons
 from inspect_validate.components.lights import Light
@@ -61,6 +62,7 @@ __all__ = [
     "nothing_predictable",
     "predict",
     "predict_block",
+    "predict_chain",
     "prepare",
     "skipped_reasons",
 ]
@@ -245,6 +247,12 @@ class Chain:
         lights, optics, cameras = (len(c) for c in self.components[:3])
         return lights, optics, cameras
 
+    def scaled(self, factors: ArrayLike) -> Chain:
+        """The chain with each light's irradiance times its factor, (L,): the signal is
+        linear in the irradiance, so a calibration needs no new spectral integration."""
+        factors = np.asarray(factors, dtype=np.float64)
+        return dataclasses.replace(self, e=self.e * factors[:, None], _rows=self._rows)
+
     def camera_rows(self, cs: slice) -> tuple[np.ndarray, np.ndarray]:
         """The cameras ``cs`` times each class's mean reflectance, (c·K, W), and times each
         centred sample, (c·S, W): the right-hand sides of a block's products. Blocks that
@@ -390,9 +398,21 @@ def predict(
             "every one; rank them with sweep (Scene.sweep(by=..., comparison=..., top=...), "
             "what 'inspect-validate predict' does), which keeps the best rows of each block"
         )
-    chain = prepare(
-        lights, optics, cameras, classes, exposure=exposure, grid=grid, comparisons=comparisons
+    return predict_chain(
+        prepare(
+            lights, optics, cameras, classes, exposure=exposure, grid=grid, comparisons=comparisons
+        )
     )
+
+
+def predict_chain(chain: Chain) -> Prediction:
+    """:func:`predict` of a prepared chain: every combination, with the per-sample arrays.
+
+    Raises
+    ------
+    InputError
+        Where no combination can be predicted (each reason named).
+    """
     everything = slice(None)
     block = predict_block(chain, everything, everything, everything)
     p = block.prediction

@@ -31,8 +31,6 @@ from inspect_validate.errors import InputError
 from inspect_validate.spectra import Spectrum, SpectrumKind
 
 if TYPE_CHECKING:
-    from collections.abc import Mapping
-
     from inspect_validate.comparisons import Comparisons
     from inspect_validate.components.optics import Optics
     from inspect_validate.components.sensors import SensorModel
@@ -74,33 +72,21 @@ class StationModel:
     scene_sensor: SensorModel  # as the scene declares it
     exposure_time: float | None
 
-    def illumination_lights(
-        self, station: Station, *, scale: Mapping[str, float] | None = None
-    ) -> list[Light]:
-        """One light per illumination of ``station``; ``scale`` (name → factor) multiplies
-        each illumination's irradiance (a calibration)."""
-        scale = scale or {}
+    def illumination_lights(self, station: Station) -> list[Light]:
+        """One light per illumination of ``station``, at its stated irradiance."""
         return [
-            illumination_light(
-                i.name,
-                i.channels,
-                self.channels,
-                grid=self.scene.grid,
-                scale=scale.get(i.name, 1.0),
-            )
+            illumination_light(i.name, i.channels, self.channels, grid=self.scene.grid)
             for i in station.illuminations
         ]
 
     def predict(
-        self,
-        station: Station,
-        *,
-        scale: Mapping[str, float] | None = None,
-        comparisons: Comparisons | None = None,
+        self, station: Station, *, comparisons: Comparisons | None = None
     ) -> StationPrediction:
         """:func:`~inspect_validate.model.predict` of every illumination of ``station``
-        (``scale``: name → factor on its irradiance, a calibration)."""
-        from inspect_validate.model import Exposure, predict
+        at its stated irradiances (:meth:`StationPrediction.calibrated
+        <inspect_validate.station.prediction.StationPrediction.calibrated>` scales them)."""
+        from inspect_validate.model import Exposure
+        from inspect_validate.model.acquisition import predict_chain, prepare
         from inspect_validate.station.prediction import StationPrediction
 
         exposure = (
@@ -108,17 +94,16 @@ class StationModel:
             if self.exposure_time is not None
             else self.scene.exposure
         )
-        return StationPrediction.of(
-            predict(
-                self.illumination_lights(station, scale=scale),
-                [self.optics],
-                [self.sensor],
-                list(self.scene.classes),
-                exposure=exposure,
-                grid=self.scene.grid,
-                comparisons=comparisons or self.scene.comparisons,
-            )
+        chain = prepare(
+            self.illumination_lights(station),
+            [self.optics],
+            [self.sensor],
+            list(self.scene.classes),
+            exposure=exposure,
+            grid=self.scene.grid,
+            comparisons=comparisons or self.scene.comparisons,
         )
+        return StationPrediction.of(predict_chain(chain), chain=chain)
 
 
 def _pick(items, name, *, what, field, source):

@@ -19,8 +19,11 @@ import numpy as np
 from inspect_validate.errors import InputError
 
 if TYPE_CHECKING:
+    from collections.abc import Mapping
+
     from inspect_validate.comparisons import Comparisons
     from inspect_validate.model import Prediction
+    from inspect_validate.model.acquisition import Chain
 
 __all__ = ["StationPrediction"]
 
@@ -52,6 +55,9 @@ class StationPrediction:
         Per reflectance sample: μ_e before clipping, mean (DN), variance (DN²).
     sample_class : ndarray, (S,)
         The class of each reflectance sample.
+    chain : Chain or None
+        The components on the integration grid it was predicted from (one light per
+        illumination, all of the station's): :meth:`calibrated` predicts from them again.
     """
 
     illuminations: tuple[str, ...]
@@ -72,11 +78,12 @@ class StationPrediction:
     sample_mean: np.ndarray
     sample_variance: np.ndarray
     sample_class: np.ndarray
+    chain: Chain | None = dataclasses.field(default=None, repr=False)
 
     @classmethod
-    def of(cls, prediction: Prediction) -> StationPrediction:
+    def of(cls, prediction: Prediction, *, chain: Chain | None = None) -> StationPrediction:
         """The rows of a :class:`~inspect_validate.model.Prediction` of one optics and one
-        camera, one per light (an illumination)."""
+        camera, one per light (an illumination); ``chain``, what it was predicted from."""
         if prediction.shape[1:] != (1, 1):
             raise ValueError(f"a station has one optics and one camera, not {prediction.shape[1:]}")
         arrays = {
@@ -88,6 +95,7 @@ class StationPrediction:
             classes=tuple(prediction.classes),
             comparison_set=prediction.comparison_set,
             sample_class=prediction.sample_class,
+            chain=chain,
             **arrays,
         )
 
@@ -132,3 +140,22 @@ class StationPrediction:
             comparison_set=comparisons,
             **{name: getattr(sep, name) for name in _PER_COMPARISON},
         )
+
+    def calibrated(self, scale: Mapping[str, float]) -> StationPrediction:
+        """The prediction with each illumination's irradiance times ``scale[name]`` (a
+        calibration; 1 where not given), its rows and comparisons as here.
+
+        The signal is linear in the irradiance: the chain's light rows are scaled and the
+        rest (exposure, grey values, noise, clipping, separations) follows from them, with
+        no new spectral integration.
+        """
+        if self.chain is None:
+            raise ValueError("this prediction keeps no chain to scale (StationModel.predict's do)")
+        from inspect_validate.model.acquisition import predict_chain
+
+        lights = self.chain.names[0]
+        chain = dataclasses.replace(
+            self.chain.scaled([scale.get(name, 1.0) for name in lights]),
+            comparisons=self.comparison_set,
+        )
+        return StationPrediction.of(predict_chain(chain), chain=chain).select(self.illuminations)

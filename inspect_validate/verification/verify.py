@@ -213,9 +213,6 @@ def verify_capture(
     light = [_light_check(level) for level in levels.values()]
     unlit = {name: level.text for name, level in levels.items() if not level.reaches}
     measurements = {k: m for k, m in capture.measurements.items() if k not in unlit}
-    lit = station.model_copy(
-        update={"illuminations": [i for i in station.illuminations if i.name in measurements]}
-    )
     # The plan's prediction at the stated irradiances, its groups weighted as the
     # measured regions are.
     predicted_comparisons = comparisons.with_pixels(
@@ -231,7 +228,11 @@ def verify_capture(
     scales: dict = {}
     prediction = nominal
     if measurements:
-        stated = {light.name: light.irradiance for light in model.illumination_lights(lit)}
+        stated = {
+            light.name: light.irradiance
+            for light in model.illumination_lights(station)
+            if light.name in measurements
+        }
         scales = fit_scales(
             nominal,
             measurements,
@@ -243,10 +244,8 @@ def verify_capture(
             reference=station.calibration.reference,
             max_saturated=limits.max_saturated,
         )
-        # The calibrated prediction: the one other prediction of the spectra.
-        prediction = model.predict(
-            lit, scale={k: v.scale for k, v in scales.items()}, comparisons=predicted_comparisons
-        )
+        # The same prediction at the calibrated irradiances (no new spectral integration).
+        prediction = nominal.calibrated({k: v.scale for k, v in scales.items()})
 
     # The frames read decide (a --frames folder need not have the station's counts).
     if not measurements:
