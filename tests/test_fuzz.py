@@ -903,11 +903,12 @@ def test_history_with_hostile_databases(capsys, cycles, points, meta, plot):
     plot=st.sampled_from([False, False, False, True]),
 )
 def test_history_never_refuses_what_watch_writes(capsys, steps, plot):
-    from inspect_validate.watch.history import CycleRecord, History
+    from inspect_validate.watch.history import CycleRecord
+    from inspect_validate.watch.history_writer import HistoryWriter
 
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        history = History(tmp / "h.sqlite", station="/s.yaml", golden="/g.json")
+        history = HistoryWriter(tmp / "h.sqlite", station="/s.yaml", golden="/g.json")
         for n, (status, value, target, half) in enumerate(steps):
             ewma = 0.0 if not math.isfinite(value) else value / 2
             points = (

@@ -36,7 +36,8 @@ if TYPE_CHECKING:
     from inspect_validate.verification.plan import Plan
     from inspect_validate.verification.results import Verification
     from inspect_validate.watch.drift import DriftMonitor, DriftState
-    from inspect_validate.watch.history import CycleRecord, History
+    from inspect_validate.watch.history import CycleRecord
+    from inspect_validate.watch.history_writer import HistoryWriter
 
 __all__ = ["CycleOutcome", "WatchSettings", "status_document", "watch"]
 
@@ -101,7 +102,7 @@ def status_document(
 def watch(
     station: Station,
     plan: Plan,
-    history: History,
+    history: HistoryWriter,
     monitor: DriftMonitor,
     *,
     folder: Path,
@@ -111,7 +112,7 @@ def watch(
     """Run cycles until ``settings.cycles`` are done or a signal stops the watch.
 
     ``station`` is verified by ``plan`` (:func:`~inspect_validate.verification.plan.
-    plan_verification` of it) every cycle; ``history`` is a :class:`~.history.History`,
+    plan_verification` of it) every cycle; ``history`` is a :class:`~.history_writer.HistoryWriter`,
     ``monitor`` a :class:`~.drift.DriftMonitor` (restored from the history here).
     ``on_cycle(outcome)`` is called after each committed cycle.
 

@@ -18,7 +18,7 @@ if TYPE_CHECKING:
     from inspect_validate.station.file import Station
     from inspect_validate.verification.plan import Plan
     from inspect_validate.watch.drift import DriftMonitor
-    from inspect_validate.watch.history import History
+    from inspect_validate.watch.history_writer import HistoryWriter
     from inspect_validate.watch.serve import StatusServer
 
 __all__ = ["Session", "watch_session"]
@@ -37,7 +37,7 @@ class Session:
         Its verification plan (made once).
     monitor : DriftMonitor
         The drift charts, centred on the golden file.
-    history : History
+    history : HistoryWriter
         The history database, continued or new.
     folder : Path
         Where the cycles' frames go.
@@ -50,7 +50,7 @@ class Session:
     station: Station
     plan: Plan
     monitor: DriftMonitor
-    history: History
+    history: HistoryWriter
     folder: Path
     status_path: Path
     server: StatusServer | None
@@ -93,7 +93,7 @@ def watch_session(
     from inspect_validate.files import exclusive_lock, output_file, output_folder, release_lock
     from inspect_validate.verification.plan import plan_verification
     from inspect_validate.watch.drift import DriftMonitor
-    from inspect_validate.watch.history import History, history_path
+    from inspect_validate.watch.history_writer import HistoryWriter, history_path
 
     drift = station.acceptance.drift
     if golden is not None:
@@ -141,7 +141,7 @@ def watch_session(
             source=folder,
         )
         stack.callback(release_lock, lock)
-        history = History(db, station=str(station.file.resolve()), golden=str(golden_file))
+        history = HistoryWriter(db, station=str(station.file.resolve()), golden=str(golden_file))
         stack.callback(history.close)
         server = None
         if http_port is not None:

@@ -266,18 +266,19 @@ def test_history_of_a_lenient_but_sound_database(cli, tmp_path):
 
 
 def test_history_with_no_cycle_yet(cli, tmp_path):
-    from inspect_validate.watch.history import History
+    from inspect_validate.watch.history_writer import HistoryWriter
 
-    History(tmp_path / "h.sqlite", station="/s.yaml", golden=None).close()
+    HistoryWriter(tmp_path / "h.sqlite", station="/s.yaml", golden=None).close()
     code, out, err = cli(["history", tmp_path / "h.sqlite", "--plot", tmp_path / "p"])
     assert code == 0, err
     assert "no cycles yet" in out and "plots: none" in out
 
 
 def _history_with_cycles(path, n=3):
-    from inspect_validate.watch.history import CycleRecord, History
+    from inspect_validate.watch.history import CycleRecord
+    from inspect_validate.watch.history_writer import HistoryWriter
 
-    history = History(path, station="st.yaml", golden=None)
+    history = HistoryWriter(path, station="st.yaml", golden=None)
     for cycle in range(n):
         record = CycleRecord(cycle, 1.7e9 + cycle, 0.5, "pass", True, None, None, None)
         history.commit(record, {("amber", "class", "A", "mean"): (100.0, 100.0, 99.0, 101.0)})
@@ -338,14 +339,14 @@ def test_a_cycle_killed_twice_within_a_second_is_set_aside_twice(tmp_path):
 
 def test_a_second_watch_on_one_history_is_refused_naming_the_holder(tmp_path):
     from inspect_validate.errors import InputError
-    from inspect_validate.watch.history import History
+    from inspect_validate.watch.history_writer import HistoryWriter
 
     db = tmp_path / "history.sqlite"
-    first = History(db, station="st.yaml", golden=None)
+    first = HistoryWriter(db, station="st.yaml", golden=None)
     with pytest.raises(InputError, match=r"another watch \(pid \d+\) is writing this history"):
-        History(db, station="st.yaml", golden=None)
+        HistoryWriter(db, station="st.yaml", golden=None)
     first.close()
-    History(db, station="st.yaml", golden=None).close()  # free again once closed
+    HistoryWriter(db, station="st.yaml", golden=None).close()  # free again once closed
 
 
 @pytest.mark.parametrize("kind", ["fifo", "socket"])
@@ -357,7 +358,7 @@ def test_a_history_that_is_no_regular_file_is_refused_and_left_as_it_is(tmp_path
     import stat
 
     from inspect_validate.errors import InputError
-    from inspect_validate.watch.history import History
+    from inspect_validate.watch.history_writer import HistoryWriter
 
     db = tmp_path / "history.sqlite"
     if kind == "fifo":
@@ -368,7 +369,7 @@ def test_a_history_that_is_no_regular_file_is_refused_and_left_as_it_is(tmp_path
     with pytest.raises(
         InputError, match=r"history\.sqlite: not a regular file .*give another --db"
     ):
-        History(db, station="st.yaml", golden=None)
+        HistoryWriter(db, station="st.yaml", golden=None)
     mode = db.lstat().st_mode
     assert stat.S_ISFIFO(mode) if kind == "fifo" else stat.S_ISSOCK(mode)
     assert not (tmp_path / "history.sqlite.lock").exists()
@@ -378,11 +379,11 @@ def test_a_history_that_is_no_regular_file_is_refused_and_left_as_it_is(tmp_path
 
 def test_an_empty_file_is_taken_as_a_new_history(tmp_path):
     """An empty file (made with touch) is a new history, not refused."""
-    from inspect_validate.watch.history import History
+    from inspect_validate.watch.history_writer import HistoryWriter
 
     db = tmp_path / "history.sqlite"
     db.touch()
-    History(db, station="st.yaml", golden=None).close()
+    HistoryWriter(db, station="st.yaml", golden=None).close()
     assert db.stat().st_size > 0
 
 
@@ -390,14 +391,14 @@ def test_a_history_damaged_from_outside_is_not_continued(tmp_path):
     """A chart renamed and a value changed behind watch's back, or pages overwritten:
     watch refuses to append to it (history refuses to print it alike)."""
     from inspect_validate.errors import InputError
-    from inspect_validate.watch.history import History
+    from inspect_validate.watch.history_writer import HistoryWriter
 
     db = tmp_path / "history.sqlite"
     _history_with_cycles(db).close()
     with sqlite3.connect(db) as con:
         con.execute("UPDATE points SET quantity = 'claqs' WHERE cycle = 1")
     with pytest.raises(InputError, match=r"history\.sqlite: .*'claqs'.* is not one watch keeps"):
-        History(db, station="st.yaml", golden=None)
+        HistoryWriter(db, station="st.yaml", golden=None)
     assert run_cli(["history", db]) == 2
 
     broken = tmp_path / "broken.sqlite"
@@ -406,7 +407,7 @@ def test_a_history_damaged_from_outside_is_not_continued(tmp_path):
     data[4096 : 4096 + 64] = b"\xff" * 64  # a page header overwritten
     broken.write_bytes(bytes(data))
     with pytest.raises(InputError, match=r"broken.sqlite: (the history is damaged|not a watch)"):
-        History(broken, station="st.yaml", golden=None)
+        HistoryWriter(broken, station="st.yaml", golden=None)
 
 
 def test_a_history_that_cannot_be_written_is_a_clear_error(tmp_path):
@@ -592,7 +593,8 @@ def test_a_history_truncated_before_a_stop_is_reported_on_closing(tmp_path):
 
 def test_a_journal_cut_by_a_crash_or_with_a_cycle_twice_rebuilds(tmp_path):
     from inspect_validate.errors import InputError
-    from inspect_validate.watch.history import read_history, rebuild_history
+    from inspect_validate.watch.history import read_history
+    from inspect_validate.watch.history_writer import rebuild_history
 
     db = tmp_path / "history.sqlite"
     _history_with_cycles(db, n=3).close()
@@ -627,13 +629,14 @@ def test_a_cycle_after_a_cut_journal_line_is_a_line_of_its_own(tmp_path):
     """A journal whose last line a crash cut: the next cycle is appended after the line is
     ended (it was appended onto it: the rebuild then held cycles 0, 2, 3 where the
     database held 0, 1, 2, 3), and the rebuild names the cut line it could not read."""
-    from inspect_validate.watch.history import CycleRecord, History, rebuild_history
+    from inspect_validate.watch.history import CycleRecord
+    from inspect_validate.watch.history_writer import HistoryWriter, rebuild_history
 
     db = tmp_path / "history.sqlite"
     _history_with_cycles(db, n=3).close()
     journal = tmp_path / "history.sqlite.journal"
     journal.write_bytes(journal.read_bytes()[:-30])  # cycle 2's line cut by a crash
-    history = History(db, station="st.yaml", golden=None)
+    history = HistoryWriter(db, station="st.yaml", golden=None)
     record = CycleRecord(3, 1.7e9 + 3, 0.5, "pass", True, None, None, None)
     history.commit(record, {("amber", "class", "A", "mean"): (100.0, 100.0, 99.0, 101.0)})
     history.close()
@@ -660,7 +663,8 @@ def test_a_cycle_after_a_cut_journal_line_is_a_line_of_its_own(tmp_path):
 def test_a_journal_line_no_history_holds_is_named_not_rebuilt(tmp_path, line, says):
     """A line without a status, with NaN or infinite values (the rebuilt database was
     then refused as damaged) is not rebuilt, and the rebuild says which line and why."""
-    from inspect_validate.watch.history import read_history, rebuild_history
+    from inspect_validate.watch.history import read_history
+    from inspect_validate.watch.history_writer import rebuild_history
 
     db = tmp_path / "history.sqlite"
     _history_with_cycles(db, n=2).close()
@@ -674,7 +678,7 @@ def test_a_journal_line_no_history_holds_is_named_not_rebuilt(tmp_path, line, sa
 @pytest.mark.parametrize("meta", ["{}", '{"meta": {}}', '{"meta": {"station": 1}}', "[]"])
 def test_a_journal_without_its_meta_is_refused_not_a_traceback(tmp_path, meta):
     from inspect_validate.errors import InputError
-    from inspect_validate.watch.history import rebuild_history
+    from inspect_validate.watch.history_writer import rebuild_history
 
     (tmp_path / "j.journal").write_text(meta + "\n")
     with pytest.raises(InputError, match=r"j\.journal: not a watch journal"):
@@ -695,9 +699,10 @@ def test_a_journal_that_is_a_fifo_is_refused_at_the_commit_not_blocked(tmp_path)
     journal = tmp_path / "history.sqlite.journal"
     journal.unlink()
     os.mkfifo(journal)
-    from inspect_validate.watch.history import CycleRecord, History
+    from inspect_validate.watch.history import CycleRecord
+    from inspect_validate.watch.history_writer import HistoryWriter
 
-    history = History(db, station="st.yaml", golden=None)
+    history = HistoryWriter(db, station="st.yaml", golden=None)
     record = CycleRecord(1, 1.7e9, 0.5, "pass", True, None, None, None)
     with pytest.raises(
         InputError, match=r"cannot write cycle 1: its journal .* is not a regular file; remove it"
