@@ -203,7 +203,7 @@ def test_own_station_page_runs_as_written(tmp_path):
 
 FORMAT_MODELS = [
     "inspect_validate.station.file:Station",
-    "inspect_validate.scene:_Scene",
+    "inspect_validate.scene_file:SceneFile",
     "inspect_validate.components.camera_file:_file_model",
     "inspect_validate.verification.golden:Golden",
     "inspect_validate.roi.roiset:_FileModel",

@@ -1,6 +1,6 @@
 """``file-model``: a file format's reference table, generated from its validation model.
 
-    ```{file-model} inspect_validate.scene:_Scene
+    ```{file-model} inspect_validate.scene_file:SceneFile
     ```
 
 renders every key of the model (type, constraints, default, description from the

@@ -44,7 +44,7 @@ from inspect_validate.camera.settings import Channel
 from inspect_validate.comparisons import ComparisonsSpec
 from inspect_validate.config import StrictModel, load_yaml, one_of
 from inspect_validate.files import atomic_write
-from inspect_validate.scene import Irradiance
+from inspect_validate.scene_file import Irradiance
 from inspect_validate.station.world import Rendered
 
 __all__ = [

@@ -42,10 +42,10 @@ __all__ = [
     "ChartSeries",
     "CycleRecord",
     "HistoryLog",
-    "validate_history",
     "not_history",
     "read_history",
     "read_station_history",
+    "validate_history",
 ]
 
 HISTORY_SCHEMA_VERSION = 1

@@ -40,8 +40,8 @@ from inspect_validate.watch.history import (
     SCHEMA,
     STATUSES,
     CycleRecord,
-    validate_history,
     not_history,
+    validate_history,
 )
 
 __all__ = [
