@@ -1,63 +1,65 @@
 """The ``inspect-validate`` command line: one module per command, each parsing its options
 and calling the library.
 
-Only click and the error types are imported at start-up; numpy, numba, OpenCV
-and the rest load inside the command that needs them, so ``--help`` is instant.
+Only click and the error types are imported at start-up, and of the commands only the
+one that runs (click's lazily loaded subcommands); numpy, numba, OpenCV and the rest
+load inside the command that needs them, so ``--help`` is instant.
 Exit codes: see :mod:`inspect_validate.errors` and the manual, "Exit codes".
 """
 
 from __future__ import annotations
 
+import importlib
 import sys
 import traceback
 
 import click
 
 from inspect_validate import __version__
-from inspect_validate.cli import (
-    analyze_spectra,
-    capture,
-    characterize,
-    design,
-    devices,
-    history,
-    init,
-    measure,
-    predict,
-    rois,
-    train,
-    verify,
-    watch,
-)
 from inspect_validate.errors import (
     EXIT_INPUT,
     EXIT_INTERNAL,
     InspectValidateError,
 )
 
+#: Each command and the function of ``inspect_validate.cli.<module>`` that is it.
+COMMANDS = {
+    "analyze-spectra": "analyze_spectra",
+    "capture": "capture",
+    "characterize": "characterize",
+    "design": "design",
+    "devices": "devices",
+    "history": "history",
+    "init": "init",
+    "measure": "measure",
+    "predict": "predict",
+    "rois": "rois",
+    "train": "train",
+    "verify": "verify",
+    "watch": "watch",
+}
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+
+class _Commands(click.Group):
+    """The commands, each imported when it is asked for (click's documented pattern for
+    lazily loaded subcommands): a run imports its own command's module, not thirteen."""
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return sorted(COMMANDS)
+
+    def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
+        if cmd_name not in COMMANDS:
+            return None
+        name = COMMANDS[cmd_name]
+        command = getattr(importlib.import_module(f"inspect_validate.cli.{name}"), name)
+        assert isinstance(command, click.Command) and command.name == cmd_name
+        return command
+
+
+@click.group(cls=_Commands, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="inspect-validate")
 def cli() -> None:
     """Design and verify machine-vision inspection stations from spectra and images."""
-
-
-for _command in (
-    measure.measure,
-    predict.predict,
-    analyze_spectra.analyze_spectra,
-    capture.capture,
-    verify.verify,
-    train.train,
-    watch.watch,
-    history.history,
-    design.design,
-    characterize.characterize,
-    devices.devices,
-    init.init,
-    rois.rois,
-):
-    cli.add_command(_command)
 
 
 # The commands that capture frames (kept on an interruption, resumable), and what lets

@@ -31,6 +31,8 @@ _SQRT2 = math.sqrt(2.0)
 _LAMBDA = math.sqrt(2.0 / math.pi)
 _LOG2 = math.log(2.0)
 _GL_NODES, _GL_WEIGHTS = np.polynomial.legendre.leggauss(20)
+LINEAR_FLOOR = 1e-300
+"""Below, ε's terms near the subnormal range lose digits: ε is taken from its log."""
 _ASYMPTOTIC_FROM = 12.0
 _ASYMPTOTIC_TERMS = 12
 
@@ -147,16 +149,18 @@ def lower_tail(x):
     return 1.0 - tail, math.log1p(-tail)
 
 
-def _upper_tail(z, lo):
-    """Q(z) = P(Z > z) and log Q(z) for z + lo (double-double)."""
+def _upper_tail(z, lo, logs):
+    """Q(z) = P(Z > z) and log Q(z) for z + lo (double-double); the log only where
+    ``logs`` (else 0: ε's log is taken from ε itself unless ε underflows)."""
     if z > 0.0:
         p, e = _two_square(z)
         if not math.isfinite(e):
             e = 0.0
         scaled = 0.5 * erfcx(z / _SQRT2)
         shift = 0.0 if lo == 0.0 else lo * 0.5 / (_SQRT_2PI * scaled)
-        log_q = math.log(scaled) - 0.5 * p - 0.5 * e - shift
-        return scaled * math.exp(-0.5 * p) * (1.0 - 0.5 * e) * math.exp(-shift), log_q
+        log_q = math.log(scaled) - 0.5 * p - 0.5 * e - shift if logs else 0.0
+        q = scaled * math.exp(-0.5 * p) * (1.0 - 0.5 * e)
+        return (q if shift == 0.0 else q * math.exp(-shift)), log_q
     # z ≤ 0 (or NaN): Q(z) = Φ(−z) ≥ ½.
     q, log_q = lower_tail(-z)
     shift = 0.0 if lo == 0.0 else math.exp(-0.5 * z * z - _LOG_SQRT_2PI - log_q) * lo
@@ -176,8 +180,8 @@ def _log_tail_ratio(ah, al, bh, bl):
     return math.log(eb_ / ea_) - 0.5 * diff_sq - shift
 
 
-def _interval(ah, al, bh, bl, nodes, weights):
-    """Φ(b) − Φ(a) and its log for a < b as double-doubles."""
+def _interval(ah, al, bh, bl, nodes, weights, logs):
+    """Φ(b) − Φ(a) and its log (where ``logs``, else 0) for a < b as double-doubles."""
     width = (bh - ah) + (bl - al)
     reach = _maximum(1.0, _maximum(abs(ah), abs(bh)))
     if math.isfinite(width) and width * reach < 1.0:
@@ -190,17 +194,17 @@ def _interval(ah, al, bh, bl, nodes, weights):
         p, e = _two_square(ah)
         low = 0.5 * e + ah * al
         value = math.exp(-0.5 * p) * math.exp(-low) * j / _SQRT_2PI
-        return value, -0.5 * p - low - _LOG_SQRT_2PI + math.log(j)
+        return value, -0.5 * p - low - _LOG_SQRT_2PI + math.log(j) if logs else 0.0
     if ah < 0.0 and bh > 0.0:
-        middle = 1.0 - _upper_tail(bh, bl)[0] - _upper_tail(-ah, -al)[0]
-        return middle, math.log(middle)
+        middle = 1.0 - _upper_tail(bh, bl, False)[0] - _upper_tail(-ah, -al, False)[0]
+        return middle, math.log(middle) if logs else 0.0
     if ah >= 0.0:
         near_h, near_l, far_h, far_l = ah, al, bh, bl
     else:
         near_h, near_l, far_h, far_l = -bh, -bl, -ah, -al
-    q_near, log_q_near = _upper_tail(near_h, near_l)
+    q_near, log_q_near = _upper_tail(near_h, near_l, logs)
     ratio = -math.expm1(_log_tail_ratio(near_h, near_l, far_h, far_l))
-    return q_near * ratio, log_q_near + math.log(ratio)
+    return q_near * ratio, log_q_near + math.log(ratio) if logs else 0.0
 
 
 def _wide(t, snh, snl, dh, dl, swh, swl):
@@ -214,6 +218,9 @@ def _wide(t, snh, snl, dh, dl, swh, swl):
 
 
 def _one(m1, v1, m2, v2, nodes, weights):
+    """ε_tot and log ε_tot of one pair, as :func:`~inspect_validate.stats.gaussian_error_and_log`
+    returns them: log ε from ε where ε ≥ 1e-300, ε from log ε below (where the parts
+    are summed as logs, a second pass)."""
     if v1 > v2:
         mn, vn, mw, vw = m2, v2, m1, v1
     else:
@@ -230,11 +237,53 @@ def _one(m1, v1, m2, v2, nodes, weights):
     t_near, t_far = _crossings(dh / snh, vn, vw)
     if not math.isfinite(t_far):
         t_far = -math.inf
-    above, log_above = _upper_tail(t_near, 0.0)
-    below, log_below = _upper_tail(-t_far, 0.0)
     fh, fl = _wide(t_far, snh, snl, dh, dl, swh, swl)
     nh, nl = _wide(t_near, snh, snl, dh, dl, swh, swl)
-    inside, log_inside = _interval(fh, fl, nh, nl, nodes, weights)
+    eps, _ = _parts(t_near, t_far, fh, fl, nh, nl, nodes, weights, False)
+    if eps >= LINEAR_FLOOR:
+        return eps, math.log(eps)
+    _, log_eps = _parts(t_near, t_far, fh, fl, nh, nl, nodes, weights, True)
+    return math.exp(log_eps), log_eps
+
+
+def _parts(t_near, t_far, fh, fl, nh, nl, nodes, weights, logs):
+    """ε from its three parts (class n beyond each crossing, class w between them), and
+    where ``logs`` its log from theirs."""
+    above, log_above = _upper_tail(t_near, 0.0, logs)
+    below, log_below = _upper_tail(-t_far, 0.0, logs)
+    inside, log_inside = _interval(fh, fl, nh, nl, nodes, weights, logs)
     # The three parts' rounding may pass ½ by an ulp where the classes all but coincide.
     eps = _minimum(0.5 * (below + above + inside), 0.5)
+    if not logs:
+        return eps, 0.0
     return eps, _minimum(_logaddexp(_logaddexp(log_below, log_above), log_inside) - _LOG2, -_LOG2)
+
+
+prange = range
+"""numba's ``prange`` where :mod:`~inspect_validate.stats._gaussian_error_kernel` compiles
+:func:`error_and_log`."""
+
+
+def error_and_log(m1, v1, m2, v2, eps, log_eps):
+    """ε_tot and log ε_tot of every pair (1-d float64 arrays, finite, variances ≥ 0), as
+    :func:`~inspect_validate.stats.gaussian_error_and_log` returns them.
+
+    Here, not in the kernel's module, so that numba's cache of the compiled loop is
+    keyed on this file: an edit of any function it calls recompiles it (a loop cached
+    beside the kernel's module kept calling the functions as they were when cached).
+
+    A pair it cannot take is left NaN (for the numpy implementation, which checks and
+    rescales): not finite, a negative variance, or variances outside 1e±150 (where its
+    products overflow or lose digits to subnormals), or means apart by more than 10¹⁴⁰ σ.
+    """
+    for i in prange(m1.size):
+        if _usual(m1[i], v1[i], m2[i], v2[i]):
+            eps[i], log_eps[i] = _one(m1[i], v1[i], m2[i], v2[i], _GL_NODES, _GL_WEIGHTS)
+        else:
+            eps[i], log_eps[i] = math.nan, math.nan
+
+
+def _usual(m1, v1, m2, v2):
+    """Whether :func:`_one` takes the pair as it stands (NaN and inf are not usual)."""
+    ranged = (v1 == 0.0 or 1e-150 <= v1 <= 1e150) and (v2 == 0.0 or 1e-150 <= v2 <= 1e150)
+    return ranged and abs(m1 - m2) <= 1e140 * math.sqrt(_maximum(v1, v2))

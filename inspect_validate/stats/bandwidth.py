@@ -371,7 +371,7 @@ def lscv_bandwidths(samples: ArrayLike, *, quantum: float) -> list[Bandwidth]:
         i, j = np.triu_indices(n, k=1)
         lags = np.abs(x[i][:, columns] - x[j][:, columns]).T  # (C, pairs)
         count = np.maximum(8, np.ceil(np.log10(h_hi / h_lo) * _GRID_PER_DECADE) + 1).astype(int)
-        for c in np.unique(count):
+        for c in sorted(set(count.tolist())):
             # Columns with the same number of grid points are searched together.
             here = np.flatnonzero(count == c)
             h, bottom = _minimise_columns(lags[here], n, h_lo[here], h_hi[here], c)

@@ -71,7 +71,7 @@ __all__ = [
 _LOG_SQRT_2PI = _scalar._LOG_SQRT_2PI
 _GL_NODES, _GL_WEIGHTS = _scalar._GL_NODES, _scalar._GL_WEIGHTS
 _KERNEL = "inspect_validate.stats._gaussian_error_kernel"
-_LINEAR_FLOOR = 1e-300  # below, terms near the subnormal range lose digits: use logs
+_LINEAR_FLOOR = _scalar.LINEAR_FLOOR
 COMPILED_MIN = 2**14
 """Pairs from which the compiled kernel (the same algorithm in one pass, 4× faster
 on 2 cores) evaluates ε once it is loaded."""
@@ -109,9 +109,7 @@ def gaussian_error_and_log(
 ) -> tuple[np.ndarray, np.ndarray]:
     """:func:`gaussian_error` and :func:`log_gaussian_error` from one evaluation."""
     eps, log_eps = _error(mean1, var1, mean2, var2)
-    with np.errstate(divide="ignore"):
-        log_out = np.where(eps >= _LINEAR_FLOOR, np.log(eps), log_eps)[()]
-    return np.where(eps >= _LINEAR_FLOOR, eps, np.exp(log_eps))[()], log_out
+    return eps[()], log_eps[()]
 
 
 def log_gaussian_error(
@@ -356,33 +354,31 @@ def load_kernel() -> Callable[..., None]:
     return importlib.import_module(_KERNEL).error_and_log
 
 
-def _usual(m1, v1, m2, v2) -> bool:
-    """Variances in the range where the compiled kernel's products neither overflow nor
-    lose digits to subnormals; others (1e-315, 1e300) take the rescaled numpy path."""
-    with np.errstate(all="ignore"):
-        ranged = [(v == 0.0) | ((v >= 1e-150) & (v <= 1e150)) for v in (v1, v2)]
-        return bool(
-            np.all(ranged[0] & ranged[1])
-            and np.all(np.abs(m1 - m2) <= 1e140 * np.sqrt(np.maximum(v1, v2)))
-        )
-
-
 def _error(mean1, var1, mean2, var2):
     arrays = (np.asarray(a, dtype=float) for a in (mean1, var1, mean2, var2))
     m1, v1, m2, v2 = np.broadcast_arrays(*arrays)
     shape = m1.shape
-    m1, v1, m2, v2 = (a.ravel() for a in (m1, v1, m2, v2))
+    m1, v1, m2, v2 = (np.ascontiguousarray(a).ravel() for a in (m1, v1, m2, v2))
+    if m1.size >= LOAD_MIN or (m1.size >= COMPILED_MIN and _KERNEL in sys.modules):
+        eps, log_eps = np.empty(m1.size), np.empty(m1.size)
+        load_kernel()(m1, v1, m2, v2, eps, log_eps)
+        # NaN where the kernel left a pair to numpy: not finite, a negative variance, or
+        # outside the range where its products neither overflow nor lose digits to
+        # subnormals (variances of 1e-315 or 1e300), which numpy takes rescaled.
+        left = np.flatnonzero(np.isnan(eps))
+        if left.size:
+            eps[left], log_eps[left] = _numpy_error(m1[left], v1[left], m2[left], v2[left])
+        return eps.reshape(shape), log_eps.reshape(shape)
+    eps, log_eps = _numpy_error(m1, v1, m2, v2)
+    return eps.reshape(shape), log_eps.reshape(shape)
+
+
+def _numpy_error(m1, v1, m2, v2):
+    """ε and log ε of pairs of 1-d arrays, the algorithm in numpy's array passes."""
     if not all(np.all(np.isfinite(a)) for a in (m1, v1, m2, v2)):
         raise ValueError("means and variances must be finite")
     if np.any(v1 < 0) or np.any(v2 < 0):
         raise ValueError("variances must be non-negative")
-    if (m1.size >= LOAD_MIN or (m1.size >= COMPILED_MIN and _KERNEL in sys.modules)) and _usual(
-        m1, v1, m2, v2
-    ):
-        error_and_log = load_kernel()
-        eps, log_eps = np.empty(m1.size), np.empty(m1.size)
-        error_and_log(*(np.ascontiguousarray(a) for a in (m1, v1, m2, v2)), eps, log_eps)
-        return eps.reshape(shape), log_eps.reshape(shape)
     swap = v1 > v2
     mn, vn = np.where(swap, m2, m1), np.where(swap, v2, v1)
     mw, vw = np.where(swap, m1, m2), np.where(swap, v1, v2)
@@ -439,4 +435,6 @@ def _error(mean1, var1, mean2, var2):
         fixed = np.where(identical, 0.5, 0.0)
         eps = np.where(degenerate, fixed, eps)
         log_eps = np.where(degenerate, np.log(fixed), log_eps)
-    return eps.reshape(shape), log_eps.reshape(shape)
+        # Each from the other where it is the accurate one (as the compiled kernel does).
+        linear = eps >= _LINEAR_FLOOR
+        return np.where(linear, eps, np.exp(log_eps)), np.where(linear, np.log(eps), log_eps)

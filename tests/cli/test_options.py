@@ -16,7 +16,8 @@ STATION = ROOT / "sample_images" / "station" / "station.yaml"
 
 
 def _commands():
-    for name, command in group.commands.items():
+    for name in group.list_commands(click.Context(group)):
+        command = group.get_command(click.Context(group), name)
         subs = getattr(command, "commands", None)
         yield from ((f"{name} {s}", c) for s, c in subs.items()) if subs else [(name, command)]
 

@@ -282,3 +282,32 @@ def test_normal_cdf_pair_against_mpmath():
     np.testing.assert_array_equal(upper, [0.0, 1.0, np.nan])
     # ½ at ±0 to an ulp (erfcx(0) is 1 − 2⁻⁵² from its polynomial), and a pair
     np.testing.assert_allclose(normal_cdf_pair([0.0, -0.0]), 0.5, rtol=2.3e-16, atol=0)
+
+
+def test_the_compiled_loop_leaves_what_it_cannot_take_to_numpy(monkeypatch):
+    """Through the compiled path: pairs it cannot take as they stand (subnormal and huge
+    variances, means 1e300 apart) among usual ones come out as numpy's; a NaN or a
+    negative variance anywhere is refused as on the numpy path."""
+    monkeypatch.setattr(implementation, "COMPILED_MIN", 0)
+    monkeypatch.setattr(implementation, "LOAD_MIN", 0)
+    cases = [(0, 1e-315, 3.5e-157, 1e-315), (0, 1, 1e300, 1), (0, 1e300, 1e150, 1e300),
+             (0.0, 1.0, 2.0, 1.5)]  # fmt: skip
+    m1, v1, m2, v2 = (np.array([c[k] for c in cases] * 50, float) for k in range(4))
+    eps, log_eps = implementation.gaussian_error_and_log(m1, v1, m2, v2)
+    for k, case in enumerate(cases):
+        want = implementation._numpy_error(*(np.array([x], float) for x in case))
+        assert eps[k] == pytest.approx(want[0][0], rel=1e-14, abs=0)
+        assert log_eps[k] == pytest.approx(want[1][0], rel=1e-14)
+    for bad, message in ((np.nan, "finite"), (-1.0, "non-negative")):
+        v = v2.copy()
+        v[77] = bad
+        with pytest.raises(ValueError, match=message):
+            implementation.gaussian_error_and_log(m1, v1, m2, v)
+
+
+def test_the_compiled_loop_is_cached_with_the_functions_it_calls():
+    """numba keys a compiled function's cache on its own source file: the loop lives in
+    the scalar module beside the functions it calls, so editing them recompiles it (a loop
+    in the kernel's module kept running the cached old code)."""
+    kernel = implementation.load_kernel()
+    assert kernel.py_func.__code__.co_filename.endswith("_gaussian_error_scalar.py")
