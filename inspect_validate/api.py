@@ -290,6 +290,15 @@ def capture(
     ------
     DeviceError
         The camera or the controller failed; the frames saved so far are kept.
+
+    Examples
+    --------
+    >>> import inspect_validate as iv, tempfile
+    >>> result = iv.capture("sample_images/station/station.yaml", tempfile.mkdtemp() + "/c")
+    >>> sorted(result.steps)
+    ['amber', 'dark', 'red']
+    >>> result.steps["amber"]
+    4
     """
     from inspect_validate.station.capture import capture as run
 
@@ -359,6 +368,15 @@ def train(station: Station | str | Path, captures: Iterable[str | Path]) -> Gold
     Golden
         Per illumination, each class's μ and σ² and each comparison's SNR_dB and ε, as
         spreads over the captures; ``document()`` is the golden file's JSON.
+
+    Examples
+    --------
+    >>> import inspect_validate as iv, tempfile
+    >>> station = "sample_images/station/station.yaml"
+    >>> folders = [iv.capture(station, tempfile.mkdtemp() + "/c").folder for _ in range(2)]
+    >>> golden = iv.train(station, folders)
+    >>> golden.repeats, sorted(golden.illuminations)
+    (2, ['amber', 'red'])
     """
     from inspect_validate.verification.golden import train as run
 

@@ -21,6 +21,18 @@ def test_every_example_in_the_api_runs(monkeypatch):
     assert attempted >= 12 and failed == 0
 
 
+def test_every_verb_documents_its_parameters_returns_and_an_example():
+    """numpydoc's Parameters, Returns and Examples (a doctest, run above) on every verb."""
+    missing = [
+        f"{name}: {section}"
+        for name in iv.__all__
+        if callable(getattr(iv, name))
+        for section in ("Parameters\n", "Returns\n", "Examples\n", ">>> ")
+        if section not in (getattr(iv, name).__doc__ or "")
+    ]
+    assert missing == []
+
+
 def test_import_is_cheap_and_the_verbs_are_listed():
     """``import inspect_validate`` loads no numpy, pydantic or scipy: the CLI's start."""
     code = (
