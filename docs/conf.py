@@ -1,6 +1,6 @@
 """Sphinx configuration of the inspect-validate manual.
 
-Build: ``python -m sphinx -W --keep-going -b html docs docs/_build/html``
+Build: ``python -m sphinx -n -W --keep-going -b html docs docs/_build/html``
 (``pip install -e ".[docs]"`` first). Warnings are errors; the gallery's examples run.
 """
 
@@ -35,6 +35,7 @@ myst_heading_anchors = 3
 suppress_warnings = []
 
 autosummary_generate = True
+templates_path = ["_templates"]  # a class page documents its own fields and methods
 autodoc_typehints = "none"  # numpydoc's Parameters sections say the types, with units
 numpydoc_show_class_members = False
 numpydoc_xref_param_type = False

@@ -314,7 +314,7 @@ def verify(
 ) -> Verification:
     """Verify a station: capture it into ``out`` (unless ``frames``, an earlier capture
     folder, is given), measure it and check the measurement against the prediction
-    and the acceptance section. :attr:`Verification.passed` is the verdict. As
+    and the acceptance section. :attr:`Verification.passed <inspect_validate.verification.results.Verification.passed>` is the verdict. As
     ``inspect-validate verify``: illuminations no check needs and the prediction shows
     clearly worse are not captured unless the measurement contradicts it.
 

@@ -216,7 +216,7 @@ class Comparisons:
         return self.weights if isinstance(self.weights, str) else "priors"
 
     def index(self, text: str) -> int:
-        """Position of the comparison written ``text`` (see :func:`find_comparison`)."""
+        """Position of the comparison written ``text`` (see :func:`~inspect_validate.comparisons.find_comparison`)."""
         return find_comparison(self.named, text)
 
     def subset(self, texts: Iterable[str]) -> Comparisons:

@@ -144,7 +144,7 @@ class Measurement:
     ``weighting`` says how groups of several classes were weighted
     (``equal``, ``pixels`` or ``priors``); ``inputs`` names what was read;
     ``skipped`` says what was not computed, and why; ``warnings``, what the frames
-    themselves make doubtful (:func:`unsteady_classes`).
+    themselves make doubtful (:func:`~inspect_validate.measurement.unsteady_classes`).
     """
 
     classes: tuple[ClassMeasurement, ...]

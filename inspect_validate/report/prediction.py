@@ -76,7 +76,7 @@ def prediction_rows(p: Ranking, *, kde: bool = True) -> list[dict]:
 def format_prediction(p: Ranking, rows: list[dict] | None = None) -> str:
     """The ranking table ``inspect-validate predict`` prints: per row the light, optics and
     camera, exposure, each class's μ (DN) and σ² (DN²), and the key comparison's SNR_dB
-    (36), CNR_dB, ε Gauss and ε KDE (37) (``rows``: :func:`prediction_rows` of ``p``,
+    (36), CNR_dB, ε Gauss and ε KDE (37) (``rows``: :func:`~inspect_validate.report.prediction.prediction_rows` of ``p``,
     computed here when not given)."""
     if rows is None:
         rows = prediction_rows(p)

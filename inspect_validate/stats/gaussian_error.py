@@ -99,7 +99,7 @@ def gaussian_error(
     ndarray
         ε_tot in [0, ½]. ½ for identical classes; 0 when one class has zero
         variance and the other does not, or both are constant and differ.
-        Underflows below ≈1e-308: use :func:`log_gaussian_error` there.
+        Underflows below ≈1e-308: use :func:`~inspect_validate.stats.log_gaussian_error` there.
     """
     return gaussian_error_and_log(mean1, var1, mean2, var2)[0]
 
@@ -115,7 +115,7 @@ def gaussian_error_and_log(
 def log_gaussian_error(
     mean1: ArrayLike, var1: ArrayLike, mean2: ArrayLike, var2: ArrayLike
 ) -> np.ndarray:
-    """Natural logarithm of :func:`gaussian_error`, accurate where ε underflows."""
+    """Natural logarithm of :func:`~inspect_validate.stats.gaussian_error`, accurate where ε underflows."""
     return gaussian_error_and_log(mean1, var1, mean2, var2)[1]
 
 

@@ -76,7 +76,7 @@ def kde_error(sample1: Sample, sample2: Sample, *, quantum: float | None = None)
         Grey values of the two classes, DN.
     quantum : float, keyword-only, optional
         Quantisation step, the bandwidth floor (see
-        :func:`~inspect_validate.stats.bandwidth.lscv_bandwidth`).
+        :func:`~inspect_validate.stats.lscv_bandwidth`).
 
     Returns
     -------

@@ -94,9 +94,9 @@ class LatticeSample:
 class EmpiricalCdf:
     """A sample's distribution function: ``cumulative[i + 1]`` of its ``n`` values are
     at or below ``points[i]`` DN (``cumulative[0]`` is 0); ``step`` is a lattice
-    sample's spacing, DN, or a float sample's recovered :func:`quantisation_step`
+    sample's spacing, DN, or a float sample's recovered :func:`~inspect_validate.stats.sample.quantisation_step`
     (None for continuous values). Made once per sample by
-    :func:`empirical_cdf` (a float sample is sorted), read many times."""
+    :func:`~inspect_validate.stats.sample.empirical_cdf` (a float sample is sorted), read many times."""
 
     points: np.ndarray
     cumulative: np.ndarray
@@ -117,8 +117,9 @@ class EmpiricalCdf:
 
 
 def empirical_cdf(sample: Sample | EmpiricalCdf) -> EmpiricalCdf:
-    """:class:`EmpiricalCdf` of a :class:`LatticeSample` or float sample (an
-    :class:`EmpiricalCdf` is returned as it is)."""
+    """:class:`~inspect_validate.stats.sample.EmpiricalCdf` of a
+    :class:`~inspect_validate.stats.LatticeSample` or float sample (an EmpiricalCdf is
+    returned as it is)."""
     if isinstance(sample, EmpiricalCdf):
         return sample
     if isinstance(sample, LatticeSample):
@@ -132,12 +133,13 @@ _MISFIT_GRID = np.linspace(-6.0, 6.0, 241)  # z, in steps of 0.05σ
 
 
 def gaussian_misfit(sample: Sample | EmpiricalCdf, mean: float, variance: float) -> float:
-    """Kolmogorov distance between a sample (or its :class:`EmpiricalCdf`) and its
+    """Kolmogorov distance between a sample (or its
+    :class:`~inspect_validate.stats.sample.EmpiricalCdf`) and its
     Gaussian N(μ, σ²): the largest difference of their cumulative distributions over
     μ ± 6σ, on a 0.05σ grid.
 
     A quantised sample (a :class:`LatticeSample`, or float values on a lattice:
-    :func:`quantisation_step`) is compared with its Gaussian quantised alike: P(X ≤ x) against Φ((x + q/2 − μ)/σ) at lattice points x, q the
+    :func:`~inspect_validate.stats.sample.quantisation_step`) is compared with its Gaussian quantised alike: P(X ≤ x) against Φ((x + q/2 − μ)/σ) at lattice points x, q the
     lattice step. For a Gaussian sample of n values, on average 0.87/√n (the mean of
     Kolmogorov's distribution) or less; NaN for σ = 0.
     """
@@ -266,7 +268,7 @@ def sample_moments(sample: Sample) -> Moments:
     Returns
     -------
     Moments
-        For a :class:`LatticeSample` both moments are the exact rational values
+        For a :class:`~inspect_validate.stats.LatticeSample` both moments are the exact rational values
         rounded once to float64 (no float accumulation, no E[x²]−E[x]²
         cancellation). For float data: compensated two-pass in float64.
 

@@ -65,6 +65,6 @@ def cnr_db(mean1: ArrayLike, var1: ArrayLike, mean2: ArrayLike, var2: ArrayLike)
 
 
 def fisher_db(mean1: ArrayLike, var1: ArrayLike, mean2: ArrayLike, var2: ArrayLike) -> np.ndarray:
-    """Fisher ratio ``10·log10((μ1 − μ2)² / (σ1² + σ2²))``, dB (equals :func:`cnr_db`)."""
+    """Fisher ratio ``10·log10((μ1 − μ2)² / (σ1² + σ2²))``, dB (equals :func:`~inspect_validate.stats.cnr_db`)."""
     with np.errstate(divide="ignore"):
         return 10.0 * np.log10(_ratio(mean1, var1, mean2, var2, power=0.5) ** 2)

@@ -127,7 +127,7 @@ class RankingAgreement:
 
 @dataclass(frozen=True)
 class Verification:
-    """Everything ``verify`` found; :attr:`passed` is the verdict."""
+    """Everything ``verify`` found; :attr:`~inspect_validate.verification.results.Verification.passed` is the verdict."""
 
     station: Station
     model: StationModel  # what the prediction used (its scene holds the ROI classes only)
