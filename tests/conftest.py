@@ -1,3 +1,4 @@
+import json
 import shutil
 import subprocess
 import sys
@@ -82,6 +83,31 @@ def copy_station(tmp_path, *, world=None, **top):
     doc.update(top)
     path = tmp_path / "station.yaml"
     path.write_text(yaml.safe_dump(doc, sort_keys=False))
+    shutil.copy(ROOT / "sample_images" / "station" / "rois.yaml", tmp_path / "rois.yaml")
+    return path
+
+
+def station_copy(tmp_path, camera=None, **controller_extra):
+    """The shipped station as its text (the tests edit its lines), with the scene
+    reference made absolute, plus ``camera`` (a dict) and controller options added to
+    those sections (:func:`copy_station` rewrites it as YAML)."""
+    text = (
+        (ROOT / "sample_images" / "station" / "station.yaml")
+        .read_text()
+        .replace("../scenes/", f"{ROOT / 'sample_images' / 'scenes'}/")
+    )
+    if camera:
+        extra = "".join(f"  {k}: {json.dumps(v)}\n" for k, v in camera.items())
+        text = text.replace(
+            "camera:\n  backend: simulated\n", "camera:\n  backend: simulated\n" + extra
+        )
+    if controller_extra:
+        extra = "".join(f"  {k}: {json.dumps(v)}\n" for k, v in controller_extra.items())
+        text = text.replace(
+            "controller:\n  backend: simulated\n", "controller:\n  backend: simulated\n" + extra
+        )
+    path = tmp_path / "station.yaml"
+    path.write_text(text)
     shutil.copy(ROOT / "sample_images" / "station" / "rois.yaml", tmp_path / "rois.yaml")
     return path
 

@@ -13,8 +13,7 @@ import re
 import numpy as np
 import pytest
 import yaml
-from conftest import copy_station, run_cli, watch_cycles
-from test_capture import station_copy
+from conftest import copy_station, run_cli, station_copy, watch_cycles
 
 
 def _capture(station, out, capsys):

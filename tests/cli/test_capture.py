@@ -1,4 +1,6 @@
-"""Capture on the simulated station (simulated Gardasoft process on a pty + model-rendered camera)."""
+"""`inspect-validate capture` on the simulated station (the simulated Gardasoft process on a pty, the
+model-rendered camera): exit codes, station-file errors, controller and camera faults with
+every frame kept, resume. The device layer's sequence alone: tests/camera/test_sequence.py."""
 
 import json
 import re
@@ -6,37 +8,9 @@ import shutil
 
 import numpy as np
 import pytest
-from conftest import ROOT, run_cli
-
-from inspect_validate.camera.capture import verified_frames
-from inspect_validate.camera.frame import Frame
-from inspect_validate.errors import DeviceError, IncompleteFrame
+from conftest import ROOT, run_cli, station_copy
 
 STATION = ROOT / "sample_images" / "station"
-
-
-def station_copy(tmp_path, camera=None, **controller_extra):
-    """The shipped station, copied with its scene reference made absolute, plus camera
-    (a dict) and controller options."""
-    text = (
-        (STATION / "station.yaml")
-        .read_text()
-        .replace("../scenes/", f"{ROOT / 'sample_images' / 'scenes'}/")
-    )
-    if camera:
-        extra = "".join(f"  {k}: {json.dumps(v)}\n" for k, v in camera.items())
-        text = text.replace(
-            "camera:\n  backend: simulated\n", "camera:\n  backend: simulated\n" + extra
-        )
-    if controller_extra:
-        extra = "".join(f"  {k}: {json.dumps(v)}\n" for k, v in controller_extra.items())
-        text = text.replace(
-            "controller:\n  backend: simulated\n", "controller:\n  backend: simulated\n" + extra
-        )
-    path = tmp_path / "station.yaml"
-    path.write_text(text)
-    shutil.copy(STATION / "rois.yaml", tmp_path / "rois.yaml")
-    return path
 
 
 @pytest.mark.parametrize("acquisition", [None, "free-run"])
@@ -257,93 +231,6 @@ def test_generic_protocol_is_validated(tmp_path, capsys, protocol, field):
     assert str(station) in err and field in err
 
 
-class FakeCamera:
-    """Frames with given (timestamp, mean) — the verification logic only; real devices are tested above."""
-
-    name = "fake"
-
-    def __init__(self, frames, clock="exposure"):
-        self.frames = list(frames)
-        self.clock = clock
-
-    def grab(self, n, *, timeout_s=1.0):
-        if self.frames[0] is None:  # as Aravis and pylon report a frame with packets lost
-            self.frames.pop(0)
-            raise IncompleteFrame("fake: frame arrived incomplete")
-        stamp, mean = self.frames.pop(0)
-        return [
-            Frame(
-                data=np.full((4, 4), mean, np.uint16),
-                frame_id=0,
-                timestamp_ns=stamp,
-                exposure_us=None,
-                gain_db=None,
-                pixel_format="Mono16",
-                bit_depth=16,
-                device="fake",
-                clock=self.clock,
-            )
-        ]
-
-
-def _verified(*args, **kwargs):
-    got = list(verified_frames(*args, **kwargs))
-    return [f for f, _ in got], got[-1][1]
-
-
-def test_verification_discards_stale_and_settling_frames():
-    cam = FakeCamera([(5, 10), (6, 10), (20, 50), (21, 100), (22, 100), (23, 100)])
-    frames, discarded = _verified(
-        cam, 3, switched_ns=10, discard_max=5, tolerance=0.02, timeout_s=1
-    )
-    assert [f.data.mean() for f in frames] == [100, 100, 100]
-    assert discarded == {"exposed before the switch": 2, "settling (brightness changed)": 1}
-
-
-def test_frames_are_handed_out_as_soon_as_verified():
-    """A jump on the last frame must not take the verified frames before it with it."""
-    jumpy = FakeCamera([(20, 100), (21, 100), (22, 100), (23, 160)])
-    got = verified_frames(jumpy, 4, switched_ns=10, discard_max=3, tolerance=0.02, timeout_s=1)
-    handed = []
-    with pytest.raises(DeviceError, match="brightness jumps"):
-        for frame, _ in got:
-            handed.append(frame.mean)
-    assert handed == [100, 100, 100]
-
-
-def test_incomplete_frames_are_discarded_and_counted():
-    cam = FakeCamera([(20, 100), None, (21, 100), None, (22, 100)])
-    frames, discarded = _verified(
-        cam, 3, switched_ns=10, discard_max=2, tolerance=0.02, timeout_s=1
-    )
-    assert [f.data.mean() for f in frames] == [100, 100, 100]
-    assert discarded == {"arrived incomplete (data lost on the way)": 2}
-    lossy = FakeCamera([(20, 100), None, None, None, (21, 100)])
-    with pytest.raises(DeviceError, match=r"3 frames were discarded \(arrived incomplete.*network"):
-        _verified(lossy, 2, switched_ns=10, discard_max=2, tolerance=0.02, timeout_s=1)
-
-
-def test_verification_fails_loudly():
-    stale = FakeCamera([(1, 10)] * 10)
-    with pytest.raises(
-        DeviceError, match=r"4 frames were discarded \(exposed before the switch: 4\)"
-    ):
-        _verified(stale, 2, switched_ns=10, discard_max=3, tolerance=0.02, timeout_s=1)
-    jumpy = FakeCamera([(20, 100), (21, 100), (22, 160), (23, 100), (24, 100)])
-    with pytest.raises(DeviceError, match="brightness jumps within a step"):
-        _verified(jumpy, 5, switched_ns=10, discard_max=3, tolerance=0.02, timeout_s=1)
-
-
-def test_frames_without_exposure_timestamps_are_flushed():
-    # Four old frames but a flush of three: the settling rule drops the fourth.
-    cam = FakeCamera([(0, 10)] * 4 + [(0, 100)] * 3, clock="arrival")
-    frames, discarded = _verified(
-        cam, 2, switched_ns=10, discard_max=5, tolerance=0.02, timeout_s=1, flush=3
-    )
-    assert [f.data.mean() for f in frames] == [100, 100]
-    assert discarded == {"flushed after the switch": 3, "settling (brightness changed)": 1}
-
-
 def test_illumination_on_a_missing_channel_is_refused_when_read(tmp_path, capsys):
     path = station_copy(tmp_path)
     path.write_text(
@@ -495,38 +382,6 @@ def test_an_interrupted_capture_keeps_every_frame_it_grabbed_complete(tmp_path, 
     assert not list(out.rglob("*.tmp"))
     assert run_cli(["capture", station, "--out", out, "--resume"]) == 0
     assert len(list(out.glob("amber/frame_*.tif"))) == 40
-
-
-def test_triggered_frames_are_the_ones_triggered_across_an_id_wrap():
-    """A triggered frame must carry an id not seen before in the step: a frame handed out
-    twice is dropped, while a GigE Vision block id wrapping at 16 bits is not."""
-    ids = iter([65534, 65535, 65535, 1, 2])
-
-    def next_frame():
-        frame = Frame(
-            data=np.full((4, 4), 100, np.uint16),
-            frame_id=next(ids),
-            timestamp_ns=50,
-            exposure_us=None,
-            gain_db=None,
-            pixel_format="Mono16",
-            bit_depth=16,
-            device="f",
-            clock="device",
-        )
-        return frame, 20, 0
-
-    frames, discarded = _verified(
-        FakeCamera([]),
-        4,
-        switched_ns=10,
-        discard_max=3,
-        tolerance=0.02,
-        timeout_s=1,
-        next_frame=next_frame,
-    )
-    assert [f.frame_id for f in frames] == [65534, 65535, 1, 2]
-    assert discarded == {"not the triggered frame (frame id seen before)": 1}
 
 
 def test_the_simulated_controller_ends_with_a_killed_capture(tmp_path):
