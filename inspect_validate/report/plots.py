@@ -230,14 +230,17 @@ def plot_frame_regions(
 
     from inspect_validate.roi.overlay import draw_regions
 
-    frame = np.asarray(frame, dtype=np.float64)
+    frame = np.asarray(frame)
     inside = np.logical_or.reduce(list(masks.values())) if masks else np.ones(frame.shape, bool)
-    values = frame[inside & np.isfinite(frame)]
+    values = frame[inside]
+    if frame.dtype.kind == "f":
+        values = values[np.isfinite(values)]
+        frame = np.nan_to_num(frame)
     step = max(1, values.size // 2**18)  # percentiles of ≤ 256 k pixels suffice
     lo, hi = np.percentile(values[::step], [0.5, 99.5]) if values.size else (0.0, 1.0)
     if not hi > lo:
         hi = lo + 1.0
-    picture = draw_regions(np.nan_to_num(frame), masks, limits=(float(lo), float(hi)))
+    picture = draw_regions(frame, masks, limits=(float(lo), float(hi)))
     # JPEG: a noisy frame does not compress as PNG (2.5 MB a 5 MP frame's picture).
     encoded, jpeg = cv2.imencode(".jpg", picture, [cv2.IMWRITE_JPEG_QUALITY, 90])
     if not encoded:
