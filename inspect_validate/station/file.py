@@ -179,6 +179,39 @@ class Characterize(StrictModel):
     """x, y, width, height of the uniformly lit area analysed (default: the frame)."""
 
 
+class Production(StrictModel):
+    """The station on its running line (the manual's "On the running line"): parts move
+    under the one light that stays on, each located against a reference frame of a good
+    part, the regions following it (:mod:`inspect_validate.roi.pose`)."""
+
+    illumination: str
+    """The station's illumination that stays on in production (nothing is switched)."""
+    reference: str
+    """A frame of a good part, in which the ROI file's regions are drawn (a relative path
+    is from this file's folder)."""
+    template: (
+        tuple[
+            Annotated[int, Field(ge=0)],
+            Annotated[int, Field(ge=0)],
+            Annotated[int, Field(ge=8)],
+            Annotated[int, Field(ge=8)],
+        ]
+        | None
+    ) = None
+    """x, y, width, height of the reference window that holds the part, px (default: the
+    regions' bounding box widened by ``margin``)."""
+    margin: Annotated[int, Field(ge=0, le=10_000)] = 16
+    """Pixels around the regions' bounding box that the default template takes in."""
+    motion: Literal["translation", "euclidean", "affine"] = "euclidean"
+    """How a part may lie: shifted; shifted and rotated; any affine map (a tilted part)."""
+    min_score: Annotated[float, Field(gt=0, le=1, allow_inf_nan=False)] = 0.8
+    """The lowest match score (ECC's correlation coefficient) that counts as a part; a
+    frame below it is counted as "no part found" and never measured."""
+    min_pixels: Annotated[int, Field(ge=1, le=10**9)] = 100
+    """Pixels a class must keep on a part once its region is moved (a part cut by the
+    frame's edge leaves fewer): below, the part is not measured."""
+
+
 class Station(StrictModel):
     """A station: its camera, its light controller, the illuminations to capture, and
     the scene, regions and checks that predict, measure and verify them."""
@@ -220,6 +253,8 @@ class Station(StrictModel):
     """The checks ``verify`` runs and their limits."""
     characterize: Characterize = Characterize()
     """How ``characterize`` measures the camera."""
+    production: Production | None = None
+    """How the station is verified on its running line (moving parts, one light on)."""
     path: Path | None = Field(default=None, exclude=True)
     """The file the station was read from (set on reading, never written)."""
 
@@ -253,12 +288,17 @@ class Station(StrictModel):
                 "(controller channel → scene light)"
             )
         self._check_timing()
-        wanted = self.characterize.illumination
-        if wanted is not None and wanted not in {i.name for i in self.illuminations}:
-            raise ValueError(
-                f"characterize.illumination: no illumination {wanted!r} "
-                f"(the station has {', '.join(i.name for i in self.illuminations)})"
-            )
+        names = [i.name for i in self.illuminations]
+        for field, wanted in (
+            ("characterize.illumination", self.characterize.illumination),
+            ("production.illumination", self.production and self.production.illumination),
+        ):
+            if wanted is not None and wanted not in names:
+                raise ValueError(
+                    f"{field}: no illumination {wanted!r} (the station has {', '.join(names)})"
+                )
+        if self.production is not None and not self.rois:
+            raise ValueError("production: the regions that follow the part need 'rois'")
         return self
 
     def _check_timing(self) -> None:

@@ -1,0 +1,116 @@
+"""A station on its running line, on frames no one here drew: scikit-image's photograph of
+a cameraman as the part (the reference frame), moved and rotated as on a belt. The part is
+placed, its regions follow it and measure what they measured on the reference; a frame
+without the part, a part cut by the frame's edge and a bad production block are each
+said, naming the file and key."""
+
+import cv2
+import numpy as np
+import pytest
+import yaml
+from conftest import copy_station
+from skimage import data
+
+from inspect_validate.comparisons import Comparisons
+from inspect_validate.errors import InputError
+from inspect_validate.station.file import read_station
+from inspect_validate.station.production import focus_measure, measure_part, part_locator
+
+SIZE = (640, 800)
+
+
+def reference() -> np.ndarray:
+    frame = np.full(SIZE, 30, np.uint8)
+    frame[64:576, 144:656] = data.camera()
+    return frame
+
+
+def moved(dx, dy, degrees, *, blur=0.0, seed=0) -> np.ndarray:
+    """The reference's part shifted and turned about the frame's centre, with 2 DN noise."""
+    cx, cy = SIZE[1] / 2 - 0.5, SIZE[0] / 2 - 0.5
+    m = cv2.getRotationMatrix2D((cx, cy), -degrees, 1.0)
+    m[:, 2] += (dx, dy)
+    image = cv2.warpAffine(reference().astype(np.float32), m, SIZE[::-1], flags=cv2.INTER_CUBIC,
+                           borderValue=30)  # fmt: skip
+    if blur:
+        image = cv2.GaussianBlur(image, (0, 0), blur)
+    noise = np.random.default_rng(seed).normal(0, 2, image.shape)
+    return np.clip(image + noise, 0, 255).astype(np.uint8)
+
+
+def production_station(tmp_path, **block):
+    """The shipped station with a production block on the photograph and three regions
+    (the face, the coat, the sky) in the reference's coordinates."""
+    cv2.imwrite(str(tmp_path / "reference.png"), reference())
+    rois = {
+        "frame": [SIZE[1], SIZE[0]],
+        "classes": {
+            "face": [{"rect": [380, 120, 60, 80]}],
+            "coat": [{"rect": [300, 300, 120, 120]}],
+            "sky": [{"rect": [170, 90, 100, 60]}],
+        },
+    }
+    path = copy_station(tmp_path)
+    (tmp_path / "parts.yaml").write_text(yaml.safe_dump(rois))
+    doc = yaml.safe_load(path.read_text())
+    doc["rois"] = "parts.yaml"
+    doc["production"] = {"illumination": "amber", "reference": "reference.png", **block}
+    path.write_text(yaml.safe_dump(doc, sort_keys=False))
+    return read_station(path)
+
+
+@pytest.mark.parametrize(("dx", "dy", "degrees"), [(0, 0, 0), (31.3, -22.7, 4.0), (-50, 40, -3)])
+def test_the_regions_follow_the_part_and_measure_what_they_measured(tmp_path, dx, dy, degrees):
+    station = production_station(tmp_path)
+    locator = part_locator(station)
+    placed = locator.place(moved(dx, dy, degrees))
+    assert placed.reason is None and placed.pose.score > 0.99
+    assert placed.pose.angle_deg == pytest.approx(degrees, abs=0.02)
+    comparisons = Comparisons.of(list(locator.masks))
+    part = measure_part(moved(dx, dy, degrees), placed, comparisons)
+    still = moved(0, 0, 0, seed=9)  # the part where it was drawn, another noise draw
+    golden = measure_part(still, locator.place(still), comparisons)
+    for got, want in zip(part.classes, golden.classes, strict=True):
+        # The same object's pixels: μ within 2 DN, σ² within 15 % (the region's edge
+        # pixels are a rotated sampling of the same texture).
+        assert got.mean == pytest.approx(want.mean, abs=2.0), got.name
+        assert got.variance == pytest.approx(want.variance, rel=0.15), got.name
+
+
+def test_a_frame_without_the_part_and_a_cut_part_are_not_measured(tmp_path):
+    locator = part_locator(production_station(tmp_path, min_pixels=4500))
+    belt = np.clip(30 + np.random.default_rng(3).normal(0, 2, SIZE), 0, 255).astype(np.uint8)
+    empty = locator.place(belt)
+    assert empty.masks is None and "no part found: match score" in empty.reason
+    # Moved 110 px up: the sky region (rows 90–150, 6000 px) loses 20 rows to the top edge
+    # and keeps 4000 px; the face (4800 px) stays whole.
+    cut = locator.place(moved(0, -110, 0))
+    assert cut.masks is None and "class 'sky' keeps 4000 px" in cut.reason
+    assert cut.outside == {"face": 0, "coat": 0, "sky": 20 * 100}
+
+
+def test_the_focus_measure_falls_as_the_lens_blurs(tmp_path):
+    locator = part_locator(production_station(tmp_path))
+    sharp, soft = moved(5, 5, 1), moved(5, 5, 1, blur=1.5)
+    placed = locator.place(sharp)
+    face = placed.masks["face"]
+    assert focus_measure(soft, locator.place(soft).masks["face"]) < 0.5 * focus_measure(sharp, face)
+
+
+def test_bad_production_blocks_name_the_key(tmp_path):
+    with pytest.raises(InputError, match=r"production\.illumination: no illumination 'uv'"):
+        production_station(tmp_path, illumination="uv")
+    with pytest.raises(InputError, match=r"production\.motion"):
+        production_station(tmp_path, motion="rigid")
+    station = production_station(tmp_path, template=[700, 0, 200, 200])
+    with pytest.raises(InputError, match=r"production.template \[700, 0, 200, 200\] reaches"):
+        part_locator(station)
+    colour = np.dstack([reference()] * 3)
+    colour[..., 0] //= 2
+    cv2.imwrite(str(tmp_path / "colour.png"), colour)
+    station = production_station(tmp_path, reference="colour.png")
+    with pytest.raises(InputError, match="colour"):
+        part_locator(station)
+    locator = part_locator(production_station(tmp_path))
+    with pytest.raises(InputError, match="reference's size"):
+        locator.place(reference()[:-8])
