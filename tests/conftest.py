@@ -289,3 +289,62 @@ def chromium_probe(page: Path, tmp_path: Path) -> dict:
     images, bad, charts, drawn = map(int, found.groups())
     console = [line for line in run.stderr.splitlines() if ":CONSOLE" in line]
     return {"images": images, "bad": bad, "charts": charts, "drawn": drawn, "console": console}
+
+
+PART_FRAME = (640, 800)
+"""Rows and columns of the production frames of :func:`part_reference`."""
+
+
+def part_reference():
+    """A reference frame no one here drew: scikit-image's photograph of a cameraman as
+    the part, on a darker belt."""
+    import numpy as np
+    from skimage import data
+
+    frame = np.full(PART_FRAME, 30, np.uint8)
+    frame[64:576, 144:656] = data.camera()
+    return frame
+
+
+def moved_part(dx, dy, degrees, *, blur=0.0, gain=1.0, seed=0):
+    """The reference's part shifted and turned about the frame's centre (``gain``: the
+    light's factor, ``blur``: a defocus's Gaussian σ, px), with 2 DN noise."""
+    import cv2
+    import numpy as np
+
+    cx, cy = PART_FRAME[1] / 2 - 0.5, PART_FRAME[0] / 2 - 0.5
+    m = cv2.getRotationMatrix2D((cx, cy), -degrees, 1.0)
+    m[:, 2] += (dx, dy)
+    image = cv2.warpAffine(
+        part_reference().astype(np.float32) * gain, m, PART_FRAME[::-1],
+        flags=cv2.INTER_CUBIC, borderValue=30 * gain,
+    )  # fmt: skip
+    if blur:
+        image = cv2.GaussianBlur(image, (0, 0), blur)
+    noise = np.random.default_rng(seed).normal(0, 2, image.shape)
+    return np.clip(image + noise, 0, 255).astype(np.uint8)
+
+
+def production_station(tmp_path, **block):
+    """The shipped station with a production block on the photograph and three regions
+    (the face, the coat, the sky) in the reference's coordinates, read."""
+    import cv2
+
+    from inspect_validate.station.file import read_station
+
+    cv2.imwrite(str(tmp_path / "reference.png"), part_reference())
+    rois = {
+        "frame": [PART_FRAME[1], PART_FRAME[0]],
+        "classes": {
+            "face": [{"rect": [380, 120, 60, 80]}],
+            "coat": [{"rect": [300, 300, 120, 120]}],
+            "sky": [{"rect": [170, 90, 100, 60]}],
+        },
+    }
+    path = copy_station(tmp_path)
+    (tmp_path / "parts.yaml").write_text(yaml.safe_dump(rois))
+    doc = yaml.safe_load(path.read_text())
+    doc["rois"] = "parts.yaml"
+    doc["production"] = {"illumination": "amber", "reference": "reference.png", **block}
+    path.write_text(yaml.safe_dump(doc, sort_keys=False))
+    return read_station(path)

@@ -39,7 +39,13 @@ from inspect_validate.cli.common import (
     type=PATH,
     help="Where to keep the captures (default: <golden file's stem>-frames next to it).",
 )
-def train(station, golden_path, repeats, frames_dirs, frames_out) -> None:
+@click.option(
+    "--production",
+    is_flag=True,
+    help="Train on the parts of the running line: --frames is a folder of frames of good "
+    "parts under the production light (the station's production: block), one repeat a part.",
+)
+def train(station, golden_path, repeats, frames_dirs, frames_out, production) -> None:
     """Store the golden statistics of STATION in a known-good state.
 
     Captures the station --repeats times (or reads --frames folders), measures
@@ -56,6 +62,9 @@ def train(station, golden_path, repeats, frames_dirs, frames_out) -> None:
 
     st = read_station(station)
     validate_outputs(files=[golden_path], folders=[frames_out])
+    if production:
+        _train_production(st, frames_dirs, golden_path)
+        return
     regions = station_regions(st)  # a station without ROIs fails before the captures
     captures = list(frames_dirs)
     if not captures:
@@ -79,3 +88,22 @@ def train(station, golden_path, repeats, frames_dirs, frames_out) -> None:
     click.echo(format_golden(golden, share=rate / tests, rate=rate, snr_floor_db=floor))
     write_json(golden.document(), golden_path)
     click.echo(f"golden: {golden_path} ({golden.repeats} repeats)")
+
+
+def _train_production(st, frames_dirs, golden_path) -> None:
+    """``train --production``: the golden parts of one folder of production frames."""
+    from inspect_validate.report import write_json
+    from inspect_validate.verification.production import train_production
+
+    if len(frames_dirs) != 1:
+        raise click.UsageError("--production trains on one folder of frames: give --frames DIR")
+    golden = train_production(st, frames_dirs[0])
+    ((name, ill),) = golden.illuminations.items()
+    click.echo(f"{golden.repeats} good parts under {name!r}")
+    for c, g in ill.classes.items():
+        focus = f", focus {g.focus.summary(3)} DN²" if g.focus is not None else ""
+        click.echo(f"  {c}: μ {g.mean.summary()} DN, σ² {g.variance.summary()} DN²{focus}")
+    for label, g in ill.comparisons.items():
+        click.echo(f"  {label}: SNR_dB {g.snr_db.summary(3)} dB")
+    write_json(golden.document(), golden_path)
+    click.echo(f"wrote {golden_path}")

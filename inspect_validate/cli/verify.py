@@ -47,7 +47,21 @@ from inspect_validate.errors import EXIT_CHECK_FAILED
     help="Capture every illumination, also those the prediction shows clearly worse than "
     "another where no check needs them (skipped by default, and listed).",
 )
-def verify(station, frames_dir, out, report_dir, history_path, all_illuminations):
+@click.option(
+    "--production",
+    is_flag=True,
+    help="Verify the running line: --frames is a folder of production frames, each part "
+    "located and measured against the golden parts (train --production).",
+)
+@click.option(
+    "--golden",
+    "golden_path",
+    type=PATH,
+    help="With --production: the golden file of good parts (default: acceptance.drift.golden).",
+)
+def verify(
+    station, frames_dir, out, report_dir, history_path, all_illuminations, production, golden_path
+):
     """Verify STATION: measure its frames, predict it as built, calibrate, compare and check.
 
     Captures every illumination and the darks through the station's camera and
@@ -63,6 +77,11 @@ def verify(station, frames_dir, out, report_dir, history_path, all_illuminations
 
     st = read_station(station)
     validate_outputs(folders=[report_dir])
+    if production:
+        _verify_production(st, frames_dir, golden_path, report_dir)
+        return
+    if golden_path is not None:
+        raise click.UsageError("--golden goes with --production (the bench reads acceptance.drift)")
     log = None
     if history_path is not None:
         if report_dir is None:
@@ -80,5 +99,32 @@ def verify(station, frames_dir, out, report_dir, history_path, all_illuminations
         history=log,
         skip_dominated=not all_illuminations,
     )
+    if not result.passed:
+        sys.exit(EXIT_CHECK_FAILED)
+
+
+def _verify_production(st, frames_dir, golden_path, report_dir) -> None:
+    """``verify --production``: one verdict over the parts in a folder of frames."""
+    from inspect_validate.errors import InputError
+    from inspect_validate.report import write_json
+    from inspect_validate.report.production import format_production, production_document
+    from inspect_validate.verification.golden import read_golden
+    from inspect_validate.verification.production import verify_production
+
+    if frames_dir is None:
+        raise click.UsageError("--production verifies a folder of production frames: give --frames")
+    if golden_path is None:
+        if st.acceptance.drift is None:
+            raise InputError(
+                "no golden file: give --golden, or acceptance.drift.golden in the station file",
+                source=str(st.path),
+            )
+        golden_path = st.resolve(st.acceptance.drift.golden)
+    golden = read_golden(golden_path)
+    result = verify_production(st, frames_dir, golden, source=str(golden_path))
+    click.echo(format_production(result))
+    if report_dir is not None:
+        write_json(production_document(result), report_dir / "production.json")
+        click.echo(f"wrote {report_dir / 'production.json'}")
     if not result.passed:
         sys.exit(EXIT_CHECK_FAILED)

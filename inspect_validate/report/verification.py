@@ -26,13 +26,18 @@ if TYPE_CHECKING:
     from collections.abc import Iterable, Sequence
 
     from inspect_validate.verification.checks import Check
+    from inspect_validate.verification.production import ProductionVerification
     from inspect_validate.verification.results import Verification
 
 __all__ = [
     "CHECK_COLUMNS",
     "VERIFICATION_SCHEMA_VERSION",
     "check_rows",
+    "false_alarm_document",
+    "false_alarm_line",
     "format_verdict",
+    "verdict_documents",
+    "verdict_table",
     "verification_document",
     "write_junit",
 ]
@@ -52,7 +57,7 @@ def check_rows(checks: Iterable[Check]) -> list[tuple[Check, list[str]]]:
     ]
 
 
-def false_alarm_line(v: Verification) -> str:
+def false_alarm_line(v: Verification | ProductionVerification) -> str:
     """How often these checks fail a station that has not changed, and how the rate is
     shared: ``false-alarm rate 0.27 % (3σ) shared by 24 checks, 0.011 % each; 12 fixed``."""
     from inspect_validate.verification.checks import count_tests, normal_equivalent
@@ -71,7 +76,7 @@ def false_alarm_line(v: Verification) -> str:
     return text
 
 
-def _checks_table(rows: list[list[str]], width: int | None) -> str:
+def verdict_table(rows: list[list[str]], width: int | None) -> str:
     """The checks as a table; where it would be wider than ``width`` (a terminal), each
     check's basis and detail go on an indented line under its row instead of in columns."""
     table = render_table(list(CHECK_COLUMNS), rows)
@@ -114,7 +119,7 @@ def format_verdict(v: Verification) -> str:
         )
     rows = [cells for _, cells in check_rows(v.checks)]
     if rows:
-        out += ["", false_alarm_line(v), _checks_table(rows, terminal_width(sys.stdout))]
+        out += ["", false_alarm_line(v), verdict_table(rows, terminal_width(sys.stdout))]
     for item in v.skipped:
         out.append(labelled("skipped", item, stream=sys.stdout))
     for n in v.notes:
@@ -189,25 +194,8 @@ def verification_document(v: Verification) -> dict:
         "classes": [_row_document(r) for r in v.classes],
         "comparisons": [_row_document(r) for r in v.comparisons],
         "ranking": None if v.ranking is None else asdict(v.ranking),
-        "false_alarm": _false_alarm_document(v),
-        "checks": [
-            {
-                "name": c.name,
-                "kind": c.kind,
-                "value": c.value,
-                "limit": c.limit,
-                "relation": c.relation,
-                "unit": c.unit,
-                "basis": c.basis,
-                "given_limit": c.given,
-                "standard_error": c.standard_error,
-                "df": c.df if c.df != float("inf") else None,
-                "false_alarm": c.false_alarm,
-                "verdict": c.verdict.lower(),
-                "detail": c.detail,
-            }
-            for c, _ in check_rows(v.checks)
-        ],
+        "false_alarm": false_alarm_document(v),
+        "checks": verdict_documents(v.checks),
         "skipped": list(v.skipped),
         "notes": list(v.notes),
         "acquisition": list(v.acquisition),
@@ -217,7 +205,30 @@ def verification_document(v: Verification) -> dict:
     }
 
 
-def _false_alarm_document(v) -> dict:
+def verdict_documents(checks: Iterable[Check]) -> list[dict]:
+    """Every check as the JSON documents have it, failures first."""
+    return [
+        {
+            "name": c.name,
+            "kind": c.kind,
+            "value": c.value,
+            "limit": c.limit,
+            "relation": c.relation,
+            "unit": c.unit,
+            "basis": c.basis,
+            "given_limit": c.given,
+            "standard_error": c.standard_error,
+            "df": c.df if c.df != float("inf") else None,
+            "false_alarm": c.false_alarm,
+            "verdict": c.verdict.lower(),
+            "detail": c.detail,
+        }
+        for c, _ in check_rows(checks)
+    ]
+
+
+def false_alarm_document(v: Verification | ProductionVerification) -> dict:
+    """The false-alarm rate and how it is shared, as the JSON documents have it."""
     from inspect_validate.verification.checks import count_tests, normal_equivalent
 
     m = count_tests(v.checks)

@@ -141,6 +141,8 @@ class GoldenClass(_Frozen):
     """μ, DN."""
     variance: Spread
     """σ² (39), DN²."""
+    focus: Spread | None = None
+    """Production: the focus measure in the class's region (the Laplacian's variance), DN²."""
 
     @model_validator(mode="after")
     def _physical(self):
@@ -184,6 +186,9 @@ class Golden(_Frozen):
     """What the file is: always ``inspect-validate/golden``."""
     schema_version: Literal[1, 2] = 2
     """2; files of version 1 (no standard errors) are read too."""
+    mode: Literal["bench", "production"] = "bench"
+    """``bench``: captures of every illumination, one repeat a capture; ``production``: the
+    parts in frames of the running line under its one light, one repeat a part."""
     tool_version: str
     """The inspect-validate version that trained it."""
     station: str
@@ -197,9 +202,9 @@ class Golden(_Frozen):
     weighting: str
     """How groups of classes were weighted (``equal``, ``pixels``, ``priors``)."""
     repeats: Annotated[int, Field(ge=1, le=100_000)]
-    """The captures trained on."""
+    """The captures (parts, in production) trained on."""
     captures: list[str]
-    """Their folders."""
+    """Their folders (frame files, in production)."""
     illuminations: dict[str, GoldenIllumination]
     """Per illumination: its channels, its classes' μ and σ², its comparisons' SNR_dB and ε."""
 
@@ -224,7 +229,11 @@ class Golden(_Frozen):
             ill: {
                 "channels": {str(k): v for k, v in g.channels.items()},
                 "classes": {
-                    name: {"mean": c.mean.document(), "variance": c.variance.document()}
+                    name: {
+                        "mean": c.mean.document(),
+                        "variance": c.variance.document(),
+                        **({"focus": c.focus.document()} if c.focus is not None else {}),
+                    }
                     for name, c in g.classes.items()
                 },
                 "comparisons": {
@@ -317,9 +326,12 @@ def golden_of(
     captures: list[str],
     tool_version: str,
     station_sha256: str,
+    focus: list[dict[str, float]] | None = None,
 ) -> Golden:
     """The :class:`Golden` of ``runs``, each a dict illumination → its
-    :class:`~inspect_validate.measurement.Measurement` (measured with ``comparisons``)."""
+    :class:`~inspect_validate.measurement.Measurement` (measured with ``comparisons``);
+    ``focus``, each run's class → focus measure, makes it a production golden file (one
+    run a part)."""
     from inspect_validate.verification.uncertainty import measured_standard_errors
 
     illuminations = {}
@@ -330,6 +342,7 @@ def golden_of(
             c.name: GoldenClass(
                 mean=_spread((m.classes[k].mean for m in ms), (e.mean[k] for e in se)),
                 variance=_spread((m.classes[k].variance for m in ms), (e.variance[k] for e in se)),
+                focus=None if focus is None else _spread(f[c.name] for f in focus),
             )
             for k, c in enumerate(ms[0].classes)
         }
@@ -354,6 +367,7 @@ def golden_of(
         repeats=len(runs),
         captures=captures,
         illuminations=illuminations,
+        mode="bench" if focus is None else "production",
     )
 
 

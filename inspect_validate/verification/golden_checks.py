@@ -193,6 +193,12 @@ def validate_golden(
         ``drift`` gives no explicit tolerance, or too few repeats for the rate (names
         ``source``: retrain, or give the tolerance).
     """
+    if golden.mode != "bench":
+        raise InputError(
+            "this golden file was trained on parts of the running line (train --production); "
+            "verify it with verify --production, or train one from captures for the bench",
+            source=source,
+        )
     camera = station.camera
     if golden.exposure_us != camera.exposure_us or golden.gain_db != camera.gain_db:
         raise InputError(

@@ -7,56 +7,14 @@ said, naming the file and key."""
 import cv2
 import numpy as np
 import pytest
-import yaml
-from conftest import copy_station
-from skimage import data
+from conftest import PART_FRAME as SIZE
+from conftest import moved_part as moved
+from conftest import part_reference as reference
+from conftest import production_station
 
 from inspect_validate.comparisons import Comparisons
 from inspect_validate.errors import InputError
-from inspect_validate.station.file import read_station
 from inspect_validate.station.production import focus_measure, measure_part, part_locator
-
-SIZE = (640, 800)
-
-
-def reference() -> np.ndarray:
-    frame = np.full(SIZE, 30, np.uint8)
-    frame[64:576, 144:656] = data.camera()
-    return frame
-
-
-def moved(dx, dy, degrees, *, blur=0.0, seed=0) -> np.ndarray:
-    """The reference's part shifted and turned about the frame's centre, with 2 DN noise."""
-    cx, cy = SIZE[1] / 2 - 0.5, SIZE[0] / 2 - 0.5
-    m = cv2.getRotationMatrix2D((cx, cy), -degrees, 1.0)
-    m[:, 2] += (dx, dy)
-    image = cv2.warpAffine(reference().astype(np.float32), m, SIZE[::-1], flags=cv2.INTER_CUBIC,
-                           borderValue=30)  # fmt: skip
-    if blur:
-        image = cv2.GaussianBlur(image, (0, 0), blur)
-    noise = np.random.default_rng(seed).normal(0, 2, image.shape)
-    return np.clip(image + noise, 0, 255).astype(np.uint8)
-
-
-def production_station(tmp_path, **block):
-    """The shipped station with a production block on the photograph and three regions
-    (the face, the coat, the sky) in the reference's coordinates."""
-    cv2.imwrite(str(tmp_path / "reference.png"), reference())
-    rois = {
-        "frame": [SIZE[1], SIZE[0]],
-        "classes": {
-            "face": [{"rect": [380, 120, 60, 80]}],
-            "coat": [{"rect": [300, 300, 120, 120]}],
-            "sky": [{"rect": [170, 90, 100, 60]}],
-        },
-    }
-    path = copy_station(tmp_path)
-    (tmp_path / "parts.yaml").write_text(yaml.safe_dump(rois))
-    doc = yaml.safe_load(path.read_text())
-    doc["rois"] = "parts.yaml"
-    doc["production"] = {"illumination": "amber", "reference": "reference.png", **block}
-    path.write_text(yaml.safe_dump(doc, sort_keys=False))
-    return read_station(path)
 
 
 @pytest.mark.parametrize(("dx", "dy", "degrees"), [(0, 0, 0), (31.3, -22.7, 4.0), (-50, 40, -3)])

@@ -1,0 +1,274 @@
+"""Verification of a station on its running line (its ``production:`` block): the parts in
+a folder of production frames, each located and measured
+(:mod:`inspect_validate.station.production`), against golden statistics trained the same
+way on good parts.
+
+**The golden parts.** ``train --production`` measures every part in a folder of frames
+of good parts: per class μ (38), σ² (39) and the focus measure, per comparison SNR_dB
+(36) and ε Gauss (37), one value per part; their spread over the parts (n of them) is
+the part-to-part variation a production verdict allows.
+
+**The verdict.** A batch of m parts is compared by the mean of each quantity over its
+parts: if nothing changed, the batch mean x̄ₘ differs from the golden mean x̄ₙ by
+
+    |x̄ₘ − x̄ₙ| ≤ t_{n−1}(1 − α/2) · s · √(1/m + 1/n)
+
+with probability 1 − α, s the golden parts' standard deviation (a part's own pixel
+noise is inside it). α is the check's share of the station's false-alarm rate
+(:mod:`.checks`). A folder where fewer than half the frames hold a part fails its own
+check, naming the reasons (a wrong reference, a moved camera, no parts passing).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from inspect_validate.errors import InputError
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    from inspect_validate.comparisons import Comparisons
+    from inspect_validate.measurement import Measurement
+    from inspect_validate.roi.pose import Pose
+    from inspect_validate.station.file import Station
+    from inspect_validate.verification.checks import Check
+    from inspect_validate.verification.golden import Golden, Spread
+
+__all__ = [
+    "MIN_FOUND",
+    "Part",
+    "Parts",
+    "ProductionVerification",
+    "measure_parts",
+    "train_production",
+    "verify_production",
+]
+
+MIN_FOUND = 0.5
+"""The fraction of a folder's frames that must hold a measured part."""
+
+
+@dataclass(frozen=True)
+class Part:
+    """One measured part: its frame file, pose, classes and comparisons, and each class's
+    focus measure (DN², :func:`~inspect_validate.station.production.focus_measure`)."""
+
+    frame: str
+    pose: Pose
+    measurement: Measurement
+    focus: dict[str, float]
+
+
+@dataclass(frozen=True)
+class Parts:
+    """The parts of a folder of frames: those measured, and the frames that held none
+    (file → why)."""
+
+    measured: tuple[Part, ...]
+    not_measured: dict[str, str]
+    comparisons: Comparisons
+
+    @property
+    def found(self) -> float:
+        """The fraction of the frames with a measured part."""
+        total = len(self.measured) + len(self.not_measured)
+        return len(self.measured) / total if total else 0.0
+
+
+def measure_parts(station: Station, frames: Path | Sequence[Path]) -> Parts:
+    """Every part in ``frames`` (a folder, or files) of ``station``'s running line.
+
+    Raises
+    ------
+    InputError
+        No ``production:`` block, no frames, a frame that cannot be read, is in colour or
+        of another size than the reference (naming the file).
+    """
+    from inspect_validate.images import expand_paths, read_image
+    from inspect_validate.station.production import focus_measure, measure_part, part_locator
+    from inspect_validate.verification.measured import station_regions
+
+    locator = part_locator(station)
+    _, comparisons = station_regions(station)
+    files = expand_paths([frames] if isinstance(frames, Path | str) else list(frames))
+    if not files:
+        raise InputError("no frames: give a folder of production frames", source=str(frames))
+    measured, missing = [], {}
+    for path in files:
+        frame = read_image(path)
+        try:
+            placement = locator.place(frame)
+        except InputError as exc:
+            raise InputError(str(exc), source=str(path)) from None
+        if placement.masks is None:
+            missing[str(path)] = str(placement.reason)
+            continue
+        measured.append(
+            Part(
+                frame=str(path),
+                pose=placement.pose,
+                measurement=measure_part(frame, placement, comparisons),
+                focus={name: focus_measure(frame, m) for name, m in placement.masks.items()},
+            )
+        )
+    return Parts(tuple(measured), missing, comparisons)
+
+
+def train_production(station: Station, frames: Path) -> Golden:
+    """The golden statistics of good parts: every part in ``frames`` measured, each
+    quantity's values over the parts (module description).
+
+    Raises
+    ------
+    InputError
+        As :func:`measure_parts`; fewer than two parts measured (no spread).
+    """
+    from inspect_validate import __version__
+    from inspect_validate.station.file import station_hash
+    from inspect_validate.verification.golden import golden_of
+
+    parts = measure_parts(station, frames)
+    if len(parts.measured) < 2:
+        reasons = "; ".join(sorted(set(parts.not_measured.values()))[:2])
+        raise InputError(
+            f"{len(parts.measured)} part measured: golden statistics need the spread of two "
+            f"or more good parts{f' ({reasons})' if reasons else ''}",
+            source=str(frames),
+        )
+    assert station.production is not None  # measure_parts refused a station without
+    name = station.production.illumination
+    only = station.model_copy(
+        update={"illuminations": [i for i in station.illuminations if i.name == name]}
+    )
+    return golden_of(
+        only,
+        [{name: p.measurement} for p in parts.measured],
+        parts.comparisons,
+        captures=[p.frame for p in parts.measured],
+        tool_version=__version__,
+        station_sha256=station_hash(station.file),
+        focus=[p.focus for p in parts.measured],
+    )
+
+
+@dataclass(frozen=True)
+class ProductionVerification:
+    """A verdict on a batch of production frames: the checks (decided at
+    ``false_alarm``), the parts, and whether every check passed."""
+
+    station: Station
+    golden: Golden
+    parts: Parts
+    checks: tuple[Check, ...]
+    false_alarm: float
+
+    @property
+    def passed(self) -> bool:
+        return all(c.passed for c in self.checks)
+
+
+def verify_production(
+    station: Station, frames: Path, golden: Golden, *, source: str = "the golden file"
+) -> ProductionVerification:
+    """Verify ``station`` on the parts in ``frames`` against ``golden`` (trained by
+    :func:`train_production`; ``source``, its file, for messages).
+
+    Raises
+    ------
+    InputError
+        A golden file trained on the bench (or of another illumination), and as
+        :func:`measure_parts`.
+    """
+    from inspect_validate.verification.checks import at_least, decide
+
+    if golden.mode != "production":
+        raise InputError(
+            "this golden file was trained on the bench (captures, every illumination); "
+            "train one from good parts: inspect-validate train STATION --production "
+            "--frames DIR --out FILE",
+            source=source,
+        )
+    parts = measure_parts(station, frames)
+    assert station.production is not None
+    name = station.production.illumination
+    if name not in golden.illuminations:
+        raise InputError(
+            f"the golden file holds {', '.join(golden.illuminations)}, not the production "
+            f"illumination {name!r}; train it again from this station's parts",
+            source=source,
+        )
+    found = at_least(
+        "parts found",
+        "production",
+        parts.found,
+        MIN_FOUND,
+        "",
+        f"{len(parts.measured)} of {len(parts.measured) + len(parts.not_measured)} frames "
+        "hold a part" + (f"; {_reasons(parts.not_measured)}" if parts.not_measured else ""),
+    )
+    checks = [found, *_drift_checks(parts, golden.illuminations[name])]
+    rate = station.acceptance.false_alarm_rate
+    return ProductionVerification(station, golden, parts, decide(checks, rate), rate)
+
+
+def _reasons(missing: dict[str, str]) -> str:
+    """The commonest reasons frames held no measured part, counted."""
+    counts: dict[str, int] = {}
+    for why in missing.values():
+        key = why.split(":")[0] if why.startswith("no part found") else why.split(" keeps")[0]
+        counts[key] = counts.get(key, 0) + 1
+    return "; ".join(f"{why} ({n})" for why, n in sorted(counts.items(), key=lambda x: -x[1]))
+
+
+def _drift_checks(parts: Parts, golden) -> list[Check]:
+    """Each class's μ, σ² and focus, each comparison's SNR_dB: the batch mean against the
+    golden parts' (module description)."""
+    if not parts.measured:
+        return []
+    checks = []
+    ms = [p.measurement for p in parts.measured]
+    for k, c in enumerate(ms[0].classes):
+        g = golden.classes[c.name]
+        quantities = [("μ", g.mean, [m.classes[k].mean for m in ms], "DN"),
+                      ("σ²", g.variance, [m.classes[k].variance for m in ms], "DN²")]  # fmt: skip
+        if g.focus is not None:
+            quantities.append(("focus", g.focus, [p.focus[c.name] for p in parts.measured], "DN²"))
+        for what, ref, values, unit in quantities:
+            checks.append(_batch_check(f"{c.name} {what} drift", values, ref, unit))
+    for j, comp in enumerate(ms[0].comparisons):
+        ref = golden.comparisons[comp.label].snr_db
+        values = [m.comparisons[j].snr_db for m in ms]
+        checks.append(_batch_check(f"{comp.label} SNR_dB drift", values, ref, "dB"))
+    return checks
+
+
+def _batch_check(name: str, values: list[float], ref: Spread, unit: str) -> Check:
+    """|batch mean − golden mean| against t_{n−1} · s · √(1/m + 1/n)."""
+    from inspect_validate.verification.checks import at_most, not_run
+
+    v = np.asarray(values, dtype=float)
+    v = v[np.isfinite(v)]
+    m, n, s = v.size, ref.n, ref.std
+    if m == 0 or n < 2 or not math.isfinite(s):
+        return not_run(name, "drift", 0.0, unit, "<=", "no spread of good parts to set its limit")
+    mean = float(v.mean())
+    sd = s * math.sqrt(1.0 / m + 1.0 / n)
+    return at_most(
+        name,
+        "drift",
+        abs(mean - ref.mean),
+        0.0,
+        unit,
+        f"golden {ref.summary()} {unit} over {n} parts, now {mean:.4g} over {m}; "
+        f"prediction interval of a batch mean, sd {sd:.2g} {unit}, t with {n - 1} df",
+        basis="statistical",
+        standard_error=sd,
+        df=n - 1,
+        sided=2,
+    )

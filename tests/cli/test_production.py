@@ -1,0 +1,117 @@
+"""``train --production`` and ``verify --production`` end to end, on frames no one here drew
+(scikit-image's photograph as the part, moved and rotated as on a belt): a batch of good
+parts passes, a dimmer light, a defocused lens and a folder without parts fail naming
+what moved, and the golden files of bench and line are not mixed up."""
+
+import json
+
+import cv2
+import numpy as np
+import pytest
+from conftest import moved_part, production_station, run_cli
+
+rng = np.random.default_rng(7)
+
+
+def parts(folder, n, *, seed=0, **fault):
+    """``n`` frames of parts at random poses (shift up to 40 px, rotation up to 5°)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    r = np.random.default_rng(seed)
+    for i in range(n):
+        dx, dy, deg = r.uniform(-40, 40), r.uniform(-40, 40), r.uniform(-5, 5)
+        frame = moved_part(dx, dy, deg, seed=seed * 1000 + i, **fault)
+        cv2.imwrite(str(folder / f"part_{i:03d}.png"), frame)
+    return folder
+
+
+@pytest.fixture
+def trained(tmp_path):
+    station = production_station(tmp_path)
+    golden = tmp_path / "golden.json"
+    good = parts(tmp_path / "good", 16, seed=1)
+    assert run_cli(["train", station.path, "--production", "--frames", good, "--out", golden]) == 0
+    return station.path, golden
+
+
+def test_good_parts_pass_and_the_golden_file_holds_the_parts(trained, tmp_path, capsys):
+    station, golden = trained
+    doc = json.loads(golden.read_text())
+    assert doc["mode"] == "production" and doc["repeats"] == 16
+    assert set(doc["illuminations"]) == {"amber"}
+    assert len(doc["illuminations"]["amber"]["classes"]["face"]["focus"]["values"]) == 16
+    batch = parts(tmp_path / "batch", 8, seed=2)
+    code = run_cli(["verify", station, "--production", "--frames", batch, "--golden", golden,
+                    "--report", tmp_path / "r"])  # fmt: skip
+    out = capsys.readouterr().out
+    assert code == 0, out
+    assert "8 parts measured of 8 frames, against 16 golden parts" in out and "PASS" in out
+    report = json.loads((tmp_path / "r" / "production.json").read_text())
+    assert report["verdict"] == "pass" and len(report["parts"]) == 8
+
+
+@pytest.mark.parametrize(
+    ("fault", "failing"),
+    [({"gain": 0.9}, "μ drift"), ({"blur": 1.5}, "focus drift")],
+)
+def test_a_dimmer_light_or_a_blurred_lens_fails_naming_what_moved(trained, tmp_path, capsys, fault,
+                                                                  failing):  # fmt: skip
+    station, golden = trained
+    batch = parts(tmp_path / "batch", 8, seed=3, **fault)
+    capsys.readouterr()
+    code = run_cli(["verify", station, "--production", "--frames", batch, "--golden", golden])
+    out = capsys.readouterr().out
+    assert code == 1 and "FAIL" in out
+    failed = [line for line in out.splitlines() if line.startswith("FAIL ") or " FAIL " in line]
+    assert any(failing in line for line in failed), out
+
+
+def test_a_folder_without_parts_fails_its_own_check(trained, tmp_path, capsys):
+    station, golden = trained
+    empty = tmp_path / "belt"
+    empty.mkdir()
+    for i in range(5):
+        belt = np.clip(30 + rng.normal(0, 2, (640, 800)), 0, 255).astype(np.uint8)
+        cv2.imwrite(str(empty / f"f{i}.png"), belt)
+    capsys.readouterr()
+    code = run_cli(["verify", station, "--production", "--frames", empty, "--golden", golden])
+    out = capsys.readouterr().out
+    assert code == 1 and "parts found" in out and "no part found (5)" in out
+
+
+def test_bench_and_line_golden_files_are_not_mixed_up(trained, tmp_path, capsys):
+    station, golden = trained
+    capsys.readouterr()
+    # A production golden file where the bench checks drift against one.
+    from inspect_validate.acceptance import Drift
+    from inspect_validate.errors import InputError
+    from inspect_validate.station.file import read_station
+    from inspect_validate.verification.golden import read_golden
+    from inspect_validate.verification.golden_checks import validate_golden
+
+    with pytest.raises(InputError, match="trained on parts of the running line"):
+        validate_golden(read_golden(golden), read_station(station), Drift(golden=str(golden)),
+                        classes=["face"], comparisons=[], source=str(golden))  # fmt: skip
+    # A bench golden file given to production mode.
+    doc = json.loads(golden.read_text())
+    doc["mode"] = "bench"
+    (tmp_path / "bench.json").write_text(json.dumps(doc))
+    capsys.readouterr()
+    code = run_cli(["verify", station, "--production", "--frames", tmp_path / "good",
+                    "--golden", tmp_path / "bench.json"])  # fmt: skip
+    err = capsys.readouterr().err
+    assert code == 2 and "trained on the bench" in err and "bench.json" in err
+
+
+def test_production_options_need_their_parts(trained, tmp_path, capsys):
+    station, golden = trained
+    assert run_cli(["verify", station, "--production", "--golden", golden]) == 2
+    assert run_cli(["verify", station, "--golden", golden, "--frames", tmp_path]) == 2
+    assert run_cli(["train", station, "--production", "--out", tmp_path / "g.json"]) == 2
+    colour = tmp_path / "colour"
+    colour.mkdir()
+    frame = np.dstack([moved_part(0, 0, 0)] * 3)
+    frame[..., 0] //= 2
+    cv2.imwrite(str(colour / "c.png"), frame)
+    capsys.readouterr()
+    code = run_cli(["verify", station, "--production", "--frames", colour, "--golden", golden])
+    assert code == 2 and "colour" in capsys.readouterr().err
