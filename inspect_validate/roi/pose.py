@@ -9,9 +9,12 @@ two stages on the template (a window of the reference holding the part):
    of the template in the frame, both averaged down by a power of two until the template
    is about :data:`COARSE_SIZE` px across; the peak is the translation to the pixel of
    that level;
-2. **fine:** ``cv2.findTransformECC`` (Evangelidis & Psarakis 2008) from that start, at
-   full resolution, with the motion asked for: translation, euclidean (translation and
-   rotation) or affine. Its correlation coefficient is the match score.
+2. **fine:** ``cv2.findTransformECC`` (Evangelidis & Psarakis 2008) from that start, with
+   the motion asked for (translation, euclidean: translation and rotation, or affine),
+   level by level down the pyramid to the one where the template is at most
+   :data:`FINE_SIZE` px across (full resolution for a smaller template): a 5 MP frame's
+   part is placed to about a tenth of a pixel without an iteration over 5 MP. Its
+   correlation coefficient at that level is the match score.
 
 A pose maps reference coordinates to frame coordinates, in the pixel-corner convention
 of :mod:`inspect_validate.roi.shapes` (pixel (x, y) covers [x, x + 1) × [y, y + 1)).
@@ -31,6 +34,7 @@ from inspect_validate.errors import InputError
 
 __all__ = [
     "COARSE_SIZE",
+    "FINE_SIZE",
     "MOTIONS",
     "Motion",
     "MovedRegions",
@@ -43,6 +47,8 @@ Motion = Literal["translation", "euclidean", "affine"]
 MOTIONS: tuple[Motion, ...] = ("translation", "euclidean", "affine")
 COARSE_SIZE = 64
 """Pixels across the template at the coarse search's level (its smaller side)."""
+FINE_SIZE = 512
+"""Pixels across the template at the finest level ECC refines at (its smaller side)."""
 _ECC_ITERATIONS = 100
 _ECC_EPS = 1e-6
 
@@ -129,30 +135,57 @@ def locate_part(
     patch = reference[y : y + h, x : x + w].astype(np.float32)
     if not float(patch.std()) > 0:
         raise InputError(f"template [{x}, {y}, {w}, {h}] has no contrast: no part to find")
-    image = frame.astype(np.float32)
+
+    # The pyramids: level k is 2**k times smaller. The frame's is built in floats from the
+    # first level down, its full-resolution copy only where ECC refines there.
+    coarse = max(0, math.floor(math.log2(min(w, h) / COARSE_SIZE)))
+    fine = min(coarse, max(0, math.ceil(math.log2(min(w, h) / FINE_SIZE))))
+    patches, images = [patch], [frame.astype(np.float32) if fine == 0 else frame]
+    for level in range(coarse):
+        patches.append(cv2.pyrDown(patches[-1]))
+        below = images[-1] if level else np.asarray(images[-1], np.float32)
+        images.append(cv2.pyrDown(below))
 
     # 1. Coarse: the translation at the level where the template is ~COARSE_SIZE px.
-    level = max(0, math.floor(math.log2(min(w, h) / COARSE_SIZE)))
-    small_patch, small_image = patch, image
-    for _ in range(level):
-        small_patch, small_image = cv2.pyrDown(small_patch), cv2.pyrDown(small_image)
-    scores = cv2.matchTemplate(small_image, small_patch, cv2.TM_CCOEFF_NORMED)
+    scores = cv2.matchTemplate(images[coarse], patches[coarse], cv2.TM_CCOEFF_NORMED)
     _, _, _, (cx, cy) = cv2.minMaxLoc(scores)
-    # The patch's origin in the frame, px (a level's pixel is 2**level of the frame's).
-    start = np.array([[1.0, 0.0, cx * 2.0**level], [0.0, 1.0, cy * 2.0**level]], np.float32)
+    # ECC's warp: patch pixel centres → frame pixel centres, at the coarse level.
+    warp = np.array([[1.0, 0.0, cx], [0.0, 1.0, cy]], np.float32)
 
-    # 2. Fine: ECC from there, patch coordinates (pixel centres) → frame.
+    # 2. Fine: ECC level by level, the translation doubled on the way down.
     kind = {
         "translation": cv2.MOTION_TRANSLATION,
         "euclidean": cv2.MOTION_EUCLIDEAN,
         "affine": cv2.MOTION_AFFINE,
     }[motion]
     criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, _ECC_ITERATIONS, _ECC_EPS)
-    try:
-        score, warp = cv2.findTransformECC(patch, image, start, kind, criteria, None, 1)
-    except cv2.error:  # no convergence (a frame without the part): no pose
-        return Pose(_patch_to_reference(start, x, y), 0.0)
-    return Pose(_patch_to_reference(warp, x, y), float(score))
+    score = 0.0
+    for level in range(coarse, fine - 1, -1):
+        if level < coarse:
+            warp = warp.copy()
+            # A level's pixel centre c is at 2c + ½ on the next finer one: the shift b
+            # becomes 2b + ½ − A·(½, ½).
+            warp[:, 2] = 2.0 * warp[:, 2] + 0.5 - 0.5 * (warp[:, 0] + warp[:, 1])
+        try:
+            score, warp = cv2.findTransformECC(
+                patches[level], images[level], warp, kind, criteria, None, 1
+            )
+        except cv2.error:  # no convergence (a frame without the part): no pose
+            return Pose(_patch_to_reference(_at_full(warp, level), x, y), 0.0)
+    return Pose(_patch_to_reference(_at_full(warp, fine), x, y), float(score))
+
+
+def _at_full(warp: np.ndarray, level: int) -> np.ndarray:
+    """A warp between pixel centres of ``level`` as one at full resolution (the linear
+    part unchanged: both images are scaled alike)."""
+    if level == 0:
+        return warp
+    s = 2.0**level
+    a = np.asarray(warp, dtype=np.float64)[:, :2]
+    b = np.asarray(warp, dtype=np.float64)[:, 2]
+    # full centre u ↦ level centre (u + ½)/s − ½ ↦ warp ↦ full (v + ½)·s − ½
+    shift = (a @ np.full(2, 0.5 / s - 0.5) + b + 0.5) * s - 0.5
+    return np.column_stack([a, shift])
 
 
 def _patch_to_reference(warp: np.ndarray, x: int, y: int) -> np.ndarray:
@@ -202,10 +235,24 @@ def moved_masks(masks: dict[str, np.ndarray], pose: Pose) -> MovedRegions:
     centres = np.column_stack([a, b + a @ np.array([0.5, 0.5]) - 0.5])
     for name, mask in masks.items():
         h, w = mask.shape
-        out[name] = cv2.warpAffine(
-            mask.view(np.uint8), centres, (w, h), flags=cv2.INTER_NEAREST,
-            borderMode=cv2.BORDER_CONSTANT, borderValue=0,
-        ).astype(bool)  # fmt: skip
+        moved = np.zeros((h, w), bool)
+        rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+        if rows.size:
+            # Only the region's box is warped, into the box it lands in (a 5 MP frame's
+            # mask in full cost 3 ms a class): source box origin (sx, sy), target (tx, ty).
+            sy, sx, sy1, sx1 = rows[0], cols[0], rows[-1] + 1, cols[-1] + 1
+            corners = pose.apply(np.array([[sx, sy], [sx1, sy], [sx, sy1], [sx1, sy1]], float))
+            tx, ty = (max(0, int(np.floor(v)) - 1) for v in corners.min(axis=0))
+            tx1 = min(w, int(np.ceil(corners[:, 0].max())) + 1)
+            ty1 = min(h, int(np.ceil(corners[:, 1].max())) + 1)
+            if tx1 > tx and ty1 > ty:
+                local = centres.copy()
+                local[:, 2] += a @ np.array([sx, sy], float) - np.array([tx, ty], float)
+                moved[ty:ty1, tx:tx1] = cv2.warpAffine(
+                    mask[sy:sy1, sx:sx1].view(np.uint8), local, (tx1 - tx, ty1 - ty),
+                    flags=cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT, borderValue=0,
+                ).astype(bool)  # fmt: skip
+        out[name] = moved
         outside[name] = _outside(mask, pose)
     return MovedRegions(out, outside)
 

@@ -182,5 +182,6 @@ def focus_measure(frame: np.ndarray, mask: np.ndarray) -> float:
     # The region's box and a pixel around it: the Laplacian reads its neighbours.
     y0, y1 = max(0, rows[0] - 1), min(mask.shape[0], rows[-1] + 2)
     x0, x1 = max(0, cols[0] - 1), min(mask.shape[1], cols[-1] + 2)
-    lap = cv2.Laplacian(np.asarray(frame, np.float64)[y0:y1, x0:x1], cv2.CV_64F)
-    return float(np.var(lap[mask[y0:y1, x0:x1]]))
+    lap = cv2.Laplacian(np.asarray(frame[y0:y1, x0:x1], np.float32), cv2.CV_32F)
+    _, sd = cv2.meanStdDev(lap, mask=mask[y0:y1, x0:x1].view(np.uint8))
+    return float(sd[0, 0]) ** 2

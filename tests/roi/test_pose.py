@@ -113,3 +113,27 @@ def test_regions_follow_the_part_and_count_what_leaves_the_frame():
     gone = moved_masks(masks, Pose(true_pose(0.0, -160.0, 0.0), 1.0))
     assert gone.outside["face"] == 40 * 60 and gone.masks["face"].sum() == 40 * 60
     assert gone.outside["coat"] == 0
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_moving_each_regions_box_is_moving_the_whole_mask(seed):
+    """The regions are warped box by box (a 5 MP frame's masks in full cost 3 ms a class):
+    pixel for pixel the nearest-neighbour warp of the whole mask, for random poses,
+    regions of random shapes, and a region pushed partly off the frame."""
+    rng = np.random.default_rng(seed)
+    masks = {}
+    for k in range(3):
+        mask = np.zeros(SIZE, bool)
+        y, x = rng.integers(0, SIZE[0] - 150), rng.integers(0, SIZE[1] - 150)
+        mask[y : y + rng.integers(20, 150), x : x + rng.integers(20, 150)] = True
+        mask[y : y + 10, x : x + 200] = True  # not a rectangle
+        masks[f"c{k}"] = mask
+    matrix = true_pose(rng.uniform(-120, 120), rng.uniform(-120, 120), rng.uniform(-8, 8),
+                       rng.uniform(0.95, 1.05))  # fmt: skip
+    a, b = matrix[:, :2], matrix[:, 2]
+    centres = np.column_stack([a, b + a @ np.array([0.5, 0.5]) - 0.5])
+    got = moved_masks(masks, Pose(matrix, 1.0))
+    for name, mask in masks.items():
+        whole = cv2.warpAffine(mask.view(np.uint8), centres, SIZE[::-1], flags=cv2.INTER_NEAREST,
+                               borderMode=cv2.BORDER_CONSTANT, borderValue=0)  # fmt: skip
+        assert np.array_equal(got.masks[name], whole.astype(bool)), name
