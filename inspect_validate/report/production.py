@@ -43,6 +43,8 @@ def format_production(v: ProductionVerification) -> str:
         out.append(labelled("not measured", f"{frame}: {why}", stream=sys.stdout))
     if len(parts.not_measured) > 10:
         out.append(f"… and {len(parts.not_measured) - 10} more frames without a measured part")
+    if v.cause:
+        out.append(labelled("likely cause", v.cause, stream=sys.stdout))
     out += ["", f"{'PASS' if v.passed else 'FAIL'}: {count_failed(v.checks)}"]
     return "\n".join(out)
 
@@ -54,6 +56,7 @@ def production_document(v: ProductionVerification) -> dict:
         "schema_version": 1,
         "tool_version": __version__,
         "verdict": "pass" if v.passed else "fail",
+        "cause": v.cause,
         "station": str(v.station.path),
         "illumination": next(iter(v.golden.illuminations)),
         "false_alarm": false_alarm_document(v),

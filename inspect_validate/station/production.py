@@ -74,14 +74,12 @@ class PartLocator:
         Raises
         ------
         InputError
-            A frame of another size than the reference, or not monochrome.
+            A frame of another size than the reference, or not monochrome (naming no
+            file: the caller knows the frame's).
         """
         from inspect_validate.roi.pose import locate_part, moved_masks
 
-        try:
-            pose = locate_part(frame, self.reference, self.template, motion=self.motion)
-        except InputError as exc:
-            raise InputError(str(exc), source=self.source) from None
+        pose = locate_part(frame, self.reference, self.template, motion=self.motion)
         if pose.score < self.min_score:
             return Placement(
                 pose, None, {}, f"no part found: match score {pose.score:.3f} below "

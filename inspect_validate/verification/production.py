@@ -172,6 +172,14 @@ class ProductionVerification:
     def passed(self) -> bool:
         return all(c.passed for c in self.checks)
 
+    @property
+    def cause(self) -> str | None:
+        """The likely cause of the failed checks, from their pattern (None where every
+        check passed): a light level moves every class's μ by one factor; its spectrum
+        or the parts move them by different ones; a lens out of focus lowers the focus
+        measure at steady μ; parts that differ move σ² with μ and focus steady."""
+        return _cause(self)
+
 
 def verify_production(
     station: Station, frames: Path, golden: Golden, *, source: str = "the golden file"
@@ -215,6 +223,61 @@ def verify_production(
     checks = [found, *_drift_checks(parts, golden.illuminations[name])]
     rate = station.acceptance.false_alarm_rate
     return ProductionVerification(station, golden, parts, decide(checks, rate), rate)
+
+
+def _cause(v: ProductionVerification) -> str | None:
+    failed = [c.name for c in v.checks if not c.passed]
+    if not failed:
+        return None
+    if "parts found" in failed:
+        return (
+            "most frames hold no part to measure: a wrong reference, a moved camera or "
+            "fixture, or no parts passing"
+        )
+    golden = next(iter(v.golden.illuminations.values()))
+    ms = [p.measurement for p in v.parts.measured]
+
+    def change(values, ref) -> float:
+        return float(np.mean(values)) / ref.mean - 1 if ref.mean else math.nan
+
+    mu = {
+        c.name: change([m.classes[k].mean for m in ms], golden.classes[c.name].mean)
+        for k, c in enumerate(ms[0].classes)
+    }
+    top = max(golden.classes[c].mean.mean for c in mu)
+    # A class near black tells little of a light's level (its ratio is mostly noise).
+    lit = {c: x for c, x in mu.items() if golden.classes[c].mean.mean >= 0.1 * top}
+    if any(name.endswith(" μ drift") for name in failed):
+        values = list(lit.values())
+        same_sign = all(x < 0 for x in values) or all(x > 0 for x in values)
+        if same_sign and max(values) - min(values) <= 0.25 * max(abs(x) for x in values):
+            level = float(np.median(values))
+            return (
+                f"the light is {'dimmer' if level < 0 else 'brighter'} by about "
+                f"{100 * abs(level):.1f} % (every class's μ moved together): LED output, "
+                "or the exposure or gain changed"
+            )
+        moved = ", ".join(f"{c} {100 * x:+.1f} %" for c, x in sorted(lit.items()))
+        return (
+            f"the classes' μ moved by different factors ({moved}): the light's spectrum "
+            "changed, or the parts differ"
+        )
+    focus = [
+        change([p.focus[c] for p in v.parts.measured], g.focus)
+        for c, g in golden.classes.items()
+        if g.focus is not None
+    ]
+    if any(name.endswith(" focus drift") for name in failed) and focus:
+        f = float(np.median(focus))
+        if f < 0:
+            return (
+                f"the focus measure fell by {100 * abs(f):.0f} % at steady μ: the lens lost "
+                "focus (or a haze or dust on it)"
+            )
+        return f"the focus measure rose by {100 * f:.0f} % at steady μ: sharper parts or edges"
+    if any(name.endswith(" σ² drift") for name in failed):
+        return "the classes' spread changed at steady μ and focus: the parts differ"
+    return "the contrast between the classes changed at steady μ: the parts differ"
 
 
 def _reasons(missing: dict[str, str]) -> str:

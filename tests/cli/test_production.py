@@ -50,11 +50,14 @@ def test_good_parts_pass_and_the_golden_file_holds_the_parts(trained, tmp_path, 
 
 
 @pytest.mark.parametrize(
-    ("fault", "failing"),
-    [({"gain": 0.9}, "μ drift"), ({"blur": 1.5}, "focus drift")],
+    ("fault", "failing", "cause"),
+    [
+        ({"gain": 0.9}, "μ drift", "the light is dimmer by about 10.0 %"),
+        ({"blur": 1.5}, "focus drift", "the focus measure fell by"),
+    ],
 )
 def test_a_dimmer_light_or_a_blurred_lens_fails_naming_what_moved(trained, tmp_path, capsys, fault,
-                                                                  failing):  # fmt: skip
+                                                                  failing, cause):  # fmt: skip
     station, golden = trained
     batch = parts(tmp_path / "batch", 8, seed=3, **fault)
     capsys.readouterr()
@@ -63,6 +66,7 @@ def test_a_dimmer_light_or_a_blurred_lens_fails_naming_what_moved(trained, tmp_p
     assert code == 1 and "FAIL" in out
     failed = [line for line in out.splitlines() if line.startswith("FAIL ") or " FAIL " in line]
     assert any(failing in line for line in failed), out
+    assert f"likely cause: {cause}" in out, out
 
 
 def test_a_folder_without_parts_fails_its_own_check(trained, tmp_path, capsys):
@@ -76,6 +80,7 @@ def test_a_folder_without_parts_fails_its_own_check(trained, tmp_path, capsys):
     code = run_cli(["verify", station, "--production", "--frames", empty, "--golden", golden])
     out = capsys.readouterr().out
     assert code == 1 and "parts found" in out and "no part found (5)" in out
+    assert "likely cause: most frames hold no part" in out
 
 
 def test_bench_and_line_golden_files_are_not_mixed_up(trained, tmp_path, capsys):
@@ -115,3 +120,28 @@ def test_production_options_need_their_parts(trained, tmp_path, capsys):
     capsys.readouterr()
     code = run_cli(["verify", station, "--production", "--frames", colour, "--golden", golden])
     assert code == 2 and "colour" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("make", "says"),
+    [
+        (lambda d: (d / "readme.txt").write_text("hello"), "holds no images"),
+        (lambda d: (d / "cut.png").write_bytes(b"\x89PNG\r\n\x1a\n" + b"\x00" * 40), "cannot read"),
+        (lambda d: cv2.imwrite(str(d / "small.png"), np.zeros((100, 100), np.uint8)),
+         "the frame is 100×100, the reference 800×640"),
+        (lambda d: None, "holds no images"),
+    ],
+)  # fmt: skip
+def test_hostile_frame_folders_are_refused_naming_the_file(trained, tmp_path, capsys, make, says):
+    """A folder of no images, a half-written PNG, a frame of another size, an empty
+    folder: exit 2 naming the file (once), nothing written."""
+    station, golden = trained
+    folder = tmp_path / "hostile"
+    folder.mkdir()
+    make(folder)
+    capsys.readouterr()
+    code = run_cli(["verify", station, "--production", "--frames", folder, "--golden", golden,
+                    "--report", tmp_path / "r"])  # fmt: skip
+    err = capsys.readouterr().err
+    assert code == 2 and says in err and "Traceback" not in err, err
+    assert err.count("station.yaml") == 0 and not (tmp_path / "r").exists()
