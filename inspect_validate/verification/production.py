@@ -31,7 +31,7 @@ import numpy as np
 from inspect_validate.errors import InputError
 
 if TYPE_CHECKING:
-    from collections.abc import Sequence
+    from collections.abc import Iterable, Sequence
 
     from inspect_validate.comparisons import Comparisons
     from inspect_validate.measurement import Measurement
@@ -45,8 +45,11 @@ __all__ = [
     "Part",
     "Parts",
     "ProductionVerification",
+    "golden_parts",
+    "measure_frames",
     "measure_parts",
     "train_production",
+    "verify_parts",
     "verify_production",
 ]
 
@@ -91,30 +94,36 @@ def measure_parts(station: Station, frames: Path | Sequence[Path]) -> Parts:
         of another size than the reference (naming the file).
     """
     from inspect_validate.images import expand_paths, read_image
+
+    files = expand_paths([frames] if isinstance(frames, Path | str) else list(frames))
+    if not files:
+        raise InputError("no frames: give a folder of production frames", source=str(frames))
+    return measure_frames(station, ((str(path), read_image(path)) for path in files))
+
+
+def measure_frames(station: Station, frames: Iterable[tuple[str, np.ndarray]]) -> Parts:
+    """:func:`measure_parts` of frames already read: ``(name, frame)`` pairs (a
+    simulation's, a camera's)."""
     from inspect_validate.station.production import focus_measure, measure_part, part_locator
     from inspect_validate.verification.measured import station_regions
 
     locator = part_locator(station)
     _, comparisons = station_regions(station)
-    files = expand_paths([frames] if isinstance(frames, Path | str) else list(frames))
-    if not files:
-        raise InputError("no frames: give a folder of production frames", source=str(frames))
     measured, missing = [], {}
-    for path in files:
-        frame = read_image(path)
+    for name, frame in frames:
         try:
             placement = locator.place(frame)
         except InputError as exc:
-            raise InputError(str(exc), source=str(path)) from None
+            raise InputError(str(exc), source=name) from None
         if placement.masks is None:
-            missing[str(path)] = str(placement.reason)
+            missing[name] = str(placement.reason)
             continue
         measured.append(
             Part(
-                frame=str(path),
+                frame=name,
                 pose=placement.pose,
                 measurement=measure_part(frame, placement, comparisons),
-                focus={name: focus_measure(frame, m) for name, m in placement.masks.items()},
+                focus={c: focus_measure(frame, m) for c, m in placement.masks.items()},
             )
         )
     return Parts(tuple(measured), missing, comparisons)
@@ -129,17 +138,21 @@ def train_production(station: Station, frames: Path) -> Golden:
     InputError
         As :func:`measure_parts`; fewer than two parts measured (no spread).
     """
+    return golden_parts(station, measure_parts(station, frames), source=str(frames))
+
+
+def golden_parts(station: Station, parts: Parts, *, source: str = "the frames") -> Golden:
+    """The golden statistics of measured good ``parts`` (:func:`train_production`)."""
     from inspect_validate import __version__
     from inspect_validate.station.file import station_hash
     from inspect_validate.verification.golden import golden_of
 
-    parts = measure_parts(station, frames)
     if len(parts.measured) < 2:
         reasons = "; ".join(sorted(set(parts.not_measured.values()))[:2])
         raise InputError(
             f"{len(parts.measured)} part measured: golden statistics need the spread of two "
             f"or more good parts{f' ({reasons})' if reasons else ''}",
-            source=str(frames),
+            source=source,
         )
     assert station.production is not None  # measure_parts refused a station without
     name = station.production.illumination
@@ -193,16 +206,17 @@ def verify_production(
         A golden file trained on the bench (or of another illumination), and as
         :func:`measure_parts`.
     """
+    _production_golden(golden, source)
+    return verify_parts(station, measure_parts(station, frames), golden, source=source)
+
+
+def verify_parts(
+    station: Station, parts: Parts, golden: Golden, *, source: str = "the golden file"
+) -> ProductionVerification:
+    """:func:`verify_production` of parts already measured."""
     from inspect_validate.verification.checks import at_least, decide
 
-    if golden.mode != "production":
-        raise InputError(
-            "this golden file was trained on the bench (captures, every illumination); "
-            "train one from good parts: inspect-validate train STATION --production "
-            "--frames DIR --out FILE",
-            source=source,
-        )
-    parts = measure_parts(station, frames)
+    _production_golden(golden, source)
     assert station.production is not None
     name = station.production.illumination
     if name not in golden.illuminations:
@@ -223,6 +237,17 @@ def verify_production(
     checks = [found, *_drift_checks(parts, golden.illuminations[name])]
     rate = station.acceptance.false_alarm_rate
     return ProductionVerification(station, golden, parts, decide(checks, rate), rate)
+
+
+def _production_golden(golden: Golden, source: str) -> None:
+    """Refuse a golden file trained on the bench (before any frame is read)."""
+    if golden.mode != "production":
+        raise InputError(
+            "this golden file was trained on the bench (captures, every illumination); "
+            "train one from good parts: inspect-validate train STATION --production "
+            "--frames DIR --out FILE",
+            source=source,
+        )
 
 
 def _cause(v: ProductionVerification) -> str | None:
