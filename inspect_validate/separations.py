@@ -138,16 +138,16 @@ def gaussian_separation(
         flat_eps, flat_log = eps.reshape(-1, n_comparisons), log_eps.reshape(-1, n_comparisons)
         # And all asked comparisons as rows of one batch, each side padded to the widest
         # with components of weight 0.
-        sides = []
+        compared: list[list[tuple[np.ndarray, ...]]] = []
         for p in asked:
-            pair = []
+            pair: list[tuple[np.ndarray, ...]] = []
             for g in map(list, comparisons.groups[p]):
                 share = np.broadcast_to(w[g] / w[g].sum(), (rows_mean.shape[0], len(g)))
                 pair.append((rows_mean[:, g], share, rows_sd[:, g]))
-            sides.append(pair)
+            compared.append(pair)
         e = gaussian_mixture_errors(
-            *stacked_mixtures([pair[0] for pair in sides]),
-            *stacked_mixtures([pair[1] for pair in sides]),
+            *stacked_mixtures([pair[0] for pair in compared]),
+            *stacked_mixtures([pair[1] for pair in compared]),
         ).reshape(len(asked), -1)
         for p, ep in zip(asked, e, strict=True):
             flat_eps[keep, p] = ep

@@ -103,7 +103,7 @@ def _train_production(st, frames_dirs, golden_path) -> None:
     for c, g in ill.classes.items():
         focus = f", focus {g.focus.summary(3)} DN²" if g.focus is not None else ""
         click.echo(f"  {c}: μ {g.mean.summary()} DN, σ² {g.variance.summary()} DN²{focus}")
-    for label, g in ill.comparisons.items():
-        click.echo(f"  {label}: SNR_dB {g.snr_db.summary(3)} dB")
+    for label, comparison in ill.comparisons.items():
+        click.echo(f"  {label}: SNR_dB {comparison.snr_db.summary(3)} dB")
     write_json(golden.document(), golden_path)
     click.echo(f"wrote {golden_path}")

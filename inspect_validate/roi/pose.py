@@ -140,11 +140,12 @@ def locate_part(
     # first level down, its full-resolution copy only where ECC refines there.
     coarse = max(0, math.floor(math.log2(min(w, h) / COARSE_SIZE)))
     fine = min(coarse, max(0, math.ceil(math.log2(min(w, h) / FINE_SIZE))))
-    patches, images = [patch], [frame.astype(np.float32) if fine == 0 else frame]
+    patches: list[np.ndarray] = [patch]
+    images: list[np.ndarray] = [frame.astype(np.float32) if fine == 0 else frame]
     for level in range(coarse):
-        patches.append(cv2.pyrDown(patches[-1]))
+        patches.append(np.asarray(cv2.pyrDown(patches[-1])))
         below = images[-1] if level else np.asarray(images[-1], np.float32)
-        images.append(cv2.pyrDown(below))
+        images.append(np.asarray(cv2.pyrDown(below)))
 
     # 1. Coarse: the translation at the level where the template is ~COARSE_SIZE px.
     scores = cv2.matchTemplate(images[coarse], patches[coarse], cv2.TM_CCOEFF_NORMED)
@@ -167,9 +168,13 @@ def locate_part(
             # becomes 2b + ½ − A·(½, ½).
             warp[:, 2] = 2.0 * warp[:, 2] + 0.5 - 0.5 * (warp[:, 0] + warp[:, 1])
         try:
-            score, warp = cv2.findTransformECC(
-                patches[level], images[level], warp, kind, criteria, None, 1
+            # Every frame pixel is valid (a full mask: OpenCV's typing has no "none" with a
+            # Gaussian size), and no pre-smoothing (size 1): the pyramid smoothed already.
+            everywhere = np.full(images[level].shape, 255, np.uint8)
+            score, refined = cv2.findTransformECC(
+                patches[level], images[level], warp, kind, criteria, everywhere, 1
             )
+            warp = np.asarray(refined, np.float32)
         except cv2.error:  # no convergence (a frame without the part): no pose
             return Pose(_patch_to_reference(_at_full(warp, level), x, y), 0.0)
     return Pose(_patch_to_reference(_at_full(warp, fine), x, y), float(score))

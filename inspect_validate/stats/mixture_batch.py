@@ -156,7 +156,10 @@ def class_mixture_errors(
             with np.errstate(divide="ignore"):
                 sums = [
                     np.logaddexp.reduce(
-                        [log_density[k] + np.log(s) for k, s in zip(g, shares, strict=True)],
+                        [
+                            log_density[k] + np.log(s)
+                            for k, s in zip(g, np.asarray(shares, float), strict=True)
+                        ],
                         axis=0,
                     )
                     for g, shares in pair
@@ -164,16 +167,16 @@ def class_mixture_errors(
             d.append(sums[0] - sums[1])
         stacked_rows = (np.arange(count)[:, None] * n + chunk_rows).reshape(-1)
         flat[stacked_rows] = _batch_errors(
-            *(a[stacked_rows] for a in side1),
-            *(a[stacked_rows] for a in side2),
+            tuple(a[stacked_rows] for a in side1),
+            tuple(a[stacked_rows] for a in side2),
             chunk_grid.tiled(count),
             d=np.concatenate(d),
         )
     # The rows the shared grid could not take, and those whose ε its reach could move by
     # more than 10⁻¹³ of it, as pairs of mixtures (the latter out to TAIL_REACH).
-    taken = np.zeros((count, n), bool)
-    taken[:, batch] = True
-    taken = taken.reshape(-1)
+    grid_taken = np.zeros((count, n), bool)
+    grid_taken[:, batch] = True
+    taken = grid_taken.reshape(-1)
     far = np.flatnonzero(taken & (flat < _NEAR_BOUND * 1e13))
     for again, near in ((np.flatnonzero(~taken), True), (far, False)):
         if again.size:
@@ -221,7 +224,7 @@ class _RowGrids:
     points: np.ndarray
     batch: np.ndarray
 
-    def select(self, keep: np.ndarray) -> _RowGrids:
+    def select(self, keep: np.ndarray | slice) -> _RowGrids:
         return _RowGrids(*(a[keep] for a in (self.lo, self.hi, self.unit, self.points, self.batch)))
 
     def tiled(self, count: int) -> _RowGrids:
@@ -260,14 +263,18 @@ def _chunked_errors(side1, side2, grid: _RowGrids, rows: np.ndarray) -> np.ndarr
     out = np.empty(rows.size)
     for here in _chunks(grid.points):
         out[here] = _batch_errors(
-            *(a[rows[here]] for a in side1), *(a[rows[here]] for a in side2), grid.select(here)
+            tuple(a[rows[here]] for a in side1),
+            tuple(a[rows[here]] for a in side2),
+            grid.select(here),
         )
     return out
 
 
-def _batch_errors(c1, w1, s1, c2, w2, s2, grid: _RowGrids, d=None) -> np.ndarray:
-    """:func:`gaussian_mixture_errors` of rows all of which take their grid; ``d``, the
-    difference on the flat grid if already evaluated."""
+def _batch_errors(side1: tuple, side2: tuple, grid: _RowGrids, d=None) -> np.ndarray:
+    """:func:`gaussian_mixture_errors` of rows all of which take their grid, each side
+    (centres, weights, sigmas); ``d``, the difference on the flat grid if already
+    evaluated."""
+    (c1, w1, s1), (c2, w2, s2) = side1, side2
     n = c1.shape[0]
     # In each row's own units (the widest σ), from its lower end: the arithmetic stays
     # normal whatever the grey values' scale. Each row gets the grid points it needs,
