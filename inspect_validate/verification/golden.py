@@ -168,6 +168,17 @@ class GoldenComparison(_Frozen):
         return self
 
 
+class GoldenPose(_Frozen):
+    """Production: where the parts lay, their template's centre in the frame."""
+
+    x: Spread
+    """Column of the template's centre, px."""
+    y: Spread
+    """Row of the template's centre, px."""
+    angle: Spread
+    """Rotation against the reference, degrees."""
+
+
 class GoldenIllumination(_Frozen):
     """One illumination's golden statistics."""
 
@@ -177,6 +188,8 @@ class GoldenIllumination(_Frozen):
     """Class name → its statistics."""
     comparisons: dict[str, GoldenComparison]
     """Comparison (``"A vs B,C"``) → its statistics."""
+    pose: GoldenPose | None = None
+    """Production: where the parts lay (a moved camera or fixture moves them all)."""
 
 
 class Golden(_Frozen):
@@ -228,6 +241,11 @@ class Golden(_Frozen):
         doc["illuminations"] = {
             ill: {
                 "channels": {str(k): v for k, v in g.channels.items()},
+                **(
+                    {"pose": {q: getattr(g.pose, q).document() for q in ("x", "y", "angle")}}
+                    if g.pose is not None
+                    else {}
+                ),
                 "classes": {
                     name: {
                         "mean": c.mean.document(),
@@ -327,11 +345,12 @@ def golden_of(
     tool_version: str,
     station_sha256: str,
     focus: list[dict[str, float]] | None = None,
+    poses: list[tuple[float, float, float]] | None = None,
 ) -> Golden:
     """The :class:`Golden` of ``runs``, each a dict illumination → its
     :class:`~inspect_validate.measurement.Measurement` (measured with ``comparisons``);
     ``focus``, each run's class → focus measure, makes it a production golden file (one
-    run a part)."""
+    run a part), ``poses`` each part's (x, y, angle)."""
     from inspect_validate.verification.uncertainty import measured_standard_errors
 
     illuminations = {}
@@ -354,8 +373,12 @@ def golden_of(
             )
             for j, comp in enumerate(ms[0].comparisons)
         }
+        pose = None
+        if poses is not None:
+            x, y, angle = (_spread(p[i] for p in poses) for i in range(3))
+            pose = GoldenPose(x=x, y=y, angle=angle)
         illuminations[ill.name] = GoldenIllumination(
-            channels=dict(ill.channels), classes=classes, comparisons=comps
+            channels=dict(ill.channels), classes=classes, comparisons=comps, pose=pose
         )
     return Golden(
         tool_version=tool_version,

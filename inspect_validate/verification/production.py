@@ -59,13 +59,15 @@ MIN_FOUND = 0.5
 
 @dataclass(frozen=True)
 class Part:
-    """One measured part: its frame file, pose, classes and comparisons, and each class's
-    focus measure (DN², :func:`~inspect_validate.station.production.focus_measure`)."""
+    """One measured part: its frame file, pose, classes and comparisons, each class's
+    focus measure (DN², :func:`~inspect_validate.station.production.focus_measure`), and
+    where it lies: the template's centre in the frame, px (x, y), and its rotation, °."""
 
     frame: str
     pose: Pose
     measurement: Measurement
     focus: dict[str, float]
+    position: tuple[float, float, float]
 
 
 @dataclass(frozen=True)
@@ -109,6 +111,8 @@ def measure_frames(station: Station, frames: Iterable[tuple[str, np.ndarray]]) -
 
     locator = part_locator(station)
     _, comparisons = station_regions(station)
+    x, y, w, h = locator.template
+    centre = np.array([[x + w / 2, y + h / 2]])
     measured, missing = [], {}
     for name, frame in frames:
         try:
@@ -124,6 +128,7 @@ def measure_frames(station: Station, frames: Iterable[tuple[str, np.ndarray]]) -
                 pose=placement.pose,
                 measurement=measure_part(frame, placement, comparisons),
                 focus={c: focus_measure(frame, m) for c, m in placement.masks.items()},
+                position=(*map(float, placement.pose.apply(centre)[0]), placement.pose.angle_deg),
             )
         )
     return Parts(tuple(measured), missing, comparisons)
@@ -167,6 +172,7 @@ def golden_parts(station: Station, parts: Parts, *, source: str = "the frames") 
         tool_version=__version__,
         station_sha256=station_hash(station.file),
         focus=[p.focus for p in parts.measured],
+        poses=[p.position for p in parts.measured],
     )
 
 
@@ -272,6 +278,13 @@ def _cause(v: ProductionVerification) -> str | None:
     top = max(golden.classes[c].mean.mean for c in mu)
     # A class near black tells little of a light's level (its ratio is mostly noise).
     lit = {c: x for c, x in mu.items() if golden.classes[c].mean.mean >= 0.1 * top}
+    if any(name.startswith("pose ") for name in failed) and not any(
+        name.endswith(" μ drift") for name in failed
+    ):
+        return (
+            "the parts lie elsewhere in the frame than the golden parts did, their statistics "
+            "steady: the camera or the fixture moved"
+        )
     if any(name.endswith(" μ drift") for name in failed):
         values = list(lit.values())
         same_sign = all(x < 0 for x in values) or all(x > 0 for x in values)
@@ -333,6 +346,17 @@ def _drift_checks(parts: Parts, golden) -> list[Check]:
         ref = golden.comparisons[comp.label].snr_db
         values = [m.comparisons[j].snr_db for m in ms]
         checks.append(_batch_check(f"{comp.label} SNR_dB drift", values, ref, "dB"))
+    if golden.pose is not None:
+        poses = [p.position for p in parts.measured]
+        for i, (what, ref, unit) in enumerate(
+            (
+                ("x", golden.pose.x, "px"),
+                ("y", golden.pose.y, "px"),
+                ("rotation", golden.pose.angle, "°"),
+            )
+        ):
+            name = f"pose {what} drift"
+            checks.append(_batch_check(name, [p[i] for p in poses], ref, unit))
     return checks
 
 

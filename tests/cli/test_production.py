@@ -13,12 +13,13 @@ from conftest import moved_part, production_station, run_cli
 rng = np.random.default_rng(7)
 
 
-def parts(folder, n, *, seed=0, **fault):
-    """``n`` frames of parts at random poses (shift up to 40 px, rotation up to 5°)."""
+def parts(folder, n, *, seed=0, reach=40.0, turn=5.0, offset=(0.0, 0.0), **fault):
+    """``n`` frames of parts at random poses (shift up to ``reach`` px, rotation up to
+    ``turn`` °), all moved by ``offset`` (a camera that moved)."""
     folder.mkdir(parents=True, exist_ok=True)
     r = np.random.default_rng(seed)
     for i in range(n):
-        dx, dy, deg = r.uniform(-40, 40), r.uniform(-40, 40), r.uniform(-5, 5)
+        (dx, dy), deg = r.uniform(-reach, reach, 2) + offset, r.uniform(-turn, turn)
         frame = moved_part(dx, dy, deg, seed=seed * 1000 + i, **fault)
         cv2.imwrite(str(folder / f"part_{i:03d}.png"), frame)
     return folder
@@ -67,6 +68,24 @@ def test_a_dimmer_light_or_a_blurred_lens_fails_naming_what_moved(trained, tmp_p
     failed = [line for line in out.splitlines() if line.startswith("FAIL ") or " FAIL " in line]
     assert any(failing in line for line in failed), out
     assert f"likely cause: {cause}" in out, out
+
+
+def test_a_moved_camera_fails_the_pose_checks_in_a_fixture(tmp_path, capsys):
+    """Parts held in a fixture (within 2 px and 0.5°): a camera knocked by 8 px moves them
+    all, their statistics steady; the pose check fails and says so."""
+    station = production_station(tmp_path)
+    golden = tmp_path / "golden.json"
+    good = parts(tmp_path / "good", 16, seed=1, reach=2.0, turn=0.5)
+    assert run_cli(["train", station.path, "--production", "--frames", good, "--out", golden]) == 0
+    assert "pose" in json.loads(golden.read_text())["illuminations"]["amber"]
+    steady = parts(tmp_path / "steady", 8, seed=4, reach=2.0, turn=0.5)
+    capsys.readouterr()
+    args = ["verify", station.path, "--production", "--golden", golden, "--frames"]
+    assert run_cli([*args, steady]) == 0, capsys.readouterr().out
+    knocked = parts(tmp_path / "knocked", 8, seed=5, reach=2.0, turn=0.5, offset=(8.0, 0.0))
+    assert run_cli([*args, knocked]) == 1
+    out = capsys.readouterr().out
+    assert "FAIL     pose x drift" in out and "the camera or the fixture moved" in out, out
 
 
 def test_a_folder_without_parts_fails_its_own_check(trained, tmp_path, capsys):
