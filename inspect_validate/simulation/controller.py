@@ -235,6 +235,16 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument("--tcp", type=int, nargs="?", const=0, metavar="PORT")
     args = parser.parse_args(argv)
     end_with_parent(args.state.parent)
+    try:
+        _run(args)
+    except FileNotFoundError:
+        if args.state.parent.exists():
+            raise
+        # The parent removed its temporary folder while this process started or served:
+        # it is done with the controller (a stopped watch), which ends without a word.
+
+
+def _run(args: argparse.Namespace) -> None:
     errors = {}
     for item in args.error:
         prefix, code = item.rsplit(":", 1)
