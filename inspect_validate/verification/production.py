@@ -122,13 +122,14 @@ def measure_frames(station: Station, frames: Iterable[tuple[str, np.ndarray]]) -
         if placement.masks is None:
             missing[name] = str(placement.reason)
             continue
+        px, py = (float(v) for v in placement.pose.apply(centre)[0])
         measured.append(
             Part(
                 frame=name,
                 pose=placement.pose,
                 measurement=measure_part(frame, placement, comparisons),
                 focus={c: focus_measure(frame, m) for c, m in placement.masks.items()},
-                position=(*map(float, placement.pose.apply(centre)[0]), placement.pose.angle_deg),
+                position=(px, py, placement.pose.angle_deg),
             )
         )
     return Parts(tuple(measured), missing, comparisons)
