@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from inspect_validate.errors import InputError
-from inspect_validate.roi.roiset import ClassRoi, RoiSet
+from inspect_validate.roi.roiset import ClassRoi, RoiSet, bounding_box
 from inspect_validate.roi.shapes import Polygon, Rect, Shape, rasterise
 
 __all__ = ["Region", "coverage", "draft_rois", "find_regions"]
@@ -141,8 +141,7 @@ def _shape_of(mask: np.ndarray) -> Shape:
     """A rectangle where the mask is one, else the outline of its largest part."""
     import cv2
 
-    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
-    y0, y1, x0, x1 = int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
+    y0, x0, y1, x1 = bounding_box(mask)
     if mask[y0:y1, x0:x1].all():
         return Rect(x0, y0, x1 - x0, y1 - y0)
     # Traced on a grid twice as fine, the outline runs a quarter pixel inside the region's

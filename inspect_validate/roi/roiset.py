@@ -33,7 +33,14 @@ from inspect_validate.errors import InputError
 from inspect_validate.files import atomic_write, input_file
 from inspect_validate.roi.shapes import Ellipse, MaskImage, Polygon, Rect, Shape, rasterise
 
-__all__ = ["ClassRoi", "RoiSet", "class_masks", "read_rois", "write_rois"]
+__all__ = [
+    "ClassRoi",
+    "RoiSet",
+    "bounding_box",
+    "class_masks",
+    "read_rois",
+    "write_rois",
+]
 
 NonNegativeInt = Annotated[int, Field(ge=0)]
 
@@ -311,7 +318,7 @@ def class_masks(rois: RoiSet, frame_shape: tuple[int, int]) -> dict[str, np.ndar
                     "enlarge its shapes or reduce 'erode'",
                     source=rois.source,
                 )
-        box = _box(union)
+        box = bounding_box(union)
         for other, mask in masks.items():
             # Only where the two classes' boxes meet can they share a pixel.
             y0, x0 = max(box[0], boxes[other][0]), max(box[1], boxes[other][1])
@@ -331,8 +338,9 @@ def class_masks(rois: RoiSet, frame_shape: tuple[int, int]) -> dict[str, np.ndar
     return masks
 
 
-def _box(mask: np.ndarray) -> tuple[int, int, int, int]:
-    """The rows and columns a mask's pixels span: (y0, x0, y1, x1), ends exclusive."""
+def bounding_box(mask: np.ndarray) -> tuple[int, int, int, int]:
+    """The rows and columns a mask's pixels span: (y0, x0, y1, x1), ends exclusive;
+    (0, 0, 0, 0) for an empty mask."""
     rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
     if rows.size == 0:
         return (0, 0, 0, 0)

@@ -56,8 +56,6 @@ class PartLocator:
     motion : str
     min_score : float
     min_pixels : int
-    source : str
-        The station file, for messages.
     """
 
     reference: np.ndarray
@@ -66,7 +64,6 @@ class PartLocator:
     motion: Motion
     min_score: float
     min_pixels: int
-    source: str
 
     def place(self, frame: np.ndarray) -> Placement:
         """The part in ``frame`` (H, W) with the regions moved onto it.
@@ -110,6 +107,7 @@ def part_locator(station: Station) -> PartLocator:
     """
     from inspect_validate.images import read_image
     from inspect_validate.roi import class_masks, read_rois
+    from inspect_validate.roi.roiset import bounding_box
 
     source = str(station.path)
     production = station.production
@@ -131,11 +129,9 @@ def part_locator(station: Station) -> PartLocator:
             )
         template = (x, y, w, h)
     else:
-        union = np.logical_or.reduce(list(masks.values()))
-        rows, cols = np.flatnonzero(union.any(axis=1)), np.flatnonzero(union.any(axis=0))
+        y0, x0, y1, x1 = bounding_box(np.logical_or.reduce(list(masks.values())))
         m = production.margin
-        x0, y0 = max(0, int(cols[0]) - m), max(0, int(rows[0]) - m)
-        x1, y1 = min(width, int(cols[-1]) + 1 + m), min(height, int(rows[-1]) + 1 + m)
+        x0, y0, x1, y1 = max(0, x0 - m), max(0, y0 - m), min(width, x1 + m), min(height, y1 + m)
         template = (x0, y0, x1 - x0, y1 - y0)
     return PartLocator(
         reference=reference,
@@ -144,7 +140,6 @@ def part_locator(station: Station) -> PartLocator:
         motion=production.motion,
         min_score=production.min_score,
         min_pixels=production.min_pixels,
-        source=source,
     )
 
 
@@ -174,12 +169,14 @@ def focus_measure(frame: np.ndarray, mask: np.ndarray) -> float:
     part's, not read on its own."""
     import cv2
 
-    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
-    if rows.size == 0:
+    from inspect_validate.roi.roiset import bounding_box
+
+    y0, x0, y1, x1 = bounding_box(mask)
+    if y1 == y0:
         return float("nan")
     # The region's box and a pixel around it: the Laplacian reads its neighbours.
-    y0, y1 = max(0, rows[0] - 1), min(mask.shape[0], rows[-1] + 2)
-    x0, x1 = max(0, cols[0] - 1), min(mask.shape[1], cols[-1] + 2)
+    y0, x0 = max(0, y0 - 1), max(0, x0 - 1)
+    y1, x1 = min(mask.shape[0], y1 + 1), min(mask.shape[1], x1 + 1)
     lap = cv2.Laplacian(np.asarray(frame[y0:y1, x0:x1], np.float32), cv2.CV_32F)
     _, sd = cv2.meanStdDev(lap, mask=mask[y0:y1, x0:x1].view(np.uint8))
     return float(sd[0, 0]) ** 2
