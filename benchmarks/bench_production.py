@@ -52,7 +52,7 @@ def frames(reference, n, seed=0):
 def main() -> None:
     from inspect_validate.comparisons import Comparisons
     from inspect_validate.roi.pose import locate_part, moved_masks
-    from inspect_validate.station.production import Placement, focus_measure, measure_part
+    from inspect_validate.station.production import Placement, measure_part, part_focus
 
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--parts", type=int, default=20)
@@ -69,10 +69,9 @@ def main() -> None:
         t1 = time.perf_counter()
         regions = moved_masks(masks, pose)
         t2 = time.perf_counter()
-        measure_part(frame, Placement(pose, regions.masks, regions.outside), comparisons)
+        measure_part(frame, Placement(pose, regions, regions.outside), comparisons)
         t3 = time.perf_counter()
-        for mask in regions.masks.values():
-            focus_measure(frame, mask)
+        part_focus(frame, regions)
         t4 = time.perf_counter()
         # The reference: ECC once at full resolution, started at the true translation.
         start = np.array([[1, 0, x + truth[0, 2]], [0, 1, y + truth[1, 2]]], np.float32)

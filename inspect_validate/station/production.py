@@ -22,22 +22,35 @@ from inspect_validate.errors import InputError
 if TYPE_CHECKING:
     from inspect_validate.comparisons import Comparisons
     from inspect_validate.measurement import Measurement
-    from inspect_validate.roi.pose import Motion, Pose
+    from inspect_validate.roi.pose import Motion, MovedRegions, Pose
     from inspect_validate.station.file import Station
 
-__all__ = ["PartLocator", "Placement", "focus_measure", "measure_part", "part_locator"]
+__all__ = [
+    "PartLocator",
+    "Placement",
+    "focus_measure",
+    "measure_part",
+    "part_focus",
+    "part_locator",
+]
 
 
 @dataclass(frozen=True)
 class Placement:
-    """A part placed in a frame: its ``pose``, the classes' moved regions (``masks``,
-    None where the part is not measured), the pixels each region lost beyond the frame
-    (``outside``) and, where it is not measured, ``reason``."""
+    """A part placed in a frame: its ``pose``, the classes' moved regions (``regions``,
+    None where the part is not measured) and, where it is not measured, ``reason``; the
+    pixels each region lost beyond the frame (``outside``)."""
 
     pose: Pose
-    masks: dict[str, np.ndarray] | None
+    regions: MovedRegions | None
     outside: dict[str, int]
     reason: str | None = None
+
+    @property
+    def masks(self) -> dict[str, np.ndarray] | None:
+        """Each class's pixels at least half inside its moved region (None where the part
+        is not measured)."""
+        return None if self.regions is None else self.regions.masks
 
 
 @dataclass(frozen=True, eq=False)
@@ -83,7 +96,7 @@ class PartLocator:
                 f"production.min_score {self.min_score:g}",
             )  # fmt: skip
         regions = moved_masks(self.masks, pose)
-        counts = {name: int(np.count_nonzero(mask)) for name, mask in regions.masks.items()}
+        counts = {name: round(float(w.sum())) for name, w in regions.local.items()}
         short = [name for name, n in counts.items() if n < self.min_pixels]
         if short:
             name = short[0]
@@ -93,7 +106,7 @@ class PartLocator:
                 f"production.min_pixels {self.min_pixels} ({regions.outside[name]} px of its "
                 "region fall outside the frame)",
             )  # fmt: skip
-        return Placement(pose, regions.masks, regions.outside)
+        return Placement(pose, regions, regions.outside)
 
 
 def part_locator(station: Station) -> PartLocator:
@@ -152,31 +165,69 @@ def measure_part(
 ) -> Measurement:
     """One placed part's classes (μ (38), σ² (39): spatial, within the part) and
     comparisons (SNR_dB (36), ε Gauss (37)), as :func:`~inspect_validate.measurement.compare`
-    gives them; the frame's own pixels, never resampled."""
-    from inspect_validate.measurement import compare, measure_classes
+    gives them; the frame's own pixels, never resampled, each counted by its share of the
+    moved region (:func:`~inspect_validate.stats.weighted_moments`); the saturated and
+    zero fractions are those of the pixels wholly inside."""
+    from dataclasses import replace
 
-    if placement.masks is None:
+    from inspect_validate.measurement import compare, measure_classes
+    from inspect_validate.stats.sample import Moments, weighted_moments
+
+    regions = placement.regions
+    if regions is None:
         raise ValueError(f"this part is not measured: {placement.reason}")
-    classes = measure_classes(
-        np.asarray(frame)[None], placement.masks, saturation_level=saturation_level
-    )
-    return compare(classes, comparisons, kde="never")
+    frame = np.asarray(frame)
+    classes = []
+    for name, weights in regions.local.items():
+        y0, x0, y1, x1 = regions.boxes[name]
+        values = frame[y0:y1, x0:x1]
+        # The pixels wholly inside are summed exactly from their histogram (as a bench
+        # region's), the few that the edge cuts by their shares; a region thinner than a
+        # pixel has every pixel by its share.
+        inside = weights >= 1.0
+        thin = np.count_nonzero(inside) < 2
+        (c,) = measure_classes(
+            values[None], {name: weights > 0 if thin else inside},
+            saturation_level=saturation_level,
+        )  # fmt: skip
+        edge = weights > 0 if thin else (weights > 0) & ~inside
+        whole = None if thin else Moments(c.n_pixels, c.mean, c.variance)
+        m = weighted_moments(values[edge], weights[edge], whole=whole)
+        classes.append(replace(c, mean=m.mean, variance=m.variance, n_pixels=m.n))
+    return compare(tuple(classes), comparisons, kde="never")
+
+
+def part_focus(frame: np.ndarray, regions: MovedRegions) -> dict[str, float]:
+    """:func:`focus_measure` of each class's moved region (the pixels at least half in it)."""
+    return {
+        name: _box_focus(frame, weights > 0.5, *regions.boxes[name][:2])
+        for name, weights in regions.local.items()
+    }
 
 
 def focus_measure(frame: np.ndarray, mask: np.ndarray) -> float:
     """The variance of the Laplacian (Pech-Pacheco et al. 2000) over a region, DN²: it
     falls as the lens loses focus (edges blur) while μ stays; compared with the golden
     part's, not read on its own."""
-    import cv2
-
     from inspect_validate.roi.roiset import bounding_box
 
     y0, x0, y1, x1 = bounding_box(mask)
-    if y1 == y0:
+    return _box_focus(frame, mask[y0:y1, x0:x1], y0, x0)
+
+
+def _box_focus(frame: np.ndarray, mask: np.ndarray, y0: int, x0: int) -> float:
+    """:func:`focus_measure` of a region given within its box, whose corner is (y0, x0)."""
+    import cv2
+
+    if not mask.any():
         return float("nan")
+    y1, x1 = y0 + mask.shape[0], x0 + mask.shape[1]
     # The region's box and a pixel around it: the Laplacian reads its neighbours.
-    y0, x0 = max(0, y0 - 1), max(0, x0 - 1)
-    y1, x1 = min(mask.shape[0], y1 + 1), min(mask.shape[1], x1 + 1)
-    lap = cv2.Laplacian(np.asarray(frame[y0:y1, x0:x1], np.float32), cv2.CV_32F)
-    _, sd = cv2.meanStdDev(lap, mask=mask[y0:y1, x0:x1].view(np.uint8))
+    top, left = min(y0, 1), min(x0, 1)
+    bottom, right = min(frame.shape[0] - y1, 1), min(frame.shape[1] - x1, 1)
+    lap = cv2.Laplacian(
+        np.asarray(frame[y0 - top : y1 + bottom, x0 - left : x1 + right], np.float32), cv2.CV_32F
+    )
+    lap = lap[top : top + mask.shape[0], left : left + mask.shape[1]]
+    _, sd = cv2.meanStdDev(np.ascontiguousarray(lap), mask=mask.view(np.uint8))
     return float(sd[0, 0]) ** 2

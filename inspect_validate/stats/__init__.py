@@ -5,6 +5,7 @@ Shared by measurement (from images) and prediction (from spectra).
 =======================  ==========================================================
 :func:`region_statistics`  one pass over a frame stack under a mask (38), (39), EMVA noise
 :func:`sample_moments`     exact μ (38) and σ² (39) of a grey-value sample
+:func:`weighted_moments`   μ (38) and σ² (39) of pixels counted by their share of a region
 :func:`snr_db`, ...        SNR (35)/(36), CNR, Fisher ratio
 :func:`gaussian_error`     exact two-Gaussian ε_tot (37) from (38)–(40)
 :func:`lscv_bandwidth`     LSCV bandwidth (42)–(43) with a quantisation floor
@@ -28,6 +29,7 @@ from inspect_validate.stats.sample import (
     as_sample,
     merge_samples,
     sample_moments,
+    weighted_moments,
 )
 from inspect_validate.stats.separation import cnr_db, fisher_db, snr, snr_db
 
@@ -53,4 +55,5 @@ __all__ = [
     "sample_moments",
     "snr",
     "snr_db",
+    "weighted_moments",
 ]

@@ -31,6 +31,7 @@ __all__ = [
     "merge_samples",
     "quantisation_step",
     "sample_moments",
+    "weighted_moments",
 ]
 
 
@@ -312,6 +313,58 @@ def _converted_moments(sample: LatticeSample | np.ndarray) -> Moments:
         with np.errstate(over="ignore", under="ignore"):  # beyond doubles: inf or 0, said
             mean, variance = float(np.ldexp(mean, k)), float(np.ldexp(variance, 2 * k))
     return Moments(n, mean, max(variance, 0.0))
+
+
+def weighted_moments(
+    values: ArrayLike, weights: ArrayLike, *, whole: Moments | None = None
+) -> Moments:
+    """Mean μ (38) and variance σ² (39) of grey values that count by a weight each: the
+    share of a pixel's area inside a region whose edge cuts it
+    (:func:`~inspect_validate.roi.pose.moved_masks`).
+
+    μ = Σ wᵢxᵢ / V₁ and σ² = Σ wᵢ(xᵢ − μ)² / (V₁ − V₂/V₁), V₁ = Σ wᵢ, V₂ = Σ wᵢ²: the
+    variance unbiased for independent values of one distribution whatever the weights
+    (reliability weights), and with weights of 0 and 1 the plain (38) and (39).
+
+    Parameters
+    ----------
+    values : array_like
+        Grey values, DN.
+    weights : array_like
+        Each value's weight, ≥ 0, the same shape.
+    whole : Moments, keyword-only, optional
+        The moments of further values of weight 1 each, already known: a region's
+        interior, exact from its histogram (:func:`sample_moments`), so that only the
+        few pixels its edge cuts are summed here.
+
+    Returns
+    -------
+    Moments
+        ``n`` is V₁ rounded: the region's area, px.
+
+    Raises
+    ------
+    InputError
+        Weights whose V₁ − V₂/V₁ is not above 0 (fewer than two values weighted).
+    """
+    w = np.asarray(weights, dtype=np.float64).ravel()
+    x = np.asarray(values, dtype=np.float64).ravel()
+    keep = w > 0
+    w, x = w[keep], x[keep]
+    n, centre, spread = (0, 0.0, 0.0) if whole is None else (
+        whole.n, whole.mean, (whole.n - 1) * whole.variance
+    )  # fmt: skip
+    v1 = n + float(w.sum())
+    denominator = v1 - (n + float(np.dot(w, w))) / v1 if v1 > 0 else 0.0
+    if not denominator > 0:
+        raise InputError("a class needs at least 2 pixels for its variance (39), has fewer")
+    mean = (n * centre + float(np.dot(w, x))) / v1
+    dev = x - mean
+    # The second term removes the rounding error left in `mean`, as for plain samples.
+    mean += (n * (centre - mean) + float(np.dot(w, dev))) / v1
+    dev = x - mean
+    squares = spread + n * (centre - mean) ** 2 + float(np.dot(w, dev * dev))
+    return Moments(round(v1), mean, squares / denominator)
 
 
 def quantisation_step(sample: Sample) -> float | None:

@@ -106,7 +106,7 @@ def measure_parts(station: Station, frames: Path | Sequence[Path]) -> Parts:
 def measure_frames(station: Station, frames: Iterable[tuple[str, np.ndarray]]) -> Parts:
     """:func:`measure_parts` of frames already read: ``(name, frame)`` pairs (a
     simulation's, a camera's)."""
-    from inspect_validate.station.production import focus_measure, measure_part, part_locator
+    from inspect_validate.station.production import measure_part, part_focus, part_locator
     from inspect_validate.verification.measured import station_regions
 
     locator = part_locator(station)
@@ -119,7 +119,7 @@ def measure_frames(station: Station, frames: Iterable[tuple[str, np.ndarray]]) -
             placement = locator.place(frame)
         except InputError as exc:
             raise InputError(str(exc), source=name) from None
-        if placement.masks is None:
+        if placement.regions is None:
             missing[name] = str(placement.reason)
             continue
         px, py = (float(v) for v in placement.pose.apply(centre)[0])
@@ -128,7 +128,7 @@ def measure_frames(station: Station, frames: Iterable[tuple[str, np.ndarray]]) -
                 frame=name,
                 pose=placement.pose,
                 measurement=measure_part(frame, placement, comparisons),
-                focus={c: focus_measure(frame, m) for c, m in placement.masks.items()},
+                focus=part_focus(frame, placement.regions),
                 position=(px, py, placement.pose.angle_deg),
             )
         )
