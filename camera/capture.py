@@ -37,6 +37,7 @@ first unfinished step.
 
 from __future__ import annotations
 
+import math
 import time
 from collections import Counter
 from collections.abc import Callable, Iterator
@@ -224,12 +225,15 @@ def _agrees(frame, kept, tolerance) -> bool:
 @dataclass(frozen=True)
 class Step:
     """One step of a capture: a light setting (channel → %), the frames to keep, and the
-    exposure to take them at (µs; None: the settings' ``exposure_us``)."""
+    exposure to take them at (µs; None: the settings' ``exposure_us``). A ``moving`` step
+    looks at a running line, where every frame shows another part: its frames' brightness
+    is not held to one level (a stale frame is still refused)."""
 
     name: str
     channels: dict
     frames: int
     exposure_us: float | None = None
+    moving: bool = False
 
 
 def capture_steps(
@@ -395,7 +399,7 @@ def capture_steps(
                     n,
                     switched_ns=switched,
                     discard_max=discard_max,
-                    tolerance=brightness_tolerance,
+                    tolerance=math.inf if step.moving else brightness_tolerance,
                     timeout_s=settings.timeout_s,
                     flush=0 if fresh else max(settings.flush_frames, grabber.pipeline_frames),
                     next_frame=next_frame,

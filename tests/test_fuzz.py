@@ -11,6 +11,7 @@ and those must pass.
 
 import json
 import math
+import shutil
 import tempfile
 from csv import DictReader
 from pathlib import Path
@@ -361,6 +362,49 @@ def test_station_files_are_validated_not_crashed_on(
         code, out, err = run(["capture", tmp / "st.yaml", "--out", tmp / "o"], capsys)
         # A generated station that validates may still fail to open its devices (exit 3).
         assert_clean(code, out, err, allowed=(0, 2, 3))
+
+
+@settings(SETTINGS, max_examples=20)
+@given(
+    line=st.dictionaries(
+        st.sampled_from(["part", "shift", "rotation_deg", "cut", "missing", "belt", "seed"]),
+        rarely_junk(st.floats(0, 1)),
+        max_size=4,
+    ),
+    dust=rarely_junk(
+        st.lists(
+            st.fixed_dictionaries(
+                {"x": rarely_junk(st.floats(0, 1)), "y": rarely_junk(st.floats(0, 1))},
+                optional={
+                    "radius_px": rarely_junk(st.floats(0.1, 500)),
+                    "depth": rarely_junk(st.floats(0.01, 1)),
+                },
+            ),
+            max_size=2,
+        )
+    ),
+    parts=st.integers(-1, 4),
+)
+@example(line={"part": 0.9, "shift": 0.5, "cut": 1.0}, dust=[], parts=3)
+@example(line={"missing": 1.0}, dust=[{"x": 0.5, "y": 0.5, "depth": 1.0}], parts=3)
+def test_a_simulated_line_is_validated_not_crashed_on(capsys, line, dust, parts):
+    """``capture --production`` of the shipped line with a generated ``world.line`` and
+    ``world.dust``: frames, or a message naming the key (exit 2); parts pushed wholly off
+    the frame, every frame a gap, dust that takes all the light are all frames."""
+    line_dir = Path(__file__).parent.parent / "sample_images" / "line"
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        doc = yaml.safe_load((line_dir / "station.yaml").read_text())
+        doc["scene"] = str(SCENE)
+        doc["camera"]["world"] = {"line": line, "dust": dust}
+        (tmp / "st.yaml").write_text(yaml.safe_dump(doc))
+        for name in ("rois.yaml", "reference.tiff"):
+            shutil.copy(line_dir / name, tmp / name)
+        code, out, err = run(["capture", tmp / "st.yaml", "--production", "--parts", parts,
+                              "--out", tmp / "o"], capsys)  # fmt: skip
+        assert_clean(code, out, err)
+        if code == 0:
+            assert len(list((tmp / "o" / "amber").glob("*.tif"))) == parts
 
 
 @settings(SETTINGS, max_examples=15)

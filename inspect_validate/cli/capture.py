@@ -25,18 +25,38 @@ from inspect_validate.text import labelled
     is_flag=True,
     help="Continue an interrupted capture in --out, skipping finished steps.",
 )
-def capture(station, out, resume) -> None:
+@click.option(
+    "--production",
+    is_flag=True,
+    help="The running line: the production illumination on, one frame a part, nothing "
+    "switched after (the station's production: block); the frames in OUT/<illumination>.",
+)
+@click.option(
+    "--parts",
+    type=click.IntRange(2, 100_000),
+    help="With --production: frames to take, each of another part [production.parts].",
+)
+def capture(station, out, resume, production, parts) -> None:
     """Capture every illumination of STATION (and dark frames), verified and saved as they come.
 
     Switches each illumination, waits for the controller, discards frames
     exposed before the switch, checks brightness is stable, and writes 16-bit
     TIFFs with JSON sidecars atomically. Exits 3 on a camera or controller
     failure, keeping every frame saved; rerun with --resume to continue.
+    With --production, frames of the running line's parts under its one light
+    (their brightness differs part to part), for train and verify --production.
     """
     from inspect_validate.station.file import read_station
 
+    if parts is not None and not production:
+        raise click.UsageError("--parts is for --production")
     st = read_station(station)
-    result = capture_with_progress(st, out, resume=resume)
+    steps = None
+    if production:
+        from inspect_validate.station.capture import production_steps
+
+        steps = production_steps(st, parts=parts)
+    result = capture_with_progress(st, out, resume=resume, steps=steps)
     if result.not_applied:
         click.echo(
             f"warning: the camera has no {', '.join(result.not_applied)} setting; the station's value "

@@ -206,8 +206,9 @@ def simulated_light_notes(station) -> None:
             )
 
 
-def capture_with_progress(station, out, *, resume: bool = False):
-    """Capture ``station`` into ``out`` with a progress bar on stderr."""
+def capture_with_progress(station, out, *, resume: bool = False, steps=None):
+    """Capture ``station`` into ``out`` with a progress bar on stderr (``steps``: other
+    steps than the station's illuminations and darks)."""
     from inspect_validate.station.capture import capture
 
     simulated_light_notes(station)
@@ -217,6 +218,7 @@ def capture_with_progress(station, out, *, resume: bool = False):
             out,
             resume=resume,
             progress=lambda step, done, total: advance(done, step, total),
+            steps=steps,
         )
 
 

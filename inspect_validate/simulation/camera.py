@@ -222,16 +222,30 @@ class SimulatedGrabber(Grabber):
         self.sample_class = p.sample_class[scene]
         self.classes = p.classes[:-1]
         self.target = target
+        line = world.line
+        # The part's box in the frame (its home on a line), or the whole frame.
+        pw, ph = (round(width * line.part), round(height * line.part)) if line else (width, height)
+        ox, oy = (width - pw) // 2, (height - ph) // 2
         # 6-pixel gaps: the shipped station's rois.yaml is drawn for this layout.
-        self.bands = class_bands(self.classes, height=height, width=width, gap=6)
+        self.bands = {
+            name: (x + ox, y + oy, w, h)
+            for name, (x, y, w, h) in class_bands(self.classes, height=ph, width=pw, gap=6).items()
+        }
         # Each object pixel shows one of its class's reflectance samples, fixed
         # over time: the spectral spread is spatial, as on a real object.
         self._objects = []
-        for k, (x, y, w, h) in enumerate(self.bands.values()):
-            samples = np.flatnonzero(self.sample_class == k)
+        self._samples = [np.flatnonzero(self.sample_class == k) for k in range(len(self.bands))]
+        for samples, (x, y, w, h) in zip(self._samples, self.bands.values(), strict=True):
             self._objects.append(
                 ((slice(y, y + h), slice(x, x + w)), objects.choice(samples, size=(h, w)))
             )
+        self.part_box = (ox, oy, pw, ph)
+        self._on = np.zeros((height, width), np.uint8)  # the part's object pixels at home
+        for where, _ in self._objects:
+            self._on[where] = 1
+        self.pose: tuple[float, float, float] | None = (0.0, 0.0, 0.0)
+        """The part's pose in the frame last rendered (dx, dy px; degrees), None: no part."""
+        self._line = None if line is None else np.random.default_rng(line.seed)
         # The sensor's own fixed pattern (PRNU, DSNU), as fixed as the objects.
         sensor = objects if sensor_seed is None else np.random.default_rng(sensor_seed)
         self._pattern = sensor_pattern(self.sensor, (height, width), rng=sensor)
@@ -240,6 +254,9 @@ class SimulatedGrabber(Grabber):
             ((height - 1) / 2) ** 2 + ((width - 1) / 2) ** 2
         )
         self._falloff = (1.0 - world.vignetting * r2) * world.exposure
+        for speck in world.dust:  # on the lens: fixed in the frame, whatever moves under it
+            d2 = (xx - speck.x * (width - 1)) ** 2 + (yy - speck.y * (height - 1)) ** 2
+            self._falloff *= 1.0 - speck.depth * np.exp(-d2 / (2 * speck.radius_px**2))
         self._frozen: np.ndarray | None = None  # the frame a frozen camera repeats
         self.pipeline: deque = deque()
         self.acquisition, self.chunks = "free-run", False
@@ -419,6 +436,9 @@ class SimulatedGrabber(Grabber):
             electrons = np.zeros((self.height, self.width))
             for where, pick in self._objects:
                 electrons[where] = rate[pick] * (self.exposure_us * 1e-6)
+            if self.world.line is not None:
+                belt = self.world.line.belt * (percent / 100.0 @ self.white_rate)
+                electrons = self._moved(electrons, belt * (self.exposure_us * 1e-6))
         electrons *= self._falloff
         if self.world.blur_px > 0:
             from scipy import ndimage
@@ -426,8 +446,49 @@ class SimulatedGrabber(Grabber):
             electrons = ndimage.gaussian_filter(electrons, self.world.blur_px, mode="nearest")
         return electrons
 
+    def _moved(self, part: np.ndarray, belt: float) -> np.ndarray:
+        """The part (electrons at its home, 0 off it) at :attr:`pose` on the belt: each
+        frame pixel shows the part's pixel its centre falls on (nearest), so that every
+        pixel still shows one reflectance sample whatever the pose."""
+        import cv2
+
+        if self.pose is None:
+            return np.full(part.shape, belt)
+        dx, dy, degrees = self.pose
+        x, y, w, h = self.part_box
+        # About the part's centre (pixel centres), then shifted.
+        matrix = cv2.getRotationMatrix2D((x + w / 2 - 0.5, y + h / 2 - 0.5), -degrees, 1.0)
+        matrix[:, 2] += (dx, dy)
+        moved = cv2.warpAffine(part, matrix, part.shape[::-1], flags=cv2.INTER_NEAREST)
+        on = cv2.warpAffine(self._on, matrix, part.shape[::-1], flags=cv2.INTER_NEAREST)
+        # The part's own gaps between bands are the belt's colour too.
+        return np.where(on == 1, moved, belt)
+
+    def _next_pose(self) -> tuple[float, float, float] | None:
+        """A new part's pose on the line (None: a gap on the belt)."""
+        line, rng = self.world.line, self._line
+        assert line is not None and rng is not None
+        if rng.random() < line.missing:
+            return None
+        reach = np.array([self.width, self.height]) * line.shift
+        dx, dy = rng.uniform(-reach, reach)
+        if rng.random() < line.cut:
+            # Against an edge: up to a fifth of the part beyond it.
+            axis, side = int(rng.integers(2)), 1 if rng.random() < 0.5 else -1
+            size, box = (self.width, self.height)[axis], self.part_box[2 + axis]
+            over = (size - box) / 2 + rng.uniform(0.02, 0.2) * box
+            dx, dy = (side * over, dy) if axis == 0 else (dx, side * over)
+        cx, cy = line.camera_shift_px
+        return float(dx + cx), float(dy + cy), float(rng.uniform(-1, 1) * line.rotation_deg)
+
     def _render(self, state: dict[int, float], stamp: int) -> Frame:
         self.frame_id += 1
+        if self._line is not None:  # another part: another pose, another draw of its classes
+            self.pose = self._next_pose()
+            self._objects = [
+                (where, self._line.choice(self._samples[k], size=pick.shape))
+                for k, (where, pick) in enumerate(self._objects)
+            ]
         exposure = self.exposure_us
         every = self.world.exposure_glitch_every
         if every and self.frame_id % every == 0:  # a stale setting applied to this frame
@@ -439,6 +500,8 @@ class SimulatedGrabber(Grabber):
         else:
             data = self.render(state, exposure_us=exposure)
         extra: dict = {"lights": state}
+        if self._line is not None:  # the truth a production verification estimates
+            extra["part_pose"] = None if self.pose is None else list(self.pose)
         if self.chunks:
             chunk: dict = {
                 "ExposureTime": exposure,

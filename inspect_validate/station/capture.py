@@ -19,7 +19,7 @@ if TYPE_CHECKING:
     from inspect_validate.camera.grabbers.base import Grabber
     from inspect_validate.station.file import Station
 
-__all__ = ["capture", "station_steps"]
+__all__ = ["capture", "production_steps", "station_steps"]
 
 
 def station_steps(station: Station) -> list[Step]:
@@ -28,6 +28,28 @@ def station_steps(station: Station) -> list[Step]:
     if station.dark_frames:
         steps.append(Step("dark", {}, station.dark_frames))
     return steps
+
+
+def production_steps(station: Station, *, parts: int | None = None) -> list[Step]:
+    """The running line's one step: the production illumination on, ``parts`` frames
+    (default ``production.parts``), each of another part, their brightness free to differ.
+
+    Raises
+    ------
+    InputError
+        A station without a ``production:`` block.
+    """
+    from inspect_validate.errors import InputError
+
+    if station.production is None:
+        raise InputError(
+            "no 'production:' block: give one to capture the running line",
+            source=str(station.path),
+        )
+    name = station.production.illumination
+    (illumination,) = (i for i in station.illuminations if i.name == name)
+    n = station.production.parts if parts is None else parts
+    return [Step(name, dict(illumination.channels), n, moving=True)]
 
 
 def capture(

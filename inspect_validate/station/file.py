@@ -210,6 +210,8 @@ class Production(StrictModel):
     min_pixels: Annotated[int, Field(ge=1, le=10**9)] = 100
     """Pixels a class must keep on a part once its region is moved (a part cut by the
     frame's edge leaves fewer): below, the part is not measured."""
+    parts: Annotated[int, Field(ge=2, le=100_000)] = 40
+    """Frames ``capture --production`` takes, each of another part."""
 
 
 class Station(StrictModel):

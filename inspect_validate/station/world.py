@@ -15,7 +15,7 @@ from pydantic import Field
 from inspect_validate.camera.settings import Channel
 from inspect_validate.config import StrictModel
 
-__all__ = ["Rendered", "World", "WorldChange"]
+__all__ = ["Dust", "Line", "Rendered", "World", "WorldChange"]
 
 Factor = Annotated[float, Field(gt=0, le=100, allow_inf_nan=False)]
 # A channel's irradiance factor: 0 is a light that never reaches the objects (a dead
@@ -25,6 +25,52 @@ Percent = Annotated[float, Field(gt=-100, lt=100, allow_inf_nan=False)]
 ShiftNm = Annotated[float, Field(ge=-200, le=200, allow_inf_nan=False)]
 Transmission = Annotated[float, Field(gt=0, le=2, allow_inf_nan=False)]
 BlurPx = Annotated[float, Field(ge=0, le=50, allow_inf_nan=False)]
+
+
+class Dust(StrictModel):
+    """A speck of dust on the lens: a dim, blurred blob that stays where it is in the frame
+    while the parts move under it."""
+
+    x: Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)]
+    """Its centre across the frame, as a fraction of the width."""
+    y: Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)]
+    """Its centre down the frame, as a fraction of the height."""
+    radius_px: Annotated[float, Field(gt=0, le=2000, allow_inf_nan=False)] = 20.0
+    """The blob's Gaussian σ, px."""
+    depth: Annotated[float, Field(gt=0, le=1, allow_inf_nan=False)] = 0.3
+    """The light it takes at its centre (0.3: 30 %)."""
+
+
+class Line(StrictModel):
+    """A running line in front of the simulated camera: every frame shows a new part (the
+    scene's classes as bands on a part covering ``part`` of the frame, on a dark belt;
+    each part another draw of its classes' reflectance samples) at a random pose, under
+    whatever light is on; nothing waits for the camera.
+
+    The camera samples the moving part at its pixels' centres (each pixel shows one
+    reflectance sample, as on the bench, whatever the pose): a part's statistics do not
+    depend on where it lies to the fraction of a pixel, as an object's texture finer than
+    the optics resolve would not."""
+
+    part: Annotated[float, Field(ge=0.2, le=0.9, allow_inf_nan=False)] = 0.6
+    """The part's size, as a fraction of the frame's (each side)."""
+    shift: Annotated[float, Field(ge=0, le=0.5, allow_inf_nan=False)] = 0.1
+    """The largest shift from the part's home, as a fraction of the frame (each axis)."""
+    rotation_deg: Annotated[float, Field(ge=0, le=45, allow_inf_nan=False)] = 5.0
+    """The largest rotation, degrees."""
+    cut: Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)] = 0.0
+    """The share of parts pushed against the frame's edge, partly out of the frame."""
+    missing: Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)] = 0.0
+    """The share of frames with no part (a gap on the belt)."""
+    camera_shift_px: tuple[
+        Annotated[float, Field(ge=-2000, le=2000, allow_inf_nan=False)],
+        Annotated[float, Field(ge=-2000, le=2000, allow_inf_nan=False)],
+    ] = (0.0, 0.0)
+    """The camera (or the fixture) moved: every part lands this far off, px (x, y)."""
+    belt: Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)] = 0.05
+    """The belt's reflectance, the same at every wavelength."""
+    seed: Annotated[int, Field(ge=0)] | None = None
+    """The parts' poses; default new ones on every opening of the camera."""
 
 
 class WorldChange(StrictModel):
@@ -113,6 +159,10 @@ class World(StrictModel):
     its chunk saying so; 0: never."""
     chunk_lag: bool = False
     """Chunks carry the previous frame's values (a known firmware fault)."""
+    dust: list[Dust] = []
+    """Specks of dust on the lens."""
+    line: Line | None = None
+    """A running line of parts instead of the scene's still target (production mode)."""
     changes: list[WorldChange] = []
     """Changes over the cycles of ``watch`` (:meth:`at`)."""
 

@@ -197,7 +197,9 @@ class ProductionVerification:
         """The likely cause of the failed checks, from their pattern (None where every
         check passed): a light level moves every class's μ by one factor; its spectrum
         or the parts move them by different ones; a lens out of focus lowers the focus
-        measure at steady μ; parts that differ move σ² with μ and focus steady."""
+        measure at steady μ; parts that differ move σ² with μ and focus steady; a shade
+        fixed in the frame (dust on the lens) makes a class's μ depend on where the part
+        lies."""
         return _cause(self)
 
 
@@ -286,6 +288,13 @@ def _cause(v: ProductionVerification) -> str | None:
             "the parts lie elsewhere in the frame than the golden parts did, their statistics "
             "steady: the camera or the fixture moved"
         )
+    shaded = _shaded(v, golden)
+    if shaded:
+        return (
+            f"{', '.join(shaded)}: μ now depends on where the part lies, its spread over the "
+            "parts many times the golden parts': something fixed in the frame dims part of "
+            "the image (dust or a smudge on the lens, a shadow)"
+        )
     if any(name.endswith(" μ drift") for name in failed):
         values = list(lit.values())
         same_sign = all(x < 0 for x in values) or all(x > 0 for x in values)
@@ -317,6 +326,30 @@ def _cause(v: ProductionVerification) -> str | None:
     if any(name.endswith(" σ² drift") for name in failed):
         return "the classes' spread changed at steady μ and focus: the parts differ"
     return "the contrast between the classes changed at steady μ: the parts differ"
+
+
+def _shaded(v: ProductionVerification, golden) -> list[str]:
+    """The classes whose μ over the batch's parts spreads over 3 × the golden parts' and
+    follows the parts' position (R² ≥ 0.5 of a quadratic in x, y): what a shade fixed in
+    the frame does to parts passing under it. Needs 12 parts (6 coefficients)."""
+    parts = v.parts.measured
+    if len(parts) < 12:
+        return []
+    xy = np.array([p.position[:2] for p in parts])
+    xy = (xy - xy.mean(axis=0)) / np.maximum(xy.std(axis=0), 1e-9)
+    x, y = xy.T
+    design = np.column_stack([np.ones(len(parts)), x, y, x * x, x * y, y * y])
+    out = []
+    for k, c in enumerate(parts[0].measurement.classes):
+        mu = np.array([p.measurement.classes[k].mean for p in parts])
+        spread = golden.classes[c.name].mean.std
+        if not (np.isfinite(spread) and mu.std(ddof=1) > 3 * spread):
+            continue
+        fit, *_ = np.linalg.lstsq(design, mu, rcond=None)
+        residual = mu - design @ fit
+        if 1 - residual.var() / mu.var() >= 0.5:
+            out.append(c.name)
+    return out
 
 
 def _reasons(missing: dict[str, str]) -> str:

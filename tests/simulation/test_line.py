@@ -1,0 +1,144 @@
+"""The simulated line (``camera.world.line``), end to end through the CLI: ``capture
+--production`` takes frames of parts that move and differ, ``train --production`` learns
+the good ones, and ``verify --production`` passes other good parts and fails each fault
+the world can be given, naming its cause."""
+
+import itertools
+import json
+import re
+import shutil
+
+import numpy as np
+import pytest
+import tifffile
+import yaml
+from conftest import ROOT, run_cli
+
+LINE = ROOT / "sample_images" / "line"
+
+
+def line_station(folder, **world):
+    """The shipped line in ``folder`` with ``world`` (and ``line``'s keys under "line")
+    added to its simulated world."""
+    folder.mkdir(parents=True, exist_ok=True)
+    doc = yaml.safe_load((LINE / "station.yaml").read_text())
+    doc["scene"] = str(ROOT / "sample_images" / "scenes" / "paperboard" / "scene.yaml")
+    line = world.pop("line", {})
+    doc["camera"]["world"] = {**doc["camera"]["world"], **world}
+    doc["camera"]["world"]["line"].update(line)
+    for name in ("rois.yaml", "reference.tiff"):
+        shutil.copy(LINE / name, folder / name)
+    path = folder / "station.yaml"
+    path.write_text(yaml.safe_dump(doc, sort_keys=False))
+    return path
+
+
+def captured(station, out, parts=40):
+    assert run_cli(["capture", station, "--production", "--parts", parts, "--out", out]) == 0
+    return out / "amber"
+
+
+@pytest.fixture(scope="module")
+def golden(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("line")
+    station = line_station(tmp / "good")
+    path = tmp / "golden.json"
+    assert run_cli(["train", station, "--production", "--frames", captured(station, tmp / "g"),
+                    "--out", path]) == 0  # fmt: skip
+    return path
+
+
+def test_the_line_shows_other_parts_at_other_poses(tmp_path):
+    """Each frame's part at its own pose (the sidecar keeps the truth), within the line's
+    reach, and each part another draw of its classes: no two frames alike."""
+    frames = captured(line_station(tmp_path, line={"seed": 3}), tmp_path / "c", parts=6)
+    poses = [json.loads(p.read_text())["extra"]["part_pose"] for p in sorted(frames.glob("*.json"))]
+    assert len(poses) == 6 and len({tuple(p) for p in poses}) == 6
+    for dx, dy, degrees in poses:
+        assert abs(dx) <= 48 and abs(dy) <= 36 and abs(degrees) <= 5
+    images = [tifffile.imread(p) for p in sorted(frames.glob("*.tif"))]
+    assert all(not np.array_equal(a, b) for a, b in itertools.pairwise(images))
+
+
+def test_the_shipped_reference_is_the_lines_part_at_home(tmp_path):
+    """The reference frame shipped with the line is what its camera shows of a part at
+    home: a part located in it at (0, 0, 0°) to a tenth of a pixel, match score ≥ 0.95."""
+    from inspect_validate.station.file import read_station
+    from inspect_validate.station.production import part_locator
+
+    frames = captured(line_station(tmp_path, line={"shift": 0.0, "rotation_deg": 0.0}),
+                      tmp_path / "c", parts=2)  # fmt: skip
+    locator = part_locator(read_station(LINE / "station.yaml"))
+    placed = locator.place(tifffile.imread(sorted(frames.glob("*.tif"))[0]))
+    assert placed.pose.score >= 0.95
+    assert np.allclose(placed.pose.shift, 0, atol=0.1) and abs(placed.pose.angle_deg) < 0.05
+
+
+def test_good_parts_pass(golden, tmp_path, capsys):
+    station = line_station(tmp_path)
+    code = run_cli(["verify", station, "--production", "--frames", captured(station, tmp_path / "c"),
+                    "--golden", golden])  # fmt: skip
+    out = capsys.readouterr().out
+    assert code == 0, out
+    assert "40 parts measured of 40 frames, against 40 golden parts" in out
+
+
+@pytest.mark.parametrize(
+    ("world", "failing", "cause"),
+    [
+        # The black level keeps the DN ratio a little short of the light's.
+        ({"irradiance": {1: 0.95}}, "μ drift", r"the light is dimmer by about (4\.[5-9]|5\.0) %"),
+        ({"gain_error": 0.02}, "μ drift", r"the light is brighter by about (1\.[89]|2\.0) %"),
+        ({"blur_px": 1.0}, "focus drift", "the focus measure fell by"),
+        ({"line": {"missing": 0.7}}, "parts found", "most frames hold no part"),
+        (
+            {"dust": [{"x": 0.5, "y": 0.5, "radius_px": 25, "depth": 0.3}]},
+            "μ drift",
+            r"B(, C)?: μ now depends on where the part lies.*dust or a smudge on the lens",
+        ),
+    ],
+    ids=["light -5 %", "gain +2 %", "defocus", "parts missing", "dust"],
+)
+def test_each_fault_fails_naming_its_cause(golden, tmp_path, capsys, world, failing, cause):
+    station = line_station(tmp_path, **world)
+    code = run_cli(["verify", station, "--production", "--frames", captured(station, tmp_path / "c"),
+                    "--golden", golden])  # fmt: skip
+    out = capsys.readouterr().out
+    assert code == 1, out
+    failed = [line for line in out.splitlines() if line.startswith("FAIL ")]
+    assert any(failing in line for line in failed), out
+    assert re.search(cause, out.split("likely cause:")[1]), out
+
+
+def test_parts_cut_by_the_frames_edge_are_counted_not_measured(tmp_path, capsys):
+    station = line_station(tmp_path, line={"cut": 0.5, "seed": 5})
+    folder = captured(station, tmp_path / "c", parts=12)
+    assert run_cli(["train", station, "--production", "--frames", folder,
+                    "--out", tmp_path / "g.json"]) == 0  # fmt: skip
+    out = capsys.readouterr().out
+    assert "good parts under 'amber'" in out
+    from inspect_validate.station.file import read_station
+    from inspect_validate.verification.production import measure_parts
+
+    parts = measure_parts(read_station(station), folder)
+    assert 0 < len(parts.not_measured) < 12
+    assert all("below production.min_pixels" in why or "no part found" in why
+               for why in parts.not_measured.values())  # fmt: skip
+
+
+def test_a_camera_knocked_off_a_fixture_fails_on_the_pose(tmp_path, capsys):
+    """Parts held by a fixture within ±5 px: the camera knocked by 8 px moves every part
+    that much in the frame, and only the pose fails, named as such."""
+    fixture = {"shift": 0.01, "rotation_deg": 0.5}
+    station = line_station(tmp_path / "good", line=fixture)
+    golden = tmp_path / "golden.json"
+    assert run_cli(["train", station, "--production", "--frames", captured(station, tmp_path / "g"),
+                    "--out", golden]) == 0  # fmt: skip
+    knocked = line_station(tmp_path / "knocked", line={**fixture, "camera_shift_px": [8, 0]})
+    code = run_cli(["verify", knocked, "--production", "--frames",
+                    captured(knocked, tmp_path / "k"), "--golden", golden])  # fmt: skip
+    out = capsys.readouterr().out
+    assert code == 1, out
+    failed = [line.split()[1:3] for line in out.splitlines() if line.startswith("FAIL ")]
+    assert failed == [["pose", "x"]], out
+    assert "the camera or the fixture moved" in out
