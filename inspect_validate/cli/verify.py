@@ -33,7 +33,8 @@ from inspect_validate.errors import EXIT_CHECK_FAILED
     "--report",
     "report_dir",
     type=PATH,
-    help="Write report.html, verification.json and junit.xml to this folder.",
+    help="Write report.html, verification.json (with --production: production.json) and "
+    "junit.xml to this folder.",
 )
 @click.option(
     "--history",
@@ -124,7 +125,12 @@ def _verify_production(st, frames_dir, golden_path, report_dir) -> None:
     result = verify_production(st, frames_dir, golden, source=str(golden_path))
     click.echo(format_production(result))
     if report_dir is not None:
+        from inspect_validate.report.production import write_production_html
+        from inspect_validate.report.verification import write_junit
+
         write_json(production_document(result), report_dir / "production.json")
-        click.echo(f"wrote {report_dir / 'production.json'}")
+        write_production_html(result, report_dir / "report.html")
+        write_junit(result, report_dir / "junit.xml")
+        click.echo(f"wrote {report_dir / 'report.html'}, production.json and junit.xml")
     if not result.passed:
         sys.exit(EXIT_CHECK_FAILED)

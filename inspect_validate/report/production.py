@@ -1,9 +1,14 @@
-"""A production verdict (``verify --production``) as text and as ``production.json``."""
+"""A production verdict (``verify --production``) as text, as ``production.json``, and as
+the page ``report.html`` (with ``junit.xml``, :func:`~inspect_validate.report.verification.write_junit`)."""
 
 from __future__ import annotations
 
+import html
 import sys
-from typing import TYPE_CHECKING
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
 
 from inspect_validate import __version__
 from inspect_validate.report.verification import (
@@ -19,7 +24,7 @@ from inspect_validate.text import labelled, terminal_width
 if TYPE_CHECKING:
     from inspect_validate.verification.production import ProductionVerification
 
-__all__ = ["format_production", "production_document"]
+__all__ = ["format_production", "production_document", "production_html", "write_production_html"]
 
 
 def format_production(v: ProductionVerification) -> str:
@@ -85,3 +90,105 @@ def production_document(v: ProductionVerification) -> dict:
         ],
         "not_measured": dict(v.parts.not_measured),
     }
+
+
+def write_production_html(v: ProductionVerification, path: str | Path) -> Path:
+    """Write :func:`production_html` of ``v`` to ``path`` (atomically)."""
+    from inspect_validate.files import atomic_write
+
+    return atomic_write(path, production_html(v).encode())
+
+
+def production_html(v: ProductionVerification) -> str:
+    """The page of a production verdict: the verdict and its likely cause, the checks, the
+    parts not measured, and charts of every part's values against the golden parts'
+    (their mean, ±3 standard deviations shaded) and of where the parts lay."""
+    from inspect_validate.report.html import charts, page, table
+    from inspect_validate.report.verification import CHECK_COLUMNS
+
+    e = html.escape
+    verdict = "pass" if v.passed else "fail"
+    parts = v.parts
+    total = len(parts.measured) + len(parts.not_measured)
+    body = [
+        f"<h1>{e(v.station.name)}: on the running line</h1>",
+        f'<div class="verdict {verdict}">{verdict.upper()}: {e(count_failed(v.checks))}</div>',
+        f'<p class="meta">station {e(str(v.station.path))}, illumination '
+        f"{e(next(iter(v.golden.illuminations)))}, {len(parts.measured)} parts measured of "
+        f"{total} frames against {v.golden.repeats} golden parts, inspect-validate "
+        f"{e(__version__)}</p>",
+    ]
+    if v.cause:
+        body.append(f"<p><b>likely cause:</b> {e(v.cause)}</p>")
+    rows = check_rows(v.checks)
+    body += [
+        "<h2>Checks</h2>",
+        f'<p class="meta">{e(false_alarm_line(v))}: each statistical limit holds a batch '
+        "mean of good parts within the golden parts' spread at the check's share of the rate."
+        "</p>",
+        table(CHECK_COLUMNS, [cells for _, cells in rows], failed=[not c.passed for c, _ in rows]),
+    ]
+    if parts.not_measured:
+        body += [
+            "<h2>Frames without a measured part</h2>",
+            table(["frame", "why"], [[f, why] for f, why in parts.not_measured.items()]),
+        ]
+    if parts.measured:
+        body += ["<h2>The parts</h2>", charts(_part_charts(v), what="parts")]
+    return page(f"verify --production {v.station.name}: {verdict.upper()}", body)
+
+
+def _part_charts(v: ProductionVerification) -> list[dict[str, Any]]:
+    """Each class's μ and σ² and each comparison's SNR_dB per part against the golden
+    parts', then the parts' positions, the golden parts' in grey."""
+    from inspect_validate.report.charts import COLOURS, _series
+
+    golden = next(iter(v.golden.illuminations.values()))
+    ms = [p.measurement for p in v.parts.measured]
+    index = np.arange(1, len(ms) + 1)
+    quantities = []
+    for k, c in enumerate(ms[0].classes):
+        g = golden.classes[c.name]
+        quantities.append((f"{c.name} μ", "DN", g.mean, [m.classes[k].mean for m in ms]))
+        quantities.append((f"{c.name} σ²", "DN²", g.variance, [m.classes[k].variance for m in ms]))
+    for j, comp in enumerate(ms[0].comparisons):
+        ref = golden.comparisons[comp.label].snr_db
+        quantities.append(
+            (f"{comp.label} SNR_dB", "dB", ref, [m.comparisons[j].snr_db for m in ms])
+        )
+    out: list[dict[str, Any]] = []
+    for title, unit, ref, values in quantities:
+        spec: dict[str, Any] = {
+            "title": title,
+            "xlabel": "part",
+            "ylabel": f"{title} [{unit}]",
+            "xinteger": True,
+            "series": [_series("this batch", index, values, kind="points", color=COLOURS[0])],
+        }
+        if np.isfinite(ref.std):
+            spec["hband"] = [ref.mean - 3 * ref.std, ref.mean + 3 * ref.std]
+        out.append(spec)
+    positions = np.array([p.position for p in v.parts.measured])
+    series = [
+        _series("this batch", positions[:, 0], positions[:, 1], kind="points", color=COLOURS[0])
+    ]
+    if golden.pose is not None:
+        series.insert(
+            0,
+            _series(
+                "golden parts",
+                golden.pose.x.values,
+                golden.pose.y.values,
+                kind="points",
+                color="#b3b3b3",
+            ),
+        )
+    out.append(
+        {
+            "title": "where the parts lay (template centre)",
+            "xlabel": "x [px]",
+            "ylabel": "y [px]",
+            "series": series,
+        }
+    )
+    return out

@@ -240,19 +240,22 @@ def false_alarm_document(v: Verification | ProductionVerification) -> dict:
     }
 
 
-def write_junit(v: Verification, path: str | Path) -> Path:
+def write_junit(v: Verification | ProductionVerification, path: str | Path) -> Path:
     """One ``<testcase>`` per check in one ``<testsuite>``; failures carry value and limit."""
     import xml.etree.ElementTree as ET
 
     from inspect_validate.files import atomic_write
+    from inspect_validate.verification.production import ProductionVerification
 
+    production = isinstance(v, ProductionVerification)
+    skipped = () if isinstance(v, ProductionVerification) else v.skipped  # mypy: not `production`
     suite = ET.Element(
         "testsuite",
-        name=f"inspect-validate verify {v.station.name}",
+        name=f"inspect-validate verify {'--production ' if production else ''}{v.station.name}",
         tests=str(len(v.checks)),
         failures=str(sum(not c.passed for c in v.checks)),
         errors="0",
-        skipped=str(len(v.skipped)),
+        skipped=str(len(skipped)),
     )
     for c in v.checks:
         case = ET.SubElement(suite, "testcase", classname=f"{v.station.name}.{c.kind}", name=c.name)
@@ -268,7 +271,7 @@ def write_junit(v: Verification, path: str | Path) -> Path:
             fail.text = c.detail
         elif c.detail:
             ET.SubElement(case, "system-out").text = c.detail
-    for s in v.skipped:
+    for s in skipped:
         case = ET.SubElement(suite, "testcase", classname=f"{v.station.name}.skipped", name=s)
         ET.SubElement(case, "skipped", message=s)
     root = ET.Element("testsuites")

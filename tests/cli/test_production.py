@@ -4,6 +4,7 @@ parts passes, a dimmer light, a defocused lens and a folder without parts fail n
 what moved, and the golden files of bench and line are not mixed up."""
 
 import json
+import xml.etree.ElementTree as ET
 
 import cv2
 import numpy as np
@@ -48,6 +49,11 @@ def test_good_parts_pass_and_the_golden_file_holds_the_parts(trained, tmp_path, 
     assert "8 parts measured of 8 frames, against 16 golden parts" in out and "PASS" in out
     report = json.loads((tmp_path / "r" / "production.json").read_text())
     assert report["verdict"] == "pass" and len(report["parts"]) == 8
+    page = (tmp_path / "r" / "report.html").read_text()
+    assert "PASS: all" in page and "where the parts lay" in page and "face μ" in page
+    suite = ET.parse(tmp_path / "r" / "junit.xml").getroot()[0]
+    assert suite.get("name").startswith("inspect-validate verify --production")
+    assert int(suite.get("tests")) == len(report["checks"]) and suite.get("failures") == "0"
 
 
 @pytest.mark.parametrize(
