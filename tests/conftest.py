@@ -348,3 +348,32 @@ def production_station(tmp_path, **block):
     doc["production"] = {"illumination": "amber", "reference": "reference.png", **block}
     path.write_text(yaml.safe_dump(doc, sort_keys=False))
     return read_station(path)
+
+
+LINE = ROOT / "sample_images" / "line"
+"""The shipped simulated line: a station with a production block and a moving part."""
+
+
+def line_station(folder, parts=None, **world):
+    """The shipped line in ``folder`` with ``world`` (and ``line``'s keys under "line")
+    added to its simulated world, and ``parts`` a production capture (default 40)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    doc = yaml.safe_load((LINE / "station.yaml").read_text())
+    doc["scene"] = str(ROOT / "sample_images" / "scenes" / "paperboard" / "scene.yaml")
+    line = world.pop("line", {})
+    doc["camera"]["world"] = {**doc["camera"]["world"], **world}
+    doc["camera"]["world"]["line"].update(line)
+    if parts is not None:
+        doc["production"]["parts"] = parts
+    for name in ("rois.yaml", "reference.tiff"):
+        shutil.copy(LINE / name, folder / name)
+    path = folder / "station.yaml"
+    path.write_text(yaml.safe_dump(doc, sort_keys=False))
+    return path
+
+
+def line_frames(station, out, parts=40):
+    """``capture --production`` of ``parts`` frames of the line into ``out``; the folder
+    of the frames."""
+    assert run_cli(["capture", station, "--production", "--parts", parts, "--out", out]) == 0
+    return out / "amber"

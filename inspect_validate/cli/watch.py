@@ -73,6 +73,19 @@ from inspect_validate.errors import EXIT_CHECK_FAILED
     type=click.IntRange(0, 65535),
     help="Serve the latest status on 127.0.0.1:PORT (/status JSON, /metrics Prometheus).",
 )
+@click.option(
+    "--production",
+    is_flag=True,
+    help="Watch the running line: each cycle a batch of production.parts parts, located, "
+    "measured and charted against a golden file of good parts (train --production).",
+)
+@click.option(
+    "--frames",
+    "frames_dir",
+    type=PATH,
+    help="With --production: the folder the line's program writes its frames into (new "
+    "files taken as they land, whole; default: the station's camera, production light on).",
+)
 def watch(
     station,
     golden_path,
@@ -85,6 +98,8 @@ def watch(
     keep_every,
     status_path,
     http_port,
+    production,
+    frames_dir,
 ) -> None:
     """Verify a running station cycle after cycle and chart its drift.
 
@@ -95,6 +110,8 @@ def watch(
     the likely cause of a drift, and commits the cycle to the history. Ends
     after --cycles, on Ctrl-C or SIGTERM (at the next frame: the cycle under way
     is set aside uncommitted; exit 130),
+    With --production each cycle is a batch of the running line's parts, charted by
+    their means (μ, σ², focus, SNR_dB, log ε, position) against the golden parts.
     or with exit 3 after --max-failures failed cycles in a row; exits 1 when
     the last cycle failed a check or drifted.
     """
@@ -104,6 +121,8 @@ def watch(
     from inspect_validate.watch.loop import watch as run_watch
     from inspect_validate.watch.session import watch_session
 
+    if frames_dir is not None and not production:
+        raise click.UsageError("--frames goes with --production (a folder of the line's frames)")
     settings = WatchSettings(
         interval=interval,
         cycles=cycles,
@@ -118,6 +137,8 @@ def watch(
         folder=folder,
         status=status_path,
         http_port=http_port,
+        production=production,
+        frames=frames_dir,
     )
     with session as s:
         if s.server is not None:
@@ -145,6 +166,7 @@ def watch(
             folder=s.folder,
             settings=settings,
             on_cycle=on_cycle,
+            line=s.line,
         )
     if stopped:
         click.echo(

@@ -48,6 +48,7 @@ __all__ = [
     "golden_parts",
     "measure_frames",
     "measure_parts",
+    "production_golden",
     "train_production",
     "verify_parts",
     "verify_production",
@@ -103,9 +104,12 @@ def measure_parts(station: Station, frames: Path | Sequence[Path]) -> Parts:
     return measure_frames(station, ((str(path), read_image(path)) for path in files))
 
 
-def measure_frames(station: Station, frames: Iterable[tuple[str, np.ndarray]]) -> Parts:
+def measure_frames(
+    station: Station, frames: Iterable[tuple[str, np.ndarray]], *, refuse: bool = True
+) -> Parts:
     """:func:`measure_parts` of frames already read: ``(name, frame)`` pairs (a
-    simulation's, a camera's)."""
+    simulation's, a camera's). ``refuse=False`` counts a frame of another size or in
+    colour as not measured, with why, instead of raising (a watch goes on)."""
     from inspect_validate.station.production import measure_part, part_focus, part_locator
     from inspect_validate.verification.measured import station_regions
 
@@ -118,7 +122,10 @@ def measure_frames(station: Station, frames: Iterable[tuple[str, np.ndarray]]) -
         try:
             placement = locator.place(frame)
         except InputError as exc:
-            raise InputError(str(exc), source=name) from None
+            if refuse:
+                raise InputError(str(exc), source=name) from None
+            missing[name] = str(exc)
+            continue
         if placement.regions is None:
             missing[name] = str(placement.reason)
             continue
@@ -215,25 +222,25 @@ def verify_production(
         A golden file trained on the bench (or of another illumination), and as
         :func:`measure_parts`.
     """
-    _production_golden(golden, source)
+    production_golden(golden, station, source=source)
     return verify_parts(station, measure_parts(station, frames), golden, source=source)
 
 
 def verify_parts(
-    station: Station, parts: Parts, golden: Golden, *, source: str = "the golden file"
+    station: Station,
+    parts: Parts,
+    golden: Golden,
+    *,
+    source: str = "the golden file",
+    drift: bool = True,
 ) -> ProductionVerification:
-    """:func:`verify_production` of parts already measured."""
+    """:func:`verify_production` of parts already measured; ``drift=False`` leaves out the
+    golden statistics' checks (``watch --production``, whose charts replace them)."""
     from inspect_validate.verification.checks import at_least, decide
 
-    _production_golden(golden, source)
+    production_golden(golden, station, source=source)
     assert station.production is not None
     name = station.production.illumination
-    if name not in golden.illuminations:
-        raise InputError(
-            f"the golden file holds {', '.join(golden.illuminations)}, not the production "
-            f"illumination {name!r}; train it again from this station's parts",
-            source=source,
-        )
     found = at_least(
         "parts found",
         "production",
@@ -243,18 +250,36 @@ def verify_parts(
         f"{len(parts.measured)} of {len(parts.measured) + len(parts.not_measured)} frames "
         "hold a part" + (f"; {_reasons(parts.not_measured)}" if parts.not_measured else ""),
     )
-    checks = [found, *_drift_checks(parts, golden.illuminations[name])]
+    checks = [found, *(_drift_checks(parts, golden.illuminations[name]) if drift else [])]
     rate = station.acceptance.false_alarm_rate
     return ProductionVerification(station, golden, parts, decide(checks, rate), rate)
 
 
-def _production_golden(golden: Golden, source: str) -> None:
-    """Refuse a golden file trained on the bench (before any frame is read)."""
+def production_golden(golden: Golden, station: Station, *, source: str) -> None:
+    """Refuse a golden file trained on the bench, or on another production illumination
+    than ``station``'s (before any frame is read; ``source``, the file, for messages).
+
+    Raises
+    ------
+    InputError
+        Naming the file and what to give instead.
+    """
+    if station.production is None:
+        raise InputError(
+            "no 'production:' block: give one to verify the running line", source=str(station.path)
+        )
     if golden.mode != "production":
         raise InputError(
             "this golden file was trained on the bench (captures, every illumination); "
             "train one from good parts: inspect-validate train STATION --production "
             "--frames DIR --out FILE",
+            source=source,
+        )
+    name = station.production.illumination
+    if name not in golden.illuminations:
+        raise InputError(
+            f"the golden file holds {', '.join(golden.illuminations)}, not the production "
+            f"illumination {name!r}; train it again from this station's parts",
             source=source,
         )
 

@@ -38,6 +38,7 @@ if TYPE_CHECKING:
     from collections.abc import Sequence
 
     from inspect_validate.verification.golden import Golden
+    from inspect_validate.verification.production import Parts
     from inspect_validate.verification.results import Verification
 
 __all__ = [
@@ -52,13 +53,15 @@ __all__ = [
     "ewma_arl",
     "ewma_limit",
     "series_of",
+    "series_of_parts",
 ]
 
 LAMBDA = 0.2  # weight of the newest cycle: detects shifts of ~1 σ₀ within about 10 cycles
 FAMILY_ARL = 1000.0  # in-control cycles between false alarms of the whole family
 # Floors of σ₀ where the golden file records no standard errors (version 1): relative
 # for μ and σ², absolute for dB and decades of ε.
-_FLOOR = {"mean": 2e-3, "variance": 0.02, "snr_db": 0.05, "log_error": 0.05}
+_FLOOR = {"mean": 2e-3, "variance": 0.02, "snr_db": 0.05, "log_error": 0.05, "focus": 0.02}
+_FLOOR.update(x=0.05, y=0.05, angle=0.005)  # a part's position: px, px, degrees
 _DESIGN_STATES = 81  # Markov-chain states of the ARLs the design averages (±1 % of 201's)
 _DESIGN_NODES = 12  # quadrature nodes per tail and dimension (target error, spread)
 
@@ -105,10 +108,12 @@ def ewma_limit(arl: float, *, lam: float = LAMBDA) -> float:
 
 
 @lru_cache(maxsize=64)
-def design_limit(arl: float, repeats: int, *, lam: float = LAMBDA) -> float:
+def design_limit(arl: float, repeats: int, *, lam: float = LAMBDA, batch: int = 1) -> float:
     """The L (in σ₀-units of σ_z) whose false-alarm rate, averaged over the golden files
     of ``repeats`` repeats a station could train, is 1/``arl`` per cycle (module
     description); :func:`ewma_limit` for a known target and spread (``repeats`` < 2).
+    A chart of the mean of ``batch`` parts a cycle against ``repeats`` golden parts has
+    σ₀ = s/√batch, so its target's error is δ√(n/batch) ~ N(0, 1) in those units.
 
     The average is a quadrature over the target's error δ√n ~ N(0, 1) and the spread's
     w² = χ²_{n−1}/(n − 1), both in probability: at the small rates a family of charts
@@ -135,7 +140,7 @@ def design_limit(arl: float, repeats: int, *, lam: float = LAMBDA) -> float:
     spread = np.concatenate([low, high])
     spread_w = np.concatenate([mass, mass]) / 2.0
     # target error: |δ|√n at the two-sided tail probability p (the rate is even in δ)
-    shifts = -ndtri(p / 2.0) / math.sqrt(n)
+    shifts = -ndtri(p / 2.0) * math.sqrt(batch / n)
     d, w = np.meshgrid(shifts, spread, indexing="ij")
     weight = np.outer(mass, spread_w)
     weight /= weight.sum()
@@ -213,16 +218,45 @@ def series_of(verification: Verification) -> dict[SeriesKey, float]:
     return values
 
 
+def series_of_parts(parts: Parts, illumination: str) -> dict[SeriesKey, float]:
+    """The monitored values of one cycle's batch of parts on the running line (under
+    ``illumination``): each quantity's mean over the parts measured (NaN for none)."""
+    measured = parts.measured
+    ms = [p.measurement for p in measured]
+    values: dict[SeriesKey, float] = {}
+
+    def mean(xs) -> float:
+        return float(np.mean(xs)) if len(xs) else math.nan
+
+    for k, c in enumerate(ms[0].classes if ms else ()):
+        values[illumination, "class", c.name, "mean"] = mean([m.classes[k].mean for m in ms])
+        values[illumination, "class", c.name, "variance"] = mean(
+            [m.classes[k].variance for m in ms]
+        )
+        values[illumination, "class", c.name, "focus"] = mean([p.focus[c.name] for p in measured])
+    for j, comp in enumerate(ms[0].comparisons if ms else ()):
+        values[illumination, "comparison", comp.label, "snr_db"] = mean(
+            [m.comparisons[j].snr_db for m in ms]
+        )
+        values[illumination, "comparison", comp.label, "log_error"] = mean(
+            _log_error(np.array([m.comparisons[j].error_gaussian for m in ms]))
+        )
+    for i, q in enumerate(("x", "y", "angle")):
+        values[illumination, "pose", "part", q] = mean([p.position[i] for p in measured])
+    return values
+
+
 def _log_error(error):
     """log₁₀ ε, the charted form of ε (0 floored: perfect separation is not −inf)."""
     return np.log10(np.maximum(error, 1e-300))
 
 
 def golden_targets(
-    golden: Golden, *, snr_floor_db: float = -20.0
+    golden: Golden, *, snr_floor_db: float = -20.0, batch: int = 1
 ) -> dict[SeriesKey, tuple[float, float]]:
     """(μ₀, σ₀) of every quantity the golden file holds worth charting (module
-    description)."""
+    description); of a production golden file also each class's focus measure and the
+    parts' position, and with ``batch`` parts a cycle σ₀ of their mean (s/√batch)."""
     targets = {}
 
     def put(key, spread, quantity) -> None:
@@ -239,13 +273,19 @@ def golden_targets(
         if math.isfinite(se):
             floor = se
         else:
-            floor = _FLOOR[quantity] * (abs(mu) if quantity in ("mean", "variance") else 1.0)
-        targets[key] = (mu, max(sd, floor, 1e-12))
+            relative = quantity in ("mean", "variance", "focus")
+            floor = _FLOOR[quantity] * (abs(mu) if relative else 1.0)
+        targets[key] = (mu, max(sd, floor, 1e-12) / math.sqrt(batch))
 
     for ill, g in golden.illuminations.items():
         for name, cls in g.classes.items():
             put((ill, "class", name, "mean"), cls.mean, "mean")
             put((ill, "class", name, "variance"), cls.variance, "variance")
+            if cls.focus is not None:
+                put((ill, "class", name, "focus"), cls.focus, "focus")
+        if g.pose is not None:
+            for q, spread in (("x", g.pose.x), ("y", g.pose.y), ("angle", g.pose.angle)):
+                put((ill, "pose", "part", q), spread, q)
         for label, comp in g.comparisons.items():
             if not comp.snr_db.mean >= snr_floor_db:
                 continue
@@ -280,6 +320,8 @@ class DriftMonitor:
         Comparisons below it in the golden file are not charted.
     family_arl : float, keyword-only
         In-control cycles between false alarms of all charts together.
+    batch : int, keyword-only
+        Production: parts a cycle, whose means are charted against the golden parts'.
     """
 
     def __init__(
@@ -289,14 +331,15 @@ class DriftMonitor:
         dark_offset: float,
         snr_floor_db: float = -20.0,
         family_arl: float = FAMILY_ARL,
+        batch: int = 1,
     ) -> None:
         from inspect_validate.errors import InputError
         from inspect_validate.verification.golden_checks import GOOD_WIDENING, MAX_WIDENING
 
-        self.targets = golden_targets(golden, snr_floor_db=snr_floor_db)
+        self.targets = golden_targets(golden, snr_floor_db=snr_floor_db, batch=batch)
         self.dark_offset = float(dark_offset)
         arl = family_arl * max(len(self.targets), 1)
-        self.limit = design_limit(arl, golden.repeats)
+        self.limit = design_limit(arl, golden.repeats, batch=batch)
         known = ewma_limit(arl)
         if not self.limit <= MAX_WIDENING * known:
             wide = "wider than any" if math.isinf(self.limit) else f"{self.limit / known:.0f} ×"
@@ -358,6 +401,14 @@ class DriftMonitor:
         change (an LED's peak) moves them by different factors, as their reflectances
         differ.
         """
+        moved = [k for k in alarms if k[1] == "pose"]
+        if moved and len(moved) == len(alarms):
+            return (
+                "the parts lie elsewhere in the frame than the golden parts did ("
+                + ", ".join(f"{k[3]} {self._off(k)}" for k in moved)
+                + "), their statistics steady: the camera or the fixture moved"
+            )
+        alarms = [k for k in alarms if k[1] != "pose"]
         severity = {
             k: self.charts[k].severity(limit=self.limit) for k in alarms if k in self.charts
         }
@@ -420,17 +471,33 @@ class DriftMonitor:
                 what = "LED ageing or a failing channel" if v < 0 else "LED driven harder"
                 return f"illumination {ill} {_percent(v)}, the others steady: {what}"
             return "; ".join(parts) + ": illuminations changed differently (LEDs, spectra)"
-        if any(k[1] == "comparison" or k[3] == "variance" for k in alarms):
+        if any(k[1] == "comparison" or k[3] in ("variance", "focus") for k in alarms):
             return self._noise_cause(alarms)
         return "drift of " + ", ".join(" ".join(k[::2]) for k in alarms[:3])
 
+    def _off(self, key: SeriesKey) -> str:
+        chart = self.charts[key]
+        unit = "°" if key[3] == "angle" else " px"
+        return f"{chart.ewma - chart.target:+.2f}{unit}"
+
     def _noise_cause(self, alarms) -> str:
         """Noise or contrast moved at (nearly) steady means: the optics."""
-        variance = [
-            self.charts[k].ewma / self.charts[k].target - 1
-            for k in alarms
-            if k[3] == "variance" and k in self.charts and self.charts[k].target > 0
-        ]
+
+        def moved(quantity: str) -> list[float]:
+            return [
+                self.charts[k].ewma / self.charts[k].target - 1
+                for k in alarms
+                if k[3] == quantity and k in self.charts and self.charts[k].target > 0
+            ]
+
+        variance, focus = moved("variance"), moved("focus")
+        if focus:
+            f = float(np.median(focus))
+            return (
+                f"the focus measure {'down' if f < 0 else 'up'} by {100 * abs(f):.0f} % at "
+                "steady means: "
+                + ("defocus or a haze on the lens" if f < 0 else "sharper parts or edges")
+            )
         if variance:
             v = float(np.median(variance))
             what = f"class noise (σ²) {'up' if v > 0 else 'down'} by {100 * abs(v):.0f} %"

@@ -260,8 +260,13 @@ def _cycle_record(path, row) -> CycleRecord:
     )
 
 
-#: What watch charts (watch.drift.series_of): a chart of anything else was not written by it.
-CHARTED = {"class": ("mean", "variance"), "comparison": ("snr_db", "log_error")}
+#: What watch charts (watch.drift.series_of, and on the line series_of_parts): a chart of
+#: anything else was not written by it.
+CHARTED = {
+    "class": ("mean", "variance", "focus"),
+    "comparison": ("snr_db", "log_error"),
+    "pose": ("x", "y", "angle"),
+}
 
 
 def _chart_series(path, rows) -> dict[tuple, ChartSeries]:

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import shutil
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -33,13 +33,16 @@ if TYPE_CHECKING:
     from collections.abc import Callable
 
     from inspect_validate.station.file import Station
+    from inspect_validate.verification.golden import Golden
     from inspect_validate.verification.plan import Plan
+    from inspect_validate.verification.production import ProductionVerification
     from inspect_validate.verification.results import Verification
     from inspect_validate.watch.drift import DriftMonitor, DriftState
+    from inspect_validate.watch.feed import FolderFeed
     from inspect_validate.watch.history import CycleRecord
     from inspect_validate.watch.history_writer import HistoryWriter
 
-__all__ = ["CycleOutcome", "WatchSettings", "status_document", "watch"]
+__all__ = ["CycleOutcome", "LineWatch", "WatchSettings", "status_document", "watch"]
 
 
 @dataclass(frozen=True)
@@ -55,7 +58,7 @@ class WatchSettings:
 class CycleOutcome:
     record: CycleRecord
     state: DriftState | None  # None for an error cycle
-    verification: Verification | None
+    verification: Verification | ProductionVerification | None
     failures: int  # consecutive failed cycles, this one included
 
 
@@ -99,22 +102,36 @@ def status_document(
     return doc
 
 
+@dataclass(frozen=True)
+class LineWatch:
+    """What a watch of the running line (``watch --production``) verifies each cycle
+    against: the golden parts, and where the frames come from (``feed``: a folder the
+    line's program writes into; None: the station's camera under the production light)."""
+
+    golden: Golden
+    feed: FolderFeed | None = None
+
+
 def watch(
     station: Station,
-    plan: Plan,
+    plan: Plan | None,
     history: HistoryWriter,
     monitor: DriftMonitor,
     *,
     folder: Path,
     settings: WatchSettings,
     on_cycle: Callable[[CycleOutcome], None] | None = None,
+    line: LineWatch | None = None,
 ) -> tuple[CycleOutcome | None, bool]:
     """Run cycles until ``settings.cycles`` are done or a signal stops the watch.
 
     ``station`` is verified by ``plan`` (:func:`~inspect_validate.verification.plan.
     plan_verification` of it) every cycle; ``history`` is a :class:`~.history_writer.HistoryWriter`,
     ``monitor`` a :class:`~.drift.DriftMonitor` (restored from the history here).
-    ``on_cycle(outcome)`` is called after each committed cycle.
+    ``on_cycle(outcome)`` is called after each committed cycle. With ``line``, each
+    cycle is a batch of the running line's parts instead (``plan`` is not used): taken
+    by the camera under the production light, or from ``line.feed``, located, measured
+    and charted by their means (:func:`~.drift.series_of_parts`).
 
     Returns
     -------
@@ -137,7 +154,7 @@ def watch(
         while settings.cycles is None or done < settings.cycles:
             stop_if_requested()
             t0 = time.monotonic()
-            last = _cycle(station, plan, history, monitor, folder, settings, failures)
+            last = _cycle(station, plan, history, monitor, folder, settings, failures, line)
             failures = last.failures
             done += 1
             if on_cycle:
@@ -181,19 +198,20 @@ def set_aside(frames: Path) -> Path:
     return frames.rename(aside)
 
 
-def _cycle(station, plan, history, monitor, folder, settings, failures):
+def _cycle(station, plan, history, monitor, folder, settings, failures, line=None):
     from inspect_validate.station.capture import capture
     from inspect_validate.station.file import simulated_at
     from inspect_validate.verification.measured import StepMeasurer
     from inspect_validate.verification.verify import verify_folder
     from inspect_validate.watch.drift import series_of
-    from inspect_validate.watch.history import CycleRecord
 
     n = history.next_cycle()
     frames = folder / f"cycle-{n:06d}"
     if frames.exists():  # a cycle that never committed (killed): keep its frames aside
         set_aside(frames)
     when, t0 = time.time(), time.monotonic()
+    if line is not None:
+        return _line_cycle(station, history, monitor, frames, settings, failures, line, when, t0)
     state = verification = None
     try:
         # Each step measured while the next is captured, as verify does.
@@ -215,6 +233,74 @@ def _cycle(station, plan, history, monitor, folder, settings, failures):
         reason = "; ".join(c.name for c in failed[:3]) or None
         saturated = [c.name for c in failed if c.kind == "saturation"]
         cause = f"a class clips: {saturated[0]}" if saturated else state.cause
+    return _commit(
+        history, n, frames, settings, failures, when, t0,
+        (status, passed, reason, cause), state, verification,
+    )  # fmt: skip
+
+
+def _line_cycle(station, history, monitor, frames, settings, failures, line, when, t0):
+    """One cycle of ``watch --production``: a batch of parts, verified and charted."""
+    from inspect_validate.station.capture import capture, production_steps
+    from inspect_validate.station.file import simulated_at
+    from inspect_validate.verification.production import measure_frames, verify_parts
+    from inspect_validate.watch.drift import series_of_parts
+
+    n = history.next_cycle()
+    state = verification = None
+    name = station.production.illumination
+    try:
+        if line.feed is None:
+            at = simulated_at(station, n, hours=(when - history.created) / 3600.0)
+            capture(at, frames, steps=production_steps(at))
+            files, skipped = sorted((frames / name).glob("*.tif")), 0
+        else:
+            files, skipped = line.feed.take()
+        unreadable: dict[str, str] = {}
+        parts = measure_frames(station, _readable(files, unreadable), refuse=False)
+        parts = replace(parts, not_measured={**unreadable, **parts.not_measured})
+        verification = verify_parts(station, parts, line.golden, drift=False)
+    except DeviceError as exc:
+        failures += 1
+        status, passed, reason = "error", None, str(exc)
+        cause = "stale camera: frames stopped changing" if "stale" in reason else None
+    else:
+        failures = 0
+        state = monitor.update(series_of_parts(parts, name))
+        passed = verification.passed
+        status = "fail" if not passed else ("drift" if state.drifting else "pass")
+        failed = [c for c in verification.checks if not c.passed]
+        reason = "; ".join(c.name for c in failed[:3]) or None
+        if skipped:
+            reason = "; ".join(
+                filter(None, [reason, f"{skipped} frames skipped (they land faster than measured)"])
+            )
+        cause = verification.cause if failed else state.cause
+    return _commit(
+        history, n, frames, settings, failures, when, t0,
+        (status, passed, reason, cause), state, verification,
+    )  # fmt: skip
+
+
+def _readable(files, unreadable: dict[str, str]):
+    """``(name, frame)`` of each file that can be read; each that cannot (cut short, not
+    an image) is put in ``unreadable`` with why, and the watch goes on."""
+    from inspect_validate.errors import InputError
+    from inspect_validate.images import read_image
+
+    for path in files:
+        try:
+            yield str(path), read_image(path)
+        except InputError as exc:
+            unreadable[str(path)] = f"cannot be read: {exc}"
+
+
+def _commit(history, n, frames, settings, failures, when, t0, verdict, state, verification):
+    """Commit cycle ``n`` (``verdict``: status, passed, reason, cause) and its charts'
+    points; keep or delete its frames."""
+    from inspect_validate.watch.history import CycleRecord
+
+    status, passed, reason, cause = verdict
     keep = status != "pass" or n % max(settings.keep_every, 1) == 0
     record = CycleRecord(
         cycle=n,

@@ -19,6 +19,7 @@ if TYPE_CHECKING:
     from inspect_validate.verification.plan import Plan
     from inspect_validate.watch.drift import DriftMonitor
     from inspect_validate.watch.history_writer import HistoryWriter
+    from inspect_validate.watch.loop import LineWatch
     from inspect_validate.watch.serve import StatusServer
 
 __all__ = ["Session", "watch_session"]
@@ -45,15 +46,18 @@ class Session:
         The status file rewritten after every cycle.
     server : StatusServer or None
         ``/status`` and ``/metrics`` on 127.0.0.1, where asked for.
+    line : LineWatch or None
+        A watch of the running line (``plan`` then None): its golden parts and frames.
     """
 
     station: Station
-    plan: Plan
+    plan: Plan | None
     monitor: DriftMonitor
     history: HistoryWriter
     folder: Path
     status_path: Path
     server: StatusServer | None
+    line: LineWatch | None = None
 
 
 @contextlib.contextmanager
@@ -65,6 +69,8 @@ def watch_session(
     folder: Path | None = None,
     status: Path | None = None,
     http_port: int | None = None,
+    production: bool = False,
+    frames: Path | None = None,
 ) -> Iterator[Session]:
     """Open what a watch of ``station`` needs, and close it all when the block ends.
 
@@ -81,6 +87,12 @@ def watch_session(
         The status file (default: ``status.json`` in ``folder``).
     http_port : int, keyword-only, optional
         Serve the status on 127.0.0.1 (0: any free port).
+    production : bool, keyword-only
+        Watch the running line: batches of ``production.parts`` parts, charted against a
+        golden file of good parts (``train --production``).
+    frames : Path, keyword-only, optional
+        With ``production``: the folder the line's program writes its frames into
+        (default: the station's camera, under the production light).
 
     Raises
     ------
@@ -105,14 +117,20 @@ def watch_session(
             "acceptance.drift.golden",
             source=str(station.path),
         )
-    # The plan reads the golden file and checks it fits the station; each cycle is then
-    # verified without the single-cycle drift checks: the charts replace them, with a
-    # false-alarm rate controlled over every chart together.
-    with_drift = station.acceptance.model_copy(update={"drift": drift})
-    plan = plan_verification(
-        station.model_copy(update={"acceptance": with_drift}), drift_checks=False
-    )
     golden_file = station.resolve(drift.golden)
+    line = plan = None
+    if production:
+        line = _line_watch(station, golden_file, frames)
+    else:
+        if frames is not None:
+            raise InputError("--frames goes with --production (a folder of the line's frames)")
+        # The plan reads the golden file and checks it fits the station; each cycle is
+        # then verified without the single-cycle drift checks: the charts replace them,
+        # with a false-alarm rate controlled over every chart together.
+        with_drift = station.acceptance.model_copy(update={"drift": drift})
+        plan = plan_verification(
+            station.model_copy(update={"acceptance": with_drift}), drift_checks=False
+        )
     watched = station.model_copy(
         update={"acceptance": station.acceptance.model_copy(update={"drift": None})}
     )
@@ -123,12 +141,23 @@ def watch_session(
         output_file(f)
     output_folder(folder)
     try:
-        assert plan.golden is not None  # the plan read the golden file given it
-        monitor = DriftMonitor(
-            plan.golden,
-            dark_offset=plan.model.sensor.dark_offset,
-            snr_floor_db=drift.snr_floor_db,
-        )
+        if line is not None:
+            from inspect_validate.station.model import station_model
+
+            assert station.production is not None  # _line_watch refused a station without
+            monitor = DriftMonitor(
+                line.golden,
+                dark_offset=station_model(station).sensor.dark_offset,
+                snr_floor_db=drift.snr_floor_db,
+                batch=station.production.parts,
+            )
+        else:
+            assert plan is not None and plan.golden is not None  # it read the golden file
+            monitor = DriftMonitor(
+                plan.golden,
+                dark_offset=plan.model.sensor.dark_offset,
+                snr_floor_db=drift.snr_floor_db,
+            )
     except InputError as exc:
         raise InputError(str(exc), source=str(golden_file)) from None
     with contextlib.ExitStack() as stack:
@@ -157,10 +186,36 @@ def watch_session(
             stack.callback(server.close)
         yield Session(
             station=watched,
-            plan=replace(plan, golden=None),
+            plan=None if plan is None else replace(plan, golden=None),
             monitor=monitor,
             history=history,
             folder=folder,
             status_path=status,
             server=server,
+            line=line,
         )
+
+
+def _line_watch(station: Station, golden_file: Path, frames: Path | None) -> LineWatch:
+    """The golden parts and the frames' source of ``watch --production``, checked before
+    anything is opened."""
+    from inspect_validate.station.production import part_locator
+    from inspect_validate.verification.golden import read_golden
+    from inspect_validate.verification.production import production_golden
+    from inspect_validate.watch.feed import FolderFeed
+    from inspect_validate.watch.loop import LineWatch
+
+    part_locator(station)  # no production block, a bad reference or template: said now
+    assert station.production is not None
+    golden = read_golden(golden_file)
+    production_golden(golden, station, source=str(golden_file))
+    feed = None
+    if frames is not None:
+        frames = Path(frames)
+        if not frames.is_dir():
+            raise InputError(
+                "not a folder: give the folder the line's program writes its frames into",
+                source=str(frames),
+            )
+        feed = FolderFeed(frames, station.production.parts)
+    return LineWatch(golden, feed)

@@ -6,36 +6,11 @@ the world can be given, naming its cause."""
 import itertools
 import json
 import re
-import shutil
 
 import numpy as np
 import pytest
 import tifffile
-import yaml
-from conftest import ROOT, run_cli
-
-LINE = ROOT / "sample_images" / "line"
-
-
-def line_station(folder, **world):
-    """The shipped line in ``folder`` with ``world`` (and ``line``'s keys under "line")
-    added to its simulated world."""
-    folder.mkdir(parents=True, exist_ok=True)
-    doc = yaml.safe_load((LINE / "station.yaml").read_text())
-    doc["scene"] = str(ROOT / "sample_images" / "scenes" / "paperboard" / "scene.yaml")
-    line = world.pop("line", {})
-    doc["camera"]["world"] = {**doc["camera"]["world"], **world}
-    doc["camera"]["world"]["line"].update(line)
-    for name in ("rois.yaml", "reference.tiff"):
-        shutil.copy(LINE / name, folder / name)
-    path = folder / "station.yaml"
-    path.write_text(yaml.safe_dump(doc, sort_keys=False))
-    return path
-
-
-def captured(station, out, parts=40):
-    assert run_cli(["capture", station, "--production", "--parts", parts, "--out", out]) == 0
-    return out / "amber"
+from conftest import LINE, line_frames, line_station, run_cli
 
 
 @pytest.fixture(scope="module")
@@ -43,7 +18,7 @@ def golden(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("line")
     station = line_station(tmp / "good")
     path = tmp / "golden.json"
-    assert run_cli(["train", station, "--production", "--frames", captured(station, tmp / "g"),
+    assert run_cli(["train", station, "--production", "--frames", line_frames(station, tmp / "g"),
                     "--out", path]) == 0  # fmt: skip
     return path
 
@@ -51,7 +26,7 @@ def golden(tmp_path_factory):
 def test_the_line_shows_other_parts_at_other_poses(tmp_path):
     """Each frame's part at its own pose (the sidecar keeps the truth), within the line's
     reach, and each part another draw of its classes: no two frames alike."""
-    frames = captured(line_station(tmp_path, line={"seed": 3}), tmp_path / "c", parts=6)
+    frames = line_frames(line_station(tmp_path, line={"seed": 3}), tmp_path / "c", parts=6)
     poses = [json.loads(p.read_text())["extra"]["part_pose"] for p in sorted(frames.glob("*.json"))]
     assert len(poses) == 6 and len({tuple(p) for p in poses}) == 6
     for dx, dy, degrees in poses:
@@ -66,7 +41,7 @@ def test_the_shipped_reference_is_the_lines_part_at_home(tmp_path):
     from inspect_validate.station.file import read_station
     from inspect_validate.station.production import part_locator
 
-    frames = captured(line_station(tmp_path, line={"shift": 0.0, "rotation_deg": 0.0}),
+    frames = line_frames(line_station(tmp_path, line={"shift": 0.0, "rotation_deg": 0.0}),
                       tmp_path / "c", parts=2)  # fmt: skip
     locator = part_locator(read_station(LINE / "station.yaml"))
     placed = locator.place(tifffile.imread(sorted(frames.glob("*.tif"))[0]))
@@ -76,7 +51,7 @@ def test_the_shipped_reference_is_the_lines_part_at_home(tmp_path):
 
 def test_good_parts_pass(golden, tmp_path, capsys):
     station = line_station(tmp_path)
-    code = run_cli(["verify", station, "--production", "--frames", captured(station, tmp_path / "c"),
+    code = run_cli(["verify", station, "--production", "--frames", line_frames(station, tmp_path / "c"),
                     "--golden", golden])  # fmt: skip
     out = capsys.readouterr().out
     assert code == 0, out
@@ -101,7 +76,7 @@ def test_good_parts_pass(golden, tmp_path, capsys):
 )
 def test_each_fault_fails_naming_its_cause(golden, tmp_path, capsys, world, failing, cause):
     station = line_station(tmp_path, **world)
-    code = run_cli(["verify", station, "--production", "--frames", captured(station, tmp_path / "c"),
+    code = run_cli(["verify", station, "--production", "--frames", line_frames(station, tmp_path / "c"),
                     "--golden", golden])  # fmt: skip
     out = capsys.readouterr().out
     assert code == 1, out
@@ -112,7 +87,7 @@ def test_each_fault_fails_naming_its_cause(golden, tmp_path, capsys, world, fail
 
 def test_parts_cut_by_the_frames_edge_are_counted_not_measured(tmp_path, capsys):
     station = line_station(tmp_path, line={"cut": 0.5, "seed": 5})
-    folder = captured(station, tmp_path / "c", parts=12)
+    folder = line_frames(station, tmp_path / "c", parts=12)
     assert run_cli(["train", station, "--production", "--frames", folder,
                     "--out", tmp_path / "g.json"]) == 0  # fmt: skip
     out = capsys.readouterr().out
@@ -132,11 +107,11 @@ def test_a_camera_knocked_off_a_fixture_fails_on_the_pose(tmp_path, capsys):
     fixture = {"shift": 0.01, "rotation_deg": 0.5}
     station = line_station(tmp_path / "good", line=fixture)
     golden = tmp_path / "golden.json"
-    assert run_cli(["train", station, "--production", "--frames", captured(station, tmp_path / "g"),
+    assert run_cli(["train", station, "--production", "--frames", line_frames(station, tmp_path / "g"),
                     "--out", golden]) == 0  # fmt: skip
     knocked = line_station(tmp_path / "knocked", line={**fixture, "camera_shift_px": [8, 0]})
     code = run_cli(["verify", knocked, "--production", "--frames",
-                    captured(knocked, tmp_path / "k"), "--golden", golden])  # fmt: skip
+                    line_frames(knocked, tmp_path / "k"), "--golden", golden])  # fmt: skip
     out = capsys.readouterr().out
     assert code == 1, out
     failed = [line.split()[1:3] for line in out.splitlines() if line.startswith("FAIL ")]

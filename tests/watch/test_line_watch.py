@@ -1,0 +1,158 @@
+"""``watch --production`` on the simulated line: batches of parts from the station's camera
+or from a folder the line's program writes into (files taken whole, in order, once;
+frames that land faster than measured skipped and counted), charted against golden parts;
+a dimmer light drifts with its cause named; unreadable files and frames of another size
+are counted, not fatal; a bench golden file is refused."""
+
+import json
+import shutil
+import sqlite3
+import threading
+import time
+
+import pytest
+from conftest import line_frames, line_station, run_cli
+
+PARTS = 10
+
+
+@pytest.fixture(scope="module")
+def line_golden(tmp_path_factory):
+    """A golden file of 120 good parts of the line (batches of 10 chart against it)."""
+    tmp = tmp_path_factory.mktemp("line-golden")
+    station = line_station(tmp / "good")
+    path = tmp / "golden.json"
+    frames = line_frames(station, tmp / "g", parts=120)
+    assert run_cli(["train", station, "--production", "--frames", frames, "--out", path]) == 0
+    return path
+
+
+def _charts(db):
+    with sqlite3.connect(db) as con:
+        keys = con.execute("SELECT DISTINCT kind, quantity FROM points").fetchall()
+        cycles = con.execute("SELECT cycle, status, reason, cause FROM cycles").fetchall()
+    return set(keys), cycles
+
+
+def test_the_cameras_batches_are_charted_with_focus_and_position(cli, tmp_path, line_golden):
+    station = line_station(tmp_path / "s", parts=PARTS)
+    db = tmp_path / "w" / "h.sqlite"
+    code, out, err = cli(["watch", station, "--production", "--golden", line_golden, "--db", db,
+                          "--cycles", 2, "--interval", 0])  # fmt: skip
+    assert code == 0, out + err
+    keys, cycles = _charts(db)
+    assert {("class", "focus"), ("pose", "x"), ("pose", "angle"), ("comparison", "snr_db")} <= keys
+    assert [c[1] for c in cycles] == ["pass", "pass"]
+    status = json.loads((tmp_path / "w" / "status.json").read_text())
+    assert any(v["kind"] == "pose" for v in status["values"])
+
+
+def test_a_dimmer_light_drifts_with_its_cause(cli, tmp_path, line_golden):
+    station = line_station(tmp_path / "s", parts=PARTS, irradiance={1: 0.97})
+    db = tmp_path / "w" / "h.sqlite"
+    code, out, _ = cli(["watch", station, "--production", "--golden", line_golden, "--db", db,
+                        "--cycles", 2, "--interval", 0])  # fmt: skip
+    assert code == 1, out
+    _, cycles = _charts(db)
+    assert cycles[-1][1] == "drift" and "dimmer by" in cycles[-1][3], cycles
+
+
+def _write_slowly(frames, folder, *, chunks=4, pause=0.03):
+    """Copy each frame into ``folder`` a few bytes at a time, as a camera program that is
+    slow to write would (each pause well under the feed's 0.2 s of settling)."""
+    for src in frames:
+        data = src.read_bytes()
+        with open(folder / src.name, "wb") as f:
+            for k in range(chunks):
+                f.write(data[k * len(data) // chunks : (k + 1) * len(data) // chunks])
+                f.flush()
+                time.sleep(pause)
+
+
+def test_frames_from_a_folder_are_taken_whole_and_in_order(cli, tmp_path, line_golden):
+    """20 frames land in the folder while watch waits: two cycles of 10, no frame read
+    half-written; a file already there when the watch started is not new; a file that
+    stays cut short and one that is no image are counted, not fatal."""
+    station = line_station(tmp_path / "s", parts=PARTS)
+    frames = sorted(line_frames(station, tmp_path / "c", parts=2 * PARTS - 2).glob("*.tif"))
+    folder = tmp_path / "line"
+    folder.mkdir()
+    shutil.copy(frames[0], folder / "aaa_old.tif")  # there before the watch: not new
+    writer = threading.Thread(
+        target=lambda: (
+            time.sleep(0.5),
+            (folder / "frame_0000_cut.tif").write_bytes(frames[0].read_bytes()[:5000]),
+            (folder / "frame_0000_text.png").write_text("not an image"),
+            _write_slowly(frames, folder),
+        )
+    )
+    writer.start()
+    db = tmp_path / "w" / "h.sqlite"
+    code, out, err = cli(["watch", station, "--production", "--frames", folder,
+                          "--golden", line_golden, "--db", db, "--cycles", 2,
+                          "--interval", 0])  # fmt: skip
+    writer.join()
+    assert code == 0, out + err
+    _, cycles = _charts(db)
+    assert [c[1] for c in cycles] == ["pass", "pass"], cycles
+
+
+def test_frames_landing_faster_than_measured_are_skipped_and_counted(tmp_path):
+    """The feed keeps at most twice a batch waiting: 35 frames landed at once for batches
+    of 10 → the 15 oldest skipped, the next 10 taken in the folder's order."""
+    from inspect_validate.watch.feed import FolderFeed
+
+    folder = tmp_path / "line"
+    folder.mkdir()
+    feed = FolderFeed(folder, 10, settle_s=0.0)
+    for k in range(35):
+        (folder / f"f{k:03d}.npy").write_bytes(b"x" * 100)
+    feed.ready()  # first look: sizes noted
+    taken, skipped = feed.take()
+    assert skipped == 15 and [p.name for p in taken] == [f"f{k:03d}.npy" for k in range(15, 25)]
+    taken, skipped = feed.take()
+    assert skipped == 0 and [p.name for p in taken] == [f"f{k:03d}.npy" for k in range(25, 35)]
+    assert feed.skipped == 15
+
+
+def test_a_bench_golden_file_or_a_missing_folder_is_refused(cli, tmp_path, golden, line_golden):
+    station = line_station(tmp_path / "s", parts=PARTS)
+    code, _, err = cli(["watch", station, "--production", "--golden", golden,
+                        "--db", tmp_path / "w" / "h.sqlite"])  # fmt: skip
+    assert code == 2 and "trained on the bench" in err, err
+    code, _, err = cli(["watch", station, "--production", "--golden", line_golden, "--frames",
+                        tmp_path / "nowhere", "--db", tmp_path / "w" / "h.sqlite"])  # fmt: skip
+    assert code == 2 and "not a folder" in err and "nowhere" in err, err
+    code, _, err = cli(["watch", station, "--frames", tmp_path, "--golden", line_golden])
+    assert code == 2 and "--frames goes with --production" in err, err
+
+
+def test_sigterm_ends_a_watch_waiting_for_frames(tmp_path, line_golden):
+    """A watch of a folder into which no frame lands waits; SIGTERM ends it at once
+    (exit 130), nothing committed and nothing left behind."""
+    import signal
+    import subprocess
+    import sys
+
+    station = line_station(tmp_path / "s", parts=PARTS)
+    folder = tmp_path / "line"
+    folder.mkdir()
+    db = tmp_path / "w" / "h.sqlite"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "inspect_validate", "watch", str(station), "--production",
+         "--frames", str(folder), "--golden", str(line_golden), "--db", str(db)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        assert "watching" in proc.stdout.readline()
+        time.sleep(0.5)  # in the feed's wait
+        started = time.monotonic()
+        proc.send_signal(signal.SIGTERM)
+        out, err = proc.communicate(timeout=30)
+    finally:
+        proc.kill()
+    assert proc.returncode == 130, err
+    assert time.monotonic() - started < 5 and "Traceback" not in err, err
+    assert "stopped after cycle —" in out
+    _, cycles = _charts(db)
+    assert cycles == []
