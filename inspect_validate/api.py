@@ -5,7 +5,7 @@ inspect_validate`` stays cheap for the command line)."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Literal, overload
 
 if TYPE_CHECKING:
     from collections.abc import Iterable
@@ -20,6 +20,7 @@ if TYPE_CHECKING:
     from inspect_validate.scene import Scene
     from inspect_validate.station.file import Station
     from inspect_validate.verification.golden import Golden
+    from inspect_validate.verification.production import ProductionVerification
     from inspect_validate.verification.results import Verification
 
 __all__ = [
@@ -267,7 +268,12 @@ def measure(
 
 
 def capture(
-    station: Station | str | Path, out: str | Path, *, resume: bool = False
+    station: Station | str | Path,
+    out: str | Path,
+    *,
+    resume: bool = False,
+    production: bool = False,
+    parts: int | None = None,
 ) -> CaptureResult:
     """Capture a station's illuminations and darks into ``out`` (TIFF frames, sidecars,
     a manifest): what ``inspect-validate capture`` does, without a progress bar.
@@ -279,6 +285,10 @@ def capture(
         The capture folder (the manual's "Capture folders").
     resume : bool, keyword-only
         Continue an interrupted capture in ``out``: complete steps are kept.
+    production : bool, keyword-only
+        The running line instead: ``parts`` frames (default ``production.parts``), each
+        of another part, under the production illumination (``capture --production``).
+    parts : int, keyword-only, optional
 
     Returns
     -------
@@ -301,8 +311,35 @@ def capture(
     4
     """
     from inspect_validate.station.capture import capture as run
+    from inspect_validate.station.capture import production_steps
 
-    return run(_station(station), Path(out), resume=resume)
+    st = _station(station)
+    steps = production_steps(st, parts=parts) if production else None
+    return run(st, Path(out), resume=resume, steps=steps)
+
+
+@overload
+def verify(
+    station: Station | str | Path,
+    frames: str | Path | None = None,
+    *,
+    out: str | Path | None = None,
+    all_illuminations: bool = False,
+    production: Literal[False] = False,
+    golden: Golden | str | Path | None = None,
+) -> Verification: ...
+
+
+@overload
+def verify(
+    station: Station | str | Path,
+    frames: str | Path | None = None,
+    *,
+    out: str | Path | None = None,
+    all_illuminations: bool = False,
+    production: Literal[True],
+    golden: Golden | str | Path | None = None,
+) -> ProductionVerification: ...
 
 
 def verify(
@@ -311,29 +348,41 @@ def verify(
     *,
     out: str | Path | None = None,
     all_illuminations: bool = False,
-) -> Verification:
+    production: bool = False,
+    golden: Golden | str | Path | None = None,
+) -> Verification | ProductionVerification:
     """Verify a station: capture it into ``out`` (unless ``frames``, an earlier capture
     folder, is given), measure it and check the measurement against the prediction
     and the acceptance section. :attr:`Verification.passed <inspect_validate.verification.results.Verification.passed>` is the verdict. As
     ``inspect-validate verify``: illuminations no check needs and the prediction shows
     clearly worse are not captured unless the measurement contradicts it.
 
+    With ``production=True``, the running line instead (``verify --production``): the
+    parts in ``frames``, a folder of production frames, each located and measured, and
+    their means checked against ``golden``'s good parts.
+
     Parameters
     ----------
     station : Station, str or Path
     frames : str or Path, optional
-        An earlier capture folder of this station to verify instead of capturing.
+        An earlier capture folder of this station to verify instead of capturing (with
+        ``production``: the folder of production frames, required).
     out : str or Path, keyword-only, optional
         Where to capture (default: a new folder in the working directory).
     all_illuminations : bool, keyword-only
         Capture every illumination (``verify --all-illuminations``).
+    production : bool, keyword-only
+    golden : Golden, str or Path, keyword-only, optional
+        With ``production``: the golden parts (:func:`train` with ``production=True``,
+        or its file; default the station's ``acceptance.drift.golden``).
 
     Returns
     -------
-    Verification
+    Verification or ProductionVerification
         ``checks`` (each with value, limit, unit, verdict, detail), ``passed``, the
         ``measurements``, the calibrated ``prediction``, the predicted-against-measured
-        ``classes`` and ``comparisons``, the ``ranking``, ``skipped`` and ``notes``.
+        ``classes`` and ``comparisons``, the ``ranking``, ``skipped`` and ``notes``;
+        on the line the ``checks``, ``passed``, the ``parts`` and the likely ``cause``.
 
     Examples
     --------
@@ -345,6 +394,8 @@ def verify(
     """
     from inspect_validate.verification.verify import verify_station
 
+    if production:
+        return _verify_line(_station(station), frames, golden)
     return verify_station(
         _station(station),
         frames=None if frames is None else Path(frames),
@@ -353,15 +404,24 @@ def verify(
     )
 
 
-def train(station: Station | str | Path, captures: Iterable[str | Path]) -> Golden:
+def train(
+    station: Station | str | Path,
+    captures: Iterable[str | Path] | str | Path,
+    *,
+    production: bool = False,
+) -> Golden:
     """The golden statistics of a known-good station from its capture folders (two or
-    more independent captures give each value's spread).
+    more independent captures give each value's spread), or with ``production=True``
+    of the good parts in one folder of production frames (``train --production``: the
+    parts' spread is the one a production verdict allows).
 
     Parameters
     ----------
     station : Station, str or Path
-    captures : sequence of str or Path
-        Capture folders of the station in its known-good state.
+    captures : sequence of str or Path, or (with ``production``) str or Path
+        Capture folders of the station in its known-good state; on the line, the
+        folder of frames of good parts.
+    production : bool, keyword-only
 
     Returns
     -------
@@ -380,7 +440,35 @@ def train(station: Station | str | Path, captures: Iterable[str | Path]) -> Gold
     """
     from inspect_validate.verification.golden import train as run
 
+    if production:
+        from inspect_validate.verification.production import train_production
+
+        if not isinstance(captures, str | Path):
+            raise TypeError("train(..., production=True) takes one folder of frames")
+        return train_production(_station(station), Path(captures))
+    if isinstance(captures, str | Path):
+        raise TypeError("train takes a sequence of capture folders (two or more)")
     return run(_station(station), [Path(c) for c in captures])
+
+
+def _verify_line(st: Station, frames, golden) -> ProductionVerification:
+    """:func:`verify` of the running line."""
+    from inspect_validate.errors import InputError
+    from inspect_validate.verification.golden import Golden, read_golden
+    from inspect_validate.verification.production import verify_production
+
+    if frames is None:
+        raise InputError("the running line is verified from a folder of its frames: give frames")
+    if golden is None:
+        if st.acceptance.drift is None:
+            raise InputError(
+                "no golden file: give golden=, or acceptance.drift.golden in the station file",
+                source=str(st.path),
+            )
+        golden = st.resolve(st.acceptance.drift.golden)
+    if isinstance(golden, Golden):
+        return verify_production(st, Path(frames), golden)
+    return verify_production(st, Path(frames), read_golden(golden), source=str(golden))
 
 
 def design(

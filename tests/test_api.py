@@ -71,6 +71,29 @@ def test_train_and_verify_against_it_from_python(tmp_path):
     assert iv.verify(station, tmp_path / "c1").passed
 
 
+def test_the_running_line_from_python_is_the_cli(tmp_path):
+    """iv.capture, iv.train and iv.verify with production=True give the verdict the CLI
+    gives on the same frames and golden file; a list of folders, a missing folder of
+    frames and a bench golden file are refused."""
+    from inspect_validate.errors import InputError
+
+    line = ROOT / "sample_images" / "line" / "station.yaml"
+    good = iv.capture(line, tmp_path / "good", production=True, parts=20).folder / "amber"
+    golden = iv.train(line, good, production=True)
+    (tmp_path / "golden.json").write_text(json.dumps(golden.document()))
+    batch = iv.capture(line, tmp_path / "batch", production=True, parts=8).folder / "amber"
+    result = iv.verify(line, batch, production=True, golden=tmp_path / "golden.json")
+    code = run_cli(["verify", line, "--production", "--frames", batch, "--golden",
+                    tmp_path / "golden.json", "--report", tmp_path / "r"])  # fmt: skip
+    report = json.loads((tmp_path / "r" / "production.json").read_text())
+    assert (code == 0) == result.passed and report["verdict"] == ("pass" if code == 0 else "fail")
+    assert [c["name"] for c in report["checks"]] == [c.name for c in result.checks]
+    with pytest.raises(TypeError, match="one folder"):
+        iv.train(line, [good], production=True)
+    with pytest.raises(InputError, match="give frames"):
+        iv.verify(line, production=True, golden=golden)
+
+
 def test_a_scene_sweeps_with_its_own_ranking_and_prints_the_commands_table(cli):
     # Scene.sweep() needs no arguments (the scene's rank: and top 10), and the table the
     # command prints is one public call on its result.

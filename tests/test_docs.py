@@ -201,6 +201,36 @@ def test_own_station_page_runs_as_written(tmp_path):
     ).is_file()
 
 
+def test_the_running_line_page_runs_as_written(tmp_path):
+    """Every command of "On the running line"'s walkthrough, in order, on the simulated
+    line: the verdict passes and the watch's cycles are in its history."""
+    import shlex
+    import subprocess
+    import sys
+
+    page = (DOCS / "guide" / "production.md").read_text()
+    block = re.search(r"## From a reference frame to a watch.*?```console\n(.*?)```", page, re.S)
+    commands = [line[2:] for line in block[1].splitlines() if line.startswith("$ ")]
+    assert [c.split()[1] for c in commands] == [
+        "capture", "train", "capture", "verify", "watch", "history"
+    ]  # fmt: skip
+    (tmp_path / "sample_images").symlink_to(ROOT / "sample_images")
+    for command in commands:
+        words = shlex.split(command)
+        run = subprocess.run(
+            [sys.executable, "-m", "inspect_validate", *words[1:]],
+            cwd=tmp_path,
+            capture_output=True,
+            text=True,
+            timeout=600,
+        )
+        assert run.returncode == 0, f"{command}\n{run.stdout[-2000:]}\n{run.stderr[-2000:]}"
+        if words[1] == "verify":
+            assert "PASS" in run.stdout
+    assert (tmp_path / "line" / "report" / "report.html").is_file()
+    assert "cycles 0–2" in run.stdout
+
+
 FORMAT_MODELS = [
     "inspect_validate.station.file:Station",
     "inspect_validate.scene_file:SceneFile",

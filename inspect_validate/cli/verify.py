@@ -106,23 +106,13 @@ def verify(
 
 def _verify_production(st, frames_dir, golden_path, report_dir) -> None:
     """``verify --production``: one verdict over the parts in a folder of frames."""
-    from inspect_validate.errors import InputError
+    from inspect_validate.api import verify as run
     from inspect_validate.report import write_json
     from inspect_validate.report.production import format_production, production_document
-    from inspect_validate.verification.golden import read_golden
-    from inspect_validate.verification.production import verify_production
 
     if frames_dir is None:
         raise click.UsageError("--production verifies a folder of production frames: give --frames")
-    if golden_path is None:
-        if st.acceptance.drift is None:
-            raise InputError(
-                "no golden file: give --golden, or acceptance.drift.golden in the station file",
-                source=str(st.path),
-            )
-        golden_path = st.resolve(st.acceptance.drift.golden)
-    golden = read_golden(golden_path)
-    result = verify_production(st, frames_dir, golden, source=str(golden_path))
+    result = run(st, frames_dir, production=True, golden=golden_path)
     click.echo(format_production(result))
     if report_dir is not None:
         from inspect_validate.report.production import write_production_html

@@ -56,6 +56,10 @@ QUANTITY_LABELS = {
     "variance": "σ² [DN²]",
     "snr_db": "SNR_dB [dB]",
     "log_error": "log₁₀ ε Gauss",
+    "focus": "focus [DN²]",
+    "x": "position x [px]",
+    "y": "position y [px]",
+    "angle": "rotation [°]",
 }
 
 
