@@ -275,6 +275,7 @@ def moved_masks(masks: dict[str, np.ndarray], pose: Pose) -> MovedRegions:
     a, b = pose.matrix[:, :2], pose.matrix[:, 2]
     centres = np.column_stack([a, b + a @ np.array([0.5, 0.5]) - 0.5])
     shape: tuple[int, int] = (0, 0)
+    weights: np.ndarray  # a region's, within its box
     for name, mask in masks.items():
         h, w = shape = mask.shape
         box, weights = (0, 0, 0, 0), np.zeros((0, 0), np.float32)

@@ -458,7 +458,7 @@ class SimulatedGrabber(Grabber):
         x, y, w, h = self.part_box
         # About the part's centre (pixel centres), then shifted.
         matrix = cv2.getRotationMatrix2D((x + w / 2 - 0.5, y + h / 2 - 0.5), -degrees, 1.0)
-        matrix[:, 2] += (dx, dy)
+        matrix[:, 2] += np.array([dx, dy])
         moved = cv2.warpAffine(part, matrix, part.shape[::-1], flags=cv2.INTER_NEAREST)
         on = cv2.warpAffine(self._on, matrix, part.shape[::-1], flags=cv2.INTER_NEAREST)
         # The part's own gaps between bands are the belt's colour too.
