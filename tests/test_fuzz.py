@@ -407,6 +407,54 @@ def test_a_simulated_line_is_validated_not_crashed_on(capsys, line, dust, parts)
             assert len(list((tmp / "o" / "amber").glob("*.tif"))) == parts
 
 
+@settings(SETTINGS, max_examples=25)
+@given(
+    block=st.dictionaries(
+        st.sampled_from(
+            [
+                "illumination",
+                "reference",
+                "template",
+                "margin",
+                "motion",
+                "min_score",
+                "min_pixels",
+                "parts",
+            ]
+        ),
+        st.one_of(
+            junk,
+            st.sampled_from(["amber", "red", "reference.tiff", "rois.yaml", "affine"]),
+            st.lists(st.integers(-10, 600), min_size=4, max_size=4),
+            st.floats(0, 1),
+        ),
+        max_size=4,
+    )
+)
+@example(block={"template": [0, 0, 480, 360], "motion": "affine"})
+@example(block={"reference": "rois.yaml"})
+@example(block={"min_score": 1.0, "min_pixels": 10**6})
+def test_production_blocks_are_validated_not_crashed_on(capsys, block):
+    """``train --production`` of two frames of the line with a generated ``production:``
+    block: a golden file, or a message naming the file and key (exit 2)."""
+    line_dir = Path(__file__).parent.parent / "sample_images" / "line"
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        doc = yaml.safe_load((line_dir / "station.yaml").read_text())
+        doc["scene"] = str(SCENE)
+        doc["production"] = {**doc["production"], **block}
+        (tmp / "st.yaml").write_text(yaml.safe_dump(doc))
+        for name in ("rois.yaml", "reference.tiff"):
+            shutil.copy(line_dir / name, tmp / name)
+        (tmp / "frames").mkdir()
+        for k in range(2):
+            shutil.copy(line_dir / "reference.tiff", tmp / "frames" / f"f{k}.tiff")
+        code, out, err = run(["train", tmp / "st.yaml", "--production", "--frames",
+                              tmp / "frames", "--out", tmp / "g.json"], capsys)  # fmt: skip
+        assert_clean(code, out, err)
+        assert (code == 0) == (tmp / "g.json").is_file()
+
+
 @settings(SETTINGS, max_examples=15)
 @given(
     precision=rarely_junk(

@@ -146,6 +146,13 @@ def part_locator(station: Station) -> PartLocator:
         m = production.margin
         x0, y0, x1, y1 = max(0, x0 - m), max(0, y0 - m), min(width, x1 + m), min(height, y1 + m)
         template = (x0, y0, x1 - x0, y1 - y0)
+    x, y, w, h = template
+    if not float(reference[y : y + h, x : x + w].std()) > 0:
+        raise InputError(
+            f"the reference's template window [{x}, {y}, {w}, {h}] is flat (a frame without a "
+            "part?); give a frame of a good part as production.reference",
+            source=str(path),
+        )
     return PartLocator(
         reference=reference,
         masks=masks,
