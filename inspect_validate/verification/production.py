@@ -202,7 +202,8 @@ class ProductionVerification:
     @property
     def cause(self) -> str | None:
         """The likely cause of the failed checks, from their pattern (None where every
-        check passed): a light level moves every class's μ by one factor; its spectrum
+        check passed): a light level moves every class's μ by one factor (a gain too,
+        told apart by σ² against the EMVA model: :func:`_light_or_gain`); its spectrum
         or the parts move them by different ones; a lens out of focus lowers the focus
         measure at steady μ; parts that differ move σ² with μ and focus steady; a shade
         fixed in the frame (dust on the lens) makes a class's μ depend on where the part
@@ -325,6 +326,22 @@ def _cause(v: ProductionVerification) -> str | None:
         same_sign = all(x < 0 for x in values) or all(x > 0 for x in values)
         if same_sign and max(values) - min(values) <= 0.25 * max(abs(x) for x in values):
             level = float(np.median(values))
+            which = _light_or_gain(v, golden, list(lit))
+            if which == "gain":
+                return (
+                    f"the camera's gain is {'down' if level < 0 else 'up'} by about "
+                    f"{100 * abs(level):.1f} % (every class's μ moved together, and σ² by the "
+                    "square of μ's factor, the sensor's noise with it, where more or less "
+                    "light would move the noise as the EMVA model says): the gain or "
+                    "another camera setting changed"
+                )
+            if which == "light":
+                return (
+                    f"the light is {'dimmer' if level < 0 else 'brighter'} by about "
+                    f"{100 * abs(level):.1f} % (every class's μ moved together, σ² with the "
+                    "light's photons as the EMVA model says, not as a gain would): LED "
+                    "output, or the exposure time"
+                )
             return (
                 f"the light is {'dimmer' if level < 0 else 'brighter'} by about "
                 f"{100 * abs(level):.1f} % (every class's μ moved together): LED output, "
@@ -351,6 +368,50 @@ def _cause(v: ProductionVerification) -> str | None:
     if any(name.endswith(" σ² drift") for name in failed):
         return "the classes' spread changed at steady μ and focus: the parts differ"
     return "the contrast between the classes changed at steady μ: the parts differ"
+
+
+def _light_or_gain(v: ProductionVerification, golden, classes: list[str]) -> str | None:
+    """Whether ``classes``' change is the light's ("light": more or fewer photons; the
+    exposure time does the same) or the camera's gain ("gain"), from σ² against the EMVA
+    model at the golden mean (None where the batch cannot tell them apart at 3 standard
+    errors).
+
+    A class's σ² on a part is its texture T and the sensor's temporal noise
+    N = K (μ − μ_dark) + K² σ_d² + 1/12 DN² (EMVA 1288; K, σ_d, μ_dark the station
+    camera's). With the signal μ − μ_dark scaled by a, a light scales T by a² and N's
+    photon part by a: σ² by (T a² + K (μ − μ_dark) a + K² σ_d² + 1/12) / σ²₀; a gain
+    scales all of σ² by a² (the 1/12 aside)."""
+    from inspect_validate.station.model import station_model
+
+    sensor = station_model(v.station).sensor
+    k, dark = sensor.gain, sensor.dark_offset
+    parts = v.parts.measured
+    index = {c.name: i for i, c in enumerate(parts[0].measurement.classes)}
+    evidence = 0.0  # Σ (z_light² − z_gain²): positive favours a gain
+    for name in classes:
+        g, i = golden.classes[name], index[name]
+        mu = np.array([p.measurement.classes[i].mean for p in parts])
+        var = np.array([p.measurement.classes[i].variance for p in parts])
+        signal = g.mean.mean - dark
+        if not (signal > 0 and g.variance.mean > 0 and len(parts) >= 2):
+            continue
+        a = (float(mu.mean()) - dark) / signal
+        noise = min(k * signal + (k * sensor.dark_noise) ** 2 + 1 / 12, g.variance.mean)
+        texture = g.variance.mean - noise
+        light = (texture * a * a + k * signal * a + (noise - k * signal)) / g.variance.mean
+        se = float(
+            np.hypot(var.std(ddof=1) / np.sqrt(len(parts)), g.variance.std / np.sqrt(g.variance.n))
+        )
+        b = float(var.mean()) / g.variance.mean
+        if not se > 0:
+            continue
+        se /= g.variance.mean
+        evidence += ((b - light) / se) ** 2 - ((b - a * a) / se) ** 2
+    if evidence > 9:
+        return "gain"
+    if evidence < -9:
+        return "light"
+    return None
 
 
 def _shaded(v: ProductionVerification, golden) -> list[str]:

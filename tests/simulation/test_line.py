@@ -62,8 +62,18 @@ def test_good_parts_pass(golden, tmp_path, capsys):
     ("world", "failing", "cause"),
     [
         # The black level keeps the DN ratio a little short of the light's.
-        ({"irradiance": {1: 0.95}}, "μ drift", r"the light is dimmer by about (4\.[5-9]|5\.0) %"),
-        ({"gain_error": 0.02}, "μ drift", r"the light is brighter by about (1\.[89]|2\.0) %"),
+        (
+            {"irradiance": {1: 0.95}},
+            "μ drift",
+            r"the light is dimmer by about (4\.[5-9]|5\.0) % .*the EMVA model.*or the exposure time",
+        ),
+        ({"gain_error": 0.02}, "μ drift", r"the camera's gain is up by about (1\.[89]|2\.0) %"),
+        (
+            {"exposure": 0.97},
+            "μ drift",
+            r"the light is dimmer by about (2\.[5-9]|3\.0) % .*exposure",
+        ),
+        ({"gain_error": -0.03}, "μ drift", r"the camera's gain is down by about (2\.[5-9]|3\.0) %"),
         ({"blur_px": 1.0}, "focus drift", "the focus measure fell by"),
         ({"line": {"missing": 0.7}}, "parts found", "most frames hold no part"),
         (
@@ -72,7 +82,15 @@ def test_good_parts_pass(golden, tmp_path, capsys):
             r"B(, C)?: μ now depends on where the part lies.*dust or a smudge on the lens",
         ),
     ],
-    ids=["light -5 %", "gain +2 %", "defocus", "parts missing", "dust"],
+    ids=[
+        "light -5 %",
+        "gain +2 %",
+        "exposure -3 %",
+        "gain -3 %",
+        "defocus",
+        "parts missing",
+        "dust",
+    ],
 )
 def test_each_fault_fails_naming_its_cause(golden, tmp_path, capsys, world, failing, cause):
     station = line_station(tmp_path, **world)
