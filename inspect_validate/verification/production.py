@@ -203,7 +203,7 @@ class ProductionVerification:
     def cause(self) -> str | None:
         """The likely cause of the failed checks, from their pattern (None where every
         check passed): a light level moves every class's μ by one factor (a gain too,
-        told apart by σ² against the EMVA model: :func:`_light_or_gain`); its spectrum
+        told apart by σ² against the EMVA model); its spectrum
         or the parts move them by different ones; a lens out of focus lowers the focus
         measure at steady μ; parts that differ move σ² with μ and focus steady; a shade
         fixed in the frame (dust on the lens) makes a class's μ depend on where the part
