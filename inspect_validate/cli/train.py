@@ -77,13 +77,18 @@ def train(station, golden_path, repeats, frames_dirs, frames_out, production) ->
             captures.append(folder)
         click.echo(f"frames: {base}")
     golden = run_train(st, captures, regions=regions)
-    from inspect_validate.verification.plan import planned_tests
+    from dataclasses import replace
+
+    from inspect_validate.verification.dominance import dominated_illuminations
+    from inspect_validate.verification.plan import plan_verification, planned_tests
 
     rate = st.acceptance.false_alarm_rate
-    rois, comparisons = regions
-    tests = planned_tests(
-        st, [c.name for c in rois.classes], comparisons.labels, golden, drift=True
-    )
+    # The checks verify will share the rate among, as it plans them (the illuminations it
+    # leaves out as dominated, the comparisons the prediction puts below the floors).
+    plain = st.model_copy(update={"acceptance": st.acceptance.model_copy(update={"drift": None})})
+    plan = plan_verification(plain)
+    plan = replace(plan, dominated=dominated_illuminations(st, plan.prediction))
+    tests = planned_tests(st, plan, golden, drift=True)
     floor = st.acceptance.drift.snr_floor_db if st.acceptance.drift else -20.0
     click.echo(format_golden(golden, share=rate / tests, rate=rate, snr_floor_db=floor))
     write_json(golden.document(), golden_path)

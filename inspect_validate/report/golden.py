@@ -63,7 +63,8 @@ def format_golden(
         text = (
             f"catches: the smallest change of μ (DN) and SNR_dB (dB) its drift check catches "
             f"with 95 % probability, at a false-alarm rate of {100 * (rate or share):.3g} % "
-            f"({share:.2g} a check)"
+            + (f"shared by the {round(rate / share)} checks verify makes " if rate else "")
+            + f"({share:.2g} a check)"
         )
         if n >= 2:
             text += (

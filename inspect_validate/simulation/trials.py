@@ -246,8 +246,7 @@ def run_trials(
             classes=classes,
             comparisons=plan.comparisons.labels,
             source=f"run {run}'s golden",
-            share=checked.acceptance.false_alarm_rate
-            / planned_tests(checked, classes, plan.comparisons.labels, golden),
+            share=checked.acceptance.false_alarm_rate / planned_tests(checked, plan, golden),
         )
         trial_plan = replace(plan, golden=golden)
         for k, (case, world) in enumerate(worlds.items()):

@@ -12,7 +12,7 @@ from inspect_validate.verification.checks import Check, at_least, at_most, not_r
 from inspect_validate.verification.results import RankingAgreement
 
 if TYPE_CHECKING:
-    from collections.abc import Mapping, Sequence
+    from collections.abc import Collection, Mapping, Sequence
 
     from inspect_validate.acceptance import Acceptance
     from inspect_validate.measurement import Measurement
@@ -84,6 +84,7 @@ def acceptance_checks(
     errors: dict[str, StandardErrors] | None = None,
     *,
     unlit: Mapping[str, str] | None = None,
+    agreed: Collection[tuple[str, str]] | None = None,
 ) -> tuple[list[Check], list[str]]:
     """The checks ``acc`` asks for, and the work left out (a skip: only what nobody asked
     for). A check that cannot be evaluated is :func:`not_run`, a failure that says why —
@@ -91,7 +92,9 @@ def acceptance_checks(
     :class:`~.uncertainty.StandardErrors`: the tolerance checks' margins
     (:func:`~.checks.decide` sets them). ``unlit`` is illumination → what was measured,
     for those whose light does not reach the camera: left out of ``measurements``, their
-    separation checks do not run."""
+    separation checks do not run. ``agreed`` holds the (illumination, comparison) pairs
+    whose SNR_dB agreement is checked, decided from the prediction before any frame
+    (:meth:`~.plan.Plan.agreed`); default: those predicted at or above the floor."""
     errors = {} if errors is None else errors
     unlit = unlit or {}
     checks, skipped = [], []
@@ -221,15 +224,22 @@ def acceptance_checks(
                     )
                 )
         if agree.snr_db is not None:
+            if agreed is None:
+                agreed = {
+                    (r.illumination, r.comparison)
+                    for r in comparison_rows
+                    if r.predicted.snr_db >= agree.snr_floor_db
+                }
             below = [
                 f"{r.illumination}: {r.comparison}"
                 for r in comparison_rows
-                if max(r.predicted.snr_db, r.measured.snr_db) < agree.snr_floor_db
+                if (r.illumination, r.comparison) not in agreed
             ]
             if below:
                 skipped.append(
-                    f"SNR_dB agreement of {', '.join(below)}: predicted and measured below "
-                    f"agreement.snr_floor_db ({agree.snr_floor_db:g} dB)"
+                    f"SNR_dB agreement of {', '.join(below)}: predicted below "
+                    f"agreement.snr_floor_db ({agree.snr_floor_db:g} dB), in every "
+                    "verification of this station"
                 )
             index = {
                 (ill, c.label): j
@@ -237,8 +247,8 @@ def acceptance_checks(
                 for j, c in enumerate(m.comparisons)
             }
             for row in comparison_rows:
-                if max(row.predicted.snr_db, row.measured.snr_db) < agree.snr_floor_db:
-                    continue  # both unseparable: the dB values carry no agreement to check
+                if (row.illumination, row.comparison) not in agreed:
+                    continue  # predicted unseparable: the dB carry no agreement to check
                 j = index[row.illumination, row.comparison]
                 checks.append(
                     at_most(

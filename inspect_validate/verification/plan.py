@@ -4,6 +4,7 @@ station file costs no capture; and how many checks will share the false-alarm ra
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
@@ -11,8 +12,6 @@ from inspect_validate.errors import InputError
 from inspect_validate.verification.measured import station_regions
 
 if TYPE_CHECKING:
-    from collections.abc import Sequence
-
     from inspect_validate.acceptance import Acceptance
     from inspect_validate.comparisons import Comparisons
     from inspect_validate.roi import RoiSet
@@ -41,6 +40,24 @@ class Plan:
     dominated: dict[str, str] = field(default_factory=dict)
     """Illuminations left out of the capture as dominated (:func:`dominated_illuminations`):
     name → why, and how to add it; listed as skipped."""
+
+    def agreed(self, acceptance: Acceptance) -> frozenset[tuple[str, str]]:
+        """The (illumination, comparison) pairs whose SNR_dB agreement is checked: those
+        the prediction puts at or above ``agreement.snr_floor_db`` (below it, SNR_dB is
+        the log of a near-zero contrast and agrees with nothing). Decided from the
+        prediction before any frame, so that every verification of the station checks
+        the same set, and ``train`` counts it: a comparison near the floor would come and
+        go with the noise of its measurement."""
+        floor = acceptance.agreement.snr_floor_db if acceptance.agreement else -math.inf
+        p = self.prediction
+        labels = p.comparison_set.labels
+        return frozenset(
+            (ill, label)
+            for i, ill in enumerate(p.illuminations)
+            if ill not in self.dominated
+            for j, label in enumerate(labels)
+            if p.snr_db[i, j] >= floor
+        )
 
     def measuring(self, acceptance: Acceptance) -> dict:
         """How the station's frames are measured for its verification: the options of
@@ -109,7 +126,12 @@ def plan_verification(station: Station, *, drift_checks: bool = True) -> Plan:
             "calibration 'fit' or 'reference'",
             source=source,
         )
-    golden = None
+    # Only the ROI classes are predicted.
+    scene = replace(model.scene, classes=tuple(scene_classes[n] for n in names))
+    model = replace(model, scene=scene)
+    unweighted = replace(comparisons, weights="equal") if comparisons.weights == "pixels" else None
+    prediction = model.predict(station, comparisons=unweighted or comparisons)
+    plan = Plan(rois, comparisons, model, None, prediction)
     if acc.drift:
         from inspect_validate.verification.golden_checks import validate_golden
 
@@ -121,40 +143,34 @@ def plan_verification(station: Station, *, drift_checks: bool = True) -> Plan:
             classes=names,
             comparisons=comparisons.labels,
             source=str(station.resolve(acc.drift.golden)),
-            share=acc.false_alarm_rate / planned_tests(station, names, comparisons.labels, golden)
+            share=acc.false_alarm_rate / planned_tests(station, plan, golden)
             if drift_checks
             else None,
         )
-    # Only the ROI classes are predicted.
-    scene = replace(model.scene, classes=tuple(scene_classes[n] for n in names))
-    model = replace(model, scene=scene)
-    unweighted = replace(comparisons, weights="equal") if comparisons.weights == "pixels" else None
-    prediction = model.predict(station, comparisons=unweighted or comparisons)
-    return Plan(rois, comparisons, model, golden, prediction)
+        plan = replace(plan, golden=golden)
+    return plan
 
 
 def planned_tests(
-    station: Station,
-    classes: Sequence[str],
-    comparisons: Sequence[str],
-    golden: Golden | None = None,
-    *,
-    drift: bool = False,
+    station: Station, plan: Plan, golden: Golden | None = None, *, drift: bool = False
 ) -> int:
-    """How many checks of ``station``'s acceptance will share its false-alarm rate
-    (:func:`~.checks.decide`), counted before any frame: every statistical and tolerance
-    check it asks for on the ROI ``classes`` and ``comparisons`` (labels), the drift
-    checks on what ``golden`` holds above the drift floor. An upper bound where a check
-    depends on the frames (agreement of comparisons below the SNR_dB floor is left out
-    then), so that a share from it is never too large. ``drift``: count the drift checks
-    of ``golden`` as the acceptance's default drift block would, where it has none (what
-    ``train`` tells of a golden file before the station uses it)."""
+    """How many checks of ``station``'s acceptance share its false-alarm rate
+    (:func:`~.checks.decide`), counted before any frame from ``plan``: every statistical
+    and tolerance check it asks for on the regions' classes and the comparisons of the
+    illuminations it captures (not those left out as dominated), SNR_dB agreement on the
+    comparisons :meth:`Plan.agreed` keeps, drift on what ``golden`` holds at or above the
+    drift floor. The same set every verification of the station checks. ``drift``: count
+    the drift checks of ``golden`` as the acceptance's default drift block would, where it
+    has none (what ``train`` tells of a golden file before the station uses it)."""
     from inspect_validate.acceptance import Drift
 
     acc = station.acceptance
     if drift and acc.drift is None:
         acc = acc.model_copy(update={"drift": Drift(golden="-")})
-    ills = len(station.illuminations)
+    classes = [c.name for c in plan.rois.classes]
+    comparisons = plan.comparisons.labels
+    captured = [i.name for i in station.illuminations if i.name not in plan.dominated]
+    ills = len(captured)
     n = 0
     for sep in acc.separation:
         per = sum(x is not None for x in (sep.min_snr_db, sep.min_cnr_db, sep.max_error))
@@ -166,10 +182,13 @@ def planned_tests(
             * len(classes)
             * ((a.mean_relative is not None) + (a.variance_relative is not None))
         )
-        n += ills * len(comparisons) * (a.snr_db is not None)
+        n += len(plan.agreed(acc)) * (a.snr_db is not None)
     n += bool(acc.ranking and ills > 1) + (acc.gain_relative is not None)
     if acc.drift is not None and golden is not None:
-        for g in golden.illuminations.values():
+        for name in captured:
+            g = golden.illuminations.get(name)
+            if g is None:
+                continue
             if acc.drift.mean_dn is None:
                 n += len(classes)
             if acc.drift.snr_db is None:

@@ -309,11 +309,25 @@ def verify_capture(
         gain_missing,
         errors,
         unlit=unlit,
+        agreed=plan.agreed(acc),
     )
     checks = [*light, *checks]
     skipped += [*not_ranked, *unchecked]
     if golden is not None and measurements:
         checks += drift_checks(golden, measurements, acc.drift, errors)
+        if acc.drift is not None and acc.drift.snr_db is None:
+            below = [
+                f"{ill}: {label}"
+                for ill in measurements
+                for label, comp in golden.illuminations[ill].comparisons.items()
+                if not comp.snr_db.mean >= acc.drift.snr_floor_db
+            ]
+            if below:
+                skipped.append(
+                    f"SNR_dB drift of {', '.join(below)}: below acceptance.drift.snr_floor_db "
+                    f"({acc.drift.snr_floor_db:g} dB) when trained, in every verification "
+                    "against this golden file"
+                )
     rate = acc.false_alarm_rate
     decided = decide(checks, rate)
     notes += _uncertainty_notes(acc, decided, golden, prediction, list(measurements))

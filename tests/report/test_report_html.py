@@ -99,7 +99,9 @@ def test_skipped_work_is_rows_of_the_checks_table(report):
     assert any(r[1].startswith("ε KDE: no check asks for it") for r in skipped)
     assert any(
         r[1].startswith("SNR_dB agreement of amber: C vs A,B, red:")
-        and r[1].endswith("below agreement.snr_floor_db (-20 dB)")
+        and r[1].endswith(
+            "below agreement.snr_floor_db (-20 dB), in every verification of this station"
+        )
         for r in skipped
     )
     assert '<tr class="skipped">' in text and "<p>skipped:" not in text

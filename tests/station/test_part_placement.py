@@ -126,7 +126,7 @@ def test_bad_production_blocks_name_the_key(tmp_path):
     with pytest.raises(InputError, match="colour"):
         part_locator(station)
     cv2.imwrite(str(tmp_path / "belt.png"), np.full(SIZE, 30, np.uint8))
-    with pytest.raises(InputError, match="is flat .a frame without a part") as caught:
+    with pytest.raises(InputError, match=r"is flat \(a frame without a part") as caught:
         part_locator(production_station(tmp_path, reference="belt.png"))
     assert caught.value.source.endswith("belt.png")
     locator = part_locator(production_station(tmp_path))

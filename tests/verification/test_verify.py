@@ -596,3 +596,39 @@ def test_verify_measures_each_step_while_the_next_is_captured(tmp_path, monkeypa
     assert [(c.name, c.value, c.limit) for c in once.checks] == [
         (c.name, c.value, c.limit) for c in after.checks
     ]
+
+
+@pytest.mark.parametrize("every", [False, True], ids=["dominated left out", "all illuminations"])
+def test_every_verification_of_a_station_shares_the_rate_among_the_planned_checks(
+    tmp_path, golden, every
+):
+    """Other draws of the classes (world.reflectance_seed 1–4: red comparisons that sit
+    about the −20 dB floor measure above it in some draws and below in others): each
+    verification has the very checks the plan counts before any frame (what train
+    divides the rate by), so the count and the share never move with the measurement."""
+    from dataclasses import replace
+
+    from inspect_validate.station.file import read_station
+    from inspect_validate.verification.checks import count_tests
+    from inspect_validate.verification.dominance import dominated_illuminations
+    from inspect_validate.verification.plan import plan_verification, planned_tests
+    from inspect_validate.verification.verify import verify_station
+
+    counts = set()
+    for seed in range(1, 5):
+        folder = tmp_path / f"s{seed}"
+        folder.mkdir()
+        path = copy_station(folder, world={"reflectance_seed": seed})
+        doc = yaml.safe_load(path.read_text())
+        doc["acceptance"]["drift"] = {"golden": str(golden), "k": 3}
+        path.write_text(yaml.safe_dump(doc, sort_keys=False))
+        station = read_station(path)
+        plan = plan_verification(station)
+        if not every:
+            plan = replace(plan, dominated=dominated_illuminations(station, plan.prediction))
+        v = verify_station(station, out=folder / "frames", skip_dominated=not every)
+        if v.notes and any("captured" in n and "after all" in n for n in v.notes):
+            continue  # the prediction's dominance did not hold: every illumination taken
+        counts.add((count_tests(v.checks), planned_tests(station, plan, plan.golden)))
+    assert counts and all(got == planned for got, planned in counts), counts
+    assert len({got for got, _ in counts}) == 1, counts
