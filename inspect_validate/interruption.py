@@ -40,12 +40,30 @@ def _on_signal(signum, frame) -> None:
 def install() -> None:
     """Handle SIGTERM and SIGINT as a stop (:func:`stop_if_requested`); SIGINT too where it was
     inherited as ignored (a job started with ``&`` from a script). Does nothing outside
-    the main thread, where an embedding program keeps its own handling."""
+    the main thread, where an embedding program keeps its own handling.
+
+    A signal that lands while Python runs code whose exceptions it cannot pass on (a
+    finalizer, a callback of C code, a dict lookup's ``__eq__``) has its
+    :class:`Interrupted` written off as "Exception ignored", with a traceback, on stderr.
+    Such an Interrupted is dropped silently instead: its signal is recorded, and the stop
+    comes at the next :func:`stop_if_requested`."""
+    import sys
+
     try:
         for sig in (signal.SIGTERM, signal.SIGINT):
             signal.signal(sig, _on_signal)
     except ValueError:  # not the main thread
-        pass
+        return
+    if getattr(sys.unraisablehook, "_drops_interrupted", False):
+        return
+    previous = sys.unraisablehook
+
+    def hook(unraisable) -> None:
+        if not isinstance(unraisable.exc_value, Interrupted):
+            previous(unraisable)
+
+    hook._drops_interrupted = True  # type: ignore[attr-defined]
+    sys.unraisablehook = hook
 
 
 def requested() -> int | None:

@@ -7,14 +7,16 @@ two stages on the template (a window of the reference holding the part):
 
 1. **coarse:** normalised cross-correlation (``cv2.matchTemplate``, ``TM_CCOEFF_NORMED``)
    of the template in the frame, both averaged down by a power of two until the template
-   is about :data:`COARSE_SIZE` px across; the peak is the translation to the pixel of
-   that level;
+   is about :data:`COARSE_SIZE` px across, the frame widened by a quarter of the template
+   with its median (a part the frame's edge cuts is found too); the peak is the
+   translation to the pixel of that level;
 2. **fine:** ``cv2.findTransformECC`` (Evangelidis & Psarakis 2008) from that start, with
    the motion asked for (translation, euclidean: translation and rotation, or affine),
    level by level down the pyramid to the one where the template is at most
    :data:`FINE_SIZE` px across (full resolution for a smaller template): a 5 MP frame's
    part is placed to about a tenth of a pixel without an iteration over 5 MP. Its
-   correlation coefficient at that level is the match score.
+   correlation coefficient at that level, over the template's pixels inside the frame,
+   is the match score.
 
 A pose maps reference coordinates to frame coordinates, in the pixel-corner convention
 of :mod:`inspect_validate.roi.shapes` (pixel (x, y) covers [x, x + 1) × [y, y + 1)).
@@ -149,9 +151,19 @@ def locate_part(
         below = images[-1] if level else np.asarray(images[-1], np.float32)
         images.append(np.asarray(cv2.pyrDown(below)))
 
-    # 1. Coarse: the translation at the level where the template is ~COARSE_SIZE px.
-    scores = cv2.matchTemplate(images[coarse], patches[coarse], cv2.TM_CCOEFF_NORMED)
+    # 1. Coarse: the translation at the level where the template is ~COARSE_SIZE px. The
+    # frame is widened by a quarter of the template on each side with its median (the
+    # belt, mostly), so that a part the frame's edge cuts is still found there: ECC then
+    # refines on the pixels inside the frame only.
+    ph, pw = patches[coarse].shape
+    py, px = ph // 4, pw // 4
+    widened = cv2.copyMakeBorder(
+        images[coarse], py, py, px, px, cv2.BORDER_CONSTANT,
+        value=float(np.median(images[coarse])),
+    )  # fmt: skip
+    scores = cv2.matchTemplate(widened, patches[coarse], cv2.TM_CCOEFF_NORMED)
     _, _, _, (cx, cy) = cv2.minMaxLoc(scores)
+    cx, cy = cx - px, cy - py
     # ECC's warp: patch pixel centres → frame pixel centres, at the coarse level.
     warp = np.array([[1.0, 0.0, cx], [0.0, 1.0, cy]], np.float32)
 
