@@ -9,7 +9,7 @@ Two lines:
 
 1. **A photograph on a belt** (frames no one here drew): scikit-image's cameraman moved
    by up to 40 px and turned by up to 5° with 2 DN of noise; 16 golden parts, 8 a batch;
-   a light 5 % dimmer, 2 % brighter (a gain step) and a lens out of focus.
+   a light 5 % dimmer and 2 % brighter, and a lens out of focus.
 2. **The simulated line** (``sample_images/line``, rendered in process by its simulated
    camera: every part another draw of its classes, EMVA noise): 40 golden parts, 10 a
    batch; the amber light 5 % and 1 % dimmer, the camera's gain 2 % up, a defocus of
@@ -38,7 +38,7 @@ BATCH_PARTS = 8
 CASES = {
     "good parts": {},
     "light −5 %": {"gain": 0.95},
-    "light +2 % (a gain step)": {"gain": 1.02},
+    "light +2 %": {"gain": 1.02},
     "defocus (blur σ 1 px)": {"blur": 1.0},
 }
 
