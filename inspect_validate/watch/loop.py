@@ -199,108 +199,39 @@ def set_aside(frames: Path) -> Path:
 
 
 def _cycle(station, plan, history, monitor, folder, settings, failures, line=None):
-    from inspect_validate.station.capture import capture
-    from inspect_validate.station.file import simulated_at
-    from inspect_validate.verification.measured import StepMeasurer
-    from inspect_validate.verification.verify import verify_folder
-    from inspect_validate.watch.drift import series_of
+    from inspect_validate.watch.history import CycleRecord
 
     n = history.next_cycle()
     frames = folder / f"cycle-{n:06d}"
     if frames.exists():  # a cycle that never committed (killed): keep its frames aside
         set_aside(frames)
     when, t0 = time.time(), time.monotonic()
-    if line is not None:
-        return _line_cycle(station, history, monitor, frames, settings, failures, line, when, t0)
+    # hours since the history began: a restarted watch goes on ageing its simulated LEDs
+    hours = (when - history.created) / 3600.0
     state = verification = None
     try:
-        # Each step measured while the next is captured, as verify does.
-        with StepMeasurer(frames, **plan.measuring(station.acceptance)) as measured:
-            # hours since the history began: a restarted watch goes on ageing its simulated LEDs
-            at = simulated_at(station, n, hours=(when - history.created) / 3600.0)
-            capture(at, frames, completed=measured)
-            verification = verify_folder(station, frames, plan=plan, measured=measured)
-    except DeviceError as exc:
-        failures += 1
-        status, passed, reason = "error", None, str(exc)
-        cause = "stale camera: frames stopped changing" if "stale" in reason else None
-    else:
-        failures = 0
-        state = monitor.update(series_of(verification))
-        passed = verification.passed
-        status = "fail" if not passed else ("drift" if state.drifting else "pass")
-        failed = [c for c in verification.checks if not c.passed]
-        reason = "; ".join(c.name for c in failed[:3]) or None
-        saturated = [c.name for c in failed if c.kind == "saturation"]
-        cause = f"a class clips: {saturated[0]}" if saturated else state.cause
-    return _commit(
-        history, n, frames, settings, failures, when, t0,
-        (status, passed, reason, cause), state, verification,
-    )  # fmt: skip
-
-
-def _line_cycle(station, history, monitor, frames, settings, failures, line, when, t0):
-    """One cycle of ``watch --production``: a batch of parts, verified and charted."""
-    from inspect_validate.station.capture import capture, production_steps
-    from inspect_validate.station.file import simulated_at
-    from inspect_validate.verification.production import measure_frames, verify_parts
-    from inspect_validate.watch.drift import series_of_parts
-
-    n = history.next_cycle()
-    state = verification = None
-    name = station.production.illumination
-    try:
-        if line.feed is None:
-            at = simulated_at(station, n, hours=(when - history.created) / 3600.0)
-            capture(at, frames, steps=production_steps(at))
-            files, skipped = sorted((frames / name).glob("*.tif")), 0
+        if line is None:
+            verification, values, note = _station_batch(station, plan, frames, n, hours)
         else:
-            files, skipped = line.feed.take()
-        unreadable: dict[str, str] = {}
-        parts = measure_frames(station, _readable(files, unreadable), refuse=False)
-        parts = replace(parts, not_measured={**unreadable, **parts.not_measured})
-        verification = verify_parts(station, parts, line.golden, drift=False)
+            verification, values, note = _line_batch(station, line, frames, n, hours)
     except DeviceError as exc:
         failures += 1
         status, passed, reason = "error", None, str(exc)
         cause = "stale camera: frames stopped changing" if "stale" in reason else None
     else:
         failures = 0
-        state = monitor.update(series_of_parts(parts, name))
+        state = monitor.update(values)
         passed = verification.passed
         status = "fail" if not passed else ("drift" if state.drifting else "pass")
         failed = [c for c in verification.checks if not c.passed]
-        reason = "; ".join(c.name for c in failed[:3]) or None
-        if skipped:
-            reason = "; ".join(
-                filter(None, [reason, f"{skipped} frames skipped (they land faster than measured)"])
-            )
-        cause = verification.cause if failed else state.cause
-    return _commit(
-        history, n, frames, settings, failures, when, t0,
-        (status, passed, reason, cause), state, verification,
-    )  # fmt: skip
-
-
-def _readable(files, unreadable: dict[str, str]):
-    """``(name, frame)`` of each file that can be read; each that cannot (cut short, not
-    an image) is put in ``unreadable`` with why, and the watch goes on."""
-    from inspect_validate.errors import InputError
-    from inspect_validate.images import read_image
-
-    for path in files:
-        try:
-            yield str(path), read_image(path)
-        except InputError as exc:
-            unreadable[str(path)] = f"cannot be read: {exc}"
-
-
-def _commit(history, n, frames, settings, failures, when, t0, verdict, state, verification):
-    """Commit cycle ``n`` (``verdict``: status, passed, reason, cause) and its charts'
-    points; keep or delete its frames."""
-    from inspect_validate.watch.history import CycleRecord
-
-    status, passed, reason, cause = verdict
+        reason = "; ".join([*(c.name for c in failed[:3]), *filter(None, [note])]) or None
+        saturated = [c.name for c in failed if c.kind == "saturation"]
+        if saturated:
+            cause = f"a class clips: {saturated[0]}"
+        elif failed and line is not None:
+            cause = verification.cause  # the production verdict's own reading of them
+        else:
+            cause = state.cause
     keep = status != "pass" or n % max(settings.keep_every, 1) == 0
     record = CycleRecord(
         cycle=n,
@@ -317,3 +248,57 @@ def _commit(history, n, frames, settings, failures, when, t0, verdict, state, ve
         if not keep:
             shutil.rmtree(frames, ignore_errors=True)
     return CycleOutcome(record, state, verification, failures)
+
+
+def _station_batch(station, plan, frames, n, hours):
+    """A cycle of the station: every illumination captured into ``frames`` and verified
+    (each step measured while the next is captured, as verify does); the verification,
+    its charted values, and no note."""
+    from inspect_validate.station.capture import capture
+    from inspect_validate.station.file import simulated_at
+    from inspect_validate.verification.measured import StepMeasurer
+    from inspect_validate.verification.verify import verify_folder
+    from inspect_validate.watch.drift import series_of
+
+    with StepMeasurer(frames, **plan.measuring(station.acceptance)) as measured:
+        capture(simulated_at(station, n, hours=hours), frames, completed=measured)
+        verification = verify_folder(station, frames, plan=plan, measured=measured)
+    return verification, series_of(verification), None
+
+
+def _line_batch(station, line, frames, n, hours):
+    """A cycle of the running line (``watch --production``): a batch of parts, from the
+    camera into ``frames`` or from the line's folder, verified without the golden
+    statistics' checks (the charts replace them); the verification, the batch's means,
+    and how many frames were skipped, if any."""
+    from inspect_validate.station.capture import capture, production_steps
+    from inspect_validate.station.file import simulated_at
+    from inspect_validate.verification.production import measure_frames, verify_parts
+    from inspect_validate.watch.drift import series_of_parts
+
+    name = station.production.illumination
+    if line.feed is None:
+        at = simulated_at(station, n, hours=hours)
+        capture(at, frames, steps=production_steps(at))
+        files, skipped = sorted((frames / name).glob("*.tif")), 0
+    else:
+        files, skipped = line.feed.take()
+    unreadable: dict[str, str] = {}
+    parts = measure_frames(station, _readable(files, unreadable), refuse=False)
+    parts = replace(parts, not_measured={**unreadable, **parts.not_measured})
+    verification = verify_parts(station, parts, line.golden, drift=False)
+    note = f"{skipped} frames skipped (they land faster than measured)" if skipped else None
+    return verification, series_of_parts(parts, name), note
+
+
+def _readable(files, unreadable: dict[str, str]):
+    """``(name, frame)`` of each file that can be read; each that cannot (cut short, not
+    an image) is put in ``unreadable`` with why, and the watch goes on."""
+    from inspect_validate.errors import InputError
+    from inspect_validate.images import read_image
+
+    for path in files:
+        try:
+            yield str(path), read_image(path)
+        except InputError as exc:
+            unreadable[str(path)] = f"cannot be read: {exc}"
