@@ -176,7 +176,9 @@ def test_a_controller_that_vanishes_exits_3_and_keeps_the_frames(cli, tmp_path):
 
 def test_photon_transfer_recovers_a_gain_error_within_2_percent(cli, tmp_path):
     # A 12-bit camera with a black level (darks unclipped), 16-frame stacks, and a
-    # sensor whose K is 10 % above the declared one.
+    # sensor whose K is 20 % above the declared one (at 10 % the deviation sat on its
+    # limit, 5 % widened by t with the photon transfer's few degrees of freedom to about
+    # 10 %, and failed once in a while).
     scene = (ROOT / "sample_images" / "scenes" / "paperboard" / "scene.yaml").read_text()
     base = ROOT / "sample_images" / "scenes"
     scene = scene.replace("file: A.csv", f"file: {base / 'paperboard' / 'A.csv'}")
@@ -191,7 +193,7 @@ def test_photon_transfer_recovers_a_gain_error_within_2_percent(cli, tmp_path):
     (tmp_path / "scene.yaml").write_text(scene)
     path = station(
         tmp_path,
-        world={"gain_error": 0.1},
+        world={"gain_error": 0.2},
         frames=16,
         dark_frames=16,
         acceptance={"gain_relative": 0.05, "agreement": None},
@@ -200,9 +202,9 @@ def test_photon_transfer_recovers_a_gain_error_within_2_percent(cli, tmp_path):
     doc["scene"] = str(tmp_path / "scene.yaml")
     path.write_text(yaml.safe_dump(doc))
     code, out, err, report = verify(cli, tmp_path, path)
-    assert code == 1, out + err  # 10 % off the declared K fails a 5 % limit
+    assert code == 1, out + err  # 20 % off the declared K fails a 5 % limit
     gain = report["calibration"]["gain"]
-    assert gain["value"] == pytest.approx(0.11, rel=0.02)
+    assert gain["value"] == pytest.approx(0.12, rel=0.02)
     assert gain["declared"] == pytest.approx(0.1)
     assert [c["kind"] for c in report["checks"] if c["verdict"] == "fail"] == ["gain"]
 
