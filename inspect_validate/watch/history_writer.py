@@ -105,10 +105,6 @@ class HistoryWriter:
             # Damage from outside is refused before a cycle is appended to it: the same
             # checks `history` makes, and SQLite's own page check.
             validate_history(self.path)
-        try:
-            self.db = sqlite3.connect(self.path, timeout=10.0, isolation_level=None)
-        except sqlite3.DatabaseError as exc:
-            raise not_history(self.path, exc, "give another --db") from None
         path = self.path
         fresh = {
             "schema_version": str(HISTORY_SCHEMA_VERSION),
@@ -116,6 +112,14 @@ class HistoryWriter:
             "golden": golden or "",
             "created": str(time.time() if created is None else created),
         }
+        try:
+            self.db = sqlite3.connect(self.path, timeout=10.0, isolation_level=None)
+        except BaseException as exc:
+            if new and not existed:  # a stop as it was made: no empty file left behind
+                path.unlink(missing_ok=True)
+            if isinstance(exc, sqlite3.DatabaseError):
+                raise not_history(self.path, exc, "give another --db") from None
+            raise
         try:
             self.db.execute("PRAGMA journal_mode=WAL")
             self.db.execute("PRAGMA synchronous=FULL")  # a committed cycle survives power loss
@@ -132,11 +136,15 @@ class HistoryWriter:
                 self.db.execute("ROLLBACK")
                 raise
             self.db.execute("COMMIT")
-        except sqlite3.DatabaseError as exc:
+        except BaseException as exc:
             self.db.close()
             if new:  # nothing of the user's in it: leave no half-made file to refuse later
+                # (also when a stop came while it was being made: a table-less file)
                 for suffix in ("", "-wal", "-shm") if not existed else ("-wal", "-shm"):
                     Path(f"{path}{suffix}").unlink(missing_ok=True)
+            if not isinstance(exc, sqlite3.DatabaseError):
+                raise
+            if new:
                 raise InputError(
                     f"cannot create the history ({exc}): free space, raise the file size limit "
                     "(ulimit -f) or give another --db",

@@ -735,3 +735,44 @@ def test_history_charts_tick_whole_cycles(tmp_path, monkeypatch):
             lo, hi = ax.get_xlim()
             ticks = [t for t in ax.get_xticks() if lo <= t <= hi]
             assert ticks and all(float(t).is_integer() for t in ticks), ticks
+
+
+@pytest.mark.parametrize("at", ["connect", "BEGIN IMMEDIATE", "COMMIT"])
+def test_a_stop_while_a_history_is_made_leaves_no_file(tmp_path, monkeypatch, at):
+    """SIGTERM while a new history is created (seen in the stop sweep: a file without
+    tables, which a later watch would take as a history): no file is left, and the next
+    watch makes it afresh."""
+    import sqlite3
+
+    from inspect_validate.interruption import Interrupted
+    from inspect_validate.watch import history_writer
+
+    real = sqlite3.connect
+
+    class Stopping:
+        def __init__(self, con):
+            self.con = con
+
+        def execute(self, sql, *args):
+            if sql.strip() == at:
+                raise Interrupted("SIGTERM")
+            return self.con.execute(sql, *args)
+
+        def __getattr__(self, name):
+            return getattr(self.con, name)
+
+    def connect(*args, **kwargs):
+        con = real(*args, **kwargs)
+        if at == "connect":
+            raise Interrupted("SIGTERM")
+        return Stopping(con)
+
+    monkeypatch.setattr(history_writer.sqlite3, "connect", connect)
+    path = tmp_path / "h.sqlite"
+    with pytest.raises(Interrupted):
+        history_writer.HistoryWriter(path, station="s", golden="g")
+    assert not path.exists() and not list(tmp_path.glob("h.sqlite-*"))
+    monkeypatch.setattr(history_writer.sqlite3, "connect", real)
+    history_writer.HistoryWriter(path, station="s", golden="g").close()
+    with real(path) as con:
+        assert con.execute("SELECT COUNT(*) FROM cycles").fetchone() == (0,)
