@@ -16,6 +16,7 @@ capturing are left out (:mod:`.dominance`); what was found is a
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -331,6 +332,7 @@ def verify_capture(
     rate = acc.false_alarm_rate
     decided = decide(checks, rate)
     notes += _uncertainty_notes(acc, decided, golden, prediction, list(measurements))
+    notes += _fixed_drift_notes(acc, decided, golden, measurements, errors)
     inputs = _inputs(station, capture, rois, folder, golden)
     acquisition = acquisition_record(manifest, {**files, "dark": dark_files})
     if manifest.get("station_sha256") not in (None, inputs["station_sha256"]):
@@ -390,6 +392,54 @@ def _inputs(station, capture, rois, folder, golden) -> dict:
         "golden": str(station.resolve(acc.drift.golden)) if golden and acc.drift else None,
         "scene": str(station.resolve(station.scene)),
     }
+
+
+def _fixed_drift_notes(acc, checks, golden, measurements, errors) -> list[str]:
+    """A fixed drift tolerance wider than the statistical limits the golden file would set
+    at the station's false-alarm rate: by how much, and so what it lets pass unseen."""
+    from inspect_validate.verification.checks import count_tests, quantile
+    from inspect_validate.verification.golden_checks import prediction_sd
+
+    drift = acc.drift
+    if golden is None or drift is None:
+        return []
+    fixed = [c for c in checks if c.kind == "drift" and c.basis == "fixed"]
+    share = acc.false_alarm_rate / max(count_tests(checks) + len(fixed), 1)
+    limits: dict[str, list[float]] = {"mean_dn": [], "snr_db": []}
+    for ill, m in measurements.items():
+        g, se = golden.illuminations[ill], errors[ill]
+        refs = []
+        if drift.mean_dn is not None:
+            refs += [
+                ("mean_dn", g.classes[c.name].mean, se.mean[k]) for k, c in enumerate(m.classes)
+            ]
+        if drift.snr_db is not None:
+            refs += [
+                ("snr_db", g.comparisons[c.label].snr_db, se.snr_db[j])
+                for j, c in enumerate(m.comparisons)
+                if g.comparisons[c.label].snr_db.mean >= drift.snr_floor_db
+            ]
+        for key, ref, error in refs:
+            if ref.n < 2:
+                continue  # no spread: no statistical limit to hold the tolerance against
+            limit = quantile(share, df=ref.n - 1) * prediction_sd(ref, float(error))
+            if math.isfinite(limit) and limit > 0:
+                limits[key].append(limit)
+    notes = []
+    for key, unit, what in (("mean_dn", "DN", "a class's μ"), ("snr_db", "dB", "a SNR_dB")):
+        tolerance = getattr(drift, key)
+        narrower = sorted(x for x in limits[key] if x < tolerance) if tolerance else []
+        if not narrower:
+            continue
+        notes.append(
+            f"acceptance.drift.{key} {tolerance:g} {unit} is wider than the statistical limit "
+            f"this golden file would set on {len(narrower)} of its {len(limits[key])} checks "
+            f"({narrower[0]:.2g}–{narrower[-1]:.2g} {unit}, up to "
+            f"{tolerance / narrower[0]:.2g} × narrower): a change of {what} smaller than "
+            f"{tolerance:g} {unit} passes unseen there, and the false-alarm rate does not "
+            f"describe these checks (leave out {key} for the statistical limits)"
+        )
+    return notes
 
 
 def _uncertainty_notes(acc, checks, golden, prediction, illuminations) -> list[str]:

@@ -634,3 +634,23 @@ def test_every_verification_of_a_station_shares_the_rate_among_the_planned_check
         counts.add((count_tests(v.checks), planned_tests(station, plan, plan.golden)))
     assert counts and all(got == planned for got, planned in counts), counts
     assert len({got for got, _ in counts}) == 1, counts
+
+
+def test_a_fixed_drift_tolerance_says_what_it_lets_pass(cli, tmp_path, golden):
+    """The manual's fixed tolerances on a golden file of 5 repeats: verify notes on how
+    many checks each is wider than the statistical limit and by how much, and a 1 % amber
+    loss passes under them (the benchmark's block catches it)."""
+    path = copy_station(tmp_path, world={"irradiance": {1: 0.99}})
+    doc = yaml.safe_load(path.read_text())
+    doc["acceptance"]["drift"] = {"golden": str(golden), "k": 3, "mean_dn": 2, "snr_db": 0.5}
+    path.write_text(yaml.safe_dump(doc, sort_keys=False))
+    code, out, err = cli(["verify", path, "--out", tmp_path / "f"])
+    assert code == 0, out + err
+    note = next(line for line in out.splitlines() if "acceptance.drift.mean_dn 2 DN is" in line)
+    assert "on 6 of its 6 checks" in note and "passes unseen" in note  # 3 classes, 2 lights
+    assert float(note.split("up to ")[1].split(" ×")[0]) > 5
+    assert "acceptance.drift.snr_db 0.5 dB is wider" in out
+    del doc["acceptance"]["drift"]["mean_dn"], doc["acceptance"]["drift"]["snr_db"]
+    path.write_text(yaml.safe_dump(doc, sort_keys=False))
+    code, out, err = cli(["verify", path, "--out", tmp_path / "g"])
+    assert code == 1 and "acceptance.drift.mean_dn" not in out, out + err
