@@ -42,6 +42,9 @@ if TYPE_CHECKING:
 __all__ = ["Acceptance", "Agreement", "Calibration", "Drift", "Separation"]
 
 FALSE_ALARM_DEFAULT = 0.0027  # checks.DEFAULT_FALSE_ALARM (not imported: scipy-free module)
+CONFIDENCE_DEFAULT = 0.95
+"""The confidence of the drift limits' tolerance intervals unless ``drift.confidence``
+sets one (:class:`Drift`)."""
 
 Fraction = Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)]
 Decibel = Annotated[float, Field(ge=-200, le=200, allow_inf_nan=False)]
@@ -96,17 +99,26 @@ class Agreement(StrictModel):
     snr_db: Annotated[float, Field(gt=0, le=200)] | None = 3.0
     """|SNR_meas − SNR_pred| in dB, per comparison and illumination ..."""
     snr_floor_db: Decibel = -20.0
-    """... where either is above this floor: below it the classes overlap almost entirely
-    and SNR_dB is set by a mean difference within the model's accuracy (−49 against −58 dB
-    says nothing), so a comparison below the floor in both agrees."""
+    """... where the prediction puts it above this floor by more than the false-alarm
+    rate's k of its own standard errors: below it the classes overlap almost entirely and
+    SNR_dB is set by a mean difference within the model's accuracy (−49 against −58 dB
+    says nothing), and just above it other draws of the classes fall either side."""
+    parts: Literal["other", "measured"] = "other"
+    """``other``: the parts in front of the camera are other draws of their classes than
+    the reflectance samples the scene holds (as on a line), so the prediction is uncertain
+    by its samples (σ_spectral/√S for μ; the delta method for SNR_dB) and each agreement
+    check's standard error holds that beside the measurement's. ``measured``: they are the
+    very parts whose spectra were measured (a reference target); only the measurement's
+    own uncertainty widens the limits."""
 
 
 class Drift(StrictModel):
     """Largest drift from the golden statistics ``inspect-validate train`` stored
     (:mod:`inspect_validate.verification.golden`). Where no fixed tolerance is given, the
-    limit is a prediction interval: the trained repeats' spread (Student's t with n − 1
-    degrees of freedom) and the new measurement's own standard error, at the
-    verification's false-alarm rate."""
+    limit is statistical: the wider of a prediction interval (the trained repeats' spread,
+    Student's t with n − 1 degrees of freedom, and the new measurement's own standard
+    error, at the verification's false-alarm rate) and a tolerance interval that holds
+    that rate for this golden file with probability ``confidence``."""
 
     golden: Annotated[str, Field(min_length=1)]
     """The golden file ``train`` wrote (a relative path is from the station file's folder)."""
@@ -119,6 +131,14 @@ class Drift(StrictModel):
     """A fixed tolerance on |SNR_dB − SNR_dB golden| per comparison, dB."""
     snr_floor_db: Decibel = -20.0
     """As in :class:`Agreement`: comparisons below it, trained and now, are not checked."""
+    confidence: Annotated[float, Field(ge=0.5, lt=1, allow_inf_nan=False)] | None = (
+        CONFIDENCE_DEFAULT
+    )
+    """The probability over the training that *this* golden file's statistical limits
+    fail an unchanged station at most their share of the false-alarm rate: each limit
+    is the wider of the prediction interval (which promises the rate only on average
+    over trainings) and a tolerance interval at this confidence. ``null``: the
+    prediction interval alone."""
 
 
 class Acceptance(StrictModel):
@@ -171,6 +191,12 @@ class Acceptance(StrictModel):
 
             return math.erfc(self.drift.k / math.sqrt(2.0))
         return FALSE_ALARM_DEFAULT
+
+    @property
+    def confidence(self) -> float | None:
+        """The confidence of the statistical drift limits (:attr:`Drift.confidence`; the
+        default where the section has no ``drift``, as ``verify --production``)."""
+        return self.drift.confidence if self.drift is not None else CONFIDENCE_DEFAULT
 
     @property
     def needs_kde(self) -> bool:

@@ -8,7 +8,9 @@ comparison, the ranking, the false-alarm rate, and every check with value, limit
 unit, basis, margin and verdict. Version 2 added ``false_alarm`` and each check's
 ``basis``, ``given_limit``, ``standard_error``, ``df``, ``false_alarm`` and the
 verdict ``too close``; the ranking check's value became how far the predicted best
-measures behind the measured best.
+measures behind the measured best. A drift check's ``confidence`` (added within
+version 2; null elsewhere) is the probability over the training that its golden file's
+limit fails an unchanged station at most its ``false_alarm`` share.
 ``junit.xml`` has one test case per check, as CI systems read it.
 """
 
@@ -60,7 +62,11 @@ def check_rows(checks: Iterable[Check]) -> list[tuple[Check, list[str]]]:
 def false_alarm_line(v: Verification | ProductionVerification) -> str:
     """How often these checks fail a station that has not changed, and how the rate is
     shared: ``false-alarm rate 0.27 % (3σ) shared by 24 checks, 0.011 % each; 12 fixed``."""
-    from inspect_validate.verification.checks import count_tests, normal_equivalent
+    from inspect_validate.verification.checks import (
+        confidence_text,
+        count_tests,
+        normal_equivalent,
+    )
 
     m = count_tests(v.checks)
     fixed = sum(c.basis == "fixed" for c in v.checks)
@@ -71,6 +77,12 @@ def false_alarm_line(v: Verification | ProductionVerification) -> str:
     )
     if m:
         text += f", {100 * rate / m:.2g} % each"
+    held = [c.confidence for c in v.checks if c.confidence is not None]
+    if held:
+        text += (
+            f" (the drift limits hold that share for this golden file with confidence "
+            f"{confidence_text(min(held))} or more)"
+        )
     if fixed:
         text += f"; {fixed} fixed limit{'s' if fixed > 1 else ''}"
     return text
@@ -220,6 +232,7 @@ def verdict_documents(checks: Iterable[Check]) -> list[dict]:
             "standard_error": c.standard_error,
             "df": c.df if c.df != float("inf") else None,
             "false_alarm": c.false_alarm,
+            "confidence": c.confidence,
             "verdict": c.verdict.lower(),
             "detail": c.detail,
         }

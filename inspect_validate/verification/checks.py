@@ -36,8 +36,10 @@ __all__ = [
     "DEFAULT_FALSE_ALARM",
     "Basis",
     "Check",
+    "Coverage",
     "at_least",
     "at_most",
+    "confidence_text",
     "count_tests",
     "decide",
     "normal_equivalent",
@@ -72,6 +74,28 @@ def quantile(rate: float, *, df: float = math.inf, sided: int = 2) -> float:
     from inspect_validate.stats.quantiles import student_quantile
 
     return student_quantile(rate / sided, df)
+
+
+@dataclass(frozen=True)
+class Coverage:
+    """What a tolerance interval needs to hold for the one golden file a check is made
+    against (:mod:`inspect_validate.stats.tolerance_interval`).
+
+    Attributes
+    ----------
+    spread : float
+        The standard deviation of one new value of an unchanged station about the
+        true reference, in the check's unit, estimated with the check's ``df``.
+    n : float
+        How many such values the reference (the golden mean) is the mean of.
+    confidence : float
+        The probability γ, over the training, that this golden file's limit fails an
+        unchanged station at most the check's share of the false-alarm rate.
+    """
+
+    spread: float
+    n: float
+    confidence: float
 
 
 @dataclass(frozen=True)
@@ -118,6 +142,15 @@ class Check:
     predicted_gap : float or None
         For a ranking: how far apart the prediction puts the two in question; below what
         the frames resolve (the margin), the check is too close to call.
+    coverage : Coverage or None
+        For a drift check against a golden file: what its tolerance interval needs. The
+        limit is then the wider of the prediction interval (averaged over trainings, an
+        unchanged station fails at most the share) and the tolerance interval (for
+        this golden file, with probability ``coverage.confidence``).
+    confidence : float or None
+        Set by :func:`decide` for a check with ``coverage``: the probability over the
+        training that the limit set fails an unchanged station at most the check's share
+        (at least ``coverage.confidence``; more where the prediction interval is wider).
     """
 
     name: str
@@ -136,6 +169,8 @@ class Check:
     false_alarm: float | None = None
     undecided: bool = False
     predicted_gap: float | None = None
+    coverage: Coverage | None = None
+    confidence: float | None = None
 
     @property
     def ran(self) -> bool:
@@ -174,6 +209,7 @@ def _check(
     df: float = math.inf,
     sided: int = 1,
     predicted_gap: float | None = None,
+    coverage: Coverage | None = None,
 ):
     value = math.nan if value is None else float(value)  # not computed: said so below
     if not math.isfinite(value) and not detail:
@@ -194,6 +230,7 @@ def _check(
         df=float(df),
         sided=sided,
         predicted_gap=predicted_gap,
+        coverage=coverage,
     )
 
 
@@ -214,7 +251,7 @@ def at_least(
 ) -> Check:
     """Passes when ``value ≥ limit`` (less the margin :func:`decide` sets; a NaN value
     fails). ``options``: ``basis`` (default ``"fixed"``), ``standard_error``, ``df``,
-    ``sided`` and ``predicted_gap`` (:class:`Check`)."""
+    ``sided``, ``predicted_gap`` and ``coverage`` (:class:`Check`)."""
     return _check(name, kind, value, limit, unit, "≥", detail, **options)
 
 
@@ -278,11 +315,15 @@ def decide(checks: Iterable[Check], rate: float) -> tuple[Check, ...]:
             continue
         se = c.standard_error or 0.0  # tested: it has one
         margin = quantile(share, df=c.df, sided=c.sided) * se
+        detail = c.detail
+        confidence = None
+        if c.coverage is not None and c.coverage.spread > 0:
+            margin, confidence, why = _covered(c, margin, share)
+            detail = f"{detail}; {why}"
         given = c.limit if c.given is None else c.given  # a check made with its limit
         limit = given + margin if c.relation == "≤" else given - margin
         gap = c.predicted_gap
         undecided = gap is not None and abs(gap) < margin
-        detail = c.detail
         if gap is not None and undecided:
             detail = (
                 f"too close to call: predicted {abs(gap):.2g} {c.unit} apart, "
@@ -296,6 +337,39 @@ def decide(checks: Iterable[Check], rate: float) -> tuple[Check, ...]:
                 detail=detail,
                 false_alarm=share,
                 undecided=undecided,
+                confidence=confidence,
             )
         )
     return tuple(out)
+
+
+def _covered(c: Check, margin: float, share: float) -> tuple[float, float, str]:
+    """The margin of a check with a coverage (:func:`decide`), the confidence it gives,
+    and which interval set it."""
+    from inspect_validate.stats.tolerance_interval import tolerance_confidence, tolerance_factor
+
+    cov = c.coverage
+    assert cov is not None
+    n, content = cov.n, 1.0 - share
+    k = tolerance_factor(n=n, content=content, confidence=cov.confidence, df=c.df)
+    if k * cov.spread > margin:
+        return (
+            k * cov.spread,
+            cov.confidence,
+            f"limit from the tolerance interval, k {k:.3g} × {cov.spread:.2g} {c.unit}: "
+            f"holds for this golden file with confidence {cov.confidence:g}",
+        )
+    achieved = tolerance_confidence(margin / cov.spread, n=n, content=content, df=c.df)
+    return (
+        margin,
+        achieved,
+        f"holds for this golden file with confidence {confidence_text(achieved)}",
+    )
+
+
+def confidence_text(x: float) -> str:
+    """A confidence near 1 with the digits that tell it from 1 (0.9992, not 1)."""
+    if x >= 1.0:
+        return "1"
+    digits = max(2, -math.floor(math.log10(1.0 - x)))
+    return f"{math.floor(x * 10**digits) / 10**digits:.{digits}f}"

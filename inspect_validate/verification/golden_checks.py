@@ -11,7 +11,19 @@ with probability 1 − α: Student's t because s has n − 1 degrees of freedom,
 the uncertainty of x̄, SE the new measurement's own standard error and SE₀ the
 repeats' (:mod:`.uncertainty`; a measurement of fewer pixels or frames than the
 training varies more), s'² = max(s², SE₀²) (repeats cannot vary less than their
-noise). α is the check's share of the verification's false-alarm rate
+noise).
+
+**The tolerance interval.** That probability is an average over trainings: a golden
+file whose s came out small fails an unchanged station more often than α, one whose s
+came out large less. With ``drift.confidence`` γ (default 0.95) the limit is the wider
+of the prediction interval and the two-sided tolerance interval
+
+    |x − x̄| ≤ k(n, 1 − α, γ) · √(s'² + max(0, SE² − SE₀²))
+
+(:mod:`inspect_validate.stats.tolerance_interval`): with probability γ over the
+training, *this* golden file fails an unchanged station at most α of the time. At 5
+repeats and α near 10⁻⁴ the prediction interval is the wider (it already gives γ ≈
+0.99); from about 10 repeats the tolerance interval is. α is the check's share of the verification's false-alarm rate
 (:mod:`.checks`). Few repeats make t large: 5 repeats and 20 checks at 0.27 % give
 limits 4.1 × as wide as a perfectly known spread would; a golden file whose limits
 would be more than :data:`MAX_WIDENING` × as wide is refused, naming the repeats it
@@ -24,7 +36,7 @@ import math
 from typing import TYPE_CHECKING
 
 from inspect_validate.errors import InputError
-from inspect_validate.verification.checks import Check, at_most
+from inspect_validate.verification.checks import Check, Coverage, at_most
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
@@ -36,8 +48,11 @@ if TYPE_CHECKING:
 __all__ = [
     "GOOD_WIDENING",
     "MAX_WIDENING",
+    "above_floor",
     "detectable_change",
     "drift_checks",
+    "drift_coverage",
+    "drift_limit",
     "prediction_sd",
     "repeats_needed",
     "validate_golden",
@@ -53,6 +68,17 @@ more plainly."""
 
 GOOD_WIDENING = 2.0
 """The widening :func:`repeats_needed` names as enough for limits that track the spread."""
+
+
+def above_floor(spread: Spread, floor: float, *, k: float = 3.0) -> bool:
+    """Whether a comparison the golden file holds is drift-checked: its SNR_dB above
+    ``floor`` (``drift.snr_floor_db``) by more than ``k`` of its repeats' standard
+    deviation (k the false-alarm rate's normal equivalent). Below, SNR_dB is the log of a
+    near-zero contrast; within k spreads above, the parts or captures the repeats learned
+    fall either side of it. Decided from the golden file alone, so that ``train``,
+    ``verify`` and ``watch`` keep one set of checks."""
+    s = spread.std if spread.n >= 2 and math.isfinite(spread.std) else 0.0
+    return spread.mean - k * s >= floor
 
 
 def prediction_sd(spread: Spread, standard_error: float) -> float:
@@ -90,20 +116,64 @@ def repeats_needed(share: float, *, factor: float = GOOD_WIDENING) -> int:
     return n
 
 
-def detectable_change(spread: Spread, share: float, *, power: float = 0.95) -> float:
+def detectable_change(
+    spread: Spread, share: float, *, power: float = 0.95, confidence: float | None = None
+) -> float:
     """The smallest change of a quantity that its drift check catches with probability
-    ``power``, in its unit: (t_{n−1}(1 − α/2) + z(power)) × :func:`prediction_sd` at the
-    repeats' own standard error (a verification captured as the training was)."""
+    ``power``, in its unit: the limit (module description; with ``confidence``, the wider
+    of the prediction and tolerance intervals) plus z(power) × :func:`prediction_sd`, at
+    the repeats' own standard error (a verification captured as the training was)."""
     from inspect_validate.verification.checks import quantile
 
     sd = prediction_sd(spread, spread.standard_error)
     if not math.isfinite(sd):
         return math.nan
-    return (quantile(share, df=spread.n - 1) + quantile(1.0 - power, sided=1)) * sd
+    return drift_limit(spread, share, confidence=confidence) + quantile(1.0 - power, sided=1) * sd
+
+
+def drift_limit(
+    spread: Spread,
+    share: float,
+    *,
+    standard_error: float | None = None,
+    confidence: float | None = None,
+) -> float:
+    """The statistical limit on |x − x̄| a drift check against ``spread`` sets at its
+    false-alarm ``share`` (module description), in its unit; ``standard_error`` is the
+    new measurement's (default the repeats' own). NaN without a spread."""
+    from inspect_validate.verification.checks import quantile
+
+    own = spread.standard_error if standard_error is None else standard_error
+    sd = prediction_sd(spread, own)
+    if not math.isfinite(sd):
+        return math.nan
+    limit = quantile(share, df=spread.n - 1) * sd
+    coverage = drift_coverage(spread, own, confidence)
+    if coverage is None:
+        return limit
+    from inspect_validate.stats.tolerance_interval import tolerance_factor
+
+    k = tolerance_factor(n=coverage.n, content=1.0 - share, confidence=coverage.confidence)
+    return max(limit, k * coverage.spread)
+
+
+def drift_coverage(
+    spread: Spread, standard_error: float, confidence: float | None
+) -> Coverage | None:
+    """What the tolerance interval of a drift check against ``spread`` needs
+    (:class:`~.checks.Coverage`; module description); None without ``confidence`` or a
+    spread."""
+    n, s = spread.n, spread.std
+    if confidence is None or n < 2 or not math.isfinite(s):
+        return None
+    own = standard_error if math.isfinite(standard_error) else 0.0
+    ref = spread.standard_error if math.isfinite(spread.standard_error) else own
+    sd = math.sqrt(max(s * s, ref * ref) + max(0.0, own * own - ref * ref))
+    return Coverage(sd, float(n), confidence) if sd > 0 else None
 
 
 def drift_checks(
-    golden: Golden, measurements: dict, drift: Drift | None, errors: dict
+    golden: Golden, measurements: dict, drift: Drift | None, errors: dict, *, k: float = 3.0
 ) -> list[Check]:
     """Drift of each class's μ (DN) and each comparison's SNR_dB (dB) from ``golden``, which
     :func:`validate_golden` has accepted for the station.
@@ -112,7 +182,8 @@ def drift_checks(
     it is; otherwise each check is statistical, its limit the prediction interval (module
     description) that :func:`~.checks.decide` sets from :func:`prediction_sd`.
     ``errors`` is illumination → the measurement's
-    :class:`~.uncertainty.StandardErrors`.
+    :class:`~.uncertainty.StandardErrors`; ``k`` the false-alarm rate's normal
+    equivalent (:func:`above_floor`).
     """
     if drift is None:  # no drift section: a golden file alone asks for nothing
         return []
@@ -128,13 +199,14 @@ def drift_checks(
                     ref,
                     drift.mean_dn,
                     float(se.mean[k]),
+                    drift.confidence,
                     "DN",
                     f"golden {ref.summary()} DN over {ref.n} repeats, now {c.mean:.4g} DN",
                 )
             )
         for j, comp in enumerate(m.comparisons):
             ref = g.comparisons[comp.label].snr_db
-            if not ref.mean >= drift.snr_floor_db:
+            if not above_floor(ref, drift.snr_floor_db, k=k):
                 continue  # unseparable when trained: left out of every verification
             checks.append(
                 _drift_check(
@@ -143,6 +215,7 @@ def drift_checks(
                     ref,
                     drift.snr_db,
                     float(se.snr_db[j]),
+                    drift.confidence,
                     "dB",
                     f"golden {ref.summary(3)} dB over {ref.n} repeats, now {comp.snr_db:.2f} dB",
                 )
@@ -150,7 +223,9 @@ def drift_checks(
     return checks
 
 
-def _drift_check(name, value, ref: Spread, tolerance, standard_error, unit, detail) -> Check:
+def _drift_check(
+    name, value, ref: Spread, tolerance, standard_error, confidence, unit, detail
+) -> Check:
     deviation = abs(value - ref.mean)
     if tolerance is not None:
         return at_most(name, "drift", deviation, tolerance, unit, f"{detail}; fixed tolerance")
@@ -166,6 +241,7 @@ def _drift_check(name, value, ref: Spread, tolerance, standard_error, unit, deta
         standard_error=sd,
         df=ref.n - 1,
         sided=2,
+        coverage=drift_coverage(ref, standard_error, confidence),
     )
 
 
@@ -178,12 +254,13 @@ def validate_golden(
     comparisons: Sequence[str],
     source: str,
     share: float | None = None,
+    k: float = 3.0,
 ) -> None:
     """Refuse, before any capture, a golden file that cannot check ``station``'s drift.
 
     ``share`` is a drift check's share of the false-alarm rate (:func:`~.checks.decide`):
     a golden file whose limits it would widen more than :data:`MAX_WIDENING` times is
-    refused.
+    refused. ``k``: the rate's normal equivalent (:func:`above_floor`).
 
     Raises
     ------
@@ -226,8 +303,8 @@ def validate_golden(
             _needs_spread(drift.mean_dn, spread, f"{ill.name}: {name} μ", source, share)
         for text in comparisons:
             spread = _entry(g.comparisons, text, ill.name, "comparison", source).snr_db
-            if not spread.mean >= drift.snr_floor_db:
-                continue  # not checked while it stays below the floor
+            if not above_floor(spread, drift.snr_floor_db, k=k):
+                continue  # never checked against this golden file
             _needs_spread(drift.snr_db, spread, f"{ill.name}: {text} SNR_dB", source, share)
 
 

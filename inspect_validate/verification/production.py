@@ -251,7 +251,11 @@ def verify_parts(
         f"{len(parts.measured)} of {len(parts.measured) + len(parts.not_measured)} frames "
         "hold a part" + (f"; {_reasons(parts.not_measured)}" if parts.not_measured else ""),
     )
-    checks = [found, *(_drift_checks(parts, golden.illuminations[name]) if drift else [])]
+    confidence = station.acceptance.confidence
+    checks = [
+        found,
+        *(_drift_checks(parts, golden.illuminations[name], confidence) if drift else []),
+    ]
     rate = station.acceptance.false_alarm_rate
     return ProductionVerification(station, golden, parts, decide(checks, rate), rate)
 
@@ -447,9 +451,9 @@ def _reasons(missing: dict[str, str]) -> str:
     return "; ".join(f"{why} ({n})" for why, n in sorted(counts.items(), key=lambda x: -x[1]))
 
 
-def _drift_checks(parts: Parts, golden) -> list[Check]:
+def _drift_checks(parts: Parts, golden, confidence: float | None) -> list[Check]:
     """Each class's μ, σ² and focus, each comparison's SNR_dB: the batch mean against the
-    golden parts' (module description)."""
+    golden parts' (module description), with tolerance intervals at ``confidence``."""
     if not parts.measured:
         return []
     checks = []
@@ -461,11 +465,11 @@ def _drift_checks(parts: Parts, golden) -> list[Check]:
         if g.focus is not None:
             quantities.append(("focus", g.focus, [p.focus[c.name] for p in parts.measured], "DN²"))
         for what, ref, values, unit in quantities:
-            checks.append(_batch_check(f"{c.name} {what} drift", values, ref, unit))
+            checks.append(_batch_check(f"{c.name} {what} drift", values, ref, unit, confidence))
     for j, comp in enumerate(ms[0].comparisons):
         ref = golden.comparisons[comp.label].snr_db
         values = [m.comparisons[j].snr_db for m in ms]
-        checks.append(_batch_check(f"{comp.label} SNR_dB drift", values, ref, "dB"))
+        checks.append(_batch_check(f"{comp.label} SNR_dB drift", values, ref, "dB", confidence))
     if golden.pose is not None:
         poses = [p.position for p in parts.measured]
         for i, (what, ref, unit) in enumerate(
@@ -476,13 +480,17 @@ def _drift_checks(parts: Parts, golden) -> list[Check]:
             )
         ):
             name = f"pose {what} drift"
-            checks.append(_batch_check(name, [p[i] for p in poses], ref, unit))
+            checks.append(_batch_check(name, [p[i] for p in poses], ref, unit, confidence))
     return checks
 
 
-def _batch_check(name: str, values: list[float], ref: Spread, unit: str) -> Check:
-    """|batch mean − golden mean| against t_{n−1} · s · √(1/m + 1/n)."""
-    from inspect_validate.verification.checks import at_most, not_run
+def _batch_check(
+    name: str, values: list[float], ref: Spread, unit: str, confidence: float | None
+) -> Check:
+    """|batch mean − golden mean| against t_{n−1} · s · √(1/m + 1/n), or the tolerance
+    interval of a mean of m around the mean of n (its spread s/√m, its centre n/m such
+    means) at ``confidence`` where that is wider."""
+    from inspect_validate.verification.checks import Coverage, at_most, not_run
 
     v = np.asarray(values, dtype=float)
     v = v[np.isfinite(v)]
@@ -503,4 +511,7 @@ def _batch_check(name: str, values: list[float], ref: Spread, unit: str) -> Chec
         standard_error=sd,
         df=n - 1,
         sided=2,
+        coverage=None
+        if confidence is None or s <= 0
+        else Coverage(s / math.sqrt(m), n / m, confidence),
     )
