@@ -10,6 +10,7 @@ import numpy as np
 
 from inspect_validate.verification.checks import Check, at_least, at_most, not_run
 from inspect_validate.verification.results import RankingAgreement
+from inspect_validate.verification.uncertainty import combined_standard_errors
 
 if TYPE_CHECKING:
     from collections.abc import Collection, Mapping, Sequence
@@ -85,6 +86,7 @@ def acceptance_checks(
     *,
     unlit: Mapping[str, str] | None = None,
     agreed: Collection[tuple[str, str]] | None = None,
+    model_errors: Mapping[str, StandardErrors] | None = None,
 ) -> tuple[list[Check], list[str]]:
     """The checks ``acc`` asks for, and the work left out (a skip: only what nobody asked
     for). A check that cannot be evaluated is :func:`not_run`, a failure that says why —
@@ -94,7 +96,10 @@ def acceptance_checks(
     for those whose light does not reach the camera: left out of ``measurements``, their
     separation checks do not run. ``agreed`` holds the (illumination, comparison) pairs
     whose SNR_dB agreement is checked, decided from the prediction before any frame
-    (:meth:`~.plan.Plan.agreed`); default: those predicted at or above the floor."""
+    (:meth:`~.plan.Plan.agreed`); default: those predicted at or above the floor.
+    ``model_errors`` is illumination → the prediction's own :class:`~.uncertainty.
+    StandardErrors` (its reflectance samples), added in quadrature to the measurement's
+    in the agreement checks (``agreement.parts: other``)."""
     errors = {} if errors is None else errors
     unlit = unlit or {}
     checks, skipped = [], []
@@ -185,6 +190,11 @@ def acceptance_checks(
                     )
     agree = acc.agreement
     if agree is not None:
+        model_errors = model_errors or {}
+        agreeing = {  # the prediction's own uncertainty beside the measurement's
+            ill: combined_standard_errors(e, model_errors[ill]) if ill in model_errors else e
+            for ill, e in errors.items()
+        }
         class_index = {
             (ill, c.name): k for ill, m in measurements.items() for k, c in enumerate(m.classes)
         }
@@ -192,7 +202,7 @@ def acceptance_checks(
             where = f"{class_row.illumination}: {class_row.class_name}"
             pred = class_row.predicted
             k = class_index[class_row.illumination, class_row.class_name]
-            se = errors[class_row.illumination]
+            se = agreeing[class_row.illumination]
             if agree.mean_relative is not None:
                 signal = pred.mean - class_row.measured.dark_mean
                 checks.append(
@@ -230,16 +240,30 @@ def acceptance_checks(
                     for r in comparison_rows
                     if r.predicted.snr_db >= agree.snr_floor_db
                 }
+            left = [r for r in comparison_rows if (r.illumination, r.comparison) not in agreed]
             below = [
                 f"{r.illumination}: {r.comparison}"
-                for r in comparison_rows
-                if (r.illumination, r.comparison) not in agreed
+                for r in left
+                if not r.predicted.snr_db >= agree.snr_floor_db
+            ]
+            near = [
+                f"{r.illumination}: {r.comparison} ({r.predicted.snr_db:.1f} dB)"
+                for r in left
+                if r.predicted.snr_db >= agree.snr_floor_db
             ]
             if below:
                 skipped.append(
                     f"SNR_dB agreement of {', '.join(below)}: predicted below "
                     f"agreement.snr_floor_db ({agree.snr_floor_db:g} dB), in every "
                     "verification of this station"
+                )
+            if near:
+                skipped.append(
+                    f"SNR_dB agreement of {', '.join(near)}: predicted above "
+                    f"agreement.snr_floor_db ({agree.snr_floor_db:g} dB) by less than the "
+                    "false-alarm rate's k of the model's own standard errors (its reflectance "
+                    "samples), so parts that are another draw of their classes fall either "
+                    "side of the floor; in every verification of this station"
                 )
             index = {
                 (ill, c.label): j
@@ -260,7 +284,7 @@ def acceptance_checks(
                         f"predicted {row.predicted.snr_db:.2f} dB, "
                         f"measured {row.measured.snr_db:.2f} dB",
                         basis="tolerance",
-                        standard_error=errors[row.illumination].snr_db[j],
+                        standard_error=agreeing[row.illumination].snr_db[j],
                     )
                 )
     if acc.ranking:

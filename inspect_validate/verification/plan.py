@@ -4,9 +4,10 @@ station file costs no capture; and how many checks will share the false-alarm ra
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
+
+import numpy as np
 
 from inspect_validate.errors import InputError
 from inspect_validate.verification.measured import station_regions
@@ -43,21 +44,36 @@ class Plan:
 
     def agreed(self, acceptance: Acceptance) -> frozenset[tuple[str, str]]:
         """The (illumination, comparison) pairs whose SNR_dB agreement is checked: those
-        the prediction puts at or above ``agreement.snr_floor_db`` (below it, SNR_dB is
-        the log of a near-zero contrast and agrees with nothing). Decided from the
-        prediction before any frame, so that every verification of the station checks
-        the same set, and ``train`` counts it: a comparison near the floor would come and
-        go with the noise of its measurement."""
-        floor = acceptance.agreement.snr_floor_db if acceptance.agreement else -math.inf
+        the prediction puts above ``agreement.snr_floor_db`` by more than k of its own
+        standard errors (k the normal equivalent of the false-alarm rate, 3 at the
+        default; :func:`~.uncertainty.predicted_standard_errors`). Below the floor, SNR_dB
+        is the log of a near-zero contrast and agrees with nothing; within k standard
+        errors above it, parts that are another draw of their classes than the spectra
+        measured fall either side of it. Decided from the prediction before any frame, so
+        that every verification of the station checks the same set, and ``train`` counts
+        it: a comparison near the floor would come and go with the noise of its
+        measurement."""
+        from inspect_validate.verification.checks import normal_equivalent
+        from inspect_validate.verification.uncertainty import predicted_standard_errors
+
+        if acceptance.agreement is None:
+            return frozenset()
+        floor = acceptance.agreement.snr_floor_db
+        k = normal_equivalent(acceptance.false_alarm_rate)
         p = self.prediction
         labels = p.comparison_set.labels
-        return frozenset(
-            (ill, label)
-            for i, ill in enumerate(p.illuminations)
-            if ill not in self.dominated
-            for j, label in enumerate(labels)
-            if p.snr_db[i, j] >= floor
-        )
+        agreed = set()
+        for i, ill in enumerate(p.illuminations):
+            if ill in self.dominated:
+                continue
+            se = predicted_standard_errors(p, i, p.comparison_set, mixtures=()).snr_db
+            se = np.where(np.isfinite(se), se, 0.0)  # no samples to tell: the value as it is
+            agreed |= {
+                (ill, label)
+                for j, label in enumerate(labels)
+                if p.snr_db[i, j] - k * se[j] >= floor
+            }
+        return frozenset(agreed)
 
     def measuring(self, acceptance: Acceptance) -> dict:
         """How the station's frames are measured for its verification: the options of
@@ -86,6 +102,7 @@ def plan_verification(station: Station, *, drift_checks: bool = True) -> Plan:
         illuminations; an unreadable golden file (exit code 2).
     """
     from inspect_validate.station.model import station_model
+    from inspect_validate.verification.checks import normal_equivalent
     from inspect_validate.verification.golden import read_golden
 
     source = str(station.path)
@@ -146,6 +163,7 @@ def plan_verification(station: Station, *, drift_checks: bool = True) -> Plan:
             share=acc.false_alarm_rate / planned_tests(station, plan, golden)
             if drift_checks
             else None,
+            k=normal_equivalent(acc.false_alarm_rate),
         )
         plan = replace(plan, golden=golden)
     return plan
@@ -163,6 +181,8 @@ def planned_tests(
     the drift checks of ``golden`` as the acceptance's default drift block would, where it
     has none (what ``train`` tells of a golden file before the station uses it)."""
     from inspect_validate.acceptance import Drift
+    from inspect_validate.verification.checks import normal_equivalent
+    from inspect_validate.verification.golden_checks import above_floor
 
     acc = station.acceptance
     if drift and acc.drift is None:
@@ -192,8 +212,9 @@ def planned_tests(
             if acc.drift.mean_dn is None:
                 n += len(classes)
             if acc.drift.snr_db is None:
+                k = normal_equivalent(acc.false_alarm_rate)
                 n += sum(
-                    g.comparisons[c].snr_db.mean >= acc.drift.snr_floor_db
+                    above_floor(g.comparisons[c].snr_db, acc.drift.snr_floor_db, k=k)
                     for c in comparisons
                     if c in g.comparisons
                 )

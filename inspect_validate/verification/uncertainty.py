@@ -42,6 +42,7 @@ if TYPE_CHECKING:
 __all__ = [
     "StandardErrors",
     "class_standard_errors",
+    "combined_standard_errors",
     "measured_standard_errors",
     "predicted_standard_errors",
     "separation_standard_errors",
@@ -183,3 +184,20 @@ def predicted_standard_errors(
         mixtures=mixtures,
     )
     return StandardErrors(se_mean, se_var, snr, cnr, log_error)
+
+
+def combined_standard_errors(a: StandardErrors, b: StandardErrors) -> StandardErrors:
+    """The standard errors of a difference of two independent estimates: each field's
+    √(a² + b²) (a measurement against a prediction of other parts); a NaN in ``b``
+    (nothing known of it) counts as 0."""
+
+    def both(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        return np.hypot(x, np.where(np.isfinite(y), y, 0.0))
+
+    return StandardErrors(
+        both(a.mean, b.mean),
+        both(a.variance, b.variance),
+        both(a.snr_db, b.snr_db),
+        both(a.cnr_db, b.cnr_db),
+        both(a.log_error, b.log_error),
+    )

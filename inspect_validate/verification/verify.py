@@ -29,12 +29,12 @@ from inspect_validate.verification.agreement import (
     ranking_agreement,
     ranking_comparison,
 )
-from inspect_validate.verification.checks import Check, at_least, decide
+from inspect_validate.verification.checks import Check, at_least, decide, normal_equivalent
 from inspect_validate.verification.dominance import (
     dominance_unconfirmed,
     dominated_illuminations,
 )
-from inspect_validate.verification.golden_checks import drift_checks
+from inspect_validate.verification.golden_checks import above_floor, drift_checks
 from inspect_validate.verification.measured import StepMeasurer, measure_capture
 from inspect_validate.verification.plan import Plan, plan_verification
 from inspect_validate.verification.results import Verification
@@ -311,23 +311,26 @@ def verify_capture(
         errors,
         unlit=unlit,
         agreed=plan.agreed(acc),
+        model_errors=_model_errors(acc, prediction, comparisons, measurements),
     )
     checks = [*light, *checks]
     skipped += [*not_ranked, *unchecked]
     if golden is not None and measurements:
-        checks += drift_checks(golden, measurements, acc.drift, errors)
+        k = normal_equivalent(acc.false_alarm_rate)
+        checks += drift_checks(golden, measurements, acc.drift, errors, k=k)
         if acc.drift is not None and acc.drift.snr_db is None:
             below = [
                 f"{ill}: {label}"
                 for ill in measurements
                 for label, comp in golden.illuminations[ill].comparisons.items()
-                if not comp.snr_db.mean >= acc.drift.snr_floor_db
+                if not above_floor(comp.snr_db, acc.drift.snr_floor_db, k=k)
             ]
             if below:
                 skipped.append(
                     f"SNR_dB drift of {', '.join(below)}: below acceptance.drift.snr_floor_db "
-                    f"({acc.drift.snr_floor_db:g} dB) when trained, in every verification "
-                    "against this golden file"
+                    f"({acc.drift.snr_floor_db:g} dB), or within {k:.2g} of the repeats' "
+                    "spread above it, when trained: in every verification against this "
+                    "golden file"
                 )
     rate = acc.false_alarm_rate
     decided = decide(checks, rate)
@@ -394,11 +397,28 @@ def _inputs(station, capture, rois, folder, golden) -> dict:
     }
 
 
+def _model_errors(acc, prediction, comparisons, measurements) -> dict:
+    """The prediction's own standard errors per measured illumination, from its reflectance
+    samples, where the agreement checks hold them (``agreement.parts: other``)."""
+    from inspect_validate.verification.uncertainty import predicted_standard_errors
+
+    if acc.agreement is None or acc.agreement.parts != "other":
+        return {}
+    if list(prediction.comparison_set.labels) != list(comparisons.labels):
+        return {}  # not one set of rows: nothing to pair (never so from plan_verification)
+    return {
+        ill: predicted_standard_errors(
+            prediction, prediction.index(ill), prediction.comparison_set, mixtures=()
+        )
+        for ill in measurements
+    }
+
+
 def _fixed_drift_notes(acc, checks, golden, measurements, errors) -> list[str]:
     """A fixed drift tolerance wider than the statistical limits the golden file would set
     at the station's false-alarm rate: by how much, and so what it lets pass unseen."""
-    from inspect_validate.verification.checks import count_tests, quantile
-    from inspect_validate.verification.golden_checks import prediction_sd
+    from inspect_validate.verification.checks import count_tests
+    from inspect_validate.verification.golden_checks import drift_limit
 
     drift = acc.drift
     if golden is None or drift is None:
@@ -417,12 +437,18 @@ def _fixed_drift_notes(acc, checks, golden, measurements, errors) -> list[str]:
             refs += [
                 ("snr_db", g.comparisons[c.label].snr_db, se.snr_db[j])
                 for j, c in enumerate(m.comparisons)
-                if g.comparisons[c.label].snr_db.mean >= drift.snr_floor_db
+                if above_floor(
+                    g.comparisons[c.label].snr_db,
+                    drift.snr_floor_db,
+                    k=normal_equivalent(acc.false_alarm_rate),
+                )
             ]
         for key, ref, error in refs:
             if ref.n < 2:
                 continue  # no spread: no statistical limit to hold the tolerance against
-            limit = quantile(share, df=ref.n - 1) * prediction_sd(ref, float(error))
+            limit = drift_limit(
+                ref, share, standard_error=float(error), confidence=drift.confidence
+            )
             if math.isfinite(limit) and limit > 0:
                 limits[key].append(limit)
     notes = []
@@ -479,11 +505,20 @@ def _uncertainty_notes(acc, checks, golden, prediction, illuminations) -> list[s
             row = f"{ill}: {text} SNR_dB deviation"
             if any(c.name == row for c in tested) and q * se[j] > agreement.snr_db:
                 close.append(f"{ill}: {text} ±{se[j]:.2g} dB")
-    if close:
+    if close and agreement.parts == "measured":
         notes.append(
             f"agreement.snr_db {agreement.snr_db:g} dB is within {q:.2g} × the model's own "
             f"uncertainty from its reflectance samples for {', '.join(close)}: parts that are "
             "another draw of their classes than the spectra measured fail it more often than "
-            "the false-alarm rate (measure more spectra per class, or widen the tolerance)"
+            "the false-alarm rate (agreement.parts: measured says they are those parts; if "
+            "not, leave it out, measure more spectra per class, or widen the tolerance)"
+        )
+    elif close:
+        notes.append(
+            f"agreement.snr_db {agreement.snr_db:g} dB is widened by the model's own "
+            f"uncertainty from its reflectance samples for {', '.join(close)} (the parts are "
+            "other draws of their classes: agreement.parts): a change of SNR_dB within that "
+            "passes the agreement check, and drift against a golden file is what catches "
+            "it (measure more spectra per class to narrow it)"
         )
     return notes

@@ -256,7 +256,11 @@ def golden_targets(
 ) -> dict[SeriesKey, tuple[float, float]]:
     """(μ₀, σ₀) of every quantity the golden file holds worth charting (module
     description); of a production golden file also each class's focus measure and the
-    parts' position, and with ``batch`` parts a cycle σ₀ of their mean (s/√batch)."""
+    parts' position, and with ``batch`` parts a cycle σ₀ of their mean (s/√batch).
+    Comparisons are charted where verify checks their drift (:func:`~inspect_validate.
+    verification.golden_checks.above_floor`, at 3 spreads)."""
+    from inspect_validate.verification.golden_checks import above_floor
+
     targets = {}
 
     def put(key, spread, quantity) -> None:
@@ -287,7 +291,7 @@ def golden_targets(
             for q, spread in (("x", g.pose.x), ("y", g.pose.y), ("angle", g.pose.angle)):
                 put((ill, "pose", "part", q), spread, q)
         for label, comp in g.comparisons.items():
-            if not comp.snr_db.mean >= snr_floor_db:
+            if not above_floor(comp.snr_db, snr_floor_db):
                 continue
             put((ill, "comparison", label, "snr_db"), comp.snr_db, "snr_db")
             put((ill, "comparison", label, "log_error"), comp.error_gaussian, "log_error")
