@@ -89,8 +89,7 @@ def train(station, golden_path, repeats, frames_dirs, frames_out, production) ->
     plan = plan_verification(plain)
     plan = replace(plan, dominated=dominated_illuminations(st, plan.prediction))
     tests = planned_tests(st, plan, golden, drift=True)
-    floor = st.acceptance.drift.snr_floor_db if st.acceptance.drift else -20.0
-    click.echo(format_golden(golden, share=rate / tests, rate=rate, snr_floor_db=floor))
+    click.echo(format_golden(golden, share=rate / tests, rate=rate, drift=st.acceptance.drift))
     write_json(golden.document(), golden_path)
     click.echo(f"golden: {golden_path} ({golden.repeats} repeats)")
 
