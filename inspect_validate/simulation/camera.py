@@ -56,7 +56,7 @@ __all__ = ["SimulatedGrabber", "lit_by_simulator", "scene_grabber"]
 
 
 def world_components(
-    model: StationModel, world: World
+    model: StationModel, world: World, *, draw: np.random.Generator | None = None
 ) -> tuple[dict, Optics, SensorModel, list[ObjectClass]]:
     """The simulated world: the station's components with ``world``'s deviations.
 
@@ -64,7 +64,7 @@ def world_components(
     when ``world.ambient`` > 0), the optics, the camera (gain error applied, and the
     world's black level, dark current, DSNU and PRNU where it gives them)
     and the object classes (another draw of the reflectance samples when
-    ``world.reflectance_seed`` is set).
+    ``world.reflectance_seed`` is set, or by ``draw``: parts redrawn at this opening).
     """
     from dataclasses import replace
 
@@ -112,8 +112,8 @@ def world_components(
         model.scene_sensor, gain=model.scene_sensor.gain * (1.0 + world.gain_error), **sensor
     )
     classes = list(model.scene.classes)
-    if world.reflectance_seed is not None:
-        rng = np.random.default_rng(world.reflectance_seed)
+    if world.reflectance_seed is not None or draw is not None:
+        rng = draw if draw is not None else np.random.default_rng(world.reflectance_seed)
         classes = [
             ObjectClass(
                 c.name,
@@ -181,15 +181,20 @@ class SimulatedGrabber(Grabber):
         self.name = f"simulated camera ({model.scene_sensor.name})"
         self.missing = set()
         self.state_path = Path(state_path)
-        lights, optics, self.sensor, classes = world_components(model, world)
+        self.noise = np.random.default_rng(noise_seed)
+        # Parts redrawn: this opening's parts come from the noise's entropy (new in every
+        # capture, reproducible from noise_seed); the camera's own pattern stays fixed.
+        draw = (
+            np.random.default_rng(self.noise.integers(2**63)) if world.parts == "redrawn" else None
+        )
+        lights, optics, self.sensor, classes = world_components(model, world, draw=draw)
         self.width, self.height = width, height
         self.latency = latency
         self.interval = frame_interval_s
         # The objects (which reflectance sample each pixel shows) are the same every
         # time, as the parts on a station are; the noise is new in every capture, as a
         # sensor's is (repeats of 'train' must not be copies of one another).
-        objects = np.random.default_rng(seed)
-        self.noise = np.random.default_rng(noise_seed)
+        objects = draw if draw is not None else np.random.default_rng(seed)
         self.exposure_us = 10_000.0
         self.gain_db = 0.0
         self.frame_id = 0
@@ -247,7 +252,10 @@ class SimulatedGrabber(Grabber):
         """The part's pose in the frame last rendered (dx, dy px; degrees), None: no part."""
         self._line = None if line is None else np.random.default_rng(line.seed)
         # The sensor's own fixed pattern (PRNU, DSNU), as fixed as the objects.
-        sensor = objects if sensor_seed is None else np.random.default_rng(sensor_seed)
+        if sensor_seed is not None:
+            sensor = np.random.default_rng(sensor_seed)
+        else:
+            sensor = objects if draw is None else np.random.default_rng(seed)
         self._pattern = sensor_pattern(self.sensor, (height, width), rng=sensor)
         yy, xx = np.mgrid[0:height, 0:width]
         r2 = ((yy - (height - 1) / 2) ** 2 + (xx - (width - 1) / 2) ** 2) / (

@@ -8,9 +8,9 @@ notice or calibrate away (:mod:`inspect_validate.simulation.camera` renders them
 
 from __future__ import annotations
 
-from typing import Annotated
+from typing import Annotated, Literal
 
-from pydantic import Field
+from pydantic import Field, model_validator
 
 from inspect_validate.camera.settings import Channel
 from inspect_validate.config import StrictModel
@@ -126,6 +126,12 @@ class World(StrictModel):
     """The channel's spectrum stretched about its peak (FWHM × this factor)."""
     reflectance_seed: Annotated[int, Field(ge=0)] | None = None
     """The objects are another draw (bootstrap) from each class's reflectance samples."""
+    parts: Literal["fixed", "redrawn"] = "fixed"
+    """``fixed``: the same parts in every capture. ``redrawn``: every opening of the camera
+    (each repeat of ``train``, each ``verify``) shows other parts of the same classes:
+    another draw (bootstrap) of each class's reflectance samples, placed anew, as parts
+    re-placed from a production would be (the part-to-part spread a golden file's repeats
+    learn). Not with ``reflectance_seed``, which fixes one draw."""
     irradiance_jitter: Annotated[float, Field(ge=0, le=0.5, allow_inf_nan=False)] = 0.0
     """Relative standard deviation of each channel's irradiance from one capture to the
     next (a driver's current, an LED's temperature): the spread between captures that a
@@ -165,6 +171,15 @@ class World(StrictModel):
     """A running line of parts instead of the scene's still target (production mode)."""
     changes: list[WorldChange] = []
     """Changes over the cycles of ``watch`` (:meth:`at`)."""
+
+    @model_validator(mode="after")
+    def _one_draw(self):
+        if self.parts == "redrawn" and self.reflectance_seed is not None:
+            raise ValueError(
+                "parts: redrawn draws other parts at every capture; reflectance_seed fixes "
+                "one draw: give one of the two"
+            )
+        return self
 
     def at(self, cycle: int, *, hours: float = 0.0) -> World:
         """This world at ``watch``'s cycle ``cycle``, ``hours`` after it started: every

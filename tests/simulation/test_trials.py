@@ -84,3 +84,37 @@ def test_too_few_repeats_for_the_rate_are_refused_in_trials_too():
     station = read_station(STATION)
     with pytest.raises(InputError, match="3 repeats are too few"):
         list(run_trials(station, runs=[0], repeats=3))
+
+
+def test_parts_redrawn_differ_between_openings_on_one_fixed_sensor(tmp_path):
+    """world.parts: redrawn: two openings of the camera show other parts (another draw of
+    each class's samples: class means apart by far more than the noise), the camera's own
+    fixed pattern is the same, and the same noise seed draws the same parts (the trials
+    stay reproducible). With reflectance_seed, which fixes one draw, it is refused."""
+    import numpy as np
+
+    from inspect_validate.errors import InputError
+    from inspect_validate.simulation.camera import SimulatedGrabber
+    from inspect_validate.station.model import station_model
+    from inspect_validate.station.world import World
+
+    model = station_model(read_station(STATION))
+    state = tmp_path / "state.json"
+    state.write_text(json.dumps({"channels": {"1": 100}}))
+
+    def opened(noise_seed):
+        g = SimulatedGrabber(model, state, world=World(parts="redrawn"), noise_seed=noise_seed)
+        means = [float(g.rates[0, g.sample_class == k].mean()) for k in range(3)]
+        return np.array(means), g._pattern
+
+    a, pattern_a = opened(1)
+    b, pattern_b = opened(2)
+    again, _ = opened(1)
+    assert np.max(np.abs(a - b) / a) > 1e-3  # other parts: the classes' mean signal moved
+    assert np.array_equal(a, again)
+    assert (pattern_a is None and pattern_b is None) or all(
+        np.array_equal(x, y) for x, y in zip(pattern_a, pattern_b, strict=True)
+    )
+    path = copy_station(tmp_path, world={"parts": "redrawn", "reflectance_seed": 3})
+    with pytest.raises(InputError, match="give one of the two"):
+        read_station(path)
