@@ -1,8 +1,9 @@
 """How often `verify` errs: its false-alarm rate on known-good simulated stations beside
 the rate it states, and its detection power on changed ones.
 
-Run: ``python benchmarks/bench_verdicts.py [--runs 200] [--jobs 2] [--out DIR]``
-(about 25 minutes on 2 cores at the defaults; ``--runs 20`` for a look).
+Run: ``python benchmarks/bench_verdicts.py [--runs 200] [--jobs 2] [--cli-runs 100]
+[--out DIR]`` (about 80 minutes on 2 cores at the defaults; ``--runs 20 --cli-runs 10``
+for a look).
 
 Every run is a world of its own (the parts placed anew, another sensor's fixed pattern,
 fresh noise), trained into a golden file by ``--repeats`` captures and verified on one
@@ -16,23 +17,42 @@ decides, with the station's acceptance and the manual's drift block).
    a golden file's repeats must learn). The observed rate of failed verdicts with its
    Clopper–Pearson 95 % interval, beside the stated family-wise rate. The inks station is
    verified on the mix ``design`` finds for it (its separation checks apply there).
+   Also the shipped station whose every capture shows other parts of its classes
+   (``world.parts: redrawn``: another draw of the reflectance samples, as parts re-placed
+   from a production), trained with that part-to-part spread at 5 and 20 repeats and
+   held to the prediction as other parts (``agreement.parts: other``).
 2. **Detection power.** The shipped station changed: the amber LED at 98, 95 and 90 %,
    its peak 3 and 6 nm off, K 5 % high, the lens at 95 %, ambient light on; steady, and
-   with lights varying 0.5 % between captures at 5 and 20 repeats. The detection
-   probability with its interval, and which kind of check caught it most often.
+   with lights varying 0.5 % between captures at 5 and 20 repeats, and with other parts
+   every capture. The detection probability with its interval, and which kind of check
+   caught it most often.
 3. **Operating characteristic.** The probability of passing against the amber LED's
-   level, the same three stations; plotted to ``docs/_static/oc_curve.png``.
+   level, the three shipped stations; plotted to ``docs/_static/oc_curve.png``.
+4. **One golden file, as a line has.** Each run above trains its own golden file, so
+   its rate is an average over trainings. Here one golden file is trained through the
+   CLI (``train``, 5 repeats) and ``--cli-runs`` verifications through the CLI
+   (``verify``) are held against it, for the shipped station and for other parts every
+   capture: the rate that golden file has.
+5. **How good is one golden file.** Over 20,000 golden files of n repeats (a normal
+   spread), each file's own per-check false-alarm rate against the check's share, as
+   ``verify`` sets its limits (:func:`~inspect_validate.verification.golden_checks.
+   drift_limit`): the prediction interval alone, and the default (the wider of it and a
+   tolerance interval at ``drift.confidence`` 0.95): the mean (what the stated rate
+   promises), the median and the 95th and 99.6th percentiles of rate/share, and the share
+   of golden files above their share (what the confidence bounds).
 """
 
 from __future__ import annotations
 
 import argparse
 import multiprocessing
+import shutil
 import time
 from collections import Counter, defaultdict
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
+import numpy as np
 import yaml
 from machine import machine_line
 
@@ -77,10 +97,12 @@ def stations(folder: Path) -> dict[str, tuple[Path, int]]:
     )
     (folder / "scene12.yaml").write_text(yaml.safe_dump(scene))
 
-    def write(name, *, scene=SCENES / "paperboard" / "scene.yaml", camera=()):
+    def write(name, *, scene=SCENES / "paperboard" / "scene.yaml", camera=(), parts=None):
         d = yaml.safe_load(yaml.safe_dump(doc))
         d["scene"], d["rois"] = str(scene), str(STATION / "rois.yaml")
         d["camera"].update(camera)
+        if parts:
+            d["acceptance"]["agreement"]["parts"] = parts
         path = folder / f"{name}.yaml"
         path.write_text(yaml.safe_dump(d))
         return path
@@ -110,6 +132,11 @@ def stations(folder: Path) -> dict[str, tuple[Path, int]]:
             5,
         ),
         "shipped, lights ±0.5 % between captures, 20 repeats": (folder / "jitter.yaml", 20),
+        "shipped, other parts every capture, 5 repeats": (
+            write("redrawn", camera={"world": {"parts": "redrawn"}}, parts="other"),
+            5,
+        ),
+        "shipped, other parts every capture, 20 repeats": (folder / "redrawn.yaml", 20),
     }
 
 
@@ -122,6 +149,85 @@ def with_drift(path: Path, folder: Path) -> Path:
     out = folder / f"{path.stem}-drift.yaml"
     out.write_text(yaml.safe_dump(doc))
     return out
+
+
+def cli_false_alarms(path: Path, runs: int) -> tuple[int, int, float]:
+    """One golden file trained through the CLI (5 repeats), then ``runs`` verifications
+    through the CLI against it: (failed, runs, seconds a verification)."""
+    import subprocess
+    import sys
+
+    folder = path.parent
+    folder.mkdir(parents=True, exist_ok=True)
+    station = folder / "station.yaml"
+    doc = yaml.safe_load(path.read_text())
+    station.write_text(yaml.safe_dump(doc))
+    cli = [sys.executable, "-m", "inspect_validate"]
+    subprocess.run(
+        [*cli, "train", station, "--repeats", "5", "--out", folder / "golden.json"],
+        check=True,
+        capture_output=True,
+    )
+    failed, t = 0, time.perf_counter()
+    for i in range(runs):
+        r = subprocess.run(
+            [*cli, "verify", station, "--out", folder / f"v{i}"], capture_output=True
+        )
+        if r.returncode not in (0, 1):
+            raise SystemExit(f"verify exited {r.returncode}: {r.stderr.decode()[-500:]}")
+        failed += r.returncode == 1
+        shutil.rmtree(folder / f"v{i}")
+    return failed, runs, (time.perf_counter() - t) / max(runs, 1)
+
+
+def golden_file_rates(
+    repeats: int, share: float, confidence: float | None, *, draws: int = 20_000
+) -> np.ndarray:
+    """Each of ``draws`` golden files' own false-alarm rate over its share: ``repeats``
+    repeats of a unit normal spread (their own standard error a tenth of it), the limit
+    :func:`drift_limit` sets, a new value of the unchanged station N(0, 1)."""
+    from scipy.stats import norm
+
+    from inspect_validate.verification.golden import Spread
+    from inspect_validate.verification.golden_checks import drift_limit
+
+    rng = np.random.default_rng(repeats)
+    rates = np.empty(draws)
+    for i, row in enumerate(rng.normal(0.0, 1.0, (draws, repeats))):
+        spread = Spread(values=list(row), standard_errors=[0.1] * repeats)
+        limit = drift_limit(spread, share, confidence=confidence)
+        rates[i] = norm.sf(limit - spread.mean) + norm.sf(limit + spread.mean)
+    return rates / share
+
+
+def report_cli(cli: dict, rate: float) -> None:
+    print("\nOne golden file reused, through the CLI (train once, verify many times)\n")
+    print("| station | verifications | failed | observed rate (95 % interval) | stated | s each |")
+    print("|---|---|---|---|---|---|")
+    for name, (k, n, seconds) in cli.items():
+        lo, hi = clopper_pearson(k, n)
+        print(
+            f"| {name} | {n} | {k} | {percent(k / n)} ({percent(lo)}–{percent(hi)}) | "
+            f"{percent(rate)} | {seconds:.2f} |"
+        )
+
+
+def report_golden_files() -> None:
+    share = 0.0027 / 25  # the shipped station's share with its drift block
+    print(f"\nHow good is one golden file: its own rate over its share ({share:.2g} a check)\n")
+    print(
+        "| repeats | limits | mean | median | 95th percentile | 99.6th percentile | "
+        "files above their share |"
+    )
+    print("|---|---|---|---|---|---|---|")
+    for repeats in (5, 9, 20):
+        for label, confidence in (("prediction interval", None), ("default (γ 0.95)", 0.95)):
+            r = golden_file_rates(repeats, share, confidence)
+            q50, q95, q996 = np.quantile(r, [0.5, 0.95, 0.996])
+            print(
+                f"| {repeats} | {label} | {r.mean():.2f} | {q50:.2g} | {q95:.2g} | {q996:.2g} | "
+                f"{percent(float(np.mean(r > 1)))} |"
+            )
 
 
 def work(args) -> list:
@@ -152,6 +258,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=200)
     parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--cli-runs", type=int, default=100)
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "_static")
     args = parser.parse_args()
 
@@ -173,11 +280,14 @@ def main() -> None:
             path = with_drift(path, tmp)
             changes = {}
             if name.startswith("shipped"):
-                changes = dict(CHANGES)
-                changes.update({oc_case(x): {"irradiance": {1: x}} for x in OC_LEVELS})
-                if "between captures" in name:
-                    for change in changes.values():
+                changes = {k: dict(v) for k, v in CHANGES.items()}
+                if "other parts" not in name:  # the figure's three stations
+                    changes.update({oc_case(x): {"irradiance": {1: x}} for x in OC_LEVELS})
+                for change in changes.values():
+                    if "between captures" in name:
                         change["irradiance_jitter"] = JITTER
+                    if "other parts" in name:
+                        change["parts"] = "redrawn"
             chunks = [range(i, args.runs, args.jobs * 4) for i in range(args.jobs * 4)]
             t = time.perf_counter()
             trials = [
@@ -188,8 +298,19 @@ def main() -> None:
             results[name] = trials
             rate = read_station(path).acceptance.false_alarm_rate
             print(f"{name}: {len(trials)} verifications in {time.perf_counter() - t:.0f} s")
+        cli = {}
+        for i, (name, path) in enumerate(
+            (
+                ("shipped station", STATION / "station.yaml"),
+                ("shipped, other parts every capture", tmp / "redrawn.yaml"),
+            )
+        ):
+            (tmp / f"cli{i}").mkdir()
+            cli[name] = cli_false_alarms(with_drift(path, tmp / f"cli{i}"), args.cli_runs)
     print(f"total {time.perf_counter() - t0:.0f} s; stated false-alarm rate {percent(rate)}\n")
     report(results, rate, runs=args.runs, out=args.out)
+    report_cli(cli, rate)
+    report_golden_files()
 
 
 def report(results: dict, rate: float, *, runs: int, out: Path) -> None:
@@ -226,6 +347,7 @@ def report(results: dict, rate: float, *, runs: int, out: Path) -> None:
     oc = defaultdict(dict)
     print("Operating characteristic: probability of passing against the amber LED's level")
     print()
+    names = [n for n in names if "other parts" not in n]  # the figure's three stations
     print("| amber level | " + " | ".join(names) + " |")
     print("|---|" + "---|" * len(names))
     for level in (1.0, *OC_LEVELS):
