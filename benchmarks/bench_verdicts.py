@@ -55,6 +55,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 from machine import machine_line
+from scenes import twelve_bit_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 STATION = ROOT / "sample_images" / "station"
@@ -83,19 +84,7 @@ def stations(folder: Path) -> dict[str, tuple[Path, int]]:
     scene and the varying-light stations are written into ``folder``."""
     shipped = STATION / "station.yaml"
     doc = yaml.safe_load(shipped.read_text())
-    scene = yaml.safe_load((SCENES / "paperboard" / "scene.yaml").read_text())
-    for c in scene["classes"].values():
-        c["file"] = str(SCENES / "paperboard" / c["file"])
-    camera = scene["cameras"][0]
-    camera.update(
-        file=str(SCENES / "chapter_table2" / "camera1_qe.csv"),
-        name="mono 12-bit",
-        gain=0.1,
-        saturation=30000,
-        bit_depth=12,
-        dark_offset=20,
-    )
-    (folder / "scene12.yaml").write_text(yaml.safe_dump(scene))
+    scene12 = twelve_bit_scene(folder)
 
     def write(name, *, scene=SCENES / "paperboard" / "scene.yaml", camera=(), parts=None):
         d = yaml.safe_load(yaml.safe_dump(doc))
@@ -116,7 +105,7 @@ def stations(folder: Path) -> dict[str, tuple[Path, int]]:
     (folder / "inks.yaml").write_text(yaml.safe_dump(inks))
     mono12 = write(
         "mono12",
-        scene=folder / "scene12.yaml",
+        scene=scene12,
         camera={"pixel_format": "Mono12", "exposure_us": 20000},
     )
     # SNR_dB (36) divides by variances, so it falls with the gain: ε is the gain-free limit.

@@ -14,8 +14,9 @@ Run: ``python benchmarks/bench_watch.py [--stable 200] [--repeats 3] [--goldens 
    the shipped station (the statistics are those of any size; the frames are 16 ×
    cheaper). Cycles / alarms estimates the family's ARL₀ (exact Poisson 95 %
    interval), against the design (1000 cycles): for the steady station (its repeats
-   vary by their noise alone, which floors σ₀) and for one whose lights vary 0.5 %
-   between captures (σ₀ is the spread, as on a real line).
+   vary by their noise alone, which floors σ₀), for one whose lights vary 0.5 %
+   between captures (σ₀ is the spread, as on a real line), and for the paperboards on a
+   12-bit camera (Mono12: another bit depth, gain and dark offset).
 2. **Detection.** Each change starts at cycle 5 of a fresh history, ``--repeats``
    times: cycles from the onset to the first alarm (0: flagged in the onset cycle),
    and how often the first named cause is the right one.
@@ -39,6 +40,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 from machine import machine_line
+from scenes import twelve_bit_scene
 
 from inspect_validate.cli import main as cli_main
 
@@ -110,14 +112,20 @@ def in_control(tmp: Path, golden: Path, cycles: int):
     }
 
 
-def small_station(folder: Path, world: dict) -> Path:
-    """The shipped station on an 80 × 60 frame, its ROI file drawn for it."""
+def small_station(folder: Path, world: dict, *, twelve_bit: bool = False) -> Path:
+    """The shipped station on an 80 × 60 frame, its ROI file drawn for it; ``twelve_bit``:
+    on the 12-bit camera of :func:`scenes.twelve_bit_scene` (Mono12)."""
     from inspect_validate.model.render import class_bands
 
-    doc = yaml.safe_load((STATION / "station.yaml").read_text())
-    doc["scene"] = str(SCENE)
-    doc["camera"].update(width=80, height=60, world=world)
     folder.mkdir(parents=True, exist_ok=True)
+    doc = yaml.safe_load((STATION / "station.yaml").read_text())
+    doc["scene"] = str(twelve_bit_scene(folder) if twelve_bit else SCENE)
+    doc["camera"].update(width=80, height=60, world=world)
+    if twelve_bit:
+        doc["camera"].update(pixel_format="Mono12", exposure_us=20000)
+        # SNR_dB (36) divides by variances, so it falls with the gain: ε is the gain-free
+        # limit (as bench_verdicts holds this camera)
+        doc["acceptance"]["separation"] = [{"comparison": "A vs B,C", "max_error": 0.1}]
     bands = class_bands(["A", "B", "C"], height=60, width=80, gap=6)
     rois = {"erode": 1, "classes": {k: [{"rect": list(v)}] for k, v in bands.items()}}
     (folder / "rois.yaml").write_text(yaml.safe_dump(rois))
@@ -134,13 +142,15 @@ def _watch_share(args):
     return list(watch_trials(read_station(path), runs=runs, repeats=5, cycles=cycles))
 
 
-def measured_arl(tmp: Path, world: dict, goldens: int, cycles: int, jobs: int) -> dict:
+def measured_arl(
+    tmp: Path, world: dict, goldens: int, cycles: int, jobs: int, *, twelve_bit: bool = False
+) -> dict:
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
 
     from scipy.stats import chi2
 
-    path = small_station(tmp / f"small-{len(world)}", world)
+    path = small_station(tmp / f"small-{len(world)}-{twelve_bit}", world, twelve_bit=twelve_bit)
     parts = [(path, range(i, goldens, jobs), cycles) for i in range(jobs)]
     # Spawned, not forked: this process has run numba's OpenMP threads (the CLI above).
     with ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
@@ -212,10 +222,11 @@ def main():
         ]
         bare = capture_time(tmp)
         arls = {
-            name: measured_arl(tmp, world, args.goldens, args.cycles, args.jobs)
-            for name, world in (
-                ("steady", {}),
-                ("lights ±0.5 % between captures", {"irradiance_jitter": 0.005}),
+            name: measured_arl(tmp, world, args.goldens, args.cycles, args.jobs, twelve_bit=twelve)
+            for name, world, twelve in (
+                ("steady", {}, False),
+                ("lights ±0.5 % between captures", {"irradiance_jitter": 0.005}, False),
+                ("12-bit camera (Mono12), steady", {}, True),
             )
         }
         elapsed = time.perf_counter() - t0
