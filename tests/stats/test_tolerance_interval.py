@@ -6,6 +6,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy import integrate, optimize, stats
 
 from inspect_validate.stats.tolerance_interval import (
@@ -118,3 +120,25 @@ def test_the_interval_holds_its_content_with_its_confidence(n, m):
     short = int(np.sum(missed > 1 - content))
     lo, hi = stats.binom.interval(0.999, draws, 1 - confidence)
     assert lo <= short <= hi, short / draws
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    n=st.integers(2, 400),
+    batch=st.sampled_from([1, 4, 40]),
+    tail=st.floats(1e-10, 0.5),
+    confidence=st.floats(0.5, 0.9999),
+)
+def test_any_factor_is_finite_and_gives_its_confidence(n, batch, tail, confidence):
+    """Extreme but valid inputs (a share down to 1e-10, 400 repeats, batch means of more
+    parts than the golden file has): a finite factor that gives back its confidence and
+    grows with it."""
+    centre = n / batch
+    k = tolerance_factor(n=centre, content=1 - tail, confidence=confidence, df=n - 1)
+    assert math.isfinite(k) and k > 0
+    assert tolerance_confidence(k, n=centre, content=1 - tail, df=n - 1) == pytest.approx(
+        confidence, abs=1e-8
+    )
+    assert tolerance_factor(
+        n=centre, content=1 - tail, confidence=min(confidence + 1e-4, 0.99995), df=n - 1
+    ) >= k
