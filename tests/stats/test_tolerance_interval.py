@@ -139,6 +139,9 @@ def test_any_factor_is_finite_and_gives_its_confidence(n, batch, tail, confidenc
     assert tolerance_confidence(k, n=centre, content=1 - tail, df=n - 1) == pytest.approx(
         confidence, abs=1e-8
     )
-    assert tolerance_factor(
-        n=centre, content=1 - tail, confidence=min(confidence + 1e-4, 0.99995), df=n - 1
-    ) >= k
+    assert (
+        tolerance_factor(
+            n=centre, content=1 - tail, confidence=min(confidence + 1e-4, 0.99995), df=n - 1
+        )
+        >= k
+    )
