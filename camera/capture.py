@@ -47,6 +47,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from inspect_validate.camera.storage import settings_sha256
 from inspect_validate.errors import DeviceError, IncompleteFrame, InputError
 from inspect_validate.interruption import stop_if_requested
 
@@ -313,6 +314,10 @@ def capture_steps(
             "trigger_line": settings.trigger_line if mode == "hardware-trigger" else None,
         },
     )
+    # What shapes the image as the camera has it now, our settings applied: a change
+    # made by another program between captures shows in the next one's snapshot.
+    snapshot = grabber.settings()
+    store.record("settings", {"values": snapshot, "sha256": settings_sha256(snapshot)})
     next_frame = _frame_source(grabber, controller, mode, pulse, settings.timeout_s)
     pending = None  # a step whose frames are grabbed; their saves may still run
 

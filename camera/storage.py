@@ -51,8 +51,10 @@ __all__ = [
     "CaptureStore",
     "StepRecord",
     "audit_capture",
+    "changed_settings",
     "read_capture",
     "read_manifest",
+    "settings_sha256",
     "step_record",
 ]
 
@@ -60,6 +62,22 @@ LOCK_FILE = ".capture.lock"
 """Held in the capture folder while a capture writes into it (removed when it ends)."""
 QUEUED_FRAMES = 8
 """Grabbed frames that may wait for the writer thread."""
+
+
+def settings_sha256(values: dict[str, str]) -> str:
+    """The SHA-256 of a settings snapshot (node → value), independent of the nodes' order."""
+    text = json.dumps(sorted(values.items()), ensure_ascii=False)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def changed_settings(before: dict[str, str], now: dict[str, str]) -> list[str]:
+    """Each node whose value differs between two settings snapshots, as
+    ``"Gamma 1.0 → 0.7"`` (``absent`` where one snapshot lacks the node), in node order."""
+    return [
+        f"{name} {before.get(name, 'absent')} → {now.get(name, 'absent')}"
+        for name in sorted({*before, *now})
+        if before.get(name) != now.get(name)
+    ]
 
 
 def read_manifest(path: Path) -> dict:
@@ -149,6 +167,17 @@ class CaptureStore:
                 raise InputError(
                     f"the frames here were taken with {before!r}, the station now opens {now!r}; "
                     "resume with the same camera or capture into a new --out folder",
+                    source=str(self.folder),
+                )
+        if key == "settings" and isinstance(self.manifest.get("settings"), dict):
+            changed = changed_settings(
+                self.manifest["settings"].get("values", {}), value.get("values", {})
+            )
+            if changed:
+                raise InputError(
+                    f"the camera's settings changed since the frames here were taken "
+                    f"({'; '.join(changed)}): a stack must come from one setting; restore "
+                    "them, or capture into a new --out folder",
                     source=str(self.folder),
                 )
         self.manifest[key] = value
@@ -292,6 +321,13 @@ def audit_capture(folder: Path, manifest: dict, steps: Iterable[str]) -> dict[st
     hashes: dict[str, str] = {}
     seen: dict[str, str] = {}
     stamps: dict[tuple, str] = {}
+    snapshot = manifest.get("settings")
+    if snapshot is not None and (
+        not isinstance(snapshot, dict)
+        or not isinstance(snapshot.get("values"), dict)
+        or settings_sha256(snapshot["values"]) != snapshot.get("sha256")
+    ):
+        problems.append("the camera settings snapshot is not the one recorded (edited)")
     # Without its hashes a manifest cannot tell rewritten frames from those captured, so
     # none is read without them, whatever version it claims (an unreleased build wrote
     # version 1 without hashes for two days; a version number is as easily edited).

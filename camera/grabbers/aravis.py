@@ -212,6 +212,15 @@ class AravisGrabber(NodeMapGrabber):
         except self._glib.Error:
             return None
 
+    def _text(self, name: str) -> str | None:
+        feature = self._dev.get_feature(name)
+        if feature is None:
+            return None
+        try:
+            return str(feature.get_value_as_string())
+        except (self._glib.Error, AttributeError):  # not a value node, or not readable now
+            return None
+
     def _execute(self, name: str) -> None:
         try:
             self._dev.execute_command(name)

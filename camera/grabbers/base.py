@@ -15,6 +15,7 @@ from inspect_validate.errors import DeviceError
 
 __all__ = [
     "ACQUISITIONS",
+    "SETTINGS_NODES",
     "Buffer",
     "DeviceInfo",
     "Features",
@@ -271,6 +272,13 @@ class Grabber(ABC):
         chunk value within it of the request is the request)."""
         return {}
 
+    def settings(self) -> dict[str, str]:
+        """The camera's own values of the nodes that shape its image
+        (:data:`SETTINGS_NODES` it has and can read now), each as the camera's string form:
+        what a capture records so that a change made by another program is seen. Empty
+        for a camera without a node map."""
+        return {}
+
     def close(self) -> None:  # noqa: B027 - optional for backends without a connection
         """Release the device."""
 
@@ -279,6 +287,29 @@ class Grabber(ABC):
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+SETTINGS_NODES = (
+    # format and region
+    "PixelFormat", "Width", "Height", "OffsetX", "OffsetY",
+    "BinningHorizontal", "BinningVertical", "BinningHorizontalMode", "BinningVerticalMode",
+    "DecimationHorizontal", "DecimationVertical", "ReverseX", "ReverseY",
+    # exposure, gain, black level
+    "ExposureMode", "ExposureAuto", "ExposureTime", "ExposureTimeAbs", "ExposureTimeRaw",
+    "GainAuto", "GainSelector", "Gain", "GainAbs", "GainRaw", "DigitalShift",
+    "BlackLevelSelector", "BlackLevel", "BlackLevelAbs", "BlackLevelRaw",
+    # tone curves and colour
+    "Gamma", "GammaEnable", "GammaSelector", "LUTEnable", "LUTSelector",
+    "BalanceWhiteAuto", "BalanceRatioSelector", "BalanceRatio",
+    # trigger and acquisition
+    "TriggerSelector", "TriggerMode", "TriggerSource", "TriggerActivation", "TriggerDelay",
+    "AcquisitionMode", "AcquisitionFrameRateEnable", "AcquisitionFrameRate",
+    "SensorShutterMode", "ADCBitDepth",
+)  # fmt: skip
+"""The SFNC nodes whose values shape a camera's image, read into a capture's settings
+snapshot (:meth:`Grabber.settings`). Read-only and volatile nodes (temperature,
+timestamps, counters) are not among them: they change without anyone changing the
+camera."""
 
 
 class NodeMapGrabber(Grabber):
@@ -392,6 +423,22 @@ class NodeMapGrabber(Grabber):
     @abstractmethod
     def _increment(self, name: str) -> float | None:
         """A float node's increment, None where it has none."""
+
+    @abstractmethod
+    def _text(self, name: str) -> str | None:
+        """A node's value in the camera's string form, None where absent or not readable."""
+
+    def settings(self) -> dict[str, str]:
+        values = {}
+        for name in SETTINGS_NODES:
+            if not self._has(name):
+                continue
+            text = self._text(name)
+            if text is not None:
+                # a camera that answers garbage (control characters, megabytes) is cut
+                # to what a reader can compare
+                values[name] = "".join(ch for ch in text if ch.isprintable())[:200]
+        return values
 
     @abstractmethod
     def _execute(self, name: str) -> None:

@@ -220,6 +220,12 @@ class GenICamGrabber(NodeMapGrabber):
         except Exception:  # a float without an increment
             return None
 
+    def _text(self, name: str) -> str | None:
+        try:
+            return str(getattr(self._nodes, name).to_string())
+        except Exception:  # absent, or not readable now
+            return None
+
     def _execute(self, name: str) -> None:
         try:
             getattr(self._nodes, name).execute()

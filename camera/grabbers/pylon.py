@@ -128,6 +128,12 @@ class PylonGrabber(NodeMapGrabber):
         except (AttributeError, self._genicam.GenericException):
             return None
 
+    def _text(self, name: str) -> str | None:
+        try:
+            return str(getattr(self._cam, name).ToString())
+        except (AttributeError, self._genicam.GenericException):
+            return None
+
     def _execute(self, name: str) -> None:
         try:
             getattr(self._cam, name).Execute()

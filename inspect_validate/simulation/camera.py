@@ -197,6 +197,7 @@ class SimulatedGrabber(Grabber):
         objects = draw if draw is not None else np.random.default_rng(seed)
         self.exposure_us = 10_000.0
         self.gain_db = 0.0
+        self.pixel_format = "Mono8"
         self.frame_id = 0
         self.channels = lights
         # Electrons per second per reflectance sample for each light alone at 100 %.
@@ -309,6 +310,18 @@ class SimulatedGrabber(Grabber):
     def increments(self) -> dict[str, float]:
         return {"exposure_us": 1.0, "gain_db": 0.01}
 
+    def settings(self) -> dict[str, str]:
+        values = {
+            "PixelFormat": self.pixel_format,
+            "Width": str(self.width),
+            "Height": str(self.height),
+            "ExposureTime": f"{self.exposure_us:g}",
+            "Gain": f"{self.gain_db:g}",
+            "TriggerMode": "Off" if self.acquisition == "free-run" else "On",
+            "Gamma": "1",
+        }
+        return {**values, **self.world.nodes}
+
     def configure(
         self,
         *,
@@ -327,6 +340,8 @@ class SimulatedGrabber(Grabber):
             raise DeviceError(
                 f"{self.name}: pixel format {pixel_format!r} not available (Mono8, Mono12, Mono16)"
             )
+        if pixel_format is not None:
+            self.pixel_format = pixel_format
         if region is not None:
             raise DeviceError(
                 f"{self.name}: a region cannot be set; the frame is {self.width}×{self.height}"

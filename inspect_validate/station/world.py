@@ -165,6 +165,12 @@ class World(StrictModel):
     its chunk saying so; 0: never."""
     chunk_lag: bool = False
     """Chunks carry the previous frame's values (a known firmware fault)."""
+    nodes: dict[
+        Annotated[str, Field(pattern=r"^[A-Za-z][A-Za-z0-9_]{0,63}$")],
+        Annotated[str, Field(max_length=200)],
+    ] = {}
+    """Node values another program left on the camera (``{Gamma: "0.7"}``): reported in
+    the camera's settings snapshot as a real node map would, not rendered."""
     dust: list[Dust] = []
     """Specks of dust on the lens."""
     line: Line | None = None

@@ -108,7 +108,8 @@ class Check:
         What is checked, e.g. ``"amber: A vs B,C SNR_dB"``.
     kind : str
         ``light`` (the light reaches the camera), ``separation``, ``saturation``,
-        ``agreement``, ``ranking``, ``gain`` or ``drift``.
+        ``agreement``, ``ranking``, ``gain``, ``drift`` or ``settings`` (the camera's
+        settings since training).
     value, limit : float
         The measured value and the limit it was held to (1.0/0.0 for yes/no checks), in
         ``unit``; for statistical and tolerance checks the limit includes the margin.

@@ -220,6 +220,17 @@ class Golden(_Frozen):
     """Their folders (frame files, in production)."""
     illuminations: dict[str, GoldenIllumination]
     """Per illumination: its channels, its classes' μ and σ², its comparisons' SNR_dB and ε."""
+    settings: (
+        dict[
+            Annotated[str, Field(max_length=64)],
+            Annotated[str, Field(max_length=200)],
+        ]
+        | None
+    ) = None
+    """The camera's settings snapshot the training captures share (node → value, as the
+    camera reported it: :meth:`~inspect_validate.camera.grabbers.base.Grabber.settings`),
+    which ``verify`` compares with its capture's; null: trained from captures without one
+    (before snapshots were kept)."""
 
     @model_validator(mode="after")
     def _repeats(self):
@@ -333,7 +344,34 @@ def train(
         captures=[str(c) for c in captures],
         tool_version=__version__,
         station_sha256=station_hash(station.file),
+        settings=_shared_settings(captures, [r.manifest for r in runs]),
     )
+
+
+def _shared_settings(captures: list[Path], manifests: list[dict]) -> dict[str, str] | None:
+    """The settings snapshot every training capture holds, None if one holds none.
+
+    Raises
+    ------
+    InputError
+        Two captures whose snapshots differ (naming the nodes): the golden statistics
+        would mix two settings of the camera.
+    """
+    from inspect_validate.camera.storage import changed_settings
+
+    snapshots = [(m.get("settings") or {}).get("values") for m in manifests]
+    if any(s is None for s in snapshots):
+        return None
+    first = snapshots[0]
+    for folder, snapshot in zip(captures[1:], snapshots[1:], strict=True):
+        changed = changed_settings(first, snapshot)
+        if changed:
+            raise InputError(
+                f"the camera's settings differ from the first capture's ({captures[0]}): "
+                f"{'; '.join(changed)}; train on captures of one setting",
+                source=str(folder),
+            )
+    return dict(first)
 
 
 def golden_of(
@@ -346,11 +384,13 @@ def golden_of(
     station_sha256: str,
     focus: list[dict[str, float]] | None = None,
     poses: list[tuple[float, float, float]] | None = None,
+    settings: dict[str, str] | None = None,
 ) -> Golden:
     """The :class:`Golden` of ``runs``, each a dict illumination → its
     :class:`~inspect_validate.measurement.Measurement` (measured with ``comparisons``);
     ``focus``, each run's class → focus measure, makes it a production golden file (one
-    run a part), ``poses`` each part's (x, y, angle)."""
+    run a part), ``poses`` each part's (x, y, angle); ``settings`` the camera's settings
+    snapshot the runs share."""
     from inspect_validate.verification.uncertainty import measured_standard_errors
 
     illuminations = {}
@@ -391,6 +431,7 @@ def golden_of(
         captures=captures,
         illuminations=illuminations,
         mode="bench" if focus is None else "production",
+        settings=settings,
     )
 
 

@@ -55,6 +55,7 @@ __all__ = [
     "drift_limit",
     "prediction_sd",
     "repeats_needed",
+    "settings_checks",
     "validate_golden",
     "widening",
 ]
@@ -243,6 +244,39 @@ def _drift_check(
         sided=2,
         coverage=drift_coverage(ref, standard_error, confidence),
     )
+
+
+def settings_checks(golden: Golden, manifest: dict) -> tuple[list[Check], list[str]]:
+    """The camera's settings now (the capture's snapshot) against those ``golden`` was
+    trained at: a fixed check that fails naming every node changed (``"Gamma 1 → 0.7"``),
+    or, where either has no snapshot, a note saying so (nothing to compare is not a
+    failure: a golden file from before snapshots, a camera without a node map)."""
+    from inspect_validate.camera.storage import changed_settings
+
+    now = (manifest.get("settings") or {}).get("values")
+    if golden.settings is None:
+        return [], [
+            "no settings snapshot to compare: the golden file was trained from captures "
+            "without one (retrain to have the camera's settings checked)"
+        ]
+    if now is None:
+        return [], ["no settings snapshot to compare: the capture holds none"]
+    if not now:  # V4L2, a replay: no node map to read
+        return [], ["no settings snapshot to compare: the camera reports no settings nodes"]
+    changed = changed_settings(golden.settings, now)
+    detail = "; ".join(changed) if changed else f"{len(now)} nodes as trained"
+    return [
+        at_most(
+            "camera settings unchanged since training",
+            "settings",
+            len(changed),
+            0,
+            "",
+            f"{detail} (the camera's own values: another program, or the camera, changed them)"
+            if changed
+            else detail,
+        )
+    ], []
 
 
 def validate_golden(

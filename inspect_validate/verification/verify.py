@@ -34,7 +34,11 @@ from inspect_validate.verification.dominance import (
     dominance_unconfirmed,
     dominated_illuminations,
 )
-from inspect_validate.verification.golden_checks import above_floor, drift_checks
+from inspect_validate.verification.golden_checks import (
+    above_floor,
+    drift_checks,
+    settings_checks,
+)
 from inspect_validate.verification.measured import StepMeasurer, measure_capture
 from inspect_validate.verification.plan import Plan, plan_verification
 from inspect_validate.verification.results import Verification
@@ -315,6 +319,10 @@ def verify_capture(
     )
     checks = [*light, *checks]
     skipped += [*not_ranked, *unchecked]
+    if golden is not None:
+        compared, why_not = settings_checks(golden, manifest)
+        checks += compared
+        notes += why_not
     if golden is not None and measurements:
         k = normal_equivalent(acc.false_alarm_rate)
         checks += drift_checks(golden, measurements, acc.drift, errors, k=k)

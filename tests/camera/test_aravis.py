@@ -328,3 +328,50 @@ def test_init_simulate_warns_of_a_fake_camera_already_running(cli, tmp_path, fak
     )  # fmt: skip
     assert code == 0, err
     assert f"Aravis' fake camera {serial} already runs on this machine" in err, err
+
+
+def test_a_setting_changed_by_a_second_process_between_captures_is_named(
+    tmp_path, capsys, fake_gige
+):
+    """Issue 50: two captures of the fake camera; between them another process opens it
+    and sets AcquisitionFrameRate (which the station does not set), as a vendor's viewer
+    left running would. The second capture's settings snapshot differs by that node,
+    and the check verify makes against the first names it, old value and new."""
+    from types import SimpleNamespace
+
+    from inspect_validate.camera.storage import changed_settings
+    from inspect_validate.cli import main
+    from inspect_validate.verification.golden_checks import settings_checks
+
+    serial, _ = fake_gige()
+    path = _station(tmp_path, serial, frames=2)
+
+    def capture(out):
+        with pytest.raises(SystemExit) as done:
+            main(["capture", str(path), "--out", str(tmp_path / out)])
+        assert done.value.code == 0, capsys.readouterr()
+        return json.loads((tmp_path / out / "manifest.json").read_text())["settings"]["values"]
+
+    before = capture("a")
+    other = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            "from inspect_validate.camera.grabbers.aravis import AravisGrabber\n"
+            f"g = AravisGrabber(serial={serial!r})\n"
+            "g._write('AcquisitionFrameRate', 12.5, 'frame rate')\n"
+            "g.close()\n",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert other.returncode == 0, other.stderr
+    after = capture("b")
+    assert changed_settings(before, after) == [
+        f"AcquisitionFrameRate {before['AcquisitionFrameRate']} → 12.5"
+    ]
+    (check,), notes = settings_checks(
+        SimpleNamespace(settings=before), {"settings": {"values": after}}
+    )
+    assert not check.passed and "AcquisitionFrameRate" in check.detail and not notes

@@ -63,6 +63,10 @@ class MemoryCamera(NodeMapGrabber):
     def _increment(self, name):
         return 1.0 if name == "ExposureTime" else None
 
+    def _text(self, name):
+        value = self.nodes[name]
+        return None if value is None else str(value)
+
     def _execute(self, name):
         self.nodes[name] = "executed"
 
