@@ -359,8 +359,9 @@ def _shared_settings(captures: list[Path], manifests: list[dict]) -> dict[str, s
     """
     from inspect_validate.camera.storage import changed_settings
 
-    snapshots = [(m.get("settings") or {}).get("values") for m in manifests]
-    if any(s is None for s in snapshots):
+    found = [(m.get("settings") or {}).get("values") for m in manifests]
+    snapshots: list[dict[str, str]] = [s for s in found if isinstance(s, dict)]
+    if len(snapshots) < len(found):
         return None
     first = snapshots[0]
     for folder, snapshot in zip(captures[1:], snapshots[1:], strict=True):
