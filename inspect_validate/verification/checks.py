@@ -149,7 +149,7 @@ class Check:
         unchanged station fails at most the share) and the tolerance interval (for
         this golden file, with probability ``coverage.confidence``).
     confidence : float or None
-        Set by :func:`decide` for a check with ``coverage``: the probability over the
+        Set by ``decide`` for a check with ``coverage``: the probability over the
         training that the limit set fails an unchanged station at most the check's share
         (at least ``coverage.confidence``; more where the prediction interval is wider).
     """

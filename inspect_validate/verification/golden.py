@@ -228,7 +228,7 @@ class Golden(_Frozen):
         | None
     ) = None
     """The camera's settings snapshot the training captures share (node → value, as the
-    camera reported it: :meth:`~inspect_validate.camera.grabbers.base.Grabber.settings`),
+    camera reported it: the grabber's ``settings()``),
     which ``verify`` compares with its capture's; null: trained from captures without one
     (before snapshots were kept)."""
 
