@@ -91,8 +91,13 @@ def format_golden(
 
 def _limits_text(n: int, share: float, rate: float | None, drift: Drift) -> str:
     """What the catches are measured against, and what the limits promise."""
-    from inspect_validate.stats.tolerance_interval import tolerance_confidence, tolerance_factor
-    from inspect_validate.verification.checks import confidence_text, quantile
+    from inspect_validate.stats.tolerance_interval import tolerance_confidence
+    from inspect_validate.verification.checks import (
+        Coverage,
+        confidence_text,
+        covered_margin,
+        quantile,
+    )
     from inspect_validate.verification.golden_checks import (
         GOOD_WIDENING,
         repeats_needed,
@@ -114,26 +119,27 @@ def _limits_text(n: int, share: float, rate: float | None, drift: Drift) -> str:
     )
     if w > GOOD_WIDENING:
         text += f"; {repeats_needed(share)} repeats bring it to {GOOD_WIDENING:g} ×"
+    # the limits in units of the repeats' spread, captured as the training was
     predicted = quantile(share, df=n - 1) * math.sqrt(1.0 + 1.0 / n)
-    achieved = tolerance_confidence(predicted, n=n, content=1.0 - share)
     text += (
         f"\nlimits: the prediction interval fails an unchanged station at most {share:.2g} "
         "a check on average over trainings; "
     )
     gamma = drift.confidence
     if gamma is None:
+        achieved = tolerance_confidence(predicted, n=n, content=1.0 - share)
         text += (
             f"for this golden file it holds with confidence {confidence_text(achieved)} "
             "(drift.confidence is null: no tolerance interval)"
         )
     else:
-        k = tolerance_factor(n=n, content=1.0 - share, confidence=gamma)
-        if k > predicted:
+        limit, achieved, k = covered_margin(Coverage(1.0, n, gamma), predicted, share, df=n - 1)
+        if k is not None:
             text += (
                 f"the tolerance interval at drift.confidence {gamma:g} widens it "
-                f"{k / predicted:.2f} × so that, with probability {gamma:g} over the training, "
-                f"this golden file fails an unchanged station at most {share:.2g} a check "
-                "(the catches include it)"
+                f"{limit / predicted:.2f} × so that, with probability {gamma:g} over the "
+                f"training, this golden file fails an unchanged station at most {share:.2g} "
+                "a check (the catches include it)"
             )
         else:
             text += (

@@ -192,8 +192,8 @@ class SimulatedGrabber(Grabber):
         self.latency = latency
         self.interval = frame_interval_s
         # The objects (which reflectance sample each pixel shows) are the same every
-        # time, as the parts on a station are; the noise is new in every capture, as a
-        # sensor's is (repeats of 'train' must not be copies of one another).
+        # time, as the parts on a station are, unless they are redrawn; the noise is new
+        # in every capture, as a sensor's is (repeats of 'train' must not be copies).
         objects = draw if draw is not None else np.random.default_rng(seed)
         self.exposure_us = 10_000.0
         self.gain_db = 0.0

@@ -41,6 +41,7 @@ __all__ = [
     "at_most",
     "confidence_text",
     "count_tests",
+    "covered_margin",
     "decide",
     "normal_equivalent",
     "not_run",
@@ -344,27 +345,40 @@ def decide(checks: Iterable[Check], rate: float) -> tuple[Check, ...]:
     return tuple(out)
 
 
+def covered_margin(
+    coverage: Coverage, margin: float, share: float, *, df: float
+) -> tuple[float, float, float | None]:
+    """The wider of a prediction interval's ``margin`` and the tolerance interval
+    ``coverage`` sets at the false-alarm ``share`` (its spread estimated with ``df``
+    degrees of freedom), and the confidence that limit holds the share with for this
+    golden file: ``(margin, confidence, k)``, k the tolerance factor where the tolerance
+    interval is the wider, else None."""
+    from inspect_validate.stats.tolerance_interval import tolerance_confidence, tolerance_factor
+
+    n, content = coverage.n, 1.0 - share
+    k = tolerance_factor(n=n, content=content, confidence=coverage.confidence, df=df)
+    if k * coverage.spread > margin:
+        return k * coverage.spread, coverage.confidence, k
+    return margin, tolerance_confidence(margin / coverage.spread, n=n, content=content, df=df), None
+
+
 def _covered(c: Check, margin: float, share: float) -> tuple[float, float, str]:
     """The margin of a check with a coverage (:func:`decide`), the confidence it gives,
     and which interval set it."""
-    from inspect_validate.stats.tolerance_interval import tolerance_confidence, tolerance_factor
-
     cov = c.coverage
     assert cov is not None
-    n, content = cov.n, 1.0 - share
-    k = tolerance_factor(n=n, content=content, confidence=cov.confidence, df=c.df)
-    if k * cov.spread > margin:
+    margin, confidence, k = covered_margin(cov, margin, share, df=c.df)
+    if k is not None:
         return (
-            k * cov.spread,
-            cov.confidence,
+            margin,
+            confidence,
             f"limit from the tolerance interval, k {k:.3g} × {cov.spread:.2g} {c.unit}: "
             f"holds for this golden file with confidence {cov.confidence:g}",
         )
-    achieved = tolerance_confidence(margin / cov.spread, n=n, content=content, df=c.df)
     return (
         margin,
-        achieved,
-        f"holds for this golden file with confidence {confidence_text(achieved)}",
+        confidence,
+        f"holds for this golden file with confidence {confidence_text(confidence)}",
     )
 
 

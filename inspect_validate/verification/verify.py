@@ -296,6 +296,7 @@ def verify_capture(
         ill: measured_standard_errors(m, comparisons, mixtures=mixtures)
         for ill, m in measurements.items()
     }
+    model_errors = _model_errors(acc, prediction, comparisons, measurements)
     class_rows, comparison_rows = agreement_rows(
         measurements, prediction, nominal, dark_means, offset, need_kde=need_kde
     )
@@ -315,7 +316,7 @@ def verify_capture(
         errors,
         unlit=unlit,
         agreed=plan.agreed(acc),
-        model_errors=_model_errors(acc, prediction, comparisons, measurements),
+        model_errors=model_errors if acc.agreement and acc.agreement.parts == "other" else None,
     )
     checks = [*light, *checks]
     skipped += [*not_ranked, *unchecked]
@@ -342,7 +343,7 @@ def verify_capture(
                 )
     rate = acc.false_alarm_rate
     decided = decide(checks, rate)
-    notes += _uncertainty_notes(acc, decided, golden, prediction, list(measurements))
+    notes += _uncertainty_notes(acc, decided, golden, comparisons, model_errors)
     notes += _fixed_drift_notes(acc, decided, golden, measurements, errors)
     inputs = _inputs(station, capture, rois, folder, golden)
     acquisition = acquisition_record(manifest, {**files, "dark": dark_files})
@@ -407,10 +408,11 @@ def _inputs(station, capture, rois, folder, golden) -> dict:
 
 def _model_errors(acc, prediction, comparisons, measurements) -> dict:
     """The prediction's own standard errors per measured illumination, from its reflectance
-    samples, where the agreement checks hold them (``agreement.parts: other``)."""
+    samples: what the agreement checks hold beside the measurement's (``agreement.parts:
+    other``) and what the notes weigh the agreement tolerance against."""
     from inspect_validate.verification.uncertainty import predicted_standard_errors
 
-    if acc.agreement is None or acc.agreement.parts != "other":
+    if acc.agreement is None:
         return {}
     if list(prediction.comparison_set.labels) != list(comparisons.labels):
         return {}  # not one set of rows: nothing to pair (never so from plan_verification)
@@ -476,16 +478,16 @@ def _fixed_drift_notes(acc, checks, golden, measurements, errors) -> list[str]:
     return notes
 
 
-def _uncertainty_notes(acc, checks, golden, prediction, illuminations) -> list[str]:
+def _uncertainty_notes(acc, checks, golden, comparisons, model_errors) -> list[str]:
     """What a reader should know of the checks' power: drift limits widened by a short
-    training, and agreement tolerances within the model's own uncertainty."""
+    training, and agreement tolerances within the model's own uncertainty
+    (``model_errors``: :func:`_model_errors`)."""
     from inspect_validate.verification.checks import quantile
     from inspect_validate.verification.golden_checks import (
         GOOD_WIDENING,
         repeats_needed,
         widening,
     )
-    from inspect_validate.verification.uncertainty import predicted_standard_errors
 
     notes = []
     drift = [c for c in checks if c.kind == "drift" and c.basis == "statistical" and c.ran]
@@ -505,10 +507,8 @@ def _uncertainty_notes(acc, checks, golden, prediction, illuminations) -> list[s
         return notes
     q = quantile(tested[0].false_alarm, sided=1)
     close = []
-    comparisons = prediction.comparison_set
-    for ill in illuminations:
-        li = prediction.index(ill)
-        se = predicted_standard_errors(prediction, li, comparisons, mixtures=()).snr_db
+    for ill, errors in model_errors.items():
+        se = errors.snr_db
         for j, text in enumerate(comparisons.labels):
             row = f"{ill}: {text} SNR_dB deviation"
             if any(c.name == row for c in tested) and q * se[j] > agreement.snr_db:
