@@ -23,8 +23,9 @@ of the prediction interval and the two-sided tolerance interval
 (:mod:`inspect_validate.stats.tolerance_interval`): with probability γ over the
 training, *this* golden file fails an unchanged station at most α of the time. At 5
 repeats and α near 10⁻⁴ the prediction interval is the wider (it already gives γ ≈
-0.99); from about 10 repeats the tolerance interval is. α is the check's share of the verification's false-alarm rate
-(:mod:`.checks`). Few repeats make t large: 5 repeats and 20 checks at 0.27 % give
+0.99); from about 12 repeats the tolerance interval is.
+
+α is the check's share of the verification's false-alarm rate (:mod:`.checks`). Few repeats make t large: 5 repeats and 20 checks at 0.27 % give
 limits 4.1 × as wide as a perfectly known spread would; a golden file whose limits
 would be more than :data:`MAX_WIDENING` × as wide is refused, naming the repeats it
 needs.
@@ -142,7 +143,7 @@ def drift_limit(
     """The statistical limit on |x − x̄| a drift check against ``spread`` sets at its
     false-alarm ``share`` (module description), in its unit; ``standard_error`` is the
     new measurement's (default the repeats' own). NaN without a spread."""
-    from inspect_validate.verification.checks import quantile
+    from inspect_validate.verification.checks import covered_margin, quantile
 
     own = spread.standard_error if standard_error is None else standard_error
     sd = prediction_sd(spread, own)
@@ -152,10 +153,7 @@ def drift_limit(
     coverage = drift_coverage(spread, own, confidence)
     if coverage is None:
         return limit
-    from inspect_validate.stats.tolerance_interval import tolerance_factor
-
-    k = tolerance_factor(n=coverage.n, content=1.0 - share, confidence=coverage.confidence)
-    return max(limit, k * coverage.spread)
+    return covered_margin(coverage, limit, share, df=spread.n - 1)[0]
 
 
 def drift_coverage(
@@ -180,8 +178,9 @@ def drift_checks(
     :func:`validate_golden` has accepted for the station.
 
     ``drift`` is the station's ``acceptance.drift``: a fixed tolerance it gives is held as
-    it is; otherwise each check is statistical, its limit the prediction interval (module
-    description) that :func:`~.checks.decide` sets from :func:`prediction_sd`.
+    it is; otherwise each check is statistical, its limit the wider of the prediction
+    interval and the tolerance interval (module description) that :func:`~.checks.decide`
+    sets from :func:`prediction_sd` and :func:`drift_coverage`.
     ``errors`` is illumination → the measurement's
     :class:`~.uncertainty.StandardErrors`; ``k`` the false-alarm rate's normal
     equivalent (:func:`above_floor`).
@@ -191,7 +190,7 @@ def drift_checks(
     checks = []
     for ill, m in measurements.items():
         g, se = golden.illuminations[ill], errors[ill]
-        for k, c in enumerate(m.classes):
+        for i, c in enumerate(m.classes):
             ref = g.classes[c.name].mean
             checks.append(
                 _drift_check(
@@ -199,7 +198,7 @@ def drift_checks(
                     c.mean,
                     ref,
                     drift.mean_dn,
-                    float(se.mean[k]),
+                    float(se.mean[i]),
                     drift.confidence,
                     "DN",
                     f"golden {ref.summary()} DN over {ref.n} repeats, now {c.mean:.4g} DN",

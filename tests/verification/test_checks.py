@@ -256,3 +256,39 @@ def test_a_comparison_near_the_floor_is_left_out_by_its_spread():
     assert above_floor(near, -20.0, k=0.5)
     assert above_floor(Spread(values=[-19.0], standard_errors=[0.1]), -20.0)
     assert not above_floor(Spread(values=[-21.0], standard_errors=[0.1]), -20.0)
+
+
+def test_drift_checks_leave_out_comparisons_by_the_rates_k_not_a_class_index():
+    """The comparisons drift_checks keeps are those above_floor keeps at the k it is given
+    (a loop over the classes once overwrote k with the last class's index)."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from inspect_validate.acceptance import Drift
+    from inspect_validate.verification.golden_checks import drift_checks
+
+    def spread(mean, s):
+        return Spread(values=[mean - s, mean, mean + s], standard_errors=[0.01] * 3)
+
+    near = spread(-18.0, 1.0)  # s = 1: above −20 dB by 2 spreads
+    golden = SimpleNamespace(
+        illuminations={
+            "amber": SimpleNamespace(
+                classes={n: SimpleNamespace(mean=spread(100.0, 0.1)) for n in "ABC"},
+                comparisons={"A vs B": SimpleNamespace(snr_db=near)},
+            )
+        }
+    )
+    measurement = SimpleNamespace(
+        classes=[SimpleNamespace(name=n, mean=100.0) for n in "ABC"],
+        comparisons=[SimpleNamespace(label="A vs B", snr_db=-18.0)],
+    )
+    errors = {"amber": SimpleNamespace(mean=np.full(3, 0.01), snr_db=np.full(1, 0.01))}
+
+    def kept(k):
+        checks = drift_checks(golden, {"amber": measurement}, Drift(golden="g"), errors, k=k)
+        return [c.name for c in checks if "SNR_dB" in c.name]
+
+    assert kept(1.5) == ["amber: A vs B SNR_dB drift"]  # −18 − 1.5 ≥ −20
+    assert kept(3.0) == []  # −18 − 3 < −20, whatever the classes' count
