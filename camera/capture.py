@@ -47,8 +47,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from inspect_validate.camera.health import step_health
 from inspect_validate.camera.storage import settings_sha256
-from inspect_validate.errors import DeviceError, IncompleteFrame, InputError
+from inspect_validate.errors import DeviceError, FrameTimeout, IncompleteFrame, InputError
 from inspect_validate.interruption import stop_if_requested
 
 if TYPE_CHECKING:
@@ -318,7 +319,10 @@ def capture_steps(
     # made by another program between captures shows in the next one's snapshot.
     snapshot = grabber.settings()
     store.record("settings", {"values": snapshot, "sha256": settings_sha256(snapshot)})
-    next_frame = _frame_source(grabber, controller, mode, pulse, settings.timeout_s)
+    triggers: Counter = Counter()  # this step's, for its health record
+    next_frame = _frame_source(grabber, controller, mode, pulse, settings.timeout_s, triggers)
+    if mode != "free-run":
+        triggers.update(triggers_sent=0, triggers_missed=0)  # counted: 0 is a count here
     pending = None  # a step whose frames are grabbed; their saves may still run
 
     def complete(step):
@@ -380,8 +384,12 @@ def capture_steps(
                 raise
             if pending is not None:
                 complete(pending)  # its last saves end while this step's first frame exposes
+            before = None
             try:
                 store.begin(name, {"channels": as_json})
+                for counted in triggers:  # zeroed, not removed: a count of 0 is a count
+                    triggers[counted] = 0
+                before = grabber.health()
                 status = controller.status()
                 if status:
                     store.note(name, "controller_status", status)
@@ -434,11 +442,15 @@ def capture_steps(
                         break
                 store.note(name, "acquisition", mode)
                 store.note(name, "discarded", discarded)
+                store.note(name, "health", _step_health(grabber, before, triggers))
                 if stop is not None:
                     known[name] = stop.known()
                     store.note(name, "precision", asdict(known[name]))
             # InputError: ROIs off the frame, a full disk.
             except (DeviceError, InputError) as exc:
+                if name in store.manifest["steps"] and before is not None:
+                    # what the transport saw while the step failed: often why it failed
+                    store.note(name, "health", _step_health(grabber, before, triggers))
                 abort(name, exc)
                 raise
             pending = name
@@ -521,28 +533,52 @@ def _arm(settings: CameraSettings, grabber, source: str) -> tuple[str, dict | No
     return mode, chunk
 
 
-def _frame_source(grabber, controller, mode: str, pulse, timeout_s: float):
+def _frame_source(grabber, controller, mode: str, pulse, timeout_s: float, triggers: Counter):
     """``next_frame()`` for :func:`verified_frames`: the camera's next frame, triggered
-    as ``mode`` says, spaced so that a pulsed light keeps its duty cycle."""
+    as ``mode`` says, spaced so that a pulsed light keeps its duty cycle.
+
+    A trigger that brings no frame within ``timeout_s`` (a camera still reading out, a
+    pulse lost on the wire) is sent once more; a second in a row is the error. Each trigger
+    sent and each missed is counted in ``triggers`` (``triggers_sent``,
+    ``triggers_missed``: :data:`~inspect_validate.camera.health.COUNTERS`)."""
     if mode == "free-run":
         return lambda: (grabber.grab(1, timeout_s=timeout_s)[0], None, 0)
     period_ns = pulse.width_us / pulse.max_duty * 1e3 if pulse is not None else 0.0
     last = [0]
 
     def next_frame():
-        wait = last[0] + period_ns - time.monotonic_ns()
-        if wait > 0:
-            time.sleep(wait / 1e9)
-        untriggered = grabber.drain()  # a queued frame was not triggered by what follows
-        if mode == "software-trigger":
-            sent = grabber.trigger()
-        else:
-            sent = time.monotonic_ns()
-            controller.trigger(pulse.trigger_channel)
-        last[0] = sent
-        return grabber.grab(1, timeout_s=timeout_s)[0], sent, untriggered
+        for again in (False, True):
+            wait = last[0] + period_ns - time.monotonic_ns()
+            if wait > 0:
+                time.sleep(wait / 1e9)
+            untriggered = grabber.drain()  # a queued frame was not triggered by what follows
+            if mode == "software-trigger":
+                sent = grabber.trigger()
+            else:
+                sent = time.monotonic_ns()
+                controller.trigger(pulse.trigger_channel)
+            triggers["triggers_sent"] += 1
+            last[0] = sent
+            try:
+                return grabber.grab(1, timeout_s=timeout_s)[0], sent, untriggered
+            except FrameTimeout:
+                triggers["triggers_missed"] += 1
+                if again:
+                    raise
+        raise AssertionError("unreachable")  # pragma: no cover
 
     return next_frame
+
+
+def _step_health(grabber, before: dict, triggers: Counter) -> dict:
+    """A step's health (:mod:`~inspect_validate.camera.health`): what the camera reports
+    now against ``before``, and the triggers the capture counted; a camera that no longer
+    answers reports what the capture counted."""
+    try:
+        now = grabber.health()
+    except DeviceError:
+        now = {}
+    return {**step_health(before, now), **triggers}
 
 
 def _unlit_steps(levels: dict[str, float], tolerance: float) -> tuple[str, ...]:

@@ -490,6 +490,8 @@ def acquisition_record(manifest: dict, files: dict[str, list[Path]]) -> tuple[di
                 "exposure_us": sorted(exposures),
                 "exposure_source": source if exposures else None,
                 "discarded": dict(entry.get("discarded") or {}),
+                # what the camera reported (health.COUNTERS, GAUGES); None: not recorded
+                "health": dict(entry["health"]) if isinstance(entry.get("health"), dict) else None,
             }
         )
     return tuple(rows)

@@ -22,6 +22,12 @@ Example::
         mean_dn: 2                 # a fixed tolerance |μ − μ_golden| per class, DN
         snr_db: 0.5                # |SNR_dB − SNR_dB golden| per comparison; without
                                    # them, prediction intervals from the trained repeats
+      health:                      # what the camera reports of the capture (fixed)
+        incomplete_frames: 0.01    # share of frames arriving incomplete, at most
+        packets_lost: 0            # packets never recovered (GigE Vision)
+        missed_triggers: 0         # triggers that brought no frame
+        temperature_c: 55          # the camera's rated maximum (default: not limited)
+        settings: true             # the camera's nodes as the golden file's
 
 Every check that estimates (drift without a fixed tolerance, the ranking) or holds an
 estimate to a given limit (agreement, separation, gain) shares ``false_alarm``
@@ -39,7 +45,7 @@ from inspect_validate.config import StrictModel
 if TYPE_CHECKING:
     from inspect_validate.measurement import Limits
 
-__all__ = ["Acceptance", "Agreement", "Calibration", "Drift", "Separation"]
+__all__ = ["Acceptance", "Agreement", "Calibration", "Drift", "Health", "Separation"]
 
 FALSE_ALARM_DEFAULT = 0.0027  # checks.DEFAULT_FALSE_ALARM (not imported: scipy-free module)
 CONFIDENCE_DEFAULT = 0.95
@@ -141,6 +147,31 @@ class Drift(StrictModel):
     prediction interval alone."""
 
 
+class Health(StrictModel):
+    """Limits on what the camera and its transport report of the verification's capture
+    (each step's ``health`` in the capture's manifest: :mod:`inspect_validate.camera.health`).
+    Fixed checks: a count over a limit fails, whatever the frames show. A limit left at
+    its default is checked where the camera offers the quantity and said to be not offered
+    where it does not; a limit given in the station file and not offered fails, as a check
+    asked for that could not run."""
+
+    incomplete_frames: Fraction | None = 0.01
+    """Largest share of the frames delivered that arrived incomplete (the capture discards
+    them; more than a few means a link losing data)."""
+    packets_lost: Annotated[int, Field(ge=0, le=10**12)] | None = 0
+    """Most packets still missing when their frame was closed (GigE Vision): any means the
+    network drops data that resends did not recover."""
+    missed_triggers: Annotated[int, Field(ge=0, le=10**9)] | None = 0
+    """Most triggers that brought no frame (each was sent again once; the frames are
+    whole, but a line that triggers once per part would have lost that part)."""
+    temperature_c: Annotated[float, Field(ge=-60, le=200, allow_inf_nan=False)] | None = None
+    """Highest temperature the camera may report, °C: its datasheet's rated maximum for
+    the place ``DeviceTemperature`` measures (default: reported, not limited)."""
+    settings: bool = True
+    """The camera's settings (its snapshot in the capture) must be those the golden file
+    was trained at, node by node (with ``drift.golden``)."""
+
+
 class Acceptance(StrictModel):
     """The checks ``verify`` runs, their limits, and how often an unchanged station may
     fail them."""
@@ -165,6 +196,9 @@ class Acceptance(StrictModel):
     """Largest relative deviation of the photon-transfer K from the camera's (tolerance)."""
     drift: Drift | None = None
     """Drift from the golden statistics of ``inspect-validate train``."""
+    health: Health = Health()
+    """What the camera and its transport report: incomplete frames, lost packets, missed
+    triggers, its temperature, and its settings against the golden file's."""
 
     @model_validator(mode="after")
     def _one_level(self):

@@ -73,6 +73,15 @@ class DeviceError(InspectValidateError, RuntimeError):
     exit_code = EXIT_DEVICE
 
 
+class FrameTimeout(DeviceError):
+    """No frame arrived within the timeout.
+
+    Free-running, the camera has stopped: an error. Triggered, the trigger may have been
+    missed (a camera still reading out): the capture counts it and triggers once more;
+    only a second timeout in a row is an error.
+    """
+
+
 class IncompleteFrame(DeviceError):
     """A frame arrived with data missing (packets lost on the way, a buffer underrun).
 

@@ -1,4 +1,5 @@
 import json
+import os
 import shutil
 import subprocess
 import sys
@@ -377,3 +378,23 @@ def line_frames(station, out, parts=40):
     of the frames."""
     assert run_cli(["capture", station, "--production", "--parts", parts, "--out", out]) == 0
     return out / "amber"
+
+
+def run_with_emulator(code: str, tmp_path) -> str:
+    """Run ``code`` (dedented) in a Python of its own with pylon's camera emulator
+    (pylon reads PYLON_CAMEMU as its transport layers start); its stdout. Skips where
+    pypylon is not installed."""
+    import textwrap
+
+    pytest.importorskip("pypylon")
+    script = tmp_path / "emulated.py"
+    script.write_text(textwrap.dedent(code))
+    done = subprocess.run(
+        [sys.executable, str(script)],
+        env={**os.environ, "PYLON_CAMEMU": "1"},
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
+    return done.stdout

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import contextlib
 from types import ModuleType
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, ClassVar, Literal
 
 import numpy as np
 from pydantic import Field
@@ -257,15 +257,46 @@ class AravisGrabber(NodeMapGrabber):
                 f"{self.name}: cannot start the acquisition ({exc.message})"
             ) from None
         self._stream = stream
+        self._stream_started()
 
     def _stop(self) -> None:
         if self._stream is None:
             return
+        self._stream_ended()  # a new stream counts from 0
         try:
             self._cam.stop_acquisition()
         except self._glib.Error:
             pass  # a camera that vanished: the stream is dropped all the same
         self._stream = None  # its queued buffers go with it
+
+    # Aravis' stream statistics by the health names they feed; USB3 Vision streams have
+    # the first three, GigE Vision streams all (arvgvstream.c, arvuvstream.c).
+    _STREAM_INFOS: ClassVar[dict[str, str]] = {
+        "n_completed_buffers": "frames_delivered",
+        "n_failures": "frames_incomplete",
+        "n_underruns": "frames_lost",
+        "n_missing_frames": "frames_lost",
+        "n_missing_packets": "packets_lost",
+        "n_resend_requests": "resend_requests",
+        "n_resent_packets": "packets_resent",
+    }
+
+    def _counters_offered(self) -> tuple[str, ...]:
+        gige = self._cam is not None and self._cam.is_gv_device()
+        return ("frames_delivered", "frames_incomplete", "frames_lost") + (
+            ("packets_lost", "resend_requests", "packets_resent") if gige else ()
+        )
+
+    def _stream_counters(self) -> dict[str, float]:
+        stream = self._stream
+        if stream is None:
+            return {}
+        out: dict[str, float] = {}
+        for i in range(stream.get_n_infos()):
+            name = self._STREAM_INFOS.get(stream.get_info_name(i))
+            if name is not None:
+                out[name] = out.get(name, 0) + int(stream.get_info_uint64(i))
+        return out
 
     def drain(self) -> int:
         drained = 0

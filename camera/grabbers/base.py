@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextlib
+import math
 import time
 from abc import ABC, abstractmethod
 from contextlib import AbstractContextManager
@@ -11,7 +13,7 @@ import numpy as np
 
 from inspect_validate.camera.frame import Frame
 from inspect_validate.camera.pixelformats import BIT_DEPTH, PACKED, packed_size, unpack
-from inspect_validate.errors import DeviceError
+from inspect_validate.errors import DeviceError, FrameTimeout
 
 __all__ = [
     "ACQUISITIONS",
@@ -54,6 +56,9 @@ class Features:
         The largest ``Width`` and ``Height`` [px].
     trigger_selectors, trigger_sources, lines : tuple of str
         The entries of ``TriggerSelector``, ``TriggerSource`` and ``LineSelector``.
+    health : tuple of str
+        The health quantities the camera and its transport report
+        (:mod:`~inspect_validate.camera.health`; the capture counts triggers itself).
     """
 
     software_trigger: bool = False
@@ -67,6 +72,7 @@ class Features:
     trigger_selectors: tuple[str, ...] = ()
     trigger_sources: tuple[str, ...] = ()
     lines: tuple[str, ...] = ()
+    health: tuple[str, ...] = ()
 
     @property
     def monochrome(self) -> tuple[str, ...]:
@@ -279,6 +285,12 @@ class Grabber(ABC):
         for a camera without a node map."""
         return {}
 
+    def health(self) -> dict[str, float]:
+        """What the camera and its transport report of the acquisition
+        (:mod:`~inspect_validate.camera.health`): its counters since it was opened, its
+        gauges now. Only what the backend offers is present; default none."""
+        return {}
+
     def close(self) -> None:  # noqa: B027 - optional for backends without a connection
         """Release the device."""
 
@@ -321,8 +333,9 @@ class NodeMapGrabber(Grabber):
 
     A backend gives what its library differs in: the node accessors :meth:`_has`,
     :meth:`_symbolics`, :meth:`_write`, :meth:`_read`, :meth:`_increment` and
-    :meth:`_execute`; :meth:`_stop` and :meth:`_start` for its acquisition; and
-    :meth:`_fetch`, one buffer with a timeout.
+    :meth:`_execute`; :meth:`_stop` and :meth:`_start` for its acquisition (which call
+    :meth:`_stream_ended` and :meth:`_stream_started`); :meth:`_fetch`, one buffer with
+    a timeout; and :meth:`_stream_counters`, its transport's own counts.
     """
 
     _CHUNKS = ("ExposureTime", "Gain", "Timestamp", "FrameID")
@@ -371,6 +384,11 @@ class NodeMapGrabber(Grabber):
             trigger_selectors=self._symbolics("TriggerSelector"),
             trigger_sources=sources,
             lines=self._symbolics("LineSelector"),
+            health=(
+                *self._counters_offered(),
+                *(["temperature_c"] if self._has("DeviceTemperature") else []),
+                *(["link_speed_mbps"] if self._first(("GevLinkSpeed", "DeviceLinkSpeed")) else []),
+            ),
         )
 
     def _range(self, names) -> tuple[float, float] | None:
@@ -440,6 +458,81 @@ class NodeMapGrabber(Grabber):
                 values[name] = "".join(ch for ch in text if ch.isprintable())[:200]
         return values
 
+    # -- health --------------------------------------------------------------------------
+    # A stream's counters start again with every stream (Aravis makes a new one, pylon and
+    # GenTL count from the acquisition start): each is folded into the totals since the
+    # camera opened before its stream ends.
+    _counted: dict[str, float] | None = None
+    _stream_seen: dict[str, float] | None = None  # None: no stream running
+
+    def _stream_counters(self) -> dict[str, float]:
+        """The running stream's own counters (:data:`~inspect_validate.camera.health.COUNTERS`
+        names) since it started; {} while none runs."""
+        return {}
+
+    def _counters_offered(self) -> tuple[str, ...]:
+        """The counters :meth:`_stream_counters` reports, known before a stream runs."""
+        return ()
+
+    def _stream_started(self) -> None:
+        self._stream_seen = {}
+
+    def _stream_ended(self) -> None:
+        """Fold the stream's counters into the totals, before the stream stops or goes."""
+        self._fold()
+        self._stream_seen = None
+
+    def _fold(self) -> None:
+        if self._stream_seen is None:
+            return
+        counted = self._counted if self._counted is not None else {}
+        try:
+            now = self._stream_counters()
+        except DeviceError:
+            now = {}  # a camera that vanished reports nothing more; its totals stand
+        for name, value in now.items():
+            seen = self._stream_seen.get(name, 0)
+            counted[name] = counted.get(name, 0) + max(value - seen, 0)
+            self._stream_seen[name] = value
+        self._counted = counted
+
+    def health(self) -> dict[str, float]:
+        self._fold()
+        out: dict[str, float] = dict.fromkeys(self._counters_offered(), 0)
+        out.update(self._counted or {})
+        out.update(self._gauges())
+        return out
+
+    def _gauges(self) -> dict[str, float]:
+        """The temperature (the hottest place ``DeviceTemperatureSelector`` offers, the
+        selector left as it was) and the link speed, where the camera has the nodes."""
+        out: dict[str, float] = {}
+        if self._has("DeviceTemperature"):
+            places = self._symbolics("DeviceTemperatureSelector")
+            readings = []
+            if places:
+                was = self._text("DeviceTemperatureSelector")
+                for place in places:
+                    try:
+                        self._write("DeviceTemperatureSelector", place, "temperature")
+                    except DeviceError:
+                        continue
+                    readings.append(self._read("DeviceTemperature"))
+                if was in places:
+                    with contextlib.suppress(DeviceError):
+                        self._write("DeviceTemperatureSelector", was, "temperature")
+            else:
+                readings.append(self._read("DeviceTemperature"))
+            finite = [r for r in readings if r is not None and math.isfinite(r)]
+            if finite:
+                out["temperature_c"] = max(finite)
+        for node, scale in (("GevLinkSpeed", 1.0), ("DeviceLinkSpeed", 8e-6)):  # Mbit/s; B/s
+            speed = self._read(node) if self._has(node) else None
+            if speed is not None and math.isfinite(speed) and speed > 0:
+                out["link_speed_mbps"] = speed * scale
+                break
+        return out
+
     @abstractmethod
     def _execute(self, name: str) -> None:
         """Execute a command node (``TriggerSoftware``), a DeviceError if it fails."""
@@ -478,7 +571,7 @@ class NodeMapGrabber(Grabber):
         for k in range(n):
             with self._fetch(timeout_s) as buffer:
                 if buffer is None:
-                    raise DeviceError(
+                    raise FrameTimeout(
                         f"{self.name}: no frame within {timeout_s:g} s (frame {k + 1} of {n}); "
                         "check trigger mode, frame rate, exposure time, the cable and that the "
                         "camera is still powered"

@@ -44,7 +44,7 @@ from inspect_validate.camera.grabbers.base import (
 from inspect_validate.camera.pixelformats import BIT_DEPTH, PACKED, packed_size
 from inspect_validate.camera.registry import Backend, Opening, Search
 from inspect_validate.camera.settings import CameraSettings
-from inspect_validate.errors import DeviceError
+from inspect_validate.errors import DeviceError, IncompleteFrame
 
 __all__ = ["BACKEND", "GenICamGrabber", "GenicamSettings", "discover_genicam", "find_producers"]
 
@@ -55,6 +55,15 @@ def _entries(node) -> tuple[str, ...]:
         return tuple(node.symbolics) if node is not None else ()
     except Exception:  # GenICam raises several types for unavailable nodes
         return ()
+
+
+def _complete(buf) -> bool:
+    """The buffer holds its whole frame (GenTL's ``BUFFER_INFO_IS_INCOMPLETE``); a producer
+    that does not say is taken at its word that it delivers only whole frames."""
+    try:
+        return bool(buf.module.is_complete())
+    except Exception:  # not implemented by the producer, or not a harvesters buffer
+        return True
 
 
 def find_producers(
@@ -179,6 +188,7 @@ class GenICamGrabber(NodeMapGrabber):
         # Every announced buffer may hold a frame from before a change, plus one in flight.
         self.pipeline_frames = int(self._ia.num_buffers) + 1
         self._acquiring = False
+        self._incomplete = 0
         self._chunked = False
         self._nodes = self._ia.remote_device.node_map
         self.missing = self._missing()
@@ -236,6 +246,7 @@ class GenICamGrabber(NodeMapGrabber):
 
     def _stop(self) -> None:
         if self._acquiring:
+            self._stream_ended()  # GenTL counts from the acquisition start
             self._ia.stop()
             self._acquiring = False
 
@@ -246,6 +257,36 @@ class GenICamGrabber(NodeMapGrabber):
             except Exception as exc:  # GenTL raises several types when it cannot arm
                 raise DeviceError(f"{self.name}: cannot start the acquisition ({exc})") from None
             self._acquiring = True
+            self._incomplete = 0
+            self._stream_started()
+
+    def _stream_info(self, name: str) -> int | None:
+        """A ``STREAM_INFO_*`` of the data stream (``num_delivered``, ``num_underrun``),
+        None where the producer does not implement it."""
+        try:
+            return int(getattr(self._ia.data_streams[0].module, name))
+        except Exception:  # GenTL raises several types for info a producer lacks
+            return None
+
+    def _counters_offered(self) -> tuple[str, ...]:
+        # Incomplete buffers are told by each buffer's own flag (BUFFER_INFO_IS_INCOMPLETE).
+        offered = ["frames_incomplete"]
+        if self._stream_info("num_delivered") is not None:
+            offered.append("frames_delivered")
+        if self._stream_info("num_underrun") is not None:
+            offered.append("frames_lost")
+        return tuple(offered)
+
+    def _stream_counters(self) -> dict[str, float]:
+        if not self._acquiring:
+            return {}
+        out: dict[str, float] = {"frames_incomplete": self._incomplete}
+        delivered, underrun = self._stream_info("num_delivered"), self._stream_info("num_underrun")
+        if delivered is not None:
+            out["frames_delivered"] = max(delivered - self._incomplete, 0)
+        if underrun is not None:
+            out["frames_lost"] = underrun
+        return out
 
     def _arm_stream(self) -> None:
         # Triggered frames are fetched in the order they were triggered.
@@ -279,6 +320,12 @@ class GenICamGrabber(NodeMapGrabber):
             return
         try:
             arrived = time.monotonic_ns()
+            if not _complete(buf):
+                self._incomplete += 1
+                raise IncompleteFrame(
+                    f"{self.name}: frame {buf.frame_id} arrived incomplete (the producer "
+                    "flags it); check the link (packet size, bandwidth, the cable)"
+                )
             comp = buf.payload.components[0]
             w, h = int(comp.width), int(comp.height)
             try:

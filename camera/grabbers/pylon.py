@@ -10,7 +10,7 @@ from __future__ import annotations
 import contextlib
 import time
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, ClassVar, Literal
 
 import numpy as np
 from pydantic import Field
@@ -77,6 +77,7 @@ class PylonGrabber(NodeMapGrabber):
         self._cam.Open()
         self._chunked = False
         self.name = chosen.describe()
+        self._device_class = chosen.interface
         self.missing = self._missing()
 
     @property
@@ -161,11 +162,57 @@ class PylonGrabber(NodeMapGrabber):
 
     def _stop(self) -> None:
         if self._cam.IsGrabbing():
+            self._stream_ended()  # pylon counts again from the next StartGrabbing
             self._cam.StopGrabbing()
 
     def _start(self) -> None:
         if not self._cam.IsGrabbing():
             self._cam.StartGrabbing(self._pylon.GrabStrategy_OneByOne)
+            self._stream_started()
+
+    # The stream grabber's statistics by the health names they feed. The packet counts
+    # are a GigE Vision transport's: offered by GigE cameras only (other device classes,
+    # the emulator among them, list the nodes and count no packets).
+    _STATISTICS: ClassVar[dict[str, str]] = {
+        "Statistic_Failed_Buffer_Count": "frames_incomplete",
+        "Statistic_Buffer_Underrun_Count": "frames_lost",
+        "Statistic_Failed_Packet_Count": "packets_lost",
+        "Statistic_Resend_Request_Count": "resend_requests",
+        "Statistic_Resend_Packet_Count": "packets_resent",
+    }
+    _PACKETS = ("packets_lost", "resend_requests", "packets_resent")
+
+    def _statistic(self, node: str) -> float | None:
+        try:
+            return float(self._cam.GetStreamGrabberNodeMap().GetNode(node).GetValue())
+        except (AttributeError, self._genicam.GenericException):
+            return None
+
+    def _counters_offered(self) -> tuple[str, ...]:
+        gige = "GigE" in self._device_class
+        offered = (
+            ["frames_delivered"]
+            if self._statistic("Statistic_Total_Buffer_Count") is not None
+            else []
+        )
+        for node, name in self._STATISTICS.items():
+            if (gige or name not in self._PACKETS) and self._statistic(node) is not None:
+                offered.append(name)
+        return tuple(offered)
+
+    def _stream_counters(self) -> dict[str, float]:
+        if not self._cam.IsGrabbing():
+            return {}
+        offered = self._counters_offered()
+        values = {
+            name: self._statistic(node)
+            for node, name in self._STATISTICS.items()
+            if name in offered
+        }
+        total = self._statistic("Statistic_Total_Buffer_Count")
+        if total is not None and "frames_delivered" in offered:
+            values["frames_delivered"] = total - (values.get("frames_incomplete") or 0)
+        return {k: v for k, v in values.items() if v is not None}
 
     def _before_trigger(self) -> None:
         # A trigger the camera is not ready for is dropped without a word (the emulator
@@ -230,8 +277,7 @@ class PylonGrabber(NodeMapGrabber):
             result.Release()
 
     def close(self) -> None:
-        if self._cam.IsGrabbing():
-            self._cam.StopGrabbing()
+        self._stop()
         self._cam.Close()
 
 

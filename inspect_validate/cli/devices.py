@@ -23,7 +23,8 @@ from inspect_validate.cli.common import ADDRESS, PATH
     "serial",
     metavar="SERIAL",
     help="Open the camera with this serial number (or device id) and list what it offers: "
-    "pixel formats, exposure and gain ranges, triggers, lines, chunks.",
+    "pixel formats, exposure and gain ranges, triggers, lines, chunks, and the health "
+    "counters and gauges it reports.",
 )
 @click.option(
     "--port",
@@ -194,6 +195,7 @@ def _features(f: dict) -> list[str]:
         ("lines", listed(f["lines"])),
         ("strobe lines (strobe_line)", listed(f["strobe_lines"])),
         ("chunks (chunks)", listed(f["chunks"])),
+        ("health (acceptance.health)", listed(f["health"])),
     ]
     width = max(len(k) for k, _ in rows)
     return [f"{f['camera']} through {f['backend']} offers:"] + [

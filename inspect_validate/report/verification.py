@@ -306,8 +306,12 @@ def _xml_chars(text: str) -> str:
 
 
 def describe_acquisition(a: dict) -> str:
-    """``amber: software-trigger, 4 frames at 8000 µs (chunk); discarded: none``."""
+    """``amber: software-trigger, 4 frames at 8000 µs (chunk); discarded: none; camera: 4
+    delivered, 0 incomplete, 4 triggers, 0 missed``."""
+    from inspect_validate.verification.health_checks import health_text
+
     exposure = "/".join(f"{x:g}" for x in a["exposure_us"])
     at = f" at {exposure} µs ({a['exposure_source']})" if exposure else ""
     why = ", ".join(f"{n} {reason}" for reason, n in a["discarded"].items()) or "none"
-    return f"{a['step']}: {a['mode']}, {a['frames']} frames{at}; discarded: {why}"
+    health = f"; camera: {health_text(a['health'])}" if a.get("health") is not None else ""
+    return f"{a['step']}: {a['mode']}, {a['frames']} frames{at}; discarded: {why}{health}"

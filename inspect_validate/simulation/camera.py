@@ -41,7 +41,7 @@ import numpy as np
 from inspect_validate.camera.frame import Frame
 from inspect_validate.camera.grabbers.base import Features, Grabber
 from inspect_validate.components.sensors import gain_factor
-from inspect_validate.errors import DeviceError, InputError
+from inspect_validate.errors import DeviceError, FrameTimeout, IncompleteFrame, InputError
 
 if TYPE_CHECKING:
     from inspect_validate.components.optics import Optics
@@ -274,6 +274,11 @@ class SimulatedGrabber(Grabber):
         self._triggered: deque = deque()  # software triggers not yet delivered
         self._pulses_seen = 0  # the controller's trigger count already exposed
         self._last_chunk: dict | None = None  # a lagging chunk's values (world.chunk_lag)
+        # Its own generator, seeded: frames lost on the way leave the sensor noise's draws
+        # as they were, and a world loses the same frames whenever the camera opens.
+        self._loss = np.random.default_rng(0x1055)
+        self._counts = {"frames_delivered": 0, "frames_incomplete": 0}
+        self._triggers = 0
 
     _TRIGGER_LINE, _STROBE_LINE = "Line1", "Line2"
 
@@ -283,6 +288,7 @@ class SimulatedGrabber(Grabber):
             trigger_lines=(self._TRIGGER_LINE,),
             strobe_lines=(self._STROBE_LINE,),
             chunks=("ExposureTime", "Gain", "Timestamp", "FrameID"),
+            health=tuple(self.health()),
         )
 
     def arm(
@@ -304,11 +310,32 @@ class SimulatedGrabber(Grabber):
         sent = time.monotonic_ns()
         if self.acquisition != "software-trigger":
             raise DeviceError(f"{self.name}: TriggerSoftware while not armed for it")
+        self._triggers += 1
+        every = self.world.missed_trigger_every
+        if every and self._triggers % every == 0:
+            return sent  # not taken: no frame follows
         self._triggered.append(self._expose(fired="strobe" if self.strobe_line else None))
         return sent
 
     def increments(self) -> dict[str, float]:
         return {"exposure_us": 1.0, "gain_db": 0.01}
+
+    def health(self) -> dict[str, float]:
+        """Frames delivered and incomplete (``world.packet_loss``), and the temperature
+        ``world.temperature_c`` where given: this camera's own counts, since it opened."""
+        out: dict[str, float] = dict(self._counts)
+        if self.world.temperature_c is not None:
+            out["temperature_c"] = self.world.temperature_c
+        return out
+
+    def _arrives_whole(self, data: np.ndarray) -> bool:
+        """Whether this frame survives ``world.packet_loss``: as a GigE Vision frame of its
+        size in 1440-byte packets does when each packet is lost with that probability."""
+        loss = self.world.packet_loss
+        if not loss:
+            return True
+        packets = -(-data.size * (1 if self.pixel_format == "Mono8" else 2) // 1440) + 2
+        return bool(self._loss.random() >= -np.expm1(packets * np.log1p(-loss)))
 
     def settings(self) -> dict[str, str]:
         values = {
@@ -385,7 +412,7 @@ class SimulatedGrabber(Grabber):
     def grab(self, n: int, *, timeout_s: float = 2.0) -> list[Frame]:
         if self.world.camera_timeout:
             time.sleep(timeout_s)
-            raise DeviceError(f"{self.name}: no frame within {timeout_s:g} s (timeout)")
+            raise FrameTimeout(f"{self.name}: no frame within {timeout_s:g} s (timeout)")
         frames: list[Frame] = []
         while len(frames) < n:
             if self.acquisition == "free-run":
@@ -396,13 +423,21 @@ class SimulatedGrabber(Grabber):
             elif self.acquisition == "software-trigger":
                 if not self._triggered:
                     time.sleep(timeout_s)
-                    raise DeviceError(
+                    raise FrameTimeout(
                         f"{self.name}: no frame within {timeout_s:g} s; it waits for TriggerSoftware"
                     )
                 state, stamp = self._triggered.popleft()
             else:
                 state, stamp = self._wait_for_pulse(timeout_s)
-            frames.append(self._render(state, stamp))
+            frame = self._render(state, stamp)
+            if not self._arrives_whole(frame.data):
+                self._counts["frames_incomplete"] += 1
+                raise IncompleteFrame(
+                    f"{self.name}: frame {frame.frame_id} arrived incomplete (packets lost); "
+                    "check the network (packet size, bandwidth, a switch dropping packets)"
+                )
+            self._counts["frames_delivered"] += 1
+            frames.append(frame)
         return frames
 
     def _wait_for_pulse(self, timeout_s: float) -> tuple[dict[int, float], int]:
@@ -410,7 +445,7 @@ class SimulatedGrabber(Grabber):
         deadline = time.monotonic() + timeout_s
         while self._controller_state().get("triggers", 0) <= self._pulses_seen:
             if time.monotonic() > deadline:
-                raise DeviceError(
+                raise FrameTimeout(
                     f"{self.name}: no frame within {timeout_s:g} s; no pulse arrived on "
                     f"{self._TRIGGER_LINE} (check the controller's trigger output wiring)"
                 )

@@ -71,6 +71,19 @@ def _library():
     return lib
 
 
+def _drop_packets(gv: int, share: float) -> None:
+    """Make the fake camera drop each GVSP packet with probability ``share`` (its
+    ``gvsp-lost-ratio`` property): lost packets a real link would lose, which the receiving
+    stream counts, asks to be resent, and reports its frames incomplete for."""
+    try:
+        gobject = ctypes.CDLL("libgobject-2.0.so.0")
+    except OSError as exc:
+        raise SystemExit(f"GObject is not installed ({exc})") from None
+    gobject.g_object_set(
+        ctypes.c_void_p(gv), b"gvsp-lost-ratio", ctypes.c_double(min(max(share, 0.0), 1.0)), None
+    )
+
+
 def scene_fill(lib: ctypes.CDLL, renderer: SimulatedGrabber) -> Callable[..., None]:
     """A fill-pattern callback that writes ``renderer``'s frame of the scene under the
     controller's current lights into each buffer (Mono8: clipped to 255; Mono16: the
@@ -104,6 +117,12 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument("--state", type=Path, help="the simulated controller's state file")
     parser.add_argument("--target", choices=("scene", "uniform"), default="scene")
     parser.add_argument("--world", help="the simulated world (JSON), instead of the file's")
+    parser.add_argument(
+        "--packet-loss",
+        type=float,
+        default=None,
+        help="the share of GVSP packets dropped (default: the world's packet_loss, else 0)",
+    )
     args = parser.parse_args(argv)
     from inspect_validate.simulation.controller import end_with_parent
 
@@ -114,6 +133,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         raise SystemExit(f"the fake camera could not start on {args.interface}")
     fake = lib.arv_gv_fake_camera_get_fake_camera(gv)
     keep = None
+    loss = args.packet_loss or 0.0
     if args.station is not None:
         from inspect_validate.simulation.camera import scene_grabber
         from inspect_validate.station.file import read_station
@@ -125,10 +145,16 @@ def main(argv: Sequence[str] | None = None) -> None:
             camera = station.camera.model_copy(update={"world": world})
             station = station.model_copy(update={"camera": camera})
         renderer = scene_grabber(station, args.state, args.target)
+        if args.packet_loss is None:
+            loss = renderer.world.packet_loss
+            # the fake camera drops the packets; the renderer must not lose frames too
+            renderer.world = renderer.world.model_copy(update={"packet_loss": 0.0})
         lib.arv_fake_camera_write_register(fake, _REGISTER_WIDTH, renderer.width)
         lib.arv_fake_camera_write_register(fake, _REGISTER_HEIGHT, renderer.height)
         keep = scene_fill(lib, renderer)  # referenced for the process's life
         lib.arv_fake_camera_set_fill_pattern(fake, keep, None)
+    if loss:
+        _drop_packets(gv, loss)
     # A software trigger is noticed at the trigger frequency's period (25 Hz by default).
     lib.arv_fake_camera_set_trigger_frequency(fake, 500.0)
     print("ready", flush=True)

@@ -101,6 +101,12 @@ class WorldChange(StrictModel):
     """Fault: the camera delivers no frame (its grab times out)."""
     frozen: bool = False
     """Fault: the camera repeats one frame (a stale image from a hung driver)."""
+    packet_loss: Annotated[float, Field(ge=0, le=0.5, allow_inf_nan=False)] | None = None
+    """Fault: the link loses packets with this probability (:attr:`World.packet_loss`)."""
+    missed_trigger_every: Annotated[int, Field(ge=0, le=1000)] | None = None
+    """Fault: every n-th software trigger brings no frame (:attr:`World.missed_trigger_every`)."""
+    temperature_c: Annotated[float, Field(ge=-60, le=200, allow_inf_nan=False)] | None = None
+    """Step: the camera reports this temperature, °C (it warms up)."""
     controller_faults: list[str] = []
     """Fault: arguments for the simulated controller, e.g. ``["--garbage-after", "2"]``."""
 
@@ -165,6 +171,18 @@ class World(StrictModel):
     its chunk saying so; 0: never."""
     chunk_lag: bool = False
     """Chunks carry the previous frame's values (a known firmware fault)."""
+    packet_loss: Annotated[float, Field(ge=0, le=0.5, allow_inf_nan=False)] = 0.0
+    """The probability that a packet of a frame is lost on the way (a GigE Vision link
+    that drops packets). Aravis' fake GigE camera drops its GVSP packets so; the simulated
+    camera delivers a frame incomplete as often as a frame of its size in 1440-byte
+    packets would be (the same frames on every opening: the loss is drawn from a fixed
+    seed)."""
+    missed_trigger_every: Annotated[int, Field(ge=0, le=1000)] = 0
+    """Every n-th software trigger brings no frame (a camera still reading out, a trigger
+    lost on the way): the simulated camera ignores it; 0: never."""
+    temperature_c: Annotated[float, Field(ge=-60, le=200, allow_inf_nan=False)] | None = None
+    """The temperature the simulated camera reports (``DeviceTemperature``), °C; default
+    none reported."""
     nodes: dict[
         Annotated[str, Field(pattern=r"^[A-Za-z][A-Za-z0-9_]{0,63}$")],
         Annotated[str, Field(max_length=200)],
@@ -214,6 +232,9 @@ class World(StrictModel):
                 w["blur_px"] = max(w["blur_px"], c.blur_px)
             w["camera_timeout"] |= c.camera_timeout
             w["frozen"] |= c.frozen
+            for key in ("packet_loss", "missed_trigger_every", "temperature_c"):
+                if getattr(c, key) is not None:
+                    w[key] = getattr(c, key)
         # a drift schedule may not push a factor out of its range
         w["irradiance"] = {
             ch: 0.0 if f == 0 else min(max(f, 1e-6), 100.0) for ch, f in w["irradiance"].items()

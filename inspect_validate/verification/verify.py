@@ -39,6 +39,7 @@ from inspect_validate.verification.golden_checks import (
     drift_checks,
     settings_checks,
 )
+from inspect_validate.verification.health_checks import health_checks
 from inspect_validate.verification.measured import StepMeasurer, measure_capture
 from inspect_validate.verification.plan import Plan, plan_verification
 from inspect_validate.verification.results import Verification
@@ -320,10 +321,13 @@ def verify_capture(
     )
     checks = [*light, *checks]
     skipped += [*not_ranked, *unchecked]
-    if golden is not None:
+    if golden is not None and acc.health.settings:
         compared, why_not = settings_checks(golden, manifest)
         checks += compared
         notes += why_not
+    unhealthy, unreported = health_checks(acc.health, manifest)
+    checks += unhealthy
+    skipped += unreported
     if golden is not None and measurements:
         k = normal_equivalent(acc.false_alarm_rate)
         checks += drift_checks(golden, measurements, acc.drift, errors, k=k)

@@ -27,15 +27,27 @@ except DeviceError as exc:  # no Aravis on this machine
     pytest.skip(str(exc), allow_module_level=True)
 
 
+#: What a GigE Vision stream of Aravis reports of its acquisition (issue 50).
+GIGE_HEALTH = (
+    "frames_delivered",
+    "frames_incomplete",
+    "frames_lost",
+    "packets_lost",
+    "resend_requests",
+    "packets_resent",
+)
+
+
 @pytest.fixture
 def fake_gige():
-    """``start() -> (serial, process)``: a GigE Vision fake camera on ``lo``."""
+    """``start(*options) -> (serial, process)``: a GigE Vision fake camera on ``lo``
+    (``options``: its command line's, e.g. ``--packet-loss 0.01``)."""
     procs = []
 
-    def start():
+    def start(*options):
         serial = f"IV{uuid.uuid4().hex[:6].upper()}"
         proc = subprocess.Popen(
-            [sys.executable, "-m", "inspect_validate.simulation.fake_gige", serial],
+            [sys.executable, "-m", "inspect_validate.simulation.fake_gige", serial, *options],
             stdout=subprocess.PIPE,
             text=True,
         )
@@ -261,6 +273,10 @@ def test_devices_lists_the_fake_camera_and_what_it_offers(fake_gige, cli):
     assert f["exposure_us"] == [10.0, 10_000_000.0] and f["gain_db"] is None  # GainRaw only
     assert f["trigger_lines"] == ["Line0"] and f["software_trigger"] is True
     assert f["max_size"][0] >= 512
+    # a GigE Vision stream counts packets; the fake camera has no temperature node
+    assert f["health"] == list(GIGE_HEALTH)
+    code, out, err = cli(["devices", "--backend", "aravis", "--features", serial])
+    assert "health (acceptance.health)" in out and "packets_lost" in out
 
 
 def test_a_camera_answering_for_another_is_refused(fake_gige):
@@ -375,3 +391,58 @@ def test_a_setting_changed_by_a_second_process_between_captures_is_named(
         SimpleNamespace(settings=before), {"settings": {"values": after}}
     )
     assert not check.passed and "AcquisitionFrameRate" in check.detail and not notes
+
+
+# -- acquisition health: packets really lost on the way (issue 50) ------------------------
+
+
+def test_packets_the_fake_camera_drops_are_counted_by_the_stream(fake_gige):
+    """The fake camera drops GVSP packets (its ``gvsp-lost-ratio``); Aravis' stream
+    statistics count them, its frames arrive incomplete and are refused as frames; the
+    counts survive the stream being made anew (restart_stream)."""
+    from inspect_validate.errors import IncompleteFrame
+
+    serial, _ = fake_gige("--packet-loss", "0.01")  # a 512×512 frame: 84 % arrive incomplete
+    with AravisGrabber(serial=serial) as cam:
+        offered = cam.health()
+        assert set(offered) == set(GIGE_HEALTH)
+        assert not any(offered.values())
+        cam.configure(pixel_format="Mono8")
+        good = bad = 0
+        while good < 6 and good + bad < 200:
+            try:
+                cam.grab(1, timeout_s=2)
+                good += 1
+            except IncompleteFrame:
+                bad += 1
+            if good == 3:
+                cam.restart_stream()
+        health = cam.health()
+    assert bad >= 1 and health["frames_incomplete"] >= bad
+    assert health["frames_delivered"] >= good and health["packets_lost"] >= 1
+
+
+def test_verify_over_a_lossy_gige_link_fails_naming_the_lost_packets(cli, tmp_path):
+    """The issue's end to end: the station streamed by the fake camera over a link that
+    loses packets (``world.packet_loss``). The capture discards the incomplete frames and
+    goes on; verify reports the packets lost and the resends asked, and fails its limit."""
+    from conftest import copy_station, through_sdk
+
+    # 1 % of ~110 packets a frame: 2 frames in 3 arrive incomplete, so that none in a
+    # capture is a 1e-5 chance; the steps may discard as many as that takes
+    station = copy_station(tmp_path, world={"packet_loss": 0.01}, discard_max=200)
+    path = through_sdk(station, "aravis")
+    code, out, err = cli(["verify", path, "--report", tmp_path / "report"])
+    result = json.loads((tmp_path / "report" / "verification.json").read_text())
+    checks = {c["name"]: c for c in result["checks"]}
+    lost = checks["camera: packets lost"]
+    assert code == 1 and lost["verdict"] == "fail" and lost["value"] >= 1, out + err
+    assert "resends asked" in lost["detail"]
+    assert checks["camera: frames arriving incomplete"]["verdict"] == "fail"
+    assert re.search(
+        r"frames: \w+: software-trigger, 4 frames .*discarded: \d+ arrived incomplete", out
+    )
+    assert "packets lost" in out
+    # the frames kept are whole: the station itself verifies
+    failing = {n for n, c in checks.items() if c["verdict"] != "pass"}
+    assert failing == {"camera: packets lost", "camera: frames arriving incomplete"}

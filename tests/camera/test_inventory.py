@@ -53,6 +53,8 @@ def test_features_of_a_gentl_camera_open_it_by_the_keys_listed(cli, tlsimu_cti):
     assert "RGB8" in f["pixel_formats"] and "RGB8" not in f["monochrome"]
     assert f["max_size"] == [4096, 4096] and f["software_trigger"] is True
     assert f["exposure_us"] is None  # TLSimu has no exposure node: said, not invented
+    # GenTL's stream info, and each buffer's own incomplete flag; no packets, no temperature
+    assert f["health"] == ["frames_incomplete", "frames_delivered", "frames_lost"]
 
 
 def test_text_listing_and_a_missing_producer_say_what_to_do(cli, monkeypatch):
@@ -106,6 +108,9 @@ def test_pylon_emulator_cameras_and_features(tmp_path):
     assert f["gain_db"] is not None and f["gain_db"][0] <= 0 < f["gain_db"][1]
     assert f["monochrome"] == ["Mono8", "Mono10", "Mono12", "Mono16"]
     assert "Line1" in f["trigger_lines"] and "FrameStart" in f["trigger_selectors"]
+    # the stream grabber's statistics; the emulator is no GigE link (no packets) and has a
+    # DeviceTemperatureSelector but no DeviceTemperature (no temperature)
+    assert f["health"] == ["frames_delivered", "frames_incomplete", "frames_lost"]
 
 
 def test_ports_probed_find_the_controllers_on_a_pty_and_on_tcp(cli, simulator, tmp_path):

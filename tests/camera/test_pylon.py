@@ -8,22 +8,11 @@ import json
 import os
 import subprocess
 import sys
-import textwrap
 
 import pytest
+from conftest import run_with_emulator
 
 pytest.importorskip("pypylon")
-
-
-def run_with_emulator(code: str, tmp_path):
-    env = {**os.environ, "PYLON_CAMEMU": "1"}
-    script = tmp_path / "check.py"
-    script.write_text(textwrap.dedent(code))
-    done = subprocess.run(
-        [sys.executable, str(script)], env=env, capture_output=True, text=True, timeout=120
-    )
-    assert done.returncode == 0, done.stdout + done.stderr
-    return done.stdout
 
 
 def test_emulator_serves_files_pixel_exactly(tmp_path):

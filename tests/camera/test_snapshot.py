@@ -9,42 +9,28 @@ camera, changed by a second process between two captures, is in test_aravis.py.
 
 import json
 import os
-import subprocess
-import sys
-import textwrap
 
 import pytest
 import yaml
-from conftest import copy_station, run_cli
+from conftest import copy_station, run_cli, run_with_emulator
 
 from inspect_validate.camera.storage import changed_settings, settings_sha256
 
 
 def test_the_pylon_emulator_reports_what_shapes_its_image(tmp_path):
-    pytest.importorskip("pypylon")
-    script = tmp_path / "snap.py"
-    script.write_text(
-        textwrap.dedent(
-            """
-            import json
-            from inspect_validate.camera.grabbers.pylon import PylonGrabber
-            with PylonGrabber(index=0) as cam:
-                cam.configure(pixel_format="Mono8", exposure_us=5000, gain_db=0)
-                before = cam.settings()
-                cam.nodes.Gamma.Value = 0.7
-                print(json.dumps([before, cam.settings()]))
-            """
-        )
+    out = run_with_emulator(
+        """
+        import json
+        from inspect_validate.camera.grabbers.pylon import PylonGrabber
+        with PylonGrabber(index=0) as cam:
+            cam.configure(pixel_format="Mono8", exposure_us=5000, gain_db=0)
+            before = cam.settings()
+            cam.nodes.Gamma.Value = 0.7
+            print(json.dumps([before, cam.settings()]))
+        """,
+        tmp_path,
     )
-    done = subprocess.run(
-        [sys.executable, str(script)],
-        env={**os.environ, "PYLON_CAMEMU": "1"},
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    assert done.returncode == 0, done.stdout + done.stderr
-    before, after = json.loads(done.stdout.strip().splitlines()[-1])
+    before, after = json.loads(out.strip().splitlines()[-1])
     assert before["PixelFormat"] == "Mono8" and float(before["ExposureTime"]) == 5000
     assert {"Gamma", "BlackLevel", "BinningHorizontal", "TriggerMode"} <= set(before)
     assert not {"DeviceTemperature", "Timestamp"} & set(before)  # volatile: never hashed

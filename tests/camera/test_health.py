@@ -1,0 +1,211 @@
+"""Acquisition health (issue 50, item 1 and 3): what the camera and its transport report
+of a capture, read through each backend (never faked: a quantity a backend cannot
+report is absent), recorded per step in the manifest, and checked by verify.
+
+Real parts: pypylon's camera emulator with its forced failed buffers, the genicam
+wheel's GenTL producers through harvesters, and the simulated station (its lossy link
+and deaf trigger are world deviations). Aravis' fake GigE camera dropping real GVSP
+packets is in test_aravis.py.
+"""
+
+import json
+import os
+
+import hypothesis.strategies as st
+import pytest
+import yaml
+from conftest import copy_station, run_cli, run_with_emulator
+from hypothesis import given
+
+from inspect_validate.camera.health import COUNTERS, GAUGES, HEALTH, capture_health, step_health
+
+
+def test_a_step_counts_what_grew_and_reads_gauges_at_its_end():
+    before = {"frames_delivered": 10, "packets_lost": 3, "temperature_c": 40.0}
+    after = {"frames_delivered": 14, "packets_lost": 3, "temperature_c": 41.5}
+    assert step_health(before, after) == {
+        "frames_delivered": 4,
+        "packets_lost": 0,
+        "temperature_c": 41.5,
+    }
+    # a counter read lower was reset (a new stream): it counts from 0
+    assert step_health({"frames_delivered": 10}, {"frames_delivered": 3}) == {"frames_delivered": 3}
+    # not offered at the end: absent, never 0
+    assert step_health({"packets_lost": 2}, {}) == {}
+
+
+def test_a_capture_sums_its_steps_and_skips_what_is_not_a_count():
+    steps = [
+        {"health": {"frames_delivered": 4, "temperature_c": 40.0, "link_speed_mbps": 1000}},
+        {"health": {"frames_delivered": 5, "frames_incomplete": 1, "temperature_c": 44.0}},
+        {"health": {"frames_delivered": -3, "packets_lost": float("nan"), "Gamma": 2}},
+        {"health": {"frames_delivered": True, "link_speed_mbps": 100}},
+        {"health": "garbage"},
+        {},
+        "not a step",
+    ]
+    assert capture_health(steps) == {
+        "frames_delivered": 9,
+        "frames_incomplete": 1,
+        "temperature_c": 44.0,
+        "link_speed_mbps": 100,
+    }
+
+
+@given(st.lists(st.dictionaries(st.sampled_from([*HEALTH, "x"]), st.floats() | st.text())))
+def test_any_health_records_give_finite_non_negative_totals(records):
+    total = capture_health([{"health": r} for r in records])
+    assert set(total) <= set(HEALTH)
+    for name, value in total.items():
+        assert value == value and abs(value) != float("inf")
+        assert name not in COUNTERS or value >= 0
+
+
+def test_every_quantity_is_named_once():
+    assert not set(COUNTERS) & set(GAUGES)
+    assert HEALTH == (*COUNTERS, *GAUGES)
+
+
+def test_the_pylon_emulator_counts_the_buffers_it_fails(tmp_path):
+    """``ForceFailedBufferCount`` makes the emulator deliver real failed buffers: the
+    grabber discards each (IncompleteFrame) and its stream grabber's statistics count
+    them; the emulator is not GigE, so no packet counts are offered."""
+    out = run_with_emulator(
+        """
+            import json
+            from inspect_validate.camera.grabbers.pylon import PylonGrabber
+            from inspect_validate.errors import IncompleteFrame
+            with PylonGrabber(index=0) as cam:
+                cam.configure(pixel_format="Mono8", exposure_us=1000)
+                offered = cam.health()
+                cam.grab(3)
+                cam.nodes.ForceFailedBufferCount.Value = 2
+                cam.nodes.ForceFailedBuffer.Execute()
+                failed = 0
+                for _ in range(8):
+                    try:
+                        cam.grab(1)
+                    except IncompleteFrame:
+                        failed += 1
+                cam.restart_stream()  # pylon counts again from here; the totals stand
+                cam.grab(2)
+                print(json.dumps([offered, failed, cam.health()]))
+            """,
+        tmp_path,
+    )
+    offered, failed, health = json.loads(out.strip().splitlines()[-1])
+    assert set(offered) == {"frames_delivered", "frames_incomplete", "frames_lost"}
+    assert failed == 2 and health["frames_incomplete"] == 2
+    assert health["frames_delivered"] >= 11  # 13 grabbed, less the 2 failed, plus queued
+    assert "packets_lost" not in health and "temperature_c" not in health
+
+
+@pytest.mark.parametrize("producer", ["viky", "TLSimu"])
+def test_genicam_producers_report_their_stream_counts(producer, tlsimu_cti):
+    import genicam
+
+    from inspect_validate.camera.grabbers.genicam import GenICamGrabber
+
+    cti = (
+        tlsimu_cti
+        if producer == "TLSimu"
+        else os.path.join(os.path.dirname(genicam.__file__), "viky.cti")
+    )
+    with GenICamGrabber(str(cti)) as cam:
+        cam.configure(pixel_format="Mono8")
+        before = cam.health()
+        assert {"frames_delivered", "frames_incomplete", "frames_lost"} <= set(before)
+        cam.grab(3, timeout_s=5)
+        cam.restart_stream()
+        cam.grab(2, timeout_s=5)
+        after = cam.health()
+    assert after["frames_delivered"] >= 5 and after["frames_incomplete"] == 0
+    assert "packets_lost" not in after  # GenTL's stream info has no packet counts
+
+
+def _station(tmp_path, *, world=None, health=None, camera=None):
+    tmp_path.mkdir(parents=True, exist_ok=True)
+    path = copy_station(tmp_path)
+    doc = yaml.safe_load(path.read_text())
+    if camera:
+        doc["camera"].update(camera)
+    if world:
+        doc["camera"]["world"] = {**doc["camera"].get("world", {}), **world}
+    if health is not None:
+        doc["acceptance"]["health"] = health
+    path.write_text(yaml.safe_dump(doc, sort_keys=False))
+    return path
+
+
+def _verified(tmp_path, station):
+    code = run_cli(["verify", station, "--report", tmp_path / "out"])
+    doc = json.loads((tmp_path / "out" / "verification.json").read_text())
+    return code, {c["name"]: c for c in doc["checks"]}, doc
+
+
+def test_a_lossy_link_fails_verify_with_the_frames_kept(tmp_path):
+    """Frames arriving incomplete are discarded and the capture goes on; verify then
+    fails its health limit, naming how many, and the frames kept are measured."""
+    station = _station(tmp_path, world={"packet_loss": 0.002})
+    code, checks, _ = _verified(tmp_path, station)
+    bad = checks["camera: frames arriving incomplete"]
+    assert code == 1 and bad["verdict"] == "fail" and bad["basis"] == "fixed"
+    assert "frames delivered" in bad["detail"]
+    manifest = json.loads((tmp_path / "out" / "frames" / "manifest.json").read_text())
+    health = capture_health(manifest["steps"].values())
+    assert health["frames_incomplete"] >= 1
+    assert health["triggers_sent"] == health["frames_delivered"] + health["frames_incomplete"]
+    assert all(checks[f"{ill}: light above dark"]["verdict"] == "pass" for ill in ("amber", "red"))
+
+
+def test_a_deaf_trigger_is_sent_again_and_fails_the_missed_triggers_limit(tmp_path):
+    station = _station(tmp_path, world={"missed_trigger_every": 5})
+    code, checks, _ = _verified(tmp_path, station)
+    missed = checks["camera: missed triggers"]
+    assert code == 1 and missed["verdict"] == "fail" and missed["value"] >= 1
+    assert "triggers brought no frame" in missed["detail"]
+    # the frames are whole: the other checks see a good station
+    failed = [name for name, c in checks.items() if not c["verdict"] == "pass"]
+    assert failed == ["camera: missed triggers"]
+
+
+def test_a_limit_asked_for_and_not_offered_fails_a_default_one_is_skipped(tmp_path):
+    station = _station(
+        tmp_path, world={"temperature_c": 48.5}, health={"packets_lost": 0, "temperature_c": 45}
+    )
+    code, checks, doc = _verified(tmp_path, station)
+    assert code == 1
+    lost = checks["camera: packets lost"]  # given in the file; the simulated camera has no packets
+    assert lost["verdict"] == "not run" and "could not run" in lost["detail"]
+    hot = checks["camera: temperature"]
+    assert hot["verdict"] == "fail" and hot["value"] == 48.5 and hot["unit"] == "°C"
+
+    station = _station(tmp_path / "default", health={})
+    code, checks, doc = _verified(tmp_path / "default", station)
+    assert code == 0 and "camera: packets lost" not in checks
+    assert any(
+        s.startswith("camera: packets lost: the transport does not count") for s in doc["skipped"]
+    )
+    assert "camera: temperature" not in checks  # not limited by default, and not reported
+
+
+def test_health_limits_are_validated(tmp_path):
+    for bad in ({"incomplete_frames": 2}, {"packets_lost": -1}, {"temperature_c": "hot"}, {"x": 1}):
+        station = _station(tmp_path, health=bad)
+        assert run_cli(["verify", station, "--report", tmp_path / "out"]) == 2
+
+
+def test_a_capture_without_health_records_is_verified_saying_so(tmp_path):
+    station = _station(tmp_path)
+    assert run_cli(["capture", station, "--out", tmp_path / "frames"]) == 0
+    manifest_path = tmp_path / "frames" / "manifest.json"
+    manifest = json.loads(manifest_path.read_text())
+    for step in manifest["steps"].values():
+        step.pop("health")
+    manifest_path.write_text(json.dumps(manifest))
+    code = run_cli(
+        ["verify", station, "--frames", tmp_path / "frames", "--report", tmp_path / "out"]
+    )
+    doc = json.loads((tmp_path / "out" / "verification.json").read_text())
+    assert code == 0
+    assert any("holds no health record" in s for s in doc["skipped"])
