@@ -106,14 +106,15 @@ def watch(
     Each cycle captures STATION's illuminations, verifies them (the acceptance
     checks; the charts replace the golden file's single-cycle drift checks),
     updates an EWMA chart per class μ, σ² and comparison SNR_dB, log ε against
-    the golden spread, names
-    the likely cause of a drift, and commits the cycle to the history. Ends
-    after --cycles, on Ctrl-C or SIGTERM (at the next frame: the cycle under way
-    is set aside uncommitted; exit 130),
+    the golden spread, names the likely cause of a drift, and commits the cycle
+    and what the camera reported of it (frames incomplete, packets lost, triggers
+    missed, temperature) to the history. Ends after --cycles, on Ctrl-C or SIGTERM
+    (at the next frame: the cycle under way is set aside uncommitted; exit 130),
+    or with exit 3 after --max-failures failed cycles in a row; exits 1 when the
+    last cycle failed a check or drifted.
+
     With --production each cycle is a batch of the running line's parts, charted by
     their means (μ, σ², focus, SNR_dB, log ε, position) against the golden parts.
-    or with exit 3 after --max-failures failed cycles in a row; exits 1 when
-    the last cycle failed a check or drifted.
     """
     from inspect_validate.report import write_json
     from inspect_validate.station.file import read_station

@@ -6,6 +6,8 @@ Tables::
     meta(key, value)                         station, golden, schema version
     cycles(cycle, started, seconds, status, passed, reason, cause, frames)
     points(cycle, illumination, kind, name, quantity, value, ewma, low, high)
+    health(cycle, quantity, value)           what the camera reported (a table added
+                                             later: older histories gain it empty)
 
 ``status`` is ``pass`` (every check passed, no drift), ``fail`` (a check
 failed), ``drift`` (checks passed, a chart alarmed) or ``error`` (no
@@ -22,7 +24,7 @@ from __future__ import annotations
 import itertools
 import math
 import sqlite3
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -37,11 +39,13 @@ if TYPE_CHECKING:
 __all__ = [
     "CHARTED",
     "HISTORY_SCHEMA_VERSION",
+    "RECONNECTS",
     "SCHEMA",
     "STATUSES",
     "ChartSeries",
     "CycleRecord",
     "HistoryLog",
+    "cycle_health",
     "not_history",
     "read_history",
     "read_station_history",
@@ -76,7 +80,35 @@ CREATE TABLE IF NOT EXISTS points (
     high REAL,
     PRIMARY KEY (cycle, illumination, kind, name, quantity)
 );
+CREATE TABLE IF NOT EXISTS health (
+    cycle INTEGER NOT NULL REFERENCES cycles (cycle),
+    quantity TEXT NOT NULL,
+    value REAL NOT NULL,
+    PRIMARY KEY (cycle, quantity)
+);
 """
+
+RECONNECTS = "reconnects"
+"""The watch's own health quantity beside the camera's (:data:`~inspect_validate.camera.
+health.HEALTH`): 1 in a cycle that reopened the devices after an error cycle."""
+
+
+def cycle_health(health: dict) -> dict[str, float]:
+    """The quantities of ``health`` a history keeps: the camera's and the watch's own, as
+    finite numbers (counters not below 0); anything else is dropped. ValueError where a
+    quantity it keeps holds something else."""
+    from inspect_validate.camera.health import COUNTERS, HEALTH
+
+    out = {}
+    for name, value in health.items():
+        if name not in (*HEALTH, RECONNECTS):
+            continue
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ValueError(f"health {name} {value!r} is not a number")
+        if not (abs(value) < 1e100 and (value >= 0 or name not in (*COUNTERS, RECONNECTS))):
+            raise ValueError(f"health {name} {value!r} is not a finite count or reading")
+        out[name] = float(value)
+    return out
 
 
 @dataclass(frozen=True)
@@ -133,6 +165,8 @@ class HistoryLog:
     cycles: tuple[CycleRecord, ...]
     charts: dict[tuple, ChartSeries]
     total: int  # cycles in the database (``cycles`` may be the last few)
+    health: dict[int, dict[str, float]] = field(default_factory=dict)
+    """Per cycle read, what the camera reported (:func:`cycle_health`; none: not recorded)."""
 
     @property
     def illuminations(self) -> list[str]:
@@ -176,10 +210,22 @@ def read_history(path: str | Path, *, last: int | None = None) -> HistoryLog:
             "ORDER BY illumination, kind, name, quantity, cycle",
             (since,),
         ).fetchall()
+        try:
+            health_rows = db.execute(
+                "SELECT cycle, quantity, value FROM health WHERE cycle >= ?", (since,)
+            ).fetchall()
+        except sqlite3.OperationalError:  # a history from before health was kept
+            health_rows = []
     except sqlite3.DatabaseError as exc:
         raise not_history(path, exc, todo) from None
     finally:
         db.close()
+    health: dict[int, dict[str, float]] = {}
+    for cycle, quantity, value in health_rows:
+        try:
+            health.setdefault(cycle, {}).update(cycle_health({quantity: value}))
+        except ValueError as exc:
+            raise _damaged(path, f"cycle {cycle!r}: {exc}") from None
     try:
         created = float(meta["created"])
         station = str(meta["station"])
@@ -195,6 +241,7 @@ def read_history(path: str | Path, *, last: int | None = None) -> HistoryLog:
         cycles=tuple(_cycle_record(path, row) for row in cycles),
         charts=_chart_series(path, rows),
         total=int(total),
+        health=health,
     )
 
 

@@ -37,9 +37,11 @@ from inspect_validate.files import (
 from inspect_validate.watch.history import (
     CHARTED,
     HISTORY_SCHEMA_VERSION,
+    RECONNECTS,
     SCHEMA,
     STATUSES,
     CycleRecord,
+    cycle_health,
     not_history,
     validate_history,
 )
@@ -177,14 +179,16 @@ class HistoryWriter:
         (last,) = self.db.execute("SELECT MAX(cycle) FROM cycles").fetchone()
         return 0 if last is None else last + 1
 
-    def commit(self, record: CycleRecord, points: dict) -> None:
-        """Store ``record`` and its chart ``points`` (key → value, ewma, low, high) in one
+    def commit(self, record: CycleRecord, points: dict, health: dict | None = None) -> None:
+        """Store ``record``, its chart ``points`` (key → value, ewma, low, high) and what
+        the camera reported (``health``: :func:`~.history.cycle_health`) in one
         transaction."""
         rows = [(record.cycle, *key, *values) for key, values in points.items()]
-        self._check_unchanged(record, rows)
+        health = cycle_health(health or {})
+        self._check_unchanged(record, rows, health)
         try:
-            self._journal(record, rows)
-            self._insert(record, rows)
+            self._journal(record, rows, health)
+            self._insert(record, rows, health)
         except OSError as exc:
             if not isinstance(exc, NotRegularFile) and exc.errno not in (
                 errno.ENXIO,
@@ -215,7 +219,7 @@ class HistoryWriter:
             source=str(self.path),
         )
 
-    def _insert(self, record: CycleRecord, rows) -> None:
+    def _insert(self, record: CycleRecord, rows, health: dict) -> None:
         self.db.execute("BEGIN IMMEDIATE")
         try:
             self.db.execute(
@@ -232,6 +236,10 @@ class HistoryWriter:
                 ),
             )
             self.db.executemany("INSERT INTO points VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)", rows)
+            self.db.executemany(
+                "INSERT INTO health VALUES (?, ?, ?)",
+                [(record.cycle, name, value) for name, value in health.items()],
+            )
         except BaseException:
             self.db.execute("ROLLBACK")
             raise
@@ -249,7 +257,7 @@ class HistoryWriter:
                 source=str(self.path),
             ) from None
 
-    def _journal(self, record: CycleRecord, rows) -> None:
+    def _journal(self, record: CycleRecord, rows, health: dict) -> None:
         # A FIFO or a link in the journal's place would block the commit or write elsewhere.
         with open(self.journal, "ab+", opener=regular_opener) as f:
             end = f.seek(0, os.SEEK_END)
@@ -259,12 +267,14 @@ class HistoryWriter:
                 f.seek(end - 1)
                 if f.read(1) != b"\n":  # a line cut by a crash: ended, so it stays one
                     f.write(b"\n")
-            line = {**record.__dict__, "points": [list(r[1:]) for r in rows]}
+            line = {**record.__dict__, "points": [list(r[1:]) for r in rows], "health": health}
             f.write((json.dumps(line, allow_nan=True) + "\n").encode())
             f.flush()
             os.fsync(f.fileno())
 
-    def _check_unchanged(self, record: CycleRecord | None = None, rows=()) -> None:
+    def _check_unchanged(
+        self, record: CycleRecord | None = None, rows=(), health: dict | None = None
+    ) -> None:
         """Refuse to write on a file this watch did not leave as it is now."""
         if self._changed is not None:  # reported once: the file is not written again
             if record is None:
@@ -283,7 +293,7 @@ class HistoryWriter:
         else:
             what = "rewritten by another program"
         if record is not None:
-            self._journal(record, rows)  # the cycle is kept, as every one before it
+            self._journal(record, rows, health or {})  # kept, as every cycle before it
         rescue = _aside(self.path, "rescued")
         try:
             rebuilt = rebuild_history(self.journal, rescue)
@@ -297,6 +307,26 @@ class HistoryWriter:
             "continue with --db and the one you keep"
         )
         raise InputError(self._changed, source=str(self.path))
+
+    def last_status(self) -> str | None:
+        """The status of the history's last cycle, None before the first (also across a
+        restart of the watch: a cycle after an ``error`` one reopens the devices)."""
+        row = self.db.execute("SELECT status FROM cycles ORDER BY cycle DESC LIMIT 1").fetchone()
+        return None if row is None else row[0]
+
+    def health_totals(self) -> dict[str, float]:
+        """Each counter summed over every cycle of the history (the camera's, and the
+        watch's reconnects): what Prometheus reads as counters, growing across restarts
+        of the watch."""
+        from inspect_validate.camera.health import COUNTERS
+
+        names = (*COUNTERS, RECONNECTS)
+        rows = self.db.execute(
+            f"SELECT quantity, SUM(value) FROM health WHERE quantity IN "
+            f"({', '.join('?' * len(names))}) GROUP BY quantity",
+            names,
+        )
+        return {name: float(total) for name, total in rows}
 
     def chart_states(self) -> dict:
         """Per series its last smoothed value and how many cycles it has seen."""
@@ -389,7 +419,7 @@ def rebuild_history(journal: str | Path, path: str | Path) -> Rebuilt:
         raise InputError("exists already; give a new file", source=str(path))
     journal = input_file(journal, "watch journal", todo="give the <db>.journal of a watch")
     fields = CycleRecord.__dataclass_fields__
-    cycles: dict[int, tuple[CycleRecord, dict]] = {}
+    cycles: dict[int, tuple[CycleRecord, dict, dict]] = {}
     lost: dict[int, str] = {}
     meta = None
     with open(journal, "rb") as f:
@@ -423,6 +453,10 @@ def rebuild_history(journal: str | Path, path: str | Path) -> Rebuilt:
                 record = CycleRecord(**{k: entry[k] for k in fields})
                 points = {tuple(p[:4]): tuple(p[4:]) for p in entry["points"]}
                 _check_entry(record, points)
+                health = entry.get("health") or {}  # none in journals from before it
+                if not isinstance(health, dict):
+                    raise ValueError(f"health {health!r} is not a mapping")
+                health = cycle_health(health)
             except (KeyError, TypeError, ValueError) as exc:
                 lost[n] = (
                     f"not a cycle: {exc}"
@@ -430,7 +464,7 @@ def rebuild_history(journal: str | Path, path: str | Path) -> Rebuilt:
                     else (f"not a cycle: no {exc}")
                 )
                 continue
-            cycles[record.cycle] = (record, points)
+            cycles[record.cycle] = (record, points, health)
     if meta is None:
         raise InputError("not a watch journal (empty, or no meta line)", source=str(journal))
     history = HistoryWriter(

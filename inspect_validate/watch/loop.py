@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import shutil
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -60,6 +60,8 @@ class CycleOutcome:
     state: DriftState | None  # None for an error cycle
     verification: Verification | ProductionVerification | None
     failures: int  # consecutive failed cycles, this one included
+    health: dict = field(default_factory=dict)  # what the camera reported (history.cycle_health)
+    totals: dict = field(default_factory=dict)  # its counters summed over the history
 
 
 def status_document(
@@ -81,6 +83,9 @@ def status_document(
         "cause": r.cause,
         "consecutive_failures": outcome.failures,
         "frames": r.frames,
+        # what the camera reported this cycle, and its counters over the whole history
+        "health": dict(outcome.health),
+        "health_totals": dict(outcome.totals),
     }
     values: list[dict] = []
     doc["values"] = values
@@ -209,6 +214,9 @@ def _cycle(station, plan, history, monitor, folder, settings, failures, line=Non
     # hours since the history began: a restarted watch goes on ageing its simulated LEDs
     hours = (when - history.created) / 3600.0
     state = verification = None
+    health: dict = {}
+    if (line is None or line.feed is None) and history.last_status() == "error":
+        health["reconnects"] = 1  # the devices are opened again after an error cycle
     try:
         if line is None:
             verification, values, note = _station_batch(station, plan, frames, n, hours)
@@ -232,6 +240,7 @@ def _cycle(station, plan, history, monitor, folder, settings, failures, line=Non
             cause = verification.cause  # the production verdict's own reading of them
         else:
             cause = state.cause
+    health.update(_cycle_health(frames))
     keep = status != "pass" or n % max(settings.keep_every, 1) == 0
     record = CycleRecord(
         cycle=n,
@@ -244,10 +253,28 @@ def _cycle(station, plan, history, monitor, folder, settings, failures, line=Non
         frames=str(frames) if keep and frames.exists() else None,
     )
     with deferred():  # a stop asked for now comes after the commit, not within it
-        history.commit(record, state.points if state else {})
+        history.commit(record, state.points if state else {}, health)
         if not keep:
             shutil.rmtree(frames, ignore_errors=True)
-    return CycleOutcome(record, state, verification, failures)
+    return CycleOutcome(record, state, verification, failures, health, history.health_totals())
+
+
+def _cycle_health(frames: Path) -> dict:
+    """What the camera reported while the cycle's frames were taken (its capture's
+    manifest, also of a capture that failed: :func:`~inspect_validate.camera.health.
+    capture_health`); none where no capture was made (frames from the line's folder)."""
+    from inspect_validate.camera.health import capture_health
+    from inspect_validate.camera.storage import read_manifest
+    from inspect_validate.errors import InputError
+
+    path = frames / "manifest.json"
+    if not path.is_file():
+        return {}
+    try:
+        steps = read_manifest(path).get("steps") or {}
+    except InputError:
+        return {}
+    return capture_health(steps.values() if isinstance(steps, dict) else ())
 
 
 def _station_batch(station, plan, frames, n, hours):

@@ -65,6 +65,7 @@ def prometheus_text(doc: dict) -> str:
         "# TYPE inspect_validate_consecutive_failures gauge",
         f"inspect_validate_consecutive_failures {doc['consecutive_failures']}",
     ]
+    lines += _health_lines(doc, number)
     series = {
         "value": "Latest measured value per illumination, class or comparison and quantity "
         "(mean DN, variance DN², snr_db dB, log_error: log10 of ε).",
@@ -90,6 +91,46 @@ def prometheus_text(doc: dict) -> str:
             *rows[name],
         ]
     return "\n".join(lines) + "\n"
+
+
+def _health_lines(doc: dict, number) -> list[str]:
+    """The camera's health: its counters summed over the history as Prometheus counters
+    (``inspect_validate_camera_<name>_total``; the watch's reconnects as
+    ``inspect_validate_reconnects_total``), and the latest cycle's gauges
+    (``inspect_validate_camera_temperature_celsius``, ``…_link_speed_mbps``). A quantity
+    the camera does not offer is not exported: absent, never 0."""
+    from inspect_validate.camera.health import COUNTERS, GAUGES
+
+    lines = []
+    totals = doc.get("health_totals") or {}
+    for name, text in (*COUNTERS.items(), ("reconnects", "")):
+        if name not in totals:
+            continue
+        metric = (
+            "inspect_validate_reconnects_total"
+            if name == "reconnects"
+            else f"inspect_validate_camera_{name}_total"
+        )
+        what = text or "cycles that reopened the devices after an error cycle"
+        lines += [
+            f"# HELP {metric} The camera's {name.replace('_', ' ')} over the history: {what}."
+            if name != "reconnects"
+            else f"# HELP {metric} Reconnects over the history: {what}.",
+            f"# TYPE {metric} counter",
+            f"{metric} {number(totals[name])}",
+        ]
+    health = doc.get("health") or {}
+    for name, metric in (
+        ("temperature_c", "inspect_validate_camera_temperature_celsius"),
+        ("link_speed_mbps", "inspect_validate_camera_link_speed_mbps"),
+    ):
+        if name in health:
+            lines += [
+                f"# HELP {metric} The latest cycle's reading: {GAUGES[name]}.",
+                f"# TYPE {metric} gauge",
+                f"{metric} {number(health[name])}",
+            ]
+    return lines
 
 
 class _Budget:

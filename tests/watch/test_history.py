@@ -776,3 +776,69 @@ def test_a_stop_while_a_history_is_made_leaves_no_file(tmp_path, monkeypatch, at
     history_writer.HistoryWriter(path, station="s", golden="g").close()
     with real(path) as con:
         assert con.execute("SELECT COUNT(*) FROM cycles").fetchone() == (0,)
+
+
+def test_a_cycles_health_is_kept_summed_and_rebuilt_from_the_journal(tmp_path):
+    """What the camera reported each cycle (issue 50): kept per cycle, its counters summed
+    over the history (Prometheus' counters), journalled and rebuilt; garbage refused
+    before anything is written; a journal line from before health was kept still
+    rebuilds."""
+    from inspect_validate.watch.history import CycleRecord, read_history
+    from inspect_validate.watch.history_writer import HistoryWriter, rebuild_history
+
+    db = tmp_path / "history.sqlite"
+    history = HistoryWriter(db, station="st.yaml", golden=None)
+    assert history.last_status() is None and history.health_totals() == {}
+    for n, health in enumerate(
+        [
+            {"frames_delivered": 12, "frames_incomplete": 0, "temperature_c": 40.0},
+            {"frames_delivered": 12, "frames_incomplete": 3, "temperature_c": 47.5, "x": "junk"},
+            {},
+        ]
+    ):
+        status = "error" if n == 2 else "pass"
+        record = CycleRecord(n, 1.7e9 + n, 0.5, status, None, None, None, None)
+        history.commit(record, {}, health)
+    with pytest.raises(ValueError, match="frames_lost -1"):
+        history.commit(
+            CycleRecord(3, 1.7e9, 0.5, "pass", True, None, None, None), {}, {"frames_lost": -1}
+        )
+    assert history.last_status() == "error"
+    assert history.health_totals() == {"frames_delivered": 24.0, "frames_incomplete": 3.0}
+    history.close()
+    log = read_history(db)
+    assert log.health == {
+        0: {"frames_delivered": 12.0, "frames_incomplete": 0.0, "temperature_c": 40.0},
+        1: {"frames_delivered": 12.0, "frames_incomplete": 3.0, "temperature_c": 47.5},
+    }
+    journal = tmp_path / "history.sqlite.journal"
+    old_line = (
+        '{"cycle": 7, "started": 1, "seconds": 1, "status": "pass", "passed": true, '
+        '"reason": null, "cause": null, "frames": null, "points": []}'
+    )
+    bad_line = old_line.replace('"cycle": 7', '"cycle": 8').replace(
+        '"points": []', '"points": [], "health": {"packets_lost": "many"}'
+    )
+    journal.write_text(journal.read_text() + old_line + "\n" + bad_line + "\n")
+    rebuilt = rebuild_history(journal, tmp_path / "new.sqlite")
+    assert rebuilt.cycles == (0, 1, 2, 7) and "packets_lost 'many'" in rebuilt.lost[6]
+    assert read_history(tmp_path / "new.sqlite").health == log.health
+
+
+def test_a_history_from_before_health_is_read_and_continued(tmp_path):
+    """A history written before the health table existed: read with no health, and a
+    watch continuing it adds the table and keeps the new cycles' health."""
+    from inspect_validate.watch.history import CycleRecord, read_history
+    from inspect_validate.watch.history_writer import HistoryWriter
+
+    db = tmp_path / "history.sqlite"
+    _history_with_cycles(db, n=2).close()
+    with sqlite3.connect(db) as conn:
+        conn.execute("DROP TABLE health")
+    assert read_history(db).health == {} and len(read_history(db).cycles) == 2
+    history = HistoryWriter(db, station="st.yaml", golden=None)
+    history.commit(
+        CycleRecord(2, 1.7e9 + 2, 0.5, "pass", True, None, None, None), {}, {"frames_delivered": 4}
+    )
+    history.close()
+    assert read_history(db).health == {2: {"frames_delivered": 4.0}}

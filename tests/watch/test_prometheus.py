@@ -23,6 +23,8 @@ import pytest
 import yaml
 from conftest import ROOT, copy_station
 
+from inspect_validate.camera.health import COUNTERS, HEALTH
+
 MONITORING = ROOT / "docs" / "monitoring"
 RULES = MONITORING / "inspect-validate.rules.yml"
 needs_prometheus = pytest.mark.skipif(
@@ -32,14 +34,18 @@ needs_prometheus = pytest.mark.skipif(
 SAMPLE = re.compile(r"^(?P<name>[a-z_]+)(?P<labels>\{.*\})? (?P<value>\S+)$")
 
 
-def _watched_metrics(cli, tmp_path, name, golden, world, cycles):
+def _watched_metrics(cli, tmp_path, name, golden, world, cycles, *, camera=None, codes=(0, 1)):
     """The /metrics text of each of ``cycles`` cycles of a real watch (one cycle per
     invocation, continuing its history: the status file after each, as /metrics serves
-    it)."""
+    it); ``camera``: keys of the station's camera block to set."""
     from inspect_validate.watch.serve import prometheus_text
 
     (tmp_path / name).mkdir()
     path = copy_station(tmp_path / name, world=world)
+    if camera:
+        doc = yaml.safe_load(path.read_text())
+        doc["camera"].update(camera)
+        path.write_text(yaml.safe_dump(doc, sort_keys=False))
     texts = []
     for _ in range(cycles):
         folder = tmp_path / name
@@ -47,7 +53,7 @@ def _watched_metrics(cli, tmp_path, name, golden, world, cycles):
         code, out, err = cli(
             ["watch", path, "--golden", golden, *args, "--interval", 0, "--cycles", 1]
         )
-        assert code in (0, 1), out + err
+        assert code in codes, out + err
         doc = json.loads((tmp_path / name / "status.json").read_text())
         texts.append(prometheus_text(doc))
     return texts
@@ -188,8 +194,85 @@ def test_the_alerting_rules_fire_on_a_drifted_world_and_stay_silent_on_a_good_on
     assert "SUCCESS" in result.stdout
 
 
+@needs_prometheus
+@pytest.mark.slow
+def test_the_camera_rules_fire_on_a_lossy_deaf_flaky_camera_and_stay_silent_on_a_good_one(
+    cli, tmp_path, golden
+):
+    """The issue's end to end for watch: each cycle's health summed over the history and
+    exported as Prometheus counters; promtool fires the camera rules on a world whose
+    link starts losing packets and whose camera starts ignoring triggers at cycle 1 and
+    drops out for cycles 2–4 (each cycle after an error one counted as a reconnect,
+    across restarts of the watch), and none on a good world."""
+    good = _watched_metrics(cli, tmp_path, "good", golden, None, 6)
+    changes = [
+        {"start": 1, "packet_loss": 0.002, "missed_trigger_every": 4},
+        {"start": 2, "stop": 5, "camera_timeout": True},
+    ]
+    bad = _watched_metrics(
+        cli,
+        tmp_path,
+        "bad",
+        golden,
+        {"changes": changes},
+        6,
+        camera={"timeout_s": 0.3},
+        codes=(0, 1, 3),
+    )
+    assert "inspect_validate_camera_frames_incomplete_total 0.0" in good[-1]
+    assert "inspect_validate_camera_packets_lost_total" not in good[-1]  # not offered
+    assert "inspect_validate_reconnects_total" not in good[-1]
+    assert "inspect_validate_reconnects_total 3.0" in bad[-1]
+    rules = {r["alert"]: r for r in yaml.safe_load(RULES.read_text())["groups"][0]["rules"]}
+
+    def fired(name, instance):
+        annotations = rules[name]["annotations"]
+        return {
+            "exp_labels": {
+                "severity": "warning",
+                "job": "inspect-validate",
+                "instance": instance,
+            },
+            "exp_annotations": {
+                "summary": annotations["summary"].replace("{{ $labels.instance }}", instance),
+                "description": annotations["description"],
+            },
+        }
+
+    tests = {
+        "rule_files": [str(RULES)],
+        "evaluation_interval": "1m",
+        "tests": [
+            {
+                "interval": "1m",
+                "input_series": _series(good, "good") + _series(bad, "bad"),
+                "alert_rule_test": [
+                    {"eval_time": "5m", "alertname": name, "exp_alerts": [fired(name, "bad")]}
+                    for name in (
+                        "CameraFramesIncomplete",
+                        "CameraMissedTriggers",
+                        "InspectionReconnecting",
+                    )
+                ]
+                + [
+                    # the simulated camera has no packets to lose: the rule has no series
+                    {"eval_time": "5m", "alertname": "CameraPacketsLost", "exp_alerts": []},
+                    # before the link degraded, nothing
+                    {"eval_time": "0m", "alertname": "CameraFramesIncomplete", "exp_alerts": []},
+                ],
+            }
+        ],
+    }
+    path = tmp_path / "rules_test.yml"
+    path.write_text(yaml.safe_dump(tests, sort_keys=False, allow_unicode=True))
+    result = subprocess.run(
+        ["promtool", "test", "rules", str(path)], capture_output=True, text=True
+    )
+    assert result.returncode == 0, result.stdout + result.stderr
+
+
 def test_the_rules_and_the_dashboard_are_valid(tmp_path):
-    """Five rules load (promtool, where installed); the dashboard is Grafana JSON whose
+    """Nine rules load (promtool, where installed); the dashboard is Grafana JSON whose
     every panel queries a metric the watch exports."""
     from inspect_validate.watch.serve import prometheus_text
 
@@ -197,13 +280,20 @@ def test_the_rules_and_the_dashboard_are_valid(tmp_path):
         result = subprocess.run(
             ["promtool", "check", "rules", str(RULES)], capture_output=True, text=True
         )
-        assert result.returncode == 0 and "SUCCESS: 5 rules found" in result.stdout, result.stdout
+        assert result.returncode == 0 and "SUCCESS: 9 rules found" in result.stdout, result.stdout
     dashboard = json.loads((MONITORING / "grafana-dashboard.json").read_text())
     exported = set(
         re.findall(
             r"^# TYPE (\w+)",
             prometheus_text(
-                {"cycle": 1, "status": "pass", "consecutive_failures": 0, "values": []}
+                {
+                    "cycle": 1,
+                    "status": "pass",
+                    "consecutive_failures": 0,
+                    "values": [],
+                    "health": dict.fromkeys(HEALTH, 1.0),
+                    "health_totals": dict.fromkeys([*COUNTERS, "reconnects"], 1.0),
+                }
             ),
             re.M,
         )
