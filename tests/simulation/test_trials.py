@@ -75,8 +75,9 @@ def test_a_trial_decides_as_the_cli_does(tmp_path):
     assert trial.passed and report["verdict"] == "pass"
     assert report["false_alarm"]["rate"] == 0.0027
     kinds = {c["kind"] for c in report["checks"]}
-    # the CLI's captures also hold the camera's settings snapshot (a fixed check, outside
-    # the rate); the trials' in-process frames have none, and nothing else differs
+    # the CLI's captures also hold the camera's settings snapshot and what it reported of
+    # the acquisition (fixed checks, outside the rate); the trials' in-process frames
+    # have neither, and nothing else differs
     assert kinds == {
         "light",
         "separation",
@@ -85,6 +86,7 @@ def test_a_trial_decides_as_the_cli_does(tmp_path):
         "ranking",
         "drift",
         "settings",
+        "health",
     }
 
 

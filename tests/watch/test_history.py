@@ -468,7 +468,7 @@ def test_a_history_that_outgrows_the_file_size_limit(tmp_path):
     path = _small_station(tmp_path)
     assert run_cli(["train", path, "--out", tmp_path / "g.json", "--repeats", 5]) == 0
     db = tmp_path / "w" / "history.sqlite"
-    done = _limited_watch(path, tmp_path / "g.json", db, 48)
+    done = _limited_watch(path, tmp_path / "g.json", db, 64)
     assert done.returncode == 2, done.stderr
     assert "Traceback" not in done.stderr and "ulimit -f" in done.stderr
     last = re.search(r"history\.sqlite: (?:cannot write )?cycle (\d+)", done.stderr)
