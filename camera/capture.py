@@ -318,7 +318,15 @@ def capture_steps(
     # What shapes the image as the camera has it now, our settings applied: a change
     # made by another program between captures shows in the next one's snapshot.
     snapshot = grabber.settings()
-    store.record("settings", {"values": snapshot, "sha256": settings_sha256(snapshot)})
+    unstable = getattr(grabber, "unstable_settings", ())
+    store.record(
+        "settings",
+        {
+            "values": snapshot,
+            "sha256": settings_sha256(snapshot),
+            **({"unstable": list(unstable)} if unstable else {}),
+        },
+    )
     triggers: Counter = Counter()  # this step's, for its health record
     next_frame = _frame_source(grabber, controller, mode, pulse, settings.timeout_s, triggers)
     if mode != "free-run":
@@ -468,6 +476,11 @@ def capture_steps(
         if store.close() is None and pending is not None:
             store.finish(pending)
     warnings = _unlit_steps(levels, brightness_tolerance)
+    if unstable:
+        warnings += (
+            f"{grabber.name}: {', '.join(unstable)} changed while the settings were read "
+            "(another program setting the camera?); left out of the settings snapshot",
+        )
     if warnings:
         store.record("warnings", list(warnings))
     return CaptureResult(Path(store.folder), saved, tuple(skipped), not_applied, warnings, known)

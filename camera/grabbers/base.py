@@ -447,8 +447,21 @@ class NodeMapGrabber(Grabber):
         """A node's value in the camera's string form, None where absent or not readable."""
 
     def settings(self) -> dict[str, str]:
+        # Read twice: a node another program (or the camera) changes while it is read has
+        # no one value to record; read a third time, one still changing is left out and
+        # named (unstable_settings), never recorded half-changed.
+        first, second = self._read_settings(), self._read_settings()
+        moving = {n for n in first.keys() | second.keys() if first.get(n) != second.get(n)}
+        third = self._read_settings(moving) if moving else {}
+        self.unstable_settings = tuple(sorted(n for n in moving if third.get(n) != second.get(n)))
+        return {n: v for n, v in {**second, **third}.items() if n not in self.unstable_settings}
+
+    unstable_settings: tuple[str, ...] = ()
+    """The nodes whose value changed while :meth:`settings` read them (left out of it)."""
+
+    def _read_settings(self, names=SETTINGS_NODES) -> dict[str, str]:
         values = {}
-        for name in SETTINGS_NODES:
+        for name in names:
             if not self._has(name):
                 continue
             text = self._text(name)

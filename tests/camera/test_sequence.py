@@ -206,3 +206,32 @@ def test_triggered_frames_are_the_ones_triggered_across_an_id_wrap():
     )
     assert [f.frame_id for f in frames] == [65534, 65535, 1, 2]
     assert discarded == {"not the triggered frame (frame id seen before)": 1}
+
+
+def test_settings_changing_while_read_are_named_in_the_capture(simulator, frames, tmp_path):
+    """The settings snapshot of a camera whose node keeps changing while it is read: the
+    node is left out of the hashed snapshot, listed as unstable, and the capture warns,
+    naming it; the frames are captured as usual."""
+
+    class Sweeping(ReplayGrabber):
+        def settings(self):
+            self.unstable_settings = ("Gamma",)
+            return {"PixelFormat": "Mono16"}
+
+    port, _, _ = simulator()
+    out = tmp_path / "capture"
+    store = CaptureStore(
+        out, station_path=tmp_path / "s.yaml", station_sha256="0" * 64, resume=False
+    )
+    try:
+        with GardasoftController(port, channels=4) as controller:
+            with Sweeping(frames) as grabber:
+                result = capture_steps(controller, grabber, STEPS[:1], store, CameraSettings())
+    finally:
+        store.release()
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["settings"]["unstable"] == ["Gamma"]
+    assert manifest["settings"]["values"] == {"PixelFormat": "Mono16"}
+    (warning,) = result.warnings
+    assert "Gamma changed while the settings were read" in warning
+    assert manifest["warnings"] == [warning] and result.steps == {"amber": 3}

@@ -157,3 +157,29 @@ def test_training_captures_of_two_settings_are_refused(cli, tmp_path):
     )
     assert code == 2 and "Gamma 1 → 0.7" in err, out + err
     assert not (tmp_path / "g.json").exists()
+
+
+def test_a_node_changing_while_read_is_left_out_and_named():
+    """A feature tree that changes while it is read (issue 50, bad input): a node changed
+    once between two reads is recorded at its new value; one that keeps changing has no
+    value to record, and is left out and named rather than recorded half-changed."""
+    from test_grab_path import MemoryCamera
+
+    class Moving(MemoryCamera):
+        reads = 0
+
+        def _text(self, name):
+            if name == "Gamma":
+                self.reads += 1
+                return f"{self.reads / 10:g}"  # another program sweeping it
+            if name == "BlackLevel":
+                return "12" if self.reads else "0"  # set once, during the first read
+            return super()._text(name)
+
+    cam = Moving([])
+    cam.nodes.update(Gamma="1", BlackLevel="0")
+    values = cam.settings()
+    assert "Gamma" not in values and cam.unstable_settings == ("Gamma",)
+    assert values["BlackLevel"] == "12" and values["PixelFormat"] == "Mono8"
+    steady = MemoryCamera([])
+    assert steady.settings() and steady.unstable_settings == ()
