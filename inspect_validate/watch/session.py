@@ -6,7 +6,7 @@ ends the watch."""
 from __future__ import annotations
 
 import contextlib
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -186,7 +186,10 @@ def watch_session(
             stack.callback(server.close)
         yield Session(
             station=watched,
-            plan=None if plan is None else replace(plan, golden=None),
+            # The golden file stays in the plan: without a drift section it sets no drift
+            # check (the charts replace them), and each cycle's camera settings are held
+            # to its snapshot.
+            plan=plan,
             monitor=monitor,
             history=history,
             folder=folder,

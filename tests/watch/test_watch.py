@@ -587,3 +587,21 @@ def test_a_light_that_dies_mid_watch_is_a_failing_cycle_not_an_error(cli, tmp_pa
     rows = _rows(db)
     assert [r[1] for r in rows] == ["pass", "fail", "fail"], rows
     assert "red: light above dark" in out
+
+
+def test_watch_fails_a_cycle_whose_camera_settings_left_the_golden_files(cli, tmp_path, golden):
+    """watch holds every cycle's settings snapshot to the golden file's (issue 50): a gamma
+    another program left on the camera fails each cycle naming the node; the cycle's
+    health is in the status and the history."""
+    path = copy_station(tmp_path, world={"nodes": {"Gamma": "0.7"}})
+    db = tmp_path / "w" / "history.sqlite"
+    code, out, err = cli(
+        ["watch", path, "--golden", golden, "--db", db, "--interval", 0, "--cycles", 1]
+    )
+    assert code == 1 and "cycle 0: FAIL (camera settings unchanged since training)" in out
+    status = json.loads((tmp_path / "w" / "status.json").read_text())
+    assert status["reason"] == "camera settings unchanged since training"
+    assert status["health"]["frames_delivered"] == 12 and status["health"]["triggers_missed"] == 0
+    with sqlite3.connect(db) as con:
+        health = dict(con.execute("SELECT quantity, value FROM health WHERE cycle = 0"))
+    assert health == {k: float(v) for k, v in status["health"].items()}
