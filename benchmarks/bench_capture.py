@@ -34,6 +34,10 @@ each acquisition mode the camera has, against free-run in the same run:
 software-trigger (one ``TriggerSoftware`` per frame, waited for), and on the
 simulated station hardware-trigger (one controller ``TR`` command per frame over
 the pseudo-terminal, the pulse firing the camera).
+
+A third times what a capture reads of the camera besides its frames, against the
+software-triggered step of the same run: its health (``Grabber.health``, twice a
+step) and its settings snapshot (``Grabber.settings``, read twice, once a capture).
 """
 
 from __future__ import annotations
@@ -106,6 +110,28 @@ def bare_grab(station, n: int) -> float:
         return (time.perf_counter() - t0) / n
 
 
+def read_costs(station, n: int = 20) -> tuple[float, float, int, int]:
+    """Median seconds of one ``health()`` and one ``settings()`` on the open camera, with
+    how many health quantities and settings nodes it reports."""
+    import statistics
+
+    with open_devices(station) as (_, camera):
+        camera.configure(exposure_us=station.camera.exposure_us)
+        camera.arm("software-trigger")
+        camera.trigger()
+        camera.grab(1)  # the stream running, as during a step
+        out = []
+        for read in (camera.health, camera.settings):
+            times = []
+            for _ in range(n):
+                t0 = time.perf_counter()
+                values = read()
+                times.append(time.perf_counter() - t0)
+            out.append((statistics.median(times), len(values)))
+        (health_s, n_health), (settings_s, n_settings) = out
+        return health_s, settings_s, n_health, n_settings
+
+
 @contextmanager
 def timed_open(station, seconds: list):
     """``open_devices``, appending to ``seconds`` how long opening took."""
@@ -167,8 +193,8 @@ def pace_emulator(size: int, fps: float) -> None:
 
     def paced(self, **options):
         configure(self, **{"region": (0, 0, size, size), **options})
-        self._set("AcquisitionFrameRateEnable", True, "frame rate")
-        self._set("AcquisitionFrameRate", fps, "frame rate")
+        self._write("AcquisitionFrameRateEnable", True, "frame rate")
+        self._write("AcquisitionFrameRate", fps, "frame rate")
 
     PylonGrabber.configure = paced
 
@@ -201,6 +227,8 @@ def main():
         for mode in ["free-run", "software-trigger", *hardware]:
             moded = read_station(copy(tmp, args.size, args.frames, acquisition=mode))
             by_mode[mode] = timed_capture(moded, tmp / mode, in_line=False)
+        triggered = read_station(copy(tmp, args.size, args.frames, acquisition="software-trigger"))
+        costs = read_costs(triggered)
         frame = next((tmp / "overlapped" / "amber").glob("frame_*.tif"))
         size_mb = frame.stat().st_size / 2**20
         height, width = json.loads(frame.with_suffix(".json").read_text())["shape"]
@@ -239,6 +267,25 @@ def main():
         step = (elapsed - opening) / 3  # two illuminations and the darks
         reference = reference or step
         print(f"| {mode} | {1e3 * step:.0f} ms | {grabbed / 3:.1f} | {step / reference:.2f} |")
+    elapsed, opening, _, _ = by_mode["software-trigger"]
+    step = (elapsed - opening) / 3
+    health_s, settings_s, n_health, n_settings = costs
+    print()
+    print("| read of the camera | quantities | time | per software-triggered step | ratio |")
+    print("|---|---|---|---|---|")
+    for label, seconds, count, times in (
+        ("health, twice a step", health_s, n_health, 2),
+        (
+            "settings snapshot, read twice, once a capture (÷ 3 steps)",
+            settings_s,
+            n_settings,
+            2 / 3,
+        ),
+    ):
+        print(
+            f"| {label} | {count} | {1e6 * seconds:.0f} µs | {1e3 * step:.0f} ms | "
+            f"{times * seconds / step:.2g} |"
+        )
 
 
 if __name__ == "__main__":

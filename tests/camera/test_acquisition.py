@@ -218,6 +218,12 @@ def test_verify_and_watch_in_every_mode(cli, tmp_path, golden, mode):
     world = {"changes": [{"start": 2, "irradiance": {1: 0.8}}]}
     (tmp_path / "w").mkdir()
     station = _moded_station(tmp_path / "w", mode, world=world)
+    if mode == "free-run":  # trained triggered: its TriggerMode differs, as it should
+        _, out, err, _ = watch_cycles(cli, station, golden, tmp_path / "w" / "s.sqlite", 1)
+        assert "cycle 0: FAIL (camera settings unchanged since training)" in out, out + err
+        doc = yaml.safe_load(station.read_text())
+        doc["acceptance"]["health"] = {"settings": False}
+        station.write_text(yaml.safe_dump(doc, sort_keys=False))
     db = tmp_path / "w" / "history.sqlite"
     code, out, err, rows = watch_cycles(cli, station, golden, db, 3)
     assert code == 1, out + err

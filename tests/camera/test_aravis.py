@@ -15,6 +15,7 @@ import time
 import uuid
 
 import pytest
+import yaml
 from conftest import run_cli
 
 from inspect_validate.errors import DeviceError
@@ -219,6 +220,10 @@ def test_watch_over_gige_names_a_brighter_light(cli, tmp_path, golden, acquisiti
         "aravis",
         acquisition=acquisition,
     )
+    # Another camera has other settings than the golden file's: not what is watched here.
+    doc = yaml.safe_load(path.read_text())
+    doc["acceptance"]["health"] = {"settings": False}
+    path.write_text(yaml.safe_dump(doc, sort_keys=False))
     db = tmp_path / "w" / "history.sqlite"
     code, out, err, rows = watch_cycles(cli, path, golden, db, 4)
     assert code == 1, out + err

@@ -598,7 +598,7 @@ def test_watch_fails_a_cycle_whose_camera_settings_left_the_golden_files(cli, tm
     code, out, err = cli(
         ["watch", path, "--golden", golden, "--db", db, "--interval", 0, "--cycles", 1]
     )
-    assert code == 1 and "cycle 0: FAIL (camera settings unchanged since training)" in out
+    assert code == 1 and "cycle 0: FAIL (camera settings unchanged since training)" in out, err
     status = json.loads((tmp_path / "w" / "status.json").read_text())
     assert status["reason"] == "camera settings unchanged since training"
     assert status["health"]["frames_delivered"] == 12 and status["health"]["triggers_missed"] == 0
