@@ -142,12 +142,8 @@ def verified_frames(
         previous = frame
         was_off, off_level = off_level, False
         wrong = _chunk_disagrees(frame, chunk)
-        if sent is not None and frame.clock == "exposure" and frame.timestamp_ns < sent:
-            discarded["exposed before its trigger"] += 1
-        elif sent is not None and frame.frame_id in seen_ids:
-            discarded["not the triggered frame (frame id seen before)"] += 1
-        elif frame.clock == "exposure" and frame.timestamp_ns < switched_ns:
-            discarded["exposed before the switch"] += 1  # camera pipeline
+        if late := _early(frame, sent, seen_ids, switched_ns):
+            discarded[late] += 1
         elif sent is None and frame.clock != "exposure" and flushed < flush:
             flushed += 1
             discarded["flushed after the switch"] += 1  # may predate the switch
@@ -178,6 +174,18 @@ def verified_frames(
         # Ids seen, not the largest: a GigE Vision block id wraps at 16 bits.
         seen_ids.add(frame.frame_id)
         _give_up_after(grabber, discarded, discard_max)
+
+
+def _early(frame, sent: int | None, seen_ids: set[int], switched_ns: int) -> str | None:
+    """Why ``frame`` may predate what it is taken for — its trigger (``sent``, host ns),
+    the light switch — or repeat a frame already fetched (``seen_ids``); None if none."""
+    if sent is not None and frame.clock == "exposure" and frame.timestamp_ns < sent:
+        return "exposed before its trigger"
+    if sent is not None and frame.frame_id in seen_ids:
+        return "not the triggered frame (frame id seen before)"
+    if frame.clock == "exposure" and frame.timestamp_ns < switched_ns:
+        return "exposed before the switch"  # camera pipeline
+    return None
 
 
 def _give_up_after(grabber, discarded: Counter, discard_max: int) -> None:
@@ -287,46 +295,13 @@ def capture_steps(
     levels: dict[str, float] = {}  # mean grey value of each step captured in this run
     total = sum(s.frames for s in steps)
     done = 0
-    grabber.configure(
-        exposure_us=settings.exposure_us,
-        gain_db=settings.gain_db,
-        pixel_format=settings.pixel_format,
-    )
-    asked = {
-        "exposure": settings.exposure_us,
-        "gain": settings.gain_db,
-        "pixel_format": settings.pixel_format,
-    }
-    not_applied = tuple(sorted(m for m in grabber.missing if asked.get(m) is not None))
+    not_applied = _configure(grabber, settings)
     mode, chunk = _arm(settings, grabber, source)  # refuses what the camera lacks, lights untouched
     if not (settings.strobe_line or mode == "hardware-trigger"):
         pulse = None
     # The manifest is written only now: a camera that fails to open leaves
     # nothing that would block a plain rerun.
-    store.record(
-        "camera",
-        {
-            "name": grabber.name,
-            "missing": sorted(grabber.missing),
-            "not_applied": not_applied,
-            "acquisition": mode,
-            "chunks": sorted(chunk or ()),
-            "strobe_line": settings.strobe_line,
-            "trigger_line": settings.trigger_line if mode == "hardware-trigger" else None,
-        },
-    )
-    # What shapes the image as the camera has it now, our settings applied: a change
-    # made by another program between captures shows in the next one's snapshot.
-    snapshot = grabber.settings()
-    unstable = getattr(grabber, "unstable_settings", ())
-    store.record(
-        "settings",
-        {
-            "values": snapshot,
-            "sha256": settings_sha256(snapshot),
-            **({"unstable": list(unstable)} if unstable else {}),
-        },
-    )
+    unstable = _record_camera(store, grabber, settings, mode, chunk, not_applied)
     triggers: Counter = Counter()  # this step's, for its health record
     next_frame = _frame_source(grabber, controller, mode, pulse, settings.timeout_s, triggers)
     if mode != "free-run":
@@ -475,15 +450,65 @@ def capture_steps(
         # it; a step whose every frame was grabbed is then complete.
         if store.close() is None and pending is not None:
             store.finish(pending)
-    warnings = _unlit_steps(levels, brightness_tolerance)
-    if unstable:
-        warnings += (
-            f"{grabber.name}: {', '.join(unstable)} changed while the settings were read "
-            "(another program setting the camera?); left out of the settings snapshot",
-        )
+    warnings = _unlit_steps(levels, brightness_tolerance) + _unstable_warning(grabber, unstable)
     if warnings:
         store.record("warnings", list(warnings))
     return CaptureResult(Path(store.folder), saved, tuple(skipped), not_applied, warnings, known)
+
+
+def _configure(grabber, settings: CameraSettings) -> tuple[str, ...]:
+    """Apply ``settings``' exposure, gain and pixel format; the ones asked for that the
+    camera has no node for (recorded as not applied)."""
+    grabber.configure(
+        exposure_us=settings.exposure_us,
+        gain_db=settings.gain_db,
+        pixel_format=settings.pixel_format,
+    )
+    asked = {
+        "exposure": settings.exposure_us,
+        "gain": settings.gain_db,
+        "pixel_format": settings.pixel_format,
+    }
+    return tuple(sorted(m for m in grabber.missing if asked.get(m) is not None))
+
+
+def _record_camera(store, grabber, settings, mode, chunk, not_applied) -> tuple[str, ...]:
+    """The manifest's ``camera`` and ``settings`` records of an armed camera; the nodes
+    that changed while its settings were read (left out of the snapshot)."""
+    store.record(
+        "camera",
+        {
+            "name": grabber.name,
+            "missing": sorted(grabber.missing),
+            "not_applied": not_applied,
+            "acquisition": mode,
+            "chunks": sorted(chunk or ()),
+            "strobe_line": settings.strobe_line,
+            "trigger_line": settings.trigger_line if mode == "hardware-trigger" else None,
+        },
+    )
+    # What shapes the image as the camera has it now, our settings applied: a change
+    # made by another program between captures shows in the next one's snapshot.
+    snapshot = grabber.settings()
+    unstable = tuple(getattr(grabber, "unstable_settings", ()))
+    store.record(
+        "settings",
+        {
+            "values": snapshot,
+            "sha256": settings_sha256(snapshot),
+            **({"unstable": list(unstable)} if unstable else {}),
+        },
+    )
+    return unstable
+
+
+def _unstable_warning(grabber, unstable) -> tuple[str, ...]:
+    if not unstable:
+        return ()
+    return (
+        f"{grabber.name}: {', '.join(unstable)} changed while the settings were read "
+        "(another program setting the camera?); left out of the settings snapshot",
+    )
 
 
 def _arm(settings: CameraSettings, grabber, source: str) -> tuple[str, dict | None]:

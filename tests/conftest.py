@@ -131,6 +131,21 @@ def through_sdk(path: Path, backend: str = "pylon", **camera) -> Path:
     return path
 
 
+def two_cameras(path: Path, *second_world, **cameras) -> Path:
+    """The station file at ``path`` rewritten with two cameras, ``top`` (its camera as it
+    was) and ``side`` (the same, in the world ``second_world[0]`` where given); ``cameras``:
+    name → keys to set on that camera."""
+    doc = yaml.safe_load(path.read_text())
+    first = doc.pop("camera")
+    doc["cameras"] = [{**first, "name": "top"}, {**first, "name": "side"}]
+    if second_world:
+        doc["cameras"][1]["world"] = second_world[0]
+    for cam in doc["cameras"]:
+        cam.update(cameras.get(cam["name"], {}))
+    path.write_text(yaml.safe_dump(doc, sort_keys=False))
+    return path
+
+
 def watch_cycles(cli, station, golden, db, cycles):
     """Run ``watch`` for ``cycles`` (no pause) into ``db``: its exit code and output,
     and the history's (cycle, status, cause) rows."""

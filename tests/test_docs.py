@@ -9,7 +9,7 @@ import json
 import re
 from pathlib import Path
 
-from conftest import ROOT, copy_station
+from conftest import ROOT, copy_station, two_cameras
 
 DOCS = ROOT / "docs"
 
@@ -66,7 +66,15 @@ def test_capture_folder_page_lists_every_key_a_capture_writes(cli, tmp_path):
                 tmp_path / f"{name}-cap",
             ]
         )
-    for folder in ("dead-cap", "stopped-cap"):
+    # and a station of several cameras writes its rounds
+    (tmp_path / "rig").mkdir()
+    cli(["capture", two_cameras(copy_station(tmp_path / "rig")), "--out", tmp_path / "rig-cap"])
+    rig_sidecar = json.loads(
+        (tmp_path / "rig-cap" / "top" / "amber" / "frame_0001.json").read_text()
+    )
+    assert set(rig_sidecar) <= set(documented), set(rig_sidecar) - set(documented)
+    sidecar.update(rig_sidecar)
+    for folder in ("dead-cap", "stopped-cap", "rig-cap/top"):
         other = json.loads((tmp_path / folder / "manifest.json").read_text())
         manifest.update(other)
         written |= {k for step in other["steps"].values() for k in step}
@@ -229,6 +237,33 @@ def test_the_running_line_page_runs_as_written(tmp_path):
             assert "PASS" in run.stdout
     assert (tmp_path / "line" / "report" / "report.html").is_file()
     assert "cycles 0–2" in run.stdout
+
+
+def test_the_several_cameras_page_runs_as_written(tmp_path):
+    """Every command of "Several cameras", in order, on the shipped two-camera station:
+    each camera's frames in its folder, and the station's one verdict passes."""
+    import shlex
+    import subprocess
+    import sys
+
+    page = (DOCS / "guide" / "cameras.md").read_text()
+    block = re.search(r"## Capture: one trigger.*?```console\n(.*?)```", page, re.S)
+    commands = [line[2:] for line in block[1].splitlines() if line.startswith("$ ")]
+    assert [c.split()[1] for c in commands] == ["capture", "verify"]
+    (tmp_path / "sample_images").symlink_to(ROOT / "sample_images")
+    for command in commands:
+        run = subprocess.run(
+            [sys.executable, "-m", "inspect_validate", *shlex.split(command)[1:]],
+            cwd=tmp_path,
+            capture_output=True,
+            text=True,
+            timeout=600,
+        )
+        assert run.returncode == 0, f"{command}\n{run.stdout[-2000:]}\n{run.stderr[-2000:]}"
+    assert "PASS: 2 cameras, every camera passed" in run.stdout
+    for name in ("top", "side"):
+        assert (tmp_path / "two" / "frames" / name / "manifest.json").is_file()
+        assert (tmp_path / "two" / "report" / name / "report.html").is_file()
 
 
 FORMAT_MODELS = [

@@ -57,6 +57,39 @@ def _entries(node) -> tuple[str, ...]:
         return ()
 
 
+# One Harvester per set of producers in a process, shared by the cameras open on it: a
+# second Harvester loading the same producer finds none of its devices (the producer is
+# already initialised), so two cameras of one producer (TLSimu's several devices, two
+# cameras behind one vendor's GenTL) need the one.
+_HARVESTERS: dict[tuple[str, ...], list] = {}  # producers → [Harvester, cameras open on it]
+
+
+def _harvester(producers: tuple[str, ...]):
+    """The process's Harvester of ``producers`` (made and updated on first use)."""
+    from harvesters.core import Harvester
+
+    held = _HARVESTERS.get(producers)
+    if held is None:
+        harvester = Harvester()
+        for producer in producers:
+            harvester.add_file(producer)
+        harvester.update()
+        held = _HARVESTERS[producers] = [harvester, 0]
+    held[1] += 1
+    return held[0]
+
+
+def _release(producers: tuple[str, ...]) -> None:
+    """One camera less on ``producers``' Harvester; the last one resets it."""
+    held = _HARVESTERS.get(producers)
+    if held is None:
+        return
+    held[1] -= 1
+    if held[1] <= 0:
+        del _HARVESTERS[producers]
+        held[0].reset()
+
+
 def _complete(buf) -> bool:
     """The buffer holds its whole frame (GenTL's ``BUFFER_INFO_IS_INCOMPLETE``); a producer
     that does not say is taken at its word that it delivers only whole frames."""
@@ -163,19 +196,15 @@ class GenICamGrabber(NodeMapGrabber):
         index: int = 0,
         num_buffers: int | None = None,
     ) -> None:
-        from harvesters.core import Harvester
-
-        self._harvester = Harvester()
-        for producer in find_producers(cti):
-            self._harvester.add_file(str(producer))
-        self._harvester.update()
+        self._producers = tuple(str(p) for p in find_producers(cti))
+        self._harvester = _harvester(self._producers)
         found = _devices(self._harvester)
         try:
             chosen = choose_device(found, what="GenICam", serial=serial, index=index)
-        except DeviceError:
-            self._harvester.reset()
+            self._ia = self._harvester.create(chosen.key)
+        except BaseException:
+            _release(self._producers)
             raise
-        self._ia = self._harvester.create(chosen.key)
         self.name = chosen.describe()
         if num_buffers is not None:
             try:
@@ -376,7 +405,7 @@ class GenICamGrabber(NodeMapGrabber):
             self._stop()
             self._ia.destroy()
         finally:
-            self._harvester.reset()
+            _release(self._producers)
 
 
 class GenicamSettings(CameraSettings):

@@ -43,6 +43,9 @@ def capture(station, out, resume, production, parts) -> None:
     exposed before the switch, checks brightness is stable, and writes 16-bit
     TIFFs with JSON sidecars atomically. Exits 3 on a camera or controller
     failure, keeping every frame saved; rerun with --resume to continue.
+    A station of several cameras (cameras:) triggers them together for every frame,
+    keeps only rounds whose every camera's frame holds, and writes each camera's
+    frames to OUT/<camera>/.
     With --production, frames of the running line's parts under its one light
     (their brightness differs part to part), for train and verify --production.
     """
@@ -55,7 +58,7 @@ def capture(station, out, resume, production, parts) -> None:
     if production:
         from inspect_validate.station.capture import production_steps
 
-        steps = production_steps(st, parts=parts)
+        steps = production_steps(st.one_camera("capture --production"), parts=parts)
     result = capture_with_progress(st, out, resume=resume, steps=steps)
     if result.not_applied:
         click.echo(
@@ -65,11 +68,17 @@ def capture(station, out, resume, production, parts) -> None:
         )
     for warning in result.warnings:
         click.echo(labelled("warning", warning), err=True)
+    names = st.camera_names
     for step, n in result.steps.items():
-        click.echo(f"{step}: {n} frames in {out / step}{precision_note(result, step, st)}")
+        if names:  # several cameras: each its own folder, frames matched by round
+            where = ", ".join(str(out / name / step) for name in names)
+            click.echo(f"{step}: {n} frames from each camera, matched by trigger, in {where}")
+        else:
+            click.echo(f"{step}: {n} frames in {out / step}{precision_note(result, step, st)}")
     for step in result.skipped:
         click.echo(f"{step}: already complete, skipped")
-    click.echo(f"manifest: {out / 'manifest.json'}")
+    manifests = [out / name / "manifest.json" for name in names] or [out / "manifest.json"]
+    click.echo(f"manifest: {', '.join(map(str, manifests))}")
 
 
 def precision_note(result, step, station) -> str:

@@ -54,7 +54,7 @@ def characterize(station, out, report_dir, resume):
     )
     from inspect_validate.station.file import read_station, station_hash
 
-    st = read_station(station)
+    st = read_station(station).one_camera("characterize")
     if resume and out is None:
         raise click.UsageError("--resume needs the --out folder of the interrupted series")
     out = out or new_folder("characterize", station)

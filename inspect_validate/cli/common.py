@@ -111,6 +111,8 @@ def verify_and_report(
 
     if frames_dir is None:
         simulated_light_notes(st)
+    if st.cameras:
+        return _verify_rig_and_report(st, frames_dir=frames_dir, out=out, report_dir=report_dir)
     with FrameProgress(label="capturing") as advance:
         result = verify_station(
             st,
@@ -132,6 +134,45 @@ def verify_and_report(
         write_junit(result, report_dir / "junit.xml")
         write_verification_html(result, report_dir / "report.html", history=history)
         click.echo(f"report: {report_dir / 'report.html'} (verification.json, junit.xml)")
+    return result
+
+
+def _verify_rig_and_report(st, *, frames_dir, out, report_dir):
+    """:func:`verify_and_report` of a station of several cameras: each camera's verdict
+    and reports (``report_dir/<camera>/``), the checks across cameras, and the one
+    verdict (``report_dir/verification.json``); the
+    :class:`~inspect_validate.verification.rig.RigVerification`."""
+    from inspect_validate.report import write_json
+    from inspect_validate.report.html import write_verification_html
+    from inspect_validate.report.verification import (
+        format_rig_verdict,
+        rig_document,
+        verification_document,
+        write_junit,
+    )
+    from inspect_validate.verification.rig import verify_rig
+
+    with FrameProgress(label="capturing") as advance:
+        result = verify_rig(
+            st,
+            frames=frames_dir,
+            out=out,
+            progress=lambda step, done, total: advance(done, step, total),
+        )
+    if frames_dir is None:
+        click.echo(f"frames: {out}")
+    click.echo(format_rig_verdict(result))
+    if report_dir:
+        for name, v in result.cameras.items():
+            folder = report_dir / name
+            write_json(verification_document(v), folder / "verification.json")
+            write_junit(v, folder / "junit.xml")
+            write_verification_html(v, folder / "report.html")
+        write_json(rig_document(result), report_dir / "verification.json")
+        click.echo(
+            f"report: {report_dir / 'verification.json'} (each camera's in "
+            f"{report_dir}/<camera>/: report.html, verification.json, junit.xml)"
+        )
     return result
 
 

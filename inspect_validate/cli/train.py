@@ -60,7 +60,7 @@ def train(station, golden_path, repeats, frames_dirs, frames_out, production) ->
     from inspect_validate.verification.golden import train as run_train
     from inspect_validate.verification.measured import station_regions
 
-    st = read_station(station)
+    st = read_station(station).one_camera("train")
     validate_outputs(files=[golden_path], folders=[frames_out])
     if production:
         _train_production(st, frames_dirs, golden_path)

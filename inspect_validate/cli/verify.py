@@ -79,12 +79,15 @@ def verify(
     st = read_station(station)
     validate_outputs(folders=[report_dir])
     if production:
-        _verify_production(st, frames_dir, golden_path, report_dir)
+        _verify_production(
+            st.one_camera("verify --production"), frames_dir, golden_path, report_dir
+        )
         return
     if golden_path is not None:
         raise click.UsageError("--golden goes with --production (the bench reads acceptance.drift)")
     log = None
     if history_path is not None:
+        st.one_camera("verify --history (a watch's history)")
         if report_dir is None:
             raise click.UsageError("--history adds trends to the report: give --report too")
         from inspect_validate.watch.history import read_station_history

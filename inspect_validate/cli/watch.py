@@ -132,7 +132,7 @@ def watch(
         keep_every=keep_every,
     )
     session = watch_session(
-        read_station(station),
+        read_station(station).one_camera("watch"),
         golden=golden_path,
         db=db_path,
         folder=folder,

@@ -30,6 +30,7 @@ if TYPE_CHECKING:
     from inspect_validate.verification.checks import Check
     from inspect_validate.verification.production import ProductionVerification
     from inspect_validate.verification.results import Verification
+    from inspect_validate.verification.rig import RigVerification
 
 __all__ = [
     "CHECK_COLUMNS",
@@ -37,7 +38,9 @@ __all__ = [
     "check_rows",
     "false_alarm_document",
     "false_alarm_line",
+    "format_rig_verdict",
     "format_verdict",
+    "rig_document",
     "verdict_documents",
     "verdict_table",
     "verification_document",
@@ -174,6 +177,55 @@ def _number(c) -> str:
 def _row_document(row) -> dict:
     """A predicted-against-measured row as the JSON has it (``class_name`` is ``class``)."""
     return {("class" if k == "class_name" else k): x for k, x in asdict(row).items()}
+
+
+def format_rig_verdict(v: RigVerification) -> str:
+    """Each camera's verdict (as :func:`format_verdict`, under its name), the checks across
+    the cameras, and the station's one verdict line."""
+    out = []
+    for name, result in v.cameras.items():
+        out += [f"== camera {name} ==", format_verdict(result), ""]
+    out.append("== across cameras ==")
+    rows = [cells for _, cells in check_rows(v.checks)]
+    if rows:
+        out.append(verdict_table(rows, terminal_width(sys.stdout)))
+    for item in v.skipped:
+        out.append(labelled("skipped", item, stream=sys.stdout))
+    failed = [name for name, r in v.cameras.items() if not r.passed]
+    across = sum(not c.passed for c in v.checks)
+    share = 100 * v.false_alarm / (len(v.cameras) + 1)
+    out += [
+        "",
+        f"false-alarm rate {100 * v.false_alarm:.3g} % for the station unchanged, "
+        f"{share:.2g} % to each camera's verification and to the checks across them",
+        ("PASS" if v.passed else "FAIL")
+        + f": {len(v.cameras)} cameras, "
+        + (f"{', '.join(failed)} failed" if failed else "every camera passed")
+        + f"; {across} of {len(v.checks)} checks across cameras failed",
+    ]
+    return "\n".join(out)
+
+
+def rig_document(v: RigVerification) -> dict:
+    """The top ``verification.json`` of a station of several cameras: the one verdict,
+    the checks across cameras, and each camera's verdict and report folder."""
+    return {
+        "schema": "inspect-validate/rig-verification",
+        "schema_version": 1,
+        "tool_version": __version__,
+        "station": str(v.station.path),
+        "verdict": "pass" if v.passed else "fail",
+        "false_alarm": {
+            "rate": v.false_alarm,
+            "per_verification": v.false_alarm / (len(v.cameras) + 1),
+        },
+        "cameras": {
+            name: {"verdict": "pass" if r.passed else "fail", "report": name}
+            for name, r in v.cameras.items()
+        },
+        "checks": verdict_documents(v.checks),
+        "skipped": list(v.skipped),
+    }
 
 
 def verification_document(v: Verification) -> dict:

@@ -172,7 +172,8 @@ def open_aravis_fake(settings: RenderedAravis, opening: Opening) -> Iterator[Gra
         )
     # One per tool process at a time, and the same on each opening: a capture is resumed,
     # and characterize's series continued, only with the camera that began it.
-    serial = f"IV{os.getpid()}"
+    name = getattr(settings, "name", None)  # a camera among several: each its own serial
+    serial = f"IV{os.getpid()}" + (f"-{name}"[:12] if name else "")
     proc = subprocess.Popen(
         [
             sys.executable,

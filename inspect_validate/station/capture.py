@@ -83,6 +83,8 @@ def capture(
     """
     from inspect_validate.station.devices import open_devices
 
+    if station.cameras and devices is None:
+        return _capture_rig(station, out, resume=resume, progress=progress, steps=steps)
     stopping = _stopping(station)
     pulse = getattr(station.controller, "pulse", None)
     store = CaptureStore(
@@ -106,6 +108,50 @@ def capture(
             )
     finally:
         store.release()
+
+
+def _capture_rig(station, out, *, resume, progress, steps) -> CaptureResult:
+    """:func:`capture` of a station of several cameras (:mod:`~inspect_validate.camera.rig`):
+    each camera's frames in ``out/<camera>/``; the result's ``steps`` are the first
+    camera's (every camera keeps as many, matched by round)."""
+    import contextlib
+
+    from inspect_validate.camera.rig import capture_rig
+    from inspect_validate.errors import InputError
+    from inspect_validate.station.devices import open_rig
+
+    if station.precision is not None:
+        raise InputError(
+            "precision: stopping on the classes' precision takes one camera; several "
+            "cameras take their frames: count",
+            source=str(station.path),
+        )
+    names = station.camera_names
+    digest = station_hash(station.file)
+    with contextlib.ExitStack() as stack:
+        stores = {}
+        for name in names:
+            store = CaptureStore(
+                Path(out) / name, station_path=station.file, station_sha256=digest, resume=resume
+            )
+            stack.callback(store.release)
+            stores[name] = store
+        with open_rig(station) as (controller, grabbers):
+            results = capture_rig(
+                controller,
+                grabbers,
+                station_steps(station) if steps is None else steps,
+                stores,
+                {name: station.view(name).camera for name in names},
+                pulse=getattr(station.controller, "pulse", None),
+                discard_max=station.discard_max,
+                brightness_tolerance=station.brightness_tolerance,
+                source=str(station.path),
+                progress=progress,
+            )
+    first = results[names[0]]
+    warnings = tuple(f"cameras {n!r}: {w}" for n, r in results.items() for w in r.warnings)
+    return CaptureResult(Path(out), first.steps, first.skipped, first.not_applied, warnings)
 
 
 def _stopping(station: Station):

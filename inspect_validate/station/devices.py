@@ -14,7 +14,7 @@ if TYPE_CHECKING:
 
     from inspect_validate.station.file import Station
 
-__all__ = ["open_devices"]
+__all__ = ["open_devices", "open_rig"]
 
 
 @contextlib.contextmanager
@@ -34,22 +34,40 @@ def open_devices(station: Station, *, target: str = "scene") -> Iterator[tuple]:
     DeviceError
         A device that does not open or answer.
     """
+    with open_rig(station, target=target, views=[station]) as (controller, cameras):
+        yield controller, cameras[station.camera.name]
+
+
+@contextlib.contextmanager
+def open_rig(
+    station: Station, *, target: str = "scene", views: list[Station] | None = None
+) -> Iterator[tuple]:
+    """Yield (controller, {name: camera}) for a station of several cameras (``cameras:``),
+    each opened as its :meth:`~inspect_validate.station.file.Station.view` sees it, on the
+    one controller; all closed afterwards, also when one fails to open. ``views``: the
+    one-camera stations to open instead (:func:`open_devices`)."""
     source = str(station.path)
     opening = Opening(source=source, base=station.folder, station=station, target=target)
-    camera_kind: Literal["cameras", "simulators"] = (
-        "simulators" if getattr(station.camera, "simulate", False) else "cameras"
-    )
     controller_backend = backend("controllers", station.controller.backend, source=source)
-    camera_backend = backend(camera_kind, station.camera.backend, source=source)
+    if views is None:
+        views = [station.view(name) for name in station.camera_names]
     with contextlib.ExitStack() as stack:
         controller = stack.enter_context(controller_backend.open(station.controller, opening))
-        opened = Opening(
-            source=source,
-            base=station.folder,
-            station=station,
-            target=target,
-            controller=controller,
-            state=getattr(controller, "state_path", None),
-        )
-        camera = stack.enter_context(camera_backend.open(station.camera, opened))
-        yield controller, camera
+        cameras = {}
+        for view in views:
+            kind: Literal["cameras", "simulators"] = (
+                "simulators" if getattr(view.camera, "simulate", False) else "cameras"
+            )
+            opened = Opening(
+                source=source,
+                base=station.folder,
+                station=view,
+                target=target,
+                controller=controller,
+                state=getattr(controller, "state_path", None),
+            )
+            camera_backend = backend(kind, view.camera.backend, source=source)
+            cameras[view.camera.name] = stack.enter_context(
+                camera_backend.open(view.camera, opened)
+            )
+        yield controller, cameras

@@ -72,6 +72,11 @@ class StationCamera(StrictModel):
     """A camera file written by ``characterize``: its EMVA 1288 values replace the scene
     camera's in every prediction of this station (the QE curve keeps the scene's shape, at
     the measured level where the file has ``qe_scale``)."""
+    name: Annotated[str, Field(pattern=r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")] | None = None
+    """Its name among a station's ``cameras:`` (the folder of its frames in a capture, the
+    prefix of its checks); required there."""
+    rois: str | None = None
+    """Its ROI file among a station's ``cameras:`` (default: the station's ``rois``)."""
 
 
 def _sections(kind: Literal["cameras", "controllers"], *, extra: tuple = ()) -> dict:
@@ -92,6 +97,19 @@ def _sections(kind: Literal["cameras", "controllers"], *, extra: tuple = ()) -> 
             {"__module__": __name__, "__doc__": backend.settings.__doc__},
         )
     return models
+
+
+def _device_key(cam) -> tuple | None:
+    """What chooses ``cam``'s device (backend and serial, device id or index; a simulated
+    camera none: each renders its own): two cameras with one key are one device."""
+    if cam.backend == "simulated" or getattr(cam, "simulate", False):
+        return None
+    for key in ("serial", "device_id", "device", "folder"):
+        value = getattr(cam, key, None)
+        if value is not None:
+            return (cam.backend, key, str(value))
+    index = getattr(cam, "index", None)
+    return None if index is None else (cam.backend, "index", str(index))
 
 
 def _unloadable(name: str, why: str) -> type:
@@ -223,7 +241,12 @@ class Station(StrictModel):
     )
     """Shown in reports, metrics and the history (one line, no control characters)."""
     camera: CameraSection
-    """The camera and how frames start; ``backend`` chooses the kind."""
+    """The camera and how frames start; ``backend`` chooses the kind. With ``cameras:``,
+    the first of them (leave it out)."""
+    cameras: list[CameraSection] = []
+    """Several cameras on one trigger, each with its ``name`` (and its own ``rois``, its
+    scene camera ``model``): every illumination triggers them together, and their frames
+    are matched by trigger."""
     controller: ControllerSection
     """The light controller; ``backend`` chooses the kind."""
     illuminations: list[Illumination] = Field(min_length=1)
@@ -259,6 +282,106 @@ class Station(StrictModel):
     """How the station is verified on its running line (moving parts, one light on)."""
     path: Path | None = Field(default=None, exclude=True)
     """The file the station was read from (set on reading, never written)."""
+
+    @model_validator(mode="before")
+    @classmethod
+    def _first_camera(cls, data):
+        """``cameras:`` given: ``camera`` is the first of them (what one-camera code reads)."""
+        if isinstance(data, dict) and data.get("cameras") is not None:
+            if data.get("camera") is not None:
+                raise ValueError(
+                    "give camera: (one camera) or cameras: (several, each with a name), not both"
+                )
+            cameras = data["cameras"]
+            if isinstance(cameras, list) and cameras and isinstance(cameras[0], dict):
+                data = {**data, "camera": cameras[0]}
+        return data
+
+    @model_validator(mode="after")
+    def _several_cameras(self):
+        """Each of ``cameras:`` named once, a device once, triggered (frames are matched by
+        trigger), and all on one kind of trigger."""
+        if not self.cameras:
+            if self.camera.rois is not None:
+                raise ValueError(
+                    "camera.rois is for one of several cameras: give rois: at the station's top"
+                )
+            return self
+        names = [c.name for c in self.cameras]
+        for i, cam in enumerate(self.cameras):
+            if cam.name is None:
+                raise ValueError(f"cameras[{i}] ({cam.backend}): give it a name (name: top)")
+        if len(set(names)) != len(names):
+            twice = sorted({n for n in names if names.count(n) > 1})
+            raise ValueError(f"cameras: {twice[0]!r} names two cameras; give each its own name")
+        seen: dict[tuple, str] = {}
+        for cam in self.cameras:
+            key = _device_key(cam)
+            if key is not None and key in seen:
+                raise ValueError(
+                    f"cameras {seen[key]!r} and {cam.name!r} are the same device "
+                    f"({key[0]} {key[1]} {key[2]}); give each camera its own"
+                )
+            if key is not None:
+                seen[key] = cam.name
+            if cam.acquisition == "free-run":
+                raise ValueError(
+                    f"cameras {cam.name!r}: several cameras are matched by their trigger; "
+                    "camera.acquisition free-run cannot be (give software-trigger, "
+                    "hardware-trigger or auto)"
+                )
+        kinds = {c.acquisition == "hardware-trigger" for c in self.cameras}
+        if len(kinds) > 1:
+            raise ValueError(
+                "cameras: either every camera is hardware-triggered from the controller's one "
+                "trigger output, or none is (software triggers are sent to each in turn)"
+            )
+        return self
+
+    @property
+    def camera_names(self) -> tuple[str, ...]:
+        """The names of ``cameras:`` (empty for a station of one camera)."""
+        return tuple(c.name for c in self.cameras)
+
+    def one_camera(self, what: str) -> Station:
+        """This station, where it has one camera; an InputError naming ``what`` (a command)
+        for a station of several (``cameras:``), saying what to do."""
+        if self.cameras:
+            from inspect_validate.errors import InputError
+
+            raise InputError(
+                f"{what} takes a station of one camera, and this one has "
+                f"{len(self.cameras)} ({', '.join(self.camera_names)}): capture and verify "
+                "take several; for this, give one of them as camera: in a station file of its own",
+                source=str(self.path),
+            )
+        return self
+
+    def view(self, name: str) -> Station:
+        """The station as its camera ``name`` alone sees it: that camera, its ROI file,
+        every other key as it is (what a verification of one camera reads).
+
+        Raises
+        ------
+        InputError
+            No camera of that name.
+        """
+        for cam in self.cameras:
+            if cam.name == name:
+                return self.model_copy(
+                    update={
+                        "camera": cam.model_copy(update={"rois": None}),
+                        "cameras": [],
+                        "rois": cam.rois or self.rois,
+                        "name": f"{self.name} · {name}",
+                    }
+                )
+        from inspect_validate.errors import InputError
+
+        raise InputError(
+            f"no camera {name!r} (the station has {', '.join(self.camera_names) or 'one, unnamed'})",
+            source=str(self.path),
+        )
 
     @model_validator(mode="after")
     def _channels_exist(self):
@@ -304,13 +427,17 @@ class Station(StrictModel):
         return self
 
     def _check_timing(self) -> None:
-        """Triggered lights cover the exposure; every part a mode needs is given.
+        """Triggered lights cover every camera's exposure; every part a mode needs is given.
 
         The prediction integrates the light over ``exposure_us``: a pulse that ends
         early or starts late would make every frame darker than predicted, so such a
         station is refused when read, before any device is opened.
         """
-        cam, ctl = self.camera, self.controller
+        for cam in self.cameras or [self.camera]:
+            self._check_camera_timing(cam)
+
+    def _check_camera_timing(self, cam) -> None:
+        ctl = self.controller
         pulse = getattr(ctl, "pulse", None)
         hardware = cam.acquisition == "hardware-trigger"
         if hardware and cam.trigger_line is None:
@@ -371,8 +498,11 @@ class Station(StrictModel):
 
     @property
     def renders(self) -> bool:
-        """The camera renders the scene (simulated, or pylon's emulator fed with renderings)."""
-        return self.camera.backend == "simulated" or getattr(self.camera, "simulate", False)
+        """A camera renders the scene (simulated, or pylon's emulator fed with renderings)."""
+        return any(
+            c.backend == "simulated" or getattr(c, "simulate", False)
+            for c in self.cameras or [self.camera]
+        )
 
     @property
     def file(self) -> Path:

@@ -95,6 +95,12 @@ def verify_station(
     from inspect_validate.station.capture import capture
 
     notify = notify or (lambda message: None)
+    if station.cameras:
+        raise InputError(
+            "verify_station takes a station of one camera; verify_rig "
+            "(inspect_validate.verification.rig) verifies one of several",
+            source=str(station.path),
+        )
     plan = plan_verification(station)
     full = station
     if frames is None and out is None:

@@ -451,3 +451,45 @@ def test_verify_over_a_lossy_gige_link_fails_naming_the_lost_packets(cli, tmp_pa
     # the frames kept are whole: the station itself verifies
     failing = {n for n, c in checks.items() if c["verdict"] != "pass"}
     assert failing == {"camera: packets lost", "camera: frames arriving incomplete"}
+
+
+@pytest.mark.slow
+def test_one_of_two_cameras_killed_mid_capture_is_named_and_the_rounds_before_kept(
+    tmp_path, fake_gige
+):
+    """Several cameras (issue 51): the simulated camera and Aravis' fake GigE camera on one
+    trigger; the fake camera's process dies during the second step. Exit 3 naming the
+    camera by its station name; the first step complete in both folders, matched round
+    for round; the second marked failed in both, its whole rounds kept."""
+    from conftest import copy_station
+
+    serial, proc = fake_gige()
+    path = copy_station(tmp_path)
+    doc = yaml.safe_load(path.read_text())
+    top = {**doc.pop("camera"), "name": "top", "acquisition": "software-trigger"}
+    side = {"backend": "aravis", "serial": serial, "name": "side", "pixel_format": "Mono16",
+            "exposure_us": 4000, "timeout_s": 1}  # fmt: skip
+    doc.update(cameras=[top, side], frames=60, brightness_tolerance=0.05)
+    path.write_text(yaml.safe_dump(doc, sort_keys=False))
+    out = tmp_path / "cap"
+    capture = subprocess.Popen(
+        [sys.executable, "-m", "inspect_validate", "capture", str(path), "--out", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    deadline = time.monotonic() + 120
+    while not (out / "side" / "red" / "frame_0003.json").exists():
+        assert capture.poll() is None and time.monotonic() < deadline, capture.communicate()
+        time.sleep(0.05)
+    os.kill(proc.pid, signal.SIGKILL)
+    _, err = capture.communicate(timeout=120)
+    assert capture.returncode == 3, err
+    assert "cameras 'side'" in err, err
+    manifests = [json.loads((out / n / "manifest.json").read_text()) for n in ("top", "side")]
+    amber = [m["steps"]["amber"] for m in manifests]
+    assert all(s["complete"] for s in amber) and amber[0]["rounds"] == amber[1]["rounds"]
+    red = [m["steps"]["red"] for m in manifests]
+    assert all(not s.get("complete") and "cameras 'side'" in s["error"] for s in red)
+    kept = [len(list((out / n / "red").glob("frame_*.tif"))) for n in ("top", "side")]
+    assert kept[0] == kept[1] >= 3  # whole rounds only, in both

@@ -1,0 +1,165 @@
+"""A verification of a station of several cameras (``cameras:``): each camera verified as
+a station of its own (:meth:`~inspect_validate.station.file.Station.view`), and the
+cameras held to each other, for one verdict.
+
+**Across cameras.** Every camera sees the same lights. Each camera's calibration ties the
+prediction to its frames by one irradiance scale per illumination
+(:mod:`.calibration`), which absorbs whatever scales that camera's signal alone — its
+gain, its exposure, its lens's aperture. A change of one camera alone therefore passes
+that camera's own checks, but moves its scale away from the others': the check
+``amber: side against top`` holds the ratio of the two scales to 1 within
+``acceptance.agreement.mean_relative``, widened by the ratio's standard error (basis
+``tolerance``). The first camera is the reference.
+
+**The false-alarm rate.** The station's rate is shared: each camera's verification and
+the checks across them each get ``false_alarm / (cameras + 1)``, so the one verdict fails
+an unchanged station at most ``false_alarm`` of the time (Bonferroni).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from inspect_validate.errors import InputError
+from inspect_validate.verification.checks import Check, at_most, decide
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    from inspect_validate.station.file import Station
+    from inspect_validate.verification.results import Verification
+
+__all__ = ["RigVerification", "across_cameras", "verify_rig"]
+
+
+@dataclass(frozen=True)
+class RigVerification:
+    """Everything ``verify`` found of a station of several cameras: each camera's
+    :class:`~.results.Verification` (its checks at its share of the rate), and the checks
+    across them. :attr:`passed` is the station's one verdict."""
+
+    station: Station
+    cameras: dict[str, Verification]
+    checks: tuple[Check, ...]
+    skipped: tuple[str, ...]
+    false_alarm: float
+
+    @property
+    def passed(self) -> bool:
+        return all(v.passed for v in self.cameras.values()) and all(c.passed for c in self.checks)
+
+
+def verify_rig(
+    station: Station,
+    *,
+    frames: Path | None = None,
+    out: Path | None = None,
+    progress: Callable[[str, int, int], None] | None = None,
+) -> RigVerification:
+    """Verify a station of several cameras end to end: every camera's plan first (a
+    mistake in the station file costs no capture), one capture of all of them into
+    ``out`` (``out/<camera>/``) unless ``frames`` holds one, each camera verified on its
+    frames, and the checks across cameras (module text).
+
+    Raises
+    ------
+    InputError
+        Neither ``frames`` nor ``out``; a station file, capture or frame that cannot be
+        used. DeviceError: a device that fails while capturing.
+    """
+    from inspect_validate.station.capture import capture
+    from inspect_validate.verification.plan import plan_verification
+    from inspect_validate.verification.verify import verify_folder
+
+    if frames is None and out is None:
+        raise InputError("give the frames to verify (a capture folder) or where to capture")
+    names = station.camera_names
+    if station.acceptance.drift is not None:
+        raise InputError(
+            "acceptance.drift: a golden file is trained of one camera (train takes a "
+            "station of one camera); a station of several cameras is verified without it",
+            source=str(station.path),
+        )
+    rate = station.acceptance.false_alarm_rate
+    share = rate / (len(names) + 1)
+    views = {name: _at_rate(station.view(name), share) for name in names}
+    plans = {name: plan_verification(view) for name, view in views.items()}
+    folder = Path(frames) if frames is not None else Path(out)  # type: ignore[arg-type]
+    if frames is None:
+        capture(station, folder, progress=progress)
+    results = {}
+    for name, view in views.items():
+        if not (folder / name).is_dir():
+            raise InputError(
+                f"no frames of camera {name!r} here (a capture of several cameras keeps each "
+                f"in <folder>/<camera>/); capture the station into it",
+                source=str(folder),
+            )
+        try:
+            results[name] = verify_folder(view, folder / name, plan=plans[name])
+        except InputError as exc:  # which camera's frames or regions it is
+            raise InputError(f"cameras {name!r}: {exc}") from None
+    checks, skipped = across_cameras(station, results)
+    return RigVerification(station, results, decide(checks, share), tuple(skipped), rate)
+
+
+def _at_rate(view: Station, rate: float) -> Station:
+    """``view`` whose acceptance decides at ``rate``."""
+    acc = view.acceptance.model_copy(update={"false_alarm": rate})
+    return view.model_copy(update={"acceptance": acc})
+
+
+def across_cameras(
+    station: Station, results: dict[str, Verification]
+) -> tuple[list[Check], list[str]]:
+    """The checks across ``results``' cameras (module text): per illumination that more
+    than one camera measured, each camera's irradiance scale over the first's held to 1;
+    and what could not be checked, and why."""
+    if station.calibration.method == "absolute":
+        return [], [
+            "cameras against each other: calibration absolute ties no scale to the frames "
+            "(each camera's agreement checks hold it to the prediction itself)"
+        ]
+    agreement = station.acceptance.agreement
+    tolerance = agreement.mean_relative if agreement is not None else None
+    if tolerance is None:
+        return [], [
+            "cameras against each other: no acceptance.agreement.mean_relative to hold the "
+            "ratio of their irradiance scales to"
+        ]
+    names = list(results)
+    reference = names[0]
+    checks: list[Check] = []
+    skipped: list[str] = []
+    for ill in (i.name for i in station.illuminations):
+        base = results[reference].scales.get(ill)
+        for name in names[1:]:
+            other = results[name].scales.get(ill)
+            if base is None or other is None or not (base.scale > 0 and other.scale > 0):
+                skipped.append(
+                    f"{ill}: {name} against {reference}: not measured by both (no light "
+                    "reached one of them, or it was left out)"
+                )
+                continue
+            ratio = other.scale / base.scale
+            se = ratio * math.hypot(
+                base.standard_error / base.scale, other.standard_error / other.scale
+            )
+            checks.append(
+                at_most(
+                    f"{ill}: {name} against {reference}",
+                    "cameras",
+                    100 * abs(ratio - 1),
+                    100 * tolerance,
+                    "%",
+                    f"irradiance scale {other.scale:.4g} against {base.scale:.4g} (ratio "
+                    f"{ratio:.4f}): the same light, so one camera's gain, exposure or lens "
+                    "changed where they differ",
+                    basis="tolerance",
+                    standard_error=100 * se,
+                )
+            )
+    return checks, skipped

@@ -1,0 +1,109 @@
+"""Verifying a station of several cameras (issue 51): each camera verified as a station
+of its own at its share of the false-alarm rate, the cameras held to each other by their
+irradiance scales of the same light, one verdict; bad input named by camera."""
+
+import json
+
+import pytest
+import yaml
+from conftest import copy_station, run_cli, two_cameras
+
+
+def _verified(tmp_path, path):
+    code = run_cli(["verify", path, "--report", tmp_path / "r"])
+    doc = json.loads((tmp_path / "r" / "verification.json").read_text())
+    return code, doc
+
+
+def test_two_cameras_verify_each_and_against_each_other(tmp_path, capsys):
+    code, doc = _verified(tmp_path, two_cameras(copy_station(tmp_path)))
+    out = capsys.readouterr().out
+    assert code == 0, out
+    assert doc["schema"] == "inspect-validate/rig-verification" and doc["verdict"] == "pass"
+    assert doc["cameras"] == {
+        "top": {"verdict": "pass", "report": "top"},
+        "side": {"verdict": "pass", "report": "side"},
+    }
+    assert [c["name"] for c in doc["checks"]] == [
+        "amber: side against top",
+        "red: side against top",
+    ]
+    assert all(c["basis"] == "tolerance" and c["kind"] == "cameras" for c in doc["checks"])
+    # each camera at a third of the station's rate (two verifications and the checks across)
+    assert doc["false_alarm"]["per_verification"] == pytest.approx(0.0027 / 3)
+    for name in ("top", "side"):
+        camera = json.loads((tmp_path / "r" / name / "verification.json").read_text())
+        assert camera["verdict"] == "pass" and camera["false_alarm"]["rate"] == pytest.approx(
+            0.0009
+        )
+        assert (tmp_path / "r" / name / "report.html").is_file()
+    assert "== camera top ==" in out and "== across cameras ==" in out
+    assert "PASS: 2 cameras, every camera passed; 0 of 2 checks across cameras failed" in out
+
+
+def test_one_cameras_gain_changed_alone_fails_only_the_check_across_cameras(tmp_path, capsys):
+    """The issue's end to end: the side camera collects 10 % more light (its gain or
+    exposure changed). Its own checks pass — its calibration absorbs the change as an
+    irradiance scale — but that scale no longer matches the top camera's of the same
+    light."""
+    code, doc = _verified(tmp_path, two_cameras(copy_station(tmp_path), {"exposure": 1.1}))
+    assert code == 1 and doc["verdict"] == "fail"
+    assert {n: c["verdict"] for n, c in doc["cameras"].items()} == {"top": "pass", "side": "pass"}
+    for check in doc["checks"]:
+        assert check["verdict"] == "fail" and 9 < check["value"] < 11 and check["unit"] == "%"
+    assert "FAIL: 2 cameras, every camera passed; 2 of 2 checks across cameras failed" in (
+        capsys.readouterr().out
+    )
+
+
+def test_a_cameras_roi_file_of_another_frame_size_is_named(tmp_path, capsys):
+    path = two_cameras(copy_station(tmp_path), side={"width": 256, "height": 192})
+    assert run_cli(["verify", path, "--report", tmp_path / "r"]) == 2
+    err = capsys.readouterr().err
+    assert "cameras 'side': " in err and "outside the 256×192 frame" in err
+    assert (tmp_path / "r" / "frames" / "side" / "amber").is_dir()  # the capture is kept
+
+
+def test_each_camera_has_its_own_rois(tmp_path, capsys):
+    """A camera's own ROI file, drawn for its frame: the side camera at 256 × 192 with its
+    regions redrawn verifies."""
+    from inspect_validate.model.render import class_bands
+
+    path = copy_station(tmp_path)
+    bands = class_bands(("A", "B", "C"), height=192, width=256, gap=6)
+    (tmp_path / "side.yaml").write_text(
+        "classes:\n" + "".join(f"  {k}:\n    - rect: {list(v)}\n" for k, v in bands.items())
+    )
+    two_cameras(path, side={"width": 256, "height": 192, "rois": "side.yaml"})
+    code, _ = _verified(tmp_path, path)
+    assert code == 0, capsys.readouterr().out
+    side = json.loads((tmp_path / "r" / "side" / "verification.json").read_text())
+    assert side["inputs"]["rois"].endswith("side.yaml")
+
+
+@pytest.mark.parametrize(
+    ("acceptance", "says"),
+    [
+        ({"drift": {"golden": "g.json"}}, "a golden file is trained of one camera"),
+    ],
+)
+def test_what_a_station_of_several_cameras_cannot_have_is_refused(
+    tmp_path, capsys, acceptance, says
+):
+    path = two_cameras(copy_station(tmp_path))
+    doc = yaml.safe_load(path.read_text())
+    doc["acceptance"].update(acceptance)
+    path.write_text(yaml.safe_dump(doc, sort_keys=False))
+    assert run_cli(["verify", path, "--report", tmp_path / "r"]) == 2
+    assert says in capsys.readouterr().err
+    assert not (tmp_path / "r" / "frames").exists()  # refused before any capture
+
+
+def test_absolute_calibration_skips_the_check_across_cameras_saying_why(tmp_path):
+    path = two_cameras(copy_station(tmp_path))
+    doc = yaml.safe_load(path.read_text())
+    doc["calibration"] = {"method": "absolute"}
+    path.write_text(yaml.safe_dump(doc, sort_keys=False))
+    _, doc = _verified(tmp_path, path)
+    assert doc["checks"] == []
+    assert any("calibration absolute ties no scale" in s for s in doc["skipped"])
