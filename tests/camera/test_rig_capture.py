@@ -175,3 +175,21 @@ def test_two_devices_of_one_gentl_producer_share_it(tmp_path, tlsimu_cti):
     assert a["steps"]["one"]["rounds"] == b["steps"]["one"]["rounds"] == [1, 2, 3]
     # TLSimu's test pattern does not see the simulated light: said per camera
     assert [w.split(":")[0] for w in a["warnings"]] == ["step 'one'"]
+
+
+def test_one_controller_pulse_fires_every_camera(tmp_path):
+    """Hardware-triggered: one pulse of the simulated controller's trigger output, wired
+    to both simulated cameras' Line1, takes every round (no skew by wiring)."""
+    hardware = {"acquisition": "hardware-trigger", "trigger_line": "Line1"}
+    path = two_cameras(copy_station(tmp_path), top=hardware, side=hardware)
+    doc = yaml.safe_load(path.read_text())
+    doc["controller"]["pulse"] = {"width_us": 8100}
+    path.write_text(yaml.safe_dump(doc, sort_keys=False))
+    assert run_cli(["capture", path, "--out", tmp_path / "cap"]) == 0
+    top, side = (_manifest(tmp_path / "cap" / name) for name in ("top", "side"))
+    assert top["rig"]["trigger"] == "hardware-trigger"
+    for step in ("amber", "red", "dark"):
+        assert top["steps"][step]["rounds"] == side["steps"][step]["rounds"]
+        assert set(top["steps"][step]["trigger_skew_us"]) == {0.0}
+        # a pulse a round at least (rounds retaken cost more)
+        assert top["steps"][step]["health"]["triggers_sent"] >= len(top["steps"][step]["rounds"])
