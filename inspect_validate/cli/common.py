@@ -169,8 +169,9 @@ def _verify_rig_and_report(st, *, frames_dir, out, report_dir):
             write_junit(v, folder / "junit.xml")
             write_verification_html(v, folder / "report.html")
         write_json(rig_document(result), report_dir / "verification.json")
+        write_junit(result, report_dir / "junit.xml")
         click.echo(
-            f"report: {report_dir / 'verification.json'} (each camera's in "
+            f"report: {report_dir / 'verification.json'} and junit.xml (each camera's in "
             f"{report_dir}/<camera>/: report.html, verification.json, junit.xml)"
         )
     return result

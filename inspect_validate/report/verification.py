@@ -305,25 +305,62 @@ def false_alarm_document(v: Verification | ProductionVerification) -> dict:
     }
 
 
-def write_junit(v: Verification | ProductionVerification, path: str | Path) -> Path:
-    """One ``<testcase>`` per check in one ``<testsuite>``; failures carry value and limit."""
+def write_junit(
+    v: Verification | ProductionVerification | RigVerification, path: str | Path
+) -> Path:
+    """One ``<testcase>`` per check in one ``<testsuite>``; failures carry value and limit.
+    A station of several cameras: a suite per camera (its checks' class names carry the
+    camera) and one of the checks across them."""
     import xml.etree.ElementTree as ET
 
     from inspect_validate.files import atomic_write
     from inspect_validate.verification.production import ProductionVerification
+    from inspect_validate.verification.rig import RigVerification
 
-    production = isinstance(v, ProductionVerification)
-    skipped = () if isinstance(v, ProductionVerification) else v.skipped  # mypy: not `production`
+    root = ET.Element("testsuites")
+    if isinstance(v, RigVerification):
+        station = v.station.name
+        for name, result in v.cameras.items():
+            root.append(
+                _junit_suite(
+                    f"inspect-validate verify {station} · {name}",
+                    f"{station}.{name}",
+                    result.checks,
+                    result.skipped,
+                )
+            )
+        root.append(
+            _junit_suite(
+                f"inspect-validate verify {station} · across cameras",
+                f"{station}.cameras",
+                v.checks,
+                v.skipped,
+            )
+        )
+    else:
+        production = isinstance(v, ProductionVerification)
+        skipped = () if isinstance(v, ProductionVerification) else v.skipped  # mypy
+        name = f"inspect-validate verify {'--production ' if production else ''}{v.station.name}"
+        root.append(_junit_suite(name, v.station.name, v.checks, skipped))
+    ET.indent(root)
+    text = ET.tostring(root, encoding="unicode", xml_declaration=True)
+    return atomic_write(path, (_xml_chars(text) + "\n").encode())
+
+
+def _junit_suite(name: str, prefix: str, checks, skipped):
+    """A ``<testsuite>`` of ``checks`` (class names ``prefix.kind``) and ``skipped``."""
+    import xml.etree.ElementTree as ET
+
     suite = ET.Element(
         "testsuite",
-        name=f"inspect-validate verify {'--production ' if production else ''}{v.station.name}",
-        tests=str(len(v.checks)),
-        failures=str(sum(not c.passed for c in v.checks)),
+        name=name,
+        tests=str(len(checks)),
+        failures=str(sum(not c.passed for c in checks)),
         errors="0",
         skipped=str(len(skipped)),
     )
-    for c in v.checks:
-        case = ET.SubElement(suite, "testcase", classname=f"{v.station.name}.{c.kind}", name=c.name)
+    for c in checks:
+        case = ET.SubElement(suite, "testcase", classname=f"{prefix}.{c.kind}", name=c.name)
         if not c.passed:
             message = (
                 f"{c.value:.6g} {c.unit} is not {c.relation} {c.limit:.6g} {c.unit}".replace(
@@ -337,13 +374,9 @@ def write_junit(v: Verification | ProductionVerification, path: str | Path) -> P
         elif c.detail:
             ET.SubElement(case, "system-out").text = c.detail
     for s in skipped:
-        case = ET.SubElement(suite, "testcase", classname=f"{v.station.name}.skipped", name=s)
+        case = ET.SubElement(suite, "testcase", classname=f"{prefix}.skipped", name=s)
         ET.SubElement(case, "skipped", message=s)
-    root = ET.Element("testsuites")
-    root.append(suite)
-    ET.indent(root)
-    text = ET.tostring(root, encoding="unicode", xml_declaration=True)
-    return atomic_write(path, (_xml_chars(text) + "\n").encode())
+    return suite
 
 
 def _xml_chars(text: str) -> str:

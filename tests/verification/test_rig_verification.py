@@ -54,6 +54,14 @@ def test_one_cameras_gain_changed_alone_fails_only_the_check_across_cameras(tmp_
     assert "FAIL: 2 cameras, every camera passed; 2 of 2 checks across cameras failed" in (
         capsys.readouterr().out
     )
+    # the station's JUnit: a suite per camera, its checks' classes naming it, and one across
+    import xml.etree.ElementTree as ET
+
+    suites = ET.parse(tmp_path / "r" / "junit.xml").getroot().findall("testsuite")
+    assert [s.get("name").split(" · ")[-1] for s in suites] == ["top", "side", "across cameras"]
+    assert [s.get("failures") for s in suites] == ["0", "0", "2"]
+    classes = {c.get("classname") for c in suites[1].findall("testcase")}
+    assert all(name.split(".")[-2] == "side" for name in classes if not name.endswith("skipped"))
 
 
 def test_a_cameras_roi_file_of_another_frame_size_is_named(tmp_path, capsys):
