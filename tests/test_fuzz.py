@@ -1124,3 +1124,67 @@ def test_measured_camera_files_are_validated_not_crashed_on(
         assert_clean(code, out, err, allowed=(0, 1, 2))
         if code == 2:
             assert "camera.yaml" in err or "st.yaml" in err
+
+
+@settings(SETTINGS, max_examples=25)
+@given(
+    cameras=rarely_junk(
+        st.lists(
+            st.dictionaries(
+                st.sampled_from(
+                    [
+                        "name",
+                        "rois",
+                        "model",
+                        "acquisition",
+                        "trigger_line",
+                        "width",
+                        "gain_db",
+                        "serial",
+                        "backend",
+                        "world",
+                    ]
+                ),
+                st.one_of(
+                    junk,
+                    st.sampled_from(["top", "side", "x y", "", "../up", "dark", "Line1"]),
+                    st.sampled_from(["software-trigger", "hardware-trigger", "free-run"]),
+                    st.integers(-5, 400),
+                ),
+                max_size=4,
+            ),
+            max_size=3,
+        )
+    ),
+    with_camera=st.booleans(),
+)
+@example(cameras=[{"name": "top"}, {"name": "side"}], with_camera=False)
+@example(cameras=[{"name": "top"}, {"name": "top"}], with_camera=False)
+@example(cameras=[], with_camera=False)
+@example(cameras=[{"name": "a", "backend": "pylon", "serial": 1}] * 2, with_camera=False)
+def test_several_cameras_are_validated_not_crashed_on(capsys, cameras, with_camera):
+    """Hostile ``cameras:`` lists on the simulated station (issue 51): refused naming the
+    camera and key (2), captured (0), or a device's clear failure (3); never a traceback,
+    and a capture of several cameras leaves one folder per camera."""
+    base = yaml.safe_load((ROOT / "sample_images" / "station" / "station.yaml").read_text())
+    doc = {k: v for k, v in base.items() if k != "camera" or with_camera}
+    doc["scene"] = str(SCENE)
+    doc.update(frames=1, dark_frames=1)
+    if isinstance(cameras, list):
+        cameras = [
+            {**base["camera"], "timeout_s": 0.3, **c} if isinstance(c, dict) else c for c in cameras
+        ]
+    doc["cameras"] = cameras
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        (tmp / "rois.yaml").write_text(
+            (ROOT / "sample_images" / "station" / "rois.yaml").read_text()
+        )
+        (tmp / "st.yaml").write_text(yaml.safe_dump(doc))
+        code, out, err = run(["capture", tmp / "st.yaml", "--out", tmp / "o"], capsys)
+        event(f"exit {code}")
+        assert_clean(code, out, err, allowed=(0, 2, 3))
+        if code == 0 and isinstance(cameras, list) and cameras:
+            assert sorted(p.name for p in (tmp / "o").iterdir() if p.is_dir()) == sorted(
+                c["name"] for c in cameras
+            )

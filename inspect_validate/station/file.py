@@ -287,7 +287,7 @@ class Station(StrictModel):
     @classmethod
     def _first_camera(cls, data):
         """``cameras:`` given: ``camera`` is the first of them (what one-camera code reads)."""
-        if isinstance(data, dict) and data.get("cameras") is not None:
+        if isinstance(data, dict) and data.get("cameras"):  # cameras: [] is one camera
             if data.get("camera") is not None:
                 raise ValueError(
                     "give camera: (one camera) or cameras: (several, each with a name), not both"
