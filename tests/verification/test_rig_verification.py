@@ -115,3 +115,17 @@ def test_absolute_calibration_skips_the_check_across_cameras_saying_why(tmp_path
     _, doc = _verified(tmp_path, path)
     assert doc["checks"] == []
     assert any("calibration absolute ties no scale" in s for s in doc["skipped"])
+
+
+def test_verify_frames_of_several_cameras_needs_every_cameras_folder(tmp_path, capsys):
+    """verify --frames of a station of several cameras reads FOLDER/<camera>/ for each: a
+    capture without one of them is refused naming the camera, not verified in part."""
+    import shutil
+
+    path = two_cameras(copy_station(tmp_path))
+    assert run_cli(["capture", path, "--out", tmp_path / "cap"]) == 0
+    assert run_cli(["verify", path, "--frames", tmp_path / "cap"]) == 0
+    shutil.rmtree(tmp_path / "cap" / "side")
+    capsys.readouterr()
+    assert run_cli(["verify", path, "--frames", tmp_path / "cap"]) == 2
+    assert "no frames of camera 'side' here" in capsys.readouterr().err
