@@ -126,8 +126,9 @@ class Drift(StrictModel):
     error, at the verification's false-alarm rate) and a tolerance interval that holds
     that rate for this golden file with probability ``confidence``."""
 
-    golden: Annotated[str, Field(min_length=1)]
-    """The golden file ``train`` wrote (a relative path is from the station file's folder)."""
+    golden: Annotated[str, Field(min_length=1)] | None = None
+    """The golden file ``train`` wrote (a relative path is from the station file's folder);
+    required with one camera. With several (``cameras:``), each camera's own ``golden``."""
     k: Annotated[float, Field(gt=0, le=30, allow_inf_nan=False)] | None = None
     """The false-alarm rate as a normal-equivalent two-sided level: k = 3 is
     ``acceptance.false_alarm: 0.0027`` (give one of the two)."""

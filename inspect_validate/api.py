@@ -460,7 +460,7 @@ def _verify_line(st: Station, frames, golden) -> ProductionVerification:
     if frames is None:
         raise InputError("the running line is verified from a folder of its frames: give frames")
     if golden is None:
-        if st.acceptance.drift is None:
+        if st.acceptance.drift is None or st.acceptance.drift.golden is None:
             raise InputError(
                 "no golden file: give golden=, or acceptance.drift.golden in the station file",
                 source=str(st.path),

@@ -6,7 +6,9 @@ import click
 
 from inspect_validate.cli.common import (
     PATH,
+    camera_option,
     capture_with_progress,
+    one_station,
 )
 from inspect_validate.text import labelled
 
@@ -36,7 +38,8 @@ from inspect_validate.text import labelled
     type=click.IntRange(2, 100_000),
     help="With --production: frames to take, each of another part [production.parts].",
 )
-def capture(station, out, resume, production, parts) -> None:
+@camera_option
+def capture(station, out, resume, production, parts, camera_name) -> None:
     """Capture every illumination of STATION (and dark frames), verified and saved as they come.
 
     Switches each illumination, waits for the controller, discards frames
@@ -53,7 +56,7 @@ def capture(station, out, resume, production, parts) -> None:
 
     if parts is not None and not production:
         raise click.UsageError("--parts is for --production")
-    st = read_station(station)
+    st = one_station(station, camera_name, "") if camera_name else read_station(station)
     steps = None
     if production:
         from inspect_validate.station.capture import production_steps

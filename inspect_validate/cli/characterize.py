@@ -7,7 +7,9 @@ import click
 from inspect_validate.cli.common import (
     PATH,
     FrameProgress,
+    camera_option,
     new_folder,
+    one_station,
     validate_outputs,
 )
 
@@ -27,7 +29,8 @@ from inspect_validate.cli.common import (
     help="Write characterization.json and the EMVA 1288 plots to this folder.",
 )
 @click.option("--resume", is_flag=True, help="Continue an interrupted series in --out.")
-def characterize(station, out, report_dir, resume):
+@camera_option
+def characterize(station, out, report_dir, resume, camera_name):
     """Measure STATION's own camera as EMVA 1288 prescribes, through its camera and controller.
 
     Captures an exposure series from dark to past saturation (lit and dark pairs;
@@ -52,9 +55,9 @@ def characterize(station, out, report_dir, resume):
         format_characterization,
         write_characterization_report,
     )
-    from inspect_validate.station.file import read_station, station_hash
+    from inspect_validate.station.file import station_hash
 
-    st = read_station(station).one_camera("characterize")
+    st = one_station(station, camera_name, "characterize")
     if resume and out is None:
         raise click.UsageError("--resume needs the --out folder of the interrupted series")
     out = out or new_folder("characterize", station)

@@ -291,6 +291,36 @@ def plot_option(*, help: str) -> Callable:
     return decorate
 
 
+def camera_option(command: Callable) -> Callable:
+    """``--camera NAME``: of a station of several cameras, the one a command of one camera
+    takes (:func:`one_station`)."""
+    return click.option(
+        "--camera",
+        "camera_name",
+        metavar="NAME",
+        help="Of a station of several cameras (cameras:), the one to take alone, as a "
+        "station of that camera (its rois, its scene camera, its golden file).",
+    )(command)
+
+
+def one_station(path, camera_name: str | None, what: str):
+    """The station file at ``path`` as a station of one camera: itself, or its camera
+    ``camera_name`` (``--camera``) alone; refused, saying so, for a station of several
+    cameras without ``--camera`` or a name it does not have."""
+    from inspect_validate.errors import InputError
+    from inspect_validate.station.file import read_station
+
+    st = read_station(path)
+    if camera_name is None:
+        return st.one_camera(what)
+    if not st.cameras:
+        raise InputError(
+            f"--camera {camera_name}: the station has one camera (camera:); leave --camera out",
+            source=str(path),
+        )
+    return st.view(camera_name)
+
+
 #: How a command computes ε KDE, the nonparametric error (37): one option, ``--kde``, in
 #: every command that computes it (measurement.KdeMode, which is not imported at start-up).
 KDE_MODES = ("auto", "always", "never")

@@ -6,7 +6,9 @@ import click
 
 from inspect_validate.cli.common import (
     PATH,
+    camera_option,
     capture_with_progress,
+    one_station,
     validate_outputs,
 )
 
@@ -45,7 +47,8 @@ from inspect_validate.cli.common import (
     help="Train on the parts of the running line: --frames is a folder of frames of good "
     "parts under the production light (the station's production: block), one repeat a part.",
 )
-def train(station, golden_path, repeats, frames_dirs, frames_out, production) -> None:
+@camera_option
+def train(station, golden_path, repeats, frames_dirs, frames_out, production, camera_name) -> None:
     """Store the golden statistics of STATION in a known-good state.
 
     Captures the station --repeats times (or reads --frames folders), measures
@@ -56,11 +59,10 @@ def train(station, golden_path, repeats, frames_dirs, frames_out, production) ->
     """
     from inspect_validate.report import write_json
     from inspect_validate.report.golden import format_golden
-    from inspect_validate.station.file import read_station
     from inspect_validate.verification.golden import train as run_train
     from inspect_validate.verification.measured import station_regions
 
-    st = read_station(station).one_camera("train")
+    st = one_station(station, camera_name, "train")
     validate_outputs(files=[golden_path], folders=[frames_out])
     if production:
         _train_production(st, frames_dirs, golden_path)

@@ -8,7 +8,9 @@ import click
 
 from inspect_validate.cli.common import (
     PATH,
+    camera_option,
     new_folder,
+    one_station,
     validate_outputs,
     verify_and_report,
 )
@@ -60,8 +62,17 @@ from inspect_validate.errors import EXIT_CHECK_FAILED
     type=PATH,
     help="With --production: the golden file of good parts (default: acceptance.drift.golden).",
 )
+@camera_option
 def verify(
-    station, frames_dir, out, report_dir, history_path, all_illuminations, production, golden_path
+    station,
+    frames_dir,
+    out,
+    report_dir,
+    history_path,
+    all_illuminations,
+    production,
+    golden_path,
+    camera_name,
 ):
     """Verify STATION: measure its frames, predict it as built, calibrate, compare and check.
 
@@ -76,7 +87,7 @@ def verify(
     """
     from inspect_validate.station.file import read_station
 
-    st = read_station(station)
+    st = one_station(station, camera_name, "") if camera_name else read_station(station)
     validate_outputs(folders=[report_dir])
     if production:
         _verify_production(

@@ -6,7 +6,7 @@ import sys
 
 import click
 
-from inspect_validate.cli.common import PATH, Number
+from inspect_validate.cli.common import PATH, Number, camera_option, one_station
 from inspect_validate.errors import EXIT_CHECK_FAILED
 
 
@@ -86,6 +86,7 @@ from inspect_validate.errors import EXIT_CHECK_FAILED
     help="With --production: the folder the line's program writes its frames into (new "
     "files taken as they land, whole; default: the station's camera, production light on).",
 )
+@camera_option
 def watch(
     station,
     golden_path,
@@ -100,6 +101,7 @@ def watch(
     http_port,
     production,
     frames_dir,
+    camera_name,
 ) -> None:
     """Verify a running station cycle after cycle and chart its drift.
 
@@ -117,7 +119,6 @@ def watch(
     their means (μ, σ², focus, SNR_dB, log ε, position) against the golden parts.
     """
     from inspect_validate.report import write_json
-    from inspect_validate.station.file import read_station
     from inspect_validate.watch.loop import WatchSettings, status_document
     from inspect_validate.watch.loop import watch as run_watch
     from inspect_validate.watch.session import watch_session
@@ -132,7 +133,7 @@ def watch(
         keep_every=keep_every,
     )
     session = watch_session(
-        read_station(station).one_camera("watch"),
+        one_station(station, camera_name, "watch"),
         golden=golden_path,
         db=db_path,
         folder=folder,

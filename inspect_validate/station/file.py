@@ -77,6 +77,10 @@ class StationCamera(StrictModel):
     prefix of its checks); required there."""
     rois: str | None = None
     """Its ROI file among a station's ``cameras:`` (default: the station's ``rois``)."""
+    golden: str | None = None
+    """Its golden file among a station's ``cameras:`` (``train --camera NAME`` writes it):
+    what ``acceptance.drift`` holds this camera to (a relative path is from the station
+    file's folder)."""
 
 
 def _sections(kind: Literal["cameras", "controllers"], *, extra: tuple = ()) -> dict:
@@ -301,12 +305,23 @@ class Station(StrictModel):
     def _several_cameras(self):
         """Each of ``cameras:`` named once, a device once, triggered (frames are matched by
         trigger), and all on one kind of trigger."""
+        drift = self.acceptance.drift
         if not self.cameras:
-            if self.camera.rois is not None:
+            for key, where in (("rois", "rois:"), ("golden", "acceptance.drift.golden:")):
+                if getattr(self.camera, key) is not None:
+                    raise ValueError(
+                        f"camera.{key} is for one of several cameras: give {where} instead"
+                    )
+            if drift is not None and drift.golden is None:
                 raise ValueError(
-                    "camera.rois is for one of several cameras: give rois: at the station's top"
+                    "acceptance.drift.golden: give the golden file 'train' wrote of this station"
                 )
             return self
+        if drift is not None and drift.golden is not None:
+            raise ValueError(
+                "acceptance.drift.golden: a golden file is of one camera; give each of "
+                "cameras: its own golden (train STATION --camera NAME --out FILE)"
+            )
         names = [c.name for c in self.cameras]
         for i, cam in enumerate(self.cameras):
             if cam.name is None:
@@ -351,8 +366,8 @@ class Station(StrictModel):
 
             raise InputError(
                 f"{what} takes a station of one camera, and this one has "
-                f"{len(self.cameras)} ({', '.join(self.camera_names)}): capture and verify "
-                "take several; for this, give one of them as camera: in a station file of its own",
+                f"{len(self.cameras)} ({', '.join(self.camera_names)}): give --camera NAME "
+                "to take one of them alone",
                 source=str(self.path),
             )
         return self
@@ -368,11 +383,16 @@ class Station(StrictModel):
         """
         for cam in self.cameras:
             if cam.name == name:
+                acceptance = self.acceptance
+                if acceptance.drift is not None and cam.golden is not None:
+                    drift = acceptance.drift.model_copy(update={"golden": cam.golden})
+                    acceptance = acceptance.model_copy(update={"drift": drift})
                 return self.model_copy(
                     update={
-                        "camera": cam.model_copy(update={"rois": None}),
+                        "camera": cam.model_copy(update={"rois": None, "golden": None}),
                         "cameras": [],
                         "rois": cam.rois or self.rois,
+                        "acceptance": acceptance,
                         "name": f"{self.name} · {name}",
                     }
                 )

@@ -152,6 +152,12 @@ def plan_verification(station: Station, *, drift_checks: bool = True) -> Plan:
     if acc.drift:
         from inspect_validate.verification.golden_checks import validate_golden
 
+        if acc.drift.golden is None:  # a camera of several without its own
+            raise InputError(
+                f"acceptance.drift: camera {station.camera.name!r} has no golden file; give "
+                "it one (cameras[].golden, made by train --camera)",
+                source=str(station.path),
+            )
         golden = read_golden(station.resolve(acc.drift.golden))
         validate_golden(
             golden,

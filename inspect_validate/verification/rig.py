@@ -77,12 +77,15 @@ def verify_rig(
     if frames is None and out is None:
         raise InputError("give the frames to verify (a capture folder) or where to capture")
     names = station.camera_names
+
     if station.acceptance.drift is not None:
-        raise InputError(
-            "acceptance.drift: a golden file is trained of one camera (train takes a "
-            "station of one camera); a station of several cameras is verified without it",
-            source=str(station.path),
-        )
+        untrained = [c.name for c in station.cameras if c.golden is None]
+        if untrained:  # said before any golden file is read
+            raise InputError(
+                f"acceptance.drift: camera {untrained[0]!r} has no golden file; give it one "
+                "(cameras[].golden, made by train --camera)",
+                source=str(station.path),
+            )
     rate = station.acceptance.false_alarm_rate
     share = rate / (len(names) + 1)
     views = {name: _at_rate(station.view(name), share) for name in names}

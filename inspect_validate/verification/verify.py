@@ -411,7 +411,9 @@ def _inputs(station, capture, rois, folder, golden) -> dict:
         "frames": {k: [str(p) for p in v] for k, v in capture.files.items()},
         "dark": [str(p) for p in capture.dark_files],
         "rois": rois.source,
-        "golden": str(station.resolve(acc.drift.golden)) if golden and acc.drift else None,
+        "golden": str(station.resolve(acc.drift.golden))
+        if golden and acc.drift and acc.drift.golden
+        else None,
         "scene": str(station.resolve(station.scene)),
     }
 

@@ -111,7 +111,7 @@ def watch_session(
     if golden is not None:
         golden = Path(golden).resolve()
         drift = (drift or Drift(golden=str(golden))).model_copy(update={"golden": str(golden)})
-    if drift is None:
+    if drift is None or drift.golden is None:
         raise InputError(
             "watch charts drift from a golden file: give --golden (made by 'train') or "
             "acceptance.drift.golden",

@@ -103,10 +103,11 @@ def test_commands_of_one_camera_refuse_several_saying_what_to_do(tmp_path, capsy
         ["train", path, "--out", tmp_path / "g.json"],
         ["watch", path, "--golden", tmp_path / "g.json", "--cycles", 1],
         ["characterize", path, "--out", tmp_path / "c"],
+        ["capture", path, "--production", "--out", tmp_path / "p"],
     ):
         assert run_cli(args) == 2, args
         err = capsys.readouterr().err
-        assert "takes a station of one camera, and this one has 2 (top, side)" in err, err
+        assert "takes a station of one camera, and this one has 2 (top, side): give --camera" in err
 
 
 def test_two_of_pylons_emulated_cameras_capture_matched_rounds(tmp_path):

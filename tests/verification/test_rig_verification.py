@@ -90,21 +90,49 @@ def test_each_camera_has_its_own_rois(tmp_path, capsys):
 
 
 @pytest.mark.parametrize(
-    ("acceptance", "says"),
+    ("acceptance", "golden", "says"),
     [
-        ({"drift": {"golden": "g.json"}}, "a golden file is trained of one camera"),
+        ({"drift": {"golden": "g.json"}}, None, "a golden file is of one camera; give each"),
+        ({"drift": {"k": 3}}, "top", "camera 'side' has no golden file"),
     ],
 )
 def test_what_a_station_of_several_cameras_cannot_have_is_refused(
-    tmp_path, capsys, acceptance, says
+    tmp_path, capsys, golden, acceptance, says
 ):
     path = two_cameras(copy_station(tmp_path))
     doc = yaml.safe_load(path.read_text())
     doc["acceptance"].update(acceptance)
+    for cam in doc["cameras"]:
+        if cam["name"] == golden:
+            cam["golden"] = "top.json"
     path.write_text(yaml.safe_dump(doc, sort_keys=False))
     assert run_cli(["verify", path, "--report", tmp_path / "r"]) == 2
     assert says in capsys.readouterr().err
     assert not (tmp_path / "r" / "frames").exists()  # refused before any capture
+
+
+def test_each_camera_trained_alone_holds_its_own_drift(tmp_path, capsys):
+    """train --camera NAME trains one camera of several; each camera's golden file
+    (cameras[].golden) holds that camera's drift in verify: a side camera collecting 3 %
+    more light fails its own drift checks, the top camera's pass."""
+    path = two_cameras(copy_station(tmp_path))
+    for name in ("top", "side"):
+        args = ["train", path, "--camera", name, "--out", tmp_path / f"{name}.json"]
+        assert run_cli([*args, "--repeats", 5]) == 0, capsys.readouterr().err
+    assert run_cli(["train", path, "--out", tmp_path / "x.json"]) == 2
+    assert "give --camera NAME to take one of them alone" in capsys.readouterr().err
+    doc = yaml.safe_load(path.read_text())
+    doc["acceptance"]["drift"] = {"k": 3}
+    for cam in doc["cameras"]:
+        cam["golden"] = f"{cam['name']}.json"
+    doc["cameras"][1]["world"] = {"exposure": 1.03}
+    path.write_text(yaml.safe_dump(doc, sort_keys=False))
+    code, doc = _verified(tmp_path, path)
+    assert code == 1 and doc["cameras"]["top"]["verdict"] == "pass"
+    side = json.loads((tmp_path / "r" / "side" / "verification.json").read_text())
+    drift = [c for c in side["checks"] if c["kind"] == "drift" and c["verdict"] == "fail"]
+    assert {c["name"].split(":")[1].strip() for c in drift} >= {"A μ drift", "B μ drift"}
+    assert side["inputs"]["golden"].endswith("side.json")
 
 
 def test_absolute_calibration_skips_the_check_across_cameras_saying_why(tmp_path):
