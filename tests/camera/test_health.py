@@ -15,7 +15,7 @@ import hypothesis.strategies as st
 import pytest
 import yaml
 from conftest import copy_station, run_cli, run_with_emulator
-from hypothesis import given
+from hypothesis import HealthCheck, given, settings
 
 from inspect_validate.camera.health import COUNTERS, GAUGES, HEALTH, capture_health, step_health
 
@@ -52,7 +52,15 @@ def test_a_capture_sums_its_steps_and_skips_what_is_not_a_count():
     }
 
 
-@given(st.lists(st.dictionaries(st.sampled_from([*HEALTH, "x"]), st.floats() | st.text())))
+@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    st.lists(
+        st.dictionaries(
+            st.sampled_from([*HEALTH, "x"]), st.floats() | st.text(max_size=3), max_size=6
+        ),
+        max_size=6,
+    )
+)
 def test_any_health_records_give_finite_non_negative_totals(records):
     total = capture_health([{"health": r} for r in records])
     assert set(total) <= set(HEALTH)
