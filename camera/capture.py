@@ -127,7 +127,7 @@ def verified_frames(
             frame, sent, untriggered = next_frame()
         except IncompleteFrame:
             # Lost packets: this frame is unusable, the next one (or the next trigger) is not.
-            discarded["arrived incomplete (data lost on the way)"] += 1
+            discarded[INCOMPLETE] += 1
             _give_up_after(grabber, discarded, discard_max)
             continue
         if sent is not None:  # recorded with the frame: when it was triggered (host ns)
@@ -135,10 +135,7 @@ def verified_frames(
         if untriggered:
             discarded["arrived untriggered (drained before the trigger)"] += untriggered
         if _repeats(frame, previous):
-            raise DeviceError(
-                f"{grabber.name}: frame {frame.frame_id} is identical to the one before: the "
-                "camera hands out a stale image (a hung driver or a stopped sensor) — restart it"
-            )
+            raise _stale(grabber.name, frame)
         previous = frame
         was_off, off_level = off_level, False
         wrong = _chunk_disagrees(frame, chunk)
@@ -174,6 +171,18 @@ def verified_frames(
         # Ids seen, not the largest: a GigE Vision block id wraps at 16 bits.
         seen_ids.add(frame.frame_id)
         _give_up_after(grabber, discarded, discard_max)
+
+
+INCOMPLETE = "arrived incomplete (data lost on the way)"
+"""Why a frame that arrived with data missing was discarded (:class:`IncompleteFrame`)."""
+
+
+def _stale(who: str, frame) -> DeviceError:
+    """The error of a camera that hands out ``frame``'s pixels again."""
+    return DeviceError(
+        f"{who}: frame {frame.frame_id} is identical to the one before: the camera hands "
+        "out a stale image (a hung driver or a stopped sensor) — restart it"
+    )
 
 
 def _early(frame, sent: int | None, seen_ids: set[int], switched_ns: int) -> str | None:
@@ -304,8 +313,7 @@ def capture_steps(
     unstable = _record_camera(store, grabber, settings, mode, chunk, not_applied)
     triggers: Counter = Counter()  # this step's, for its health record
     next_frame = _frame_source(grabber, controller, mode, pulse, settings.timeout_s, triggers)
-    if mode != "free-run":
-        triggers.update(triggers_sent=0, triggers_missed=0)  # counted: 0 is a count here
+    counted = triggers if mode != "free-run" else None  # free-running: no triggers to count
     pending = None  # a step whose frames are grabbed; their saves may still run
 
     def complete(step):
@@ -370,8 +378,7 @@ def capture_steps(
             before = None
             try:
                 store.begin(name, {"channels": as_json})
-                for counted in triggers:  # zeroed, not removed: a count of 0 is a count
-                    triggers[counted] = 0
+                triggers.clear()
                 before = grabber.health()
                 status = controller.status()
                 if status:
@@ -425,15 +432,15 @@ def capture_steps(
                         break
                 store.note(name, "acquisition", mode)
                 store.note(name, "discarded", discarded)
-                store.note(name, "health", _step_health(grabber, before, triggers))
+                store.note(name, "health", _step_health(grabber, before, counted))
                 if stop is not None:
                     known[name] = stop.known()
                     store.note(name, "precision", asdict(known[name]))
             # InputError: ROIs off the frame, a full disk.
             except (DeviceError, InputError) as exc:
-                if name in store.manifest["steps"] and before is not None:
-                    # what the transport saw while the step failed: often why it failed
-                    store.note(name, "health", _step_health(grabber, before, triggers))
+                if before is not None:  # the step begun: what the transport saw while
+                    # it failed is often why it failed
+                    store.note(name, "health", _step_health(grabber, before, counted))
                 abort(name, exc)
                 raise
             pending = name
@@ -603,20 +610,23 @@ def _frame_source(grabber, controller, mode: str, pulse, timeout_s: float, trigg
                 triggers["triggers_missed"] += 1
                 if again:
                     raise
-        raise AssertionError("unreachable")  # pragma: no cover
 
     return next_frame
 
 
-def _step_health(grabber, before: dict, triggers: Counter) -> dict:
+def _step_health(grabber, before: dict, triggers: Counter | None) -> dict:
     """A step's health (:mod:`~inspect_validate.camera.health`): what the camera reports
-    now against ``before``, and the triggers the capture counted; a camera that no longer
-    answers reports what the capture counted."""
+    now against ``before``, and the triggers the capture sent and missed (None: a
+    free-running step, which sends none); a camera that no longer answers reports what
+    the capture counted."""
     try:
         now = grabber.health()
     except DeviceError:
         now = {}
-    return {**step_health(before, now), **triggers}
+    counts = {}
+    if triggers is not None:  # 0 is a count here, not "not offered"
+        counts = {k: triggers[k] for k in ("triggers_sent", "triggers_missed")}
+    return {**step_health(before, now), **counts}
 
 
 def _unlit_steps(levels: dict[str, float], tolerance: float) -> tuple[str, ...]:

@@ -32,6 +32,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from inspect_validate.camera.capture import (
+    INCOMPLETE,
     CaptureResult,
     Step,
     _agrees,
@@ -41,6 +42,7 @@ from inspect_validate.camera.capture import (
     _early,
     _record_camera,
     _repeats,
+    _stale,
     _step_health,
     _unlit_steps,
     _unstable_warning,
@@ -101,14 +103,10 @@ def verified_rounds(
             if name in problems:
                 continue
             if frame is None:
-                problems[name] = "arrived incomplete (data lost on the way)"
+                problems[name] = INCOMPLETE
                 continue
             if _repeats(frame, previous[name]):
-                raise DeviceError(
-                    f"cameras {name!r}: frame {frame.frame_id} is identical to the one before: the "
-                    "camera hands out a stale image (a hung driver or a stopped sensor) — "
-                    "restart it"
-                )
+                raise _stale(f"cameras {name!r}", frame)
             previous[name] = frame
             why = _early(frame, r.sent.get(name), seen[name], switched_ns) or _chunk_disagrees(
                 frame, chunks.get(name)
@@ -287,8 +285,7 @@ def capture_rig(
             try:
                 for name in names:
                     stores[name].begin(step.name, {"channels": channels})
-                    for counted in triggers[name]:
-                        triggers[name][counted] = 0
+                    triggers[name].clear()
                     before[name] = grabbers[name].health()
                 settle = max(settings[name].settle_ms for name in names)
                 if settle:

@@ -8,6 +8,7 @@ import time
 from abc import ABC, abstractmethod
 from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 
@@ -385,9 +386,9 @@ class NodeMapGrabber(Grabber):
             trigger_sources=sources,
             lines=self._symbolics("LineSelector"),
             health=(
-                *self._counters_offered(),
+                *self._offered(),
                 *(["temperature_c"] if self._has("DeviceTemperature") else []),
-                *(["link_speed_mbps"] if self._first(("GevLinkSpeed", "DeviceLinkSpeed")) else []),
+                *(["link_speed_mbps"] if self._first(self._LINK_SPEED) else []),
             ),
         )
 
@@ -477,6 +478,16 @@ class NodeMapGrabber(Grabber):
     # camera opened before its stream ends.
     _counted: dict[str, float] | None = None
     _stream_seen: dict[str, float] | None = None  # None: no stream running
+    _offered_counters: tuple[str, ...] | None = None
+    # the link speed's nodes, each with its factor to Mbit/s (it is in Mbit/s; in B/s)
+    _LINK_SPEED: ClassVar[dict[str, float]] = {"GevLinkSpeed": 1.0, "DeviceLinkSpeed": 8e-6}
+
+    def _offered(self) -> tuple[str, ...]:
+        """:meth:`_counters_offered`, read once: what a camera's transport counts does not
+        change while it is open (pylon's and GenTL's answer costs node reads)."""
+        if self._offered_counters is None:
+            self._offered_counters = self._counters_offered()
+        return self._offered_counters
 
     def _stream_counters(self) -> dict[str, float]:
         """The running stream's own counters (:data:`~inspect_validate.camera.health.COUNTERS`
@@ -511,7 +522,7 @@ class NodeMapGrabber(Grabber):
 
     def health(self) -> dict[str, float]:
         self._fold()
-        out: dict[str, float] = dict.fromkeys(self._counters_offered(), 0)
+        out: dict[str, float] = dict.fromkeys(self._offered(), 0)
         out.update(self._counted or {})
         out.update(self._gauges())
         return out
@@ -539,7 +550,7 @@ class NodeMapGrabber(Grabber):
             finite = [r for r in readings if r is not None and math.isfinite(r)]
             if finite:
                 out["temperature_c"] = max(finite)
-        for node, scale in (("GevLinkSpeed", 1.0), ("DeviceLinkSpeed", 8e-6)):  # Mbit/s; B/s
+        for node, scale in self._LINK_SPEED.items():
             speed = self._read(node) if self._has(node) else None
             if speed is not None and math.isfinite(speed) and speed > 0:
                 out["link_speed_mbps"] = speed * scale

@@ -203,7 +203,7 @@ class PylonGrabber(NodeMapGrabber):
     def _stream_counters(self) -> dict[str, float]:
         if not self._cam.IsGrabbing():
             return {}
-        offered = self._counters_offered()
+        offered = self._offered()
         values = {
             name: self._statistic(node)
             for node, name in self._STATISTICS.items()

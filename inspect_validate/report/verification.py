@@ -193,11 +193,10 @@ def format_rig_verdict(v: RigVerification) -> str:
         out.append(labelled("skipped", item, stream=sys.stdout))
     failed = [name for name, r in v.cameras.items() if not r.passed]
     across = sum(not c.passed for c in v.checks)
-    share = 100 * v.false_alarm / (len(v.cameras) + 1)
     out += [
         "",
         f"false-alarm rate {100 * v.false_alarm:.3g} % for the station unchanged, "
-        f"{share:.2g} % to each camera's verification and to the checks across them",
+        f"{100 * v.share:.2g} % to each camera's verification and to the checks across them",
         ("PASS" if v.passed else "FAIL")
         + f": {len(v.cameras)} cameras, "
         + (f"{', '.join(failed)} failed" if failed else "every camera passed")
@@ -217,7 +216,7 @@ def rig_document(v: RigVerification) -> dict:
         "verdict": "pass" if v.passed else "fail",
         "false_alarm": {
             "rate": v.false_alarm,
-            "per_verification": v.false_alarm / (len(v.cameras) + 1),
+            "per_verification": v.share,
         },
         "cameras": {
             name: {"verdict": "pass" if r.passed else "fail", "report": name}

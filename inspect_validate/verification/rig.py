@@ -32,7 +32,7 @@ if TYPE_CHECKING:
     from inspect_validate.station.file import Station
     from inspect_validate.verification.results import Verification
 
-__all__ = ["RigVerification", "across_cameras", "verify_rig"]
+__all__ = ["RigVerification", "across_cameras", "rig_share", "verify_rig"]
 
 
 @dataclass(frozen=True)
@@ -50,6 +50,17 @@ class RigVerification:
     @property
     def passed(self) -> bool:
         return all(v.passed for v in self.cameras.values()) and all(c.passed for c in self.checks)
+
+    @property
+    def share(self) -> float:
+        """The false-alarm rate each camera's verification and the checks across them get."""
+        return rig_share(self.false_alarm, len(self.cameras))
+
+
+def rig_share(rate: float, cameras: int) -> float:
+    """``rate`` shared by ``cameras`` verifications and the checks across them (module
+    text)."""
+    return rate / (cameras + 1)
 
 
 def verify_rig(
@@ -87,7 +98,7 @@ def verify_rig(
                 source=str(station.path),
             )
     rate = station.acceptance.false_alarm_rate
-    share = rate / (len(names) + 1)
+    share = rig_share(rate, len(names))
     views = {name: _at_rate(station.view(name), share) for name in names}
     plans = {name: plan_verification(view) for name, view in views.items()}
     folder = Path(frames) if frames is not None else Path(out)  # type: ignore[arg-type]

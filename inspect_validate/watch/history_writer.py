@@ -26,6 +26,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from inspect_validate.camera.health import COUNTERS
 from inspect_validate.errors import InputError
 from inspect_validate.files import (
     NotRegularFile,
@@ -70,6 +71,9 @@ def history_path(path: str | Path) -> Path:
             "not a regular file (a device or a pipe); give another --db", source=str(path)
         )
     return path
+
+
+_COUNTED = (*COUNTERS, RECONNECTS)  # the health quantities summed over a history
 
 
 class HistoryWriter:
@@ -189,6 +193,10 @@ class HistoryWriter:
         try:
             self._journal(record, rows, health)
             self._insert(record, rows, health)
+            if self._totals is not None:
+                for name, value in health.items():
+                    if name in _COUNTED:
+                        self._totals[name] = self._totals.get(name, 0.0) + value
         except OSError as exc:
             if not isinstance(exc, NotRegularFile) and exc.errno not in (
                 errno.ENXIO,
@@ -317,16 +325,18 @@ class HistoryWriter:
     def health_totals(self) -> dict[str, float]:
         """Each counter summed over every cycle of the history (the camera's, and the
         watch's reconnects): what Prometheus reads as counters, growing across restarts
-        of the watch."""
-        from inspect_validate.camera.health import COUNTERS
+        of the watch. Summed in the database once, when the history is opened; each
+        commit adds its cycle's."""
+        if self._totals is None:
+            rows = self.db.execute(
+                f"SELECT quantity, SUM(value) FROM health WHERE quantity IN "
+                f"({', '.join('?' * len(_COUNTED))}) GROUP BY quantity",
+                _COUNTED,
+            )
+            self._totals = {name: float(total) for name, total in rows}
+        return dict(self._totals)
 
-        names = (*COUNTERS, RECONNECTS)
-        rows = self.db.execute(
-            f"SELECT quantity, SUM(value) FROM health WHERE quantity IN "
-            f"({', '.join('?' * len(names))}) GROUP BY quantity",
-            names,
-        )
-        return {name: float(total) for name, total in rows}
+    _totals: dict[str, float] | None = None  # health_totals, kept up by commit
 
     def chart_states(self) -> dict:
         """Per series its last smoothed value and how many cycles it has seen."""

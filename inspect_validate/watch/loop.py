@@ -204,7 +204,7 @@ def set_aside(frames: Path) -> Path:
 
 
 def _cycle(station, plan, history, monitor, folder, settings, failures, line=None):
-    from inspect_validate.watch.history import CycleRecord
+    from inspect_validate.watch.history import RECONNECTS, CycleRecord
 
     n = history.next_cycle()
     frames = folder / f"cycle-{n:06d}"
@@ -216,7 +216,7 @@ def _cycle(station, plan, history, monitor, folder, settings, failures, line=Non
     state = verification = None
     health: dict = {}
     if (line is None or line.feed is None) and history.last_status() == "error":
-        health["reconnects"] = 1  # the devices are opened again after an error cycle
+        health[RECONNECTS] = 1  # the devices are opened again after an error cycle
     try:
         if line is None:
             verification, values, note = _station_batch(station, plan, frames, n, hours)

@@ -100,25 +100,23 @@ def _health_lines(doc: dict, number) -> list[str]:
     (``inspect_validate_camera_temperature_celsius``, ``…_link_speed_mbps``). A quantity
     the camera does not offer is not exported: absent, never 0."""
     from inspect_validate.camera.health import COUNTERS, GAUGES
+    from inspect_validate.watch.history import RECONNECTS
 
+    counters = [
+        (name, f"inspect_validate_camera_{name}_total", f"The camera's {name.replace('_', ' ')}")
+        for name in COUNTERS
+    ]
+    counters.append((RECONNECTS, "inspect_validate_reconnects_total", "Reconnects"))
+    helps = {**COUNTERS, RECONNECTS: "cycles that reopened the devices after an error cycle"}
     lines = []
     totals = doc.get("health_totals") or {}
-    for name, text in (*COUNTERS.items(), ("reconnects", "")):
-        if name not in totals:
-            continue
-        metric = (
-            "inspect_validate_reconnects_total"
-            if name == "reconnects"
-            else f"inspect_validate_camera_{name}_total"
-        )
-        what = text or "cycles that reopened the devices after an error cycle"
-        lines += [
-            f"# HELP {metric} The camera's {name.replace('_', ' ')} over the history: {what}."
-            if name != "reconnects"
-            else f"# HELP {metric} Reconnects over the history: {what}.",
-            f"# TYPE {metric} counter",
-            f"{metric} {number(totals[name])}",
-        ]
+    for name, metric, what in counters:
+        if name in totals:
+            lines += [
+                f"# HELP {metric} {what} over the history: {helps[name]}.",
+                f"# TYPE {metric} counter",
+                f"{metric} {number(totals[name])}",
+            ]
     health = doc.get("health") or {}
     for name, metric in (
         ("temperature_c", "inspect_validate_camera_temperature_celsius"),
