@@ -241,29 +241,37 @@ def test_the_running_line_page_runs_as_written(tmp_path):
 
 def test_the_several_cameras_page_runs_as_written(tmp_path):
     """Every command of "Several cameras", in order, on the shipped two-camera station:
-    each camera's frames in its folder, and the station's one verdict passes."""
+    each camera's frames in its folder, and the station's one verdict passes; each camera
+    trained, and the two watched together into one history."""
     import shlex
     import subprocess
     import sys
 
     page = (DOCS / "guide" / "cameras.md").read_text()
-    block = re.search(r"## Capture: one trigger.*?```console\n(.*?)```", page, re.S)
-    commands = [line[2:] for line in block[1].splitlines() if line.startswith("$ ")]
-    assert [c.split()[1] for c in commands] == ["capture", "verify"]
     (tmp_path / "sample_images").symlink_to(ROOT / "sample_images")
-    for command in commands:
-        run = subprocess.run(
-            [sys.executable, "-m", "inspect_validate", *shlex.split(command)[1:]],
-            cwd=tmp_path,
-            capture_output=True,
-            text=True,
-            timeout=600,
-        )
-        assert run.returncode == 0, f"{command}\n{run.stdout[-2000:]}\n{run.stderr[-2000:]}"
-    assert "PASS: 2 cameras, every camera passed" in run.stdout
+
+    def run_block(heading, expected):
+        block = re.search(rf"## {heading}.*?```console\n(.*?)```", page, re.S)
+        commands = [line[2:] for line in block[1].splitlines() if line.startswith("$ ")]
+        assert [c.split()[1] for c in commands] == expected
+        for command in commands:
+            run = subprocess.run(
+                [sys.executable, "-m", "inspect_validate", *shlex.split(command)[1:]],
+                cwd=tmp_path,
+                capture_output=True,
+                text=True,
+                timeout=600,
+            )
+            assert run.returncode == 0, f"{command}\n{run.stdout[-2000:]}\n{run.stderr[-2000:]}"
+        return run.stdout
+
+    out = run_block("Capture: one trigger", ["capture", "verify"])
+    assert "PASS: 2 cameras, every camera passed" in out
     for name in ("top", "side"):
         assert (tmp_path / "two" / "frames" / name / "manifest.json").is_file()
         assert (tmp_path / "two" / "report" / name / "report.html").is_file()
+    out = run_block("Watch: every camera", ["train", "train", "watch", "history"])
+    assert "3 pass, 0 fail, 0 drift, 0 error" in out and "side amber: A μ [DN]" in out
 
 
 FORMAT_MODELS = [

@@ -16,8 +16,11 @@ from inspect_validate.errors import EXIT_CHECK_FAILED
     "--golden",
     "golden_path",
     type=PATH,
+    multiple=True,
+    metavar="[NAME=]PATH",
     help="The golden file the drift charts are centred on (default: the station's "
-    "acceptance.drift.golden).",
+    "acceptance.drift.golden). A station of several cameras: NAME=PATH for each camera "
+    "(default: cameras[].golden).",
 )
 @click.option(
     "--db",
@@ -117,6 +120,10 @@ def watch(
 
     With --production each cycle is a batch of the running line's parts, charted by
     their means (μ, σ², focus, SNR_dB, log ε, position) against the golden parts.
+
+    A station of several cameras (cameras:) is watched whole: each cycle triggers them all,
+    verifies and charts each against its own golden file (cameras[].golden), and holds
+    them to each other; --camera NAME watches one alone.
     """
     from inspect_validate.report import write_json
     from inspect_validate.watch.loop import WatchSettings, status_document
@@ -132,9 +139,19 @@ def watch(
         retry_delay=retry_delay,
         keep_every=keep_every,
     )
+    from inspect_validate.station.file import read_station
+
+    whole = read_station(station)
+    st = one_station(station, camera_name, "") if camera_name else whole
+    golden = _goldens(golden_path, several=bool(st.cameras))
+    if camera_name and golden is None:  # the camera's own golden file charts it alone
+        golden = next(
+            (whole.resolve(c.golden) for c in whole.cameras if c.name == camera_name and c.golden),
+            None,
+        )
     session = watch_session(
-        one_station(station, camera_name, "watch"),
-        golden=golden_path,
+        st,
+        golden=golden,
         db=db_path,
         folder=folder,
         status=status_path,
@@ -169,6 +186,7 @@ def watch(
             settings=settings,
             on_cycle=on_cycle,
             line=s.line,
+            rig=s.rig,
         )
     if stopped:
         click.echo(
@@ -177,6 +195,29 @@ def watch(
         sys.exit(130)
     if last is not None and last.record.status in ("fail", "drift"):
         sys.exit(EXIT_CHECK_FAILED)
+
+
+def _goldens(given, *, several: bool):
+    """``--golden``: one path, or for a station of several cameras ``NAME=PATH`` each."""
+    from pathlib import Path
+
+    if not given:
+        return None
+    if not several:
+        if len(given) > 1:
+            raise click.UsageError("--golden once: the station watched has one camera")
+        return given[0]
+    pairs = [str(g).partition("=") for g in given]
+    for g, (name, eq, path) in zip(given, pairs, strict=True):
+        if not (name and eq and path):
+            raise click.UsageError(
+                f"--golden {g}: a station of several cameras takes NAME=PATH, once per camera"
+            )
+    names = [name for name, _, _ in pairs]
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise click.UsageError(f"--golden {twice[0]}=…: given twice")
+    return {name: Path(path) for name, _, path in pairs}
 
 
 def show_cycle(outcome, *, live: bool) -> None:
@@ -195,24 +236,24 @@ def show_cycle(outcome, *, live: bool) -> None:
         return
     rows = []
     if outcome.state is not None:
-        for (ill, kind, name, q), (x, ewma, low, high) in outcome.state.points.items():
-            alarm = (ill, kind, name, q) in outcome.state.alarms
+        for key, (x, ewma, low, high) in outcome.state.points.items():
+            ill, _, name, q, *camera = key  # the camera's name, of several
             rows.append(
                 [
+                    *camera,
                     ill,
                     name,
                     QUANTITY_LABELS.get(q, q),  # history's words and units
                     f"{x:.4g}",
                     f"{ewma:.4g}",
                     f"{low:.4g} … {high:.4g}",
-                    "ALARM" if alarm else "",
+                    "ALARM" if key in outcome.state.alarms else "",
                 ]
             )
     click.echo("\x1b[H\x1b[2J", nl=False, color=True)  # redraw in place (kept: on a TTY)
     click.echo(line)
     if rows:
-        click.echo(
-            render_table(
-                ["illumination", "class / comparison", "quantity", "now", "EWMA", "band", ""], rows
-            )
-        )
+        header = ["illumination", "class / comparison", "quantity", "now", "EWMA", "band", ""]
+        if len(rows[0]) > len(header):
+            header.insert(0, "camera")
+        click.echo(render_table(header, rows))

@@ -46,6 +46,7 @@ _CSV_COLUMNS = [
     "low",
     "high",
     "alarm",
+    "camera",
 ]
 
 
@@ -63,10 +64,12 @@ QUANTITY_LABELS = {
 }
 
 
-def chart_label(key: tuple[str, str, str, str]) -> str:
-    """``illumination: class-or-comparison quantity [unit]`` of a chart key."""
-    ill, _, name, quantity = key
-    return f"{ill}: {name} {QUANTITY_LABELS.get(quantity, quantity)}"
+def chart_label(key: tuple[str, ...]) -> str:
+    """``[camera] illumination: class-or-comparison quantity [unit]`` of a chart key
+    (illumination, kind, name, quantity[, camera])."""
+    ill, _, name, quantity, *camera = key
+    where = f"{camera[0]} {ill}" if camera and camera[0] else ill
+    return f"{where}: {name} {QUANTITY_LABELS.get(quantity, quantity)}"
 
 
 def local_time(t: float) -> str:
@@ -181,7 +184,7 @@ def history_csv(log: HistoryLog) -> str:
         for i, c in enumerate(s.cycle.tolist()):
             values = (s.value[i], s.ewma[i], s.low[i], s.high[i])
             numbers = ("" if not math.isfinite(v) else repr(float(v)) for v in values)
-            by_cycle.setdefault(c, []).append([*key, *numbers, int(alarm[i])])
+            by_cycle.setdefault(c, []).append([*key[:4], *numbers, int(alarm[i]), *key[4:]])
     out = io.StringIO()
     writer = csv.writer(out, lineterminator="\n")
     writer.writerow(_CSV_COLUMNS)
@@ -196,7 +199,7 @@ def history_csv(log: HistoryLog) -> str:
             r.cause or "",
             r.frames or "",
         ]
-        for point in by_cycle.get(r.cycle) or [[""] * 9]:
+        for point in by_cycle.get(r.cycle) or [[""] * 10]:
             writer.writerow(head + point)
     return out.getvalue()
 

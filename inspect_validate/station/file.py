@@ -650,11 +650,20 @@ def simulated_at(station: Station, cycle: int, *, hours: float = 0.0) -> Station
     """``station`` as its simulated world is at ``watch``'s cycle ``cycle`` (``hours`` in):
     the world's scheduled changes applied and the controller's scheduled faults added.
     A station whose devices are real is returned as it is."""
+
+    def at(camera):
+        world = getattr(camera, "world", None)
+        if world is None or not world.changes:
+            return camera
+        return camera.model_copy(update={"world": world.at(cycle, hours=hours)})
+
     world = getattr(station.camera, "world", None)
-    if world is None or not world.changes:
+    changing = [getattr(c, "world", None) for c in (station.camera, *station.cameras)]
+    if not any(w is not None and w.changes for w in changing):
         return station
-    update = {"camera": station.camera.model_copy(update={"world": world.at(cycle, hours=hours)})}
-    faults = world.controller_faults(cycle)
+    # each camera's world changes on its own schedule (a camera of several alone, too)
+    update: dict = {"camera": at(station.camera), "cameras": [at(c) for c in station.cameras]}
+    faults = world.controller_faults(cycle) if world is not None else []
     if faults and station.controller.backend == "simulated":
         args = [*station.controller.simulator_args, *faults]
         update["controller"] = station.controller.model_copy(update={"simulator_args": args})

@@ -30,9 +30,17 @@ if TYPE_CHECKING:
     from collections.abc import Callable
 
     from inspect_validate.station.file import Station
+    from inspect_validate.verification.plan import Plan
     from inspect_validate.verification.results import Verification
 
-__all__ = ["RigVerification", "across_cameras", "rig_share", "verify_rig"]
+__all__ = [
+    "RigVerification",
+    "across_cameras",
+    "plan_rig",
+    "rig_share",
+    "verify_rig",
+    "verify_rig_folder",
+]
 
 
 @dataclass(frozen=True)
@@ -50,6 +58,18 @@ class RigVerification:
     @property
     def passed(self) -> bool:
         return all(v.passed for v in self.cameras.values()) and all(c.passed for c in self.checks)
+
+    @property
+    def all_checks(self) -> tuple[Check, ...]:
+        """Every camera's checks, each named ``camera: check``, then the checks across them."""
+        from dataclasses import replace
+
+        named = (
+            replace(c, name=f"{camera}: {c.name}")
+            for camera, v in self.cameras.items()
+            for c in v.checks
+        )
+        return (*named, *self.checks)
 
     @property
     def share(self) -> float:
@@ -82,12 +102,27 @@ def verify_rig(
         used. DeviceError: a device that fails while capturing.
     """
     from inspect_validate.station.capture import capture
-    from inspect_validate.verification.plan import plan_verification
-    from inspect_validate.verification.verify import verify_folder
 
     if frames is None and out is None:
         raise InputError("give the frames to verify (a capture folder) or where to capture")
-    names = station.camera_names
+    plans = plan_rig(station)
+    folder = Path(frames) if frames is not None else Path(out)  # type: ignore[arg-type]
+    if frames is None:
+        capture(station, folder, progress=progress)
+    return verify_rig_folder(station, folder, plans)
+
+
+def plan_rig(station: Station, *, drift_checks: bool = True) -> dict[str, tuple[Station, Plan]]:
+    """Per camera, the station as it alone sees it deciding at its share of the rate,
+    and its verification plan (:func:`~.plan.plan_verification`; ``drift_checks`` as
+    there).
+
+    Raises
+    ------
+    InputError
+        A drift section and a camera without a golden file; whatever a plan refuses.
+    """
+    from inspect_validate.verification.plan import plan_verification
 
     if station.acceptance.drift is not None:
         untrained = [c.name for c in station.cameras if c.golden is None]
@@ -97,15 +132,32 @@ def verify_rig(
                 "(cameras[].golden, made by train --camera)",
                 source=str(station.path),
             )
-    rate = station.acceptance.false_alarm_rate
-    share = rig_share(rate, len(names))
-    views = {name: _at_rate(station.view(name), share) for name in names}
-    plans = {name: plan_verification(view) for name, view in views.items()}
-    folder = Path(frames) if frames is not None else Path(out)  # type: ignore[arg-type]
-    if frames is None:
-        capture(station, folder, progress=progress)
+    share = rig_share(station.acceptance.false_alarm_rate, len(station.camera_names))
+    views = {name: _at_rate(station.view(name), share) for name in station.camera_names}
+    return {
+        name: (view, plan_verification(view, drift_checks=drift_checks))
+        for name, view in views.items()
+    }
+
+
+def verify_rig_folder(
+    station: Station,
+    folder: Path,
+    plans: dict[str, tuple[Station, Plan]],
+) -> RigVerification:
+    """Verify the capture of several cameras in ``folder`` (``folder/<camera>/``) by the
+    plans of :func:`plan_rig`: each camera on its frames, then the checks across them.
+
+    Raises
+    ------
+    InputError
+        A camera's folder missing; a frame or region that cannot be used (the camera
+        named).
+    """
+    from inspect_validate.verification.verify import verify_folder
+
     results = {}
-    for name, view in views.items():
+    for name, (view, plan) in plans.items():
         if not (folder / name).is_dir():
             raise InputError(
                 f"no frames of camera {name!r} here (a capture of several cameras keeps each "
@@ -113,10 +165,12 @@ def verify_rig(
                 source=str(folder),
             )
         try:
-            results[name] = verify_folder(view, folder / name, plan=plans[name])
+            results[name] = verify_folder(view, folder / name, plan=plan)
         except InputError as exc:  # which camera's frames or regions it is
             raise InputError(f"cameras {name!r}: {exc}") from None
     checks, skipped = across_cameras(station, results)
+    rate = station.acceptance.false_alarm_rate
+    share = rig_share(rate, len(plans))
     return RigVerification(station, results, decide(checks, share), tuple(skipped), rate)
 
 

@@ -5,9 +5,13 @@ Tables::
 
     meta(key, value)                         station, golden, schema version
     cycles(cycle, started, seconds, status, passed, reason, cause, frames)
-    points(cycle, illumination, kind, name, quantity, value, ewma, low, high)
-    health(cycle, quantity, value)           what the camera reported (a table added
+    points(cycle, illumination, kind, name, quantity, value, ewma, low, high, camera)
+    health(cycle, quantity, value, camera)   what the camera reported (a table added
                                              later: older histories gain it empty)
+
+``camera`` is the camera's name on a station of several (``cameras:``), and empty for
+the station's one camera and for what the watch itself counts (its reconnects); older
+histories gain the column empty.
 
 ``status`` is ``pass`` (every check passed, no drift), ``fail`` (a check
 failed), ``drift`` (checks passed, a chart alarmed) or ``error`` (no
@@ -45,7 +49,9 @@ __all__ = [
     "ChartSeries",
     "CycleRecord",
     "HistoryLog",
+    "add_health",
     "cycle_health",
+    "health_rows",
     "not_history",
     "read_history",
     "read_station_history",
@@ -78,13 +84,15 @@ CREATE TABLE IF NOT EXISTS points (
     ewma REAL,
     low REAL,
     high REAL,
-    PRIMARY KEY (cycle, illumination, kind, name, quantity)
+    camera TEXT NOT NULL DEFAULT '',
+    PRIMARY KEY (cycle, camera, illumination, kind, name, quantity)
 );
 CREATE TABLE IF NOT EXISTS health (
     cycle INTEGER NOT NULL REFERENCES cycles (cycle),
     quantity TEXT NOT NULL,
     value REAL NOT NULL,
-    PRIMARY KEY (cycle, quantity)
+    camera TEXT NOT NULL DEFAULT '',
+    PRIMARY KEY (cycle, camera, quantity)
 );
 """
 
@@ -93,14 +101,25 @@ RECONNECTS = "reconnects"
 health.HEALTH`): 1 in a cycle that reopened the devices after an error cycle."""
 
 
-def cycle_health(health: dict) -> dict[str, float]:
+def cycle_health(health: dict) -> dict:
     """The quantities of ``health`` a history keeps: the camera's and the watch's own, as
     finite numbers (counters not below 0); anything else is dropped. ValueError where a
-    quantity it keeps holds something else."""
+    quantity it keeps holds something else.
+
+    A cycle's health holds the quantities of the station's one camera and the watch's
+    own, and on a station of several cameras, under each camera's name, a mapping of that
+    camera's quantities (kept the same way; a camera with none is dropped)."""
     from inspect_validate.camera.health import COUNTERS, HEALTH
 
-    out = {}
+    out: dict = {}
     for name, value in health.items():
+        if isinstance(value, dict):
+            if not isinstance(name, str) or not name or name in (*HEALTH, RECONNECTS):
+                raise ValueError(f"health {name!r} is not a camera's name")
+            kept = cycle_health({q: v for q, v in value.items() if not isinstance(v, dict)})
+            if kept:
+                out[name] = kept
+            continue
         if name not in (*HEALTH, RECONNECTS):
             continue
         if isinstance(value, bool) or not isinstance(value, (int, float)):
@@ -109,6 +128,25 @@ def cycle_health(health: dict) -> dict[str, float]:
             raise ValueError(f"health {name} {value!r} is not a finite count or reading")
         out[name] = float(value)
     return out
+
+
+def health_rows(health: dict) -> list[tuple[str, str, float]]:
+    """``(camera, quantity, value)`` of a cycle's :func:`cycle_health` (camera empty for the
+    station's own quantities): the ``health`` table's rows."""
+    cameras = [("", health), *((k, v) for k, v in health.items() if isinstance(v, dict))]
+    return [
+        (camera, quantity, value)
+        for camera, quantities in cameras
+        for quantity, value in quantities.items()
+        if not isinstance(value, dict)
+    ]
+
+
+def add_health(health: dict, camera: str, quantity: str, value: float) -> None:
+    """Add ``value`` to ``health``'s ``quantity`` of ``camera`` (empty: the station's own),
+    the inverse of :func:`health_rows`."""
+    into = health if not camera else health.setdefault(camera, {})
+    into[quantity] = into.get(quantity, 0.0) + value
 
 
 @dataclass(frozen=True)
@@ -156,7 +194,8 @@ class ChartSeries:
 @dataclass(frozen=True)
 class HistoryLog:
     """A history as read back: its cycles in order and its charts by key
-    (illumination, "class" | "comparison", name, quantity)."""
+    (illumination, "class" | "comparison" | "pose", name, quantity, camera), the camera
+    empty on a station of one."""
 
     path: Path
     station: str
@@ -165,8 +204,9 @@ class HistoryLog:
     cycles: tuple[CycleRecord, ...]
     charts: dict[tuple, ChartSeries]
     total: int  # cycles in the database (``cycles`` may be the last few)
-    health: dict[int, dict[str, float]] = field(default_factory=dict)
-    """Per cycle read, what the camera reported (:func:`cycle_health`; none: not recorded)."""
+    health: dict[int, dict] = field(default_factory=dict)
+    """Per cycle read, what the cameras reported (:func:`cycle_health`; none: not
+    recorded)."""
 
     @property
     def illuminations(self) -> list[str]:
@@ -204,27 +244,31 @@ def read_history(path: str | Path, *, last: int | None = None) -> HistoryLog:
             "WHERE cycle >= ? ORDER BY cycle",
             (since,),
         ).fetchall()
+        camera = _camera_column(db, "points")
         rows = db.execute(
-            "SELECT illumination, kind, name, quantity, cycle, value, ewma, low, high "
-            "FROM points WHERE cycle IN (SELECT cycle FROM cycles WHERE cycle >= ?) "
-            "ORDER BY illumination, kind, name, quantity, cycle",
+            f"SELECT illumination, kind, name, quantity, {camera}, cycle, value, ewma, low, "
+            "high FROM points WHERE cycle IN (SELECT cycle FROM cycles WHERE cycle >= ?) "
+            f"ORDER BY {camera}, illumination, kind, name, quantity, cycle",
             (since,),
         ).fetchall()
         try:
-            health_rows = db.execute(
-                "SELECT cycle, quantity, value FROM health WHERE cycle >= ?", (since,)
+            camera = _camera_column(db, "health")
+            rows_of_health = db.execute(
+                f"SELECT cycle, {camera}, quantity, value FROM health WHERE cycle >= ?", (since,)
             ).fetchall()
         except sqlite3.OperationalError:  # a history from before health was kept
-            health_rows = []
+            rows_of_health = []
     except sqlite3.DatabaseError as exc:
         raise not_history(path, exc, todo) from None
     finally:
         db.close()
-    health: dict[int, dict[str, float]] = {}
-    for cycle, quantity, value in health_rows:
+    health: dict[int, dict] = {}
+    for cycle, camera, quantity, value in rows_of_health:
         try:
-            health.setdefault(cycle, {}).update(cycle_health({quantity: value}))
-        except ValueError as exc:
+            kept = cycle_health({camera: {quantity: value}} if camera else {quantity: value})
+            for _, q, v in health_rows(kept):
+                add_health(health.setdefault(cycle, {}), camera, q, v)
+        except (ValueError, TypeError) as exc:
             raise _damaged(path, f"cycle {cycle!r}: {exc}") from None
     try:
         created = float(meta["created"])
@@ -316,10 +360,16 @@ CHARTED = {
 }
 
 
+def _camera_column(db: sqlite3.Connection, table: str) -> str:
+    """``camera``, or an empty one where ``table`` is from a history before it was kept."""
+    columns = {row[1] for row in db.execute(f"PRAGMA table_info({table})")}
+    return "camera" if "camera" in columns else "''"
+
+
 def _chart_series(path, rows) -> dict[tuple, ChartSeries]:
     """Rows sorted by chart key then cycle → the charts."""
     charts = {}
-    for key, group in itertools.groupby(rows, key=lambda r: tuple(r[:4])):
+    for key, group in itertools.groupby(rows, key=lambda r: tuple(r[:5])):
         if key[3] not in CHARTED.get(key[1], ()):
             raise _damaged(path, f"chart {key!r} is not one watch keeps")
         try:
@@ -327,8 +377,8 @@ def _chart_series(path, rows) -> dict[tuple, ChartSeries]:
                 raise ValueError
             rows_of_chart = list(group)
             # Cycle numbers as integers (a float loses them past 2⁵³), the values as floats.
-            cycles = np.array([r[4] for r in rows_of_chart], dtype=np.int64)
-            block = np.array([r[5:] for r in rows_of_chart], dtype=float)  # NULL → NaN
+            cycles = np.array([r[5] for r in rows_of_chart], dtype=np.int64)
+            block = np.array([r[6:] for r in rows_of_chart], dtype=float)  # NULL → NaN
         except (ValueError, TypeError, OverflowError):
             raise _damaged(path, f"chart {key!r} holds values that are not numbers") from None
         if not (np.abs(block[:, 1:]) < 1e100).all():  # watch writes finite, physical values

@@ -42,7 +42,9 @@ from inspect_validate.watch.history import (
     SCHEMA,
     STATUSES,
     CycleRecord,
+    add_health,
     cycle_health,
+    health_rows,
     not_history,
     validate_history,
 )
@@ -134,6 +136,12 @@ class HistoryWriter:
             try:
                 for statement in SCHEMA.split(";"):
                     self.db.execute(statement)
+                for table in ("points", "health"):  # a history from before cameras were named
+                    columns = {r[1] for r in self.db.execute(f"PRAGMA table_info({table})")}
+                    if "camera" not in columns:
+                        self.db.execute(
+                            f"ALTER TABLE {table} ADD COLUMN camera TEXT NOT NULL DEFAULT ''"
+                        )
                 meta = dict(self.db.execute("SELECT key, value FROM meta"))
                 if not meta:
                     meta = fresh
@@ -184,19 +192,23 @@ class HistoryWriter:
         return 0 if last is None else last + 1
 
     def commit(self, record: CycleRecord, points: dict, health: dict | None = None) -> None:
-        """Store ``record``, its chart ``points`` (key → value, ewma, low, high) and what
-        the camera reported (``health``: :func:`~.history.cycle_health`) in one
-        transaction."""
-        rows = [(record.cycle, *key, *values) for key, values in points.items()]
+        """Store ``record``, its chart ``points`` (key → value, ewma, low, high; the key
+        (illumination, kind, name, quantity) of the station's one camera, or with the
+        camera's name fifth) and what the cameras reported (``health``:
+        :func:`~.history.cycle_health`) in one transaction."""
+        rows = [
+            (record.cycle, *key[:4], *values, key[4] if len(key) > 4 else "")
+            for key, values in points.items()
+        ]
         health = cycle_health(health or {})
         self._check_unchanged(record, rows, health)
         try:
             self._journal(record, rows, health)
             self._insert(record, rows, health)
             if self._totals is not None:
-                for name, value in health.items():
+                for camera, name, value in health_rows(health):
                     if name in _COUNTED:
-                        self._totals[name] = self._totals.get(name, 0.0) + value
+                        add_health(self._totals, camera, name, value)
         except OSError as exc:
             if not isinstance(exc, NotRegularFile) and exc.errno not in (
                 errno.ENXIO,
@@ -243,10 +255,16 @@ class HistoryWriter:
                     record.frames,
                 ),
             )
-            self.db.executemany("INSERT INTO points VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)", rows)
+            # Columns named: a history from before cameras were named has camera last too,
+            # but an insert should not hang on where.
             self.db.executemany(
-                "INSERT INTO health VALUES (?, ?, ?)",
-                [(record.cycle, name, value) for name, value in health.items()],
+                "INSERT INTO points (cycle, illumination, kind, name, quantity, value, ewma, "
+                "low, high, camera) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                rows,
+            )
+            self.db.executemany(
+                "INSERT INTO health (cycle, camera, quantity, value) VALUES (?, ?, ?, ?)",
+                [(record.cycle, *row) for row in health_rows(health)],
             )
         except BaseException:
             self.db.execute("ROLLBACK")
@@ -275,7 +293,9 @@ class HistoryWriter:
                 f.seek(end - 1)
                 if f.read(1) != b"\n":  # a line cut by a crash: ended, so it stays one
                     f.write(b"\n")
-            line = {**record.__dict__, "points": [list(r[1:]) for r in rows], "health": health}
+            # a point is its 4 names and 4 values, and its camera's name where it has one
+            points = [list(r[1:9]) + ([r[9]] if r[9] else []) for r in rows]
+            line = {**record.__dict__, "points": points, "health": health}
             f.write((json.dumps(line, allow_nan=True) + "\n").encode())
             f.flush()
             os.fsync(f.fileno())
@@ -322,31 +342,36 @@ class HistoryWriter:
         row = self.db.execute("SELECT status FROM cycles ORDER BY cycle DESC LIMIT 1").fetchone()
         return None if row is None else row[0]
 
-    def health_totals(self) -> dict[str, float]:
-        """Each counter summed over every cycle of the history (the camera's, and the
-        watch's reconnects): what Prometheus reads as counters, growing across restarts
-        of the watch. Summed in the database once, when the history is opened; each
-        commit adds its cycle's."""
+    def health_totals(self) -> dict:
+        """Each counter summed over every cycle of the history (the cameras', and the
+        watch's reconnects), in the form of a cycle's health (:func:`~.history.
+        cycle_health`): what Prometheus reads as counters, growing across restarts of the
+        watch. Summed in the database once, when the history is opened; each commit adds
+        its cycle's."""
         if self._totals is None:
             rows = self.db.execute(
-                f"SELECT quantity, SUM(value) FROM health WHERE quantity IN "
-                f"({', '.join('?' * len(_COUNTED))}) GROUP BY quantity",
+                f"SELECT camera, quantity, SUM(value) FROM health WHERE quantity IN "
+                f"({', '.join('?' * len(_COUNTED))}) GROUP BY camera, quantity",
                 _COUNTED,
             )
-            self._totals = {name: float(total) for name, total in rows}
-        return dict(self._totals)
+            self._totals = {}
+            for camera, name, total in rows:
+                add_health(self._totals, camera, name, float(total))
+        return {k: dict(v) if isinstance(v, dict) else v for k, v in self._totals.items()}
 
-    _totals: dict[str, float] | None = None  # health_totals, kept up by commit
+    _totals: dict | None = None  # health_totals, kept up by commit
 
     def chart_states(self) -> dict:
-        """Per series its last smoothed value and how many cycles it has seen."""
+        """Per series (illumination, kind, name, quantity, camera) its last smoothed value
+        and how many cycles it has seen."""
         rows = self.db.execute(
-            "SELECT illumination, kind, name, quantity, COUNT(value), "
+            "SELECT illumination, kind, name, quantity, camera, COUNT(value), "
             "(SELECT ewma FROM points q WHERE q.illumination = p.illumination AND "
-            "q.kind = p.kind AND q.name = p.name AND q.quantity = p.quantity "
-            "ORDER BY cycle DESC LIMIT 1) FROM points p GROUP BY illumination, kind, name, quantity"
+            "q.kind = p.kind AND q.name = p.name AND q.quantity = p.quantity AND "
+            "q.camera = p.camera ORDER BY cycle DESC LIMIT 1) FROM points p "
+            "GROUP BY camera, illumination, kind, name, quantity"
         )
-        return {tuple(r[:4]): (r[5], r[4]) for r in rows}
+        return {tuple(r[:5]): (r[6], r[5]) for r in rows}
 
 
 def _identity(path: Path) -> tuple[int, int, int, int] | None:
@@ -461,7 +486,9 @@ def rebuild_history(journal: str | Path, path: str | Path) -> Rebuilt:
                 continue
             try:
                 record = CycleRecord(**{k: entry[k] for k in fields})
-                points = {tuple(p[:4]): tuple(p[4:]) for p in entry["points"]}
+                if any(len(p) not in (8, 9) for p in entry["points"]):
+                    raise ValueError("a point is not 4 names, 4 values and a camera's name")
+                points = {(*p[:4], *p[8:9]): tuple(p[4:8]) for p in entry["points"]}
                 _check_entry(record, points)
                 health = entry.get("health") or {}  # none in journals from before it
                 if not isinstance(health, dict):
@@ -503,8 +530,10 @@ def _check_entry(record: CycleRecord, points: dict) -> None:
         ):
             raise ValueError(f"{name} {value!r} is not a finite number")
     for key, values in points.items():
-        if len(key) != 4 or len(values) != 4 or not all(isinstance(k, str) for k in key):
-            raise ValueError(f"a point {[*key, *values]!r} is not 4 names and 4 values")
+        if len(key) not in (4, 5) or len(values) != 4 or not all(isinstance(k, str) for k in key):
+            raise ValueError(
+                f"a point {[*key, *values]!r} is not 4 names and 4 values (and a camera's name)"
+            )
         if key[3] not in CHARTED.get(key[1], ()):
             raise ValueError(f"chart {key!r} is not one watch keeps")
         value, *smoothed = values

@@ -37,10 +37,12 @@ if TYPE_CHECKING:
     from inspect_validate.verification.plan import Plan
     from inspect_validate.verification.production import ProductionVerification
     from inspect_validate.verification.results import Verification
+    from inspect_validate.verification.rig import RigVerification
     from inspect_validate.watch.drift import DriftMonitor, DriftState
     from inspect_validate.watch.feed import FolderFeed
     from inspect_validate.watch.history import CycleRecord
     from inspect_validate.watch.history_writer import HistoryWriter
+    from inspect_validate.watch.rig import RigMonitor, RigWatch
 
 __all__ = ["CycleOutcome", "LineWatch", "WatchSettings", "status_document", "watch"]
 
@@ -58,7 +60,7 @@ class WatchSettings:
 class CycleOutcome:
     record: CycleRecord
     state: DriftState | None  # None for an error cycle
-    verification: Verification | ProductionVerification | None
+    verification: Verification | ProductionVerification | RigVerification | None
     failures: int  # consecutive failed cycles, this one included
     health: dict = field(default_factory=dict)  # what the camera reported (history.cycle_health)
     totals: dict = field(default_factory=dict)  # its counters summed over the history
@@ -90,9 +92,11 @@ def status_document(
     values: list[dict] = []
     doc["values"] = values
     if outcome.state is not None:
-        for (ill, kind, name, quantity), (x, ewma, low, high) in outcome.state.points.items():
+        for key, (x, ewma, low, high) in outcome.state.points.items():
+            ill, kind, name, quantity, *camera = key  # the camera's name, of several
             values.append(
                 {
+                    **({"camera": camera[0]} if camera else {}),
                     "illumination": ill,
                     "kind": kind,
                     "name": name,
@@ -101,7 +105,7 @@ def status_document(
                     "ewma": ewma,
                     "low": low,
                     "high": high,
-                    "alarm": (ill, kind, name, quantity) in outcome.state.alarms,
+                    "alarm": key in outcome.state.alarms,
                 }
             )
     return doc
@@ -121,12 +125,13 @@ def watch(
     station: Station,
     plan: Plan | None,
     history: HistoryWriter,
-    monitor: DriftMonitor,
+    monitor: DriftMonitor | RigMonitor,
     *,
     folder: Path,
     settings: WatchSettings,
     on_cycle: Callable[[CycleOutcome], None] | None = None,
     line: LineWatch | None = None,
+    rig: RigWatch | None = None,
 ) -> tuple[CycleOutcome | None, bool]:
     """Run cycles until ``settings.cycles`` are done or a signal stops the watch.
 
@@ -136,7 +141,9 @@ def watch(
     ``on_cycle(outcome)`` is called after each committed cycle. With ``line``, each
     cycle is a batch of the running line's parts instead (``plan`` is not used): taken
     by the camera under the production light, or from ``line.feed``, located, measured
-    and charted by their means (:func:`~.drift.series_of_parts`).
+    and charted by their means (:func:`~.drift.series_of_parts`). With ``rig``, a station
+    of several cameras: all captured each cycle, each verified by its own plan and charted
+    by ``monitor`` (a :class:`~.rig.RigMonitor`), and the cameras held to each other.
 
     Returns
     -------
@@ -151,15 +158,15 @@ def watch(
         ``max_failures`` consecutive cycles failed (exit 3); the last one is committed.
     """
     for key, (ewma, n) in history.chart_states().items():
-        if ewma is not None:
-            monitor.restore(key, ewma=ewma, n=n)
+        if ewma is not None:  # a chart of the station's one camera is keyed without it
+            monitor.restore(key if key[4] else key[:4], ewma=ewma, n=n)
     folder.mkdir(parents=True, exist_ok=True)
     failures, done, last = 0, 0, None
     try:
         while settings.cycles is None or done < settings.cycles:
             stop_if_requested()
             t0 = time.monotonic()
-            last = _cycle(station, plan, history, monitor, folder, settings, failures, line)
+            last = _cycle(station, plan, history, monitor, folder, settings, failures, line, rig)
             failures = last.failures
             done += 1
             if on_cycle:
@@ -203,7 +210,7 @@ def set_aside(frames: Path) -> Path:
     return frames.rename(aside)
 
 
-def _cycle(station, plan, history, monitor, folder, settings, failures, line=None):
+def _cycle(station, plan, history, monitor, folder, settings, failures, line=None, rig=None):
     from inspect_validate.watch.history import RECONNECTS, CycleRecord
 
     n = history.next_cycle()
@@ -218,7 +225,11 @@ def _cycle(station, plan, history, monitor, folder, settings, failures, line=Non
     if (line is None or line.feed is None) and history.last_status() == "error":
         health[RECONNECTS] = 1  # the devices are opened again after an error cycle
     try:
-        if line is None:
+        if rig is not None:
+            from inspect_validate.watch.rig import rig_batch
+
+            verification, values, note = rig_batch(station, rig, frames, n, hours)
+        elif line is None:
             verification, values, note = _station_batch(station, plan, frames, n, hours)
         else:
             verification, values, note = _line_batch(station, line, frames, n, hours)
@@ -231,16 +242,23 @@ def _cycle(station, plan, history, monitor, folder, settings, failures, line=Non
         state = monitor.update(values)
         passed = verification.passed
         status = "fail" if not passed else ("drift" if state.drifting else "pass")
-        failed = [c for c in verification.checks if not c.passed]
+        checks = verification.all_checks if rig is not None else verification.checks
+        failed = [c for c in checks if not c.passed]
         reason = "; ".join([*(c.name for c in failed[:3]), *filter(None, [note])]) or None
         saturated = [c.name for c in failed if c.kind == "saturation"]
+        apart = [c.name for c in failed if c.kind == "cameras"]
         if saturated:
             cause = f"a class clips: {saturated[0]}"
+        elif apart:
+            cause = f"one camera's gain, exposure or lens changed alone: {apart[0]}"
         elif failed and line is not None:
             cause = verification.cause  # the production verdict's own reading of them
         else:
             cause = state.cause
-    health.update(_cycle_health(frames))
+    if rig is None:
+        health.update(_cycle_health(frames))
+    else:  # each camera's, under its name
+        health.update({c: h for c in rig.plans if (h := _cycle_health(frames / c))})
     keep = status != "pass" or n % max(settings.keep_every, 1) == 0
     record = CycleRecord(
         cycle=n,

@@ -29,16 +29,7 @@ MAX_CONNECTIONS = 16
 
 def prometheus_text(doc: dict) -> str:
     """A status document as Prometheus metrics (text exposition format 0.0.4)."""
-
-    def label(v) -> str:
-        return str(v).replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n")
-
-    def number(v) -> str:
-        if v is None or v != v:
-            return "NaN"
-        if v in (float("inf"), float("-inf")):
-            return "+Inf" if v > 0 else "-Inf"
-        return repr(float(v))
+    label, number = _label, _number
 
     lines = [
         "# HELP inspect_validate_info The station watched (its file), always 1.",
@@ -65,7 +56,7 @@ def prometheus_text(doc: dict) -> str:
         "# TYPE inspect_validate_consecutive_failures gauge",
         f"inspect_validate_consecutive_failures {doc['consecutive_failures']}",
     ]
-    lines += _health_lines(doc, number)
+    lines += _health_lines(doc)
     series = {
         "value": "Latest measured value per illumination, class or comparison and quantity "
         "(mean DN, variance DN², snr_db dB, log_error: log10 of ε).",
@@ -78,7 +69,9 @@ def prometheus_text(doc: dict) -> str:
     rows: dict[str, list[str]] = {name: [] for name in series}
     for v in doc["values"]:
         labels = ",".join(
-            f'{k}="{label(v[k])}"' for k in ("illumination", "kind", "name", "quantity")
+            f'{k}="{label(v[k])}"'
+            for k in ("camera", "illumination", "kind", "name", "quantity")
+            if k in v  # a camera of several is named
         )
         for name, key in keys.items():
             if key in v:
@@ -93,12 +86,25 @@ def prometheus_text(doc: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _health_lines(doc: dict, number) -> list[str]:
+def _label(v) -> str:
+    return str(v).replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n")
+
+
+def _number(v) -> str:
+    if v is None or v != v:
+        return "NaN"
+    if v in (float("inf"), float("-inf")):
+        return "+Inf" if v > 0 else "-Inf"
+    return repr(float(v))
+
+
+def _health_lines(doc: dict) -> list[str]:
     """The camera's health: its counters summed over the history as Prometheus counters
     (``inspect_validate_camera_<name>_total``; the watch's reconnects as
     ``inspect_validate_reconnects_total``), and the latest cycle's gauges
     (``inspect_validate_camera_temperature_celsius``, ``…_link_speed_mbps``). A quantity
-    the camera does not offer is not exported: absent, never 0."""
+    the camera does not offer is not exported: absent, never 0. On a station of several
+    cameras each camera's carry its name as the label ``camera``."""
     from inspect_validate.camera.health import COUNTERS, GAUGES
     from inspect_validate.watch.history import RECONNECTS
 
@@ -108,25 +114,38 @@ def _health_lines(doc: dict, number) -> list[str]:
     ]
     counters.append((RECONNECTS, "inspect_validate_reconnects_total", "Reconnects"))
     helps = {**COUNTERS, RECONNECTS: "cycles that reopened the devices after an error cycle"}
+    from inspect_validate.watch.history import health_rows
+
+    def samples(health: dict, name: str, metric: str) -> list[str]:
+        return [
+            f'{metric}{{camera="{_label(camera)}"}} {_number(v)}'
+            if camera
+            else f"{metric} {_number(v)}"
+            for camera, q, v in health_rows(health)
+            if q == name
+        ]
+
     lines = []
     totals = doc.get("health_totals") or {}
     for name, metric, what in counters:
-        if name in totals:
+        rows = samples(totals, name, metric)
+        if rows:
             lines += [
                 f"# HELP {metric} {what} over the history: {helps[name]}.",
                 f"# TYPE {metric} counter",
-                f"{metric} {number(totals[name])}",
+                *rows,
             ]
     health = doc.get("health") or {}
     for name, metric in (
         ("temperature_c", "inspect_validate_camera_temperature_celsius"),
         ("link_speed_mbps", "inspect_validate_camera_link_speed_mbps"),
     ):
-        if name in health:
+        rows = samples(health, name, metric)
+        if rows:
             lines += [
                 f"# HELP {metric} The latest cycle's reading: {GAUGES[name]}.",
                 f"# TYPE {metric} gauge",
-                f"{metric} {number(health[name])}",
+                *rows,
             ]
     return lines
 

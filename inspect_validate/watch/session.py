@@ -20,6 +20,7 @@ if TYPE_CHECKING:
     from inspect_validate.watch.drift import DriftMonitor
     from inspect_validate.watch.history_writer import HistoryWriter
     from inspect_validate.watch.loop import LineWatch
+    from inspect_validate.watch.rig import RigMonitor, RigWatch
     from inspect_validate.watch.serve import StatusServer
 
 __all__ = ["Session", "watch_session"]
@@ -48,23 +49,27 @@ class Session:
         ``/status`` and ``/metrics`` on 127.0.0.1, where asked for.
     line : LineWatch or None
         A watch of the running line (``plan`` then None): its golden parts and frames.
+    rig : RigWatch or None
+        A watch of several cameras (``plan`` then None): each camera's plan; ``monitor``
+        is then a :class:`~.rig.RigMonitor`.
     """
 
     station: Station
     plan: Plan | None
-    monitor: DriftMonitor
+    monitor: DriftMonitor | RigMonitor
     history: HistoryWriter
     folder: Path
     status_path: Path
     server: StatusServer | None
     line: LineWatch | None = None
+    rig: RigWatch | None = None
 
 
 @contextlib.contextmanager
 def watch_session(
     station: Station,
     *,
-    golden: Path | None = None,
+    golden: Path | dict[str, Path] | None = None,
     db: Path | None = None,
     folder: Path | None = None,
     status: Path | None = None,
@@ -77,8 +82,9 @@ def watch_session(
     Parameters
     ----------
     station : Station
-    golden : Path, keyword-only, optional
-        The golden file the charts are centred on (default: ``acceptance.drift.golden``).
+    golden : Path or dict, keyword-only, optional
+        The golden file the charts are centred on (default: ``acceptance.drift.golden``);
+        of a station of several cameras, per camera name (default: ``cameras[].golden``).
     db : Path, keyword-only, optional
         The history database (default: ``watch-<station>/history.sqlite``).
     folder : Path, keyword-only, optional
@@ -101,65 +107,32 @@ def watch_session(
         charts, an output path that cannot be written, a history of another station, a
         folder another watch writes into, a port in use (nothing is captured).
     """
-    from inspect_validate.acceptance import Drift
     from inspect_validate.files import exclusive_lock, output_file, output_folder, release_lock
-    from inspect_validate.verification.plan import plan_verification
-    from inspect_validate.watch.drift import DriftMonitor
     from inspect_validate.watch.history_writer import HistoryWriter, history_path
 
-    drift = station.acceptance.drift
-    if golden is not None:
-        golden = Path(golden).resolve()
-        drift = (drift or Drift(golden=str(golden))).model_copy(update={"golden": str(golden)})
-    if drift is None or drift.golden is None:
-        raise InputError(
-            "watch charts drift from a golden file: give --golden (made by 'train') or "
-            "acceptance.drift.golden",
-            source=str(station.path),
-        )
-    golden_file = station.resolve(drift.golden)
-    line = plan = None
-    if production:
-        line = _line_watch(station, golden_file, frames)
+    line = plan = rig = None
+    monitor: DriftMonitor | RigMonitor
+    if station.cameras:
+        from inspect_validate.watch.rig import rig_watch
+
+        if production or frames is not None:
+            raise InputError(
+                "--production watches the parts one camera sees: give --camera NAME",
+                source=str(station.path),
+            )
+        rig, monitor, golden_meta = rig_watch(station, golden)
+        watched = station
     else:
-        if frames is not None:
-            raise InputError("--frames goes with --production (a folder of the line's frames)")
-        # The plan reads the golden file and checks it fits the station; each cycle is
-        # then verified without the single-cycle drift checks: the charts replace them,
-        # with a false-alarm rate controlled over every chart together.
-        with_drift = station.acceptance.model_copy(update={"drift": drift})
-        plan = plan_verification(
-            station.model_copy(update={"acceptance": with_drift}), drift_checks=False
+        monitor, plan, line, golden_meta = _one_camera(station, golden, production, frames)
+        watched = station.model_copy(
+            update={"acceptance": station.acceptance.model_copy(update={"drift": None})}
         )
-    watched = station.model_copy(
-        update={"acceptance": station.acceptance.model_copy(update={"drift": None})}
-    )
     db = history_path(db or Path(f"watch-{station.file.stem}") / "history.sqlite")
     folder = Path(folder or db.parent)
     status = Path(status or folder / "status.json")
     for f in (db, status):
         output_file(f)
     output_folder(folder)
-    try:
-        if line is not None:
-            from inspect_validate.station.model import station_model
-
-            assert station.production is not None  # _line_watch refused a station without
-            monitor = DriftMonitor(
-                line.golden,
-                dark_offset=station_model(station).sensor.dark_offset,
-                snr_floor_db=drift.snr_floor_db,
-                batch=station.production.parts,
-            )
-        else:
-            assert plan is not None and plan.golden is not None  # it read the golden file
-            monitor = DriftMonitor(
-                plan.golden,
-                dark_offset=plan.model.sensor.dark_offset,
-                snr_floor_db=drift.snr_floor_db,
-            )
-    except InputError as exc:
-        raise InputError(str(exc), source=str(golden_file)) from None
     with contextlib.ExitStack() as stack:
         # Two watches on one folder would set each other's cycles aside, even with two --db.
         lock = exclusive_lock(
@@ -170,7 +143,7 @@ def watch_session(
             source=folder,
         )
         stack.callback(release_lock, lock)
-        history = HistoryWriter(db, station=str(station.file.resolve()), golden=str(golden_file))
+        history = HistoryWriter(db, station=str(station.file.resolve()), golden=golden_meta)
         stack.callback(history.close)
         server = None
         if http_port is not None:
@@ -196,7 +169,68 @@ def watch_session(
             status_path=status,
             server=server,
             line=line,
+            rig=rig,
         )
+
+
+def _one_camera(
+    station: Station, golden: Path | dict | None, production: bool, frames: Path | None
+) -> tuple[DriftMonitor, Plan | None, LineWatch | None, str]:
+    """The charts, plan or line of a watch of a station of one camera, and its golden file."""
+    from inspect_validate.acceptance import Drift
+    from inspect_validate.verification.plan import plan_verification
+    from inspect_validate.watch.drift import DriftMonitor
+
+    if isinstance(golden, dict):
+        raise InputError(
+            "golden files by camera: the station has one camera; give one golden file",
+            source=str(station.path),
+        )
+    drift = station.acceptance.drift
+    if golden is not None:
+        golden = Path(golden).resolve()
+        drift = (drift or Drift(golden=str(golden))).model_copy(update={"golden": str(golden)})
+    if drift is None or drift.golden is None:
+        raise InputError(
+            "watch charts drift from a golden file: give --golden (made by 'train') or "
+            "acceptance.drift.golden",
+            source=str(station.path),
+        )
+    golden_file = station.resolve(drift.golden)
+    line = plan = None
+    if production:
+        line = _line_watch(station, golden_file, frames)
+    else:
+        if frames is not None:
+            raise InputError("--frames goes with --production (a folder of the line's frames)")
+        # The plan reads the golden file and checks it fits the station; each cycle is
+        # then verified without the single-cycle drift checks: the charts replace them,
+        # with a false-alarm rate controlled over every chart together.
+        with_drift = station.acceptance.model_copy(update={"drift": drift})
+        plan = plan_verification(
+            station.model_copy(update={"acceptance": with_drift}), drift_checks=False
+        )
+    try:
+        if line is not None:
+            from inspect_validate.station.model import station_model
+
+            assert station.production is not None  # _line_watch refused a station without
+            monitor = DriftMonitor(
+                line.golden,
+                dark_offset=station_model(station).sensor.dark_offset,
+                snr_floor_db=drift.snr_floor_db,
+                batch=station.production.parts,
+            )
+        else:
+            assert plan is not None and plan.golden is not None  # it read the golden file
+            monitor = DriftMonitor(
+                plan.golden,
+                dark_offset=plan.model.sensor.dark_offset,
+                snr_floor_db=drift.snr_floor_db,
+            )
+    except InputError as exc:
+        raise InputError(str(exc), source=str(golden_file)) from None
+    return monitor, plan, line, str(golden_file)
 
 
 def _line_watch(station: Station, golden_file: Path, frames: Path | None) -> LineWatch:

@@ -405,7 +405,10 @@ def test_a_real_prometheus_scrapes_a_running_watch_and_fires_its_drift_alert(tmp
         for panel in dashboard["panels"]:
             if panel["type"] == "table" and "alarm" not in panel["targets"][0]["expr"]:
                 continue
-            exprs = [t["expr"].replace("$instance", ".*") for t in panel["targets"]]
+            exprs = [
+                t["expr"].replace("$instance", ".*").replace("$camera", ".*")
+                for t in panel["targets"]
+            ]
 
             def answered(exprs=exprs):
                 """the panel's queries answer (increase() needs two scrapes)"""
