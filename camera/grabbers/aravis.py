@@ -353,6 +353,10 @@ class AravisSettings(CameraSettings):
     """GigE Vision and USB3 Vision cameras through Aravis (``gi``, ``Aravis-0.8``)."""
     simulate: bool = False
     """Stream the station's simulated scene from Aravis' fake GigE Vision camera on ``lo``."""
+    simulate_interface: Annotated[str, Field(pattern=r"^[A-Za-z0-9_.:-]{1,64}$")] = "lo"
+    """With ``simulate``: the interface (name or address) the fake camera listens on. Two
+    fake cameras need an address each: add one to ``lo`` (``ip addr add 127.0.0.2/32 dev
+    lo``) and give it to the second camera."""
     serial: str | None = None
     """The camera's serial number."""
     device_id: str | None = None

@@ -189,6 +189,8 @@ def open_aravis_fake(settings: RenderedAravis, opening: Opening) -> Iterator[Gra
             # the world as it is now (watch schedules changes per cycle), not as filed
             "--world",
             settings.world.model_dump_json(),
+            "--interface",
+            settings.simulate_interface,
         ],
         stdout=subprocess.PIPE,
         text=True,
@@ -198,7 +200,9 @@ def open_aravis_fake(settings: RenderedAravis, opening: Opening) -> Iterator[Gra
         assert proc.stdout is not None  # stdout=PIPE
         if proc.stdout.readline().strip() != "ready":
             raise DeviceError(
-                "Aravis' fake GigE Vision camera did not start (is libaravis-0.8 installed?)"
+                f"Aravis' fake GigE Vision camera did not start on {settings.simulate_interface} "
+                "(is libaravis-0.8 installed? is camera.simulate_interface an interface or "
+                "one of its addresses?)"
             )
         with AravisGrabber(serial=serial, num_buffers=settings.num_buffers) as camera:
             yield camera

@@ -106,6 +106,9 @@ def _sections(kind: Literal["cameras", "controllers"], *, extra: tuple = ()) -> 
 def _device_key(cam) -> tuple | None:
     """What chooses ``cam``'s device (backend and serial, device id or index; a simulated
     camera none: each renders its own): two cameras with one key are one device."""
+    if getattr(cam, "simulate", False) and hasattr(cam, "simulate_interface"):
+        # Aravis' fake cameras: two on one address answer for each other
+        return (cam.backend, "simulate_interface", cam.simulate_interface)
     if cam.backend == "simulated" or getattr(cam, "simulate", False):
         return None
     for key in ("serial", "device_id", "device", "folder"):

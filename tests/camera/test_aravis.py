@@ -493,3 +493,67 @@ def test_one_of_two_cameras_killed_mid_capture_is_named_and_the_rounds_before_ke
     assert all(not s.get("complete") and "cameras 'side'" in s["error"] for s in red)
     kept = [len(list((out / n / "red").glob("frame_*.tif"))) for n in ("top", "side")]
     assert kept[0] == kept[1] >= 3  # whole rounds only, in both
+
+
+@pytest.mark.slow
+def test_two_fake_gige_cameras_verify_as_one_station(tmp_path):
+    """Two of Aravis' fake GigE cameras (issue 51), each on its own loopback address
+    (``simulate_interface``), in a network namespace of their own (``unshare --net``, with
+    127.0.0.2 added to its ``lo``; this machine's network is left as it is): each frame
+    taken by both over GVCP/GVSP, matched round for round, each camera verified and the
+    two held to each other; the side camera's exposure 10 % up fails only that check."""
+    from conftest import copy_station, through_sdk, two_cameras
+
+    if subprocess.run(["unshare", "--net", "true"], capture_output=True).returncode:
+        pytest.skip(
+            "no network namespace here (unshare --net): two fake cameras need two addresses"
+        )
+    path = two_cameras(
+        through_sdk(copy_station(tmp_path), "aravis", acquisition="software-trigger"),
+        top={"simulate_interface": "127.0.0.1"},
+        side={"simulate_interface": "127.0.0.2"},
+    )
+    changed = tmp_path / "changed.yaml"
+    doc = yaml.safe_load(path.read_text())
+    doc["cameras"][1]["world"] = {"exposure": 1.1}
+    changed.write_text(yaml.safe_dump(doc, sort_keys=False))
+    verify = [sys.executable, "-m", "inspect_validate", "verify"]
+    script = " && ".join(
+        [
+            "ip link set lo up",
+            "ip addr add 127.0.0.2/32 dev lo",
+            " ".join(map(str, [*verify, path, "--report", tmp_path / "good"])),
+            "{ "
+            + " ".join(map(str, [*verify, changed, "--report", tmp_path / "bad"]))
+            + "; echo changed exit $?; }",
+        ]
+    )
+    run = subprocess.run(
+        ["unshare", "--net", "sh", "-c", script], capture_output=True, text=True, timeout=900
+    )
+    assert run.returncode == 0 and "changed exit 1" in run.stdout, run.stdout + run.stderr
+    good = json.loads((tmp_path / "good" / "verification.json").read_text())
+    assert good["verdict"] == "pass", run.stdout
+    frames = tmp_path / "good" / "frames"
+    manifests = [json.loads((frames / n / "manifest.json").read_text()) for n in ("top", "side")]
+    assert manifests[0]["steps"]["amber"]["rounds"] == manifests[1]["steps"]["amber"]["rounds"]
+    devices = {
+        json.loads((frames / n / "amber" / "frame_0001.json").read_text())["device"]
+        for n in ("top", "side")
+    }
+    assert len(devices) == 2 and all(d.startswith("Aravis Fake") for d in devices)
+    bad = json.loads((tmp_path / "bad" / "verification.json").read_text())
+    assert {n: c["verdict"] for n, c in bad["cameras"].items()} == {"top": "pass", "side": "pass"}
+    assert [c["verdict"] for c in bad["checks"]] == ["fail", "fail"]
+
+
+def test_two_fake_cameras_on_one_address_are_refused_before_any_capture(tmp_path, capsys):
+    """Two fake cameras listening on one address answer for each other: the station file
+    is refused naming both cameras and the key (exit 2)."""
+    from conftest import copy_station, through_sdk, two_cameras
+
+    path = two_cameras(through_sdk(copy_station(tmp_path), "aravis"))
+    assert run_cli(["capture", path, "--out", tmp_path / "cap"]) == 2
+    says = "cameras 'top' and 'side' are the same device (aravis simulate_interface lo)"
+    assert says in capsys.readouterr().err
+    assert not (tmp_path / "cap").exists()
