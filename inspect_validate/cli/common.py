@@ -143,7 +143,7 @@ def _verify_rig_and_report(st, *, frames_dir, out, report_dir):
     verdict (``report_dir/verification.json``); the
     :class:`~inspect_validate.verification.rig.RigVerification`."""
     from inspect_validate.report import write_json
-    from inspect_validate.report.html import write_verification_html
+    from inspect_validate.report.html import write_rig_html, write_verification_html
     from inspect_validate.report.verification import (
         format_rig_verdict,
         rig_document,
@@ -170,9 +170,10 @@ def _verify_rig_and_report(st, *, frames_dir, out, report_dir):
             write_verification_html(v, folder / "report.html")
         write_json(rig_document(result), report_dir / "verification.json")
         write_junit(result, report_dir / "junit.xml")
+        write_rig_html(result, report_dir / "report.html")
         click.echo(
-            f"report: {report_dir / 'verification.json'} and junit.xml (each camera's in "
-            f"{report_dir}/<camera>/: report.html, verification.json, junit.xml)"
+            f"report: {report_dir / 'report.html'} (verification.json, junit.xml; each "
+            f"camera's in {report_dir}/<camera>/)"
         )
     return result
 

@@ -29,6 +29,7 @@ if TYPE_CHECKING:
     from inspect_validate.model.spectral_analysis import SpectralSeparation
     from inspect_validate.scene import Scene
     from inspect_validate.verification.results import Verification
+    from inspect_validate.verification.rig import RigVerification
     from inspect_validate.watch.history import HistoryLog
 
 __all__ = [
@@ -66,6 +67,38 @@ def write_verification_html(
     from inspect_validate.files import atomic_write
 
     return atomic_write(path, verification_html(v, history=history).encode())
+
+
+def write_rig_html(v: RigVerification, path: str | Path) -> Path:
+    """Write the page of a station of several cameras to ``path`` (atomically): the one
+    verdict, each camera's with a link to its page (``<camera>/report.html`` beside it),
+    and the checks across cameras."""
+    from inspect_validate.files import atomic_write
+    from inspect_validate.report.verification import count_failed, rig_rate_line, rig_summary
+
+    e = html.escape
+    verdict = "pass" if v.passed else "fail"
+    cameras = [
+        f'<li><a href="{e(name)}/report.html">{e(name)}</a>: '
+        f"{'PASS' if r.passed else 'FAIL'} — {e(count_failed(r.checks))}</li>"
+        for name, r in v.cameras.items()
+    ]
+    parts = [
+        f"<h1>{e(v.station.name)}</h1>",
+        f'<div class="verdict {verdict}">{verdict.upper()}: {e(rig_summary(v))}</div>',
+        f'<p class="meta">station {e(str(v.station.path))}, inspect-validate {e(__version__)}</p>',
+        "<h2>Cameras</h2>",
+        "<ul>",
+        *cameras,
+        "</ul>",
+        "<h2>Across cameras</h2>",
+        f'<p class="meta">{e(rig_rate_line(v))}. Each camera\'s irradiance scale of a light '
+        "against the first camera's: the same light, so a gain, exposure or lens changed "
+        "on one camera alone where they differ.</p>",
+        _checks_table(v),
+    ]
+    text = page(f"verify {v.station.name}: {verdict.upper()}", parts)
+    return atomic_write(path, text.encode())
 
 
 def page(title: str, body: list[str]) -> str:

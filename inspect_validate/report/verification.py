@@ -41,6 +41,8 @@ __all__ = [
     "format_rig_verdict",
     "format_verdict",
     "rig_document",
+    "rig_rate_line",
+    "rig_summary",
     "verdict_documents",
     "verdict_table",
     "verification_document",
@@ -191,18 +193,27 @@ def format_rig_verdict(v: RigVerification) -> str:
         out.append(verdict_table(rows, terminal_width(sys.stdout)))
     for item in v.skipped:
         out.append(labelled("skipped", item, stream=sys.stdout))
+    out += ["", rig_rate_line(v), ("PASS" if v.passed else "FAIL") + f": {rig_summary(v)}"]
+    return "\n".join(out)
+
+
+def rig_summary(v: RigVerification) -> str:
+    """``2 cameras, every camera passed; 0 of 2 checks across cameras failed``."""
     failed = [name for name, r in v.cameras.items() if not r.passed]
     across = sum(not c.passed for c in v.checks)
-    out += [
-        "",
-        f"false-alarm rate {100 * v.false_alarm:.3g} % for the station unchanged, "
-        f"{100 * v.share:.2g} % to each camera's verification and to the checks across them",
-        ("PASS" if v.passed else "FAIL")
-        + f": {len(v.cameras)} cameras, "
+    return (
+        f"{len(v.cameras)} cameras, "
         + (f"{', '.join(failed)} failed" if failed else "every camera passed")
-        + f"; {across} of {len(v.checks)} checks across cameras failed",
-    ]
-    return "\n".join(out)
+        + f"; {across} of {len(v.checks)} checks across cameras failed"
+    )
+
+
+def rig_rate_line(v: RigVerification) -> str:
+    """How the station's false-alarm rate is shared among its cameras."""
+    return (
+        f"false-alarm rate {100 * v.false_alarm:.3g} % for the station unchanged, "
+        f"{100 * v.share:.2g} % to each camera's verification and to the checks across them"
+    )
 
 
 def rig_document(v: RigVerification) -> dict:

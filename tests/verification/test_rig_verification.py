@@ -39,6 +39,10 @@ def test_two_cameras_verify_each_and_against_each_other(tmp_path, capsys):
         assert (tmp_path / "r" / name / "report.html").is_file()
     assert "== camera top ==" in out and "== across cameras ==" in out
     assert "PASS: 2 cameras, every camera passed; 0 of 2 checks across cameras failed" in out
+    # the station's page: its one verdict, each camera's linked, the checks across them
+    page = (tmp_path / "r" / "report.html").read_text()
+    assert "PASS: 2 cameras, every camera passed" in page
+    assert '<a href="top/report.html">top</a>: PASS' in page and "red: side against top" in page
 
 
 def test_one_cameras_gain_changed_alone_fails_only_the_check_across_cameras(tmp_path, capsys):
@@ -54,6 +58,8 @@ def test_one_cameras_gain_changed_alone_fails_only_the_check_across_cameras(tmp_
     assert "FAIL: 2 cameras, every camera passed; 2 of 2 checks across cameras failed" in (
         capsys.readouterr().out
     )
+    page = (tmp_path / "r" / "report.html").read_text()
+    assert page.count('<tr class="fail">') == 2 and "FAIL: 2 cameras" in page
     # the station's JUnit: a suite per camera, its checks' classes naming it, and one across
     import xml.etree.ElementTree as ET
 
