@@ -36,6 +36,7 @@ if TYPE_CHECKING:
 __all__ = [
     "RigVerification",
     "across_cameras",
+    "of_camera",
     "plan_rig",
     "rig_share",
     "verify_rig",
@@ -133,11 +134,20 @@ def plan_rig(station: Station, *, drift_checks: bool = True) -> dict[str, tuple[
                 source=str(station.path),
             )
     share = rig_share(station.acceptance.false_alarm_rate, len(station.camera_names))
-    views = {name: _at_rate(station.view(name), share) for name in station.camera_names}
-    return {
-        name: (view, plan_verification(view, drift_checks=drift_checks))
-        for name, view in views.items()
-    }
+    plans = {}
+    for name in station.camera_names:
+        view = _at_rate(station.view(name), share)
+        try:
+            plans[name] = (view, plan_verification(view, drift_checks=drift_checks))
+        except InputError as exc:
+            raise of_camera(name, exc) from None
+    return plans
+
+
+def of_camera(name: str, exc: InputError) -> InputError:
+    """``exc`` saying which camera of several it is about, its file kept."""
+    said = str(exc).removeprefix(f"{exc.source}: ") if exc.source else str(exc)
+    return InputError(f"cameras {name!r}: {said}", source=exc.source)
 
 
 def verify_rig_folder(
@@ -167,7 +177,7 @@ def verify_rig_folder(
         try:
             results[name] = verify_folder(view, folder / name, plan=plan)
         except InputError as exc:  # which camera's frames or regions it is
-            raise InputError(f"cameras {name!r}: {exc}") from None
+            raise of_camera(name, exc) from None
     checks, skipped = across_cameras(station, results)
     rate = station.acceptance.false_alarm_rate
     share = rig_share(rate, len(plans))

@@ -84,7 +84,7 @@ def rig_watch(
         file, one that does not fit, or too few repeats for the charts.
     """
     from inspect_validate.acceptance import Drift
-    from inspect_validate.verification.rig import plan_rig
+    from inspect_validate.verification.rig import of_camera, plan_rig
     from inspect_validate.watch.drift import FAMILY_ARL, DriftMonitor
 
     if golden is not None and not isinstance(golden, dict):
@@ -133,9 +133,8 @@ def rig_watch(
             )
         except InputError as exc:  # too few repeats for the charts: said of the camera's file
             golden_file = next(c.golden for c in station.cameras if c.name == name)
-            raise InputError(
-                f"cameras {name!r}: {exc}", source=str(station.resolve(golden_file))
-            ) from None
+            said = InputError(str(exc), source=str(station.resolve(golden_file)))
+            raise of_camera(name, said) from None
     # each cycle is verified without the single-cycle drift checks: the charts replace them
     watched = {
         name: (

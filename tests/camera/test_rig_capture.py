@@ -111,16 +111,17 @@ def test_commands_of_one_camera_refuse_several_saying_what_to_do(tmp_path, capsy
 
 
 def test_two_of_pylons_emulated_cameras_capture_matched_rounds(tmp_path):
-    """Two cameras of pylon's emulator (PYLON_CAMEMU=2), each chosen by its serial, on the
-    simulated controller: every round triggers both, and each keeps its frames."""
+    """Two cameras of pylon's emulator (PYLON_CAMEMU=2), each chosen by its serial, one in
+    Mono8 and one in Mono16, on the simulated controller: every round triggers both, and
+    each keeps its frames in its own format."""
     pytest.importorskip("pypylon")
     path = copy_station(tmp_path)
     doc = yaml.safe_load(path.read_text())
     del doc["camera"]
     doc["cameras"] = [
-        {"backend": "pylon", "serial": f"0815-000{i}", "name": name, "pixel_format": "Mono8",
+        {"backend": "pylon", "serial": f"0815-000{i}", "name": name, "pixel_format": fmt,
          "exposure_us": 5000, "acquisition": "software-trigger"}
-        for i, name in enumerate(("left", "right"))
+        for i, (name, fmt) in enumerate((("left", "Mono8"), ("right", "Mono16")))
     ]  # fmt: skip
     doc.pop("scene"), doc.pop("channels")
     path.write_text(yaml.safe_dump(doc, sort_keys=False))
@@ -146,6 +147,15 @@ def test_two_of_pylons_emulated_cameras_capture_matched_rounds(tmp_path):
     for step in ("amber", "red", "dark"):
         assert left["steps"][step]["rounds"] == right["steps"][step]["rounds"]
         assert left["steps"][step]["frames"] == right["steps"][step]["frames"] == 4
+    # cameras of two pixel formats, each frame as its camera delivered it
+    sidecars = [
+        json.loads((tmp_path / "cap" / n / "amber" / "frame_0001.json").read_text())
+        for n in ("left", "right")
+    ]
+    assert [(s["pixel_format"], s["dtype"]) for s in sidecars] == [
+        ("Mono8", "uint8"),
+        ("Mono16", "uint16"),
+    ]
 
 
 def test_two_devices_of_one_gentl_producer_share_it(tmp_path, tlsimu_cti):

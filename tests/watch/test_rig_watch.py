@@ -271,3 +271,19 @@ def test_any_cycle_health_is_kept_as_finite_rows_or_refused(health):
         assert math.isfinite(value) and isinstance(camera, str)
         add_health(back, camera, quantity, value)
     assert back == kept
+
+
+def test_a_camera_of_several_that_stops_answering_is_an_error_cycle_naming_it(trained, tmp_path):
+    """The side camera times out in cycle 1: that cycle is an error naming it, the watch
+    reopens the devices and goes on (a reconnect counted for the station, not a camera)."""
+    path = tmp_path / "station.yaml"
+    for f in ("rois.yaml", "top.json", "side.json"):
+        (tmp_path / f).write_bytes((trained.parent / f).read_bytes())
+    path.write_text(trained.read_text())
+    _with_goldens(path, {"changes": [{"start": 1, "stop": 2, "camera_timeout": True}]})
+    db = tmp_path / "history.sqlite"
+    assert _watch(path, db, 3, "--retry-delay", 0) == 0
+    log = read_history(db)
+    assert [r.status for r in log.cycles] == ["pass", "error", "pass"]
+    assert "cameras 'side'" in log.cycles[1].reason
+    assert log.health[2]["reconnects"] == 1 and "reconnects" not in log.health[2]["side"]
