@@ -6,7 +6,9 @@ import csv
 import io
 import json
 import math
+import shutil
 import sqlite3
+import subprocess
 
 import pytest
 import yaml
@@ -85,6 +87,12 @@ def test_one_watch_of_two_cameras_charts_each_and_fails_one_changed_alone(
         'quantity="mean"} 1' in metrics
     )
     assert 'inspect_validate_camera_frames_delivered_total{camera="top"} ' in metrics
+    if shutil.which("promtool"):  # Debian's prometheus (.ci/run installs it)
+        checked = subprocess.run(
+            ["promtool", "check", "metrics"], input=metrics, capture_output=True, text=True
+        )
+        assert checked.returncode == 0, checked.stdout + checked.stderr
+        _drift_alerts_name_the_camera(metrics, tmp_path)
 
     # the history's report and CSV name the camera
     assert run_cli(["history", db, "--csv", tmp_path / "h.csv"]) == 0
@@ -119,6 +127,9 @@ def test_a_restarted_watch_of_two_cameras_continues_each_cameras_charts(trained,
     [
         (None, ["--golden", "top.json"], "a station of several cameras takes NAME=PATH"),
         (None, ["--golden", "top=a", "--golden", "top=b"], "--golden top=…: given twice"),
+        (None, ["--golden", "=top.json"], "takes NAME=PATH, once per camera"),
+        (None, ["--golden", "top="], "takes NAME=PATH, once per camera"),
+        (None, ["--golden", "top=no/such.json", "--golden", "side=side.json"], "no/such.json"),
         (None, ["--golden", "front=top.json"], "--golden front=…: no camera 'front'"),
         ("untrained", [], "camera 'side' has none: give --golden side=PATH or cameras[]"),
         (None, ["--production"], "--production watches the parts one camera sees"),
@@ -287,3 +298,59 @@ def test_a_camera_of_several_that_stops_answering_is_an_error_cycle_naming_it(tr
     assert [r.status for r in log.cycles] == ["pass", "error", "pass"]
     assert "cameras 'side'" in log.cycles[1].reason
     assert log.health[2]["reconnects"] == 1 and "reconnects" not in log.health[2]["side"]
+
+
+def _drift_alerts_name_the_camera(metrics, tmp_path):
+    """promtool: the shipped rules' InspectionDrift fires once per alarming chart of the
+    watch's metrics, each alert labelled and summarised with its camera."""
+    import re
+
+    from conftest import ROOT
+
+    rules = ROOT / "docs" / "monitoring" / "inspect-validate.rules.yml"
+    alarms = [
+        dict(re.findall(r'(\w+)="([^"]*)"', line))
+        for line in metrics.splitlines()
+        if line.startswith("inspect_validate_alarm{") and line.endswith("} 1")
+    ]
+    assert alarms and all(a["camera"] == "side" for a in alarms)
+    job = {"job": "inspect-validate", "instance": "rig"}
+
+    def series(labels):
+        return "inspect_validate_alarm{" + ",".join(f'{k}="{v}"' for k, v in labels.items()) + "}"
+
+    test = {
+        "rule_files": [str(rules)],
+        "evaluation_interval": "1m",
+        "tests": [
+            {
+                "interval": "1m",
+                "input_series": [
+                    {"series": series({**a, **job}), "values": "1 1 1"} for a in alarms
+                ],
+                "alert_rule_test": [
+                    {
+                        "eval_time": "2m",
+                        "alertname": "InspectionDrift",
+                        "exp_alerts": [
+                            {
+                                "exp_labels": {"severity": "warning", **a, **job},
+                                "exp_annotations": {
+                                    "summary": f"rig camera side: {a['illumination']} "
+                                    f"{a['name']} {a['quantity']} drifted from its golden "
+                                    "statistics",
+                                    "description": "The EWMA drift chart left its band; see "
+                                    "/status for the likely cause.",
+                                },
+                            }
+                            for a in alarms
+                        ],
+                    }
+                ],
+            }
+        ],
+    }
+    path = tmp_path / "rig_rules_test.yml"
+    path.write_text(yaml.safe_dump(test, sort_keys=False))
+    run = subprocess.run(["promtool", "test", "rules", str(path)], capture_output=True, text=True)
+    assert run.returncode == 0, run.stdout + run.stderr
