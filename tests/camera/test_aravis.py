@@ -41,12 +41,13 @@ GIGE_HEALTH = (
 
 @pytest.fixture
 def fake_gige():
-    """``start(*options) -> (serial, process)``: a GigE Vision fake camera on ``lo``
-    (``options``: its command line's, e.g. ``--packet-loss 0.01``)."""
+    """``start(*options, serial=None) -> (serial, process)``: a GigE Vision fake camera on
+    ``lo`` (``options``: its command line's, e.g. ``--packet-loss 0.01``; ``serial``: a
+    new one unless given, as for a camera brought back)."""
     procs = []
 
-    def start(*options):
-        serial = f"IV{uuid.uuid4().hex[:6].upper()}"
+    def start(*options, serial=None):
+        serial = serial or f"IV{uuid.uuid4().hex[:6].upper()}"
         proc = subprocess.Popen(
             [sys.executable, "-m", "inspect_validate.simulation.fake_gige", serial, *options],
             stdout=subprocess.PIPE,
@@ -460,7 +461,8 @@ def test_one_of_two_cameras_killed_mid_capture_is_named_and_the_rounds_before_ke
     """Several cameras (issue 51): the simulated camera and Aravis' fake GigE camera on one
     trigger; the fake camera's process dies during the second step. Exit 3 naming the
     camera by its station name; the first step complete in both folders, matched round
-    for round; the second marked failed in both, its whole rounds kept."""
+    for round; the second marked failed in both, its whole rounds kept; and once the camera
+    is back, --resume completes the capture in matched rounds."""
     from conftest import copy_station
 
     serial, proc = fake_gige()
@@ -493,6 +495,20 @@ def test_one_of_two_cameras_killed_mid_capture_is_named_and_the_rounds_before_ke
     assert all(not s.get("complete") and "cameras 'side'" in s["error"] for s in red)
     kept = [len(list((out / n / "red").glob("frame_*.tif"))) for n in ("top", "side")]
     assert kept[0] == kept[1] >= 3  # whole rounds only, in both
+    # The camera is back (its power cycled): --resume takes the failed step again in both
+    # folders, its earlier attempt set aside in both, and the rounds match.
+    fake_gige(serial=serial)
+    argv = [sys.executable, "-m", "inspect_validate", "capture", str(path), "--out", str(out)]
+    resumed = subprocess.run([*argv, "--resume"], capture_output=True, text=True, timeout=300)
+    assert resumed.returncode == 0, resumed.stderr
+    assert "amber: already complete, skipped" in resumed.stdout
+    top, side = (json.loads((out / n / "manifest.json").read_text()) for n in ("top", "side"))
+    for step in ("amber", "red", "dark"):
+        assert top["steps"][step]["complete"] and side["steps"][step]["complete"]
+        assert top["steps"][step]["rounds"] == side["steps"][step]["rounds"]
+    for name in ("top", "side"):
+        assert len(list((out / name / "red").glob("frame_*.tif"))) == 60
+        assert list((out / name / "red").glob("partial-*"))  # the failed attempt, kept
 
 
 @pytest.mark.slow
