@@ -95,7 +95,7 @@ def write_rig_html(v: RigVerification, path: str | Path) -> Path:
         f'<p class="meta">{e(rig_rate_line(v))}. Each camera\'s irradiance scale of a light '
         "against the first camera's: the same light, so a gain, exposure or lens changed "
         "on one camera alone where they differ.</p>",
-        _checks_table(v),
+        checks_table(v),
     ]
     text = page(f"verify {v.station.name}: {verdict.upper()}", parts)
     return atomic_write(path, text.encode())
@@ -191,7 +191,7 @@ def verification_html(v: Verification, *, history: HistoryLog | None = None) -> 
         f'<p class="meta">{e(false_alarm_line(v))}: statistical limits come from the '
         "rate and what was measured, tolerance limits are widened by the value's own "
         "uncertainty, fixed limits are held as given.</p>",
-        _checks_table(v),
+        checks_table(v),
     ]
     parts += [f"<p>note: {e(n)}</p>" for n in v.notes]
     if v.acquisition:
@@ -254,7 +254,9 @@ def _g(x, digits: int = 4) -> str:
     return "—" if x is None or not np.isfinite(x) else f"{x:.{digits}g}"
 
 
-def _checks_table(v) -> str:
+def checks_table(v) -> str:
+    """The checks of a verification (anything with ``checks`` and ``skipped``), failures
+    marked, and what was not checked as rows of their own."""
     from inspect_validate.report.verification import CHECK_COLUMNS, check_rows
 
     rows = check_rows(v.checks)

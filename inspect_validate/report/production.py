@@ -44,6 +44,8 @@ def format_production(v: ProductionVerification) -> str:
         )
     rows = [cells for _, cells in check_rows(v.checks)]
     out += ["", false_alarm_line(v), verdict_table(rows, terminal_width(sys.stdout))]
+    for item in v.skipped:
+        out.append(labelled("skipped", item, stream=sys.stdout))
     for frame, why in list(parts.not_measured.items())[:10]:
         out.append(labelled("not measured", f"{frame}: {why}", stream=sys.stdout))
     if len(parts.not_measured) > 10:
@@ -66,6 +68,7 @@ def production_document(v: ProductionVerification) -> dict:
         "illumination": next(iter(v.golden.illuminations)),
         "false_alarm": false_alarm_document(v),
         "checks": verdict_documents(v.checks),
+        "skipped": list(v.skipped),
         "parts": [
             {
                 "frame": p.frame,
@@ -103,8 +106,7 @@ def production_html(v: ProductionVerification) -> str:
     """The page of a production verdict: the verdict and its likely cause, the checks, the
     parts not measured, and charts of every part's values against the golden parts'
     (their mean, ±3 standard deviations shaded) and of where the parts lay."""
-    from inspect_validate.report.html import charts, page, table
-    from inspect_validate.report.verification import CHECK_COLUMNS
+    from inspect_validate.report.html import charts, checks_table, page, table
 
     e = html.escape
     verdict = "pass" if v.passed else "fail"
@@ -120,13 +122,12 @@ def production_html(v: ProductionVerification) -> str:
     ]
     if v.cause:
         body.append(f"<p><b>likely cause:</b> {e(v.cause)}</p>")
-    rows = check_rows(v.checks)
     body += [
         "<h2>Checks</h2>",
         f'<p class="meta">{e(false_alarm_line(v))}: each statistical limit holds a batch '
         "mean of good parts within the golden parts' spread at the check's share of the rate."
         "</p>",
-        table(CHECK_COLUMNS, [cells for _, cells in rows], failed=[not c.passed for c, _ in rows]),
+        checks_table(v),
     ]
     if parts.not_measured:
         body += [

@@ -194,6 +194,7 @@ class ProductionVerification:
     parts: Parts
     checks: tuple[Check, ...]
     false_alarm: float
+    skipped: tuple[str, ...] = ()  # what was not checked, and why
 
     @property
     def passed(self) -> bool:
@@ -224,7 +225,26 @@ def verify_production(
         :func:`measure_parts`.
     """
     production_golden(golden, station, source=source)
-    return verify_parts(station, measure_parts(station, frames), golden, source=source)
+    parts = measure_parts(station, frames)
+    return verify_parts(station, parts, golden, source=source, manifest=capture_of(frames))
+
+
+def capture_of(frames: Path) -> dict | None:
+    """The manifest of the capture ``frames`` were taken by (``capture --production``: the
+    folder itself, or the step folder in it), holding that step alone; None for frames
+    from elsewhere (the line's program)."""
+    from inspect_validate.camera.storage import read_manifest
+
+    frames = Path(frames)
+    for folder, step in ((frames, None), (frames.parent, frames.name)):
+        path = folder / "manifest.json"
+        if frames.is_dir() and path.is_file():
+            manifest = read_manifest(path)
+            if step is None:
+                return manifest
+            if step in manifest["steps"]:
+                return {**manifest, "steps": {step: manifest["steps"][step]}}
+    return None
 
 
 def verify_parts(
@@ -234,10 +254,14 @@ def verify_parts(
     *,
     source: str = "the golden file",
     drift: bool = True,
+    manifest: dict | None = None,
 ) -> ProductionVerification:
     """:func:`verify_production` of parts already measured; ``drift=False`` leaves out the
-    golden statistics' checks (``watch --production``, whose charts replace them)."""
+    golden statistics' checks (``watch --production``, whose charts replace them);
+    ``manifest``, the capture that took them: what the camera reported is held to
+    ``acceptance.health`` (:func:`~.health_checks.health_checks`)."""
     from inspect_validate.verification.checks import at_least, decide
+    from inspect_validate.verification.health_checks import health_checks
 
     production_golden(golden, station, source=source)
     assert station.production is not None
@@ -256,8 +280,12 @@ def verify_parts(
         found,
         *(_drift_checks(parts, golden.illuminations[name], confidence) if drift else []),
     ]
+    unhealthy, skipped = health_checks(station.acceptance.health, manifest or {})
+    checks += unhealthy
     rate = station.acceptance.false_alarm_rate
-    return ProductionVerification(station, golden, parts, decide(checks, rate), rate)
+    return ProductionVerification(
+        station, golden, parts, decide(checks, rate), rate, tuple(skipped)
+    )
 
 
 def production_golden(golden: Golden, station: Station, *, source: str) -> None:
@@ -290,9 +318,13 @@ def production_golden(golden: Golden, station: Station, *, source: str) -> None:
 
 
 def _cause(v: ProductionVerification) -> str | None:
-    failed = [c.name for c in v.checks if not c.passed]
+    camera = [
+        c.name.removeprefix("camera: ") for c in v.checks if c.kind == "health" and not c.passed
+    ]
+    failed = [c.name for c in v.checks if not c.passed and c.kind != "health"]
     if not failed:
-        return None
+        # the parts' own statistics held; what failed is how the frames arrived
+        return f"the camera or its link: {', '.join(camera)}" if camera else None
     if "parts found" in failed:
         return (
             "most frames hold no part to measure: a wrong reference, a moved camera or "

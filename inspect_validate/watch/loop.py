@@ -318,20 +318,26 @@ def _line_batch(station, line, frames, n, hours):
     and how many frames were skipped, if any."""
     from inspect_validate.station.capture import capture, production_steps
     from inspect_validate.station.file import simulated_at
-    from inspect_validate.verification.production import measure_frames, verify_parts
+    from inspect_validate.verification.production import (
+        capture_of,
+        measure_frames,
+        verify_parts,
+    )
     from inspect_validate.watch.drift import series_of_parts
 
     name = station.production.illumination
+    manifest = None
     if line.feed is None:
         at = simulated_at(station, n, hours=hours)
         capture(at, frames, steps=production_steps(at))
         files, skipped = sorted((frames / name).glob("*.tif")), 0
+        manifest = capture_of(frames)
     else:
         files, skipped = line.feed.take()
     unreadable: dict[str, str] = {}
     parts = measure_frames(station, _readable(files, unreadable), refuse=False)
     parts = replace(parts, not_measured={**unreadable, **parts.not_measured})
-    verification = verify_parts(station, parts, line.golden, drift=False)
+    verification = verify_parts(station, parts, line.golden, drift=False, manifest=manifest)
     note = f"{skipped} frames skipped (they land faster than measured)" if skipped else None
     return verification, series_of_parts(parts, name), note
 

@@ -156,3 +156,33 @@ def test_sigterm_ends_a_watch_waiting_for_frames(tmp_path, line_golden):
     assert "stopped after cycle —" in out
     _, cycles = _charts(db)
     assert cycles == []
+
+
+def test_the_cameras_health_is_held_on_the_line_too(cli, tmp_path, line_golden):
+    """verify --production and watch --production of frames the tool captured hold what the
+    camera reported to acceptance.health: a camera ignoring every third trigger fails
+    "missed triggers", named as the likely cause (the parts' statistics held); frames from
+    the line's own program have no such record, and say so."""
+    deaf = line_station(tmp_path / "d", parts=PARTS, missed_trigger_every=3)
+    frames = line_frames(deaf, tmp_path / "batch", parts=PARTS)
+    args = ["verify", deaf, "--production", "--frames", frames, "--golden", line_golden]
+    code, out, _ = cli([*args, "--report", tmp_path / "r"])
+    assert code == 1, out
+    assert "FAIL     camera: missed triggers" in out
+    assert "likely cause: the camera or its link: missed triggers" in out
+    report = json.loads((tmp_path / "r" / "production.json").read_text())
+    assert [c["name"] for c in report["checks"] if c["verdict"] == "fail"] == [
+        "camera: missed triggers"
+    ]
+    assert "camera: missed triggers" in (tmp_path / "r" / "report.html").read_text()
+    # the same frames copied out of the capture: no health record, said
+    loose = tmp_path / "loose"
+    loose.mkdir()
+    for f in frames.glob("*.tif"):
+        (loose / f.name).write_bytes(f.read_bytes())
+    code, out, _ = cli(["verify", deaf, "--production", "--frames", loose, "--golden", line_golden])
+    assert code == 0 and "skipped: camera health: the capture holds no health record" in out
+    db = tmp_path / "w" / "h.sqlite"
+    code, out, _ = cli(["watch", deaf, "--production", "--golden", line_golden, "--db", db,
+                        "--cycles", 1, "--interval", 0])  # fmt: skip
+    assert code == 1 and "the camera or its link: missed triggers" in out, out
