@@ -98,10 +98,10 @@ def test_a_station_of_several_cameras_is_refused_naming_the_camera_and_key(
 
 
 def test_commands_of_one_camera_refuse_several_saying_what_to_do(tmp_path, capsys):
+    """(watch takes several cameras: tests/watch/test_rig_watch.py.)"""
     path = two_cameras(copy_station(tmp_path))
     for args in (
         ["train", path, "--out", tmp_path / "g.json"],
-        ["watch", path, "--golden", tmp_path / "g.json", "--cycles", 1],
         ["characterize", path, "--out", tmp_path / "c"],
         ["capture", path, "--production", "--out", tmp_path / "p"],
     ):
