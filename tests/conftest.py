@@ -252,15 +252,18 @@ def lenient_history(path, cycles=(), points=(), meta=None):
     import sqlite3
 
     con = sqlite3.connect(path)
+    # points of ten values: with the camera column (a history of several cameras' time)
+    camera = ", camera" if any(len(p) == 10 for p in points) else ""
     con.executescript(
         "CREATE TABLE meta (key, value); CREATE TABLE cycles (cycle, started, seconds, status, "
         "passed, reason, cause, frames); CREATE TABLE points (cycle, illumination, kind, name, "
-        "quantity, value, ewma, low, high);"
+        f"quantity, value, ewma, low, high{camera});"
     )
     meta = {"station": "/s.yaml", "golden": "/g.json", "created": "1.7e9"} if meta is None else meta
     con.executemany("INSERT INTO meta VALUES (?, ?)", list(meta.items()))
     con.executemany("INSERT INTO cycles VALUES (?, ?, ?, ?, ?, ?, ?, ?)", cycles)
-    con.executemany("INSERT INTO points VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)", points)
+    marks = ", ".join("?" * (10 if camera else 9))
+    con.executemany(f"INSERT INTO points VALUES ({marks})", points)
     con.commit()
     con.close()
     return path

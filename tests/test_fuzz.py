@@ -932,18 +932,20 @@ history_cycles = st.lists(
     unique_by=lambda c: repr(c[0]),
 )
 history_values = st.floats(-1e6, 1e6, allow_nan=False) | st.sampled_from([0.0, 1e-300, 1e99])
-history_points = st.lists(
-    st.tuples(
-        rarely_junk(st.integers(0, 7)),
-        rarely_junk(st.sampled_from(["amber", "red", "a/b", ""])),
-        rarely_junk(st.sampled_from(["class", "comparison"])),
-        rarely_junk(st.sampled_from(["A", "A vs B", "ü"])),
-        rarely_junk(st.sampled_from(["mean", "variance", "snr_db", "log_error"])),
-        rarely_junk(history_values | st.none()),
-        rarely_junk(history_values),
-        rarely_junk(history_values),
-        rarely_junk(history_values),
-    ),
+_history_point = (
+    rarely_junk(st.integers(0, 7)),
+    rarely_junk(st.sampled_from(["amber", "red", "a/b", ""])),
+    rarely_junk(st.sampled_from(["class", "comparison"])),
+    rarely_junk(st.sampled_from(["A", "A vs B", "ü"])),
+    rarely_junk(st.sampled_from(["mean", "variance", "snr_db", "log_error"])),
+    rarely_junk(history_values | st.none()),
+    rarely_junk(history_values),
+    rarely_junk(history_values),
+    rarely_junk(history_values),
+)
+history_points = st.lists(st.tuples(*_history_point), max_size=20) | st.lists(
+    # a history of several cameras: each point with its camera's name
+    st.tuples(*_history_point, rarely_junk(st.sampled_from(["", "top", "side", "a b"]))),
     max_size=20,
 )
 
@@ -997,8 +999,9 @@ def test_history_with_hostile_databases(capsys, cycles, points, meta, plot):
         max_size=6,
     ),
     plot=st.sampled_from([False, False, False, True]),
+    cameras=st.sampled_from([(), ("top", "side")]),
 )
-def test_history_never_refuses_what_watch_writes(capsys, steps, plot):
+def test_history_never_refuses_what_watch_writes(capsys, steps, plot, cameras):
     from inspect_validate.watch.history import CycleRecord
     from inspect_validate.watch.history_writer import HistoryWriter
 
@@ -1011,12 +1014,13 @@ def test_history_never_refuses_what_watch_writes(capsys, steps, plot):
                 {}
                 if status == "error"
                 else {
-                    ("amber", "class", "A", "mean"): (
+                    ("amber", "class", "A", "mean", *camera): (
                         value,
                         ewma,
                         target - abs(half),
                         target + abs(half),
                     )
+                    for camera in ([(c,) for c in cameras] or [()])  # a watch of several
                 }
             )
             reason = "timeout" if status == "error" else None
@@ -1027,7 +1031,8 @@ def test_history_never_refuses_what_watch_writes(capsys, steps, plot):
         args = ["history", tmp / "h.sqlite", "--csv", tmp / "h.csv"]
         code, out, err = run([*args, *(["--plot", tmp / "p"] if plot else [])], capsys)
         assert_clean(code, out, err, allowed=(0,))
-        assert len((tmp / "h.csv").read_text().splitlines()) == 1 + len(steps)
+        rows = 1 + sum(1 if s[0] == "error" else max(len(cameras), 1) for s in steps)
+        assert len((tmp / "h.csv").read_text().splitlines()) == rows
 
 
 @settings(SETTINGS, max_examples=20)
