@@ -2,7 +2,8 @@
 camera's capture alone.
 
 Run: ``python benchmarks/bench_rig.py [--camera simulated|pylon-emulator] [--frames 8]
-[--size 512]`` (about a minute).
+[--size 512]`` (about a minute); ``--verdicts 200`` adds the verdict's error rates (below;
+about five minutes).
 
 The shipped station's illuminations and darks, ``--frames`` each, software-triggered,
 devices open (opening them is paid once a capture and timed apart). Three captures:
@@ -16,6 +17,14 @@ in parallel with the others once triggered.
 renders every frame on the CPU and takes its frame interval (10 ms) to accept a
 trigger, so two of them on 2 cores cost nearer the sum: what that measures is this
 tool's overhead on top of two cameras that cannot work in parallel.
+
+``--verdicts N``: the shipped two-camera station verified N times, each on a capture of
+its own (in process: what ``verify`` does), counting the verdicts that fail it, against
+the design (``acceptance.false_alarm``, 0.27 %, shared by the two cameras' verifications
+and the checks across them); then N/4 times with the side camera changed alone — its
+exposure a factor up (its gain would do the same) and, a real difference that should
+pass, its lens transmitting 1 % less — counting the verdicts that fail, and which checks
+failed them.
 """
 
 from __future__ import annotations
@@ -109,6 +118,50 @@ def pace_emulator(fps: float) -> None:
     PylonGrabber.configure = paced
 
 
+def verdicts(runs: int) -> None:
+    """The verdict's error rates (module text), printed as a table."""
+    from inspect_validate.station.file import read_station
+    from inspect_validate.verification.rig import verify_rig
+
+    base = read_station(ROOT / "sample_images/station/two_cameras.yaml")
+
+    def with_side(world: dict):
+        side = base.cameras[1]
+        changed = side.model_copy(update={"world": side.world.model_copy(update=world)})
+        return base.model_copy(update={"cameras": [base.cameras[0], changed]})
+
+    rows = [("unchanged", {}, runs)]
+    rows += [
+        (f"side exposure ×{f:g}", {"exposure": f}, runs // 4) for f in (1.01, 1.02, 1.03, 1.05)
+    ]
+    rows.append(("side lens transmission ×0.99", {"transmission": 0.99}, runs // 4))
+    print()
+    print("verdicts of the shipped two-camera station, each on its own capture")
+    print()
+    print(
+        "| side camera | runs | verdicts failed | a camera's own checks failed | checks across failed | design |"
+    )
+    print("|---|---|---|---|---|---|")
+    for label, world, n in rows:
+        station = with_side(world)
+        failed = own = across = 0
+        with tempfile.TemporaryDirectory() as tmp:
+            for k in range(n):
+                v = verify_rig(station, out=Path(tmp) / f"r{k}")
+                shutil.rmtree(Path(tmp) / f"r{k}")
+                failed += not v.passed
+                own += not all(c.passed for c in v.cameras.values())
+                across += not all(c.passed for c in v.checks)
+        design = (
+            f"≤ {100 * base.acceptance.false_alarm_rate:.2g} %"
+            if not world
+            else ("pass (within the 2 % tolerance)" if "transmission" in world else "")
+        )
+        print(
+            f"| {label} | {n} | {failed} ({100 * failed / n:.3g} %) | {own} | {across} | {design} |"
+        )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--camera", choices=("simulated", "pylon-emulator"), default="simulated")
@@ -116,6 +169,7 @@ def main() -> None:
     parser.add_argument("--size", type=int, default=512)
     parser.add_argument("--fps", type=float, default=20.0)
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--verdicts", type=int, default=0, help="verify the station N times")
     args = parser.parse_args()
     kind = "simulated" if args.camera == "simulated" else "pylon"
     if kind == "pylon":
@@ -151,6 +205,8 @@ def main() -> None:
             f"| {label} | {best[key]:.2f} s | {best[key] / slowest:.2f} | "
             f"{best[key] / (best['a'] + best['b']):.2f} |"
         )
+    if args.verdicts:
+        verdicts(args.verdicts)
 
 
 if __name__ == "__main__":

@@ -104,6 +104,8 @@ def verify(
         from inspect_validate.watch.history import read_station_history
 
         log = read_station_history(history_path, st)
+        if camera_name is not None:  # a watch of every camera: this one's charts
+            log = log.of_camera(camera_name)
     if frames_dir is None and out is None:
         out = report_dir / "frames" if report_dir else new_folder("verify", station)
     result = verify_and_report(

@@ -213,6 +213,14 @@ class HistoryLog:
         """The illuminations charted, sorted."""
         return sorted({key[0] for key in self.charts})
 
+    def of_camera(self, name: str) -> HistoryLog:
+        """This history with the charts of camera ``name`` of several alone (and those
+        of a watch of it alone, which name no camera)."""
+        from dataclasses import replace
+
+        charts = {k: s for k, s in self.charts.items() if k[4] in ("", name)}
+        return replace(self, charts=charts)
+
     def counts(self) -> dict[str, int]:
         """Cycles read per status."""
         return {s: sum(r.status == s for r in self.cycles) for s in STATUSES}

@@ -354,3 +354,13 @@ def _drift_alerts_name_the_camera(metrics, tmp_path):
     path.write_text(yaml.safe_dump(test, sort_keys=False))
     run = subprocess.run(["promtool", "test", "rules", str(path)], capture_output=True, text=True)
     assert run.returncode == 0, run.stdout + run.stderr
+
+
+def test_verify_of_one_camera_takes_its_charts_from_the_watch_of_all(trained, tmp_path):
+    """verify --camera NAME --history: the trends of that camera alone go into its report."""
+    db = tmp_path / "history.sqlite"
+    assert _watch(trained, db, 2) == 0
+    args = ["verify", trained, "--camera", "side", "--history", db, "--report", tmp_path / "r"]
+    assert run_cli(args) == 0
+    page = (tmp_path / "r" / "report.html").read_text()
+    assert "side amber: A μ [DN]" in page and "top amber: A μ [DN]" not in page
