@@ -28,6 +28,7 @@ if TYPE_CHECKING:
 
     from inspect_validate.model.spectral_analysis import SpectralSeparation
     from inspect_validate.scene import Scene
+    from inspect_validate.verification.production import ProductionVerification
     from inspect_validate.verification.results import Verification
     from inspect_validate.verification.rig import RigVerification
     from inspect_validate.watch.history import HistoryLog
@@ -254,7 +255,7 @@ def _g(x, digits: int = 4) -> str:
     return "—" if x is None or not np.isfinite(x) else f"{x:.{digits}g}"
 
 
-def checks_table(v) -> str:
+def checks_table(v: Verification | RigVerification | ProductionVerification) -> str:
     """The checks of a verification (anything with ``checks`` and ``skipped``), failures
     marked, and what was not checked as rows of their own."""
     from inspect_validate.report.verification import CHECK_COLUMNS, check_rows
