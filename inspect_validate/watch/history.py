@@ -41,6 +41,7 @@ if TYPE_CHECKING:
     from inspect_validate.station.file import Station
 
 __all__ = [
+    "CAMERAS",
     "CHARTED",
     "HISTORY_SCHEMA_VERSION",
     "RECONNECTS",
@@ -101,24 +102,35 @@ RECONNECTS = "reconnects"
 health.HEALTH`): 1 in a cycle that reopened the devices after an error cycle."""
 
 
+CAMERAS = "cameras"
+"""The key of a cycle's health under which each camera of several has its own
+(:func:`cycle_health`): no quantity is named so, and any camera may be."""
+
+
 def cycle_health(health: dict) -> dict:
     """The quantities of ``health`` a history keeps: the camera's and the watch's own, as
     finite numbers (counters not below 0); anything else is dropped. ValueError where a
     quantity it keeps holds something else.
 
     A cycle's health holds the quantities of the station's one camera and the watch's
-    own, and on a station of several cameras, under each camera's name, a mapping of that
-    camera's quantities (kept the same way; a camera with none is dropped)."""
+    own, and on a station of several cameras, under :data:`CAMERAS`, each camera's name
+    and its quantities (kept the same way; a camera with none is dropped)."""
     from inspect_validate.camera.health import COUNTERS, HEALTH
 
     out: dict = {}
     for name, value in health.items():
-        if isinstance(value, dict):
-            if not isinstance(name, str) or not name or name in (*HEALTH, RECONNECTS):
-                raise ValueError(f"health {name!r} is not a camera's name")
-            kept = cycle_health({q: v for q, v in value.items() if not isinstance(v, dict)})
-            if kept:
-                out[name] = kept
+        if name == CAMERAS:
+            if not isinstance(value, dict):
+                raise ValueError(f"health {CAMERAS} {value!r} is not a mapping of cameras")
+            cameras = {}
+            for camera, quantities in value.items():
+                if not (isinstance(camera, str) and camera and isinstance(quantities, dict)):
+                    raise ValueError(f"health of camera {camera!r} is not a camera's")
+                kept = cycle_health({q: v for q, v in quantities.items() if q != CAMERAS})
+                if kept:
+                    cameras[camera] = kept
+            if cameras:
+                out[CAMERAS] = cameras
             continue
         if name not in (*HEALTH, RECONNECTS):
             continue
@@ -133,19 +145,19 @@ def cycle_health(health: dict) -> dict:
 def health_rows(health: dict) -> list[tuple[str, str, float]]:
     """``(camera, quantity, value)`` of a cycle's :func:`cycle_health` (camera empty for the
     station's own quantities): the ``health`` table's rows."""
-    cameras = [("", health), *((k, v) for k, v in health.items() if isinstance(v, dict))]
+    cameras = [("", health), *(health.get(CAMERAS) or {}).items()]
     return [
         (camera, quantity, value)
         for camera, quantities in cameras
         for quantity, value in quantities.items()
-        if not isinstance(value, dict)
+        if quantity != CAMERAS
     ]
 
 
 def add_health(health: dict, camera: str, quantity: str, value: float) -> None:
     """Add ``value`` to ``health``'s ``quantity`` of ``camera`` (empty: the station's own),
     the inverse of :func:`health_rows`."""
-    into = health if not camera else health.setdefault(camera, {})
+    into = health if not camera else health.setdefault(CAMERAS, {}).setdefault(camera, {})
     into[quantity] = into.get(quantity, 0.0) + value
 
 
@@ -273,7 +285,8 @@ def read_history(path: str | Path, *, last: int | None = None) -> HistoryLog:
     health: dict[int, dict] = {}
     for cycle, camera, quantity, value in rows_of_health:
         try:
-            kept = cycle_health({camera: {quantity: value}} if camera else {quantity: value})
+            one = {quantity: value}
+            kept = cycle_health({CAMERAS: {camera: one}} if camera else one)
             for _, q, v in health_rows(kept):
                 add_health(health.setdefault(cycle, {}), camera, q, v)
         except (ValueError, TypeError) as exc:

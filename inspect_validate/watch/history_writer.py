@@ -16,6 +16,7 @@ into a new database beside the old one (:func:`rebuild_history`).
 
 from __future__ import annotations
 
+import copy
 import errno
 import itertools
 import json
@@ -357,7 +358,7 @@ class HistoryWriter:
             self._totals = {}
             for camera, name, total in rows:
                 add_health(self._totals, camera, name, float(total))
-        return {k: dict(v) if isinstance(v, dict) else v for k, v in self._totals.items()}
+        return copy.deepcopy(self._totals)
 
     _totals: dict | None = None  # health_totals, kept up by commit
 

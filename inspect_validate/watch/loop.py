@@ -211,7 +211,7 @@ def set_aside(frames: Path) -> Path:
 
 
 def _cycle(station, plan, history, monitor, folder, settings, failures, line=None, rig=None):
-    from inspect_validate.watch.history import RECONNECTS, CycleRecord
+    from inspect_validate.watch.history import CAMERAS, RECONNECTS, CycleRecord
 
     n = history.next_cycle()
     frames = folder / f"cycle-{n:06d}"
@@ -258,7 +258,9 @@ def _cycle(station, plan, history, monitor, folder, settings, failures, line=Non
     if rig is None:
         health.update(_cycle_health(frames))
     else:  # each camera's, under its name
-        health.update({c: h for c in rig.plans if (h := _cycle_health(frames / c))})
+        cameras = {c: h for c in rig.plans if (h := _cycle_health(frames / c))}
+        if cameras:
+            health[CAMERAS] = cameras
     keep = status != "pass" or n % max(settings.keep_every, 1) == 0
     record = CycleRecord(
         cycle=n,

@@ -145,8 +145,8 @@ def rig_watch(
         )
         for name, (view, plan) in plans.items()
     }
-    names = "; ".join(f"{c.name}={station.resolve(c.golden)}" for c in station.cameras)
-    return RigWatch(watched), RigMonitor(monitors), names
+    meta = "; ".join(f"{c.name}={station.resolve(c.golden)}" for c in station.cameras)
+    return RigWatch(watched), RigMonitor(monitors), meta
 
 
 def rig_batch(
@@ -162,4 +162,5 @@ def rig_batch(
 
     capture(simulated_at(station, n, hours=hours), frames)
     verification = verify_rig_folder(station, frames, rig.plans)
-    return verification, {n: series_of(v) for n, v in verification.cameras.items()}, None
+    values = {name: series_of(v) for name, v in verification.cameras.items()}
+    return verification, values, None
