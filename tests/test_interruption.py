@@ -191,3 +191,31 @@ except KeyboardInterrupt:
     run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert run.stdout.split("\n")[:2] == ["requested 15", "stopped"], run.stdout + run.stderr
     assert "Interrupted" not in run.stderr and "ValueError: a real fault" in run.stderr
+
+
+def test_a_stop_a_library_wrapped_in_its_own_error_still_exits_130(tmp_path, monkeypatch, capsys):
+    """Seen once in the watch sweep: a SIGTERM landing while pydantic-core built a model's
+    validator at an import came out as its SchemaError, and the run ended as an internal
+    error with a traceback. A run a stop was asked for ends as stopped (exit 130), whatever
+    the exception that reached the top."""
+    from conftest import run_cli
+
+    from inspect_validate.station import file
+
+    def read_station(*args, **kwargs):
+        try:
+            interruption._on_signal(signal.SIGTERM, None)
+        except KeyboardInterrupt as exc:  # what pydantic-core did with it
+            raise RuntimeError("Error building validator: Interrupted: SIGTERM") from exc
+
+    monkeypatch.setattr(file, "read_station", read_station)
+    try:
+        assert run_cli(["verify", copy_station(tmp_path)]) == 130
+    finally:
+        interruption.reset()
+    err = capsys.readouterr().err
+    assert "interrupted" in err and "Traceback" not in err and "internal error" not in err
+    # without a stop asked for, the same error is still an internal error, with its traceback
+    monkeypatch.setattr(file, "read_station", lambda *a, **k: 1 / 0)
+    assert run_cli(["verify", copy_station(tmp_path)]) == 70  # EXIT_INTERNAL
+    assert "internal error" in capsys.readouterr().err

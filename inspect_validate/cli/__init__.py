@@ -12,6 +12,7 @@ from __future__ import annotations
 import importlib
 import sys
 import traceback
+from typing import NoReturn
 
 import click
 
@@ -82,6 +83,17 @@ def _command_name(argv) -> str | None:
     )
 
 
+def _interrupted(argv) -> NoReturn:
+    """End a run a signal or Ctrl-C stopped: exit 130, saying what was kept."""
+    kept = (
+        "; frames saved so far are kept (capture: rerun with --resume)"
+        if _command_name(argv) in _CAPTURING
+        else ""
+    )
+    click.echo(f"interrupted{kept}", err=True)
+    sys.exit(130)
+
+
 def main(argv=None) -> None:
     """Console entry point: run the CLI and map errors to documented exit codes."""
     from inspect_validate import interruption
@@ -96,13 +108,7 @@ def main(argv=None) -> None:
         with cleaned_outputs():  # a refused or failed run leaves no empty folders
             cli.main(args=argv, prog_name="inspect-validate", standalone_mode=False)
     except (click.exceptions.Abort, KeyboardInterrupt):
-        kept = (
-            "; frames saved so far are kept (capture: rerun with --resume)"
-            if _command_name(argv) in _CAPTURING
-            else ""
-        )
-        click.echo(f"interrupted{kept}", err=True)
-        sys.exit(130)
+        _interrupted(argv)
     except click.ClickException as exc:
         exc.show()
         sys.exit(EXIT_INPUT)
@@ -115,6 +121,11 @@ def main(argv=None) -> None:
         click.echo(f"error: out of memory in {command or 'inspect-validate'}; {less}", err=True)
         sys.exit(EXIT_INTERNAL)
     except Exception:
+        if interruption.requested() is not None:
+            # A library turned the stop's exception into one of its own (pydantic-core
+            # wraps one raised while it builds a validator, at an import, in SchemaError):
+            # the run was still stopped, not broken.
+            _interrupted(argv)
         traceback.print_exc()
         click.echo(
             "internal error in inspect-validate: please report it with the traceback above",
