@@ -391,6 +391,47 @@ def line_station(folder, parts=None, **world):
     return path
 
 
+def capture_running(station, out, until, *, timeout=120.0):
+    """``capture STATION --out OUT`` started in a process of its own (its output piped), once
+    the file ``until`` exists; the process."""
+    import subprocess
+    import sys
+    import time
+
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "inspect_validate", "capture", str(station), "--out", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    deadline = time.monotonic() + timeout
+    while not Path(until).exists():
+        assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()
+        time.sleep(0.02)
+    return proc
+
+
+def resume_two_cameras(station, out, frames):
+    """``capture --resume`` of a two-camera capture whose red step did not finish: every
+    step complete in both folders with the same rounds, red's ``frames`` taken again in
+    both, its earlier attempt set aside in both."""
+    import json
+    import subprocess
+    import sys
+
+    argv = [sys.executable, "-m", "inspect_validate", "capture", str(station), "--out", str(out)]
+    resumed = subprocess.run([*argv, "--resume"], capture_output=True, text=True, timeout=300)
+    assert resumed.returncode == 0, resumed.stderr
+    assert "amber: already complete, skipped" in resumed.stdout
+    top, side = (json.loads((out / n / "manifest.json").read_text()) for n in ("top", "side"))
+    for step in ("amber", "red", "dark"):
+        assert top["steps"][step]["complete"] and side["steps"][step]["complete"]
+        assert top["steps"][step]["rounds"] == side["steps"][step]["rounds"]
+    for name in ("top", "side"):
+        assert len(list((out / name / "red").glob("frame_*.tif"))) == frames
+        assert list((out / name / "red").glob("partial-*"))  # the earlier attempt, kept
+
+
 def line_frames(station, out, parts=40):
     """``capture --production`` of ``parts`` frames of the line into ``out``; the folder
     of the frames."""

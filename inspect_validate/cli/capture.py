@@ -8,7 +8,7 @@ from inspect_validate.cli.common import (
     PATH,
     camera_option,
     capture_with_progress,
-    one_station,
+    with_camera,
 )
 from inspect_validate.text import labelled
 
@@ -56,7 +56,7 @@ def capture(station, out, resume, production, parts, camera_name) -> None:
 
     if parts is not None and not production:
         raise click.UsageError("--parts is for --production")
-    st = one_station(station, camera_name, "") if camera_name else read_station(station)
+    st = with_camera(read_station(station), camera_name)
     steps = None
     if production:
         from inspect_validate.station.capture import production_steps

@@ -304,22 +304,29 @@ def camera_option(command: Callable) -> Callable:
     )(command)
 
 
-def one_station(path, camera_name: str | None, what: str):
-    """The station file at ``path`` as a station of one camera: itself, or its camera
-    ``camera_name`` (``--camera``) alone; refused, saying so, for a station of several
-    cameras without ``--camera`` or a name it does not have."""
+def with_camera(station, camera_name: str | None):
+    """``station`` (read from its file), or its camera ``camera_name`` (``--camera``) alone
+    as a station of that camera; refused, saying so, for a name it does not have or a
+    station of one camera."""
     from inspect_validate.errors import InputError
-    from inspect_validate.station.file import read_station
 
-    st = read_station(path)
     if camera_name is None:
-        return st.one_camera(what)
-    if not st.cameras:
+        return station
+    if not station.cameras:
         raise InputError(
             f"--camera {camera_name}: the station has one camera (camera:); leave --camera out",
-            source=str(path),
+            source=str(station.path),
         )
-    return st.view(camera_name)
+    return station.view(camera_name)
+
+
+def one_station(path, camera_name: str | None, what: str):
+    """The station file at ``path`` as a station of one camera (:func:`with_camera`);
+    refused, naming ``what`` (a command), for a station of several cameras without
+    ``--camera``."""
+    from inspect_validate.station.file import read_station
+
+    return with_camera(read_station(path), camera_name).one_camera(what)
 
 
 #: How a command computes ε KDE, the nonparametric error (37): one option, ``--kde``, in

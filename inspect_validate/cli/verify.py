@@ -10,9 +10,9 @@ from inspect_validate.cli.common import (
     PATH,
     camera_option,
     new_folder,
-    one_station,
     validate_outputs,
     verify_and_report,
+    with_camera,
 )
 from inspect_validate.errors import EXIT_CHECK_FAILED
 
@@ -87,7 +87,7 @@ def verify(
     """
     from inspect_validate.station.file import read_station
 
-    st = one_station(station, camera_name, "") if camera_name else read_station(station)
+    st = with_camera(read_station(station), camera_name)
     validate_outputs(folders=[report_dir])
     if production:
         _verify_production(

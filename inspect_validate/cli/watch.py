@@ -6,7 +6,7 @@ import sys
 
 import click
 
-from inspect_validate.cli.common import PATH, Number, camera_option, one_station
+from inspect_validate.cli.common import PATH, Number, camera_option, with_camera
 from inspect_validate.errors import EXIT_CHECK_FAILED
 
 
@@ -142,7 +142,7 @@ def watch(
     from inspect_validate.station.file import read_station
 
     whole = read_station(station)
-    st = one_station(station, camera_name, "") if camera_name else whole
+    st = with_camera(whole, camera_name)
     golden = _goldens(golden_path, several=bool(st.cameras))
     if camera_name and golden is None:  # the camera's own golden file charts it alone
         golden = next(

@@ -199,7 +199,7 @@ def history_csv(log: HistoryLog) -> str:
             r.cause or "",
             r.frames or "",
         ]
-        for point in by_cycle.get(r.cycle) or [[""] * 10]:
+        for point in by_cycle.get(r.cycle) or [[""] * (len(_CSV_COLUMNS) - len(head))]:
             writer.writerow(head + point)
     return out.getvalue()
 

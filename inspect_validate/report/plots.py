@@ -366,8 +366,7 @@ def plot_history_overview(log: HistoryLog, target: Target) -> Target:
             if key[0] != ill:
                 continue
             if s.alarm.any():
-                label = " ".join(filter(None, (key[4], key[2], key[3])))  # camera, if named
-                ax.plot(s.cycle, s.deviation, color=_colour(k), lw=1.4, label=label)
+                ax.plot(s.cycle, s.deviation, color=_colour(k), lw=1.4, label=_chart_title(key))
                 k += 1
             else:
                 ax.plot(s.cycle, s.deviation, color="0.7", lw=0.8)
@@ -381,6 +380,11 @@ def plot_history_overview(log: HistoryLog, target: Target) -> Target:
     axes[-1].set_xlabel("cycle")
     _whole_cycles(axes[-1])
     return save_figure(fig, target)
+
+
+def _chart_title(key: tuple) -> str:
+    """``[camera] name quantity`` of a history chart's key (the camera, of several)."""
+    return " ".join(filter(None, (key[4], key[2], key[3])))
 
 
 def _whole_cycles(ax) -> None:
@@ -407,7 +411,7 @@ def plot_history_charts(log: HistoryLog, illumination: str, target: Target) -> T
         ax.plot(s.cycle, s.ewma, color="C0", lw=1.3)
         alarm = s.alarm
         ax.plot(s.cycle[alarm], s.ewma[alarm], "o", color="#c8102e", ms=3.5)
-        ax.set_title(" ".join(filter(None, (key[4], key[2], key[3]))), fontsize=8)
+        ax.set_title(_chart_title(key), fontsize=8)
         ax.set_ylabel(units.get(key[3], ""), fontsize=7)
         ax.tick_params(labelsize=7)
     for ax in list(axes.flat)[len(charts) :]:

@@ -660,12 +660,14 @@ def simulated_at(station: Station, cycle: int, *, hours: float = 0.0) -> Station
             return camera
         return camera.model_copy(update={"world": world.at(cycle, hours=hours)})
 
-    world = getattr(station.camera, "world", None)
-    changing = [getattr(c, "world", None) for c in (station.camera, *station.cameras)]
-    if not any(w is not None and w.changes for w in changing):
-        return station
     # each camera's world changes on its own schedule (a camera of several alone, too)
-    update: dict = {"camera": at(station.camera), "cameras": [at(c) for c in station.cameras]}
+    camera, cameras = at(station.camera), [at(c) for c in station.cameras]
+    if camera is station.camera and all(
+        a is b for a, b in zip(cameras, station.cameras, strict=True)
+    ):
+        return station
+    update: dict = {"camera": camera, "cameras": cameras}
+    world = getattr(station.camera, "world", None)
     faults = world.controller_faults(cycle) if world is not None else []
     if faults and station.controller.backend == "simulated":
         args = [*station.controller.simulator_args, *faults]

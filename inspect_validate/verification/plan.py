@@ -21,7 +21,7 @@ if TYPE_CHECKING:
     from inspect_validate.station.prediction import StationPrediction
     from inspect_validate.verification.golden import Golden
 
-__all__ = ["Plan", "plan_verification", "planned_tests"]
+__all__ = ["Plan", "check_trained", "plan_verification", "planned_tests"]
 
 
 @dataclass(frozen=True)
@@ -88,6 +88,18 @@ class Plan:
         }
 
 
+def check_trained(station: Station) -> None:
+    """Refuse a station (a camera of several's view) whose ``acceptance.drift`` has no
+    golden file to hold it to, naming the camera; before any golden file is read."""
+    drift = station.acceptance.drift
+    if drift is not None and drift.golden is None:
+        raise InputError(
+            f"acceptance.drift: camera {station.camera.name!r} has no golden file; give it "
+            "one (cameras[].golden, made by train --camera)",
+            source=str(station.path),
+        )
+
+
 def plan_verification(station: Station, *, drift_checks: bool = True) -> Plan:
     """Check ``station``'s scene, channels, ROIs, comparisons, acceptance and golden file;
     ``drift_checks``: that the golden file's repeats can set the drift checks' limits at
@@ -152,12 +164,8 @@ def plan_verification(station: Station, *, drift_checks: bool = True) -> Plan:
     if acc.drift:
         from inspect_validate.verification.golden_checks import validate_golden
 
-        if acc.drift.golden is None:  # a camera of several without its own
-            raise InputError(
-                f"acceptance.drift: camera {station.camera.name!r} has no golden file; give "
-                "it one (cameras[].golden, made by train --camera)",
-                source=str(station.path),
-            )
+        check_trained(station)
+        assert acc.drift.golden is not None  # check_trained refused a camera without
         golden = read_golden(station.resolve(acc.drift.golden))
         validate_golden(
             golden,

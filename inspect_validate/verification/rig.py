@@ -123,20 +123,14 @@ def plan_rig(station: Station, *, drift_checks: bool = True) -> dict[str, tuple[
     InputError
         A drift section and a camera without a golden file; whatever a plan refuses.
     """
-    from inspect_validate.verification.plan import plan_verification
+    from inspect_validate.verification.plan import check_trained, plan_verification
 
-    if station.acceptance.drift is not None:
-        untrained = [c.name for c in station.cameras if c.golden is None]
-        if untrained:  # said before any golden file is read
-            raise InputError(
-                f"acceptance.drift: camera {untrained[0]!r} has no golden file; give it one "
-                "(cameras[].golden, made by train --camera)",
-                source=str(station.path),
-            )
     share = rig_share(station.acceptance.false_alarm_rate, len(station.camera_names))
+    views = {name: _at_rate(station.view(name), share) for name in station.camera_names}
+    for view in views.values():  # every camera's, before any golden file is read
+        check_trained(view)
     plans = {}
-    for name in station.camera_names:
-        view = _at_rate(station.view(name), share)
+    for name, view in views.items():
         try:
             plans[name] = (view, plan_verification(view, drift_checks=drift_checks))
         except InputError as exc:

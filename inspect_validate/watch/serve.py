@@ -29,23 +29,22 @@ MAX_CONNECTIONS = 16
 
 def prometheus_text(doc: dict) -> str:
     """A status document as Prometheus metrics (text exposition format 0.0.4)."""
-    label, number = _label, _number
 
     lines = [
         "# HELP inspect_validate_info The station watched (its file), always 1.",
         "# TYPE inspect_validate_info gauge",
-        f'inspect_validate_info{{station="{label(doc.get("station", ""))}"}} 1',
+        f'inspect_validate_info{{station="{_label(doc.get("station", ""))}"}} 1',
         "# HELP inspect_validate_cycle Number of the latest committed watch cycle.",
         "# TYPE inspect_validate_cycle gauge",
         f"inspect_validate_cycle {doc['cycle']}",
         "# HELP inspect_validate_cycle_timestamp_seconds When the latest committed cycle "
         "started (Unix time).",
         "# TYPE inspect_validate_cycle_timestamp_seconds gauge",
-        f"inspect_validate_cycle_timestamp_seconds {number(doc.get('time'))}",
+        f"inspect_validate_cycle_timestamp_seconds {_number(doc.get('time'))}",
         "# HELP inspect_validate_cycle_interval_seconds The watch's interval between cycle "
         "starts (--interval).",
         "# TYPE inspect_validate_cycle_interval_seconds gauge",
-        f"inspect_validate_cycle_interval_seconds {number(doc.get('interval_s'))}",
+        f"inspect_validate_cycle_interval_seconds {_number(doc.get('interval_s'))}",
         "# HELP inspect_validate_status 1 for the latest cycle's status.",
         "# TYPE inspect_validate_status gauge",
     ]
@@ -69,13 +68,13 @@ def prometheus_text(doc: dict) -> str:
     rows: dict[str, list[str]] = {name: [] for name in series}
     for v in doc["values"]:
         labels = ",".join(
-            f'{k}="{label(v[k])}"'
+            f'{k}="{_label(v[k])}"'
             for k in ("camera", "illumination", "kind", "name", "quantity")
             if k in v  # a camera of several is named
         )
         for name, key in keys.items():
             if key in v:
-                rows[name].append(f"inspect_validate_{name}{{{labels}}} {number(v[key])}")
+                rows[name].append(f"inspect_validate_{name}{{{labels}}} {_number(v[key])}")
         rows["alarm"].append(f"inspect_validate_alarm{{{labels}}} {int(v['alarm'])}")
     for name, text in series.items():
         lines += [

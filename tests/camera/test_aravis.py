@@ -463,7 +463,7 @@ def test_one_of_two_cameras_killed_mid_capture_is_named_and_the_rounds_before_ke
     camera by its station name; the first step complete in both folders, matched round
     for round; the second marked failed in both, its whole rounds kept; and once the camera
     is back, --resume completes the capture in matched rounds."""
-    from conftest import copy_station
+    from conftest import capture_running, copy_station, resume_two_cameras
 
     serial, proc = fake_gige()
     path = copy_station(tmp_path)
@@ -474,16 +474,7 @@ def test_one_of_two_cameras_killed_mid_capture_is_named_and_the_rounds_before_ke
     doc.update(cameras=[top, side], frames=60, brightness_tolerance=0.05)
     path.write_text(yaml.safe_dump(doc, sort_keys=False))
     out = tmp_path / "cap"
-    capture = subprocess.Popen(
-        [sys.executable, "-m", "inspect_validate", "capture", str(path), "--out", str(out)],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
-    deadline = time.monotonic() + 120
-    while not (out / "side" / "red" / "frame_0003.json").exists():
-        assert capture.poll() is None and time.monotonic() < deadline, capture.communicate()
-        time.sleep(0.05)
+    capture = capture_running(path, out, out / "side" / "red" / "frame_0003.json")
     os.kill(proc.pid, signal.SIGKILL)
     _, err = capture.communicate(timeout=120)
     assert capture.returncode == 3, err
@@ -498,17 +489,7 @@ def test_one_of_two_cameras_killed_mid_capture_is_named_and_the_rounds_before_ke
     # The camera is back (its power cycled): --resume takes the failed step again in both
     # folders, its earlier attempt set aside in both, and the rounds match.
     fake_gige(serial=serial)
-    argv = [sys.executable, "-m", "inspect_validate", "capture", str(path), "--out", str(out)]
-    resumed = subprocess.run([*argv, "--resume"], capture_output=True, text=True, timeout=300)
-    assert resumed.returncode == 0, resumed.stderr
-    assert "amber: already complete, skipped" in resumed.stdout
-    top, side = (json.loads((out / n / "manifest.json").read_text()) for n in ("top", "side"))
-    for step in ("amber", "red", "dark"):
-        assert top["steps"][step]["complete"] and side["steps"][step]["complete"]
-        assert top["steps"][step]["rounds"] == side["steps"][step]["rounds"]
-    for name in ("top", "side"):
-        assert len(list((out / name / "red").glob("frame_*.tif"))) == 60
-        assert list((out / name / "red").glob("partial-*"))  # the failed attempt, kept
+    resume_two_cameras(path, out, 60)
 
 
 @pytest.mark.slow

@@ -211,29 +211,16 @@ def test_a_stopped_capture_of_two_cameras_resumes_into_matched_rounds(tmp_path):
     complete in both folders; --resume takes the rest, the interrupted attempt's frames
     set aside in both, and every step's rounds the same in both."""
     import signal
-    import time
+
+    from conftest import capture_running, resume_two_cameras
 
     path = two_cameras(copy_station(tmp_path, frames=40))
     out = tmp_path / "cap"
-    argv = [sys.executable, "-m", "inspect_validate", "capture", str(path), "--out", str(out)]
-    capture = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    deadline = time.monotonic() + 120
-    while not (out / "side" / "red" / "frame_0003.json").exists():
-        assert capture.poll() is None and time.monotonic() < deadline, capture.communicate()
-        time.sleep(0.02)
+    capture = capture_running(path, out, out / "side" / "red" / "frame_0003.json")
     capture.send_signal(signal.SIGTERM)
     _, err = capture.communicate(timeout=60)
     assert capture.returncode == 130, err
     for name in ("top", "side"):
         steps = _manifest(out / name)["steps"]
         assert steps["amber"]["complete"] and not steps["red"].get("complete")
-    resumed = subprocess.run([*argv, "--resume"], capture_output=True, text=True, timeout=300)
-    assert resumed.returncode == 0, resumed.stderr
-    assert "amber: already complete, skipped" in resumed.stdout
-    top, side = (_manifest(out / name) for name in ("top", "side"))
-    for step in ("amber", "red", "dark"):
-        assert top["steps"][step]["complete"] and side["steps"][step]["complete"]
-        assert top["steps"][step]["rounds"] == side["steps"][step]["rounds"]
-    for name in ("top", "side"):
-        assert len(list((out / name / "red").glob("frame_*.tif"))) == 40
-        assert list((out / name / "red").glob("partial-*"))  # the interrupted attempt, kept
+    resume_two_cameras(path, out, 40)

@@ -444,23 +444,13 @@ def test_sigterm_ends_a_capture_as_ctrl_c_does(tmp_path):
     every frame already grabbed on disk — not the default action's silent 143."""
     import os
     import signal
-    import subprocess
-    import sys
-    import time
+
+    from conftest import capture_running
 
     station = station_copy(tmp_path, simulator_args=["--slow", "0.05"])
     station.write_text(station.read_text().replace("frames: 4\n", "frames: 400\n"))
     out = tmp_path / "o"
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "inspect_validate", "capture", str(station), "--out", str(out)],
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
-    deadline = time.monotonic() + 60
-    while not (out / "amber" / "frame_0002.json").exists():
-        assert time.monotonic() < deadline and proc.poll() is None
-        time.sleep(0.05)
+    proc = capture_running(station, out, out / "amber" / "frame_0002.json", timeout=60)
     os.kill(proc.pid, signal.SIGTERM)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err
