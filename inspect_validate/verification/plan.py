@@ -21,7 +21,7 @@ if TYPE_CHECKING:
     from inspect_validate.station.prediction import StationPrediction
     from inspect_validate.verification.golden import Golden
 
-__all__ = ["Plan", "check_trained", "plan_verification", "planned_tests"]
+__all__ = ["Plan", "plan_verification", "planned_tests", "validate_trained"]
 
 
 @dataclass(frozen=True)
@@ -88,7 +88,7 @@ class Plan:
         }
 
 
-def check_trained(station: Station) -> None:
+def validate_trained(station: Station) -> None:
     """Refuse a station (a camera of several's view) whose ``acceptance.drift`` has no
     golden file to hold it to, naming the camera; before any golden file is read."""
     drift = station.acceptance.drift
@@ -164,8 +164,8 @@ def plan_verification(station: Station, *, drift_checks: bool = True) -> Plan:
     if acc.drift:
         from inspect_validate.verification.golden_checks import validate_golden
 
-        check_trained(station)
-        assert acc.drift.golden is not None  # check_trained refused a camera without
+        validate_trained(station)
+        assert acc.drift.golden is not None  # validate_trained refused a camera without
         golden = read_golden(station.resolve(acc.drift.golden))
         validate_golden(
             golden,

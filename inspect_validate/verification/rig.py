@@ -123,12 +123,12 @@ def plan_rig(station: Station, *, drift_checks: bool = True) -> dict[str, tuple[
     InputError
         A drift section and a camera without a golden file; whatever a plan refuses.
     """
-    from inspect_validate.verification.plan import check_trained, plan_verification
+    from inspect_validate.verification.plan import plan_verification, validate_trained
 
     share = rig_share(station.acceptance.false_alarm_rate, len(station.camera_names))
     views = {name: _at_rate(station.view(name), share) for name in station.camera_names}
     for view in views.values():  # every camera's, before any golden file is read
-        check_trained(view)
+        validate_trained(view)
     plans = {}
     for name, view in views.items():
         try:
