@@ -3,7 +3,7 @@ the time a cycle takes — measured through the CLI, against what the charts wer
 for in the same run.
 
 Run: ``python benchmarks/bench_watch.py [--stable 200] [--repeats 3] [--goldens 40]
-[--cycles 400]`` (about 30 minutes on 2 cores at the defaults).
+[--cycles 400] [--stops 20]`` (about 30 minutes on 2 cores at the defaults).
 
 1. **In control.** A golden file is trained (5 repeats), then ``--stable`` cycles of
    an unchanged world are watched through the CLI. Reported: the cycles that alarmed.
@@ -22,6 +22,9 @@ Run: ``python benchmarks/bench_watch.py [--stable 200] [--repeats 3] [--goldens 
    and how often the first named cause is the right one.
 3. **Cycle time.** The median time of a watched cycle (capture, verify, chart,
    commit) against a bare ``capture`` of the same station in the same process.
+4. **Stop latency.** ``--stops`` watch processes, each sent SIGTERM at its own moment
+   of start-up or cycling: the seconds until the process ended (the tests bound it
+   only loosely, as a stop that hangs; the figure is here).
 """
 
 from __future__ import annotations
@@ -202,6 +205,42 @@ def capture_time(tmp: Path) -> float:
     return float(np.median(times))
 
 
+def stop_latency(tmp: Path, golden: Path, stops: int) -> list[float]:
+    """Seconds from a SIGTERM to the end of a ``watch`` process, the signal sent at
+    delays spread over its start-up and its cycles (the latency a service manager sees)."""
+    import os
+    import signal
+    import subprocess
+
+    path = station(tmp / "stops")
+    took = []
+    for k in range(stops):
+        proc = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "inspect_validate",
+                "watch",
+                str(path),
+                "--golden",
+                str(golden),
+                "--db",
+                str(tmp / "stops" / f"w{k}" / "h.sqlite"),
+                "--interval",
+                "0",
+            ],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+            env={**os.environ},
+        )
+        time.sleep(0.3 + 3.7 * k / max(stops - 1, 1))
+        t0 = time.perf_counter()
+        proc.send_signal(signal.SIGTERM)
+        proc.wait()
+        took.append(time.perf_counter() - t0)
+    return took
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--stable", type=int, default=200, help="in-control cycles")
@@ -209,6 +248,7 @@ def main():
     parser.add_argument("--goldens", type=int, default=24, help="golden files, measured ARL")
     parser.add_argument("--cycles", type=int, default=400, help="cycles per golden file")
     parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--stops", type=int, default=20, help="watch runs stopped by SIGTERM")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
@@ -221,6 +261,7 @@ def main():
             for name, change, cause in CHANGES
         ]
         bare = capture_time(tmp)
+        stops = stop_latency(tmp, golden, args.stops)
         arls = {
             name: measured_arl(tmp, world, args.goldens, args.cycles, args.jobs, twelve_bit=twelve)
             for name, world, twelve in (
@@ -264,6 +305,11 @@ def main():
     print(
         f"| cycle time [s] (watch against a bare capture) | {stable['seconds']:.2f} | "
         f"{bare:.2f} | {stable['seconds'] / bare:.2f} |"
+    )
+    print(
+        f"| stop latency after SIGTERM [s] (median, max of {len(stops)}; against a cycle) | "
+        f"{np.median(stops):.2f}, {max(stops):.2f} | {stable['seconds']:.2f} | "
+        f"{max(stops) / stable['seconds']:.2f} |"
     )
     print()
     print(f"| change at cycle {ONSET} | cycles to the alarm (each run) | right cause |")

@@ -135,7 +135,8 @@ class CaptureStore:
                 )
             if not resume:
                 raise InputError(
-                    "a capture is already here; add --resume to continue it, or choose a new --out folder",
+                    "a capture is already here: choose a new --out folder, verify what it holds with "
+                    "--frames, or continue it with 'capture --resume'",
                     source=str(self.folder),
                 )
             self.manifest = manifest

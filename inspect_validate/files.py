@@ -28,6 +28,7 @@ if TYPE_CHECKING:
 __all__ = [
     "NotRegularFile",
     "atomic_write",
+    "fresh_folder",
     "input_file",
     "json_number",
     "json_ready",
@@ -104,6 +105,60 @@ def output_folder(path: str | Path) -> Path:
     except OSError as exc:
         raise InputError(f"cannot create this folder ({exc.strerror})", source=str(path)) from None
     return path
+
+
+def fresh_folder(path: str | Path, *, derived: frozenset[str], keep=()) -> Path | None:
+    """Empty ``path`` for a run that writes its outputs there again, losing nothing.
+
+    The files an earlier run wrote there and a run makes anew (their names in
+    ``derived``, in the folder or its subfolders, and the temporary files of a write
+    that was killed) are removed, so a run killed while writing leaves its own files,
+    never a mix of two runs'. Where the folder holds anything else, such as the frames
+    an earlier run captured into it, the folder is set aside whole, renamed to
+    ``<name>-<time it was last written>`` beside it, and that path is returned. A
+    folder holding a path of ``keep`` (what this run reads) stays where it is, and only
+    its derived files are removed.
+
+    Returns
+    -------
+    Path or None
+        Where the earlier folder now is, or None where nothing was set aside.
+    """
+    import time
+
+    path = Path(path)
+    if not path.is_dir() or path.is_symlink():
+        return None  # absent, or refused as output (output_folder) with a clear message
+
+    def is_derived(p: Path) -> bool:
+        return p.name in derived or (p.name.startswith(".") and p.name.endswith(".tmp"))
+
+    inside = [p for p in path.rglob("*") if not p.is_dir() or p.is_symlink()]
+    kept = [Path(k).resolve() for k in keep if k is not None]
+    holds_kept = any(k == path.resolve() or path.resolve() in k.parents for k in kept)
+    if holds_kept or all(is_derived(p) for p in inside):
+        for p in inside:
+            if is_derived(p) and not any(k == p.resolve() or k in p.parents for k in kept):
+                p.unlink(missing_ok=True)
+        for sub in sorted((d for d in path.rglob("*") if d.is_dir()), reverse=True):
+            with contextlib.suppress(OSError):
+                sub.rmdir()  # a camera's report folder left empty
+        return None
+    stamp = time.strftime("%Y%m%dT%H%M%S", time.localtime(path.stat().st_mtime))
+    aside = path.with_name(f"{path.name}-{stamp}")
+    n = 1
+    while aside.exists():
+        n += 1
+        aside = path.with_name(f"{path.name}-{stamp}-{n}")
+    try:
+        path.rename(aside)
+    except OSError as exc:
+        raise InputError(
+            f"holds an earlier run's files that could not be set aside ({exc.strerror}); "
+            "move them, or give another folder",
+            source=str(path),
+        ) from None
+    return aside
 
 
 @contextlib.contextmanager

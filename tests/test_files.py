@@ -5,7 +5,7 @@ import threading
 
 import pytest
 
-from inspect_validate.files import atomic_write, write_json
+from inspect_validate.files import atomic_write, fresh_folder, write_json
 
 
 def test_a_symbolic_link_is_written_through(tmp_path):
@@ -113,3 +113,40 @@ def test_a_pipe_nobody_reads_is_refused_not_waited_on(tmp_path, monkeypatch):
     with pytest.raises(InputError, match=r"a pipe no program read within 0\.2 s"):
         write_json({"a": 1}, fifo)
     assert fifo.exists() and not fifo.is_file()
+
+
+DERIVED = frozenset({"report.html", "junit.xml"})
+
+
+def test_fresh_folder_removes_only_what_a_run_makes_anew(tmp_path):
+    """A folder of derived files (and a killed write's temporary file, and a camera's
+    subfolder of them) is emptied in place: no two runs' files side by side."""
+    (tmp_path / "r" / "side").mkdir(parents=True)
+    for name in ("report.html", "junit.xml", ".report.html.abc.tmp", "side/junit.xml"):
+        (tmp_path / "r" / name).write_text("old")
+    assert fresh_folder(tmp_path / "r", derived=DERIVED) is None
+    assert list((tmp_path / "r").iterdir()) == []
+
+
+def test_fresh_folder_sets_aside_a_folder_holding_anything_else(tmp_path):
+    (tmp_path / "r" / "frames").mkdir(parents=True)
+    (tmp_path / "r" / "frames" / "f.tif").write_bytes(b"frame")
+    (tmp_path / "r" / "junit.xml").write_text("old")
+    aside = fresh_folder(tmp_path / "r", derived=DERIVED)
+    assert aside is not None and aside.parent == tmp_path and aside.name.startswith("r-")
+    assert (aside / "frames" / "f.tif").read_bytes() == b"frame" and not (tmp_path / "r").exists()
+    (tmp_path / "r" / "frames").mkdir(parents=True)
+    (tmp_path / "r" / "frames" / "f.tif").write_bytes(b"frame 2")
+    again = fresh_folder(tmp_path / "r", derived=DERIVED)
+    assert again is not None and again != aside and (again / "frames" / "f.tif").exists()
+
+
+def test_fresh_folder_leaves_a_folder_this_run_reads_in_place(tmp_path):
+    (tmp_path / "r" / "frames").mkdir(parents=True)
+    (tmp_path / "r" / "frames" / "f.tif").write_bytes(b"frame")
+    (tmp_path / "r" / "junit.xml").write_text("old")
+    assert fresh_folder(tmp_path / "r", derived=DERIVED, keep=[tmp_path / "r" / "frames"]) is None
+    assert (tmp_path / "r" / "frames" / "f.tif").exists() and not (
+        tmp_path / "r" / "junit.xml"
+    ).exists()
+    assert fresh_folder(tmp_path / "missing", derived=DERIVED) is None

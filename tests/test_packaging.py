@@ -9,6 +9,7 @@ import shutil
 import subprocess
 import sys
 import zipfile
+from pathlib import Path
 
 import pytest
 from conftest import ROOT
@@ -70,10 +71,20 @@ def test_every_command_runs_from_the_installed_wheel(tmp_path):
 
     wheel = _build_wheel(tmp_path)
     env_dir = tmp_path / "venv"
-    subprocess.run(
-        [sys.executable, "-m", "venv", "--system-site-packages", str(env_dir)], check=True
-    )
+    subprocess.run([sys.executable, "-m", "venv", str(env_dir)], check=True)
     python = env_dir / "bin" / "python"
+    # The dependencies are this environment's, whatever the base interpreter holds
+    # (--system-site-packages gives the base's, which may lack them). Paths in a .pth
+    # file are added after the venv's own site-packages, and their own .pth files are
+    # not run, so this checkout's editable install does not shadow the wheel.
+    own = subprocess.run(
+        [str(python), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
+        check=True,
+        capture_output=True,
+        text=True,
+    ).stdout.strip()
+    ours = [p for p in sys.path if p.endswith(("site-packages", "dist-packages"))]
+    (Path(own) / "dependencies.pth").write_text("\n".join(ours) + "\n")
     subprocess.run(
         [str(python), "-m", "pip", "install", "-q", "--no-deps", str(wheel)],
         check=True,

@@ -365,6 +365,26 @@ def printer(json_path) -> Callable[..., None]:
     return click.echo
 
 
+# What verify writes into its --report folder, and makes anew each run (each camera's
+# in a folder of its name).
+REPORT_FILES = frozenset({"report.html", "verification.json", "production.json", "junit.xml"})
+
+
+def fresh_report(report_dir, *, reading=()) -> None:
+    """Make ``report_dir`` ready for this run's report (:func:`~inspect_validate.files.fresh_folder`):
+    an earlier report's files removed, an earlier report that holds frames set aside and
+    said so; the folders this run reads (``reading``) are left in place."""
+    from inspect_validate.files import fresh_folder
+
+    if report_dir is None:
+        return
+    aside = fresh_folder(report_dir, derived=REPORT_FILES, keep=reading)
+    if aside is not None:
+        click.echo(
+            f"note: the earlier report in {report_dir} (and its frames) is now {aside}", err=True
+        )
+
+
 def validate_outputs(*, files=(), folders=()) -> None:
     """Check output paths before the work starts, so a typo does not cost a sweep or a capture."""
     from inspect_validate.files import output_file, output_folder

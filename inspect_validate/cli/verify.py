@@ -9,6 +9,7 @@ import click
 from inspect_validate.cli.common import (
     PATH,
     camera_option,
+    fresh_report,
     new_folder,
     validate_outputs,
     verify_and_report,
@@ -29,7 +30,8 @@ from inspect_validate.errors import EXIT_CHECK_FAILED
     "--out",
     type=PATH,
     help="Where to save the frames captured now (default: REPORT/frames, else a new "
-    "folder verify-<station>-<time>).",
+    "folder verify-<station>-<time>). An earlier REPORT holding frames is set aside as "
+    "REPORT-<time>.",
 )
 @click.option(
     "--report",
@@ -89,6 +91,7 @@ def verify(
 
     st = with_camera(read_station(station), camera_name)
     validate_outputs(folders=[report_dir])
+    fresh_report(report_dir, reading=(frames_dir, out, history_path, golden_path))
     if production:
         _verify_production(
             st.one_camera("verify --production"), frames_dir, golden_path, report_dir
@@ -135,8 +138,8 @@ def _verify_production(st, frames_dir, golden_path, report_dir) -> None:
         from inspect_validate.report.verification import write_junit
 
         write_json(production_document(result), report_dir / "production.json")
-        write_production_html(result, report_dir / "report.html")
         write_junit(result, report_dir / "junit.xml")
+        write_production_html(result, report_dir / "report.html")  # last: the folder is whole
         click.echo(f"wrote {report_dir / 'report.html'}, production.json and junit.xml")
     if not result.passed:
         sys.exit(EXIT_CHECK_FAILED)

@@ -41,6 +41,42 @@ def test_shipped_station_passes_with_reports(cli, tmp_path):
     assert len(list((tmp_path / "report" / "frames" / "amber").glob("frame_*.tif"))) == 4
 
 
+def test_verify_run_again_into_its_report_sets_the_earlier_one_aside(cli, tmp_path):
+    """The quick start run twice: the second run captures anew into REPORT/frames and
+    the first report, frames and all, is set aside beside it (nothing captured is
+    lost); verifying that capture again with --frames leaves it where it is and
+    rewrites only the report's own files."""
+    path = station(tmp_path)
+    assert verify(cli, tmp_path, path)[0] == 0
+    first = (tmp_path / "report" / "frames" / "manifest.json").read_bytes()
+    code, out, err, doc = verify(cli, tmp_path, path)
+    assert code == 0, out + err
+    [aside] = [p for p in tmp_path.iterdir() if p.name.startswith("report-")]
+    assert f"is now {aside}" in err
+    assert (aside / "frames" / "manifest.json").read_bytes() == first
+    assert {p.name for p in aside.iterdir()} == {
+        "frames",
+        "report.html",
+        "verification.json",
+        "junit.xml",
+    }
+    assert (tmp_path / "report" / "frames" / "manifest.json").read_bytes() != first
+    frames = tmp_path / "report" / "frames"
+    (tmp_path / "report" / "verification.json").write_text("an earlier run's")
+    code, out, err = cli(["verify", path, "--frames", frames, "--report", tmp_path / "report"])
+    assert code == 0, out + err
+    assert "is now" not in err and len(list(tmp_path.glob("report-*"))) == 1
+    assert json.loads((tmp_path / "report" / "verification.json").read_text())["verdict"] == "pass"
+
+
+def test_a_capture_already_in_out_names_no_option_verify_lacks(cli, tmp_path):
+    path = station(tmp_path)
+    assert cli(["capture", path, "--out", tmp_path / "cap"])[0] == 0
+    code, out, err = cli(["verify", path, "--out", tmp_path / "cap"])
+    assert code == 2 and "a capture is already here" in err
+    assert "--resume" not in err.replace("capture --resume", "") and "--frames" in err
+
+
 def test_the_report_says_how_each_steps_frames_were_taken(cli, tmp_path):
     """Per step: the acquisition mode, the exposure the frames verifiably had (their
     chunks) and what was discarded and why — here every third frame exposed at half
