@@ -11,9 +11,21 @@ sent and those that brought no frame) and records each step's share in the manif
 
 from __future__ import annotations
 
+import hashlib
+import json
+import math
 from collections.abc import Iterable, Mapping
+from typing import Any
 
-__all__ = ["COUNTERS", "GAUGES", "HEALTH", "capture_health", "step_health"]
+__all__ = [
+    "COUNTERS",
+    "GAUGES",
+    "HEALTH",
+    "capture_health",
+    "health_problem",
+    "health_sha256",
+    "step_health",
+]
 
 COUNTERS: dict[str, str] = {
     "frames_delivered": "frames the stream delivered whole",
@@ -38,6 +50,41 @@ HEALTH = (*COUNTERS, *GAUGES)
 """Every health quantity, in the order reports list them."""
 
 _LARGEST = 2.0**53  # counts beyond what a float holds exactly are not counts
+
+
+def health_sha256(record: Any) -> str:
+    """The SHA-256 of a step's health record as the manifest stores it beside the record
+    (``steps.<name>.health_sha256``): an edited record is an edited capture."""
+    text = json.dumps(record, sort_keys=True, separators=(",", ":"), allow_nan=True)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def health_problem(record: Mapping) -> str | None:
+    """What makes a manifest's step record's health unusable, or None where it is whole:
+    a record whose hash is absent or differs (edited, or written before records were
+    hashed), a hash without its record (removed), a record that is not a mapping of the
+    quantities to finite numbers in their range (a counter is a whole number ≥ 0)."""
+    has, digest = "health" in record, record.get("health_sha256")
+    if not has and digest is None:
+        return None
+    if not has:
+        return "its health record was removed (its hash is still there)"
+    health = record["health"]
+    if digest != health_sha256(health):
+        return (
+            "its health record is not the one the capture wrote (its SHA-256 differs or is missing)"
+        )
+    if not isinstance(health, Mapping):
+        return f"its health record is {type(health).__name__}, not a mapping of quantities"
+    for name, value in health.items():
+        number = isinstance(value, (int, float)) and not isinstance(value, bool)
+        if name not in HEALTH:
+            return f"its health record names {name!r}, not a health quantity"
+        if not number or not math.isfinite(value) or not abs(value) <= _LARGEST:
+            return f"its health record's {name} is {value!r}, not a finite number"
+        if name in COUNTERS and (value < 0 or value != int(value)):
+            return f"its health record's {name} is {value!r}, not a count"
+    return None
 
 
 def step_health(before: Mapping[str, float], after: Mapping[str, float]) -> dict[str, float]:

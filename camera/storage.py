@@ -37,6 +37,7 @@ from typing import Any, TextIO
 
 from inspect_validate import __version__
 from inspect_validate.camera.frame import Frame
+from inspect_validate.camera.health import health_problem, health_sha256
 from inspect_validate.errors import InputError, listed
 from inspect_validate.files import (
     atomic_write,
@@ -80,11 +81,21 @@ def changed_settings(before: dict[str, str], now: dict[str, str]) -> list[str]:
     ]
 
 
+def _unique_keys(pairs: list[tuple[str, Any]]) -> dict:
+    """A JSON object whose keys are each given once: a key given twice is an edit (JSON
+    would keep the last silently)."""
+    out = dict(pairs)
+    if len(out) != len(pairs):
+        twice = sorted({k for k, _ in pairs if [p[0] for p in pairs].count(k) > 1})
+        raise ValueError(f"the key {twice[0]!r} is given twice")
+    return out
+
+
 def read_manifest(path: Path) -> dict:
     """A capture's manifest, checked enough to resume or measure from (a damaged one is
     refused naming the file: the frames beside it stay as they are)."""
     try:
-        manifest = json.loads(regular_text(path))
+        manifest = json.loads(regular_text(path), object_pairs_hook=_unique_keys)
     except (OSError, UnicodeDecodeError, ValueError, RecursionError) as exc:
         manifest = exc
     steps = manifest.get("steps") if isinstance(manifest, dict) else None
@@ -143,7 +154,8 @@ class CaptureStore:
         else:
             self.manifest = {
                 "schema": "inspect-validate/capture",
-                "schema_version": 2,  # 2: every step records its frames' hashes
+                # 2: every step records its frames' hashes; 3: and its health record's
+                "schema_version": 3,
                 "station": str(station_path),
                 "station_sha256": station_sha256,
                 "tool_version": __version__,
@@ -185,8 +197,11 @@ class CaptureStore:
         self._save_manifest()
 
     def note(self, step: str, key: str, value: Any) -> None:
-        """Record ``key`` for ``step`` (e.g. the light state the controller reports)."""
+        """Record ``key`` for ``step`` (e.g. the light state the controller reports); a
+        health record with its hash (:func:`~inspect_validate.camera.health.health_sha256`)."""
         self.manifest["steps"][step][key] = value
+        if key == "health":
+            self.manifest["steps"][step]["health_sha256"] = health_sha256(value)
 
     def is_complete(self, step: str) -> bool:
         return bool(self.manifest["steps"].get(step, {}).get("complete"))
@@ -349,6 +364,8 @@ def audit_capture(folder: Path, manifest: dict, steps: Iterable[str]) -> dict[st
                 f"{step}: the manifest's frame hashes (sha256) are missing or damaged, so the "
                 "frames cannot be checked"
             )
+        if (why := health_problem(record)) is not None:
+            problems.append(f"{step}: {why}")
         if isinstance(recorded, dict):
             missing = sorted(set(recorded) - set(names))
             extra = sorted(set(names) - set(recorded))

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from inspect_validate.errors import listed
 from inspect_validate.verification.checks import Check, at_most, not_run
 
 if TYPE_CHECKING:
@@ -31,24 +32,35 @@ def health_checks(health: Health, manifest: dict) -> tuple[list[Check], list[str
     no health record at all (taken before health was recorded, or frames from elsewhere)
     is skipped as a whole.
     """
-    from inspect_validate.camera.health import capture_health
+    from inspect_validate.camera.health import capture_health, health_problem
 
-    steps = [s for s in (manifest.get("steps") or {}).values() if isinstance(s, dict)]
-    if not any(isinstance(s.get("health"), dict) for s in steps):
+    records = manifest.get("steps") if isinstance(manifest.get("steps"), dict) else {}
+    steps = {n: s for n, s in records.items() if isinstance(s, dict) and s.get("complete")}
+    held = [n for n, s in steps.items() if "health" in s or "health_sha256" in s]
+    if not held:
         return [], [
             "camera health: the capture holds no health record (taken before health was "
             "recorded, or frames from elsewhere)"
         ]
-    total = capture_health(steps)
+    # A record that cannot be read, or a step without one beside steps with one, leaves
+    # every limit unchecked: a share over fewer frames, or a value dropped, is no pass.
+    unread = [f"step {n!r}: {why}" for n, s in steps.items() if (why := health_problem(s))]
+    unread += [f"step {n!r} holds no health record while others do" for n in steps if n not in held]
+    total = capture_health(steps.values())
     asked = health.model_fields_set
     checks: list[Check] = []
     skipped: list[str] = []
 
     def absent(field: str, name: str, limit: float, unit: str, why: str) -> None:
-        if field in asked:
+        if unread:
+            checks.append(not_run(name, "health", limit, unit, "≤", listed(unread, 2)))
+        elif field in asked:
             checks.append(not_run(name, "health", limit, unit, "≤", why))
         else:
             skipped.append(f"{name}: {why}")
+
+    if unread:
+        total = {}  # every quantity is then "absent", for the reason above
 
     if health.incomplete_frames is not None:
         name = "camera: frames arriving incomplete"
@@ -152,9 +164,17 @@ def health_text(health: dict) -> str:
         ("triggers_missed", "missed"),
     ):
         if key in health:
-            parts.append(f"{health[key]:g} {label}")
+            parts.append(f"{_number(health[key], 'g')} {label}")
     if "temperature_c" in health:
-        parts.append(f"{health['temperature_c']:.1f} °C")
+        parts.append(f"{_number(health['temperature_c'], '.1f')} °C")
     if "link_speed_mbps" in health:
-        parts.append(f"link {health['link_speed_mbps']:g} Mbit/s")
+        parts.append(f"link {_number(health['link_speed_mbps'], 'g')} Mbit/s")
     return ", ".join(parts) or "not reported"
+
+
+def _number(value, spec: str) -> str:
+    """A health value as text; one that is no number (an edited record, refused by the
+    checks) shown as given rather than formatted."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        return format(value, spec)
+    return f"{value!r} (not a number)"

@@ -208,8 +208,9 @@ def test_a_capture_without_health_records_is_verified_saying_so(tmp_path):
     assert run_cli(["capture", station, "--out", tmp_path / "frames"]) == 0
     manifest_path = tmp_path / "frames" / "manifest.json"
     manifest = json.loads(manifest_path.read_text())
-    for step in manifest["steps"].values():
+    for step in manifest["steps"].values():  # as a capture made before health was recorded
         step.pop("health")
+        step.pop("health_sha256")
     manifest_path.write_text(json.dumps(manifest))
     code = run_cli(
         ["verify", station, "--frames", tmp_path / "frames", "--report", tmp_path / "out"]
@@ -217,3 +218,90 @@ def test_a_capture_without_health_records_is_verified_saying_so(tmp_path):
     doc = json.loads((tmp_path / "out" / "verification.json").read_text())
     assert code == 0
     assert any("holds no health record" in s for s in doc["skipped"])
+
+
+# An edited health record, of each kind the hostile kit tried: a string, a mapping, a list,
+# null, NaN, inf, 1e308, a negative or a huge count, a boolean; its record removed; a key
+# given twice.
+EDITS = [
+    ("frames_incomplete", "2"),
+    ("frames_incomplete", {"n": 1}),
+    ("frames_incomplete", [1]),
+    ("frames_incomplete", None),
+    ("frames_incomplete", float("nan")),
+    ("frames_incomplete", float("inf")),
+    ("frames_incomplete", 1e308),
+    ("frames_incomplete", -1),
+    ("triggers_missed", 1.15e18),
+    ("triggers_missed", True),
+]
+
+
+@pytest.fixture(scope="module")
+def healthy_capture(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("healthy")
+    station = _station(tmp)
+    assert run_cli(["capture", station, "--out", tmp / "frames"]) == 0
+    return station, tmp / "frames"
+
+
+def _edited(healthy_capture, tmp_path, edit):
+    import shutil
+
+    station, frames = healthy_capture
+    copy = tmp_path / "frames"
+    shutil.copytree(frames, copy)
+    manifest_path = copy / "manifest.json"
+    manifest = json.loads(manifest_path.read_text())
+    edit(manifest["steps"]["red"])
+    manifest_path.write_text(json.dumps(manifest))
+    return station, copy, manifest
+
+
+@pytest.mark.parametrize(("quantity", "value"), EDITS, ids=[repr(v) for _, v in EDITS])
+def test_an_edited_health_record_is_an_edited_capture(
+    cli, healthy_capture, tmp_path, quantity, value
+):
+    """Refused by verify as edited frames are (exit 2, naming the step), never dropped
+    into 'the camera does not report them' and a pass; and where the record is read
+    without the audit (a production verdict), every health check could not run."""
+    from inspect_validate.acceptance import Health
+    from inspect_validate.verification.health_checks import health_checks, health_text
+
+    station, frames, manifest = _edited(
+        healthy_capture, tmp_path, lambda step: step["health"].__setitem__(quantity, value)
+    )
+    code, out, err = cli(["verify", station, "--frames", frames])
+    assert code == 2 and "red: its health record is not the one the capture wrote" in err, err
+    assert "Traceback" not in err
+    checks, _ = health_checks(Health(), manifest)
+    assert checks and all(not c.passed and "could not run: step 'red'" in c.detail for c in checks)
+    label = {"frames_incomplete": "incomplete", "triggers_missed": "missed"}[quantity]
+    assert label in health_text(manifest["steps"]["red"]["health"])  # shown, never raises
+
+
+def test_a_health_record_removed_or_a_key_given_twice_is_refused(cli, healthy_capture, tmp_path):
+    station, frames, _ = _edited(healthy_capture, tmp_path, lambda step: step.pop("health"))
+    code, _, err = cli(["verify", station, "--frames", frames])
+    assert code == 2 and "red: its health record was removed" in err
+    manifest_path = frames / "manifest.json"
+    text = manifest_path.read_text().replace(
+        '"complete": true', '"complete": true, "complete": true', 1
+    )
+    manifest_path.write_text(text)
+    code, _, err = cli(["verify", station, "--frames", frames])
+    assert code == 2 and "the key 'complete' is given twice" in err
+
+
+def test_a_step_without_health_beside_steps_with_it_is_not_checked(healthy_capture, tmp_path):
+    from inspect_validate.acceptance import Health
+    from inspect_validate.verification.health_checks import health_checks
+
+    def drop(step):
+        step.pop("health")
+        step.pop("health_sha256")
+
+    _, _, manifest = _edited(healthy_capture, tmp_path, drop)
+    checks, _ = health_checks(Health(), manifest)
+    assert checks and all("step 'red' holds no health record" in c.detail for c in checks)
+    assert not any(c.passed for c in checks)
