@@ -46,6 +46,8 @@ def format_production(v: ProductionVerification) -> str:
     out += ["", false_alarm_line(v), verdict_table(rows, terminal_width(sys.stdout))]
     for item in v.skipped:
         out.append(labelled("skipped", item, stream=sys.stdout))
+    for item in v.notes:
+        out.append(labelled("note", item, stream=sys.stdout))
     for frame, why in list(parts.not_measured.items())[:10]:
         out.append(labelled("not measured", f"{frame}: {why}", stream=sys.stdout))
     if len(parts.not_measured) > 10:
@@ -69,6 +71,7 @@ def production_document(v: ProductionVerification) -> dict:
         "false_alarm": false_alarm_document(v),
         "checks": verdict_documents(v.checks),
         "skipped": list(v.skipped),
+        "notes": list(v.notes),
         "parts": [
             {
                 "frame": p.frame,

@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from inspect_validate.errors import InputError
+from inspect_validate.errors import InputError, listed
 
 if TYPE_CHECKING:
     from collections.abc import Iterable, Sequence
@@ -195,6 +195,7 @@ class ProductionVerification:
     checks: tuple[Check, ...]
     false_alarm: float
     skipped: tuple[str, ...] = ()  # what was not checked, and why
+    notes: tuple[str, ...] = ()  # what a reader of the verdict should know of its inputs
 
     @property
     def passed(self) -> bool:
@@ -283,8 +284,17 @@ def verify_parts(
     unhealthy, skipped = health_checks(station.acceptance.health, manifest or {})
     checks += unhealthy
     rate = station.acceptance.false_alarm_rate
+    from inspect_validate.station.file import station_hash
+
+    notes = ()
+    if station.path is not None and golden.station_sha256 != station_hash(station.path):
+        notes = (
+            "the golden file was trained with another version of the station file (its "
+            "station_sha256 differs): its parts are the reference as they are; train it "
+            "again if the station changed",
+        )
     return ProductionVerification(
-        station, golden, parts, decide(checks, rate), rate, tuple(skipped)
+        station, golden, parts, decide(checks, rate), rate, tuple(skipped), notes
     )
 
 
@@ -313,6 +323,22 @@ def production_golden(golden: Golden, station: Station, *, source: str) -> None:
         raise InputError(
             f"the golden file holds {', '.join(golden.illuminations)}, not the production "
             f"illumination {name!r}; train it again from this station's parts",
+            source=source,
+        )
+    from inspect_validate.verification.measured import station_regions
+
+    g = golden.illuminations[name]
+    rois, comparisons = station_regions(station)
+    lacks = [f"class {c.name!r}" for c in rois.classes if c.name not in g.classes]
+    lacks += [f"class {n!r}'s focus" for n, c in g.classes.items() if c.focus is None]
+    lacks += [f"comparison {label!r}" for label in comparisons.labels if label not in g.comparisons]
+    if g.pose is None:
+        lacks.append("the parts' pose (x, y, rotation)")
+    if lacks:
+        raise InputError(
+            f"the golden file lacks {listed(lacks, 3)} that a verdict on this station's "
+            "parts checks (edited, or trained on another ROI file): train it again from "
+            "this station's parts",
             source=source,
         )
 

@@ -132,6 +132,44 @@ def test_bench_and_line_golden_files_are_not_mixed_up(trained, tmp_path, capsys)
     assert code == 2 and "trained on the bench" in err and "bench.json" in err
 
 
+def _golden_edited(golden, tmp_path, edit):
+    doc = json.loads(golden.read_text())
+    edit(doc, next(iter(doc["illuminations"].values())))
+    path = tmp_path / "edited.json"
+    path.write_text(json.dumps(doc))
+    return path
+
+
+@pytest.mark.parametrize(
+    ("edit", "says"),
+    [
+        (lambda doc, ill: ill["classes"].pop(next(iter(ill["classes"]))), "lacks class"),
+        (lambda doc, ill: ill.pop("pose"), "the parts' pose"),
+        (lambda doc, ill: ill["comparisons"].clear(), "lacks comparison"),
+        (lambda doc, ill: next(iter(ill["classes"].values())).pop("focus"), "focus"),
+    ],
+    ids=["class", "pose", "comparisons", "focus"],
+)
+def test_a_golden_file_lacking_what_the_verdict_checks_is_refused(trained, tmp_path, cli, edit, says):
+    """A class, the pose, a comparison or a focus removed: exit 2 naming the golden file
+    (it was a KeyError traceback, or a pass with the pose checks gone)."""
+    station, golden = trained
+    code, out, err = cli(["verify", station, "--production", "--frames", tmp_path / "good",
+                          "--golden", _golden_edited(golden, tmp_path, edit)])  # fmt: skip
+    assert code == 2 and says in err and "edited.json" in err and "Traceback" not in err, err
+
+
+def test_a_golden_file_of_another_station_version_is_said(trained, tmp_path, cli):
+    station, golden = trained
+    edited = _golden_edited(golden, tmp_path, lambda doc, ill: doc.update(station_sha256="0" * 64))
+    code, out, err = cli(["verify", station, "--production", "--frames", tmp_path / "good",
+                          "--golden", edited])  # fmt: skip
+    assert code == 0 and "note: the golden file was trained with another version" in out
+    code, out, err = cli(["verify", station, "--production", "--frames", tmp_path / "good",
+                          "--golden", golden])  # fmt: skip
+    assert code == 0 and "another version" not in out
+
+
 def test_production_options_need_their_parts(trained, tmp_path, capsys):
     station, golden = trained
     assert run_cli(["verify", station, "--production", "--golden", golden]) == 2
