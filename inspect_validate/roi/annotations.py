@@ -19,6 +19,7 @@ until the whole ROI file has been made and read back in a folder of its own.
 from __future__ import annotations
 
 import json
+import math
 import os
 import shutil
 import tempfile
@@ -28,7 +29,15 @@ from pathlib import Path
 from typing import Annotated, Any
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, StrictFloat, StrictInt, ValidationError
+from pydantic import (
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    StrictFloat,
+    StrictInt,
+    ValidationError,
+)
 
 from inspect_validate.errors import InputError
 from inspect_validate.files import input_file
@@ -45,7 +54,18 @@ MAX_BYTES = 64 * 2**20
 MAX_SIDE, MAX_PIXELS = 100_000, 2**28
 
 Number = StrictInt | StrictFloat  # JSON numbers; no booleans, no text
-Coordinate = Annotated[Number, Field(ge=-1e7, le=1e7, allow_inf_nan=False)]
+
+
+def _finite(value: Any) -> Any:
+    # Before the range: NaN fails every comparison, and was told "should be ≥ −10⁷".
+    if isinstance(value, float) and not math.isfinite(value):
+        raise ValueError(f"{value} is not a finite number")
+    return value
+
+
+Coordinate = Annotated[
+    Number, BeforeValidator(_finite), Field(ge=-1e7, le=1e7, allow_inf_nan=False)
+]
 Point = tuple[Coordinate, Coordinate]
 Side = Annotated[StrictInt, Field(gt=0, le=MAX_SIDE)]
 Label = Annotated[str, Field(min_length=1, max_length=100)]
@@ -471,6 +491,15 @@ def _label_image(path: Path, *, image: str | None):
 _NO_AREA = {"line", "linestrip", "line_strip", "point", "points"}
 
 
+def _camera_sized(width: int, height: int, what: str, path: Path) -> None:
+    """Refuse an annotated image no camera takes, before a mask of its size is made."""
+    if width * height > MAX_PIXELS:
+        raise InputError(
+            f"{what} is {width}×{height}: larger than any camera's frame ({MAX_PIXELS} pixels)",
+            source=str(path),
+        )
+
+
 def _labelme(path: Path, doc: Any):
     import base64
 
@@ -478,6 +507,8 @@ def _labelme(path: Path, doc: Any):
 
     lm = _validated(LabelmeFile, doc, path, "labelme")
     frame = (lm.imageWidth, lm.imageHeight) if lm.imageWidth and lm.imageHeight else None
+    if frame is not None:
+        _camera_sized(*frame, "its image (imageWidth × imageHeight)", path)
     found: dict[str, list[Part]] = {}
     notes: list[str] = []
     skipped: dict[str, int] = {}
@@ -554,12 +585,7 @@ def _coco(path: Path, doc: Any, image: str | None):
         )
     picked = chosen[0]
     width, height = picked.width, picked.height
-    if width * height > MAX_PIXELS:
-        raise InputError(
-            f"image {picked.file_name or picked.id} is {width}×{height}: larger than any "
-            f"camera's frame ({MAX_PIXELS} pixels)",
-            source=str(path),
-        )
+    _camera_sized(width, height, f"image {picked.file_name or picked.id}", path)
     categories: dict[int, str] = {}
     for c in coco.categories:
         if c.id in categories:

@@ -173,6 +173,8 @@ MALFORMED = {
     "a size as a float": ("x.json", _labelme_with(imageWidth=320.0), "imageWidth"),
     "a size of a boolean": ("x.json", _labelme_with(imageWidth=True), "imageWidth"),
     "a huge frame": ("x.json", _labelme_with(imageWidth=10**12, imageHeight=10**12), "imageWidth"),
+    "a 100000-pixel side": ("x.json", _labelme_with(imageWidth=100_000, imageHeight=100_000), "larger than any camera's frame"),
+    "a NaN coordinate": ("x.json", _labelme_with(shapes=[_polygon([[1, 1], [9, 1], [9, 9]], "A")]).replace("[9, 1]", "[NaN, 1]"), "finite"),
     "an unknown shape": ("x.json", _labelme_with(shapes=[_polygon([[1, 1], [9, 1], [9, 9], [1, 9]], "A", "trapezoid")]), "unknown labelme shape type 'trapezoid'"),
     "a mask without its bitmap": ("x.json", _labelme_with(shapes=[_polygon([[1, 1], [9, 9]], "A", "mask")]), "no mask"),
     "a mask of garbage": ("x.json", _labelme_with(shapes=[_polygon([[1, 1], [9, 9]], "A", "mask", mask="bm90IGEgcG5n")]), "not a base64 PNG"),
@@ -193,6 +195,7 @@ MALFORMED = {
     "RLE counts huge": ("x.json", _rle([10**30, 1]), "sum to"),
     "RLE text not ascii": ("x.json", _rle("ü∂ø"), "not COCO's compressed RLE"),
     "RLE of a 200000-pixel side": ("x.json", _coco_with(images=[{"id": 1, "width": 200000, "height": 200000}]), "width"),
+    "a NaN in a COCO polygon": ("x.json", _coco_with(annotations=[{"image_id": 1, "category_id": 1, "segmentation": [[1, 1, 9, 1, 9, 9]]}]).replace("9, 1, 9", "NaN, 1, 9"), "finite"),
     "a polygon of odd length": ("x.json", _coco_with(annotations=[{"image_id": 1, "category_id": 1, "segmentation": [[1, 1, 9, 1, 9]]}]), "x, y pairs"),
     # JSON itself
     "nested 100000 deep": ("x.json", "[" * 100_000 + "]" * 100_000, "nested too deeply"),
