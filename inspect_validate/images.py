@@ -17,7 +17,7 @@ import numpy as np
 from inspect_validate.errors import InputError
 from inspect_validate.files import input_file
 
-__all__ = ["expand_paths", "read_frames", "read_image", "recorded_bit_depth"]
+__all__ = ["expand_paths", "is_image_name", "read_frames", "read_image", "recorded_bit_depth"]
 
 _TIFF = (".tif", ".tiff")
 _OPENCV = (".png", ".pgm", ".pnm", ".bmp", ".jpg", ".jpeg")
@@ -194,6 +194,12 @@ def _monochrome(image: np.ndarray, path: Path, *, colour: bool | None = None) ->
 _IMAGE_SUFFIXES = _TIFF + _OPENCV + (".npy",)
 
 
+def is_image_name(path: Path) -> bool:
+    """A file name read as a frame where a folder is given: an image suffix, and not a
+    dot-file (a writer's temporary name, or the system's own file)."""
+    return path.suffix.lower() in _IMAGE_SUFFIXES and not path.name.startswith(".")
+
+
 def expand_paths(paths: Iterable[str | Path]) -> list[Path]:
     """Image paths from files, folders (their images, sorted) and quoted glob patterns.
 
@@ -204,7 +210,7 @@ def expand_paths(paths: Iterable[str | Path]) -> list[Path]:
     for raw in paths:
         path = Path(raw)
         if path.is_dir():
-            found = sorted(p for p in path.iterdir() if p.suffix.lower() in _IMAGE_SUFFIXES)
+            found = sorted(p for p in path.iterdir() if is_image_name(p))
             if not found:
                 raise InputError(
                     "folder holds no images (TIFF, PNG, PGM, BMP, NPY)", source=str(path)

@@ -160,6 +160,8 @@ def watch(
         frames=frames_dir,
     )
     with session as s:
+        if s.line is not None and s.line.feed is not None:
+            s.line.feed.notify = lambda message: click.echo(message, err=True)
         if s.server is not None:
             click.echo(f"status on http://127.0.0.1:{s.server.port}/status and /metrics")
         live = sys.stdout.isatty()

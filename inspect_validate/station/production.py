@@ -84,11 +84,23 @@ class PartLocator:
         Raises
         ------
         InputError
-            A frame of another size than the reference, or not monochrome (naming no
-            file: the caller knows the frame's).
+            A frame of another size or pixel type than the reference, not monochrome, or
+            a stack of frames (naming no file: the caller knows the frame's).
         """
         from inspect_validate.roi.pose import locate_part, moved_masks
 
+        if frame.ndim == 3:
+            raise InputError(
+                f"a stack of {frame.shape[0]} frames in one file (a multi-page TIFF or a 3-D "
+                "array): give each part a frame of its own"
+            )
+        if frame.dtype != self.reference.dtype:
+            # A part's μ in another pixel type is on another scale: a 16-bit frame among
+            # 8-bit ones read as a light 2000 % brighter.
+            raise InputError(
+                f"the frame's pixels are {frame.dtype}, the reference's {self.reference.dtype}: "
+                "give the frames as the line's camera writes them (the reference one of them)"
+            )
         pose = locate_part(frame, self.reference, self.template, motion=self.motion)
         if pose.score < self.min_score:
             return Placement(

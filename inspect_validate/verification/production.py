@@ -21,8 +21,9 @@ check, naming the reasons (a wrong reference, a moved camera, no parts passing).
 
 from __future__ import annotations
 
+import hashlib
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -73,12 +74,14 @@ class Part:
 
 @dataclass(frozen=True)
 class Parts:
-    """The parts of a folder of frames: those measured, and the frames that held none
-    (file → why)."""
+    """The parts of a folder of frames: those measured, the frames that held none
+    (file → why), and the manifest of the capture that took them (None for frames from
+    elsewhere: the line's own program)."""
 
     measured: tuple[Part, ...]
     not_measured: dict[str, str]
     comparisons: Comparisons
+    manifest: dict | None = None
 
     @property
     def found(self) -> float:
@@ -98,10 +101,24 @@ def measure_parts(station: Station, frames: Path | Sequence[Path]) -> Parts:
     """
     from inspect_validate.images import expand_paths, read_image
 
+    manifest = None
+    if isinstance(frames, Path | str):
+        frames = production_folder(station, Path(frames))
+        manifest = capture_of(frames)  # audited: a capture's frames are those it wrote
     files = expand_paths([frames] if isinstance(frames, Path | str) else list(frames))
     if not files:
         raise InputError("no frames: give a folder of production frames", source=str(frames))
-    return measure_frames(station, ((str(path), read_image(path)) for path in files))
+    parts = measure_frames(station, ((str(path), read_image(path)) for path in files))
+    return replace(parts, manifest=manifest)
+
+
+def production_folder(station: Station, frames: Path) -> Path:
+    """The folder of a batch's frames: a ``capture --production`` folder stands for its
+    production illumination's step folder; any other folder is itself."""
+    name = station.production.illumination if station.production is not None else None
+    if name and (frames / "manifest.json").is_file() and (frames / name).is_dir():
+        return frames / name
+    return frames
 
 
 def measure_frames(
@@ -118,7 +135,19 @@ def measure_frames(
     x, y, w, h = locator.template
     centre = np.array([[x + w / 2, y + h / 2]])
     measured, missing = [], {}
+    seen: dict[bytes, str] = {}
     for name, frame in frames:
+        # The same frame twice (a copy, a link) is one part counted twice: a batch of
+        # copies would pass, and train a golden spread of nothing.
+        digest = hashlib.blake2b(np.ascontiguousarray(frame), digest_size=16)
+        digest.update(f"{frame.dtype}{frame.shape}".encode())
+        first = seen.setdefault(digest.digest(), name)
+        if first != name:
+            why = f"the same frame as {first} (a copy or a link): a part is one frame"
+            if refuse:
+                raise InputError(why, source=name)
+            missing[name] = why
+            continue
         try:
             placement = locator.place(frame)
         except InputError as exc:
@@ -227,24 +256,29 @@ def verify_production(
     """
     production_golden(golden, station, source=source)
     parts = measure_parts(station, frames)
-    return verify_parts(station, parts, golden, source=source, manifest=capture_of(frames))
+    return verify_parts(station, parts, golden, source=source, manifest=parts.manifest)
 
 
 def capture_of(frames: Path) -> dict | None:
     """The manifest of the capture ``frames`` were taken by (``capture --production``: the
     folder itself, or the step folder in it), holding that step alone; None for frames
     from elsewhere (the line's program)."""
-    from inspect_validate.camera.storage import read_manifest
+    from inspect_validate.camera.storage import audit_capture, read_manifest
 
     frames = Path(frames)
     for folder, step in ((frames, None), (frames.parent, frames.name)):
         path = folder / "manifest.json"
         if frames.is_dir() and path.is_file():
             manifest = read_manifest(path)
+            steps = [step] if step is not None else list(manifest["steps"])
+            if step is not None and step not in manifest["steps"]:
+                continue
+            # Frames replaced, added or edited since, or an edited health record: refused
+            # as the bench refuses them (a capture is measured only as it was written).
+            audit_capture(folder, manifest, steps)
             if step is None:
                 return manifest
-            if step in manifest["steps"]:
-                return {**manifest, "steps": {step: manifest["steps"][step]}}
+            return {**manifest, "steps": {step: manifest["steps"][step]}}
     return None
 
 
@@ -352,6 +386,19 @@ def _cause(v: ProductionVerification) -> str | None:
         # the parts' own statistics held; what failed is how the frames arrived
         return f"the camera or its link: {', '.join(camera)}" if camera else None
     if "parts found" in failed:
+        missing = v.parts.not_measured
+        unusable = {
+            f: why
+            for f, why in missing.items()
+            if not why.startswith("no part found") and " keeps " not in why
+        }
+        if unusable and 2 * len(unusable) >= len(missing):
+            total = len(missing) + len(v.parts.measured)
+            return (
+                f"{len(unusable)} of {total} frames cannot be used as this station's frames "
+                f"({_reasons(unusable)}): the line's program writes frames unlike the "
+                "reference (size, colour, pixel type) or cuts them short"
+            )
         return (
             "most frames hold no part to measure: a wrong reference, a moved camera or "
             "fixture, or no parts passing"
@@ -504,7 +551,9 @@ def _reasons(missing: dict[str, str]) -> str:
     """The commonest reasons frames held no measured part, counted."""
     counts: dict[str, int] = {}
     for why in missing.values():
-        key = why.split(":")[0] if why.startswith("no part found") else why.split(" keeps")[0]
+        key = why.split(" keeps")[0] if " keeps " in why else why.split(":")[0]
+        if key.startswith("the same frame as"):
+            key = "the same frame as another"
         counts[key] = counts.get(key, 0) + 1
     return "; ".join(f"{why} ({n})" for why, n in sorted(counts.items(), key=lambda x: -x[1]))
 

@@ -9,11 +9,19 @@ not images here). Files already in the folder when the watch starts are not new 
 left alone. A cycle takes ``parts`` frames; when more than twice that wait (frames land
 faster than they are measured), the oldest are skipped and counted, so the queue never
 grows and the memory stays bounded.
+
+A new file that cannot be a frame (empty once settled, a pipe, a device, a link to one)
+is passed over and counted, never opened: reading a pipe or ``/dev/zero`` would block or
+never end. A wait of more than ``quiet_s`` says what it waits on, and why nothing is taken
+(the folder gone or replaced by a file, only unusable files landing), through ``notify``,
+and again whenever that changes.
 """
 
 from __future__ import annotations
 
+import stat
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -30,13 +38,18 @@ class FolderFeed:
     ----------
     skipped : int
         Frames passed over so far because they landed faster than the watch measures.
+    unusable : dict
+        New files passed over because they cannot be frames: name → why.
     """
 
     folder: Path
     parts: int
     settle_s: float = 0.2
     poll_s: float = 0.05
+    quiet_s: float = 10.0
+    notify: Callable[[str], None] | None = None
     skipped: int = 0
+    unusable: dict[str, str] = field(default_factory=dict)
     _seen: set[str] = field(default_factory=set)
     _changing: dict[str, tuple[int, int, float]] = field(default_factory=dict)
 
@@ -44,15 +57,13 @@ class FolderFeed:
         self._seen = {p.name for p in self._images()}
 
     def _images(self) -> list[Path]:
-        from inspect_validate.images import _IMAGE_SUFFIXES
+        from inspect_validate.images import is_image_name
 
         try:
             entries = list(self.folder.iterdir())
         except OSError:
             return []  # a folder moved away for a moment: nothing new yet
-        return sorted(
-            p for p in entries if p.suffix.lower() in _IMAGE_SUFFIXES and not p.name.startswith(".")
-        )
+        return sorted(p for p in entries if is_image_name(p))
 
     def ready(self) -> list[Path]:
         """The new files that are whole now, in the folder's order (not yet taken)."""
@@ -63,24 +74,58 @@ class FolderFeed:
             try:
                 st = path.stat()
             except OSError:
-                continue  # renamed or removed between the listing and now
+                if path.is_symlink():  # a link to nothing, or a loop of links
+                    self._pass_over(path, "a symbolic link to no file")
+                continue  # else renamed or removed between the listing and now
+            if not stat.S_ISREG(st.st_mode):
+                self._pass_over(path, "not a regular file (a pipe, a device or a folder)")
+                continue
             size, mtime = st.st_size, st.st_mtime_ns
             before = self._changing.get(path.name)
             if before is None or before[:2] != (size, mtime):
                 self._changing[path.name] = (size, mtime, now)
-            elif size > 0 and now - before[2] >= self.settle_s:
-                out.append(path)
+            elif now - before[2] >= self.settle_s:
+                if size > 0:
+                    out.append(path)
+                else:
+                    self._pass_over(path, "empty (0 bytes)")
         return out
+
+    def _pass_over(self, path: Path, why: str) -> None:
+        self._seen.add(path.name)
+        self._changing.pop(path.name, None)
+        self.unusable[path.name] = why
+
+    def waiting_on(self, found: int) -> str:
+        """What a wait with ``found`` whole new frames waits on, and why no more came."""
+        where = f"{found} of {self.parts} new frames in {self.folder}"
+        if not self.folder.exists():
+            return f"{where}: the folder is gone (deleted or moved); frames are taken again once it is back"
+        if not self.folder.is_dir():
+            return f"{where}: it is a file now, not a folder; put the folder back"
+        if self.unusable:
+            kinds: dict[str, int] = {}
+            for why in self.unusable.values():
+                kinds[why] = kinds.get(why, 0) + 1
+            told = "; ".join(f"{n} {why}" for why, n in kinds.items())
+            return f"{where}: new files that cannot be frames were passed over ({told})"
+        return f"{where}: no new image file has landed"
 
     def take(self) -> tuple[list[Path], int]:
         """Wait for ``parts`` whole new files and take them; the files and how many older
         ones were skipped for them (more than twice ``parts`` waiting). A stop request
         ends the wait (:func:`~inspect_validate.interruption.stop_if_requested`)."""
+        since, told = time.monotonic(), ""
         while True:
             stop_if_requested()
             waiting = self.ready()
             if len(waiting) >= self.parts:
                 break
+            if self.notify is not None and time.monotonic() - since >= self.quiet_s:
+                why = self.waiting_on(len(waiting))
+                if why != told:
+                    self.notify(f"waiting for {why}")
+                    told = why
             time.sleep(self.poll_s)
         skip = max(0, len(waiting) - 2 * self.parts)
         taken = waiting[skip : skip + self.parts]

@@ -271,7 +271,7 @@ def test_an_edited_health_record_is_an_edited_capture(
     station, frames, manifest = _edited(
         healthy_capture, tmp_path, lambda step: step["health"].__setitem__(quantity, value)
     )
-    code, out, err = cli(["verify", station, "--frames", frames])
+    code, _out, err = cli(["verify", station, "--frames", frames])
     assert code == 2 and "red: its health record is not the one the capture wrote" in err, err
     assert "Traceback" not in err
     checks, _ = health_checks(Health(), manifest)

@@ -154,7 +154,7 @@ def test_a_golden_file_lacking_what_the_verdict_checks_is_refused(trained, tmp_p
     """A class, the pose, a comparison or a focus removed: exit 2 naming the golden file
     (it was a KeyError traceback, or a pass with the pose checks gone)."""
     station, golden = trained
-    code, out, err = cli(["verify", station, "--production", "--frames", tmp_path / "good",
+    code, _out, err = cli(["verify", station, "--production", "--frames", tmp_path / "good",
                           "--golden", _golden_edited(golden, tmp_path, edit)])  # fmt: skip
     assert code == 2 and says in err and "edited.json" in err and "Traceback" not in err, err
 
@@ -165,7 +165,7 @@ def test_a_golden_file_of_another_station_version_is_said(trained, tmp_path, cli
     code, out, err = cli(["verify", station, "--production", "--frames", tmp_path / "good",
                           "--golden", edited])  # fmt: skip
     assert code == 0 and "note: the golden file was trained with another version" in out
-    code, out, err = cli(["verify", station, "--production", "--frames", tmp_path / "good",
+    code, out, _err = cli(["verify", station, "--production", "--frames", tmp_path / "good",
                           "--golden", golden])  # fmt: skip
     assert code == 0 and "another version" not in out
 

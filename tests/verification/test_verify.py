@@ -49,7 +49,7 @@ def test_verify_run_again_into_its_report_sets_the_earlier_one_aside(cli, tmp_pa
     path = station(tmp_path)
     assert verify(cli, tmp_path, path)[0] == 0
     first = (tmp_path / "report" / "frames" / "manifest.json").read_bytes()
-    code, out, err, doc = verify(cli, tmp_path, path)
+    code, out, err, _doc = verify(cli, tmp_path, path)
     assert code == 0, out + err
     [aside] = [p for p in tmp_path.iterdir() if p.name.startswith("report-")]
     assert f"is now {aside}" in err
@@ -72,7 +72,7 @@ def test_verify_run_again_into_its_report_sets_the_earlier_one_aside(cli, tmp_pa
 def test_a_capture_already_in_out_names_no_option_verify_lacks(cli, tmp_path):
     path = station(tmp_path)
     assert cli(["capture", path, "--out", tmp_path / "cap"])[0] == 0
-    code, out, err = cli(["verify", path, "--out", tmp_path / "cap"])
+    code, _out, err = cli(["verify", path, "--out", tmp_path / "cap"])
     assert code == 2 and "a capture is already here" in err
     assert "--resume" not in err.replace("capture --resume", "") and "--frames" in err
 

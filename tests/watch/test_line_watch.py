@@ -115,6 +115,113 @@ def test_frames_landing_faster_than_measured_are_skipped_and_counted(tmp_path):
     assert feed.skipped == 15
 
 
+def test_the_feed_passes_over_files_that_cannot_be_frames_and_says_what_it_waits_on(tmp_path):
+    """A pipe, a link to /dev/zero, an empty file and a loop of links are passed over,
+    never opened (a read would block or never end), and the wait says so; a folder
+    deleted or replaced by a file is said too; frames landing after are taken."""
+    import os
+
+    from inspect_validate.watch.feed import FolderFeed
+
+    folder = tmp_path / "line"
+    folder.mkdir()
+    told: list[str] = []
+    feed = FolderFeed(folder, 2, settle_s=0.0, poll_s=0.01, quiet_s=0.0, notify=told.append)
+    os.mkfifo(folder / "a_pipe.tif")
+    (folder / "b_zero.tif").symlink_to("/dev/zero")
+    (folder / "c_empty.tif").write_bytes(b"")
+    (folder / "d_loop.tif").symlink_to(folder / "d_loop.tif")
+    for _ in range(2):  # sizes noted, then settled
+        assert feed.ready() == []
+    assert set(feed.unusable) == {"a_pipe.tif", "b_zero.tif", "c_empty.tif", "d_loop.tif"}
+    why = feed.waiting_on(0)
+    assert "0 of 2 new frames" in why and "1 empty (0 bytes)" in why, why
+    assert "2 not a regular file" in why and "1 a symbolic link to no file" in why, why
+
+    def land():
+        while not told:
+            time.sleep(0.01)
+        for name in ("e.npy", "f.npy"):
+            (folder / name).write_bytes(b"x" * 100)
+
+    writer = threading.Thread(target=land)
+    writer.start()
+    taken, _ = feed.take()
+    writer.join()
+    assert [p.name for p in taken] == ["e.npy", "f.npy"] and "passed over" in told[0]
+    shutil.rmtree(folder)
+    assert "the folder is gone" in feed.waiting_on(0)
+    folder.write_text("a file")
+    assert "it is a file now" in feed.waiting_on(0)
+
+
+def test_frames_unlike_the_reference_are_the_named_cause_not_missing_parts(
+    cli, tmp_path, line_golden
+):
+    """Frames of another pixel type (float copies of the line's): verify --production
+    refuses them naming the type; a watch counts them and names them as the cause, not
+    'a wrong reference, a moved camera' (what it said)."""
+    import numpy as np
+    import tifffile
+
+    station = line_station(tmp_path / "s", parts=PARTS)
+    frames = sorted(line_frames(station, tmp_path / "c", parts=PARTS).glob("*.tif"))
+    batch = tmp_path / "batch"
+    batch.mkdir()
+    for path in frames:
+        tifffile.imwrite(batch / path.name, tifffile.imread(path).astype(np.float32))
+    code, out, err = cli(["verify", station, "--production", "--frames", batch,
+                          "--golden", line_golden])  # fmt: skip
+    assert code == 2 and "the frame's pixels are float32, the reference's uint" in err, out + err
+    folder = tmp_path / "line"
+    folder.mkdir()
+    writer = threading.Thread(
+        target=lambda: (time.sleep(0.5), _write_slowly(sorted(batch.glob("*.tif")), folder))
+    )
+    writer.start()
+    db = tmp_path / "w" / "h.sqlite"
+    code, out, err = cli(["watch", station, "--production", "--frames", folder,
+                          "--golden", line_golden, "--db", db, "--cycles", 1,
+                          "--interval", 0])  # fmt: skip
+    writer.join()
+    _, cycles = _charts(db)
+    assert cycles[0][1] == "fail", cycles
+    assert f"{PARTS} of {PARTS} frames cannot be used" in cycles[0][3], cycles
+    assert "the frame's pixels are float32" in cycles[0][3], cycles
+
+
+def test_a_production_capture_is_read_whole_and_as_it_was_written(cli, tmp_path, line_golden):
+    """The capture folder itself is taken (its production step), and refused as the
+    bench refuses a capture when a frame was replaced or added since, or a frame is
+    there twice; a frame copied among the line's own is refused as one part twice."""
+    station = line_station(tmp_path / "s", parts=PARTS)
+    step = line_frames(station, tmp_path / "c", parts=PARTS)
+    args = ["verify", station, "--production", "--golden", line_golden, "--frames"]
+    code, out, err = cli([*args, tmp_path / "c"])
+    assert code == 0 and "holds no images" not in err, out + err
+    first, second = sorted(step.glob("frame_*.tif"))[:2]
+    copy = tmp_path / "copy"
+    shutil.copytree(tmp_path / "c", copy)
+    shutil.copy(copy / "amber" / first.name, copy / "amber" / second.name)
+    code, out, err = cli([*args, copy])
+    assert code == 2 and f"amber/{second.name} changed since it was written" in err, err
+    extra = tmp_path / "extra"
+    shutil.copytree(tmp_path / "c", extra)
+    shutil.copy(first, extra / "amber" / "frame_9999.tif")
+    code, out, err = cli([*args, extra / "amber"])
+    assert code == 2 and "frame_9999.tif not written by this capture" in err, err
+    loose = tmp_path / "loose"
+    loose.mkdir()
+    for path in sorted(step.glob("frame_*.tif")):
+        shutil.copy(path, loose / path.name)
+    (loose / "zz_link.tif").symlink_to(loose / first.name)
+    code, out, err = cli([*args, loose])
+    assert code == 2 and f"the same frame as {loose / first.name}" in err, err
+    code, out, err = cli(["train", station, "--production", "--frames", loose, "--out",
+                          tmp_path / "g.json"])  # fmt: skip
+    assert code == 2 and "a part is one frame" in err and not (tmp_path / "g.json").exists()
+
+
 def test_a_bench_golden_file_or_a_missing_folder_is_refused(cli, tmp_path, golden, line_golden):
     station = line_station(tmp_path / "s", parts=PARTS)
     code, _, err = cli(["watch", station, "--production", "--golden", golden,
@@ -146,13 +253,11 @@ def test_sigterm_ends_a_watch_waiting_for_frames(tmp_path, line_golden):
     try:
         assert "watching" in proc.stdout.readline()
         time.sleep(0.5)  # in the feed's wait
-        started = time.monotonic()
         proc.send_signal(signal.SIGTERM)
         out, err = proc.communicate(timeout=30)
     finally:
         proc.kill()
-    assert proc.returncode == 130, err
-    assert time.monotonic() - started < 5 and "Traceback" not in err, err
+    assert proc.returncode == 130 and "Traceback" not in err, err
     assert "stopped after cycle —" in out
     _, cycles = _charts(db)
     assert cycles == []
