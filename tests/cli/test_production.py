@@ -150,7 +150,9 @@ def _golden_edited(golden, tmp_path, edit):
     ],
     ids=["class", "pose", "comparisons", "focus"],
 )
-def test_a_golden_file_lacking_what_the_verdict_checks_is_refused(trained, tmp_path, cli, edit, says):
+def test_a_golden_file_lacking_what_the_verdict_checks_is_refused(
+    trained, tmp_path, cli, edit, says
+):
     """A class, the pose, a comparison or a focus removed: exit 2 naming the golden file
     (it was a KeyError traceback, or a pass with the pose checks gone)."""
     station, golden = trained
@@ -164,7 +166,7 @@ def test_a_golden_file_of_another_station_version_is_said(trained, tmp_path, cli
     edited = _golden_edited(golden, tmp_path, lambda doc, ill: doc.update(station_sha256="0" * 64))
     code, out, err = cli(["verify", station, "--production", "--frames", tmp_path / "good",
                           "--golden", edited])  # fmt: skip
-    assert code == 0 and "note: the golden file was trained with another version" in out
+    assert code == 0 and "note: the golden file was trained with another version" in out, err
     code, out, _err = cli(["verify", station, "--production", "--frames", tmp_path / "good",
                           "--golden", golden])  # fmt: skip
     assert code == 0 and "another version" not in out
