@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 import time
+import uuid
 from collections import Counter
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
@@ -251,11 +252,20 @@ def capture_rig(
     mode = next(iter(modes.values()))
     if not (any(s.strobe_line for s in settings.values()) or mode == "hardware-trigger"):
         pulse = None
+    # One id for the capture of every camera, kept by a resume: a folder of another
+    # capture, or another camera's, is told from this one's (storage.audit_rig).
+    held = [s.manifest.get("rig") for s in stores.values()]
+    rig_id = next(
+        (r["id"] for r in held if isinstance(r, dict) and isinstance(r.get("id"), str)),
+        uuid.uuid4().hex,
+    )
     for name, grabber in grabbers.items():
         unstable[name] = _record_camera(
             stores[name], grabber, settings[name], modes[name], chunks[name], not_applied[name]
         )
-        stores[name].record("rig", {"cameras": list(names), "trigger": mode})
+        stores[name].record(
+            "rig", {"id": rig_id, "camera": name, "cameras": list(names), "trigger": mode}
+        )
     triggers: dict[str, Counter] = {name: Counter() for name in names}
     timeout_s = max(settings[name].timeout_s for name in names)
     next_round = _round_source(grabbers, controller, mode, pulse, timeout_s, triggers)

@@ -27,9 +27,10 @@ import contextlib
 import hashlib
 import io
 import json
+import os
 import threading
 import time
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
@@ -52,6 +53,7 @@ __all__ = [
     "CaptureStore",
     "StepRecord",
     "audit_capture",
+    "audit_rig",
     "changed_settings",
     "read_capture",
     "read_manifest",
@@ -411,7 +413,7 @@ def audit_capture(folder: Path, manifest: dict, steps: Iterable[str]) -> dict[st
             if isinstance(described, dict):
                 differ = [
                     k
-                    for k in ("step", "frame_id", "timestamp_ns", "light_setting")
+                    for k in ("step", "frame_id", "timestamp_ns", "light_setting", "round")
                     if k in described and described.get(k) != meta.get(k)
                 ]
                 if differ:
@@ -476,6 +478,65 @@ def read_capture(
     )
     hashes = audit_capture(folder, manifest, [*frames, *(["dark"] if dark else [])])
     return frames, dark, manifest, hashes
+
+
+def audit_rig(folder: Path, names: Sequence[str]) -> None:
+    """Check that the folders ``folder/<name>/`` of a capture of several cameras are one
+    capture's: each its own folder (no link to another's), each the camera it is named
+    for, all of one capture (the ``rig.id`` every camera's manifest records), and every
+    step of the same rounds in each (the frames of round k of one trigger).
+
+    Raises
+    ------
+    InputError
+        Naming the folder and each disagreement, and what to do.
+    """
+    folder = Path(folder)
+    problems: list[str] = []
+    records: dict[str, dict] = {}
+    places: dict[Path, str] = {}
+    for name in names:
+        path = folder / name
+        if path.is_symlink():
+            problems.append(f"cameras {name!r}: its folder is a link (to {os.readlink(path)})")
+        real = path.resolve()
+        if real in places:
+            problems.append(f"cameras {name!r} and {places[real]!r} are one folder")
+        places.setdefault(real, name)
+        manifest = read_manifest(path / "manifest.json")
+        rig = manifest.get("rig")
+        if not isinstance(rig, dict) or not isinstance(rig.get("id"), str):
+            problems.append(
+                f"cameras {name!r}: its manifest records no capture of several cameras (rig.id)"
+            )
+            continue
+        if rig.get("camera") != name:
+            problems.append(
+                f"cameras {name!r}: its folder holds camera {rig.get('camera')!r}'s frames"
+            )
+        records[name] = manifest
+    ids = {m["rig"]["id"] for m in records.values()}
+    if len(ids) > 1:
+        which = ", ".join(f"{n} {m['rig']['id'][:8]}" for n, m in records.items())
+        problems.append(f"the cameras' folders are of different captures ({which})")
+    elif records:
+        first, *others = records
+        for step, record in records[first]["steps"].items():
+            for other in others:
+                theirs = records[other]["steps"].get(step)
+                if not record.get("complete") and not (theirs or {}).get("complete"):
+                    continue
+                if not isinstance(theirs, dict) or theirs.get("rounds") != record.get("rounds"):
+                    problems.append(
+                        f"{step}: cameras {first!r} and {other!r} hold different rounds "
+                        "(frames of other triggers)"
+                    )
+    if problems:
+        raise InputError(
+            f"not one capture of the station's cameras: {listed(problems, 6)}. Capture the "
+            "station again (or restore the folder from its copy)",
+            source=str(folder),
+        )
 
 
 def acquisition_record(manifest: dict, files: dict[str, list[Path]]) -> tuple[dict, ...]:

@@ -206,6 +206,9 @@ class Golden(_Frozen):
     """The inspect-validate version that trained it."""
     station: str
     """The station file trained."""
+    camera: str | None = None
+    """The camera it was trained on, of a station of several (``train --camera``); null
+    for a station of one camera. A golden file is refused for another camera."""
     station_sha256: str
     """SHA-256 of the station file's bytes at training."""
     exposure_us: float | None
@@ -424,6 +427,7 @@ def golden_of(
     return Golden(
         tool_version=tool_version,
         station=str(station.path),
+        camera=station.camera.name,
         station_sha256=station_sha256,
         exposure_us=station.camera.exposure_us,
         gain_db=station.camera.gain_db,

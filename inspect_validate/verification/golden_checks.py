@@ -57,6 +57,7 @@ __all__ = [
     "prediction_sd",
     "repeats_needed",
     "settings_checks",
+    "validate_camera",
     "validate_golden",
     "widening",
 ]
@@ -310,6 +311,7 @@ def validate_golden(
             source=source,
         )
     camera = station.camera
+    validate_camera(golden, station, source=source)
     if golden.exposure_us != camera.exposure_us or golden.gain_db != camera.gain_db:
         raise InputError(
             f"the golden file was trained at exposure {golden.exposure_us} µs and gain "
@@ -339,6 +341,28 @@ def validate_golden(
             if not above_floor(spread, drift.snr_floor_db, k=k):
                 continue  # never checked against this golden file
             _needs_spread(drift.snr_db, spread, f"{ill.name}: {text} SNR_dB", source, share)
+
+
+def validate_camera(golden: Golden, station: Station, *, source: str) -> None:
+    """Refuse a golden file trained on another camera than ``station``'s (a view of one
+    camera of several, or a station of one).
+
+    Raises
+    ------
+    InputError
+        Naming both cameras and the file, and what to give.
+    """
+    if golden.camera != station.camera.name:
+        raise InputError(
+            f"the golden file was trained on {_camera(golden.camera)}, this is "
+            f"{_camera(station.camera.name)}: give that camera's golden file "
+            "(cameras[].golden, or watch --golden NAME=PATH), or train one with --camera",
+            source=source,
+        )
+
+
+def _camera(name: str | None) -> str:
+    return f"camera {name!r}" if name is not None else "a station of one camera"
 
 
 def _entry(table: dict, name: str, ill: str, what: str, source: str):

@@ -168,6 +168,13 @@ def measure_capture(
         folder, [i.name for i in station.illuminations]
     )
     _settings_agree(station, folder, manifest, files, dark_files)
+    rig, camera = manifest.get("rig"), getattr(station.camera, "name", None)
+    if camera is not None and isinstance(rig, dict) and rig.get("camera") not in (None, camera):
+        raise InputError(
+            f"these are camera {rig.get('camera')!r}'s frames, and this is camera {camera!r}: "
+            f"give {Path(folder).parent / camera} (or --camera {rig.get('camera')})",
+            source=str(folder),
+        )
     level = saturation_level(next(iter(files.values()))[0], sensor)
     options = {"rois": rois, "comparisons": comparisons, "limits": limits, "kde": kde}
 

@@ -345,6 +345,9 @@ def production_golden(golden: Golden, station: Station, *, source: str) -> None:
         raise InputError(
             "no 'production:' block: give one to verify the running line", source=str(station.path)
         )
+    from inspect_validate.verification.golden_checks import validate_camera
+
+    validate_camera(golden, station, source=source)
     if golden.mode != "production":
         raise InputError(
             "this golden file was trained on the bench (captures, every illumination); "

@@ -158,16 +158,19 @@ def verify_rig_folder(
         A camera's folder missing; a frame or region that cannot be used (the camera
         named).
     """
+    from inspect_validate.camera.storage import audit_rig
     from inspect_validate.verification.verify import verify_folder
 
     results = {}
-    for name, (view, plan) in plans.items():
+    for name in plans:
         if not (folder / name).is_dir():
             raise InputError(
                 f"no frames of camera {name!r} here (a capture of several cameras keeps each "
                 f"in <folder>/<camera>/); capture the station into it",
                 source=str(folder),
             )
+    audit_rig(folder, list(plans))
+    for name, (view, plan) in plans.items():
         try:
             results[name] = verify_folder(view, folder / name, plan=plan)
         except InputError as exc:  # which camera's frames or regions it is

@@ -165,6 +165,86 @@ def test_verify_frames_of_several_cameras_needs_every_cameras_folder(tmp_path, c
     assert "no frames of camera 'side' here" in capsys.readouterr().err
 
 
+def _mixed(tmp_path, make):
+    import shutil
+
+    mixed = tmp_path / "mixed"
+    shutil.copytree(tmp_path / "cap", mixed, symlinks=True)
+    make(mixed)
+    return mixed
+
+
+def _fewer_rounds(folder):
+    """The side camera's red step one round short, its manifest made to agree."""
+    side = folder / "side"
+    manifest = json.loads((side / "manifest.json").read_text())
+    step = manifest["steps"]["red"]
+    last = sorted((side / "red").glob("frame_*.tif"))[-1]
+    last.unlink()
+    last.with_suffix(".json").unlink()
+    step["frames"] -= 1
+    step["rounds"] = step["rounds"][:-1]
+    del step["sha256"][last.name]
+    (side / "manifest.json").write_text(json.dumps(manifest))
+
+
+def _another_captures(folder):
+    import shutil
+
+    shutil.rmtree(folder / "side")
+    shutil.copytree(folder.parent / "other" / "side", folder / "side")
+
+
+def _linked(folder):
+    import shutil
+
+    shutil.rmtree(folder / "side")
+    (folder / "side").symlink_to(folder / "top")
+
+
+@pytest.mark.parametrize(
+    ("make", "says"),
+    [
+        (_another_captures, "the cameras' folders are of different captures"),
+        (_linked, "cameras 'side': its folder is a link"),
+        (_fewer_rounds, "red: cameras 'top' and 'side' hold different rounds"),
+    ],
+    ids=["another capture's folder", "a link to the other camera's", "fewer rounds"],
+)  # fmt: skip
+def test_a_capture_of_several_cameras_mixed_up_is_refused(tmp_path, capsys, make, says):
+    """One camera's folder replaced by another capture's, by a link to the other
+    camera's, or a round short: refused (exit 2) as not one capture, never verified."""
+    path = two_cameras(copy_station(tmp_path))
+    assert run_cli(["capture", path, "--out", tmp_path / "cap"]) == 0
+    assert run_cli(["capture", path, "--out", tmp_path / "other"]) == 0
+    capsys.readouterr()
+    assert run_cli(["verify", path, "--frames", _mixed(tmp_path, make)]) == 2
+    err = capsys.readouterr().err
+    assert "not one capture of the station's cameras" in err and says in err, err
+
+
+def test_one_cameras_frames_or_golden_file_are_refused_for_the_other(tmp_path, capsys):
+    """verify --camera side of top's folder, and side's watch given top's golden file
+    (the two swapped): refused naming both cameras, where both passed."""
+    path = two_cameras(copy_station(tmp_path))
+    assert run_cli(["capture", path, "--out", tmp_path / "cap"]) == 0
+    capsys.readouterr()
+    code = run_cli(["verify", path, "--camera", "side", "--frames", tmp_path / "cap" / "top"])
+    err = capsys.readouterr().err
+    assert code == 2 and "these are camera 'top''s frames, and this is camera 'side'" in err, err
+    assert run_cli(["verify", path, "--camera", "top", "--frames", tmp_path / "cap" / "top"]) == 0
+    for name in ("top", "side"):
+        args = ["train", path, "--camera", name, "--out", tmp_path / f"{name}.json"]
+        assert run_cli([*args, "--repeats", 3]) == 0, capsys.readouterr().err
+    assert json.loads((tmp_path / "top.json").read_text())["camera"] == "top"
+    capsys.readouterr()
+    code = run_cli(["watch", path, "--golden", f"top={tmp_path / 'side.json'}",
+                    "--golden", f"side={tmp_path / 'top.json'}", "--cycles", 1,
+                    "--db", tmp_path / "w" / "h.sqlite"])  # fmt: skip
+    err = capsys.readouterr().err
+    assert code == 2 and "trained on camera 'side', this is camera 'top'" in err, err
+
+
 @pytest.mark.parametrize(
     ("cameras", "says"),
     [
