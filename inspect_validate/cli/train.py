@@ -8,8 +8,8 @@ from inspect_validate.cli.common import (
     PATH,
     camera_option,
     capture_with_progress,
-    one_station,
     validate_outputs,
+    with_camera,
 )
 
 
@@ -59,10 +59,18 @@ def train(station, golden_path, repeats, frames_dirs, frames_out, production, ca
     """
     from inspect_validate.report import write_json
     from inspect_validate.report.golden import format_golden
+    from inspect_validate.station.file import read_station
     from inspect_validate.verification.golden import train as run_train
     from inspect_validate.verification.measured import station_regions
 
-    st = one_station(station, camera_name, "train")
+    whole = read_station(station)
+    st = with_camera(whole, camera_name).one_camera("train")
+    if camera_name is not None:
+        from inspect_validate.verification.rig import camera_view
+
+        # The catches printed are those of the station's verify, which decides each
+        # camera at its share of the station's rate.
+        st = camera_view(whole, camera_name)
     validate_outputs(files=[golden_path], folders=[frames_out])
     if production:
         _train_production(st, frames_dirs, golden_path)

@@ -125,8 +125,7 @@ def plan_rig(station: Station, *, drift_checks: bool = True) -> dict[str, tuple[
     """
     from inspect_validate.verification.plan import plan_verification, validate_trained
 
-    share = rig_share(station.acceptance.false_alarm_rate, len(station.camera_names))
-    views = {name: _at_rate(station.view(name), share) for name in station.camera_names}
+    views = {name: camera_view(station, name) for name in station.camera_names}
     for view in views.values():  # every camera's, before any golden file is read
         validate_trained(view)
     plans = {}
@@ -179,6 +178,14 @@ def verify_rig_folder(
     rate = station.acceptance.false_alarm_rate
     share = rig_share(rate, len(plans))
     return RigVerification(station, results, decide(checks, share), tuple(skipped), rate)
+
+
+def camera_view(station: Station, name: str) -> Station:
+    """Camera ``name`` of ``station`` as its verification sees it: a station of that
+    camera alone (:meth:`Station.view`) deciding at its share of the station's
+    false-alarm rate (:func:`rig_share`)."""
+    share = rig_share(station.acceptance.false_alarm_rate, len(station.camera_names))
+    return _at_rate(station.view(name), share)
 
 
 def _at_rate(view: Station, rate: float) -> Station:
