@@ -125,7 +125,7 @@ def test_iv_verify_and_the_cli_skip_the_same_illuminations_by_default(tmp_path):
     doc["acceptance"]["ranking"] = False
     path.write_text(yaml.safe_dump(doc, sort_keys=False))
     report = tmp_path / "r"
-    assert run_cli(["verify", path, "--out", tmp_path / "cli", "--report", report]) == 0
+    assert run_cli(["verify", path, "--frames-out", tmp_path / "cli", "--report", report]) == 0
     cli_skipped = json.loads((report / "verification.json").read_text())["skipped"]
     result = iv.verify(path, out=tmp_path / "api")
     red = [s for s in result.skipped if s.startswith("illumination 'red'")]

@@ -325,7 +325,7 @@ def test_a_golden_file_is_named_as_itself_wherever_it_is_given(cli, tmp_path, go
     measured.write_text(yaml.safe_dump(doc))
     said = "this is a golden file (its schema is inspect-validate/golden)"
     for args, expects in (
-        (["verify", measured, "--out", tmp_path / "c"], "the camera file"),
+        (["verify", measured, "--frames-out", tmp_path / "c"], "the camera file"),
         (["verify", golden], "the station file"),
         (["predict", golden], "the scene file"),
         (

@@ -35,9 +35,10 @@ from inspect_validate.text import labelled
     help="Bands to list per comparison.",
 )
 @kde_option(
-    default="always",
-    help="The nonparametric (kernel density) error per wavelength: always, or never "
-    "(the parametric error only; auto: as always).",
+    default="auto",
+    help="The nonparametric (kernel density) error per wavelength: auto and always compute "
+    "it (no fit test applies to reflectance samples, which are not pixels), never gives "
+    "the parametric error only.",
 )
 def analyze_spectra(scene, json_path, plot_dir, plot_format, best, kde, no_kde) -> None:
     """Classification error per wavelength between the classes of SCENE, from reflectances alone.

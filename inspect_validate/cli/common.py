@@ -17,6 +17,25 @@ if TYPE_CHECKING:
 PATH = click.Path(path_type=Path)
 
 
+class Retired(click.Option):
+    """A retired spelling of an option, kept a release: hidden from the help, and saying
+    when used what to write instead (``deprecated=``), naming itself by its spelling
+    (click names the parameter, an identifier of the code)."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, hidden=True, **kwargs)
+
+    @property
+    def human_readable_name(self) -> str:
+        return max(self.opts, key=len)
+
+
+def retired_option(spelling: str, dest: str, *, instead: str, **options: Any) -> Callable:
+    """``spelling`` as a :class:`Retired` option into ``dest``; ``instead`` says what to
+    write (``"write --size WxH"``)."""
+    return click.option(spelling, dest, cls=Retired, deprecated=instead, **options)
+
+
 class _FrameSize(click.ParamType):
     """``WIDTHxHEIGHT`` in pixels, as (width, height)."""
 
@@ -339,9 +358,9 @@ def kde_option(*, default: str, help: str) -> Callable:
     hidden, saying what to write); the command reads :func:`kde_mode` of the two."""
 
     def decorate(command: Callable) -> Callable:
-        command = click.option(
-            "--no-kde", is_flag=True, hidden=True, deprecated="write --kde never"
-        )(command)
+        command = retired_option("--no-kde", "no_kde", instead="write --kde never", is_flag=True)(
+            command
+        )
         return click.option(
             "--kde", type=click.Choice(KDE_MODES), default=default, show_default=True, help=help
         )(command)

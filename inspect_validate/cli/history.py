@@ -7,20 +7,27 @@ import click
 from inspect_validate.cli.common import (
     PATH,
     plot_option,
+    retired_option,
     validate_outputs,
 )
 
 
 @click.command("history")
 @click.argument("db", type=PATH)
-@click.option("--last", type=click.IntRange(1), help="Only the last N cycles.")
 @click.option(
-    "--recent",
+    "--last",
+    type=click.IntRange(1),
+    help="Read only the last N cycles: the trends, charts, plots and CSV are of those.",
+)
+@click.option(
+    "--list",
+    "recent",
     type=click.IntRange(0),
     default=10,
     show_default=True,
-    help="Cycles listed one by one (the trends cover all that are read).",
+    help="How many of the cycles read to list one by one, the newest last.",
 )
+@retired_option("--recent", "old_recent", type=click.IntRange(0), instead="write --list N")
 @plot_option(
     help="Write the charts into this folder: history.html, or with --plot-format png "
     "history-overview.png and one history-<illumination>.png per illumination."
@@ -28,7 +35,7 @@ from inspect_validate.cli.common import (
 @click.option(
     "--csv", "csv_path", type=PATH, help="Export one row per cycle and chart (UTF-8 CSV)."
 )
-def history(db, last, recent, plot_dir, plot_format, csv_path) -> None:
+def history(db, last, recent, old_recent, plot_dir, plot_format, csv_path) -> None:
     """Print, plot and export the history DB that 'watch' keeps.
 
     Prints the cycles' statuses, the last cycles, and per drift chart its golden
@@ -41,6 +48,8 @@ def history(db, last, recent, plot_dir, plot_format, csv_path) -> None:
     from inspect_validate.report.history import format_history, write_history_csv
     from inspect_validate.watch.history import read_history
 
+    if old_recent is not None:
+        recent = old_recent
     validate_outputs(files=[csv_path], folders=[plot_dir])
     log = read_history(db, last=last)
     click.echo(format_history(log, recent=recent))

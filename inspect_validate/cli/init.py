@@ -6,7 +6,7 @@ import sys
 
 import click
 
-from inspect_validate.cli.common import ADDRESS, PATH, SIZE, Number
+from inspect_validate.cli.common import ADDRESS, PATH, SIZE, Number, retired_option
 
 
 def _pairs(values, option: str, convert):
@@ -37,14 +37,15 @@ def _pairs(values, option: str, convert):
     "--scene", type=PATH, help="The scene file: spectra of the classes, lights, lens and camera."
 )
 @click.option(
-    "--camera",
+    "--camera-backend",
     "camera_backend",
     help="Camera backend (genicam, pylon, aravis, v4l2, simulated…; `devices` lists what is found).",
 )
+@retired_option("--camera", "old_camera_backend", instead="write --camera-backend NAME")
 @click.option(
     "--serial", help="The camera's serial number or device id (default: the only one found)."
 )
-@click.option("--cti", type=PATH, help="GenTL producer (.cti), for --camera genicam.")
+@click.option("--cti", type=PATH, help="GenTL producer (.cti), for --camera-backend genicam.")
 @click.option(
     "--simulate",
     is_flag=True,
@@ -95,6 +96,7 @@ def init(
     out,
     scene,
     camera_backend,
+    old_camera_backend,
     serial,
     cti,
     simulate,
@@ -163,17 +165,18 @@ def init(
     # -- the camera -----------------------------------------------------------------------
     features = None
     camera: dict = {}
+    camera_backend = camera_backend or old_camera_backend
     if camera_backend is None:
         found = take_inventory(Search(cti=str(cti) if cti else None)).cameras
         for i, c in enumerate(found, start=1):
             click.echo(f"  {i}: {c.describe()} [{c.backend}] {c.interface}", err=True)
-        pick = ask("--camera", "Camera (its number, or a backend name such as 'simulated')")
+        pick = ask("--camera-backend", "Camera (its number, or a backend name such as 'simulated')")
         if str(pick).isdigit() and 1 <= int(pick) <= len(found):
             info = found[int(pick) - 1]
             camera_backend, serial = info.backend, info.serial or info.device_id
         else:
             camera_backend = str(pick)
-    chosen = backend("cameras", camera_backend, source="--camera")
+    chosen = backend("cameras", camera_backend, source="--camera-backend")
     renders = camera_backend == "simulated" or simulate
     if simulate:
         if camera_backend not in backends("simulators"):

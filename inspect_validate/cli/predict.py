@@ -12,6 +12,7 @@ from inspect_validate.cli.common import (
     kde_option,
     plot_option,
     printer,
+    retired_option,
     validate_outputs,
 )
 from inspect_validate.text import labelled
@@ -53,12 +54,17 @@ def scheduler_address(_ctx, _param, value):
     help="Ranking measure (default: the scene's, else error).",
 )
 @click.option(
-    "--comparison", help='Rank by one comparison, e.g. "A vs B,C" (default: the worst pair).'
+    "--rank-comparison",
+    "comparison",
+    help='Rank by one comparison, e.g. "A vs B,C" (default: the scene\'s rank.comparison, '
+    "else the worst pair).",
 )
+@retired_option("--comparison", "old_comparison", instead='write --rank-comparison "A vs B"')
 @kde_option(
-    default="always",
+    default="auto",
     help="The nonparametric (kernel density) error of the listed rows, from the reflectance "
-    "samples: always, or never (auto: as always; the samples are not pixels).",
+    "samples: auto and always compute it (no fit test applies to samples, which are not "
+    "pixels), never leaves it out.",
 )
 @plot_option(
     help="Write the charts (component spectra, ε per wavelength, ranking) into this folder: "
@@ -86,6 +92,7 @@ def predict(
     top,
     rank_by,
     comparison,
+    old_comparison,
     kde,
     no_kde,
     plot_dir,
@@ -110,6 +117,7 @@ def predict(
     sc = read_scene(scene)
     for note in sc.notes():
         click.echo(labelled("note", note), err=True)
+    comparison = comparison or old_comparison
     named = comparison or sc.rank_comparison
     if named is not None:
         from inspect_validate.errors import InputError
@@ -117,7 +125,7 @@ def predict(
         try:  # an unknown comparison fails before the sweep, naming where it came from
             sc.comparisons.index(named)
         except InputError as exc:
-            where = "--comparison" if comparison else f"{scene}: rank.comparison"
+            where = "--rank-comparison" if comparison else f"{scene}: rank.comparison"
             raise InputError(str(exc), source=where) from None
     validate_outputs(files=[json_path], folders=[plot_dir, render_dir])
     if dask_address:

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import click
 
-from inspect_validate.cli.common import PATH, SIZE, Number
+from inspect_validate.cli.common import PATH, SIZE, Number, retired_option
 
 
 @click.group()
@@ -261,7 +261,7 @@ def show(frames, roi_file, out, dark):
     type=SIZE,
     help="The frame size to record where the file has none (napari), as init's --size.",
 )
-@click.option("--frame", "old_frame_size", type=SIZE, hidden=True, deprecated="write --size WxH")
+@retired_option("--frame", "old_frame_size", type=SIZE, instead="write --size WxH")
 @click.option("--force", is_flag=True, help="Overwrite OUT (and the masks it names) if it exists.")
 def import_(annotations, out, names, drop, image, frame_size, old_frame_size, force):
     """Read another tool's ANNOTATIONS as an ROI file every command accepts.
@@ -271,7 +271,7 @@ def import_(annotations, out, names, drop, image, frame_size, old_frame_size, fo
     napari's shapes CSV. Shapes are clipped to the frame; pixels two classes share are
     left out of both; lines and points (no area) are skipped; each change is listed.
     Pixel masks are written exactly, one PNG per class beside OUT. The frame size is
-    recorded from the file (or --frame), so a frame of another size is refused. Nothing
+    recorded from the file (or --size), so a frame of another size is refused. Nothing
     is written when the import is refused.
     """
     from inspect_validate.roi.annotations import import_annotations

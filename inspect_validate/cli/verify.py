@@ -11,6 +11,7 @@ from inspect_validate.cli.common import (
     camera_option,
     fresh_report,
     new_folder,
+    retired_option,
     validate_outputs,
     verify_and_report,
     with_camera,
@@ -27,12 +28,14 @@ from inspect_validate.errors import EXIT_CHECK_FAILED
     help="A capture folder made by 'capture' (default: capture now through the station's devices).",
 )
 @click.option(
-    "--out",
+    "--frames-out",
+    "out",
     type=PATH,
     help="Where to save the frames captured now (default: REPORT/frames, else a new "
     "folder verify-<station>-<time>). An earlier REPORT holding frames is set aside as "
     "REPORT-<time>.",
 )
+@retired_option("--out", "old_out", type=PATH, instead="write --frames-out DIR")
 @click.option(
     "--report",
     "report_dir",
@@ -62,13 +65,15 @@ from inspect_validate.errors import EXIT_CHECK_FAILED
     "--golden",
     "golden_path",
     type=PATH,
-    help="With --production: the golden file of good parts (default: acceptance.drift.golden).",
+    help="The golden file to check drift against (default: acceptance.drift.golden; with "
+    "--production, the golden parts of train --production).",
 )
 @camera_option
 def verify(
     station,
     frames_dir,
     out,
+    old_out,
     report_dir,
     history_path,
     all_illuminations,
@@ -89,6 +94,7 @@ def verify(
     """
     from inspect_validate.station.file import read_station
 
+    out = out or old_out
     st = with_camera(read_station(station), camera_name)
     validate_outputs(folders=[report_dir])
     fresh_report(report_dir, reading=(frames_dir, out, history_path, golden_path))
@@ -98,7 +104,7 @@ def verify(
         )
         return
     if golden_path is not None:
-        raise click.UsageError("--golden goes with --production (the bench reads acceptance.drift)")
+        st = st.with_golden(golden_path)
     log = None
     if history_path is not None:
         st.one_camera("verify --history (a watch's history)")

@@ -143,7 +143,7 @@ def watch(
 
     whole = read_station(station)
     st = with_camera(whole, camera_name)
-    golden = _goldens(golden_path, several=bool(st.cameras))
+    golden = _goldens(golden_path, several=bool(st.cameras), camera=camera_name)
     if camera_name and golden is None:  # the camera's own golden file charts it alone
         golden = next(
             (whole.resolve(c.golden) for c in whole.cameras if c.name == camera_name and c.golden),
@@ -199,8 +199,9 @@ def watch(
         sys.exit(EXIT_CHECK_FAILED)
 
 
-def _goldens(given, *, several: bool):
-    """``--golden``: one path, or for a station of several cameras ``NAME=PATH`` each."""
+def _goldens(given, *, several: bool, camera: str | None = None):
+    """``--golden``: one path, or for a station of several cameras ``NAME=PATH`` each;
+    with ``--camera NAME``, its path or ``NAME=PATH`` as for the whole station."""
     from pathlib import Path
 
     if not given:
@@ -208,6 +209,9 @@ def _goldens(given, *, several: bool):
     if not several:
         if len(given) > 1:
             raise click.UsageError("--golden once: the station watched has one camera")
+        name, eq, path = str(given[0]).partition("=")
+        if camera is not None and eq and name == camera and path:
+            return Path(path)
         return given[0]
     pairs = [str(g).partition("=") for g in given]
     for g, (name, eq, path) in zip(given, pairs, strict=True):

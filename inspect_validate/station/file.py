@@ -375,6 +375,33 @@ class Station(StrictModel):
             )
         return self
 
+    def with_golden(self, path: str | Path) -> Station:
+        """This station checking drift against the golden file at ``path`` (a path from
+        the working directory: ``--golden``), in its acceptance's drift section or the
+        default one.
+
+        Raises
+        ------
+        InputError
+            A station of several cameras (each camera's golden file is its own:
+            ``cameras[].golden``, or one camera's view).
+        """
+        from inspect_validate.acceptance import Drift
+        from inspect_validate.errors import InputError
+
+        if self.cameras:
+            raise InputError(
+                "--golden is one camera's: give --camera NAME with it, or each camera's "
+                "golden file in cameras[].golden",
+                source=str(self.path),
+            )
+        acc = self.acceptance
+        golden = str(Path(path).absolute())
+        drift = (
+            acc.drift.model_copy(update={"golden": golden}) if acc.drift else Drift(golden=golden)
+        )
+        return self.model_copy(update={"acceptance": acc.model_copy(update={"drift": drift})})
+
     def view(self, name: str) -> Station:
         """The station as its camera ``name`` alone sees it: that camera, its ROI file,
         every other key as it is (what a verification of one camera reads).

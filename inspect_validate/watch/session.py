@@ -177,7 +177,6 @@ def _one_camera(
     station: Station, golden: Path | dict | None, production: bool, frames: Path | None
 ) -> tuple[DriftMonitor, Plan | None, LineWatch | None, str]:
     """The charts, plan or line of a watch of a station of one camera, and its golden file."""
-    from inspect_validate.acceptance import Drift
     from inspect_validate.verification.plan import plan_verification
     from inspect_validate.watch.drift import DriftMonitor
 
@@ -186,10 +185,9 @@ def _one_camera(
             "golden files by camera: the station has one camera; give one golden file",
             source=str(station.path),
         )
-    drift = station.acceptance.drift
     if golden is not None:
-        golden = Path(golden).resolve()
-        drift = (drift or Drift(golden=str(golden))).model_copy(update={"golden": str(golden)})
+        station = station.with_golden(golden)
+    drift = station.acceptance.drift
     if drift is None or drift.golden is None:
         raise InputError(
             "watch charts drift from a golden file: give --golden (made by 'train') or "
@@ -206,10 +204,7 @@ def _one_camera(
         # The plan reads the golden file and checks it fits the station; each cycle is
         # then verified without the single-cycle drift checks: the charts replace them,
         # with a false-alarm rate controlled over every chart together.
-        with_drift = station.acceptance.model_copy(update={"drift": drift})
-        plan = plan_verification(
-            station.model_copy(update={"acceptance": with_drift}), drift_checks=False
-        )
+        plan = plan_verification(station, drift_checks=False)
     try:
         if line is not None:
             from inspect_validate.station.model import station_model

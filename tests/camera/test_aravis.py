@@ -322,7 +322,9 @@ def test_a_camera_that_does_not_see_the_lights_is_a_verdict(cli, tmp_path, fake_
         "timeout_s": 2,
     }
     path.write_text(yaml.safe_dump(doc, sort_keys=False))
-    code, out, err = cli(["verify", path, "--out", tmp_path / "c", "--report", tmp_path / "r"])
+    code, out, err = cli(
+        ["verify", path, "--frames-out", tmp_path / "c", "--report", tmp_path / "r"]
+    )
     assert code == 1, out + err
     assert "Traceback" not in err and "no light within" not in err
     result = json.loads((tmp_path / "r" / "verification.json").read_text())
@@ -338,14 +340,14 @@ def test_a_camera_that_does_not_see_the_lights_is_a_verdict(cli, tmp_path, fake_
 
 
 def test_init_simulate_warns_of_a_fake_camera_already_running(cli, tmp_path, fake_gige):
-    """init --camera aravis --simulate did not notice another fake camera on the loopback,
+    """init --camera-backend aravis --simulate did not notice another fake camera on the loopback,
     which then answered for the station's own (capture exit 3)."""
     from conftest import ROOT
 
     serial, _ = fake_gige()
     code, _, err = cli(
         ["init", tmp_path / "s.yaml", "--scene", ROOT / "sample_images/scenes/paperboard/scene.yaml",
-         "--camera", "aravis", "--simulate", "--irradiance", "1=5", "--irradiance", "2=5",
+         "--camera-backend", "aravis", "--simulate", "--irradiance", "1=5", "--irradiance", "2=5",
          "--no-interactive"]
     )  # fmt: skip
     assert code == 0, err

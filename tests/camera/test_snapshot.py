@@ -123,7 +123,9 @@ def test_verify_fails_naming_a_node_another_program_changed(cli, tmp_path):
     doc = yaml.safe_load(path.read_text())
     doc["camera"]["world"] = {"nodes": {"Gamma": "0.7", "BlackLevel": "12"}}
     path.write_text(yaml.safe_dump(doc, sort_keys=False))
-    code, out, err = cli(["verify", path, "--out", tmp_path / "v", "--report", tmp_path / "r"])
+    code, out, err = cli(
+        ["verify", path, "--frames-out", tmp_path / "v", "--report", tmp_path / "r"]
+    )
     assert code == 1, out + err
     report = json.loads((tmp_path / "r" / "verification.json").read_text())
     (failed,) = [c for c in report["checks"] if c["verdict"] == "fail"]
@@ -131,7 +133,7 @@ def test_verify_fails_naming_a_node_another_program_changed(cli, tmp_path):
     assert "BlackLevel absent → 12" in failed["detail"] and "Gamma 1 → 0.7" in failed["detail"]
     del golden["settings"]
     (tmp_path / "golden.json").write_text(json.dumps(golden))
-    code, out, err = cli(["verify", path, "--out", tmp_path / "w"])
+    code, out, err = cli(["verify", path, "--frames-out", tmp_path / "w"])
     assert code == 0, out + err
     assert "no settings snapshot to compare: the golden file was trained" in out
 

@@ -73,8 +73,24 @@ def test_an_impossible_number_is_refused_naming_the_option(cli, args, says):
     assert code == 2 and says in err and "camera.exposure_us" not in err, err
 
 
-#: Retired spellings and the one that replaces them (kept a release, hidden, deprecated).
+#: Retired spellings and the one that replaces them (kept a release, hidden, deprecated),
+#: in every command or in the one that gave the spelling another meaning.
 RETIRED = {"--no-kde": "--kde", "--frame": "--size"}
+RETIRED_IN = {
+    ("init", "--camera"): "--camera-backend",
+    ("verify", "--out"): "--frames-out",
+    ("predict", "--comparison"): "--rank-comparison",
+    ("history", "--recent"): "--list",
+}
+
+#: What an option spelled in several commands means in each: a phrase its help holds.
+MEANINGS = {
+    "--camera": "of a station of several cameras",
+    "--golden": "golden file",
+    "--comparison": "compare only these",
+    "--frames-out": "frames",
+    "--rois": "roi file",
+}
 
 
 def test_one_spelling_per_concept():
@@ -91,7 +107,7 @@ def test_one_spelling_per_concept():
             if not isinstance(p, click.Option):
                 continue
             (spelling,) = [o for o in p.opts if o.startswith("--")]
-            if spelling in RETIRED:
+            if spelling in RETIRED or (name, spelling) in RETIRED_IN:
                 assert p.hidden and p.deprecated, f"{name} {spelling}: not retired"
                 continue
             if p.type is SIZE:
@@ -123,3 +139,35 @@ def test_a_fraction_is_taken_in_per_cent_too(cli):
     assert Share().convert("0.001", None, None) == pytest.approx(0.001)
     code, _, err = cli(["measure", "f.png", "--rois", "r.yaml", "--max-saturated", "200%"])
     assert code == 2 and "0<=x<=1" in err
+
+
+def test_one_meaning_per_option():
+    """An option spelled in several commands means one thing in each: --camera is a
+    camera of several (init took a backend), --golden a golden file (bench verify
+    refused it), --comparison filters what is compared (predict picked the ranking's),
+    --kde defaults to auto (predict and analyze-spectra: always), --out is no longer the
+    frames of verify; a retired spelling names itself, not an identifier of the code."""
+    from inspect_validate.cli.common import Retired
+
+    for name, command in _commands():
+        for p in command.params:
+            if not isinstance(p, click.Option) or isinstance(p, Retired):
+                continue
+            spelling = max(p.opts, key=len)
+            if spelling in MEANINGS:
+                assert MEANINGS[spelling] in (p.help or "").lower(), (name, spelling, p.help)
+            if spelling == "--kde":
+                assert p.default == "auto", name
+    for (name, spelling), instead in RETIRED_IN.items():
+        command = dict(_commands())[name]
+        (p,) = [p for p in command.params if spelling in p.opts]
+        assert isinstance(p, Retired) and p.human_readable_name == spelling
+        assert instead in p.deprecated, (name, spelling)
+
+
+def test_a_retired_spelling_says_itself_and_what_to_write(cli, tmp_path):
+    code, out, err = cli(["history", tmp_path / "none.sqlite", "--recent", 3])
+    assert "The option '--recent' is deprecated. write --list N" in err, err
+    code, out, err = cli(["predict", SCENE, "--comparison", "A vs B", "--json", "-"])
+    assert code == 0 and "'--comparison' is deprecated" in err
+    assert json.loads(out)["rank_comparison"] == "A vs B"

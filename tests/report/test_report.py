@@ -72,7 +72,15 @@ def test_verify_keeps_its_checks_table_within_a_terminal(tmp_path):
     master, slave = os.openpty()
     env = {**os.environ, "COLUMNS": "100", "LINES": "40"}
     proc = subprocess.Popen(
-        [sys.executable, "-m", "inspect_validate", "verify", station, "--out", tmp_path / "f"],
+        [
+            sys.executable,
+            "-m",
+            "inspect_validate",
+            "verify",
+            station,
+            "--frames-out",
+            tmp_path / "f",
+        ],
         stdout=slave,
         stderr=subprocess.DEVNULL,
         env=env,

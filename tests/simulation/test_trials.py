@@ -70,7 +70,9 @@ def test_a_trial_decides_as_the_cli_does(tmp_path):
     doc = yaml.safe_load(path.read_text())
     doc["acceptance"]["drift"] = {"golden": "g.json"}
     path.write_text(yaml.safe_dump(doc))
-    assert run_cli(["verify", path, "--out", tmp_path / "f", "--report", tmp_path / "r"]) == 0
+    assert (
+        run_cli(["verify", path, "--frames-out", tmp_path / "f", "--report", tmp_path / "r"]) == 0
+    )
     report = json.loads((tmp_path / "r" / "verification.json").read_text())
     assert trial.passed and report["verdict"] == "pass"
     assert report["false_alarm"]["rate"] == 0.0027

@@ -31,7 +31,7 @@ def test_an_illumination_named_as_a_path_is_refused(cli, tmp_path, name, says):
 def test_a_station_name_with_control_characters_is_refused(cli, tmp_path):
     """verify wrote a junit.xml that was no XML for a name with a bell in it."""
     path = copy_station(tmp_path, name="line 3\x07")
-    code, _, err = cli(["verify", path, "--out", tmp_path / "c"])
+    code, _, err = cli(["verify", path, "--frames-out", tmp_path / "c"])
     assert code == 2 and "name" in err, err
 
 

@@ -31,7 +31,7 @@ def test_simulated_station_from_init_captures_and_verifies(cli, tmp_path):
             out,
             "--scene",
             SCENE,
-            "--camera",
+            "--camera-backend",
             "simulated",
             "--irradiance",
             "1=5",
@@ -71,7 +71,7 @@ def test_the_camera_is_read_and_its_ranges_checked_on_pylons_emulator(tmp_path):
                 "--force",
                 "--scene",
                 str(SCENE),
-                "--camera",
+                "--camera-backend",
                 "pylon",
                 "--controller",
                 "simulated",
@@ -115,7 +115,7 @@ def test_a_generic_controller_on_tcp_is_written_with_its_protocol_and_probed(
             out,
             "--scene",
             SCENE,
-            "--camera",
+            "--camera-backend",
             "simulated",
             "--controller",
             "generic",
@@ -142,7 +142,7 @@ def test_a_generic_controller_on_tcp_is_written_with_its_protocol_and_probed(
             tmp_path / "t.yaml",
             "--scene",
             SCENE,
-            "--camera",
+            "--camera-backend",
             "simulated",
             "--controller",
             "gardasoft",
@@ -160,25 +160,34 @@ def test_a_generic_controller_on_tcp_is_written_with_its_protocol_and_probed(
     "args, message",
     [
         (
-            ["--camera", "simulated"],  # no irradiance: not predictable
+            ["--camera-backend", "simulated"],  # no irradiance: not predictable
             "give --exposure-us (exposure time, µs): the scene's lights have no irradiance",
         ),
-        (["--camera", "acme", "--exposure-us", "1"], "no camera backend 'acme' is installed"),
         (
-            ["--camera", "simulated", "--channel", "1=blue LED", "--exposure-us", "1"],
+            ["--camera-backend", "acme", "--exposure-us", "1"],
+            "no camera backend 'acme' is installed",
+        ),
+        (
+            ["--camera-backend", "simulated", "--channel", "1=blue LED", "--exposure-us", "1"],
             "no light 'blue LED'",
         ),
-        (["--camera", "simulated", "--channel", "one=red LED"], "write CHANNEL=VALUE"),
+        (["--camera-backend", "simulated", "--channel", "one=red LED"], "write CHANNEL=VALUE"),
         (
-            ["--camera", "simulated", "--irradiance", "3=5", "--exposure-us", "1"],
+            ["--camera-backend", "simulated", "--irradiance", "3=5", "--exposure-us", "1"],
             "channel 3, which drives no light",
         ),
-        (["--camera", "simulated", "--size", "640", "--exposure-us", "1"], "write WIDTHxHEIGHT"),
-        (["--camera", "simulated", "--size", "0x480", "--exposure-us", "1"], "each at least 1"),
-        (["--camera", "v4l2", "--simulate"], "no emulator to render into"),
+        (
+            ["--camera-backend", "simulated", "--size", "640", "--exposure-us", "1"],
+            "write WIDTHxHEIGHT",
+        ),
+        (
+            ["--camera-backend", "simulated", "--size", "0x480", "--exposure-us", "1"],
+            "each at least 1",
+        ),
+        (["--camera-backend", "v4l2", "--simulate"], "no emulator to render into"),
         (
             [
-                "--camera",
+                "--camera-backend",
                 "simulated",
                 "--controller",
                 "generic",
@@ -190,8 +199,8 @@ def test_a_generic_controller_on_tcp_is_written_with_its_protocol_and_probed(
             "needs --protocol",
         ),
         ([], "give --camera"),
-        (["--camera", "simulated", "--channel", "²=red LED"], "the channel a number 1–64"),
-        (["--camera", "simulated", "--channel", "1="], "nothing after '='"),
+        (["--camera-backend", "simulated", "--channel", "²=red LED"], "the channel a number 1–64"),
+        (["--camera-backend", "simulated", "--channel", "1="], "nothing after '='"),
     ],
 )
 def test_what_init_cannot_write_is_named(cli, tmp_path, args, message):

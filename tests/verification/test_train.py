@@ -109,7 +109,7 @@ def test_too_few_repeats_for_the_rate_are_refused_naming_the_repeats_needed(cli,
     )
     assert code == 0, out + err
     path = with_acceptance(tmp_path, trained, drift={"golden": "three.json"})
-    code, out, err = cli(["verify", path, "--out", tmp_path / "f"])
+    code, out, err = cli(["verify", path, "--frames-out", tmp_path / "f"])
     assert code == 2, out + err
     assert "3 repeats are too few" in err and "--repeats 4 or more" in err
     assert "(9 for limits within 2 ×)" in err
@@ -126,7 +126,9 @@ def test_an_aged_light_passes_agreement_and_fails_drift(cli, tmp_path, trained):
         world={"irradiance": {1: 0.95}},
         drift={"golden": "golden.json", "mean_dn": 2.0, "snr_db": 0.5},
     )
-    code, out, err = cli(["verify", path, "--out", tmp_path / "f", "--report", tmp_path / "r"])
+    code, out, err = cli(
+        ["verify", path, "--frames-out", tmp_path / "f", "--report", tmp_path / "r"]
+    )
     assert code == 1, out + err
     doc = json.loads((tmp_path / "r" / "verification.json").read_text())
     failed = {c["name"] for c in doc["checks"] if c["verdict"] == "fail"}
@@ -154,7 +156,7 @@ def test_bad_golden_files_exit_2_naming_the_file(
     path = with_acceptance(tmp_path, trained, drift=drift)
     if golden_text is not None:
         (tmp_path / "golden.json").write_text(golden_text)
-    code, out, err = cli(["verify", path, "--out", tmp_path / "f"])
+    code, out, err = cli(["verify", path, "--frames-out", tmp_path / "f"])
     assert code == 2, out + err
     assert message in err and "golden" in err and "Traceback" not in err
     assert not (tmp_path / "f").exists()  # refused before capturing
@@ -319,13 +321,13 @@ def test_other_parts_every_capture_pass_once_trained_in_and_a_lost_light_fails(c
     assert amber_a["std"] > 0.05  # the parts differ, far beyond the noise (0.005 DN)
     counts = set()
     for i in range(3):
-        code, out, err = cli(["verify", path, "--out", tmp_path / f"v{i}"])
+        code, out, err = cli(["verify", path, "--frames-out", tmp_path / f"v{i}"])
         assert code == 0, out + err
         counts.add(next(x for x in out.splitlines() if x.startswith("false-alarm rate")))
     assert len(counts) == 1  # one set of checks, verify after verify
     assert "red: A vs B" in out.split("predicted below agreement.snr_floor_db")[0]
     doc["camera"]["world"]["irradiance"] = {1: 0.9}
     path.write_text(yaml.safe_dump(doc, sort_keys=False))
-    code, out, err = cli(["verify", path, "--out", tmp_path / "lost"])
+    code, out, err = cli(["verify", path, "--frames-out", tmp_path / "lost"])
     assert code == 1, out + err
     assert any(x.startswith("FAIL") and "amber: B μ drift" in x for x in out.splitlines())

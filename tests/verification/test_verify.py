@@ -72,7 +72,7 @@ def test_verify_run_again_into_its_report_sets_the_earlier_one_aside(cli, tmp_pa
 def test_a_capture_already_in_out_names_no_option_verify_lacks(cli, tmp_path):
     path = station(tmp_path)
     assert cli(["capture", path, "--out", tmp_path / "cap"])[0] == 0
-    code, _out, err = cli(["verify", path, "--out", tmp_path / "cap"])
+    code, _out, err = cli(["verify", path, "--frames-out", tmp_path / "cap"])
     assert code == 2 and "a capture is already here" in err
     assert "--resume" not in err.replace("capture --resume", "") and "--frames" in err
 
@@ -189,7 +189,7 @@ def test_measure_and_verify_agree_on_every_shared_number(cli, tmp_path):
     ],
 )
 def test_bad_stations_exit_2_naming_the_field(cli, tmp_path, change, message):
-    code, out, err = cli(["verify", station(tmp_path, **change), "--out", tmp_path / "f"])
+    code, out, err = cli(["verify", station(tmp_path, **change), "--frames-out", tmp_path / "f"])
     assert code == 2, out + err
     assert message in err and "Traceback" not in err
 
@@ -205,7 +205,7 @@ def test_a_controller_that_vanishes_exits_3_and_keeps_the_frames(cli, tmp_path):
     doc = yaml.safe_load(path.read_text())
     doc["controller"]["simulator_args"] = ["--vanish-after", "3"]
     path.write_text(yaml.safe_dump(doc))
-    code, out, err = cli(["verify", path, "--out", tmp_path / "f"])
+    code, out, err = cli(["verify", path, "--frames-out", tmp_path / "f"])
     assert code == 3, out + err
     assert (tmp_path / "f" / "manifest.json").exists()
 
@@ -568,7 +568,7 @@ def test_frames_whose_recorded_settings_contradict_the_station_are_refused(cli, 
     exposed 8000 µs as a station of 4000 µs: measured, and compared with a prediction of
     other settings. Refused (exit 2), naming the step and both settings."""
     path = station(tmp_path)
-    code, out, err = cli(["verify", path, "--out", tmp_path / "f"])
+    code, out, err = cli(["verify", path, "--frames-out", tmp_path / "f"])
     assert code == 0, out + err
     doc = yaml.safe_load(path.read_text())
     doc["camera"]["exposure_us"] = 4000
@@ -592,7 +592,7 @@ def test_frames_stored_otherwise_than_their_pixel_format_are_refused(cli, tmp_pa
     import tifffile
 
     path = station(tmp_path)
-    assert cli(["verify", path, "--out", tmp_path / "f"])[0] == 0
+    assert cli(["verify", path, "--frames-out", tmp_path / "f"])[0] == 0
     manifest = json.loads((tmp_path / "f" / "manifest.json").read_text())
     for frame in (tmp_path / "f").glob("*/frame_*.tif"):
         with tifffile.TiffFile(frame) as tif:
@@ -680,7 +680,7 @@ def test_a_fixed_drift_tolerance_says_what_it_lets_pass(cli, tmp_path, golden):
     doc = yaml.safe_load(path.read_text())
     doc["acceptance"]["drift"] = {"golden": str(golden), "k": 3, "mean_dn": 2, "snr_db": 0.5}
     path.write_text(yaml.safe_dump(doc, sort_keys=False))
-    code, out, err = cli(["verify", path, "--out", tmp_path / "f"])
+    code, out, err = cli(["verify", path, "--frames-out", tmp_path / "f"])
     assert code == 0, out + err
     note = next(line for line in out.splitlines() if "acceptance.drift.mean_dn 2 DN is" in line)
     assert "on 6 of its 6 checks" in note and "passes unseen" in note  # 3 classes, 2 lights
@@ -688,5 +688,5 @@ def test_a_fixed_drift_tolerance_says_what_it_lets_pass(cli, tmp_path, golden):
     assert "acceptance.drift.snr_db 0.5 dB is wider" in out
     del doc["acceptance"]["drift"]["mean_dn"], doc["acceptance"]["drift"]["snr_db"]
     path.write_text(yaml.safe_dump(doc, sort_keys=False))
-    code, out, err = cli(["verify", path, "--out", tmp_path / "g"])
+    code, out, err = cli(["verify", path, "--frames-out", tmp_path / "g"])
     assert code == 1 and "acceptance.drift.mean_dn" not in out, out + err

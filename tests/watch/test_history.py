@@ -84,7 +84,7 @@ def test_watch_flags_led_ageing_from_the_cli(aged):
 
 
 def test_history_prints_the_trend(cli, aged):
-    code, out, err = cli(["history", aged.db, "--recent", 4])
+    code, out, err = cli(["history", aged.db, "--list", 4])
     assert code == 0, err
     assert "cycles 0–23," in out
     counts = dict(_sql(aged.db, "SELECT status, COUNT(*) FROM cycles GROUP BY status"))
@@ -184,10 +184,10 @@ def test_history_last_cycles(cli, aged, tmp_path):
     assert "cycles 21–23 (the last 3 of 24)" in out
     with open(tmp_path / "h.csv", newline="") as f:
         assert {r["cycle"] for r in csv.DictReader(f)} == {"21", "22", "23"}
-    code, out, _ = cli(["history", aged.db, "--last", 100, "--recent", 0])
+    code, out, _ = cli(["history", aged.db, "--last", 100, "--list", 0])
     assert code == 0 and "cycles 0–23," in out and "recent cycles" not in out
     # beyond SQLite's 64-bit integers (an OverflowError, exit 70, before): every cycle
-    code, out, err = cli(["history", aged.db, "--last", 10**20, "--recent", 0])
+    code, out, err = cli(["history", aged.db, "--last", 10**20, "--list", 0])
     assert code == 0 and "cycles 0–23," in out, err
 
 

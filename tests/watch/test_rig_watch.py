@@ -160,6 +160,15 @@ def test_one_camera_of_several_is_watched_alone_with_camera(trained, tmp_path):
     log = read_history(db)
     assert {key[4] for key in log.charts} == {""}  # a station of that camera alone
     assert log.golden.endswith("side.json")
+    # --golden as for the whole station (NAME=PATH) means the same with --camera NAME.
+    db = tmp_path / "named.sqlite"
+    assert (
+        _watch(
+            trained, db, 1, "--camera", "side", "--golden", f"side={trained.parent / 'side.json'}"
+        )
+        == 0
+    )
+    assert read_history(db).golden == str(trained.parent / "side.json")
 
 
 def test_golden_files_given_by_camera_on_the_command_line(trained, tmp_path):
