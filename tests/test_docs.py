@@ -94,6 +94,17 @@ def test_readme_is_a_readme_and_its_links_resolve():
         assert (ROOT / target).exists(), target
 
 
+def test_the_readmes_command_table_lists_every_command():
+    import click
+
+    from inspect_validate.cli import cli
+
+    text = (ROOT / "README.md").read_text()
+    table = text.split("## The commands", 1)[1].split("\n## ", 1)[0]
+    listed = set(re.findall(r"^\| `inspect-validate ([a-z-]+)", table, re.M))
+    assert listed == set(cli.list_commands(click.Context(cli)))
+
+
 def test_ci_runs_the_readmes_test_command_as_printed():
     """The quick start's second command is what CI runs, word for word: CI that installs
     more than the README says hid a test command that failed on a fresh machine."""
