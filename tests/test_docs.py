@@ -140,6 +140,23 @@ def test_every_manual_page_is_in_the_manual():
         assert f"\n{section}/index\n" in (DOCS / "index.md").read_text()
 
 
+def test_format_pages_hold_their_models_tables_as_written(monkeypatch):
+    """The format pages read in a checkout (they were a directive only, empty there):
+    each generated block is what its model makes now (run python
+    docs/_ext/file_models.py after changing a model)."""
+    monkeypatch.syspath_prepend(str(DOCS / "_ext"))
+    from file_models import render_page
+
+    blocks = 0
+    for page in sorted((DOCS / "formats").glob("*.md")):
+        text = page.read_text()
+        blocks += text.count("<!-- /file-model -->")
+        assert render_page(text) == text, f"{page.name}: run python docs/_ext/file_models.py"
+    assert blocks == 6
+    station = (DOCS / "formats" / "station.md").read_text()
+    assert "| `frames` | integer (1 ≤ x ≤ 100 000) | `4` | Frames per illumination" in station
+
+
 def test_format_pages_read_each_fields_docstring_and_constraints(monkeypatch):
     # The format pages come from the models; a field's docstring is its meaning (read by
     # the docs build, not by pydantic at import: that cost the command line 50 ms).
@@ -307,7 +324,7 @@ def test_every_key_of_every_format_page_has_a_meaning_and_a_readable_type(monkey
     from file_models import model_rst
 
     pages = "\n".join(p.read_text() for p in (DOCS / "formats").glob("*.md"))
-    named = set(re.findall(r"```\{file-model\} (\S+)", pages))
+    named = set(re.findall(r"<!-- file-model (\S+)", pages))
     assert named == set(FORMAT_MODELS)
     empty, unreadable = [], []
     for target in FORMAT_MODELS:

@@ -1,16 +1,21 @@
-"""``file-model``: a file format's reference table, generated from its validation model.
+"""A file format's reference table, generated from its validation model.
 
-    ```{file-model} inspect_validate.scene_file:SceneFile
-    ```
+A format page holds, between ::
 
-renders every key of the model (type, constraints, default, description from the
-field's docstring) and, below it, the same for every model nested in it, so the
-manual's format pages are the models the tool validates files with.
+    <!-- file-model inspect_validate.scene_file:SceneFile "scene file" -->
+    <!-- /file-model -->
+
+every key of the model (type, constraints, default, description from the field's
+docstring) and, below it, the same for every model nested in it, as plain Markdown that
+reads in a checkout too; ``python docs/_ext/file_models.py`` writes them, and
+tests/test_docs.py fails while a page differs from its models. (The ``file-model``
+directive renders the same tables inside the built manual only.)
 """
 
 from __future__ import annotations
 
 import importlib
+import re
 import types
 import typing
 from pathlib import Path
@@ -170,6 +175,8 @@ def _default(field: FieldInfo) -> str:
         return f"`{str(value).lower()}`"
     if isinstance(value, dict | list) and not value:
         return "none"
+    if isinstance(value, str) and not value.isprintable():  # a terminator: "\r" as written
+        return f"`{value.encode('unicode_escape').decode()}`"
     return f"`{value}`"
 
 
@@ -177,18 +184,46 @@ def _one_line(text: str | None) -> str:
     return " ".join((text or "").split())
 
 
-def model_rst(model: type[BaseModel], title: str) -> list[str]:
-    """MyST Markdown of ``model``'s table and those of the models nested in it."""
+def model_tables(
+    model: type[BaseModel], title: str
+) -> list[tuple[str, str, list[tuple[str, str, str, str]]]]:
+    """``model``'s table and those of the models nested in it: each (where, what the
+    model is, rows of key, type, default, meaning)."""
     fmt = _Formatter()
     fmt.nested.append((title, model))
-    lines: list[str] = []
+    tables = []
     done = 0
     while done < len(fmt.nested):
         where, current = fmt.nested[done]
         done += 1
-        lines += ["```{rubric} " + where, "```", ""]
         doc = _one_line(current.__doc__ if current.__doc__ != BaseModel.__doc__ else "")
-        if doc and not doc.startswith("Usage docs"):
+        if doc.startswith("Usage docs"):
+            doc = ""
+        rows = []
+        docs = field_docs(current)
+        for name, field in current.model_fields.items():
+            if name == "path" and field.exclude:
+                continue
+            key = field.alias or name
+            path = key if where == title else f"{where}.{key}"
+            kind = fmt(field.annotation, path)
+            # The field's own bounds, unless the type's words already hold them.
+            bounds = [b for b in _constraints(field.metadata, kind) if f"({b}" not in kind]
+            kind = _bounded(kind, bounds)
+            rows.append(
+                (key, kind, _default(field), _one_line(field.description or docs.get(name)))
+            )
+        tables.append((where, doc, rows))
+    return tables
+
+
+def model_rst(model: type[BaseModel], title: str) -> list[str]:
+    """MyST Markdown of ``model``'s table and those of the models nested in it, as
+    list-tables (each row's cells on lines of their own)."""
+    lines: list[str] = []
+    for where, doc, rows in model_tables(model, title):
+        lines += ["```{rubric} " + where, "```", ""]
+        if doc:
             lines += [doc, ""]
         lines += [
             "````{list-table}",
@@ -200,24 +235,72 @@ def model_rst(model: type[BaseModel], title: str) -> list[str]:
             "  - default",
             "  - meaning",
         ]
-        docs = field_docs(current)
-        for name, field in current.model_fields.items():
-            if name == "path" and field.exclude:
-                continue
-            key = field.alias or name
-            path = key if where == title else f"{where}.{key}"
-            kind = fmt(field.annotation, path)
-            # The field's own bounds, unless the type's words already hold them.
-            bounds = [b for b in _constraints(field.metadata, kind) if f"({b}" not in kind]
-            kind = _bounded(kind, bounds)
-            lines += [
-                f"* - `{key}`",
-                f"  - {kind}",
-                f"  - {_default(field)}",
-                f"  - {_one_line(field.description or docs.get(name)) or ' '}",
-            ]
+        for key, kind, default, meaning in rows:
+            lines += [f"* - `{key}`", f"  - {kind}", f"  - {default}", f"  - {meaning or ' '}"]
         lines += ["````", ""]
     return lines
+
+
+def model_markdown(model: type[BaseModel], title: str) -> str:
+    """``model``'s tables as plain Markdown (pipe tables under a bold title), which reads
+    the same in a checkout, on a forge's page and in the built manual."""
+
+    def cell(text: str) -> str:
+        return re.sub(r"(?<!\\)\|", r"\\|", text)
+
+    out = []
+    for where, doc, rows in model_tables(model, title):
+        out += [f"**{where}**", ""]
+        if doc:
+            out += [doc, ""]
+        out += ["| key | type | default | meaning |", "|---|---|---|---|"]
+        out += [
+            f"| `{key}` | {cell(kind)} | {cell(default)} | {cell(meaning)} |"
+            for key, kind, default, meaning in rows
+        ]
+        out.append("")
+    return "\n".join(out)
+
+
+_BLOCK = re.compile(
+    r"(<!-- file-model (?P<target>\S+) \"(?P<title>[^\"]+)\"[^\n]*-->\n)(?P<body>.*?)(<!-- /file-model -->)",
+    re.S,
+)
+
+
+def _target(text: str) -> type[BaseModel]:
+    module, _, name = text.partition(":")
+    target = importlib.import_module(module)
+    for part in name.split("."):
+        target = getattr(target, part)
+    if not (isinstance(target, type) and issubclass(target, BaseModel)):
+        target = target()  # a factory of a model built on first use
+    return target
+
+
+def render_page(text: str) -> str:
+    """A format page with each generated block (between ``<!-- file-model TARGET
+    "TITLE" -->`` and ``<!-- /file-model -->``) made anew from its model."""
+    return _BLOCK.sub(
+        lambda m: (
+            m.group(1)
+            + "\n"
+            + model_markdown(_target(m.group("target")), m.group("title"))
+            + m.group(5)
+        ),
+        text,
+    )
+
+
+def main() -> None:
+    """Write the format pages' generated tables from the models (run after changing a
+    model; tests/test_docs.py fails while a page differs from its models)."""
+    for page in sorted((Path(__file__).parents[1] / "formats").glob("*.md")):
+        text = page.read_text()
+        made = render_page(text)
+        if made != text:
+            page.write_text(made)
+            print(f"wrote {page}")
 
 
 class FileModel(Directive):
@@ -227,12 +310,7 @@ class FileModel(Directive):
     option_spec: typing.ClassVar = {"title": str}
 
     def run(self):
-        module, _, name = self.arguments[0].partition(":")
-        target = importlib.import_module(module)
-        for part in name.split("."):
-            target = getattr(target, part)
-        if not (isinstance(target, type) and issubclass(target, BaseModel)):
-            target = target()  # a factory of a model built on first use
+        target = _target(self.arguments[0])
         lines = model_rst(target, self.options.get("title", "top level"))
         container = StringList(lines, source=f"<file-model {self.arguments[0]}>")
         node = nodes.section()
@@ -244,3 +322,7 @@ class FileModel(Directive):
 def setup(app):
     app.add_directive("file-model", FileModel)
     return {"parallel_read_safe": True, "parallel_write_safe": True}
+
+
+if __name__ == "__main__":
+    main()

@@ -26,7 +26,14 @@ def test_two_simulated_cameras_capture_matched_rounds(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "amber: 4 frames from each camera, matched by trigger" in out
     top, side = (_manifest(tmp_path / "cap" / name) for name in ("top", "side"))
-    assert top["rig"] == side["rig"] == {"cameras": ["top", "side"], "trigger": "software-trigger"}
+    assert top["rig"]["id"] == side["rig"]["id"] and len(top["rig"]["id"]) == 32
+    for name, manifest in (("top", top), ("side", side)):
+        assert manifest["rig"] == {
+            "id": top["rig"]["id"],
+            "camera": name,
+            "cameras": ["top", "side"],
+            "trigger": "software-trigger",
+        }
     for step in ("amber", "red", "dark"):
         a, b = top["steps"][step], side["steps"][step]
         assert a["complete"] and b["complete"] and a["rounds"] == b["rounds"]
