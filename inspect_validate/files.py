@@ -16,7 +16,7 @@ import json
 import math
 import os
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
 
@@ -107,7 +107,9 @@ def output_folder(path: str | Path) -> Path:
     return path
 
 
-def fresh_folder(path: str | Path, *, derived: frozenset[str], keep=()) -> Path | None:
+def fresh_folder(
+    path: str | Path, *, derived: frozenset[str], keep: Iterable[str | Path | None] = ()
+) -> Path | None:
     """Empty ``path`` for a run that writes its outputs there again, losing nothing.
 
     The files an earlier run wrote there and a run makes anew (their names in

@@ -147,7 +147,7 @@ def test_existing_capture_needs_resume_and_the_same_station(tmp_path, capsys):
     out = tmp_path / "cap"
     assert run_cli(["capture", station, "--out", out]) == 0
     assert run_cli(["capture", station, "--out", out]) == 2
-    assert "add --resume" in capsys.readouterr().err
+    assert "continue it with 'capture --resume'" in capsys.readouterr().err
     station.write_text(station.read_text().replace("frames: 4", "frames: 5"))
     assert run_cli(["capture", station, "--out", out, "--resume"]) == 2
     assert "different station file" in capsys.readouterr().err
