@@ -219,6 +219,7 @@ def probe_port(port: str, *, protocol: AsciiProtocol | None = None, timeout_s: f
     The given protocol goes first: a line-based controller would read the Gardasoft query
     left in its buffer as the start of its next command. "" where neither answers; never
     raises for a port that does not answer."""
+    refused = ""  # a controller that answered, with an error (Err 999), is no silence
     if protocol is not None:
         if "status" not in protocol.commands and not protocol.commands.get("init"):
             raise InputError(
@@ -229,8 +230,8 @@ def probe_port(port: str, *, protocol: AsciiProtocol | None = None, timeout_s: f
         try:
             with protocol_controller(port, protocol, ControllerSettings(timeout_s=timeout_s)) as c:
                 return f"ASCII protocol: {shown_text((c.status() or 'answers').encode())}"
-        except DeviceError:
-            pass
+        except DeviceError as exc:
+            refused = _error_answer(exc, port)
     try:
         with GardasoftController(port, timeout=timeout_s) as gardasoft:
             if protocol is not None:
@@ -238,5 +239,14 @@ def probe_port(port: str, *, protocol: AsciiProtocol | None = None, timeout_s: f
                 with contextlib.suppress(DeviceError):
                     gardasoft.link.query("")
             return f"Gardasoft RT: {shown_text((gardasoft.version() or 'answers').encode())}"
-    except DeviceError:
-        return ""
+    except DeviceError as exc:
+        return _error_answer(exc, port) or refused
+
+
+def _error_answer(exc: DeviceError, port: str) -> str:
+    """What a port said when it answered a probe with an error or another reply (the
+    error's text, less the port it names); "" where nothing answered."""
+    text = str(exc).removeprefix(f"{port}: ")
+    if text.startswith("controller answered") or "reply" in text:
+        return f"answers, with an error: {text}"
+    return ""

@@ -278,8 +278,12 @@ window.addEventListener('load', () => {
     for (let i = 3; i < d.length; i += 4) { if (d[i] > 0) return true; }
     return false;
   });
+  // A legend value off the chart that reads as unfinished ("--", uPlot's own).
+  const dashes = [...document.querySelectorAll('.u-legend .u-value')].filter(
+    v => v.textContent.trim() === '--');
   document.body.setAttribute('data-probe', document.images.length + ':' + bad.length +
-    ':' + document.querySelectorAll('div.chart').length + ':' + drawn.length);
+    ':' + document.querySelectorAll('div.chart').length + ':' + drawn.length + ':' +
+    dashes.length);
 });
 </script>"""
 
@@ -303,11 +307,18 @@ def chromium_probe(page: Path, tmp_path: Path) -> dict:
         capture_output=True, text=True, timeout=120,
     )  # fmt: skip
     assert run.returncode == 0, run.stderr[-2000:]
-    found = re.search(r'data-probe="(\d+):(\d+):(\d+):(\d+)"', run.stdout)
+    found = re.search(r'data-probe="(\d+):(\d+):(\d+):(\d+):(\d+)"', run.stdout)
     assert found, "the page did not finish loading"
-    images, bad, charts, drawn = map(int, found.groups())
+    images, bad, charts, drawn, dashes = map(int, found.groups())
     console = [line for line in run.stderr.splitlines() if ":CONSOLE" in line]
-    return {"images": images, "bad": bad, "charts": charts, "drawn": drawn, "console": console}
+    return {
+        "images": images,
+        "bad": bad,
+        "charts": charts,
+        "drawn": drawn,
+        "dashes": dashes,
+        "console": console,
+    }
 
 
 PART_FRAME = (640, 800)

@@ -190,6 +190,14 @@ def watch(
             line=s.line,
             rig=s.rig,
         )
+    if s.server is not None:
+        # The server ends with the watch: a scrape after this misses the last cycle,
+        # which the status file and the history hold.
+        click.echo(
+            f"status server closed with the watch; the last cycle is in {s.status_path} and "
+            f"{s.history.path}",
+            err=True,
+        )
     if stopped:
         click.echo(
             f"stopped after cycle {last.record.cycle if last else '—'}; history: {s.history.path}"

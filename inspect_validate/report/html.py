@@ -244,9 +244,14 @@ def table(
 
 
 def _numeric(text: str) -> bool:
+    """A cell that is a number (with its unit): right-aligned; a sentence that starts
+    with one ("4 delivered, 0 incomplete") is text."""
+    words = text.split()
+    if not 1 <= len(words) <= 2:
+        return False
     try:
-        float(text.split()[0].replace("−", "-"))
-    except (ValueError, IndexError):
+        float(words[0].replace("−", "-"))
+    except ValueError:
         return False
     return True
 

@@ -72,7 +72,14 @@ def health_checks(health: Health, manifest: dict) -> tuple[list[Check], list[str
             seen = bad + total.get("frames_delivered", 0)
             share = 100 * bad / seen if seen else 0.0
             checks.append(
-                at_most(name, "health", share, limit, "%", f"{bad:g} of {seen:g} frames delivered")
+                at_most(
+                    name,
+                    "health",
+                    share,
+                    limit,
+                    "%",
+                    f"{bad:g} of {seen:g} frames arrived incomplete",
+                )
             )
     if health.packets_lost is not None:
         name = "camera: packets lost"

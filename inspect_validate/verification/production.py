@@ -304,9 +304,9 @@ def verify_parts(
     found = at_least(
         "parts found",
         "production",
-        parts.found,
-        MIN_FOUND,
-        "",
+        100 * parts.found,
+        100 * MIN_FOUND,
+        "%",
         f"{len(parts.measured)} of {len(parts.measured) + len(parts.not_measured)} frames "
         "hold a part" + (f"; {_reasons(parts.not_measured)}" if parts.not_measured else ""),
     )

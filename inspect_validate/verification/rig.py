@@ -238,8 +238,8 @@ def across_cameras(
                     100 * tolerance,
                     "%",
                     f"irradiance scale {other.scale:.4g} against {base.scale:.4g} (ratio "
-                    f"{ratio:.4f}): the same light, so one camera's gain, exposure or lens "
-                    "changed where they differ",
+                    f"{ratio:.4f}): both cameras see the same light, so a ratio off 1 "
+                    "is one camera's gain, exposure or lens",
                     basis="tolerance",
                     standard_error=100 * se,
                 )

@@ -158,7 +158,7 @@ def test_a_lossy_link_fails_verify_with_the_frames_kept(tmp_path):
     code, checks, _ = _verified(tmp_path, station)
     bad = checks["camera: frames arriving incomplete"]
     assert code == 1 and bad["verdict"] == "fail" and bad["basis"] == "fixed"
-    assert "frames delivered" in bad["detail"]
+    assert "frames arrived incomplete" in bad["detail"]
     manifest = json.loads((tmp_path / "out" / "frames" / "manifest.json").read_text())
     health = capture_health(manifest["steps"].values())
     assert health["frames_incomplete"] >= 1

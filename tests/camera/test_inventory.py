@@ -139,6 +139,13 @@ def test_ports_probed_find_the_controllers_on_a_pty_and_on_tcp(cli, simulator, t
     assert answers[pty].startswith("Gardasoft RT: RT-simulated")
     assert answers[tcp] == "ASCII protocol: OK 1=0 2=0 3=0 4=0"
     assert answers[silent] == ""
+    # A controller that answers its probe with an error is there: said, not "no answer".
+    erring, _, _ = simulator("--error", "VR:999")
+    doc = devices_json(cli, "--backend", "replay", "--port", erring, "--probe")
+    answer = {p["device"]: p["answer"] for p in doc["ports"]}[erring]
+    assert answer.startswith("answers, with an error: controller answered 'Err 999' to 'VR'"), (
+        answer
+    )
     code, out, _ = cli(["devices", "--backend", "replay", "--port", pty])
     assert code == 0 and "not probed (--probe)" in out  # nothing is sent unless asked
 

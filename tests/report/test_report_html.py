@@ -113,4 +113,4 @@ def test_report_renders_in_headless_chromium(report, tmp_path):
     seen = chromium_probe(report, tmp_path)
     assert seen["images"] == 2 and seen["bad"] == 0  # every picture decoded
     assert seen["charts"] == seen["drawn"] == 10  # every chart drawn by the browser
-    assert seen["console"] == []
+    assert seen["console"] == [] and seen["dashes"] == 0  # legends print finished

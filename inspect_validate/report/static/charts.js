@@ -60,8 +60,12 @@
     };
   }
 
+  // Off the chart the legend shows the labels alone (uPlot's "--" read as unfinished in
+  // a print or a screenshot); on it, each series' value at the cursor.
+  function shown(u, v) { return v === null || v === undefined ? "" : String(+v.toPrecision(4)); }
+
   function options(spec, width) {
-    var series = [{ label: spec.xlabel }];
+    var series = [{ label: spec.xlabel, value: shown }];
     spec.series.forEach(function (s) {
       var one = {
         label: s.label,
@@ -70,6 +74,7 @@
         spanGaps: true,
         show: !s.hidden
       };
+      one.value = shown;
       if (s.dash) { one.dash = [6, 4]; }
       if (s.fill) { one.fill = s.fill; }
       if (s.kind === "step") { one.paths = uPlot.paths.stepped({ align: 1 }); }
