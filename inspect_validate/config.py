@@ -170,7 +170,10 @@ def explain(exc: ValidationError, *, known: set[str] | None = None) -> str:
     def message(e) -> str:
         text = e["msg"].removeprefix("Value error, ")
         if e["type"] == "extra_forbidden" and known and e["loc"]:
-            near = difflib.get_close_matches(str(e["loc"][-1]), sorted(known), n=1, cutoff=0.6)
+            key = str(e["loc"][-1])
+            if key in known:  # another section's key (a simulated camera's width:)
+                return f"{text}: '{key}' is not a key of this section"
+            near = difflib.get_close_matches(key, sorted(known), n=1, cutoff=0.6)
             if near:
                 text += f"; did you mean '{near[0]}'?"
         return text

@@ -332,6 +332,14 @@ class Station(StrictModel):
         if len(set(names)) != len(names):
             twice = sorted({n for n in names if names.count(n) > 1})
             raise ValueError(f"cameras: {twice[0]!r} names two cameras; give each its own name")
+        for name in names:
+            # A camera's name is its folder beside the station's own report files and
+            # capture: report.html as a camera's folder failed the report after the capture.
+            if name in RESERVED_NAMES or name.lower().endswith((".html", ".json", ".xml")):
+                raise ValueError(
+                    f"cameras: {name!r} is a file or folder name the reports and captures "
+                    "use beside each camera's folder; name the camera otherwise (top, side)"
+                )
         seen: dict[tuple, str] = {}
         for cam in self.cameras:
             key = _device_key(cam)
@@ -593,6 +601,11 @@ def read_station(path: str | Path) -> Station:
             source=str(path),
         )
     return station.model_copy(update={"path": Path(path)})
+
+
+RESERVED_NAMES = frozenset({"frames", "dark", "report.html", "verification.json", "junit.xml"})
+"""Names no camera of several takes: what a report or capture folder holds beside the
+cameras' folders."""
 
 
 def station_hash(path: str | Path) -> str:

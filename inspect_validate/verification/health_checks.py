@@ -118,7 +118,9 @@ def health_checks(health: Health, manifest: dict) -> tuple[list[Check], list[str
                 name,
                 health.missed_triggers,
                 "",
-                "the capture was free-running (no triggers)",
+                "the capture recorded no trigger count"
+                if any(s.get("acquisition", "free-run") != "free-run" for s in steps.values())
+                else "the capture was free-running (no triggers)",
             )
         else:
             missed, sent = total.get("triggers_missed", 0), total["triggers_sent"]

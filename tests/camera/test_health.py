@@ -305,3 +305,20 @@ def test_a_step_without_health_beside_steps_with_it_is_not_checked(healthy_captu
     checks, _ = health_checks(Health(), manifest)
     assert checks and all("step 'red' holds no health record" in c.detail for c in checks)
     assert not any(c.passed for c in checks)
+
+
+def test_a_triggered_capture_without_a_trigger_count_is_not_called_free_running():
+    from inspect_validate.acceptance import Health
+    from inspect_validate.camera.health import health_sha256
+    from inspect_validate.verification.health_checks import health_checks
+
+    record = {"frames_delivered": 4}
+    step = {"complete": True, "health": record, "health_sha256": health_sha256(record)}
+    for mode, says in (
+        ("software-trigger", "the capture recorded no trigger count"),
+        ("free-run", "the capture was free-running (no triggers)"),
+    ):
+        manifest = {"steps": {"amber": {**step, "acquisition": mode}}}
+        checks, _ = health_checks(Health(missed_triggers=0), manifest)
+        (missed,) = [c for c in checks if c.name == "camera: missed triggers"]
+        assert not missed.passed and says in missed.detail, missed.detail

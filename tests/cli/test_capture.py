@@ -496,6 +496,11 @@ def test_resume_on_a_damaged_capture_is_refused_naming_the_file(tmp_path, capsys
         ),
         ("{backend: simulated, gain: 2}", "did you mean 'gain_db'?"),
         ("{backend: simulated, zzzz: 1}", "camera.zzzz: Extra inputs are not permitted\n"),
+        # Another backend's key is said to be one, not 'did you mean' itself.
+        (
+            "{backend: replay, folder: f, width: 640}",
+            "camera.width: Extra inputs are not permitted: 'width' is not a key of this section\n",
+        ),
     ],
 )
 def test_a_misspelt_key_gets_the_key_it_meant(tmp_path, capsys, camera, suggestion):

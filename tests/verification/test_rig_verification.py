@@ -314,3 +314,16 @@ def test_cameras_of_other_bit_depths_are_each_measured_as_themselves(tmp_path, c
         for name in ("top", "side")
     }
     assert 14 < means["side"] / means["top"] < 18  # the same light, in the DN of each
+
+
+@pytest.mark.parametrize("name", ["report.html", "frames", "side.json"])
+def test_a_camera_named_as_a_report_file_is_refused_before_any_capture(tmp_path, capsys, name):
+    """A camera named report.html failed the report after its capture: its folder took
+    the place of the station's page."""
+    path = two_cameras(copy_station(tmp_path))
+    doc = yaml.safe_load(path.read_text())
+    doc["cameras"][1]["name"] = name
+    path.write_text(yaml.safe_dump(doc, sort_keys=False))
+    assert run_cli(["verify", path, "--report", tmp_path / "r"]) == 2
+    assert f"cameras: {name!r} is a file or folder name" in capsys.readouterr().err
+    assert not (tmp_path / "r" / "frames").exists()
