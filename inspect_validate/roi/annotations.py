@@ -39,7 +39,7 @@ from pydantic import (
     ValidationError,
 )
 
-from inspect_validate.errors import InputError
+from inspect_validate.errors import InputError, listed
 from inspect_validate.files import input_file
 from inspect_validate.roi.roiset import MAX_CLASSES, MAX_VERTICES, ClassRoi, RoiSet
 from inspect_validate.roi.shapes import Ellipse, MaskImage, Polygon, Rect, Shape
@@ -240,6 +240,12 @@ def import_annotations(
     size = frame or found.frame
     notes = list(found.notes)
     classes = _fitted(found.classes, size, notes) if size is not None else found.classes
+    if not classes and size is not None:
+        raise InputError(
+            f"no class keeps a pixel of the {size[0]}×{size[1]} frame ({listed(notes, 3)}): "
+            "nothing to import; check the shapes' coordinates and the image size",
+            source=src,
+        )
     if size is None and any(isinstance(p, np.ndarray) for ps in classes.values() for p, _ in ps):
         raise InputError("a pixel mask needs the image size; give --size WxH", source=src)
 
@@ -277,6 +283,12 @@ def import_annotations(
         for m in masks:
             os.replace(m, out.parent / m.name)
         os.replace(staged_rois, out)
+    except InputError as exc:
+        if exc.source is None or str(stage) not in exc.source:
+            raise
+        # The staging folder is the tool's own: the input is what the user can mend.
+        said = str(exc).removeprefix(f"{exc.source}: ").replace(str(stage), str(out.parent))
+        raise InputError(f"{said} (importing into {out})", source=src) from None
     finally:
         shutil.rmtree(stage, ignore_errors=True)
     return read_rois(out), tuple(notes)
