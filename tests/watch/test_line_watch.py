@@ -57,6 +57,18 @@ def test_a_dimmer_light_drifts_with_its_cause(cli, tmp_path, line_golden):
     assert cycles[-1][1] == "drift" and "dimmer by" in cycles[-1][3], cycles
 
 
+def _watched(cli, station, folder, golden, db, cycles, write):
+    """``watch --production`` of ``folder`` for ``cycles`` while ``write()``, started half
+    a second in, lands the line's frames there: ``(exit code, stdout, stderr)``."""
+    writer = threading.Thread(target=lambda: (time.sleep(0.5), write()))
+    writer.start()
+    try:
+        return cli(["watch", station, "--production", "--frames", folder, "--golden", golden,
+                    "--db", db, "--cycles", cycles, "--interval", 0])  # fmt: skip
+    finally:
+        writer.join()
+
+
 def _write_slowly(frames, folder, *, chunks=4, pause=0.03):
     """Copy each frame into ``folder`` a few bytes at a time, as a camera program that is
     slow to write would (each pause well under the feed's 0.2 s of settling)."""
@@ -78,20 +90,15 @@ def test_frames_from_a_folder_are_taken_whole_and_in_order(cli, tmp_path, line_g
     folder = tmp_path / "line"
     folder.mkdir()
     shutil.copy(frames[0], folder / "aaa_old.tif")  # there before the watch: not new
-    writer = threading.Thread(
-        target=lambda: (
-            time.sleep(0.5),
+    db = tmp_path / "w" / "h.sqlite"
+    code, out, err = _watched(
+        cli, station, folder, line_golden, db, 2,
+        lambda: (
             (folder / "frame_0000_cut.tif").write_bytes(frames[0].read_bytes()[:5000]),
             (folder / "frame_0000_text.png").write_text("not an image"),
             _write_slowly(frames, folder),
-        )
-    )
-    writer.start()
-    db = tmp_path / "w" / "h.sqlite"
-    code, out, err = cli(["watch", station, "--production", "--frames", folder,
-                          "--golden", line_golden, "--db", db, "--cycles", 2,
-                          "--interval", 0])  # fmt: skip
-    writer.join()
+        ),
+    )  # fmt: skip
     assert code == 0, out + err
     _, cycles = _charts(db)
     assert [c[1] for c in cycles] == ["pass", "pass"], cycles
@@ -175,15 +182,9 @@ def test_frames_unlike_the_reference_are_the_named_cause_not_missing_parts(
     assert code == 2 and "the frame's pixels are float32, the reference's uint" in err, out + err
     folder = tmp_path / "line"
     folder.mkdir()
-    writer = threading.Thread(
-        target=lambda: (time.sleep(0.5), _write_slowly(sorted(batch.glob("*.tif")), folder))
-    )
-    writer.start()
     db = tmp_path / "w" / "h.sqlite"
-    code, out, err = cli(["watch", station, "--production", "--frames", folder,
-                          "--golden", line_golden, "--db", db, "--cycles", 1,
-                          "--interval", 0])  # fmt: skip
-    writer.join()
+    _watched(cli, station, folder, line_golden, db, 1,
+             lambda: _write_slowly(sorted(batch.glob("*.tif")), folder))  # fmt: skip
     _, cycles = _charts(db)
     assert cycles[0][1] == "fail", cycles
     assert f"{PARTS} of {PARTS} frames cannot be used" in cycles[0][3], cycles
