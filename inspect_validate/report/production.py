@@ -42,6 +42,18 @@ def format_production(v: ProductionVerification) -> str:
             f" px, y {min(s[1] for s in shifts):+.1f} to {max(s[1] for s in shifts):+.1f} px, "
             f"rotation {min(angles):+.2f} to {max(angles):+.2f}°"
         )
+    if parts.measured:
+        ms = [p.measurement for p in parts.measured]
+        for j, comp in enumerate(ms[0].comparisons):
+            snr = float(np.mean([m.comparisons[j].snr_db for m in ms]))
+            cnr = float(np.mean([m.comparisons[j].cnr_db for m in ms]))
+            out.append(f"{comp.label}: SNR_dB {snr:.2f}, CNR {cnr:.2f} dB (the parts' mean)")
+        # SNR_dB divides the difference by the variances' sum, not its root: a wide gap
+        # between noisy classes reads low, beside a high CNR.
+        out.append(
+            "  SNR_dB (36) is 20·log10(|Δμ| / (σ₁² + σ₂²)), in DN⁻¹ and so lower the noisier "
+            "the classes; CNR is 20·log10(|Δμ| / √(σ₁² + σ₂²)) (the manual's model page)"
+        )
     rows = [cells for _, cells in check_rows(v.checks)]
     out += ["", false_alarm_line(v), verdict_table(rows, terminal_width(sys.stdout))]
     for item in v.skipped:

@@ -4,6 +4,7 @@ parts passes, a dimmer light, a defocused lens and a folder without parts fail n
 what moved, and the golden files of bench and line are not mixed up."""
 
 import json
+import re
 import xml.etree.ElementTree as ET
 
 import cv2
@@ -47,6 +48,13 @@ def test_good_parts_pass_and_the_golden_file_holds_the_parts(trained, tmp_path, 
     out = capsys.readouterr().out
     assert code == 0, out
     assert "8 parts measured of 8 frames, against 16 golden parts" in out and "PASS" in out
+    # SNR_dB beside CNR, and what sets them apart, so a wide gap at a low SNR_dB is read
+    # as the chapter's measure, not a contradiction.
+    line = next(x for x in out.splitlines() if x.startswith("coat vs face: SNR_dB"))
+    assert re.fullmatch(
+        r"coat vs face: SNR_dB -?\d+\.\d\d, CNR -?\d+\.\d\d dB \(the parts' mean\)", line
+    )
+    assert "(the manual's model page)" in out
     report = json.loads((tmp_path / "r" / "production.json").read_text())
     assert report["verdict"] == "pass" and len(report["parts"]) == 8
     page = (tmp_path / "r" / "report.html").read_text()
