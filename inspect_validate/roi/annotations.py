@@ -712,7 +712,16 @@ def _napari_csv(path: Path, *, image: str | None):
             raise InputError("a coordinate is not a number", source=where) from None
         if not (np.isfinite(x) and np.isfinite(y) and abs(x) <= 1e7 and abs(y) <= 1e7):
             raise InputError("a coordinate is not a finite number within ±10⁷", source=where)
-        shapes.setdefault(int(number), (str(row["shape-type"]).strip(), []))[1].append((x, y))
+        points = shapes.setdefault(int(number), (str(row["shape-type"]).strip(), []))[1]
+        if len(points) >= MAX_VERTICES:
+            # Said at the row that passes the limit, not after every row is parsed and the
+            # ROI file is written (a shape of 10⁶ vertices took minutes to be refused).
+            raise InputError(
+                f"shape {number} has more than {MAX_VERTICES} vertices, more than an ROI file "
+                "holds: simplify its outline (or import it as a label image)",
+                source=where,
+            )
+        points.append((x, y))
     found: dict[str, list[Part]] = {}
     notes: list[str] = []
     for index, (kind, pts) in shapes.items():

@@ -207,6 +207,7 @@ MALFORMED = {
     "an index as a float": ("x.csv", "index,shape-type,vertex-index,axis-0,axis-1\n1.0,polygon,0,1,1\n", "not a shape number"),
     "an index 01": ("x.csv", "index,shape-type,vertex-index,axis-0,axis-1\n01,polygon,0,1,1\n", "not a shape number"),
     "a blank axis": ("x.csv", "index,shape-type,vertex-index,axis-0,axis-1,axis-2\n0,polygon,0,1,1,\n", "missing or extra values"),
+    "a polygon of 100001 vertices": ("x.csv", "index,shape-type,vertex-index,axis-0,axis-1\n" + "".join(f"0,polygon,{i},{i % 97},{i % 89}\n" for i in range(100_001)), "more than 100000 vertices"),
     "binary content": ("x.csv", b"\xff\xfe\x00\x01index", "not a text CSV"),
 }  # fmt: skip
 
