@@ -219,3 +219,22 @@ def test_a_stop_a_library_wrapped_in_its_own_error_still_exits_130(tmp_path, mon
     monkeypatch.setattr(file, "read_station", lambda *a, **k: 1 / 0)
     assert run_cli(["verify", copy_station(tmp_path)]) == 70  # EXIT_INTERNAL
     assert "internal error" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("argv", "says"),
+    [
+        (["capture", "s.yaml", "--out", "o"], "kept (capture --resume continues)"),
+        (["capture", "s.yaml", "--production", "--out", "o"], "kept\n"),
+        (["verify", "s.yaml"], "kept\n"),
+        (["measure", "f.png", "--rois", "r.yaml"], "interrupted\n"),
+    ],
+)
+def test_an_interruption_advises_resume_only_where_it_continues(capsys, argv, says):
+    """verify has no --resume, and a production capture's takes its step again: neither
+    is told to resume (both were)."""
+    from inspect_validate.cli import _interrupted
+
+    with pytest.raises(SystemExit) as stop:
+        _interrupted(argv)
+    assert stop.value.code == 130 and capsys.readouterr().err.endswith(says)

@@ -66,6 +66,7 @@ def cli() -> None:
 # The commands that capture frames (kept on an interruption, resumable), and what lets
 # a command that ran out of memory do with less.
 _CAPTURING = {"capture", "verify", "train", "watch", "characterize", "design"}
+_RESUMABLE = {"capture", "characterize"}
 _LESS_MEMORY = {
     "measure": "measure fewer or smaller frames at a time",
     "rois": "give fewer or smaller frames",
@@ -85,11 +86,15 @@ def _command_name(argv) -> str | None:
 
 def _interrupted(argv) -> NoReturn:
     """End a run a signal or Ctrl-C stopped: exit 130, saying what was kept."""
-    kept = (
-        "; frames saved so far are kept (capture: rerun with --resume)"
-        if _command_name(argv) in _CAPTURING
-        else ""
-    )
+    command = _command_name(argv)
+    kept = ""
+    if command in _CAPTURING:
+        kept = "; any frames saved so far are kept"
+        args = [str(a) for a in (sys.argv[1:] if argv is None else argv)]
+        # The others have no --resume; a production capture's resume takes its one step
+        # again (its frames are of parts gone by), so it is not advised either.
+        if command in _RESUMABLE and "--production" not in args:
+            kept += f" ({command} --resume continues)"
     click.echo(f"interrupted{kept}", err=True)
     sys.exit(130)
 

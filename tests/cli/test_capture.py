@@ -454,7 +454,7 @@ def test_sigterm_ends_a_capture_as_ctrl_c_does(tmp_path):
     os.kill(proc.pid, signal.SIGTERM)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err
-    assert "interrupted; frames saved so far are kept" in err
+    assert "interrupted; any frames saved so far are kept (capture --resume continues)" in err
     tifs = sorted((out / "amber").glob("frame_*.tif"))
     assert len(tifs) >= 2 and len(tifs) == len(list((out / "amber").glob("frame_*.json")))
 
