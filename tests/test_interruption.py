@@ -224,7 +224,7 @@ def test_a_stop_a_library_wrapped_in_its_own_error_still_exits_130(tmp_path, mon
 @pytest.mark.parametrize(
     ("argv", "says"),
     [
-        (["capture", "s.yaml", "--out", "o"], "kept (capture --resume continues)"),
+        (["capture", "s.yaml", "--out", "o"], "kept (capture --resume continues)\n"),
         (["capture", "s.yaml", "--production", "--out", "o"], "kept\n"),
         (["verify", "s.yaml"], "kept\n"),
         (["measure", "f.png", "--rois", "r.yaml"], "interrupted\n"),
