@@ -340,8 +340,13 @@ def _line_batch(station, line, frames, n, hours):
     parts = measure_frames(station, _readable(files, unreadable), refuse=False)
     parts = replace(parts, not_measured={**unreadable, **parts.not_measured})
     verification = verify_parts(station, parts, line.golden, drift=False, manifest=manifest)
-    note = f"{skipped} frames skipped (they land faster than measured)" if skipped else None
-    return verification, series_of_parts(parts, name), note
+    notes = [f"{skipped} frames skipped (they land faster than measured)"] if skipped else []
+    unusable = [why for why in parts.not_measured.values() if not why.startswith("no part found")]
+    if unusable:  # in the cycle's reason (status and history) even where the batch passed
+        notes.append(f"{len(unusable)} frames not measured: {unusable[0]}")
+    if line.feed is not None and line.feed.unusable:
+        notes.append(f"{len(line.feed.unusable)} files passed over so far (not frames)")
+    return verification, series_of_parts(parts, name), "; ".join(notes) or None
 
 
 def _readable(files, unreadable: dict[str, str]):

@@ -102,6 +102,8 @@ def test_frames_from_a_folder_are_taken_whole_and_in_order(cli, tmp_path, line_g
     assert code == 0, out + err
     _, cycles = _charts(db)
     assert [c[1] for c in cycles] == ["pass", "pass"], cycles
+    # The two unusable files leave their trace in the passing cycle's reason.
+    assert "2 frames not measured: cannot be read" in (cycles[0][2] or ""), cycles
 
 
 def test_frames_landing_faster_than_measured_are_skipped_and_counted(tmp_path):
