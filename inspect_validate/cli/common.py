@@ -23,7 +23,8 @@ class Retired(click.Option):
     (click names the parameter, an identifier of the code)."""
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
-        super().__init__(*args, hidden=True, **kwargs)
+        kwargs["hidden"] = True
+        super().__init__(*args, **kwargs)
 
     @property
     def human_readable_name(self) -> str:

@@ -34,7 +34,9 @@ def health_checks(health: Health, manifest: dict) -> tuple[list[Check], list[str
     """
     from inspect_validate.camera.health import capture_health, health_problem
 
-    records = manifest.get("steps") if isinstance(manifest.get("steps"), dict) else {}
+    records = manifest.get("steps")
+    if not isinstance(records, dict):
+        records = {}
     steps = {n: s for n, s in records.items() if isinstance(s, dict) and s.get("complete")}
     held = [n for n, s in steps.items() if "health" in s or "health_sha256" in s]
     if not held:

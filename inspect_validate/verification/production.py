@@ -139,7 +139,7 @@ def measure_frames(
     for name, frame in frames:
         # The same frame twice (a copy, a link) is one part counted twice: a batch of
         # copies would pass, and train a golden spread of nothing.
-        digest = hashlib.blake2b(np.ascontiguousarray(frame), digest_size=16)
+        digest = hashlib.blake2b(np.ascontiguousarray(frame).data, digest_size=16)
         digest.update(f"{frame.dtype}{frame.shape}".encode())
         first = seen.setdefault(digest.digest(), name)
         if first != name:
@@ -320,7 +320,7 @@ def verify_parts(
     rate = station.acceptance.false_alarm_rate
     from inspect_validate.station.file import station_hash
 
-    notes = ()
+    notes: tuple[str, ...] = ()
     if station.path is not None and golden.station_sha256 != station_hash(station.path):
         notes = (
             "the golden file was trained with another version of the station file (its "
