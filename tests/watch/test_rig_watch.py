@@ -6,6 +6,7 @@ import csv
 import io
 import json
 import math
+import re
 import shutil
 import sqlite3
 import subprocess
@@ -377,4 +378,7 @@ def test_verify_of_one_camera_takes_its_charts_from_the_watch_of_all(trained, tm
     args = ["verify", trained, "--camera", "side", "--history", db, "--report", tmp_path / "r"]
     assert run_cli(args) == 0
     page = (tmp_path / "r" / "report.html").read_text()
-    assert "side amber: A μ [DN]" in page and "top amber: A μ [DN]" not in page
+    # The trend table lists the 12 charts furthest off target, which depend on the draw:
+    # every one is side's, none top's (a named chart was in it by chance only).
+    assert re.search(r"side (amber|red): [A-C]", page), page[-3000:]
+    assert not re.search(r"top (amber|red): ", page)
