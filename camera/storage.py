@@ -30,6 +30,7 @@ import json
 import os
 import threading
 import time
+from collections import Counter
 from collections.abc import Iterable, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
@@ -46,6 +47,7 @@ from inspect_validate.files import (
     output_folder,
     regular_text,
     release_lock,
+    unused_path,
 )
 
 __all__ = [
@@ -88,8 +90,8 @@ def _unique_keys(pairs: list[tuple[str, Any]]) -> dict:
     would keep the last silently)."""
     out = dict(pairs)
     if len(out) != len(pairs):
-        twice = sorted({k for k, _ in pairs if [p[0] for p in pairs].count(k) > 1})
-        raise ValueError(f"the key {twice[0]!r} is given twice")
+        (twice, _), *_ = Counter(k for k, _ in pairs).most_common(1)
+        raise ValueError(f"the key {twice!r} is given twice")
     return out
 
 
@@ -219,11 +221,7 @@ class CaptureStore:
             )
         old = sorted(folder.glob("frame_*")) if folder.exists() else []
         if old:
-            aside = folder / f"partial-{time.strftime('%Y%m%dT%H%M%S')}"
-            k = 1
-            while aside.exists():  # resumed twice within a second
-                k += 1
-                aside = folder / f"partial-{time.strftime('%Y%m%dT%H%M%S')}-{k}"
+            aside = unused_path(folder / f"partial-{time.strftime('%Y%m%dT%H%M%S')}")
             aside.mkdir()
             for p in old:
                 p.rename(aside / p.name)

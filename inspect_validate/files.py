@@ -36,6 +36,7 @@ __all__ = [
     "output_folder",
     "regular_opener",
     "regular_text",
+    "unused_path",
     "write_json",
 ]
 
@@ -107,6 +108,16 @@ def output_folder(path: str | Path) -> Path:
     return path
 
 
+def unused_path(path: Path) -> Path:
+    """``path``, or where something is already there ``<path>-2``, ``<path>-3``…: the
+    name a folder set aside takes (two set aside within one second of each other)."""
+    free, k = path, 1
+    while free.exists() or free.is_symlink():
+        k += 1
+        free = path.with_name(f"{path.name}-{k}")
+    return free
+
+
 def fresh_folder(
     path: str | Path, *, derived: frozenset[str], keep: Iterable[str | Path | None] = ()
 ) -> Path | None:
@@ -135,23 +146,23 @@ def fresh_folder(
     def is_derived(p: Path) -> bool:
         return p.name in derived or (p.name.startswith(".") and p.name.endswith(".tmp"))
 
-    inside = [p for p in path.rglob("*") if not p.is_dir() or p.is_symlink()]
+    def is_kept(p: Path) -> bool:  # resolved, as the paths to keep are
+        return any(k == p or k in p.parents or p in k.parents for k in kept)
+
+    root = path.resolve()
     kept = [Path(k).resolve() for k in keep if k is not None]
-    holds_kept = any(k == path.resolve() or path.resolve() in k.parents for k in kept)
-    if holds_kept or all(is_derived(p) for p in inside):
+    entries = list(root.rglob("*"))  # under the resolved folder, as ``kept`` is
+    inside = [p for p in entries if not p.is_dir() or p.is_symlink()]
+    if any(root == k or root in k.parents for k in kept) or all(map(is_derived, inside)):
         for p in inside:
-            if is_derived(p) and not any(k == p.resolve() or k in p.parents for k in kept):
+            if is_derived(p) and not is_kept(p):
                 p.unlink(missing_ok=True)
-        for sub in sorted((d for d in path.rglob("*") if d.is_dir()), reverse=True):
+        for sub in sorted((d for d in entries if d.is_dir() and not is_kept(d)), reverse=True):
             with contextlib.suppress(OSError):
                 sub.rmdir()  # a camera's report folder left empty
         return None
     stamp = time.strftime("%Y%m%dT%H%M%S", time.localtime(path.stat().st_mtime))
-    aside = path.with_name(f"{path.name}-{stamp}")
-    n = 1
-    while aside.exists():
-        n += 1
-        aside = path.with_name(f"{path.name}-{stamp}-{n}")
+    aside = unused_path(path.with_name(f"{path.name}-{stamp}"))
     try:
         path.rename(aside)
     except OSError as exc:

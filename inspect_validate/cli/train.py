@@ -64,8 +64,10 @@ def train(station, golden_path, repeats, frames_dirs, frames_out, production, ca
     from inspect_validate.verification.measured import station_regions
 
     whole = read_station(station)
-    st = with_camera(whole, camera_name).one_camera("train")
-    if camera_name is not None:
+    st = with_camera(whole, camera_name)  # --camera refused for a station of one camera
+    if camera_name is None:
+        st = st.one_camera("train")
+    else:
         from inspect_validate.verification.rig import camera_view
 
         # The catches printed are those of the station's verify, which decides each

@@ -63,9 +63,7 @@ def _finite(value: Any) -> Any:
     return value
 
 
-Coordinate = Annotated[
-    Number, BeforeValidator(_finite), Field(ge=-1e7, le=1e7, allow_inf_nan=False)
-]
+Coordinate = Annotated[Number, BeforeValidator(_finite), Field(ge=-1e7, le=1e7)]
 Point = tuple[Coordinate, Coordinate]
 Side = Annotated[StrictInt, Field(gt=0, le=MAX_SIDE)]
 Label = Annotated[str, Field(min_length=1, max_length=100)]

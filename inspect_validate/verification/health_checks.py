@@ -48,7 +48,8 @@ def health_checks(health: Health, manifest: dict) -> tuple[list[Check], list[str
     # every limit unchecked: a share over fewer frames, or a value dropped, is no pass.
     unread = [f"step {n!r}: {why}" for n, s in steps.items() if (why := health_problem(s))]
     unread += [f"step {n!r} holds no health record while others do" for n in steps if n not in held]
-    total = capture_health(steps.values())
+    # With a record that cannot be read, every quantity is "absent", for that reason.
+    total = {} if unread else capture_health(steps.values())
     asked = health.model_fields_set
     checks: list[Check] = []
     skipped: list[str] = []
@@ -60,9 +61,6 @@ def health_checks(health: Health, manifest: dict) -> tuple[list[Check], list[str
             checks.append(not_run(name, "health", limit, unit, "≤", why))
         else:
             skipped.append(f"{name}: {why}")
-
-    if unread:
-        total = {}  # every quantity is then "absent", for the reason above
 
     if health.incomplete_frames is not None:
         name = "camera: frames arriving incomplete"

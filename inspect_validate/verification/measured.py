@@ -168,7 +168,7 @@ def measure_capture(
         folder, [i.name for i in station.illuminations]
     )
     _settings_agree(station, folder, manifest, files, dark_files)
-    rig, camera = manifest.get("rig"), getattr(station.camera, "name", None)
+    rig, camera = manifest.get("rig"), station.camera.name
     if camera is not None and isinstance(rig, dict) and rig.get("camera") not in (None, camera):
         raise InputError(
             f"these are camera {rig.get('camera')!r}'s frames, and this is camera {camera!r}: "

@@ -84,6 +84,17 @@ class Parts:
     manifest: dict | None = None
 
     @property
+    def unusable(self) -> dict[str, str]:
+        """The frames not measured because they cannot be used as this station's frames
+        (unreadable, of another size or pixel type, a copy of another), not because no
+        part lay whole in them: file → why."""
+        return {
+            f: why
+            for f, why in self.not_measured.items()
+            if not why.startswith("no part found") and " keeps " not in why
+        }
+
+    @property
     def found(self) -> float:
         """The fraction of the frames with a measured part."""
         total = len(self.measured) + len(self.not_measured)
@@ -254,15 +265,27 @@ def verify_production(
         A golden file trained on the bench (or of another illumination), and as
         :func:`measure_parts`.
     """
+    from inspect_validate.station.file import station_hash
+
     production_golden(golden, station, source=source)
     parts = measure_parts(station, frames)
-    return verify_parts(station, parts, golden, source=source, manifest=parts.manifest)
+    verified = verify_parts(station, parts, golden, manifest=parts.manifest)
+    if station.path is not None and golden.station_sha256 != station_hash(station.path):
+        note = (
+            "the golden file was trained with another version of the station file (its "
+            "station_sha256 differs): its parts are the reference as they are; train it "
+            "again if the station changed"
+        )
+        verified = replace(verified, notes=(note,))
+    return verified
 
 
-def capture_of(frames: Path) -> dict | None:
+def capture_of(frames: Path, *, audit: bool = True) -> dict | None:
     """The manifest of the capture ``frames`` were taken by (``capture --production``: the
     folder itself, or the step folder in it), holding that step alone; None for frames
-    from elsewhere (the line's program)."""
+    from elsewhere (the line's program). ``audit``: check the frames are those the
+    capture wrote (:func:`~inspect_validate.camera.storage.audit_capture`), where they
+    come from outside this run."""
     from inspect_validate.camera.storage import audit_capture, read_manifest
 
     frames = Path(frames)
@@ -275,7 +298,8 @@ def capture_of(frames: Path) -> dict | None:
                 continue
             # Frames replaced, added or edited since, or an edited health record: refused
             # as the bench refuses them (a capture is measured only as it was written).
-            audit_capture(folder, manifest, steps)
+            if audit:
+                audit_capture(folder, manifest, steps)
             if step is None:
                 return manifest
             return {**manifest, "steps": {step: manifest["steps"][step]}}
@@ -287,18 +311,18 @@ def verify_parts(
     parts: Parts,
     golden: Golden,
     *,
-    source: str = "the golden file",
     drift: bool = True,
     manifest: dict | None = None,
 ) -> ProductionVerification:
-    """:func:`verify_production` of parts already measured; ``drift=False`` leaves out the
-    golden statistics' checks (``watch --production``, whose charts replace them);
-    ``manifest``, the capture that took them: what the camera reported is held to
-    ``acceptance.health`` (:func:`~.health_checks.health_checks`)."""
+    """:func:`verify_production` of parts already measured, against a ``golden`` file
+    :func:`production_golden` accepted for ``station`` (once, before the first batch: a
+    watch verifies one a cycle); ``drift=False`` leaves out the golden statistics'
+    checks (``watch --production``, whose charts replace them); ``manifest``, the capture
+    that took them: what the camera reported is held to ``acceptance.health``
+    (:func:`~.health_checks.health_checks`)."""
     from inspect_validate.verification.checks import at_least, decide
     from inspect_validate.verification.health_checks import health_checks
 
-    production_golden(golden, station, source=source)
     assert station.production is not None
     name = station.production.illumination
     found = at_least(
@@ -318,17 +342,8 @@ def verify_parts(
     unhealthy, skipped = health_checks(station.acceptance.health, manifest or {})
     checks += unhealthy
     rate = station.acceptance.false_alarm_rate
-    from inspect_validate.station.file import station_hash
-
-    notes: tuple[str, ...] = ()
-    if station.path is not None and golden.station_sha256 != station_hash(station.path):
-        notes = (
-            "the golden file was trained with another version of the station file (its "
-            "station_sha256 differs): its parts are the reference as they are; train it "
-            "again if the station changed",
-        )
     return ProductionVerification(
-        station, golden, parts, decide(checks, rate), rate, tuple(skipped), notes
+        station, golden, parts, decide(checks, rate), rate, tuple(skipped)
     )
 
 
@@ -390,11 +405,7 @@ def _cause(v: ProductionVerification) -> str | None:
         return f"the camera or its link: {', '.join(camera)}" if camera else None
     if "parts found" in failed:
         missing = v.parts.not_measured
-        unusable = {
-            f: why
-            for f, why in missing.items()
-            if not why.startswith("no part found") and " keeps " not in why
-        }
+        unusable = v.parts.unusable
         if unusable and 2 * len(unusable) >= len(missing):
             total = len(missing) + len(v.parts.measured)
             return (

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import stat
 import time
+from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -104,9 +105,7 @@ class FolderFeed:
         if not self.folder.is_dir():
             return f"{where}: it is a file now, not a folder; put the folder back"
         if self.unusable:
-            kinds: dict[str, int] = {}
-            for why in self.unusable.values():
-                kinds[why] = kinds.get(why, 0) + 1
+            kinds = Counter(self.unusable.values())
             told = "; ".join(f"{n} {why}" for why, n in kinds.items())
             return f"{where}: new files that cannot be frames were passed over ({told})"
         return f"{where}: no new image file has landed"

@@ -202,12 +202,10 @@ def _sleep(seconds: float) -> None:
 def set_aside(frames: Path) -> Path:
     """Rename the folder of a cycle that never committed to ``…-uncommitted-<time>``,
     numbered when one of that second exists (killed twice within it); the new path."""
+    from inspect_validate.files import unused_path
+
     stamp = time.strftime("%Y%m%dT%H%M%S")
-    aside, k = frames.with_name(f"{frames.name}-uncommitted-{stamp}"), 1
-    while aside.exists():
-        k += 1
-        aside = frames.with_name(f"{frames.name}-uncommitted-{stamp}-{k}")
-    return frames.rename(aside)
+    return frames.rename(unused_path(frames.with_name(f"{frames.name}-uncommitted-{stamp}")))
 
 
 def _cycle(station, plan, history, monitor, folder, settings, failures, line=None, rig=None):
@@ -333,7 +331,7 @@ def _line_batch(station, line, frames, n, hours):
         at = simulated_at(station, n, hours=hours)
         capture(at, frames, steps=production_steps(at))
         files, skipped = sorted((frames / name).glob("*.tif")), 0
-        manifest = capture_of(frames)
+        manifest = capture_of(frames, audit=False)  # taken by this cycle, just now
     else:
         files, skipped = line.feed.take()
     unreadable: dict[str, str] = {}
@@ -341,9 +339,10 @@ def _line_batch(station, line, frames, n, hours):
     parts = replace(parts, not_measured={**unreadable, **parts.not_measured})
     verification = verify_parts(station, parts, line.golden, drift=False, manifest=manifest)
     notes = [f"{skipped} frames skipped (they land faster than measured)"] if skipped else []
-    unusable = [why for why in parts.not_measured.values() if not why.startswith("no part found")]
-    if unusable:  # in the cycle's reason (status and history) even where the batch passed
-        notes.append(f"{len(unusable)} frames not measured: {unusable[0]}")
+    if parts.unusable:  # in the cycle's reason (status and history) even where it passed
+        notes.append(
+            f"{len(parts.unusable)} frames not measured: {next(iter(parts.unusable.values()))}"
+        )
     if line.feed is not None and line.feed.unusable:
         notes.append(f"{len(line.feed.unusable)} files passed over so far (not frames)")
     return verification, series_of_parts(parts, name), "; ".join(notes) or None
