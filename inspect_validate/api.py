@@ -11,13 +11,14 @@ if TYPE_CHECKING:
     from collections.abc import Iterable
 
     from inspect_validate.camera.capture import CaptureResult
-    from inspect_validate.comparisons import Comparisons, ComparisonsSpec, RankBy
+    from inspect_validate.comparisons import Comparisons, RankBy
     from inspect_validate.images import FramePaths
     from inspect_validate.measurement import KdeMode, Limits, Measurement
     from inspect_validate.mix_design.solve import Design
     from inspect_validate.model import Prediction, Ranking
     from inspect_validate.roi.roiset import RoiSet
     from inspect_validate.scene import Scene
+    from inspect_validate.scene_file import ComparisonsSpec
     from inspect_validate.station.file import Station
     from inspect_validate.verification.golden import Golden
     from inspect_validate.verification.production import ProductionVerification

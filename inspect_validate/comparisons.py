@@ -20,16 +20,14 @@ How far the two groups of each comparison are apart is
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from itertools import combinations
-from typing import TYPE_CHECKING, Annotated, Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
-from pydantic import Field
 
-from inspect_validate.config import StrictModel
 from inspect_validate.errors import InputError
 
 if TYPE_CHECKING:
@@ -37,7 +35,6 @@ if TYPE_CHECKING:
 
 __all__ = [
     "Comparisons",
-    "ComparisonsSpec",
     "RankBy",
     "default_groups",
     "find_comparison",
@@ -47,24 +44,9 @@ __all__ = [
 
 Group = tuple[int, ...]
 Weighting = Literal["equal", "pixels"]
+"""How the classes of a group are weighted, besides class priors."""
 RankBy = Literal["error", "snr_db", "cnr_db"]
 """What combinations are ranked by: ε Gauss (lowest first), SNR_dB or CNR_dB (highest first)."""
-
-
-class ComparisonsSpec(StrictModel):
-    """The ``comparisons:`` section of a scene or station file."""
-
-    # An empty list would leave nothing to rank or check: name one, or take "default".
-    groups: (
-        Literal["default", "pairs", "rest"]
-        | Annotated[list[Annotated[str, Field(min_length=1)]], Field(min_length=1)]
-    ) = "default"
-    """``default``: every pair and, with three or more classes, each against the rest;
-    ``pairs`` or ``rest`` alone; or a list of comparisons written ``"A vs B,C"``."""
-    weights: Weighting | dict[str, Annotated[float, Field(gt=0, allow_inf_nan=False)]] = "equal"
-    """How the classes of a group of several are weighted: ``equal``, ``pixels`` (by each
-    class's pixel count; measurements only), or each class's prior, ``{A: 0.7, B: 0.3}``
-    (normalised within the group)."""
 
 
 def default_groups(n_classes: int) -> list[tuple[Group, Group]]:
@@ -142,25 +124,26 @@ class Comparisons:
     def of(
         cls,
         classes: Sequence[str],
-        spec: ComparisonsSpec | None = None,
+        groups: str | Sequence[str] = "default",
+        weights: str | Mapping[str, float] = "equal",
         *,
         source: str | None = None,
     ) -> Comparisons:
-        """The comparisons a ``comparisons:`` section asks for (default: every pair and each
-        class against the rest, equal weights); unknown class names are errors naming
-        ``source``."""
+        """The comparisons a ``comparisons:`` section asks for: its ``groups`` and
+        ``weights`` as :class:`~inspect_validate.scene_file.ComparisonsSpec` reads them
+        (default: every pair and each class against the rest, equal weights); unknown
+        class names are errors naming ``source``."""
         classes = tuple(classes)
-        spec = spec or ComparisonsSpec()
         n = len(classes)
-        if spec.groups == "default":
-            groups = default_groups(n)
-        elif spec.groups == "pairs":
-            groups = _pairs(n)
-        elif spec.groups == "rest":
-            groups = _rest(n) or _pairs(n)
+        if groups == "default":
+            found = default_groups(n)
+        elif groups == "pairs":
+            found = _pairs(n)
+        elif groups == "rest":
+            found = _rest(n) or _pairs(n)
         else:
-            groups = []
-            for text in spec.groups:
+            found = []
+            for text in [groups] if isinstance(groups, str) else groups:
                 sides = _parse(text)
                 if sides is None:
                     raise InputError(
@@ -175,10 +158,9 @@ class Comparisons:
                     )
                     raise InputError(f"comparisons.groups: {text!r}: {why}", source=source)
                 one, other = (tuple(i for i in range(n) if classes[i] in s) for s in sides)
-                groups.append((one, other))
-        weights: str | tuple[float, ...]
-        if isinstance(spec.weights, dict):
-            priors = spec.weights
+                found.append((one, other))
+        if isinstance(weights, Mapping):
+            priors = weights
             unknown = sorted(set(priors) - set(classes))
             missing = [c for c in classes if c not in priors]
             if unknown or missing:
@@ -187,10 +169,13 @@ class Comparisons:
                     f"comparisons.weights: {what}; give one prior per class ({', '.join(classes)})",
                     source=source,
                 )
-            weights = tuple(float(priors[c]) for c in classes)
-        else:
-            weights = spec.weights
-        return cls(classes, tuple(groups), weights)
+            return cls(classes, tuple(found), tuple(float(priors[c]) for c in classes))
+        if weights not in ("equal", "pixels"):
+            raise InputError(
+                f"comparisons.weights: {weights!r} is not 'equal', 'pixels' or class priors",
+                source=source,
+            )
+        return cls(classes, tuple(found), weights)
 
     @property
     def named(self) -> tuple[tuple[tuple[str, ...], tuple[str, ...]], ...]:

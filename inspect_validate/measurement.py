@@ -26,9 +26,9 @@ from inspect_validate.stats import (
 from inspect_validate.stats.sample import gaussian_misfit
 
 if TYPE_CHECKING:
-    from inspect_validate.comparisons import ComparisonsSpec
     from inspect_validate.images import FramePaths
     from inspect_validate.roi.roiset import RoiSet
+    from inspect_validate.scene_file import ComparisonsSpec
 
 __all__ = [
     "GAUSSIAN_AGREEMENT",
@@ -480,14 +480,18 @@ def measure_stack(
     already in memory, (N, H, W) DN: what :func:`measure_files` does once the files are
     read (a simulation's frames need none). Parameters as there; ``dark`` is the dark
     stack, (M, H, W)."""
-    from inspect_validate.comparisons import ComparisonsSpec
     from inspect_validate.roi import class_masks
 
     masks = class_masks(rois, stack.shape[1:])
     classes = measure_classes(stack, masks, dark=dark, saturation_level=saturation_level)
-    if comparisons is None or isinstance(comparisons, ComparisonsSpec):
+    if not isinstance(comparisons, Comparisons):
         source = str(getattr(rois, "source", "the ROI file"))
-        comparisons = Comparisons.of([c.name for c in classes], comparisons, source=source)
+        names = [c.name for c in classes]
+        comparisons = (
+            Comparisons.of(names, source=source)
+            if comparisons is None
+            else Comparisons.of(names, comparisons.groups, comparisons.weights, source=source)
+        )
     result = compare(classes, comparisons, kde=kde)
     return replace(
         result,

@@ -147,7 +147,10 @@ def read_scene(path: str | Path) -> Scene:
             )
     exposure = Exposure(**model.exposure.model_dump())
     comparisons = Comparisons.of(
-        [c.name for c in classes], model.comparisons, source=f"{path}: comparisons"
+        [c.name for c in classes],
+        model.comparisons.groups,
+        model.comparisons.weights,
+        source=f"{path}: comparisons",
     )
     try:  # 'pixels' is for measurements: refuse it here, naming the file
         comparisons.class_weights()

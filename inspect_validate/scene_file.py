@@ -46,7 +46,7 @@ from pydantic import (
     model_validator,
 )
 
-from inspect_validate.comparisons import ComparisonsSpec, RankBy
+from inspect_validate.comparisons import RankBy, Weighting
 from inspect_validate.components.sensors import BIT_DEPTHS
 from inspect_validate.config import StrictModel, one_of
 from inspect_validate.constants import LONGEST_EXPOSURE_S
@@ -64,6 +64,7 @@ __all__ = [
     "ClassFile",
     "ClassName",
     "ClassSpectrometer",
+    "ComparisonsSpec",
     "CookTorranceGloss",
     "CookTorranceParams",
     "DaylightLight",
@@ -427,6 +428,24 @@ class ExposureSpec(StrictModel):
         if self.mode == "fixed" and self.time is None:
             raise ValueError("a fixed exposure needs 'time' in seconds")
         return self
+
+
+class ComparisonsSpec(StrictModel):
+    """The ``comparisons:`` section of a scene or station file, read by
+    :meth:`~inspect_validate.comparisons.Comparisons.of` (``Comparisons.of(classes,
+    spec.groups, spec.weights)``)."""
+
+    # An empty list would leave nothing to rank or check: name one, or take "default".
+    groups: (
+        Literal["default", "pairs", "rest"]
+        | Annotated[list[Annotated[str, Field(min_length=1)]], Field(min_length=1)]
+    ) = "default"
+    """``default``: every pair and, with three or more classes, each against the rest;
+    ``pairs`` or ``rest`` alone; or a list of comparisons written ``"A vs B,C"``."""
+    weights: Weighting | dict[str, Annotated[float, Field(gt=0, allow_inf_nan=False)]] = "equal"
+    """How the classes of a group of several are weighted: ``equal``, ``pixels`` (by each
+    class's pixel count; measurements only), or each class's prior, ``{A: 0.7, B: 0.3}``
+    (normalised within the group)."""
 
 
 class RankSpec(StrictModel):

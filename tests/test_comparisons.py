@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from scipy import optimize, special, stats
 
-from inspect_validate.comparisons import Comparisons, ComparisonsSpec
+from inspect_validate.comparisons import Comparisons
 from inspect_validate.errors import InputError
 from inspect_validate.separations import (
     counted_separation,
@@ -75,8 +75,8 @@ def reference_error(m1, s1, w1, m2, s2, w2, lo, hi, *, count=None):
 def test_weights_change_a_group_as_the_issue_says():
     # A(100, 4) against B(120, 4) on 9,000 pixels and C(140, 4) on 1,000.
     means, variances, pixels = [100.0, 120.0, 140.0], [4.0, 4.0, 4.0], [5000, 9000, 1000]
-    pooled = Comparisons.of("ABC", ComparisonsSpec(groups=["A vs B,C"], weights="pixels"))
-    equal = Comparisons.of("ABC", ComparisonsSpec(groups=["A vs B,C"]))
+    pooled = Comparisons.of("ABC", ["A vs B,C"], "pixels")
+    equal = Comparisons.of("ABC", ["A vs B,C"])
     g_pix = gaussian_separation(means, variances, pooled, pixels=pixels)
     g_eq = gaussian_separation(means, variances, equal)
     # Closed forms: pixels → μ 122, σ² 4 + 0.9·4 + 0.1·324 = 40; equal → μ 130, σ² 104.
@@ -90,7 +90,7 @@ def test_weights_change_a_group_as_the_issue_says():
 def test_bimodal_rest_is_separable_though_its_moments_overlap():
     # A(100, 1) between B(80, 1) and C(120, 1): the rest's moment-matched
     # Gaussian (μ 100, σ² 401) overlaps A by ~6 %; the mixture does not at all.
-    c = Comparisons.of("ABC", ComparisonsSpec(groups=["A vs B,C"]))
+    c = Comparisons.of("ABC", ["A vs B,C"])
     g = gaussian_separation([100.0, 80.0, 120.0], [1.0, 1.0, 1.0], c)
     ref = reference_error([100.0], [1.0], [1.0], [80.0, 120.0], [1.0, 1.0], [0.5, 0.5], 60, 140)
     assert 1e-30 < ref < 1e-18
@@ -105,7 +105,8 @@ def test_bimodal_rest_is_separable_though_its_moments_overlap():
 def test_mixture_error_of_overlapping_groups_matches_reference(weights):
     c = Comparisons.of(
         "ABC",
-        ComparisonsSpec(groups=["A vs B,C"], weights={"A": 1.0, "B": weights[0], "C": weights[1]}),
+        ["A vs B,C"],
+        {"A": 1.0, "B": weights[0], "C": weights[1]},
     )
     g = gaussian_separation([100.0, 104.0, 96.0], [9.0, 4.0, 25.0], c)
     ref = reference_error([100.0], [3.0], [1.0], [104.0, 96.0], [2.0, 5.0], list(weights), 40, 160)
@@ -135,7 +136,7 @@ def test_group_kde_is_the_weighted_mixture_of_class_densities():
     a = np.rint(rng.normal(100, 3, 4000))
     b = np.rint(rng.normal(60, 3, 4000))
     c_ = np.rint(rng.normal(140, 3, 400))
-    comps = Comparisons.of("ABC", ComparisonsSpec(groups=["A vs B,C", "A vs B", "A vs C"]))
+    comps = Comparisons.of("ABC", ["A vs B,C", "A vs B", "A vs C"])
     k = kde_separation([a, b, c_], comps)
     assert k.error[0] <= 0.5 * (k.error[1] + k.error[2]) + 1e-15
     assert k.error[0] < 1e-12
@@ -149,15 +150,17 @@ def test_group_kde_is_the_weighted_mixture_of_class_densities():
         ({"groups": ["A B"]}, "is not 'A vs B'"),
         ({"weights": {"A": 1, "B": 2}}, "no prior for 'C'"),
         ({"weights": {"A": 1, "B": 2, "C": 1, "D": 1}}, "no class 'D'"),
+        ({"weights": "pixel"}, "not 'equal', 'pixels' or class priors"),
+        ({"groups": "A vs D"}, "no class 'D'"),
     ],
 )
 def test_bad_comparison_specs_are_named(spec, message):
     with pytest.raises(InputError, match=message):
-        Comparisons.of("ABC", ComparisonsSpec(**spec), source="station.yaml")
+        Comparisons.of("ABC", **spec, source="station.yaml")
 
 
 def test_pixels_weighting_needs_pixels():
-    c = Comparisons.of("ABC", ComparisonsSpec(weights="pixels"))
+    c = Comparisons.of("ABC", weights="pixels")
     with pytest.raises(InputError, match="only a measurement has"):
         gaussian_separation([1.0, 2.0, 3.0], [1.0, 1.0, 1.0], c)
 
@@ -176,7 +179,7 @@ def test_counted_error_is_the_gaussians_rule_applied_to_the_pixels(weights):
     ]
     means = [v.mean() for v in values]
     variances = [v.var(ddof=1) for v in values]
-    comps = Comparisons.of(["A", "B", "C"], ComparisonsSpec(groups="default", weights=weights))
+    comps = Comparisons.of(["A", "B", "C"], "default", weights)
     pixels = list(sizes)
     counted = counted_separation(
         [as_sample(v) for v in values], means, variances, comps, pixels=pixels

@@ -14,9 +14,9 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 import inspect_validate as iv
-from inspect_validate.comparisons import ComparisonsSpec
 from inspect_validate.images import read_image
 from inspect_validate.roi import class_masks
+from inspect_validate.scene_file import ComparisonsSpec
 
 samples = Path(iv.__file__).resolve().parents[1] / "sample_images" / "paperboard"
 rois = iv.read_rois(samples / "rois.yaml")

@@ -93,18 +93,18 @@ def measure(
     classification error ε_tot (37), parametric and kernel-density (Table 3).
     Exits 1 when a class has more saturated or zero pixels than allowed.
     """
-    from inspect_validate.comparisons import Comparisons, ComparisonsSpec
+    from inspect_validate.comparisons import Comparisons
     from inspect_validate.measurement import Limits, measure_files
     from inspect_validate.report import measurement_document, write_json
     from inspect_validate.roi import read_rois
 
     validate_outputs(files=[json_path])
-    spec = ComparisonsSpec(groups=list(comparison_texts) or "default", weights=weights)
     roi_set = read_rois(rois)
     # Checked against the ROI file's classes here, so that a mistake names the option.
     comparisons = Comparisons.of(
         [c.name for c in roi_set.classes],
-        spec,
+        list(comparison_texts) or "default",
+        weights,
         source="--comparison" if comparison_texts else "--weights",
     )
     limits = Limits(max_saturated=max_saturated, max_zero=max_zero)

@@ -109,7 +109,9 @@ def _from_station(path: Path, auto_exposure: bool) -> DesignProblem:
     assert model.exposure_time is not None  # a reference exposure was set above
     classes = tuple(model.scene.classes)
     names = [c.name for c in classes]
-    comparisons = Comparisons.of(names, st.comparisons, source=f"{path}: comparisons")
+    comparisons = Comparisons.of(
+        names, st.comparisons.groups, st.comparisons.weights, source=f"{path}: comparisons"
+    )
     objective = comparisons
     if st.acceptance.separation:
         objective = comparisons.subset([s.comparison for s in st.acceptance.separation])

@@ -41,10 +41,9 @@ from pydantic import (
 
 from inspect_validate.acceptance import Acceptance, Calibration
 from inspect_validate.camera.settings import Channel
-from inspect_validate.comparisons import ComparisonsSpec
 from inspect_validate.config import StrictModel, load_yaml, one_of
 from inspect_validate.files import atomic_write
-from inspect_validate.scene_file import Irradiance
+from inspect_validate.scene_file import ComparisonsSpec, Irradiance
 from inspect_validate.station.world import Rendered
 
 __all__ = [

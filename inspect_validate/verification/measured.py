@@ -59,7 +59,8 @@ def station_regions(station: Station) -> tuple[RoiSet, Comparisons]:
     rois = read_rois(station.resolve(station.rois))
     comparisons = Comparisons.of(
         [c.name for c in rois.classes],
-        station.comparisons,
+        station.comparisons.groups,
+        station.comparisons.weights,
         source=f"{station.path}: comparisons",
     )
     return rois, comparisons
