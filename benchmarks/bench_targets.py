@@ -16,6 +16,10 @@ Run: ``python benchmarks/bench_targets.py [--runs 5]`` (about two minutes on 2 c
 5. ε Gauss through the public function on 10⁶ and 4·10⁶ pairs, each in a fresh
    process with its imports, against a careful scipy version likewise; target 1.0×
    "once the call is large enough to repay the compile".
+7. Issue 62's definitions, interleaved rounds of fresh processes: ``measure`` against a
+   minimal ``python -c`` (cv2.imread, numpy mean and variance of each ROI written in;
+   guard 2.0×), and ``predict --plot DIR`` against ``predict`` on the paperboard scene
+   (target 1.3×), each with the project's bytecode and without it.
 6. ε Gauss and its log (``gaussian_error_and_log``) warm, in one process, on 4·10⁶ pairs
    0–40 σ apart with variance ratios 10⁻³–10³, 5 % equal: against the careful scipy
    version (scipy is one thread); target 1.0× with numba's threads, and shown on one.
@@ -149,6 +153,23 @@ def predict_row(folder: Path) -> tuple[float, str, float]:
     return refused, message, time.perf_counter() - t
 
 
+def threads_line() -> str:
+    """numba's threads and threading layer, and the thread pools numpy's libraries hold:
+    what the warm ε rows depend on beyond the CPU."""
+    import numba
+    from threadpoolctl import threadpool_info
+
+    from inspect_validate.stats import gaussian_error_and_log
+
+    gaussian_error_and_log(*(np.ones(2**20),) * 4)  # load the kernel and its layer
+    try:
+        layer = numba.threading_layer()
+    except ValueError:
+        layer = "none started"
+    pools = ", ".join(f"{p['internal_api']} {p['num_threads']}" for p in threadpool_info())
+    return f"numba: {numba.get_num_threads()} threads, layer {layer}; pools: {pools or 'none'}"
+
+
 def warm_error_rows() -> list[tuple]:
     """Row 6: the ε kernel warm in process, with numba's threads and with one."""
     import numba
@@ -189,6 +210,70 @@ def warm_error_rows() -> list[tuple]:
     return rows
 
 
+MINIMAL = """
+import sys, cv2
+img = cv2.imread(sys.argv[1], cv2.IMREAD_UNCHANGED)
+for x, y, w, h in ((100, 100, 2000, 500), (100, 800, 2000, 500), (100, 1500, 2000, 500)):
+    r = img[y:y + h, x:x + w]
+    print(r.mean(), r.var(ddof=1))
+"""
+"""Issue 62's reference for ``measure``: the least a script does (its ROIs written in,
+nothing read but the frame), run as ``python -c``."""
+
+
+def without_bytecode(folder: Path) -> dict[str, str]:
+    """An environment running the project from a copy with no bytecode, none written: an
+    editable install in a container that sets ``PYTHONDONTWRITEBYTECODE`` (as this
+    machine does), where every command compiles the project's modules from source."""
+    import os
+    import shutil
+
+    for package in ("inspect_validate", "camera"):
+        shutil.copytree(ROOT / package, folder / package,
+                        ignore=shutil.ignore_patterns("__pycache__"))  # fmt: skip
+    return {**os.environ, "PYTHONDONTWRITEBYTECODE": "1", "PYTHONPATH": str(folder)}
+
+
+def interleaved(commands: dict[str, tuple[list[str], dict | None]], runs: int) -> dict:
+    """Median wall time (s) of each command, fresh processes, one of each per round (a
+    machine's drift then weighs on all alike)."""
+    import statistics
+
+    times: dict[str, list[float]] = {name: [] for name in commands}
+    for _ in range(runs):
+        for name, (args, env) in commands.items():
+            t = time.perf_counter()
+            subprocess.run(args, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
+            times[name].append(time.perf_counter() - t)
+    return {name: statistics.median(values) for name, values in times.items()}
+
+
+def start_up_rows(frame: str, rois: str, folder: Path, runs: int) -> list[tuple]:
+    """Issue 62's definitions: ``measure`` against the minimal ``python -c``, and
+    ``predict --plot DIR`` against ``predict``, interleaved, with the project's bytecode
+    and without it."""
+    plain_env = without_bytecode(folder / "source")
+    scene = str(ROOT / "sample_images" / "scenes" / "paperboard" / "scene.yaml")
+    python = [sys.executable, "-m", "inspect_validate"]
+    commands = {"minimal": ([sys.executable, "-c", MINIMAL, frame], None)}
+    for tag, env in (("", None), (" (no bytecode)", plain_env)):
+        commands |= {
+            f"measure{tag}": ([*python, "measure", frame, "--rois", rois], env),
+            f"predict{tag}": ([*python, "predict", scene], env),
+            f"predict --plot{tag}": ([*python, "predict", scene, "--plot", str(folder / "p")], env),
+        }
+    t = interleaved(commands, runs)
+    rows = []
+    for tag in ("", " (no bytecode)"):
+        rows.append((f"measure CLI against a minimal python -c, interleaved{tag}",
+                     f"{t['measure' + tag]:.3f} s", f"python -c {t['minimal']:.3f} s",
+                     t["measure" + tag] / t["minimal"], 2.0))  # fmt: skip
+        rows.append((f"predict --plot DIR against predict, interleaved{tag}",
+                     f"{t['predict --plot' + tag]:.3f} s", f"predict {t['predict' + tag]:.3f} s",
+                     t["predict --plot" + tag] / t["predict" + tag], 1.3))  # fmt: skip
+    return rows
+
+
 def fresh(args) -> float:
     return float(subprocess.run(args, capture_output=True, text=True, check=True).stdout)
 
@@ -223,6 +308,7 @@ def main():
                 "(no work: what is left)",
             )
         )
+        rows += start_up_rows(frame, rois, tmp, max(args.runs, 7))
         ours, theirs, least = in_process_work(frame, rois, args.runs)
         rows.append(
             (
@@ -283,6 +369,7 @@ def main():
             )
     rows += warm_error_rows()
     print(machine_line())
+    print(threads_line())
     print(f"median of {args.runs} runs (ε Gauss: 3 fresh processes each; warm: best of 3)")
     print()
     print("| target row | ours | reference | ratio | target | holds |")
