@@ -75,6 +75,10 @@ def input_file(path: str | Path, what: str, *, todo: str, largest: int | None = 
         why = "a folder"
     elif path.exists():
         why = "not a regular file (a device or a pipe)"
+    elif path.is_symlink():
+        # A link resolving nowhere (or to itself) exists as a name: "not found" would
+        # send the user looking for a file the listing shows.
+        why = "a symbolic link to nothing (its target is missing, or the links loop)"
     else:
         why = f"{what} not found"
     raise InputError(f"{why}; {todo}", source=str(path))

@@ -543,10 +543,11 @@ def test_a_number_option_refuses_nan(capsys, args, value):
     )
 
 
-@pytest.mark.parametrize("kind", ["folder", "fifo", "device"])
+@pytest.mark.parametrize("kind", ["folder", "fifo", "device", "link loop", "dangling link"])
 @pytest.mark.parametrize(
     "args, what",
     [
+        (["measure", "{x}", "--rois", "{p}/rois.yaml"], "image file"),
         (["predict", "{x}"], "scene file"),
         (["design", "{x}"], "scene file"),
         (["analyze-spectra", "{x}"], "scene file"),
@@ -569,12 +570,25 @@ def test_an_input_file_that_is_a_folder_a_pipe_or_a_device(
     elif kind == "fifo":
         x = tmp_path / "fifo"
         os.mkfifo(x)
+    elif kind == "link loop":
+        x = tmp_path / "loop.tif"
+        x.symlink_to(x.name)
+    elif kind == "dangling link":
+        x = tmp_path / "dangling.tif"
+        x.symlink_to(tmp_path / "gone.tif")
     else:
         x = Path("/dev/zero")
     code, out, err = run([a.format(p=paperboard, x=x, tmp=tmp_path) for a in args], capsys)
     assert_clean(code, out, err)
-    said = "a folder" if kind == "folder" else "not a regular file (a device or a pipe)"
-    assert code == 2 and f"{x}: {said}; give" in err and what in err, err
+    said = {
+        "folder": "a folder",
+        "link loop": "a symbolic link to nothing",
+        "dangling link": "a symbolic link to nothing",
+    }.get(kind, "not a regular file (a device or a pipe)")
+    if what == "image file" and kind == "folder":  # frames may be a folder: an empty one
+        assert code == 2 and f"{x}: folder holds no images" in err, err
+        return
+    assert code == 2 and f"{x}: {said}" in err and "; give" in err and what in err, err
 
 
 @pytest.mark.parametrize(

@@ -112,9 +112,24 @@ def propose(frames, out, overlay, names, dark, min_area, margin, edge, force):
     listed = [n.strip() for n in names.split(",")] if names else None
     if listed is not None and not all(listed):
         raise click.BadParameter("an empty name; write e.g. A,B,C", param_hint="--names")
-    if listed is not None and all("=" in n for n in listed):
+    paired = [n for n in (listed or []) if "=" in n]
+    if paired and len(paired) != len(listed or []):
+        raise click.BadParameter(
+            "names in the regions' order (A,B,C) or NUMBER=NAME pairs (1=A,3=B), not both",
+            param_hint="--names",
+        )
+    if listed is not None and paired:
         # LABEL=NAME pairs, as rois import takes them: the label is the region's number.
-        pairs = dict(n.split("=", 1) for n in listed)
+        split = [tuple(part.strip() for part in n.split("=", 1)) for n in listed]
+        if not all(label and name for label, name in split):
+            raise click.BadParameter("an empty number or name in NUMBER=NAME", param_hint="--names")
+        twice = sorted({label for label, _ in split if [lb for lb, _ in split].count(label) > 1})
+        if twice:
+            raise click.BadParameter(
+                f"region {twice[0]} is named twice; give each region one name",
+                param_hint="--names",
+            )
+        pairs = dict(split)
         unknown = sorted(set(pairs) - {str(r.number) for r in regions})
         if unknown:
             raise click.BadParameter(
@@ -122,6 +137,13 @@ def propose(frames, out, overlay, names, dark, min_area, margin, edge, force):
                 param_hint="--names",
             )
         listed = [pairs.get(str(r.number), str(r.number)).strip() for r in regions]
+    if listed is not None and regions and len(listed) != len(regions):
+        raise click.BadParameter(
+            f"{len(listed)} name{'s' if len(listed) != 1 else ''} for {len(regions)} regions; "
+            "give one name per region, in the order of the overlay's numbers (a name twice "
+            "merges those regions), or NUMBER=NAME pairs",
+            param_hint="--names",
+        )
     roiset = draft_rois(
         regions, frame=(image.shape[1], image.shape[0]), names=listed, source=str(frames[0])
     )

@@ -103,8 +103,13 @@ def test_propose_and_show_from_the_command_line(cli, tmp_path):
 @pytest.mark.parametrize(
     "args, message",
     [
-        (["--names", "A,B"], "2 names for 5 regions"),
+        (["--names", "A,B"], "--names: 2 names for 5 regions"),
+        (["--names", "A"], "--names: 1 name for 5 regions"),
         (["--names", "A,,B,C,D"], "an empty name"),
+        (["--names", "1=A,1=B"], "region 1 is named twice"),
+        (["--names", "1=A,B,C,D,E"], "not both"),
+        (["--names", "1=,2=B"], "an empty number or name"),
+        (["--names", "6=A"], "no region 6 (the regions are 1–5)"),
         (["--min-area", "100000"], "no uniform lit region found"),
         (["--out-of-range"], "No such option"),
     ],
