@@ -297,6 +297,53 @@ def test_a_frame_stored_as_float_takes_its_integer_frames_kde_decisions(tmp_path
     assert docs[0]["skipped"] == docs[1]["skipped"]
 
 
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
+@pytest.mark.parametrize("to_float", ["float32", "float32 / top", "float64 / top"])
+@pytest.mark.parametrize("spread", [0.8, 2.5, 40.0])
+def test_any_float_copy_of_an_integer_frame_is_measured_as_the_frame(
+    tmp_path, dtype, to_float, spread
+):
+    """Issue 62's held-out corpus: a float copy of an integer frame (as is, or scaled to
+    1) still took another ε KDE decision than the frame. Three classes from under one DN
+    of spread to forty, whose Gaussians fit or not: the same decisions, μ and σ² to the
+    float's own rounding, every ε to 1e-4: float32 holds a 16-bit level scaled to 1 only
+    to 2⁻²⁵, and the copy's own σ² (numpy in float64 on it) is 7e-6 off the frame's."""
+    import tifffile
+
+    rng = np.random.default_rng(int(spread * 10) + np.dtype(dtype).itemsize)
+    top = np.iinfo(dtype).max
+    centre = 100 if dtype == np.uint8 else 30_000
+    frame = np.zeros((90, 240), dtype)
+    skewed = centre + rng.gamma(2.0, spread, (90, 80))  # no Gaussian: ε KDE may run
+    for i, block in enumerate((rng.normal(centre, spread, (90, 80)), skewed,
+                               rng.normal(centre + 2 * spread, 1.5 * spread, (90, 80)))):  # fmt: skip
+        frame[:, 80 * i : 80 * (i + 1)] = np.clip(np.round(block), 0, top)
+    scale = 1.0 if to_float == "float32" else 1.0 / top
+    copy = (frame.astype(np.float64) * scale).astype(to_float.split()[0])
+    tifffile.imwrite(tmp_path / "int.tif", frame)
+    tifffile.imwrite(tmp_path / "float.tif", copy)
+    (tmp_path / "r.yaml").write_text(
+        "classes:\n  A: [{rect: [0, 0, 80, 90]}]\n  B: [{rect: [80, 0, 80, 90]}]\n"
+        "  C: [{rect: [160, 0, 80, 90]}]\n"
+    )
+    docs = []
+    for name in ("int", "float"):
+        out = tmp_path / f"{name}.json"
+        args = ["measure", tmp_path / f"{name}.tif", "--rois", tmp_path / "r.yaml"]
+        assert run_cli([*args, "--json", out]) in (0, 1)
+        docs.append(json.loads(out.read_text()))
+    whole, floated = docs
+    assert whole["skipped"] == floated["skipped"]
+    for a, b in zip(whole["classes"], floated["classes"], strict=True):
+        assert b["mean"] == pytest.approx(a["mean"] * scale, rel=2e-5)
+        assert b["variance"] == pytest.approx(a["variance"] * scale**2, rel=2e-5)
+    for a, b in zip(whole["comparisons"], floated["comparisons"], strict=True):
+        assert (a["error_kde"] is None) == (b["error_kde"] is None), (a, b)
+        for key in ("error_gaussian", "error_counted", "error_kde"):
+            if a[key] is not None:
+                assert b[key] == pytest.approx(a[key], rel=1e-4, abs=1e-12), (key, a, b)
+
+
 def test_saturation_comes_from_the_recorded_bit_depth(tmp_path, capsys):
     """Mono12 frames stored in uint16, as capture stores them: a region at 4095 is fully
     saturated, though far below the storage type's 65535. The bit depth comes from the
