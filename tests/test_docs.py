@@ -307,8 +307,8 @@ FORMAT_MODELS = [
     "inspect_validate.scene_file:SceneFile",
     "inspect_validate.components.camera_file:_file_model",
     "inspect_validate.verification.golden:Golden",
-    "inspect_validate.roi.roiset:_FileModel",
-    "inspect_validate.roi.roiset:_ShapeModel",
+    "inspect_validate.roi.file:_FileModel",
+    "inspect_validate.roi.file:_ShapeModel",
 ]
 
 

@@ -108,6 +108,7 @@ DEVICE_LAYER_MAY_IMPORT = {
     "inspect_validate.images",
     "inspect_validate.interruption",
     "inspect_validate.config",
+    "inspect_validate.strict_yaml",  # config's YAML dialect
 }
 
 

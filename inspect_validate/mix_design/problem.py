@@ -69,8 +69,8 @@ def design_problem(path: str | Path, *, auto_exposure: bool = False) -> DesignPr
         cameras, a station without ``scene:``, ``channels:`` or (unless
         ``auto_exposure``) ``camera.exposure_us``.
     """
-    from inspect_validate.config import YAML_MAX_BYTES, parse_yaml
     from inspect_validate.files import input_file
+    from inspect_validate.strict_yaml import YAML_MAX_BYTES, parse_yaml
 
     path = Path(path)
     try:  # what input_file refuses (a pipe, a device, too large) read_scene says

@@ -41,8 +41,16 @@ from pydantic import (
 
 from inspect_validate.errors import InputError, listed
 from inspect_validate.files import input_file
-from inspect_validate.roi.roiset import MAX_CLASSES, MAX_VERTICES, ClassRoi, RoiSet
-from inspect_validate.roi.shapes import Ellipse, MaskImage, Polygon, Rect, Shape
+from inspect_validate.roi.roiset import ClassRoi, RoiSet
+from inspect_validate.roi.shapes import (
+    MAX_CLASSES,
+    MAX_VERTICES,
+    Ellipse,
+    MaskImage,
+    Polygon,
+    Rect,
+    Shape,
+)
 
 __all__ = ["FORMATS", "IGNORED_LABELS", "Imported", "import_annotations", "read_annotations"]
 

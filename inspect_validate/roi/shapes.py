@@ -17,7 +17,22 @@ import numpy as np
 
 from inspect_validate.errors import InputError
 
-__all__ = ["Ellipse", "MaskImage", "Polygon", "Rect", "Shape", "rasterise"]
+__all__ = [
+    "MAX_CLASSES",
+    "MAX_VERTICES",
+    "Ellipse",
+    "MaskImage",
+    "Polygon",
+    "Rect",
+    "Shape",
+    "rasterise",
+]
+
+#: The most vertices a polygon may have: a drawn outline has hundreds; a million would
+#: take minutes to rasterise and is no hand-made region.
+MAX_VERTICES = 100_000
+#: The most classes an ROI set may have.
+MAX_CLASSES = 1000
 
 
 @dataclass(frozen=True)

@@ -263,3 +263,164 @@ def test_an_imagej_polygon_without_vertices_is_refused(tmp_path):
     roifile.roiwrite(path, [empty])
     with pytest.raises(InputError, match="a polygon of 0 vertices"):
         read_rois(path)
+
+
+def _document():
+    """ROI file mappings near the common form: rectangles whose numbers are ints, bools,
+    floats, strings or out of range; extra, missing and misspelt keys; class names
+    empty, long, with commas, or not strings; the per-class form; other shapes."""
+    from hypothesis import strategies as st
+
+    number = st.one_of(
+        st.integers(-5, 5),
+        st.integers(-(2**40), 2**40),
+        st.booleans(),
+        st.floats(allow_nan=True, allow_infinity=True),
+        st.sampled_from([1.0, 3.0, 2.5, "3", None]),
+    )
+    plain = st.lists(st.integers(-3, 40), min_size=4, max_size=4)  # w, h ≤ 0 at times
+    rect = st.one_of(plain, plain, plain, st.lists(number, min_size=3, max_size=5), number)
+    shape = st.one_of(
+        st.fixed_dictionaries({"rect": rect}),
+        st.fixed_dictionaries({"rect": rect}),
+        st.fixed_dictionaries({"rect": rect}),
+        st.fixed_dictionaries({"rect": rect, "polygon": st.just([[0, 0], [1, 0], [0, 1]])}),
+        st.fixed_dictionaries({"ellipse": st.just([5, 5, 2, 3])}),
+        st.fixed_dictionaries({"polygon": st.just([[0, 0], [4, 0], [0, 4]])}),
+        st.fixed_dictionaries({"rect ": rect}),
+    )
+    shapes = st.one_of(
+        st.lists(shape, min_size=0, max_size=3),
+        st.lists(shape, min_size=1, max_size=2),
+        st.lists(shape, min_size=1, max_size=2),
+        st.fixed_dictionaries({"shapes": st.lists(shape, min_size=1, max_size=2)}),
+        st.fixed_dictionaries(
+            {"shapes": st.lists(shape, min_size=1, max_size=2), "erode": st.integers(-1, 3)}
+        ),
+    )
+    name = st.one_of(
+        st.sampled_from(["A", "B", "C", "dark ink"]),
+        st.sampled_from(["A", "B", "C", "dark ink"]),
+        st.text(min_size=0, max_size=4),
+        st.sampled_from(["A", "B,C", "x" * 100, "x" * 101, " ", "A\n"]),
+        st.integers(0, 3),
+        st.booleans(),
+    )
+    return (
+        st.fixed_dictionaries(
+            {
+                "classes": st.one_of(
+                    st.dictionaries(name, shapes, min_size=1, max_size=3),
+                    st.dictionaries(name, shapes, min_size=0, max_size=3),
+                )
+            },
+            optional={
+                "version": st.one_of(st.just(1), number),
+                "frame": st.one_of(
+                    st.lists(st.integers(0, 99), min_size=2, max_size=2),
+                    st.lists(number, min_size=1, max_size=3),
+                    number,
+                ),
+                "erode": st.one_of(st.integers(-1, 3), number),
+                "comment": st.just("x"),
+            },
+        )
+        | st.fixed_dictionaries(  # the common form, one thing at a time off its edge
+            {
+                "classes": st.dictionaries(
+                    st.sampled_from(["A", "B", "A,B", "", "x" * 100, "x" * 101, 7]),
+                    st.lists(st.fixed_dictionaries({"rect": plain}), min_size=1, max_size=2),
+                    min_size=1,
+                    max_size=3,
+                )
+            },
+            optional={
+                "version": st.sampled_from([1, 2, 0, True, 1.0]),
+                "frame": st.lists(
+                    st.sampled_from([0, 1, 2, 640, True, 2.0]), min_size=2, max_size=2
+                ),
+                "erode": st.sampled_from([-1, 0, 1, True, 2.0]),
+            },
+        )
+        | st.fixed_dictionaries(
+            {"classes": number},
+        )
+    )
+
+
+def test_the_common_form_reads_as_the_file_model_reads_it(tmp_path):
+    """``read_rois`` reads rectangles-only files without pydantic (``measure``'s start): on
+    every generated mapping that path accepts, the file model accepts the same ROI set;
+    where the model refuses, that path has declined (the model's message is the one
+    given). And the common form does take that path."""
+    from hypothesis import HealthCheck, example, given, settings
+
+    from inspect_validate.roi.roiset import _modelled_rois, _plain_rois
+
+    source = tmp_path / "r.yaml"
+    taken = []
+
+    @settings(
+        max_examples=600,
+        deadline=None,
+        derandomize=True,
+        database=None,
+        suppress_health_check=[HealthCheck.too_slow],
+    )
+    @given(_document())
+    @example({"frame": [0, 48], "classes": {"A": [{"rect": [0, 0, 1, 1]}]}})
+    @example({"frame": [64, 48, 1], "classes": {"A": [{"rect": [0, 0, 1, 1]}]}})
+    @example({"erode": -1, "classes": {"A": [{"rect": [0, 0, 1, 1]}]}})
+    @example({"version": 2, "classes": {"A": [{"rect": [0, 0, 1, 1]}]}})
+    @example({"version": 0, "classes": {"A": [{"rect": [0, 0, 1, 1]}]}})
+    @example({"classes": {"A": [{"rect": [-4, -4, 1, 1]}, {"rect": [0, 0, 1, 1]}]}})
+    @example({"classes": {"A": [{"rect": [0, 0, 1, 1], "ellipse": [1, 1, 1, 1]}]}})
+    def holds(doc):
+        plain = _plain_rois(doc, str(source))
+        try:
+            modelled = _modelled_rois(doc, source)
+        except InputError:
+            assert plain is None, doc
+            return
+        if plain is not None:
+            taken.append(doc)
+            assert plain == modelled, doc
+
+    holds()
+    assert len(taken) >= 5  # the generator reaches the common form
+    doc = {"frame": [64, 48], "erode": 1, "classes": {"A": [{"rect": [0, 0, 8, 8]}]}}
+    assert _plain_rois(doc, str(source)) == _modelled_rois(doc, source)
+    assert _plain_rois(doc, str(source)) is not None
+
+
+def test_measure_starts_without_pydantic_on_a_file_of_rectangles(tmp_path):
+    """What the fast path is for: a whole ``measure`` of a rectangles-only ROI file never
+    imports pydantic (a file of another form does, as it must)."""
+    import subprocess
+    import sys
+
+    import tifffile
+
+    tifffile.imwrite(tmp_path / "f.tif", np.arange(64 * 48, dtype=np.uint16).reshape(48, 64))
+    (tmp_path / "r.yaml").write_text(
+        "classes:\n  A: [{rect: [0, 0, 32, 48]}]\n  B: [{rect: [32, 0, 32, 48]}]\n"
+    )
+    (tmp_path / "e.yaml").write_text(
+        "classes:\n  A: [{rect: [0, 0, 32, 48]}]\n  B: [{ellipse: [48, 24, 10, 10]}]\n"
+    )
+    probe = (
+        "import sys, runpy\n"
+        "sys.argv = ['inspect_validate', 'measure', sys.argv[1], '--rois', sys.argv[2]]\n"
+        "try:\n"
+        "    runpy.run_module('inspect_validate', run_name='__main__', alter_sys=True)\n"
+        "except SystemExit:\n"
+        "    pass\n"
+        "print('pydantic' in sys.modules, file=sys.stderr)\n"
+    )
+    for rois, loaded in (("r.yaml", "False"), ("e.yaml", "True")):
+        proc = subprocess.run(
+            [sys.executable, "-c", probe, str(tmp_path / "f.tif"), str(tmp_path / rois)],
+            capture_output=True,
+            text=True,
+        )
+        assert proc.stderr.strip().splitlines()[-1] == loaded, proc.stderr
