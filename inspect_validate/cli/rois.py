@@ -3,6 +3,8 @@ annotations, and shown over a frame."""
 
 from __future__ import annotations
 
+from collections import Counter
+
 import click
 
 from inspect_validate.cli.common import PATH, SIZE, Number, retired_option
@@ -112,18 +114,18 @@ def propose(frames, out, overlay, names, dark, min_area, margin, edge, force):
     listed = [n.strip() for n in names.split(",")] if names else None
     if listed is not None and not all(listed):
         raise click.BadParameter("an empty name; write e.g. A,B,C", param_hint="--names")
-    paired = [n for n in (listed or []) if "=" in n]
-    if paired and len(paired) != len(listed or []):
-        raise click.BadParameter(
-            "names in the regions' order (A,B,C) or NUMBER=NAME pairs (1=A,3=B), not both",
-            param_hint="--names",
-        )
+    paired = [n for n in listed or () if "=" in n]
     if listed is not None and paired:
         # LABEL=NAME pairs, as rois import takes them: the label is the region's number.
+        if len(paired) != len(listed):
+            raise click.BadParameter(
+                "names in the regions' order (A,B,C) or NUMBER=NAME pairs (1=A,3=B), not both",
+                param_hint="--names",
+            )
         split = [tuple(part.strip() for part in n.split("=", 1)) for n in listed]
         if not all(label and name for label, name in split):
             raise click.BadParameter("an empty number or name in NUMBER=NAME", param_hint="--names")
-        twice = sorted({label for label, _ in split if [lb for lb, _ in split].count(label) > 1})
+        twice = sorted(n for n, count in Counter(lb for lb, _ in split).items() if count > 1)
         if twice:
             raise click.BadParameter(
                 f"region {twice[0]} is named twice; give each region one name",

@@ -98,10 +98,10 @@ def _plain_rois(doc: dict, source: str) -> RoiSet | None:
     def whole(value, least: int) -> bool:  # an int, not a bool or a float
         return type(value) is int and value >= least
 
-    if not set(doc) <= {"version", "frame", "erode", "classes"} or doc.get("version", 1) != 1:
+    if not set(doc) <= {"version", "frame", "erode", "classes"}:
         return None
     frame, erode, classes = doc.get("frame"), doc.get("erode", 0), doc.get("classes")
-    if not whole(doc.get("version", 1), 1) or not whole(erode, 0):
+    if not (whole(doc.get("version", 1), 1) and doc.get("version", 1) == 1 and whole(erode, 0)):
         return None
     if frame is not None and not (
         type(frame) is list and len(frame) == 2 and all(whole(v, 1) for v in frame)
