@@ -355,9 +355,11 @@ def moved_part(dx, dy, degrees, *, blur=0.0, gain=1.0, seed=0):
     return np.clip(image + noise, 0, 255).astype(np.uint8)
 
 
-def production_station(tmp_path, **block):
+def production_station(tmp_path, *, alone=False, **block):
     """The shipped station with a production block on the photograph and three regions
-    (the face, the coat, the sky) in the reference's coordinates, read."""
+    (the face, the coat, the sky) in the reference's coordinates, read. ``alone``: a
+    station of the line's frames alone (``rois:`` and ``production:``, no camera, scene
+    or light: the photograph was never the simulated camera's)."""
     import cv2
 
     from inspect_validate.station.file import read_station
@@ -376,6 +378,9 @@ def production_station(tmp_path, **block):
     doc = yaml.safe_load(path.read_text())
     doc["rois"] = "parts.yaml"
     doc["production"] = {"illumination": "amber", "reference": "reference.png", **block}
+    if alone:
+        doc = {"name": "photograph line", "rois": "parts.yaml",
+               "production": {"illumination": "amber", "reference": "reference.png", **block}}  # fmt: skip
     path.write_text(yaml.safe_dump(doc, sort_keys=False))
     return read_station(path)
 

@@ -265,6 +265,17 @@ def test_the_running_line_page_runs_as_written(tmp_path):
             assert "PASS" in run.stdout
     assert (tmp_path / "line" / "report" / "report.html").is_file()
     assert "cycles 0–2" in run.stdout
+    # The same frames by the station of frames alone.
+    block = re.search(r"station of\nframes alone.*?```console\n(.*?)```", page, re.S)
+    commands = [line[2:] for line in block[1].splitlines() if line.startswith("$ ")]
+    assert [c.split()[1] for c in commands] == ["train", "verify"]
+    for command in commands:
+        run = subprocess.run(
+            [sys.executable, "-m", "inspect_validate", *shlex.split(command)[1:]],
+            cwd=tmp_path, capture_output=True, text=True, timeout=600,
+        )  # fmt: skip
+        assert run.returncode == 0, f"{command}\n{run.stdout[-2000:]}\n{run.stderr[-2000:]}"
+    assert "PASS" in run.stdout
 
 
 def test_the_several_cameras_page_runs_as_written(tmp_path):

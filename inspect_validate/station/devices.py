@@ -47,6 +47,25 @@ def open_rig(
     one controller; all closed afterwards, also when one fails to open. ``views``: the
     one-camera stations to open instead (:func:`open_devices`)."""
     source = str(station.path)
+    cameras_ = [view.camera for view in views] if views is not None else station.cameras
+    missing = [
+        what
+        for what, none in (
+            ("camera", any(c.backend == "none" for c in cameras_ or [station.camera])),
+            ("light controller", station.controller.backend == "none"),
+        )
+        if none
+    ]
+    if missing:
+        from inspect_validate.errors import InputError
+
+        raise InputError(
+            f"this station has no {' and no '.join(missing)} (backend none, or no "
+            "section): its frames come from the line's own program. Give --production --frames FOLDER "
+            "of them to train, verify or watch; to capture, describe the "
+            f"{' and the '.join(missing)} in the station file (camera:, controller:)",
+            source=source,
+        )
     opening = Opening(source=source, base=station.folder, station=station, target=target)
     controller_backend = backend("controllers", station.controller.backend, source=source)
     if views is None:

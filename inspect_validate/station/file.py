@@ -208,8 +208,9 @@ class Production(StrictModel):
     under the one light that stays on, each located against a reference frame of a good
     part, the regions following it (:mod:`inspect_validate.roi.pose`)."""
 
-    illumination: str
-    """The station's illumination that stays on in production (nothing is switched)."""
+    illumination: str = "production"
+    """The station's illumination that stays on in production (nothing is switched);
+    default its only one, or ``production`` in a station of the line's frames alone."""
     reference: str
     """A frame of a good part, in which the ROI file's regions are drawn (a relative path
     is from this file's folder)."""
@@ -248,15 +249,18 @@ class Station(StrictModel):
     """Shown in reports, metrics and the history (one line, no control characters)."""
     camera: CameraSection
     """The camera and how frames start; ``backend`` chooses the kind. With ``cameras:``,
-    the first of them (leave it out)."""
+    the first of them (leave it out). A station with ``production:`` may leave it out: its
+    frames then come from the line's own program (``backend: none``)."""
     cameras: list[CameraSection] = []
     """Several cameras on one trigger, each with its ``name`` (and its own ``rois``, its
     scene camera ``model``): every illumination triggers them together, and their frames
     are matched by trigger."""
     controller: ControllerSection
-    """The light controller; ``backend`` chooses the kind."""
+    """The light controller; ``backend`` chooses the kind. A station with ``production:``
+    may leave it out (``backend: none``: nothing here switches its light)."""
     illuminations: list[Illumination] = Field(min_length=1)
-    """The lighting states to capture, in order."""
+    """The lighting states to capture, in order. A station with ``production:`` may leave
+    them out: its one illumination is then the production one, of no channels."""
     frames: int = Field(default=4, ge=1, le=100_000)
     """Frames per illumination (the most, with ``precision``)."""
     precision: Precision | None = None
@@ -288,6 +292,37 @@ class Station(StrictModel):
     """How the station is verified on its running line (moving parts, one light on)."""
     path: Path | None = Field(default=None, exclude=True)
     """The file the station was read from (set on reading, never written)."""
+
+    @model_validator(mode="before")
+    @classmethod
+    def _frames_alone(cls, data):
+        """A station with ``production:`` needs no camera, controller or illumination: its
+        frames may come from the line's own program (``--frames``). What is left out is
+        ``backend: none`` (whatever would open it says what it needs) and one
+        illumination of no channels, named as ``production.illumination`` says; one
+        illumination given is the production one unless it names another."""
+        if not (isinstance(data, dict) and isinstance(data.get("production"), dict)):
+            return data
+        data = dict(data)
+        production = dict(data["production"])
+        if "camera" not in data and not data.get("cameras"):
+            data["camera"] = {"backend": "none"}
+        if "controller" not in data:
+            data["controller"] = {"backend": "none"}
+        illuminations = data.get("illuminations")
+        if "illuminations" not in data:
+            name = production.get("illumination", "production")
+            data["illuminations"] = [{"name": name, "channels": {}}]
+        elif (
+            "illumination" not in production
+            and isinstance(illuminations, list)
+            and len(illuminations) == 1
+            and isinstance(illuminations[0], dict)
+            and "name" in illuminations[0]
+        ):
+            production["illumination"] = illuminations[0]["name"]
+        data["production"] = production
+        return data
 
     @model_validator(mode="before")
     @classmethod

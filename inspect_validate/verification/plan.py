@@ -119,6 +119,14 @@ def plan_verification(station: Station, *, drift_checks: bool = True) -> Plan:
 
     source = str(station.path)
     acc = station.acceptance
+    if station.camera.backend == "none":
+        raise InputError(
+            "a bench verification captures each illumination and predicts it from the "
+            "scene, and this station has no camera (a station of the line's frames "
+            "alone): verify its parts with --production --frames FOLDER, or describe its "
+            "camera, controller and scene",
+            source=source,
+        )
     if station.camera.exposure_us is None:
         raise InputError(
             "camera.exposure_us is needed to predict the station's grey values", source=source

@@ -39,6 +39,7 @@ if TYPE_CHECKING:
     from inspect_validate.roi.pose import Pose
     from inspect_validate.station.file import Station
     from inspect_validate.verification.checks import Check
+    from inspect_validate.verification.diagnosis import Diagnosis, Sensor
     from inspect_validate.verification.golden import Golden, Spread
 
 __all__ = [
@@ -252,6 +253,12 @@ class ProductionVerification:
         lies."""
         return _cause(self)
 
+    @property
+    def diagnosis(self) -> Diagnosis:
+        """What the batch's parts changed against the golden parts, and the causes that
+        explain it best first (:mod:`~inspect_validate.verification.diagnosis`)."""
+        return diagnosis_of(self.station, self.parts.measured, self.golden)
+
 
 def verify_production(
     station: Station, frames: Path, golden: Golden, *, source: str = "the golden file"
@@ -417,148 +424,30 @@ def _cause(v: ProductionVerification) -> str | None:
             "most frames hold no part to measure: a wrong reference, a moved camera or "
             "fixture, or no parts passing"
         )
-    golden = next(iter(v.golden.illuminations.values()))
-    ms = [p.measurement for p in v.parts.measured]
-
-    def change(values, ref) -> float:
-        return float(np.mean(values)) / ref.mean - 1 if ref.mean else math.nan
-
-    mu = {
-        c.name: change([m.classes[k].mean for m in ms], golden.classes[c.name].mean)
-        for k, c in enumerate(ms[0].classes)
-    }
-    top = max(golden.classes[c].mean.mean for c in mu)
-    # A class near black tells little of a light's level (its ratio is mostly noise).
-    lit = {c: x for c, x in mu.items() if golden.classes[c].mean.mean >= 0.1 * top}
-    if any(name.startswith("pose ") for name in failed) and not any(
-        name.endswith(" μ drift") for name in failed
-    ):
-        return (
-            "the parts lie elsewhere in the frame than the golden parts did, their statistics "
-            "steady: the camera or the fixture moved"
-        )
-    shaded = _shaded(v, golden)
-    if shaded:
-        return (
-            f"{', '.join(shaded)}: μ now depends on where the part lies, its spread over the "
-            "parts many times the golden parts': something fixed in the frame dims part of "
-            "the image (dust or a smudge on the lens, a shadow)"
-        )
-    if any(name.endswith(" μ drift") for name in failed):
-        values = list(lit.values())
-        same_sign = all(x < 0 for x in values) or all(x > 0 for x in values)
-        if same_sign and max(values) - min(values) <= 0.25 * max(abs(x) for x in values):
-            level = float(np.median(values))
-            which = _light_or_gain(v, golden, list(lit))
-            if which == "gain":
-                return (
-                    f"the camera's gain is {'down' if level < 0 else 'up'} by about "
-                    f"{100 * abs(level):.1f} % (every class's μ moved together, and σ² by the "
-                    "square of μ's factor, the sensor's noise with it, where more or less "
-                    "light would move the noise as the EMVA model says): the gain or "
-                    "another camera setting changed"
-                )
-            if which == "light":
-                return (
-                    f"the light is {'dimmer' if level < 0 else 'brighter'} by about "
-                    f"{100 * abs(level):.1f} % (every class's μ moved together, σ² with the "
-                    "light's photons as the EMVA model says, not as a gain would): LED "
-                    "output, or the exposure time"
-                )
-            return (
-                f"the light is {'dimmer' if level < 0 else 'brighter'} by about "
-                f"{100 * abs(level):.1f} % (every class's μ moved together): LED output, "
-                "or the exposure or gain changed"
-            )
-        moved = ", ".join(f"{c} {100 * x:+.1f} %" for c, x in sorted(lit.items()))
-        return (
-            f"the classes' μ moved by different factors ({moved}): the light's spectrum "
-            "changed, or the parts differ"
-        )
-    focus = [
-        change([p.focus[c] for p in v.parts.measured], g.focus)
-        for c, g in golden.classes.items()
-        if g.focus is not None
-    ]
-    if any(name.endswith(" focus drift") for name in failed) and focus:
-        f = float(np.median(focus))
-        if f < 0:
-            return (
-                f"the focus measure fell by {100 * abs(f):.0f} % at steady μ: the lens lost "
-                "focus (or a haze or dust on it)"
-            )
-        return f"the focus measure rose by {100 * f:.0f} % at steady μ: sharper parts or edges"
-    if any(name.endswith(" σ² drift") for name in failed):
-        return "the classes' spread changed at steady μ and focus: the parts differ"
-    return "the contrast between the classes changed at steady μ: the parts differ"
+    return v.diagnosis.text or (f"{listed(failed, 3)} failed, and no one cause explains what moved")
 
 
-def _light_or_gain(v: ProductionVerification, golden, classes: list[str]) -> str | None:
-    """Whether ``classes``' change is the light's ("light": more or fewer photons; the
-    exposure time does the same) or the camera's gain ("gain"), from σ² against the EMVA
-    model at the golden mean (None where the batch cannot tell them apart at 3 standard
-    errors).
+def diagnosis_of(station: Station, parts: Sequence[Part], golden: Golden) -> Diagnosis:
+    """The :func:`~inspect_validate.verification.diagnosis.diagnose` of ``parts`` against
+    ``golden``'s production illumination, with :func:`station_sensor`."""
+    from inspect_validate.verification.diagnosis import diagnose, shaded_classes
 
-    A class's σ² on a part is its texture T and the sensor's temporal noise
-    N = K (μ − μ_dark) + K² σ_d² + 1/12 DN² (EMVA 1288; K, σ_d, μ_dark the station
-    camera's). With the signal μ − μ_dark scaled by a, a light scales T by a² and N's
-    photon part by a: σ² by (T a² + K (μ − μ_dark) a + K² σ_d² + 1/12) / σ²₀; a gain
-    scales all of σ² by a² (the 1/12 aside)."""
+    g = next(iter(golden.illuminations.values()))
+    return diagnose(parts, g, sensor=station_sensor(station), shaded=shaded_classes(parts, g))
+
+
+def station_sensor(station: Station) -> Sensor | None:
+    """The station camera's EMVA values (a
+    :class:`~inspect_validate.verification.diagnosis.Sensor`) where the station has a
+    scene to take them from; None for a station of frames alone (its dark level taken as
+    0 DN, and a light and a gain one cause)."""
+    if station.scene is None:
+        return None
     from inspect_validate.station.model import station_model
+    from inspect_validate.verification.diagnosis import Sensor
 
-    sensor = station_model(v.station).sensor
-    k, dark = sensor.gain, sensor.dark_offset
-    parts = v.parts.measured
-    index = {c.name: i for i, c in enumerate(parts[0].measurement.classes)}
-    evidence = 0.0  # Σ (z_light² − z_gain²): positive favours a gain
-    for name in classes:
-        g, i = golden.classes[name], index[name]
-        mu = np.array([p.measurement.classes[i].mean for p in parts])
-        var = np.array([p.measurement.classes[i].variance for p in parts])
-        signal = g.mean.mean - dark
-        if not (signal > 0 and g.variance.mean > 0 and len(parts) >= 2):
-            continue
-        a = (float(mu.mean()) - dark) / signal
-        noise = min(k * signal + (k * sensor.dark_noise) ** 2 + 1 / 12, g.variance.mean)
-        texture = g.variance.mean - noise
-        light = (texture * a * a + k * signal * a + (noise - k * signal)) / g.variance.mean
-        se = float(
-            np.hypot(var.std(ddof=1) / np.sqrt(len(parts)), g.variance.std / np.sqrt(g.variance.n))
-        )
-        b = float(var.mean()) / g.variance.mean
-        if not se > 0:
-            continue
-        se /= g.variance.mean
-        evidence += ((b - light) / se) ** 2 - ((b - a * a) / se) ** 2
-    if evidence > 9:
-        return "gain"
-    if evidence < -9:
-        return "light"
-    return None
-
-
-def _shaded(v: ProductionVerification, golden) -> list[str]:
-    """The classes whose μ over the batch's parts spreads over 3 × the golden parts' and
-    follows the parts' position (R² ≥ 0.5 of a quadratic in x, y): what a shade fixed in
-    the frame does to parts passing under it. Needs 12 parts (6 coefficients)."""
-    parts = v.parts.measured
-    if len(parts) < 12:
-        return []
-    xy = np.array([p.position[:2] for p in parts])
-    xy = (xy - xy.mean(axis=0)) / np.maximum(xy.std(axis=0), 1e-9)
-    x, y = xy.T
-    design = np.column_stack([np.ones(len(parts)), x, y, x * x, x * y, y * y])
-    out = []
-    for k, c in enumerate(parts[0].measurement.classes):
-        mu = np.array([p.measurement.classes[k].mean for p in parts])
-        spread = golden.classes[c.name].mean.std
-        if not (np.isfinite(spread) and mu.std(ddof=1) > 3 * spread):
-            continue
-        fit, *_ = np.linalg.lstsq(design, mu, rcond=None)
-        residual = mu - design @ fit
-        if 1 - residual.var() / mu.var() >= 0.5:
-            out.append(c.name)
-    return out
+    s = station_model(station).sensor
+    return Sensor(s.gain, s.dark_noise, s.dark_offset)
 
 
 def _reasons(missing: dict[str, str]) -> str:

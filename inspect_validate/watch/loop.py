@@ -251,6 +251,10 @@ def _cycle(station, plan, history, monitor, folder, settings, failures, line=Non
             cause = f"one camera's gain, exposure or lens changed alone: {apart[0]}"
         elif failed and line is not None:
             cause = verification.cause  # the production verdict's own reading of them
+        elif state.drifting and line is not None:
+            # The batch's own change, read as verify reads it: the charts' EWMA decides
+            # that something drifts, and would name only its smoothed step.
+            cause = verification.diagnosis.text or state.cause
         else:
             cause = state.cause
     if rig is None:

@@ -207,12 +207,13 @@ def _one_camera(
         plan = plan_verification(station, drift_checks=False)
     try:
         if line is not None:
-            from inspect_validate.station.model import station_model
+            from inspect_validate.verification.production import station_sensor
 
             assert station.production is not None  # _line_watch refused a station without
+            sensor = station_sensor(station)
             monitor = DriftMonitor(
                 line.golden,
-                dark_offset=station_model(station).sensor.dark_offset,
+                dark_offset=sensor.dark_offset if sensor is not None else 0.0,
                 snr_floor_db=drift.snr_floor_db,
                 batch=station.production.parts,
             )

@@ -29,7 +29,8 @@ def parts(folder, n, *, seed=0, reach=40.0, turn=5.0, offset=(0.0, 0.0), **fault
 
 @pytest.fixture
 def trained(tmp_path):
-    station = production_station(tmp_path)
+    """A station of the photograph's frames alone, trained on 16 good parts."""
+    station = production_station(tmp_path, alone=True)
     golden = tmp_path / "golden.json"
     good = parts(tmp_path / "good", 16, seed=1)
     assert run_cli(["train", station.path, "--production", "--frames", good, "--out", golden]) == 0
