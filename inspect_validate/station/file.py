@@ -12,7 +12,7 @@ what the station must achieve (``acceptance``). Example (the manual, "Station fi
       1: {light: amber LED, irradiance: 5.0}    # W/m² at the object at 100 %
       2: red LED
     camera:
-      backend: simulated            # simulated | genicam | pylon | aravis | v4l2 | replay | a plugin's
+      backend: simulated            # simulated | genicam | pylon | aravis | v4l2 | replay | none | a plugin's
       exposure_us: 20000
       gain_db: 0
     controller:

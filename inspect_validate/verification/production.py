@@ -38,6 +38,7 @@ if TYPE_CHECKING:
     from inspect_validate.measurement import Measurement
     from inspect_validate.roi.pose import Pose
     from inspect_validate.station.file import Station
+    from inspect_validate.station.production import PartLocator
     from inspect_validate.verification.checks import Check
     from inspect_validate.verification.diagnosis import Diagnosis, Sensor
     from inspect_validate.verification.golden import Golden, Spread
@@ -134,16 +135,25 @@ def production_folder(station: Station, frames: Path) -> Path:
 
 
 def measure_frames(
-    station: Station, frames: Iterable[tuple[str, np.ndarray]], *, refuse: bool = True
+    station: Station,
+    frames: Iterable[tuple[str, np.ndarray]],
+    *,
+    refuse: bool = True,
+    locator: PartLocator | None = None,
+    comparisons: Comparisons | None = None,
 ) -> Parts:
     """:func:`measure_parts` of frames already read: ``(name, frame)`` pairs (a
     simulation's, a camera's). ``refuse=False`` counts a frame of another size or in
-    colour as not measured, with why, instead of raising (a watch goes on)."""
+    colour as not measured, with why, instead of raising (a watch goes on); a part that
+    cannot be measured (a class left with too few pixels to have a spread) is a part not
+    measured, named by its frame, either way. ``locator`` and ``comparisons``: the
+    station's, built once by a caller that measures batch after batch (a watch)."""
     from inspect_validate.station.production import measure_part, part_focus, part_locator
     from inspect_validate.verification.measured import station_regions
 
-    locator = part_locator(station)
-    _, comparisons = station_regions(station)
+    locator = locator or part_locator(station)
+    if comparisons is None:
+        _, comparisons = station_regions(station)
     x, y, w, h = locator.template
     centre = np.array([[x + w / 2, y + h / 2]])
     measured, missing = [], {}
@@ -171,11 +181,16 @@ def measure_frames(
             missing[name] = str(placement.reason)
             continue
         px, py = (float(v) for v in placement.pose.apply(centre)[0])
+        try:
+            measurement = measure_part(frame, placement, comparisons)
+        except (InputError, ValueError) as exc:
+            missing[name] = f"the part cannot be measured: {exc}"
+            continue
         measured.append(
             Part(
                 frame=name,
                 pose=placement.pose,
-                measurement=measure_part(frame, placement, comparisons),
+                measurement=measurement,
                 focus=part_focus(frame, placement.regions),
                 position=(px, py, placement.pose.angle_deg),
             )

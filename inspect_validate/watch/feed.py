@@ -1,14 +1,16 @@
 """The running line's frames as its own vision program writes them into a folder, for
 ``watch --production --frames DIR``.
 
-A file is taken once, in the folder's order (by name, as a camera program numbers its
-frames), and only when it is whole: its size and modification time unchanged for
+A file is taken once, in the folder's order (by name, its numbers by value as a camera
+program counts its frames: ``img_9`` before ``img_10``), and only when it is whole: its size and modification time unchanged for
 ``settle_s`` (a writer still at it changes them; one that writes to a temporary name and
 renames it, the safe way, shows a whole file at once, and names starting with ``.`` are
 not images here). Files already in the folder when the watch starts are not new and are
 left alone. A cycle takes ``parts`` frames; when more than twice that wait (frames land
 faster than they are measured), the oldest are skipped and counted, so the queue never
-grows and the memory stays bounded.
+grows. What the feed remembers of files is of those still in the folder (a name gone is
+forgotten; a new file of that name is new): its memory is the folder's listing's, however
+long the watch runs.
 
 A new file that cannot be a frame (empty once settled, a pipe, a device, a link to one)
 is passed over and counted, never opened: reading a pipe or ``/dev/zero`` would block or
@@ -19,6 +21,7 @@ and again whenever that changes.
 
 from __future__ import annotations
 
+import re
 import stat
 import time
 from collections import Counter
@@ -40,7 +43,10 @@ class FolderFeed:
     skipped : int
         Frames passed over so far because they landed faster than the watch measures.
     unusable : dict
-        New files passed over because they cannot be frames: name → why.
+        New files passed over because they cannot be frames, of those still in the
+        folder: name → why.
+    passed_over : int
+        Files passed over so far because they could not be frames.
     """
 
     folder: Path
@@ -51,6 +57,7 @@ class FolderFeed:
     notify: Callable[[str], None] | None = None
     skipped: int = 0
     unusable: dict[str, str] = field(default_factory=dict)
+    passed_over: int = 0
     _seen: set[str] = field(default_factory=set)
     _changing: dict[str, tuple[int, int, float]] = field(default_factory=dict)
 
@@ -64,12 +71,23 @@ class FolderFeed:
             entries = list(self.folder.iterdir())
         except OSError:
             return []  # a folder moved away for a moment: nothing new yet
-        return sorted(p for p in entries if is_image_name(p))
+        return sorted((p for p in entries if is_image_name(p)), key=natural_key)
+
+    def _forget_gone(self, present: list[Path]) -> None:
+        """Forget the names no longer in the folder (bounded memory: module description)."""
+        names = {p.name for p in present}
+        self._seen &= names
+        for memo in (self._changing, self.unusable):
+            for name in [n for n in memo if n not in names]:
+                del memo[name]
 
     def ready(self) -> list[Path]:
         """The new files that are whole now, in the folder's order (not yet taken)."""
         now, out = time.monotonic(), []
-        for path in self._images():
+        present = self._images()
+        if present or self.folder.is_dir():  # not while the folder is away for a moment
+            self._forget_gone(present)
+        for path in present:
             if path.name in self._seen:
                 continue
             try:
@@ -96,6 +114,7 @@ class FolderFeed:
         self._seen.add(path.name)
         self._changing.pop(path.name, None)
         self.unusable[path.name] = why
+        self.passed_over += 1
 
     def waiting_on(self, found: int) -> str:
         """What a wait with ``found`` whole new frames waits on, and why no more came."""
@@ -133,3 +152,11 @@ class FolderFeed:
             self._changing.pop(path.name, None)
         self.skipped += skip
         return taken, skip
+
+
+def natural_key(path: Path) -> tuple:
+    """A file's place in a folder as a camera program numbers its frames: the runs of
+    digits in its name by value (``img_9`` before ``img_10``), the name's text itself
+    last (``img_09`` and ``img_9`` keep one order)."""
+    parts = re.split(r"(\d+)", path.name)
+    return (tuple((1, int(p), "") if p.isdigit() else (0, 0, p) for p in parts if p), path.name)

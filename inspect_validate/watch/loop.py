@@ -32,7 +32,9 @@ from inspect_validate.interruption import deferred, stop_if_requested
 if TYPE_CHECKING:
     from collections.abc import Callable
 
+    from inspect_validate.comparisons import Comparisons
     from inspect_validate.station.file import Station
+    from inspect_validate.station.production import PartLocator
     from inspect_validate.verification.golden import Golden
     from inspect_validate.verification.plan import Plan
     from inspect_validate.verification.production import ProductionVerification
@@ -119,6 +121,8 @@ class LineWatch:
 
     golden: Golden
     feed: FolderFeed | None = None
+    locator: PartLocator | None = None  # built once for the watch, not once a cycle
+    comparisons: Comparisons | None = None
 
 
 def watch(
@@ -264,6 +268,10 @@ def _cycle(station, plan, history, monitor, folder, settings, failures, line=Non
         if cameras:
             health[CAMERAS] = cameras
     keep = status != "pass" or n % max(settings.keep_every, 1) == 0
+    if keep and line is not None and line.feed is not None and verification is not None:
+        # The line's program owns its folder (and may clear it): the cycle keeps links
+        # to (or copies of) the frames it judged, as a captured cycle keeps its own.
+        _keep_frames(verification.parts, frames)
     record = CycleRecord(
         cycle=n,
         started=when,
@@ -279,6 +287,26 @@ def _cycle(station, plan, history, monitor, folder, settings, failures, line=Non
         if not keep:
             shutil.rmtree(frames, ignore_errors=True)
     return CycleOutcome(record, state, verification, failures, health, history.health_totals())
+
+
+def _keep_frames(parts, folder: Path) -> None:
+    """Hard links in ``folder`` to the files of ``parts`` (measured or not), copies where
+    a link cannot be made (another file system); files gone since are left out."""
+    import os
+
+    folder.mkdir(parents=True, exist_ok=True)
+    for name in [p.frame for p in parts.measured] + list(parts.not_measured):
+        source = Path(name)
+        target = folder / source.name
+        try:
+            os.link(source, target)
+        except FileExistsError:
+            continue
+        except OSError:
+            try:
+                shutil.copy2(source, target)
+            except OSError:
+                continue  # removed by the line's program meanwhile
 
 
 def _cycle_health(frames: Path) -> dict:
@@ -339,7 +367,13 @@ def _line_batch(station, line, frames, n, hours):
     else:
         files, skipped = line.feed.take()
     unreadable: dict[str, str] = {}
-    parts = measure_frames(station, _readable(files, unreadable), refuse=False)
+    parts = measure_frames(
+        station,
+        _readable(files, unreadable),
+        refuse=False,
+        locator=line.locator,
+        comparisons=line.comparisons,
+    )
     parts = replace(parts, not_measured={**unreadable, **parts.not_measured})
     verification = verify_parts(station, parts, line.golden, drift=False, manifest=manifest)
     notes = [f"{skipped} frames skipped (they land faster than measured)"] if skipped else []
@@ -347,8 +381,8 @@ def _line_batch(station, line, frames, n, hours):
         notes.append(
             f"{len(parts.unusable)} frames not measured: {next(iter(parts.unusable.values()))}"
         )
-    if line.feed is not None and line.feed.unusable:
-        notes.append(f"{len(line.feed.unusable)} files passed over so far (not frames)")
+    if line.feed is not None and line.feed.passed_over:
+        notes.append(f"{line.feed.passed_over} files passed over so far (not frames)")
     return verification, series_of_parts(parts, name), "; ".join(notes) or None
 
 

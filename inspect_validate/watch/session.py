@@ -234,11 +234,13 @@ def _line_watch(station: Station, golden_file: Path, frames: Path | None) -> Lin
     anything is opened."""
     from inspect_validate.station.production import part_locator
     from inspect_validate.verification.golden import read_golden
+    from inspect_validate.verification.measured import station_regions
     from inspect_validate.verification.production import production_golden
     from inspect_validate.watch.feed import FolderFeed
     from inspect_validate.watch.loop import LineWatch
 
-    part_locator(station)  # no production block, a bad reference or template: said now
+    locator = part_locator(station)  # no production block, a bad reference: said now
+    _, comparisons = station_regions(station)
     assert station.production is not None
     golden = read_golden(golden_file)
     production_golden(golden, station, source=str(golden_file))
@@ -251,4 +253,4 @@ def _line_watch(station: Station, golden_file: Path, frames: Path | None) -> Lin
                 source=str(frames),
             )
         feed = FolderFeed(frames, station.production.parts)
-    return LineWatch(golden, feed)
+    return LineWatch(golden, feed, locator, comparisons)

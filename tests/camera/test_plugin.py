@@ -85,7 +85,7 @@ def test_without_the_plugin_its_backend_is_unknown(tmp_path):
     path = _station(tmp_path, {"backend": "acme"})
     done = _run(["capture", path, "--out", tmp_path / "cap"], None, tmp_path)
     assert done.returncode == 2
-    assert "camera: backend must be one of aravis, genicam, pylon, replay" in done.stderr
+    assert "camera: backend must be one of aravis, genicam, none, pylon, replay" in done.stderr
 
 
 def test_a_plugin_that_does_not_load_is_named(tmp_path):

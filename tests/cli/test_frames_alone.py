@@ -9,6 +9,7 @@ import json
 import sqlite3
 import threading
 import time
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -135,8 +136,10 @@ def test_verify_and_watch_name_the_same_cause_and_size(line, tmp_path, capsys):
         writer.join()
     assert code == 1, capsys.readouterr()
     with sqlite3.connect(db) as con:
-        [(status, cause)] = con.execute("SELECT status, cause FROM cycles").fetchall()
+        [(status, cause, kept)] = con.execute("SELECT status, cause, frames FROM cycles").fetchall()
     assert status == "drift" and cause == verdict
+    # The drifting cycle keeps the frames it judged (the line's folder is the program's).
+    assert sorted(p.name for p in Path(kept).iterdir()) == sorted(p.name for p in dimmed.iterdir())
 
 
 def test_what_needs_a_camera_controller_or_scene_says_so(line, tmp_path, capsys):
@@ -164,3 +167,19 @@ def test_what_a_station_of_frames_alone_refuses(tmp_path):
         read_station(path)
     path.write_text(yaml.safe_dump({**doc, "illuminations": two[:1]}))
     assert read_station(path).production.illumination == "amber"
+
+
+def test_a_part_that_cannot_be_measured_is_a_part_not_measured(tmp_path):
+    """A class of one pixel (min_pixels 1) on a part at its home keeps one pixel, which
+    has no variance: that part is not measured, named by its frame, and the batch goes
+    on (it raised out of the batch, and ended a watch)."""
+    from inspect_validate.verification.production import measure_frames
+
+    path = frames_station(tmp_path, min_pixels=1)
+    rois = yaml.safe_load((tmp_path / "parts.yaml").read_text())
+    rois["classes"] = {"face": REGIONS["face"], "dot": [{"rect": [300, 300, 1, 1]}]}
+    (tmp_path / "parts.yaml").write_text(yaml.safe_dump(rois))
+    home, moved = part_reference(), moved_part(3.3, -2.6, 1.5, seed=5)
+    parts = measure_frames(read_station(path), [("home.png", home), ("moved.png", moved)])
+    assert [p.frame for p in parts.measured] == ["moved.png"]
+    assert "2 pixels for its variance" in parts.not_measured["home.png"]

@@ -124,6 +124,34 @@ def test_frames_landing_faster_than_measured_are_skipped_and_counted(tmp_path):
     assert feed.skipped == 15
 
 
+def test_the_feed_takes_numbered_frames_by_number_and_forgets_files_gone(tmp_path):
+    """img_9 comes before img_10 (a camera program's counter, unpadded); a name the line's
+    program removed is forgotten (the feed remembers what the folder holds, not every
+    name of a run of days), and a new frame of that name is new."""
+    from inspect_validate.watch.feed import FolderFeed
+
+    folder = tmp_path / "line"
+    folder.mkdir()
+    feed = FolderFeed(folder, 3, settle_s=0.0)
+    for k in (10, 9, 11, 8, 100, 12):
+        (folder / f"img_{k}.npy").write_bytes(b"x" * 100)
+    feed.ready()
+    taken, _ = feed.take()
+    assert [p.name for p in taken] == ["img_8.npy", "img_9.npy", "img_10.npy"]
+    for path in taken:
+        path.unlink()
+    feed.ready()
+    assert feed._seen == set() and set(feed._changing) == {
+        "img_11.npy",
+        "img_12.npy",
+        "img_100.npy",
+    }
+    (folder / "img_9.npy").write_bytes(b"y" * 100)  # the counter started again
+    feed.ready()
+    taken, _ = feed.take()
+    assert [p.name for p in taken] == ["img_9.npy", "img_11.npy", "img_12.npy"]
+
+
 def test_the_feed_passes_over_files_that_cannot_be_frames_and_says_what_it_waits_on(tmp_path):
     """A pipe, a link to /dev/zero, an empty file and a loop of links are passed over,
     never opened (a read would block or never end), and the wait says so; a folder
