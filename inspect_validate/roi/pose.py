@@ -9,7 +9,11 @@ two stages on the template (a window of the reference holding the part):
    of the template in the frame, both averaged down by a power of two until the template
    is about :data:`COARSE_SIZE` px across, the frame widened by a quarter of the template
    with its median (a part the frame's edge cuts is found too); the peak is the
-   translation to the pixel of that level;
+   translation to the pixel of that level. Where the unturned template scores below
+   :data:`UNTURNED_ACCEPT` (a texture without an outline, turned: it no longer
+   correlates with its unturned self), its central square is matched turned by each
+   angle of a sweep over ± ``max_rotation_deg``, a step moving its corners by a pixel,
+   and the best match starts ECC turned;
 2. **fine:** ``cv2.findTransformECC`` (Evangelidis & Psarakis 2008) from that start, with
    the motion asked for (translation, euclidean: translation and rotation, or affine),
    level by level down the pyramid to the one where the template is at most
@@ -43,6 +47,7 @@ __all__ = [
     "Motion",
     "MovedRegions",
     "Pose",
+    "TemplateSearch",
     "locate_part",
     "moved_masks",
 ]
@@ -94,6 +99,7 @@ def locate_part(
     template: tuple[int, int, int, int],
     *,
     motion: Motion = "euclidean",
+    max_rotation_deg: float = 0.0,
 ) -> Pose:
     """The pose of the part of ``reference`` in ``frame``.
 
@@ -105,6 +111,11 @@ def locate_part(
         The window of ``reference`` that holds the part, px.
     motion : {"translation", "euclidean", "affine"}, keyword-only
         What may change between parts: a shift; a shift and a rotation; any affine map.
+    max_rotation_deg : float, keyword-only
+        The most a part may be turned, degrees: the coarse search sweeps the template's
+        rotation over ± this where it does not find the part unturned (a fine texture
+        turned by 10° no longer correlates with its unturned self). 0: the coarse search
+        finds shifts only (ECC still refines a rotation of a few degrees).
 
     Returns
     -------
@@ -117,91 +128,205 @@ def locate_part(
     InputError
         Images of different sizes or not monochrome, a template outside the reference or
         without contrast, an unknown motion.
+
+    See Also
+    --------
+    TemplateSearch : the same, its template prepared once for many frames.
     """
+    return TemplateSearch.of(reference, template, max_rotation_deg=max_rotation_deg).locate(
+        frame, motion=motion
+    )
+
+
+UNTURNED_ACCEPT = 0.9
+"""A coarse match of the unturned template scoring this or more is taken without sweeping
+its rotation (most parts of a line; the sweep costs a search per angle)."""
+
+
+@dataclass(frozen=True, eq=False)
+class TemplateSearch:
+    """A reference's template prepared for searching frames: its pyramid, cut from the
+    reference's around it, and its turned copies at the coarse level
+    (:func:`locate_part`, made once for a batch of frames).
+
+    Attributes
+    ----------
+    shape : (H, W)
+        The reference's, and every frame's.
+    template : (x, y, w, h)
+    patches : list of ndarray
+        The template at each level of the pyramid (level k 2**k times smaller), float32.
+    coarse, fine : int
+        The levels of the coarse search and of the finest ECC.
+    turned : tuple of (float, ndarray, ndarray)
+        Each swept rotation (degrees), the coarse template turned by it (its central
+        square, whole at any angle) and its warp (coarse patch pixel centres → the turned
+        square's).
+    """
+
+    shape: tuple[int, int]
+    template: tuple[int, int, int, int]
+    patches: list[np.ndarray]
+    coarse: int
+    fine: int
+    turned: tuple[tuple[float, np.ndarray, np.ndarray], ...]
+
+    @classmethod
+    def of(
+        cls,
+        reference: np.ndarray,
+        template: tuple[int, int, int, int],
+        *,
+        max_rotation_deg: float = 0.0,
+    ) -> TemplateSearch:
+        """Prepare the search of ``reference``'s ``template`` window (:func:`locate_part`).
+
+        Raises
+        ------
+        InputError
+            A reference not monochrome, a template outside it or without contrast.
+        """
+        import cv2
+
+        reference = np.asarray(reference)
+        if reference.ndim != 2:
+            raise InputError("locating a part needs monochrome frames (one channel)")
+        x, y, w, h = (int(v) for v in template)
+        rows, cols = reference.shape
+        if x < 0 or y < 0 or w < 8 or h < 8 or x + w > cols or y + h > rows:
+            raise InputError(
+                f"template [{x}, {y}, {w}, {h}] is not a window of at least 8 × 8 px inside "
+                f"the {cols}×{rows} reference"
+            )
+        patch = reference[y : y + h, x : x + w].astype(np.float32)
+        if not float(patch.std()) > 0:
+            raise InputError(f"template [{x}, {y}, {w}, {h}] has no contrast: no part to find")
+        coarse = max(0, math.floor(math.log2(min(w, h) / COARSE_SIZE)))
+        fine = min(coarse, max(0, math.ceil(math.log2(min(w, h) / FINE_SIZE))))
+        patches: list[np.ndarray] = [patch]
+        # The template's levels are cut from the reference's around it: pyrDown of the
+        # window alone would reflect the part's own edge into its border, where the
+        # frame's pyramid has the belt, and bias the pose (0.03°, 0.6 px at a 1280 px
+        # template's corners, even with the part at home).
+        margin = 4 << coarse  # the 5-tap kernel reads 2 px of the level above, each level
+        around = _window(reference, x - margin, y - margin, w + 2 * margin, h + 2 * margin)
+        for level in range(coarse):
+            around = cv2.pyrDown(around)
+            ph, pw = (patches[-1].shape[0] + 1) // 2, (patches[-1].shape[1] + 1) // 2
+            m = margin >> (level + 1)
+            patches.append(np.ascontiguousarray(around[m : m + ph, m : m + pw]))
+        return cls(
+            (rows, cols),
+            (x, y, w, h),
+            patches,
+            coarse,
+            fine,
+            _turned(patches[coarse], max_rotation_deg),
+        )
+
+    def locate(self, frame: np.ndarray, *, motion: Motion = "euclidean") -> Pose:
+        """The pose of the template's part in ``frame`` (:func:`locate_part`)."""
+        import cv2
+
+        if motion not in MOTIONS:
+            raise InputError(f"motion {motion!r}: one of {', '.join(MOTIONS)}")
+        frame = np.asarray(frame)
+        if frame.ndim != 2:
+            raise InputError("locating a part needs monochrome frames (one channel)")
+        if frame.shape != self.shape:
+            raise InputError(
+                f"the frame is {frame.shape[1]}×{frame.shape[0]}, the reference "
+                f"{self.shape[1]}×{self.shape[0]}: give frames of the reference's size"
+            )
+        coarse, fine, patches = self.coarse, self.fine, self.patches
+        # The frame's pyramid, in floats from the first level down, its full-resolution
+        # copy only where ECC refines there.
+        images: list[np.ndarray] = [frame.astype(np.float32) if fine == 0 else frame]
+        for level in range(coarse):
+            below = images[-1] if level else np.asarray(images[-1], np.float32)
+            images.append(np.asarray(cv2.pyrDown(below)))
+
+        # 1. Coarse: the translation (and, where the unturned template is not found, the
+        # rotation) at the level where the template is ~COARSE_SIZE px. The frame is
+        # widened by a quarter of the template on each side with its median (the belt,
+        # mostly), so that a part the frame's edge cuts is still found there: ECC then
+        # refines on the pixels inside the frame only.
+        ph, pw = patches[coarse].shape
+        py, px = ph // 4, pw // 4
+        widened = cv2.copyMakeBorder(
+            images[coarse], py, py, px, px, cv2.BORDER_CONSTANT,
+            value=float(np.median(images[coarse])),
+        )  # fmt: skip
+        scores = cv2.matchTemplate(widened, patches[coarse], cv2.TM_CCOEFF_NORMED)
+        _, best, _, (cx, cy) = cv2.minMaxLoc(scores)
+        # ECC's warp: patch pixel centres → frame pixel centres, at the coarse level.
+        warp = np.array([[1.0, 0.0, cx - px], [0.0, 1.0, cy - py]], np.float32)
+        if best < UNTURNED_ACCEPT and motion != "translation":
+            for _, image, turned in self.turned:
+                scores = cv2.matchTemplate(widened, image, cv2.TM_CCOEFF_NORMED)
+                _, score, _, (tx, ty) = cv2.minMaxLoc(scores)
+                if score > best:
+                    best = score
+                    warp = turned.copy()
+                    warp[:, 2] += (tx - px, ty - py)
+
+        # 2. Fine: ECC level by level, the translation doubled on the way down.
+        kind = {
+            "translation": cv2.MOTION_TRANSLATION,
+            "euclidean": cv2.MOTION_EUCLIDEAN,
+            "affine": cv2.MOTION_AFFINE,
+        }[motion]
+        criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, _ECC_ITERATIONS, _ECC_EPS)
+        score = 0.0
+        x, y = self.template[:2]
+        for level in range(coarse, fine - 1, -1):
+            if level < coarse:
+                warp = warp.copy()
+                # cv2.pyrDown's pixel c is centred on pixel 2c of the level above (its
+                # 5-tap kernel sits there; not 2c + ½, as a 2 × 2 block mean's would): the
+                # linear part stays, the shift doubles (Evangelidis' next_level).
+                warp[:, 2] *= 2.0
+            try:
+                # Every frame pixel is valid (a full mask: OpenCV's typing has no "none"
+                # with a Gaussian size), and no pre-smoothing (size 1): the pyramid
+                # smoothed already.
+                everywhere = np.full(images[level].shape, 255, np.uint8)
+                score, refined = cv2.findTransformECC(
+                    patches[level], images[level], warp, kind, criteria, everywhere, 1
+                )
+                warp = np.asarray(refined, np.float32)
+            except cv2.error:  # no convergence (a frame without the part): no pose
+                return Pose(_patch_to_reference(_at_full(warp, level), x, y), 0.0)
+        return Pose(_patch_to_reference(_at_full(warp, fine), x, y), float(score))
+
+
+def _turned(patch: np.ndarray, most: float) -> tuple[tuple[float, np.ndarray, np.ndarray], ...]:
+    """The coarse ``patch`` turned by every angle of a sweep over ± ``most`` degrees: its
+    central square (whole at any angle), in steps that move the square's corners by
+    about a pixel, and each one's warp (patch pixel centres → square pixel centres, as
+    ECC starts from it once the square is found)."""
     import cv2
 
-    if motion not in MOTIONS:
-        raise InputError(f"motion {motion!r}: one of {', '.join(MOTIONS)}")
-    frame, reference = np.asarray(frame), np.asarray(reference)
-    if frame.ndim != 2 or reference.ndim != 2:
-        raise InputError("locating a part needs monochrome frames (one channel)")
-    if frame.shape != reference.shape:
-        raise InputError(
-            f"the frame is {frame.shape[1]}×{frame.shape[0]}, the reference "
-            f"{reference.shape[1]}×{reference.shape[0]}: give frames of the reference's size"
-        )
-    x, y, w, h = (int(v) for v in template)
-    if x < 0 or y < 0 or w < 8 or h < 8 or x + w > reference.shape[1] or y + h > reference.shape[0]:
-        raise InputError(
-            f"template [{x}, {y}, {w}, {h}] is not a window of at least 8 × 8 px inside the "
-            f"{reference.shape[1]}×{reference.shape[0]} reference"
-        )
-    patch = reference[y : y + h, x : x + w].astype(np.float32)
-    if not float(patch.std()) > 0:
-        raise InputError(f"template [{x}, {y}, {w}, {h}] has no contrast: no part to find")
-
-    # The pyramids: level k is 2**k times smaller. The frame's is built in floats from the
-    # first level down, its full-resolution copy only where ECC refines there.
-    coarse = max(0, math.floor(math.log2(min(w, h) / COARSE_SIZE)))
-    fine = min(coarse, max(0, math.ceil(math.log2(min(w, h) / FINE_SIZE))))
-    patches: list[np.ndarray] = [patch]
-    images: list[np.ndarray] = [frame.astype(np.float32) if fine == 0 else frame]
-    # The template's levels are cut from the reference's around it: pyrDown of the
-    # window alone would reflect the part's own edge into its border, where the frame's
-    # pyramid has the belt, and bias the pose (0.03°, 0.6 px at a 1280 px template's
-    # corners, even with the part at home).
-    margin = 4 << coarse  # the 5-tap kernel reads 2 px of the level above, each level
-    around = _window(reference, x - margin, y - margin, w + 2 * margin, h + 2 * margin)
-    for level in range(coarse):
-        around = cv2.pyrDown(around)
-        ph, pw = (patches[-1].shape[0] + 1) // 2, (patches[-1].shape[1] + 1) // 2
-        m = margin >> (level + 1)
-        patches.append(np.ascontiguousarray(around[m : m + ph, m : m + pw]))
-        below = images[-1] if level else np.asarray(images[-1], np.float32)
-        images.append(np.asarray(cv2.pyrDown(below)))
-
-    # 1. Coarse: the translation at the level where the template is ~COARSE_SIZE px. The
-    # frame is widened by a quarter of the template on each side with its median (the
-    # belt, mostly), so that a part the frame's edge cuts is still found there: ECC then
-    # refines on the pixels inside the frame only.
-    ph, pw = patches[coarse].shape
-    py, px = ph // 4, pw // 4
-    widened = cv2.copyMakeBorder(
-        images[coarse], py, py, px, px, cv2.BORDER_CONSTANT,
-        value=float(np.median(images[coarse])),
-    )  # fmt: skip
-    scores = cv2.matchTemplate(widened, patches[coarse], cv2.TM_CCOEFF_NORMED)
-    _, _, _, (cx, cy) = cv2.minMaxLoc(scores)
-    cx, cy = cx - px, cy - py
-    # ECC's warp: patch pixel centres → frame pixel centres, at the coarse level.
-    warp = np.array([[1.0, 0.0, cx], [0.0, 1.0, cy]], np.float32)
-
-    # 2. Fine: ECC level by level, the translation doubled on the way down.
-    kind = {
-        "translation": cv2.MOTION_TRANSLATION,
-        "euclidean": cv2.MOTION_EUCLIDEAN,
-        "affine": cv2.MOTION_AFFINE,
-    }[motion]
-    criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, _ECC_ITERATIONS, _ECC_EPS)
-    score = 0.0
-    for level in range(coarse, fine - 1, -1):
-        if level < coarse:
-            warp = warp.copy()
-            # cv2.pyrDown's pixel c is centred on pixel 2c of the level above (its 5-tap
-            # kernel sits there; not 2c + ½, as a 2 × 2 block mean's would): the linear
-            # part stays, the shift doubles (Evangelidis' next_level).
-            warp[:, 2] *= 2.0
-        try:
-            # Every frame pixel is valid (a full mask: OpenCV's typing has no "none" with a
-            # Gaussian size), and no pre-smoothing (size 1): the pyramid smoothed already.
-            everywhere = np.full(images[level].shape, 255, np.uint8)
-            score, refined = cv2.findTransformECC(
-                patches[level], images[level], warp, kind, criteria, everywhere, 1
-            )
-            warp = np.asarray(refined, np.float32)
-        except cv2.error:  # no convergence (a frame without the part): no pose
-            return Pose(_patch_to_reference(_at_full(warp, level), x, y), 0.0)
-    return Pose(_patch_to_reference(_at_full(warp, fine), x, y), float(score))
+    if not most > 0:
+        return ()
+    ph, pw = patch.shape
+    side = max(8, int(min(ph, pw) / math.sqrt(2)))
+    step = math.degrees(1.0 / (side / math.sqrt(2)))
+    count = math.ceil(min(most, 180.0) / step)
+    centre = ((pw - 1) / 2.0, (ph - 1) / 2.0)
+    out = []
+    for k in range(-count, count + 1):
+        if k == 0:
+            continue
+        angle = k * min(most, 180.0) / count
+        m = cv2.getRotationMatrix2D(centre, -angle, 1.0)  # turned by +angle (y down)
+        image = cv2.warpAffine(patch, m, (pw, ph), flags=cv2.INTER_LINEAR)
+        x0, y0 = (pw - side) // 2, (ph - side) // 2
+        square = np.ascontiguousarray(image[y0 : y0 + side, x0 : x0 + side])
+        warp = np.asarray(m, np.float32).copy()
+        warp[:, 2] -= (x0, y0)  # a point of the patch → where it lies in the square
+        out.append((angle, square, warp))
+    return tuple(out)
 
 
 def _window(image: np.ndarray, x: int, y: int, w: int, h: int) -> np.ndarray:

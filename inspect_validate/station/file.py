@@ -229,6 +229,9 @@ class Production(StrictModel):
     """Pixels around the regions' bounding box that the default template takes in."""
     motion: Literal["translation", "euclidean", "affine"] = "euclidean"
     """How a part may lie: shifted; shifted and rotated; any affine map (a tilted part)."""
+    max_rotation_deg: Annotated[float, Field(ge=0, le=180, allow_inf_nan=False)] = 30.0
+    """The most a part may be turned, degrees: where the template is not found unturned
+    (a texture without an outline, turned), the search sweeps its rotation over ± this."""
     min_score: Annotated[float, Field(gt=0, le=1, allow_inf_nan=False)] = 0.8
     """The lowest match score (ECC's correlation coefficient) that counts as a part; a
     frame below it is counted as "no part found" and never measured."""

@@ -12,6 +12,7 @@ frame's edge) is counted too: neither is measured.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -22,7 +23,7 @@ from inspect_validate.errors import InputError
 if TYPE_CHECKING:
     from inspect_validate.comparisons import Comparisons
     from inspect_validate.measurement import Measurement
-    from inspect_validate.roi.pose import Motion, MovedRegions, Pose
+    from inspect_validate.roi.pose import Motion, MovedRegions, Pose, TemplateSearch
     from inspect_validate.station.file import Station
 
 __all__ = [
@@ -69,6 +70,8 @@ class PartLocator:
     motion : str
     min_score : float
     min_pixels : int
+    max_rotation_deg : float
+        The most a part turns, degrees (the coarse search sweeps it where it must).
     """
 
     reference: np.ndarray
@@ -77,6 +80,16 @@ class PartLocator:
     motion: Motion
     min_score: float
     min_pixels: int
+    max_rotation_deg: float = 0.0
+
+    @functools.cached_property
+    def search(self) -> TemplateSearch:
+        """The template prepared once for every frame (its pyramid, its turned copies)."""
+        from inspect_validate.roi.pose import TemplateSearch
+
+        return TemplateSearch.of(
+            self.reference, self.template, max_rotation_deg=self.max_rotation_deg
+        )
 
     def place(self, frame: np.ndarray) -> Placement:
         """The part in ``frame`` (H, W) with the regions moved onto it.
@@ -87,7 +100,7 @@ class PartLocator:
             A frame of another size or pixel type than the reference, not monochrome, or
             a stack of frames (naming no file: the caller knows the frame's).
         """
-        from inspect_validate.roi.pose import locate_part, moved_masks
+        from inspect_validate.roi.pose import moved_masks
 
         if frame.ndim == 3:
             raise InputError(
@@ -101,7 +114,7 @@ class PartLocator:
                 f"the frame's pixels are {frame.dtype}, the reference's {self.reference.dtype}: "
                 "give the frames as the line's camera writes them (the reference one of them)"
             )
-        pose = locate_part(frame, self.reference, self.template, motion=self.motion)
+        pose = self.search.locate(frame, motion=self.motion)
         if pose.score < self.min_score:
             return Placement(
                 pose, None, {}, f"no part found: match score {pose.score:.3f} below "
@@ -172,6 +185,7 @@ def part_locator(station: Station) -> PartLocator:
         motion=production.motion,
         min_score=production.min_score,
         min_pixels=production.min_pixels,
+        max_rotation_deg=production.max_rotation_deg,
     )
 
 
