@@ -95,7 +95,9 @@ def line_batch(camera, n: int):
 
 def line_rows(batches: int) -> dict[str, int]:
     """The simulated line's cases: batches failed of ``batches``."""
-    from inspect_validate.verification.production import golden_parts, measure_frames, verify_parts
+    from inspect_validate.verification.parts import measure_frames
+    from inspect_validate.verification.parts_golden import golden_parts
+    from inspect_validate.verification.production import verify_parts
 
     failed = dict.fromkeys(LINE_CASES, 0)
     with tempfile.TemporaryDirectory() as tmp:
@@ -124,7 +126,9 @@ def table(failed: dict[str, int], batches: int) -> None:
 
 
 def main() -> None:
-    from inspect_validate.verification.production import golden_parts, measure_frames, verify_parts
+    from inspect_validate.verification.parts import measure_frames
+    from inspect_validate.verification.parts_golden import golden_parts
+    from inspect_validate.verification.production import verify_parts
 
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--batches", type=int, default=200)

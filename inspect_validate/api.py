@@ -442,7 +442,7 @@ def train(
     from inspect_validate.verification.golden import train as run
 
     if production:
-        from inspect_validate.verification.production import train_production
+        from inspect_validate.verification.parts_golden import train_production
 
         if not isinstance(captures, str | Path):
             raise TypeError("train(..., production=True) takes one folder of frames")

@@ -385,6 +385,39 @@ def production_station(tmp_path, *, alone=False, **block):
     return read_station(path)
 
 
+def rendered_part(size, matrix, *, seed=0, noise=2.0, quantised=True):
+    """A frame ``size`` + 200 px square holding a textured part ``size`` px across, drawn
+    exactly under ``matrix`` (pixel corners): the texture (16 cosines of 0.01–0.12
+    cycles/px) and the part's soft edge are evaluated at each pixel centre's point on
+    the part, so the truth carries no interpolation's error; ``noise`` DN of noise,
+    8-bit (float64 and unrounded where not ``quantised``). And the part's window on the
+    reference (``matrix`` the identity)."""
+    import numpy as np
+
+    n, x0 = size + 200, 100
+    rng = np.random.default_rng(1234)  # one part; ``seed`` draws the noise
+    freq = rng.uniform(0.01, 0.12, 16) * np.exp(2j * np.pi * rng.uniform(0, 1, 16))
+    phase, amp = rng.uniform(0, 2 * np.pi, 16), rng.uniform(5, 15, 16)
+    a, b = matrix[:, :2], matrix[:, 2]
+    v, u = np.mgrid[0:n, 0:n].astype(np.float64) + 0.5
+    inv = np.linalg.inv(a)
+    rx = inv[0, 0] * (u - b[0]) + inv[0, 1] * (v - b[1])
+    ry = inv[1, 0] * (u - b[0]) + inv[1, 1] * (v - b[1])
+    texture = 120 + sum(
+        amp[k] * np.cos(2 * np.pi * (freq[k].real * rx + freq[k].imag * ry) + phase[k])
+        for k in range(16)
+    )
+
+    def inside(t):  # a soft edge, 0.8 px wide
+        return 0.5 * (1 + np.tanh((t - x0) / 0.8)) * 0.5 * (1 + np.tanh((x0 + size - t) / 0.8))
+
+    window = inside(rx) * inside(ry)
+    image = 30 + window * (texture - 30) + np.random.default_rng(seed).normal(0, noise, (n, n))
+    if not quantised:
+        return image, (x0, x0, size, size)
+    return np.clip(np.rint(image), 0, 255).astype(np.uint8), (x0, x0, size, size)
+
+
 LINE = ROOT / "sample_images" / "line"
 """The shipped simulated line: a station with a production block and a moving part."""
 

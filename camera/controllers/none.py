@@ -3,7 +3,7 @@ or a station of the line's frames alone, :mod:`inspect_validate.camera.grabbers.
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Literal, NoReturn
 
 from pydantic import model_validator
 
@@ -34,7 +34,7 @@ class NoControllerSettings(ControllerSettings):
         return self
 
 
-def open_none(settings: NoControllerSettings, opening: Opening):
+def open_none(settings: NoControllerSettings, opening: Opening) -> NoReturn:
     raise InputError(
         "this station has no light controller (controller: backend none, or no controller: "
         "section): nothing here switches its light; give --production --frames FOLDER of the line's "

@@ -8,7 +8,7 @@ open it says what it needs instead.
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Literal, NoReturn
 
 from pydantic import model_validator
 
@@ -38,7 +38,7 @@ class NoCameraSettings(CameraSettings):
         return self
 
 
-def open_none(settings: NoCameraSettings, opening: Opening):
+def open_none(settings: NoCameraSettings, opening: Opening) -> NoReturn:
     raise InputError(
         "this station has no camera (camera: backend none, or no camera: section): its "
         "frames come from the line's own program; give --production --frames FOLDER, or describe the "

@@ -109,7 +109,7 @@ def train(station, golden_path, repeats, frames_dirs, frames_out, production, ca
 def _train_production(st, frames_dirs, golden_path) -> None:
     """``train --production``: the golden parts of one folder of production frames."""
     from inspect_validate.report import write_json
-    from inspect_validate.verification.production import train_production
+    from inspect_validate.verification.parts_golden import train_production
 
     if len(frames_dirs) != 1:
         raise click.UsageError("--production trains on one folder of frames: give --frames DIR")

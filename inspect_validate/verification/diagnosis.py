@@ -40,8 +40,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from inspect_validate.verification.golden import GoldenIllumination, Spread
-    from inspect_validate.verification.production import Part
+    from inspect_validate.station.file import Station
+    from inspect_validate.verification.golden import Golden, GoldenIllumination, Spread
+    from inspect_validate.verification.parts import Part
 
 __all__ = [
     "CLOSE",
@@ -53,7 +54,9 @@ __all__ = [
     "Sensor",
     "batch_changes",
     "diagnose",
+    "diagnosis_of",
     "shaded_classes",
+    "station_sensor",
 ]
 
 MODEL_TOLERANCE = 0.1
@@ -447,3 +450,23 @@ def shaded_classes(parts: Sequence[Part], golden: GoldenIllumination) -> list[st
         if 1 - residual.var() / mu.var() >= 0.5:
             out.append(c.name)
     return out
+
+
+def diagnosis_of(station: Station, parts: Sequence[Part], golden: Golden) -> Diagnosis:
+    """The :func:`~inspect_validate.verification.diagnosis.diagnose` of ``parts`` against
+    ``golden``'s production illumination, with :func:`station_sensor`."""
+    g = next(iter(golden.illuminations.values()))
+    return diagnose(parts, g, sensor=station_sensor(station), shaded=shaded_classes(parts, g))
+
+
+def station_sensor(station: Station) -> Sensor | None:
+    """The station camera's EMVA values (a
+    :class:`~inspect_validate.verification.diagnosis.Sensor`) where the station has a
+    scene to take them from; None for a station of frames alone (its dark level taken as
+    0 DN, and a light and a gain one cause)."""
+    if station.scene is None:
+        return None
+    from inspect_validate.station.model import station_model
+
+    s = station_model(station).sensor
+    return Sensor(s.gain, s.dark_noise, s.dark_offset)

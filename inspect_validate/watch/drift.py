@@ -38,7 +38,7 @@ if TYPE_CHECKING:
     from collections.abc import Sequence
 
     from inspect_validate.verification.golden import Golden
-    from inspect_validate.verification.production import Parts
+    from inspect_validate.verification.parts import Parts
     from inspect_validate.verification.results import Verification
 
 __all__ = [

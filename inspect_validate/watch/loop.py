@@ -350,11 +350,8 @@ def _line_batch(station, line, frames, n, hours):
     and how many frames were skipped, if any."""
     from inspect_validate.station.capture import capture, production_steps
     from inspect_validate.station.file import simulated_at
-    from inspect_validate.verification.production import (
-        capture_of,
-        measure_frames,
-        verify_parts,
-    )
+    from inspect_validate.verification.parts import capture_of, measure_frames
+    from inspect_validate.verification.production import verify_parts
     from inspect_validate.watch.drift import series_of_parts
 
     name = station.production.illumination

@@ -207,7 +207,7 @@ def _one_camera(
         plan = plan_verification(station, drift_checks=False)
     try:
         if line is not None:
-            from inspect_validate.verification.production import station_sensor
+            from inspect_validate.verification.diagnosis import station_sensor
 
             assert station.production is not None  # _line_watch refused a station without
             sensor = station_sensor(station)
@@ -235,7 +235,7 @@ def _line_watch(station: Station, golden_file: Path, frames: Path | None) -> Lin
     from inspect_validate.station.production import part_locator
     from inspect_validate.verification.golden import read_golden
     from inspect_validate.verification.measured import station_regions
-    from inspect_validate.verification.production import production_golden
+    from inspect_validate.verification.parts_golden import production_golden
     from inspect_validate.watch.feed import FolderFeed
     from inspect_validate.watch.loop import LineWatch
 

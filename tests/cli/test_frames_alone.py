@@ -173,7 +173,7 @@ def test_a_part_that_cannot_be_measured_is_a_part_not_measured(tmp_path):
     """A class of one pixel (min_pixels 1) on a part at its home keeps one pixel, which
     has no variance: that part is not measured, named by its frame, and the batch goes
     on (it raised out of the batch, and ended a watch)."""
-    from inspect_validate.verification.production import measure_frames
+    from inspect_validate.verification.parts import measure_frames
 
     path = frames_station(tmp_path, min_pixels=1)
     rois = yaml.safe_load((tmp_path / "parts.yaml").read_text())

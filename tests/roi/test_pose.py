@@ -8,6 +8,7 @@ import math
 import cv2
 import numpy as np
 import pytest
+from conftest import rendered_part
 from skimage import data
 
 from inspect_validate.errors import InputError
@@ -59,34 +60,6 @@ def test_the_pose_of_a_moved_and_rotated_photograph_is_recovered(dx, dy, degrees
     assert np.max(np.abs(pose.apply(corners) - Pose(want, 1.0).apply(corners))) < 0.1
     assert pose.angle_deg == pytest.approx(degrees, abs=0.01)
     assert pose.score > 0.99
-
-
-def rendered_part(size: int, matrix: np.ndarray, *, seed: int = 0) -> tuple[np.ndarray, tuple]:
-    """A frame ``size`` + 200 px square holding a textured part ``size`` px across, drawn
-    exactly under ``matrix`` (pixel corners): the texture (16 cosines of 0.01–0.12
-    cycles/px) and the part's soft edge are evaluated at each pixel centre's point on
-    the part, so the truth carries no interpolation's error; 2 DN of noise, 8-bit. And
-    the part's window on the reference (``matrix`` the identity)."""
-    n, x0 = size + 200, 100
-    rng = np.random.default_rng(1234)  # one part; ``seed`` draws the noise
-    freq = rng.uniform(0.01, 0.12, 16) * np.exp(2j * np.pi * rng.uniform(0, 1, 16))
-    phase, amp = rng.uniform(0, 2 * np.pi, 16), rng.uniform(5, 15, 16)
-    a, b = matrix[:, :2], matrix[:, 2]
-    v, u = np.mgrid[0:n, 0:n].astype(np.float64) + 0.5
-    inv = np.linalg.inv(a)
-    rx = inv[0, 0] * (u - b[0]) + inv[0, 1] * (v - b[1])
-    ry = inv[1, 0] * (u - b[0]) + inv[1, 1] * (v - b[1])
-    texture = 120 + sum(
-        amp[k] * np.cos(2 * np.pi * (freq[k].real * rx + freq[k].imag * ry) + phase[k])
-        for k in range(16)
-    )
-
-    def inside(t):  # a soft edge, 0.8 px wide
-        return 0.5 * (1 + np.tanh((t - x0) / 0.8)) * 0.5 * (1 + np.tanh((x0 + size - t) / 0.8))
-
-    window = inside(rx) * inside(ry)
-    image = 30 + window * (texture - 30) + np.random.default_rng(seed).normal(0, 2, (n, n))
-    return np.clip(np.rint(image), 0, 255).astype(np.uint8), (x0, x0, size, size)
 
 
 @pytest.mark.parametrize(("size", "degrees"), [(600, 10.0), (1280, 6.0), (2000, -5.0)])

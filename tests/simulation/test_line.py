@@ -112,7 +112,7 @@ def test_parts_cut_by_the_frames_edge_are_counted_not_measured(tmp_path):
     import yaml
 
     from inspect_validate.station.file import read_station
-    from inspect_validate.verification.production import measure_parts
+    from inspect_validate.verification.parts import measure_parts
 
     station = line_station(tmp_path, line={"cut": 0.5, "rotation_deg": 0.0})
     doc = yaml.safe_load(station.read_text())
