@@ -60,6 +60,9 @@ FINE_SIZE = 512
 """Pixels across the template at the finest level ECC refines at (its smaller side)."""
 _ECC_ITERATIONS = 100
 _ECC_EPS = 1e-6
+# Above the finest level ECC only starts the next one, whose basin is a few of its
+# pixels wide: a thousandth of a pixel there is plenty.
+_ECC_COARSE = (30, 1e-3)
 
 
 @dataclass(frozen=True)
@@ -243,6 +246,12 @@ class TemplateSearch:
         # copy only where ECC refines there.
         images: list[np.ndarray] = [frame.astype(np.float32) if fine == 0 else frame]
         for level in range(coarse):
+            if level == 0 and fine >= 2 and frame.dtype in (np.uint8, np.uint16):
+                # Level 1 only carries the pyramid down (ECC refines from level 2): made
+                # in the frame's own integers, a quarter of the float path's time; its
+                # rounding, 1/12 DN², is a small share of the noise by level 2.
+                images.append(np.asarray(cv2.pyrDown(frame), np.float32))
+                continue
             below = images[-1] if level else np.asarray(images[-1], np.float32)
             images.append(np.asarray(cv2.pyrDown(below)))
 
@@ -276,7 +285,7 @@ class TemplateSearch:
             "euclidean": cv2.MOTION_EUCLIDEAN,
             "affine": cv2.MOTION_AFFINE,
         }[motion]
-        criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, _ECC_ITERATIONS, _ECC_EPS)
+        stop = cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT
         score = 0.0
         x, y = self.template[:2]
         for level in range(coarse, fine - 1, -1):
@@ -292,7 +301,13 @@ class TemplateSearch:
                 # smoothed already.
                 everywhere = np.full(images[level].shape, 255, np.uint8)
                 score, refined = cv2.findTransformECC(
-                    patches[level], images[level], warp, kind, criteria, everywhere, 1
+                    patches[level],
+                    images[level],
+                    warp,
+                    kind,
+                    (stop, *((_ECC_ITERATIONS, _ECC_EPS) if level == fine else _ECC_COARSE)),
+                    everywhere,
+                    1,
                 )
                 warp = np.asarray(refined, np.float32)
             except cv2.error:  # no convergence (a frame without the part): no pose

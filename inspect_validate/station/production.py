@@ -227,7 +227,7 @@ def measure_part(
         whole = None if thin else Moments(c.n_pixels, c.mean, c.variance)
         m = weighted_moments(values[edge], weights[edge], whole=whole)
         classes.append(replace(c, mean=m.mean, variance=m.variance, n_pixels=m.n))
-    return compare(tuple(classes), comparisons, kde="never")
+    return compare(tuple(classes), comparisons, kde="never", counted=False)
 
 
 def part_focus(frame: np.ndarray, regions: MovedRegions) -> dict[str, float]:

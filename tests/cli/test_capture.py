@@ -161,7 +161,7 @@ def test_bad_station_file_names_the_field(tmp_path, capsys):
     assert run_cli(["capture", bad, "--out", tmp_path / "o"]) == 2
     err = capsys.readouterr().err
     assert (
-        "controller: backend must be one of gardasoft, generic, manual, simulated" in err
+        "controller: backend must be one of gardasoft, generic, manual, none, simulated" in err
         and "illuminations" in err
     )
 
