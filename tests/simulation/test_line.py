@@ -153,3 +153,30 @@ def test_a_camera_knocked_off_a_fixture_fails_on_the_pose(tmp_path, capsys):
     failed = [line.split()[1:3] for line in out.splitlines() if line.startswith("FAIL ")]
     assert failed == [["pose", "x"]], out
     assert "the camera or the fixture moved" in out
+
+
+def test_the_lines_frames_alone_name_a_dimmer_light_as_one_level(golden, tmp_path, capsys):
+    """The shipped station of the line's frames alone (``frames.yaml``: no camera model,
+    so no dark level): a light 5 % dimmer is one level for every class, light or gain,
+    with no runner-up, though each class's μ is then a few hundredths of a percent off
+    one factor (the dark level left in; tests/verification/test_diagnosis.py holds the
+    model tolerance that keeps such a level one)."""
+    import shutil
+
+    for name in ("frames.yaml", "rois.yaml", "reference.tiff"):
+        shutil.copy(LINE / name, tmp_path / name)
+    good = line_frames(line_station(tmp_path / "g"), tmp_path / "gc")
+    trained = tmp_path / "frames-golden.json"
+    assert run_cli(["train", tmp_path / "frames.yaml", "--production", "--frames", good,
+                    "--out", trained]) == 0  # fmt: skip
+    dim = line_frames(line_station(tmp_path / "d", irradiance={1: 0.95}), tmp_path / "dc", parts=20)
+    capsys.readouterr()
+    code = run_cli(["verify", tmp_path / "frames.yaml", "--production", "--frames", dim,
+                    "--golden", trained])  # fmt: skip
+    out = capsys.readouterr().out
+    assert code == 1, out
+    cause = out.split("likely cause: ")[1].splitlines()[0]
+    assert re.match(
+        r"the light is dimmer by about (4\.[5-9]|5\.0) %, or the camera's gain lower", cause
+    )
+    assert "no camera model to tell them apart" in cause and "nearly as well" not in cause
