@@ -176,6 +176,13 @@ def init(
             camera_backend, serial = info.backend, info.serial or info.device_id
         else:
             camera_backend = str(pick)
+    if camera_backend == "none":
+        raise InputError(
+            "init drafts a station that captures (a camera, a controller, illuminations); "
+            "a station of the line's frames alone needs no draft: write rois: and "
+            'production: {reference: FRAME} (the manual\'s "On the running line")',
+            source="--camera-backend",
+        )
     chosen = backend("cameras", camera_backend, source="--camera-backend")
     renders = camera_backend == "simulated" or simulate
     if simulate:

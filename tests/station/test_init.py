@@ -288,3 +288,14 @@ def test_a_station_on_pylons_emulator_from_init_captures_16_bit_frames(cli, tmp_
     assert done.returncode == 0, done.stderr
     meta = json.loads(next((tmp_path / "c").glob("*/frame_0001.json")).read_text())
     assert meta["pixel_format"] == "Mono16"
+
+
+def test_init_of_a_station_of_frames_alone_says_none_is_needed(tmp_path, capsys):
+    """``--camera-backend none`` is a station of the line's frames: nothing to draft (it
+    asked for an exposure, then would write a station its own backend refuses)."""
+    from conftest import run_cli
+
+    code = run_cli(["init", tmp_path / "s.yaml", "--scene", SCENE, "--camera-backend", "none"])
+    err = capsys.readouterr().err
+    assert code == 2 and "write rois: and production:" in err, err
+    assert not (tmp_path / "s.yaml").exists()
