@@ -244,6 +244,13 @@ def _line_watch(station: Station, golden_file: Path, frames: Path | None) -> Lin
     assert station.production is not None
     golden = read_golden(golden_file)
     production_golden(golden, station, source=str(golden_file))
+    if frames is None and station.camera.backend == "none":
+        raise InputError(
+            "watch --production without --frames takes the frames with the station's "
+            "camera, and this station has none (a station of the line's frames alone): "
+            "give --frames FOLDER, the folder the line's program writes its frames into",
+            source=str(station.path),
+        )
     feed = None
     if frames is not None:
         frames = Path(frames)

@@ -151,6 +151,11 @@ def test_what_needs_a_camera_controller_or_scene_says_so(line, tmp_path, capsys)
     assert not (tmp_path / "c").exists() or not any((tmp_path / "c").rglob("*.png"))
     assert run_cli(["verify", station]) == 2
     assert "verify its parts with --production --frames FOLDER" in capsys.readouterr().err
+    db = tmp_path / "w" / "h.sqlite"
+    args = ["watch", station, "--production", "--golden", line[1], "--db", db, "--cycles", 1]
+    assert run_cli(args) == 2
+    assert "give --frames FOLDER" in capsys.readouterr().err
+    assert not db.exists()  # refused before a history was begun
 
 
 def test_what_a_station_of_frames_alone_refuses(tmp_path):
