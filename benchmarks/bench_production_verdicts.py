@@ -149,7 +149,7 @@ def line_rows(batches: int) -> tuple[dict[str, int], dict[str, int]]:
 def tally(verdict, case: str, failed: dict[str, int], named: dict[str, int]) -> None:
     if not verdict.passed:
         failed[case] += 1
-        named[case] += NAMED.get(case, "\0") in (verdict.cause or "")
+        named[case] += case in NAMED and NAMED[case] in (verdict.cause or "")
 
 
 def table(failed: dict[str, int], named: dict[str, int], batches: int) -> None:

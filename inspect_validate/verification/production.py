@@ -15,6 +15,7 @@ check, naming the reasons (a wrong reference, a moved camera, no parts passing).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -56,18 +57,15 @@ class ProductionVerification:
     def passed(self) -> bool:
         return all(c.passed for c in self.checks)
 
-    @property
+    @functools.cached_property
     def cause(self) -> str | None:
-        """The likely cause of the failed checks, from their pattern (None where every
-        check passed): a light level moves every class's μ by one factor (a gain too,
-        told apart by σ² against the EMVA model); its spectrum
-        or the parts move them by different ones; a lens out of focus lowers the focus
-        measure at steady μ; parts that differ move σ² with μ and focus steady; a shade
-        fixed in the frame (dust on the lens) makes a class's μ depend on where the part
-        lies."""
+        """The likely cause of the failed checks (None where every check passed): how the
+        frames arrived where only the camera's record failed, why frames held no part,
+        else the best of :attr:`diagnosis` (read once: the text, the JSON and the page
+        each print it)."""
         return _cause(self)
 
-    @property
+    @functools.cached_property
     def diagnosis(self) -> Diagnosis:
         """What the batch's parts changed against the golden parts, and the causes that
         explain it best first (:mod:`~inspect_validate.verification.diagnosis`)."""
