@@ -198,11 +198,15 @@ def serve(master: int, controller: Controller, args: argparse.Namespace) -> None
             os.write(master, (text + "\r\n" if text else "").encode() + b">")
 
 
-def end_with_parent(state_folder: Path | None = None) -> None:
+def end_with_parent(state_folder: Path | None = None, *, parent: int | None = None) -> None:
     """Exit when the process that started this one dies, even by ``kill -9`` (Linux:
     ``PR_SET_PDEATHSIG``), removing ``state_folder`` — the parent's temporary folder,
-    which it can no longer remove — so no orphan or litter outlives it."""
+    which it can no longer remove — so no orphan or litter outlives it. ``parent``: that
+    process's id, as it gave it (``--parent``); else the one this process has now, which
+    is already another if the parent died while this one started."""
     import signal
+
+    parent = os.getppid() if parent is None else parent
 
     def leave(*_) -> None:
         if state_folder is not None and state_folder.name.startswith("iv-sim-"):
@@ -217,7 +221,9 @@ def end_with_parent(state_folder: Path | None = None) -> None:
 
         libc = ctypes.CDLL(None, use_errno=True)
         libc.prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
-        if os.getppid() == 1:  # the parent died before the request was made
+        # The parent died before the request was made: this process was handed to
+        # another (init, or a service manager that reaps orphans: not always pid 1).
+        if os.getppid() != parent:
             leave()
 
 
@@ -233,8 +239,9 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument("--drop-after", type=int)
     parser.add_argument("--dialect", choices=("gardasoft", "line"), default="gardasoft")
     parser.add_argument("--tcp", type=int, nargs="?", const=0, metavar="PORT")
+    parser.add_argument("--parent", type=int, metavar="PID", help="the starting process's id")
     args = parser.parse_args(argv)
-    end_with_parent(args.state.parent)
+    end_with_parent(args.state.parent, parent=args.parent)
     try:
         _run(args)
     except FileNotFoundError:

@@ -123,10 +123,11 @@ def main(argv: Sequence[str] | None = None) -> None:
         default=None,
         help="the share of GVSP packets dropped (default: the world's packet_loss, else 0)",
     )
+    parser.add_argument("--parent", type=int, metavar="PID", help="the starting process's id")
     args = parser.parse_args(argv)
     from inspect_validate.simulation.controller import end_with_parent
 
-    end_with_parent()
+    end_with_parent(parent=args.parent)
     lib = _library()
     gv = lib.arv_gv_fake_camera_new(args.interface.encode(), args.serial.encode())
     if not gv or not lib.arv_gv_fake_camera_is_running(gv):

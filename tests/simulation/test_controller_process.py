@@ -28,3 +28,35 @@ def test_a_missing_state_folder_the_parent_still_has_is_an_error(tmp_path):
         capture_output=True, text=True, timeout=60,
     )  # fmt: skip
     assert run.returncode != 0 and "Error" in run.stderr
+
+
+def test_a_parent_gone_before_the_process_started_ends_it(tmp_path):
+    """The tool gives its own id (``--parent``): a process whose parent died while it
+    started ends, its folder removed, whichever process then took it in (init, or a
+    service manager that reaps orphans, whose id is not 1)."""
+    folder = tmp_path / "iv-sim-orphan"
+    folder.mkdir()
+    run = subprocess.run(
+        [sys.executable, "-m", "inspect_validate.simulation.controller",
+         "--state", str(folder / "state.json"), "--parent", "999999999"],
+        capture_output=True, text=True, timeout=60,
+    )  # fmt: skip
+    assert run.returncode == 0 and run.stdout == "", (run.stdout, run.stderr)
+    assert not folder.exists()
+
+
+def test_its_parent_keeps_it_running(tmp_path):
+    """The same process given its true parent serves: it prints its port."""
+    import os
+
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "inspect_validate.simulation.controller",
+         "--state", str(tmp_path / "state.json"), "--parent", str(os.getpid())],
+        stdout=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        assert proc.stdout.readline().startswith("/dev/")
+    finally:
+        proc.kill()
+        proc.wait()
+        proc.stdout.close()
