@@ -109,11 +109,13 @@ def train(station, golden_path, repeats, frames_dirs, frames_out, production, ca
 def _train_production(st, frames_dirs, golden_path) -> None:
     """``train --production``: the golden parts of one folder of production frames."""
     from inspect_validate.report import write_json
-    from inspect_validate.verification.parts_golden import train_production
+    from inspect_validate.verification.parts import measure_parts
+    from inspect_validate.verification.parts_golden import golden_parts
 
     if len(frames_dirs) != 1:
         raise click.UsageError("--production trains on one folder of frames: give --frames DIR")
-    golden = train_production(st, frames_dirs[0])
+    parts = measure_parts(st, frames_dirs[0])
+    golden = golden_parts(st, parts, source=str(frames_dirs[0]))
     ((name, ill),) = golden.illuminations.items()
     click.echo(f"{golden.repeats} good parts under {name!r}")
     for c, g in ill.classes.items():
@@ -121,5 +123,13 @@ def _train_production(st, frames_dirs, golden_path) -> None:
         click.echo(f"  {c}: μ {g.mean.summary()} DN, σ² {g.variance.summary()} DN²{focus}")
     for label, comparison in ill.comparisons.items():
         click.echo(f"  {label}: SNR_dB {comparison.snr_db.summary(3)} dB")
+    if parts.not_measured:
+        # A golden spread is only as good as its parts: say which frames were left out.
+        total = len(parts.measured) + len(parts.not_measured)
+        click.echo(f"{len(parts.not_measured)} of {total} frames not measured:")
+        for frame, why in list(parts.not_measured.items())[:10]:
+            click.echo(f"  {frame}: {why}")
+        if len(parts.not_measured) > 10:
+            click.echo(f"  and {len(parts.not_measured) - 10} more")
     write_json(golden.document(), golden_path)
     click.echo(f"wrote {golden_path}")

@@ -219,3 +219,29 @@ def test_hostile_frame_folders_are_refused_naming_the_file(trained, tmp_path, ca
     err = capsys.readouterr().err
     assert code == 2 and says in err and "Traceback" not in err, err
     assert err.count("station.yaml") == 0 and not (tmp_path / "r").exists()
+
+
+def test_a_frame_with_a_blank_block_is_neither_trained_nor_verified(tmp_path, capsys):
+    """Issue 62: a frame whose part lies partly in a blank block (40 rows at 255 across the
+    face, as a frame cut short with a white fill leaves) is left out by train, which names
+    it and why, and by verify, which says so in its parts count; the golden spread is the
+    good parts' alone."""
+    station = production_station(tmp_path, alone=True)
+    good = parts(tmp_path / "good", 8, seed=1)
+    frame = cv2.imread(str(good / "part_003.png"), cv2.IMREAD_UNCHANGED)
+    clean = tmp_path / "clean.json"
+    assert run_cli(["train", station.path, "--production", "--frames", good, "--out", clean]) == 0
+    frame[130:170] = 255
+    cv2.imwrite(str(good / "part_003.png"), frame)
+    capsys.readouterr()
+    golden = tmp_path / "golden.json"
+    assert run_cli(["train", station.path, "--production", "--frames", good, "--out", golden]) == 0
+    out = capsys.readouterr().out
+    assert "7 good parts" in out and "1 of 8 frames not measured:" in out
+    assert re.search(r"part_003\.png: a blank block: \d+% of class 'face' .*\(255 DN\)", out), out
+    face = json.loads(golden.read_text())["illuminations"]["amber"]["classes"]["face"]["mean"]
+    clean_face = json.loads(clean.read_text())["illuminations"]["amber"]["classes"]["face"]
+    assert face["std"] < 2 * clean_face["mean"]["std"]  # ~0.03 DN; with the blank 10 DN
+    code = run_cli(["verify", station.path, "--production", "--frames", good, "--golden", golden])
+    out = capsys.readouterr().out
+    assert code == 0 and "7 of 8 frames hold a part; a blank block (1)" in out, out
