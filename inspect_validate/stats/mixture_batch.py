@@ -50,12 +50,15 @@ def gaussian_mixture_errors(
     The same as :func:`mixture_error` row by row, vectorised over the rows: the
     densities' difference is evaluated on a grid a quarter of the row's narrowest σ
     apart, over :data:`NEAR_REACH` of the widest σ beyond the outermost centres, its
-    sign changes polished to 2⁻⁴⁰ of a cell, and ε summed from the lower
+    sign changes polished to 2⁻²⁴ of a cell, and ε summed from the lower
     density's exact mass (normal CDF differences, accurate in the tails) between
-    successive crossings. A crossing beyond that reach could move ε by at most
-    Φ(−NEAR_REACH) ≈ 8·10⁻²⁴, so a row whose ε is not 10¹³ times larger is searched
-    again out to :data:`~inspect_validate.stats.mixture.TAIL_REACH` σ, as the one-at-a-time
-    search does. Rows with a point mass (σ = 0) or needing a grid finer than
+    successive crossings. ε is stationary in a crossing's place (the two densities are
+    equal there): a crossing off by δ moves ε by about ½·|p₁′ − p₂′|·δ², below 10⁻¹⁴ of ε
+    at 2⁻²⁴ of a cell for classes up to 20 σ apart. A crossing beyond the grid's ends
+    would move ε by at most the mass beyond them of the side counted there; a row where
+    that bound is not 10⁻¹³ of ε is searched again out to
+    :data:`~inspect_validate.stats.mixture.TAIL_REACH` σ, as the one-at-a-time search
+    does. Rows with a point mass (σ = 0) or needing a grid finer than
     :data:`_BATCH_GRID_MAX` points go to :func:`mixture_error`. The spectral analysis's
     groups (a class against the rest, at each wavelength) are hundreds of such rows;
     one at a time they cost about 1 ms each.
@@ -80,10 +83,16 @@ def _pair_errors(side1, side2, rows: np.ndarray, *, near: bool = True) -> np.nda
         for i in rows[~grid.batch]:
             out[i] = mixture_error(_mixture(c1[i], w1[i], s1[i]), _mixture(c2[i], w2[i], s2[i]))
         rows = rows[grid.batch]
-        out[rows] = _chunked_errors(*sides, grid.select(grid.batch), rows)
-        # Rows whose ε the truncated tails could move by more than 10⁻¹³ of it.
-        rows = rows[out[rows] < _NEAR_BOUND * 1e13] if reach < TAIL_REACH else rows[:0]
+        out[rows], bound = _chunked_errors(*sides, grid.select(grid.batch), rows)
+        # Rows whose ε the grid's ends could move by more than 10⁻¹³ of it.
+        rows = rows[_moved(out[rows], bound)] if reach < TAIL_REACH else rows[:0]
     return out
+
+
+def _moved(errors: np.ndarray, log_bound: np.ndarray) -> np.ndarray:
+    """Where a crossing beyond the grid could move ε by more than 10⁻¹³ of it."""
+    with np.errstate(divide="ignore"):
+        return log_bound > np.log(errors) + math.log(1e-13)
 
 
 def class_mixture_errors(
@@ -142,6 +151,7 @@ def class_mixture_errors(
     grid = grid.select(grid.batch)
     flat = out.reshape(-1)
     count = len(comparisons)
+    bound = np.full(flat.size, np.inf)
     # A chunk's points are evaluated once for every comparison.
     for here in _chunks(grid.points * count):
         chunk_rows, chunk_grid = batch[here], grid.select(here)
@@ -166,7 +176,7 @@ def class_mixture_errors(
                 ]
             d.append(sums[0] - sums[1])
         stacked_rows = (np.arange(count)[:, None] * n + chunk_rows).reshape(-1)
-        flat[stacked_rows] = _batch_errors(
+        flat[stacked_rows], bound[stacked_rows] = _batch_errors(
             tuple(a[stacked_rows] for a in side1),
             tuple(a[stacked_rows] for a in side2),
             chunk_grid.tiled(count),
@@ -177,7 +187,7 @@ def class_mixture_errors(
     grid_taken = np.zeros((count, n), bool)
     grid_taken[:, batch] = True
     taken = grid_taken.reshape(-1)
-    far = np.flatnonzero(taken & (flat < _NEAR_BOUND * 1e13))
+    far = np.flatnonzero(taken & _moved(flat, bound))
     for again, near in ((np.flatnonzero(~taken), True), (far, False)):
         if again.size:
             flat[again] = _pair_errors(side1, side2, again, near=near)[again]
@@ -208,9 +218,6 @@ def _mixture(centres, weights, sigmas) -> Mixture:
 
 NEAR_REACH = 10.0
 """Widest σ beyond the outermost centres that the first grid spans."""
-
-#: Mass of a Gaussian's tail beyond :data:`NEAR_REACH` σ on both sides, Φ(−10)·2.
-_NEAR_BOUND = math.erfc(NEAR_REACH / math.sqrt(2.0))
 
 
 @dataclass(frozen=True)
@@ -257,23 +264,28 @@ def _chunks(points: np.ndarray) -> list[slice]:
     return [slice(a, b) for a, b in itertools.pairwise(edges) if b > a]
 
 
-def _chunked_errors(side1, side2, grid: _RowGrids, rows: np.ndarray) -> np.ndarray:
+def _chunked_errors(
+    side1, side2, grid: _RowGrids, rows: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """:func:`_batch_errors` of rows ``rows`` in chunks of at most :data:`_BATCH_POINTS`
     grid points in all (memory stays bounded)."""
-    out = np.empty(rows.size)
+    out, bound = np.empty(rows.size), np.empty(rows.size)
     for here in _chunks(grid.points):
-        out[here] = _batch_errors(
+        out[here], bound[here] = _batch_errors(
             tuple(a[rows[here]] for a in side1),
             tuple(a[rows[here]] for a in side2),
             grid.select(here),
         )
-    return out
+    return out, bound
 
 
-def _batch_errors(side1: tuple, side2: tuple, grid: _RowGrids, d=None) -> np.ndarray:
+def _batch_errors(
+    side1: tuple, side2: tuple, grid: _RowGrids, d=None
+) -> tuple[np.ndarray, np.ndarray]:
     """:func:`gaussian_mixture_errors` of rows all of which take their grid, each side
     (centres, weights, sigmas); ``d``, the difference on the flat grid if already
-    evaluated."""
+    evaluated. Returns ε and the log of a bound on what a crossing beyond the grid's
+    ends could move it by (−∞ where the row was searched without a grid)."""
     (c1, w1, s1), (c2, w2, s2) = side1, side2
     n = c1.shape[0]
     # In each row's own units (the widest σ), from its lower end: the arithmetic stays
@@ -308,7 +320,7 @@ def _batch_errors(side1: tuple, side2: tuple, grid: _RowGrids, d=None) -> np.nda
     left, right = narrow_brackets(
         x[j], x[j + 1], d[j], d[j + 1],
         lambda at, k: _difference_at(at, r[k], u1, v1, w1, u2, v2, w2),
-        tolerance=np.ldexp(x[j + 1] - x[j], -40),
+        tolerance=np.ldexp(x[j + 1] - x[j], -24),
     )  # fmt: skip
     # The crossings come row by row, each row's in order (cells of the flat grid): with
     # −∞ and +∞ around each row's, successive edges bound its regions.
@@ -334,9 +346,32 @@ def _batch_errors(side1: tuple, side2: tuple, grid: _RowGrids, d=None) -> np.nda
     for lower, (u, v, w) in ((first_lower, (u1, v1, w1)), (~first_lower, (u2, v2, w2))):
         mass[lower] = _masses(a[lower], b[lower], region_row[lower], u, v, w)
     errors = np.minimum(0.5 * np.bincount(region_row, weights=mass, minlength=n), 0.5)
+    # A crossing beyond the grid's ends goes unseen: the end region then counts its side's
+    # mass out to infinity where the other side's is lower, ε off by at most that side's
+    # mass beyond the end. Its log, from Q(z) ≤ φ(z)/z (z > 1; else 1).
+    one_first, one_last = np.ones(n, bool), np.ones(n, bool)
+    one_first[region_row[a == -np.inf]] = first_lower[a == -np.inf]
+    one_last[region_row[b == np.inf]] = first_lower[b == np.inf]
+    top = ((grid.hi - grid.lo) / grid.unit)[:, None]  # the grid's upper end; its lower is 0
+    bound = np.logaddexp(
+        np.where(one_first, _log_tail(u1 / v1, w1), _log_tail(u2 / v2, w2)),
+        np.where(one_last, _log_tail((top - u1) / v1, w1), _log_tail((top - u2) / v2, w2)),
+    )
     for i in exact:
         errors[i] = mixture_error(_mixture(c1[i], w1[i], s1[i]), _mixture(c2[i], w2[i], s2[i]))
-    return errors
+        bound[i] = -np.inf  # searched without a grid
+    return errors, bound
+
+
+def _log_tail(t: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """An upper bound of log Σ w·Q(t), (N,): the mass of a row's components (weights
+    ``w``, (N, K)) beyond an end ``t`` of their σ from their centres, from
+    Q(t) ≤ φ(t)/t where t > 1, else 1."""
+    with np.errstate(divide="ignore"):
+        log_q = np.where(
+            t > 1.0, -0.5 * t * t - np.log(np.maximum(t, 1.0) * math.sqrt(2.0 * math.pi)), 0.0
+        )
+        return np.logaddexp.reduce(np.log(w) + log_q, axis=1)
 
 
 def _flat_grid(grid: _RowGrids) -> tuple[np.ndarray, np.ndarray]:

@@ -137,7 +137,7 @@ def test_classes_on_one_grid_match_the_comparisons_one_at_a_time(seed):
     shown = want > 1e-250
     np.testing.assert_allclose(got[shown], want[shown], rtol=1e-12, atol=0)
     assert np.all(got[~shown] < 1e-240)
-    assert (want < 1e-10).any()  # rows searched again out to the far reach
+    assert (want < 1e-10).any()  # rows where the grid's ends are held to 10⁻¹³ of ε
 
 
 def test_stacked_comparisons_are_the_comparisons_one_by_one():
@@ -164,3 +164,26 @@ def test_stacked_comparisons_are_the_comparisons_one_by_one():
     ).reshape(3, n)
     for row, (s1, s2) in zip(got, pairs, strict=True):
         np.testing.assert_allclose(row, gaussian_mixture_errors(*s1, *s2), rtol=1e-13)
+
+
+def test_the_bound_beyond_a_grids_end_is_above_the_normal_tail():
+    """What a crossing beyond the grid could move ε by is bounded by the end side's mass
+    beyond it: the bound (Mills' ratio, φ(t)/t for t > 1, else 1) lies above scipy's
+    log Q(t) at every t and weight, and within log(1 + 1/t²) of it for t > 1."""
+    from scipy.stats import norm
+
+    from inspect_validate.stats.mixture_batch import _log_tail
+
+    t = np.concatenate([np.linspace(-5, 40, 901), [1e3, 1e6]])
+    for w in (1.0, 1e-30, 1e-300):
+        got = _log_tail(t[:, None], np.full((t.size, 1), w))
+        want = np.log(w) + norm.logsf(t)
+        assert np.all(got >= want - 1e-12 * np.abs(want))
+        far = t > 1
+        assert np.all(got[far] - want[far] <= np.log1p(1 / t[far] ** 2) + 1e-12 * -want[far])
+    # Two components: the bound of the sum is the sum of the bounds.
+    two = _log_tail(np.array([[3.0, 12.0]]), np.array([[0.25, 0.75]]))
+    assert two[0] == pytest.approx(
+        np.logaddexp(_log_tail(np.array([[3.0]]), np.array([[0.25]]))[0],
+                     _log_tail(np.array([[12.0]]), np.array([[0.75]]))[0]), rel=1e-14
+    )  # fmt: skip
