@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import html
 import json
+import math
 from functools import cache
 from importlib import resources
 from typing import TYPE_CHECKING, Any
@@ -67,10 +68,11 @@ def _alpha(colour: str, alpha: float) -> str:
 def _numbers(values) -> list[float | None]:
     """Values to 5 significant digits (what a chart resolves; the page stays small),
     None where not finite."""
-    out: list[float | None] = []
-    for v in np.asarray(values, dtype=float).ravel():
-        out.append(float(f"{v:.5g}") if np.isfinite(v) else None)
-    return out
+    # Python floats, not numpy scalars: a third of the time on a page's 10⁵ numbers.
+    return [
+        float(f"{v:.5g}") if math.isfinite(v) else None
+        for v in np.asarray(values, dtype=float).ravel().tolist()
+    ]
 
 
 def _series(label: str, x, y, **options) -> dict[str, Any]:

@@ -97,9 +97,22 @@ def test_the_factor_and_the_confidence_are_inverse_and_monotone():
     assert tolerance_confidence(0.0, n=7, content=0.9) == 0.0
     assert tolerance_confidence(math.inf, n=7, content=0.9) == 1.0
     with pytest.raises(ValueError):
-        tolerance_factor(n=5, content=1.0, confidence=0.9)
-    with pytest.raises(ValueError):
         tolerance_factor(n=5, content=0.9, confidence=1.0)
+
+
+@pytest.mark.parametrize(
+    ("n", "df", "content"),
+    [(0, 3, 0.9), (5, 0, 0.9), (1, None, 0.9), (5, None, 0.0), (5, None, 1.0), (-1, 3, 0.9)],
+)
+def test_an_interval_without_a_spread_or_a_share_is_refused(n, df, content):
+    """No centre (n = 0), no degrees of freedom (df = 0, one value), no share or all of
+    it: ValueError naming the values, from the factor and the confidence alike."""
+    for call in (
+        lambda: tolerance_factor(n=n, content=content, confidence=0.9, df=df),
+        lambda: tolerance_confidence(2.0, n=n, content=content, df=df),
+    ):
+        with pytest.raises(ValueError, match=rf"need n > 0, df > 0 and 0 < content < 1, got {n}"):
+            call()
 
 
 @pytest.mark.parametrize(("n", "m"), [(5, 1), (40, 10)])
