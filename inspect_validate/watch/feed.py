@@ -7,7 +7,7 @@ program counts its frames: ``img_9`` before ``img_10``), and only when it is who
 renames it, the safe way, shows a whole file at once, and names starting with ``.`` are
 not images here). Files already in the folder when the watch starts are not new and are
 left alone. A cycle takes ``parts`` frames; when more than twice that wait (frames land
-faster than they are measured), the oldest are skipped and counted, so the queue never
+faster than they are measured), the oldest are dropped and counted, so the queue never
 grows. What the feed remembers of files is of those still in the folder (a name gone is
 forgotten; a new file of that name is new): its memory is the folder's listing's, however
 long the watch runs.
@@ -40,8 +40,8 @@ class FolderFeed:
 
     Attributes
     ----------
-    skipped : int
-        Frames passed over so far because they landed faster than the watch measures.
+    dropped : int
+        Frames left unmeasured so far because they landed faster than the watch measures.
     unusable : dict
         New files passed over because they cannot be frames, of those still in the
         folder: name → why.
@@ -55,7 +55,7 @@ class FolderFeed:
     poll_s: float = 0.05
     quiet_s: float = 10.0
     notify: Callable[[str], None] | None = None
-    skipped: int = 0
+    dropped: int = 0
     unusable: dict[str, str] = field(default_factory=dict)
     passed_over: int = 0
     _seen: set[str] = field(default_factory=set)
@@ -131,7 +131,7 @@ class FolderFeed:
 
     def take(self) -> tuple[list[Path], int]:
         """Wait for ``parts`` whole new files and take them; the files and how many older
-        ones were skipped for them (more than twice ``parts`` waiting). A stop request
+        ones were dropped for them (more than twice ``parts`` waiting). A stop request
         ends the wait (:func:`~inspect_validate.interruption.stop_if_requested`)."""
         since, told = time.monotonic(), ""
         while True:
@@ -145,13 +145,13 @@ class FolderFeed:
                     self.notify(f"waiting for {why}")
                     told = why
             time.sleep(self.poll_s)
-        skip = max(0, len(waiting) - 2 * self.parts)
-        taken = waiting[skip : skip + self.parts]
-        for path in waiting[: skip + self.parts]:
+        drop = max(0, len(waiting) - 2 * self.parts)
+        taken = waiting[drop : drop + self.parts]
+        for path in waiting[: drop + self.parts]:
             self._seen.add(path.name)
             self._changing.pop(path.name, None)
-        self.skipped += skip
-        return taken, skip
+        self.dropped += drop
+        return taken, drop
 
 
 def natural_key(path: Path) -> tuple:

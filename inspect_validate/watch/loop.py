@@ -347,7 +347,7 @@ def _line_batch(station, line, frames, n, hours):
     """A cycle of the running line (``watch --production``): a batch of parts, from the
     camera into ``frames`` or from the line's folder, verified without the golden
     statistics' checks (the charts replace them); the verification, the batch's means,
-    and how many frames were skipped, if any."""
+    and how many frames were dropped, if any."""
     from inspect_validate.station.capture import capture, production_steps
     from inspect_validate.station.file import simulated_at
     from inspect_validate.verification.parts import capture_of, measure_frames
@@ -359,10 +359,10 @@ def _line_batch(station, line, frames, n, hours):
     if line.feed is None:
         at = simulated_at(station, n, hours=hours)
         capture(at, frames, steps=production_steps(at))
-        files, skipped = sorted((frames / name).glob("*.tif")), 0
+        files, dropped = sorted((frames / name).glob("*.tif")), 0
         manifest = capture_of(frames, audit=False)  # taken by this cycle, just now
     else:
-        files, skipped = line.feed.take()
+        files, dropped = line.feed.take()
     unreadable: dict[str, str] = {}
     parts = measure_frames(
         station,
@@ -373,7 +373,7 @@ def _line_batch(station, line, frames, n, hours):
     )
     parts = replace(parts, not_measured={**unreadable, **parts.not_measured})
     verification = verify_parts(station, parts, line.golden, drift=False, manifest=manifest)
-    notes = [f"{skipped} frames skipped (they land faster than measured)"] if skipped else []
+    notes = [f"{dropped} frames dropped (they land faster than measured)"] if dropped else []
     if parts.unusable:  # in the cycle's reason (status and history) even where it passed
         notes.append(
             f"{len(parts.unusable)} frames not measured: {next(iter(parts.unusable.values()))}"

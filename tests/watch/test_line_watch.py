@@ -1,6 +1,6 @@
 """``watch --production`` on the simulated line: batches of parts from the station's camera
 or from a folder the line's program writes into (files taken whole, in order, once;
-frames that land faster than measured skipped and counted), charted against golden parts;
+frames that land faster than measured dropped and counted), charted against golden parts;
 a dimmer light drifts with its cause named; unreadable files and frames of another size
 are counted, not fatal; a bench golden file is refused."""
 
@@ -106,9 +106,9 @@ def test_frames_from_a_folder_are_taken_whole_and_in_order(cli, tmp_path, line_g
     assert "2 frames not measured: cannot be read" in (cycles[0][2] or ""), cycles
 
 
-def test_frames_landing_faster_than_measured_are_skipped_and_counted(tmp_path):
+def test_frames_landing_faster_than_measured_are_dropped_and_counted(tmp_path):
     """The feed keeps at most twice a batch waiting: 35 frames landed at once for batches
-    of 10 → the 15 oldest skipped, the next 10 taken in the folder's order."""
+    of 10 → the 15 oldest dropped, the next 10 taken in the folder's order."""
     from inspect_validate.watch.feed import FolderFeed
 
     folder = tmp_path / "line"
@@ -117,11 +117,11 @@ def test_frames_landing_faster_than_measured_are_skipped_and_counted(tmp_path):
     for k in range(35):
         (folder / f"f{k:03d}.npy").write_bytes(b"x" * 100)
     feed.ready()  # first look: sizes noted
-    taken, skipped = feed.take()
-    assert skipped == 15 and [p.name for p in taken] == [f"f{k:03d}.npy" for k in range(15, 25)]
-    taken, skipped = feed.take()
-    assert skipped == 0 and [p.name for p in taken] == [f"f{k:03d}.npy" for k in range(25, 35)]
-    assert feed.skipped == 15
+    taken, dropped = feed.take()
+    assert dropped == 15 and [p.name for p in taken] == [f"f{k:03d}.npy" for k in range(15, 25)]
+    taken, dropped = feed.take()
+    assert dropped == 0 and [p.name for p in taken] == [f"f{k:03d}.npy" for k in range(25, 35)]
+    assert feed.dropped == 15
 
 
 def test_the_feed_takes_numbered_frames_by_number_and_forgets_files_gone(tmp_path):
