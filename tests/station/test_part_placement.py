@@ -142,9 +142,9 @@ def test_blank_runs_are_the_runs_of_their_length_or_more():
     arrays of few values (long runs common); noise of 0.7 DN leaves none in 10⁶ pixels."""
     rng = np.random.default_rng(11)
     for _ in range(200):
-        h, w = rng.integers(1, 12, 2)
+        h, w = rng.integers(1, 40, 2)
         image = rng.choice(np.arange(rng.integers(1, 3)), size=(h, w), p=None).astype(np.uint8)
-        length = int(rng.integers(2, 6))
+        length = int(rng.integers(2, 9))
         want = np.zeros((h, w), bool)
         for axis in (0, 1):
             view, mark = (image, want) if axis == 1 else (image.T, want.T)
