@@ -302,8 +302,9 @@ def blank_runs(image: np.ndarray, *, length: int = BLANK_RUN) -> np.ndarray:
                           borderType=cv2.BORDER_CONSTANT, borderValue=0)  # fmt: skip
         end = (length - 1, 0) if axis == 1 else (0, length - 1)
         cover = (1, length) if axis == 1 else (length, 1)
-        blank |= cv2.dilate(start, np.ones(cover, np.uint8), anchor=end,
-                            borderType=cv2.BORDER_CONSTANT, borderValue=0)  # fmt: skip
+        covered = cv2.dilate(start, np.ones(cover, np.uint8), anchor=end,
+                             borderType=cv2.BORDER_CONSTANT, borderValue=0)  # fmt: skip
+        np.bitwise_or(blank, covered, out=blank)
     return blank.view(bool)
 
 
