@@ -150,6 +150,31 @@ def test_the_feed_takes_numbered_frames_by_number_and_forgets_files_gone(tmp_pat
     feed.ready()
     taken, _ = feed.take()
     assert [p.name for p in taken] == ["img_9.npy", "img_11.npy", "img_12.npy"]
+    # The folder emptied (the program cleared it), then the counter started again.
+    for path in folder.iterdir():
+        path.unlink()
+    assert feed.ready() == []  # the empty folder looked at: every name forgotten
+    for k in (9, 11, 13):
+        (folder / f"img_{k}.npy").write_bytes(b"z" * 100)
+    feed.ready()  # sizes noted
+    assert [p.name for p in feed.ready()] == ["img_9.npy", "img_11.npy", "img_13.npy"]
+
+
+def test_a_file_gone_between_the_listing_and_its_look_leaves_the_rest_taken(tmp_path):
+    """The line's program removes a file between the feed's listing and its look at it
+    (a race no test can time, so the listing names a file already gone): the files
+    after it in the listing are still taken."""
+    from inspect_validate.watch.feed import FolderFeed
+
+    folder = tmp_path / "line"
+    folder.mkdir()
+    feed = FolderFeed(folder, 2, settle_s=0.0)
+    for name in ("a.npy", "b.npy"):
+        (folder / name).write_bytes(b"x" * 100)
+    listing = feed._images
+    feed._images = lambda: [folder / "0_gone.npy", *listing()]  # type: ignore[method-assign]
+    feed.ready()
+    assert [p.name for p in feed.ready()] == ["a.npy", "b.npy"]
 
 
 def test_the_feed_passes_over_files_that_cannot_be_frames_and_says_what_it_waits_on(tmp_path):
@@ -168,12 +193,15 @@ def test_the_feed_passes_over_files_that_cannot_be_frames_and_says_what_it_waits
     (folder / "b_zero.tif").symlink_to("/dev/zero")
     (folder / "c_empty.tif").write_bytes(b"")
     (folder / "d_loop.tif").symlink_to(folder / "d_loop.tif")
-    for _ in range(2):  # sizes noted, then settled
+    for _ in range(4):  # sizes noted, then settled, then looked at again
         assert feed.ready() == []
     assert set(feed.unusable) == {"a_pipe.tif", "b_zero.tif", "c_empty.tif", "d_loop.tif"}
+    assert feed.passed_over == 4  # each once, however often the folder is looked at
     why = feed.waiting_on(0)
-    assert "0 of 2 new frames" in why and "1 empty (0 bytes)" in why, why
-    assert "2 not a regular file" in why and "1 a symbolic link to no file" in why, why
+    assert why.endswith(
+        "new files that cannot be frames were passed over (2 not a regular file (a pipe, a "
+        "device or a folder); 1 a symbolic link to no file; 1 empty (0 bytes))"
+    ) and why.startswith("0 of 2 new frames"), why
 
     def land():
         while not told:
