@@ -50,7 +50,7 @@ def gaussian_mixture_errors(
     The same as :func:`mixture_error` row by row, vectorised over the rows: the
     densities' difference is evaluated on a grid a quarter of the row's narrowest σ
     apart, over :data:`NEAR_REACH` of the widest σ beyond the outermost centres, its
-    sign changes polished to 2⁻²⁴ of a cell, and ε summed from the lower
+    sign changes polished to 2⁻²⁴ of a cell by safeguarded Newton steps, and ε summed from the lower
     density's exact mass (normal CDF differences, accurate in the tails) between
     successive crossings. ε is stationary in a crossing's place (the two densities are
     equal there): a crossing off by δ moves ε by about ½·|p₁′ − p₂′|·δ², below 10⁻¹⁴ of ε
@@ -319,8 +319,8 @@ def _batch_errors(
     r = point_row[j]
     left, right = narrow_brackets(
         x[j], x[j + 1], d[j], d[j + 1],
-        lambda at, k: _difference_at(at, r[k], u1, v1, w1, u2, v2, w2),
-        tolerance=np.ldexp(x[j + 1] - x[j], -24),
+        lambda at, k: _difference_and_slope(at, r[k], u1, v1, w1, u2, v2, w2),
+        tolerance=np.ldexp(x[j + 1] - x[j], -24), slope=True,
     )  # fmt: skip
     # The crossings come row by row, each row's in order (cells of the flat grid): with
     # −∞ and +∞ around each row's, successive edges bound its regions.
@@ -391,8 +391,16 @@ def _difference_at(x, row, u1, v1, a1, u2, v2, a2):
     return _log_density(x, row, u1, v1, a1) - _log_density(x, row, u2, v2, a2)
 
 
-def _log_density(x, row, u, v, a):
-    """log Σ a·φ((x − u)/v)/v at points x (P,) of rows ``row`` (P,), u, v, a (rows, K)."""
+def _difference_and_slope(x, row, u1, v1, a1, u2, v2, a2):
+    """:func:`_difference_at` and its derivative in x (Newton's steps on the crossings)."""
+    d1, s1 = _log_density(x, row, u1, v1, a1, slope=True)
+    d2, s2 = _log_density(x, row, u2, v2, a2, slope=True)
+    return d1 - d2, s1 - s2
+
+
+def _log_density(x, row, u, v, a, *, slope=False):
+    """log Σ a·φ((x − u)/v)/v at points x (P,) of rows ``row`` (P,), u, v, a (rows, K);
+    with ``slope``, also its derivative in x, Σ a·φ·(u − x)/v² / Σ a·φ."""
     with np.errstate(divide="ignore"):
         inverse = 1.0 / v
         scale = np.log(a) + np.log(inverse)  # per component, not per point
@@ -402,13 +410,21 @@ def _log_density(x, row, u, v, a):
     terms = np.take(columns[0], row, axis=1)
     np.subtract(x, terms, out=terms)
     terms *= np.take(columns[1], row, axis=1)
+    if slope:
+        pull = terms * np.take(columns[1], row, axis=1)  # (x − u)/v², per component
     terms *= terms
     terms *= -0.5
     terms += np.take(columns[2], row, axis=1)
     top = np.max(terms, axis=0)
     terms -= top
     np.exp(terms, out=terms)
-    return top + np.log(np.sum(terms, axis=0))
+    total = np.sum(terms, axis=0)
+    value = top + np.log(total)
+    if not slope:
+        return value
+    with np.errstate(invalid="ignore"):  # 0·∞ of a component of weight 0 far away
+        pull *= terms
+    return value, -np.nansum(pull, axis=0) / total
 
 
 def _masses(a, b, row, u, v, w):
