@@ -156,7 +156,8 @@ class FolderFeed:
 
 def natural_key(path: Path) -> tuple:
     """A file's place in a folder as a camera program numbers its frames: the runs of
-    digits in its name by value (``img_9`` before ``img_10``), the name's text itself
-    last (``img_09`` and ``img_9`` keep one order)."""
+    digits in its name by value (``img_9`` before ``img_10``) and before letters (as in
+    ASCII and natsort: ``2`` before ``b``), the name's text itself last (``img_09`` and
+    ``img_9`` keep one order)."""
     parts = re.split(r"(\d+)", path.name)
-    return (tuple((1, int(p), "") if p.isdigit() else (0, 0, p) for p in parts if p), path.name)
+    return (tuple((0, int(p), "") if p.isdigit() else (1, 0, p) for p in parts if p), path.name)

@@ -160,6 +160,74 @@ def test_the_feed_takes_numbered_frames_by_number_and_forgets_files_gone(tmp_pat
     assert [p.name for p in feed.ready()] == ["img_9.npy", "img_11.npy", "img_13.npy"]
 
 
+def test_the_feed_takes_a_file_once_it_has_settled(tmp_path):
+    """A file is taken once its size and time stayed the same for settle_s: not at the
+    first look, not at a second look sooner, nor while it still grows; then it is."""
+    from inspect_validate.watch.feed import FolderFeed
+
+    folder = tmp_path / "line"
+    folder.mkdir()
+    feed = FolderFeed(folder, 1, settle_s=0.3)
+    frame = folder / "a.npy"
+    frame.write_bytes(b"x" * 100)
+    assert feed.ready() == [] and feed.ready() == []  # noted, then not yet settled
+    time.sleep(0.2)
+    with frame.open("ab") as f:  # still being written
+        f.write(b"x" * 100)
+    time.sleep(0.2)
+    assert feed.ready() == []  # grew: its settling starts again
+    time.sleep(0.35)
+    assert feed.ready() == [frame]
+
+
+def test_the_feed_says_once_what_it_waits_on_and_only_after_quiet_s(tmp_path):
+    """A wait notifies its reason once (not each poll) and only after quiet_s; without
+    anyone to notify, a wait simply waits."""
+    from inspect_validate.watch.feed import FolderFeed
+
+    folder = tmp_path / "line"
+    folder.mkdir()
+
+    def land(after: float):
+        time.sleep(after)
+        for name in ("a.npy", "b.npy"):
+            (folder / name).write_bytes(b"x" * 100)
+
+    for quiet_s, notify in ((0.0, True), (60.0, True), (0.0, False)):
+        for path in folder.iterdir():
+            path.unlink()
+        told: list[str] = []
+        feed = FolderFeed(folder, 2, settle_s=0.0, poll_s=0.01, quiet_s=quiet_s,
+                          notify=told.append if notify else None)  # fmt: skip
+        writer = threading.Thread(target=land, args=(0.3,))
+        writer.start()
+        taken, _ = feed.take()
+        writer.join()
+        assert [p.name for p in taken] == ["a.npy", "b.npy"]
+        if notify and quiet_s == 0:
+            assert told == [
+                f"waiting for 0 of 2 new frames in {folder}: no new image file has landed"
+            ]
+        else:
+            assert told == []
+
+
+def test_the_feed_orders_names_as_a_file_manager_does():
+    """Runs of digits by value, digits before letters (as in ASCII and natsort), the name
+    itself last."""
+    from pathlib import Path
+
+    from inspect_validate.watch.feed import natural_key
+
+    names = ["img_10.png", "img_a.png", "img_9.png", "img_09.png", "img_1b.png", "img_1a.png",
+             "b.png", "2.png", "10.png"]  # fmt: skip
+    got = sorted((Path(n) for n in names), key=natural_key)
+    assert [p.name for p in got] == [
+        "2.png", "10.png", "b.png", "img_1a.png", "img_1b.png", "img_09.png", "img_9.png",
+        "img_10.png", "img_a.png",
+    ]  # fmt: skip
+
+
 def test_a_file_gone_between_the_listing_and_its_look_leaves_the_rest_taken(tmp_path):
     """The line's program removes a file between the feed's listing and its look at it
     (a race no test can time, so the listing names a file already gone): the files
