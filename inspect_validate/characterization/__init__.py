@@ -7,5 +7,6 @@
                            SNR, dynamic range, with standard errors
 :mod:`.camera_file`        the measured camera as a file the station reads
 :mod:`.descriptor`         the run as an emva1288 descriptor file
+:mod:`.sharpness`          the slanted-edge MTF of lens and sensor (ISO 12233 e-SFR)
 =========================  ===========================================================
 """

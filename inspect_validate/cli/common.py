@@ -59,6 +59,30 @@ class _FrameSize(click.ParamType):
 SIZE = _FrameSize()
 
 
+class _Region(click.ParamType):
+    """``X,Y,W,H`` in pixels: a rectangle's top-left corner, width and height."""
+
+    name = "X,Y,W,H"
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, tuple):
+            return value
+        parts = str(value).replace(" ", "").split(",")
+        whole = [p.isascii() and p.isdigit() and len(p) <= 6 for p in parts]
+        if len(parts) != 4 or not all(whole) or not (int(parts[2]) and int(parts[3])):
+            self.fail(
+                f"{value!r}: write X,Y,W,H in pixels (the top-left corner, then a width and a "
+                "height of 1 or more), e.g. 300,200,64,100",
+                param,
+                ctx,
+            )
+        x, y, w, h = (int(p) for p in parts)
+        return x, y, w, h
+
+
+REGION = _Region()
+
+
 class _Address(click.ParamType):
     """A controller's serial port or ``socket://host:port``
     (:func:`~inspect_validate.camera.settings.controller_address`, as the station file's
