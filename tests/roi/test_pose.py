@@ -100,10 +100,53 @@ def test_a_frame_without_the_part_scores_low():
     assert locate_part(empty, reference(), TEMPLATE).score < 0.5
 
 
+@pytest.mark.parametrize(
+    ("template", "fits"),
+    [
+        ((0, 0, 8, 8), True),  # the smallest window, at the corner
+        ((792, 632, 8, 8), True),  # reaching the frame's far edges exactly
+        ((0, 0, 7, 8), False),
+        ((0, 0, 8, 7), False),
+        ((-1, 0, 8, 8), False),
+        ((0, -1, 8, 8), False),
+        ((793, 0, 8, 8), False),
+        ((0, 633, 8, 8), False),
+    ],
+)
+def test_a_template_is_a_window_of_8_px_or_more_inside_the_reference(template, fits):
+    """The template's bounds, to the pixel; a window of faint contrast (σ 0.5 DN) is a
+    template, a flat one is not."""
+    from inspect_validate.roi.pose import TemplateSearch
+
+    ref = np.random.default_rng(4).normal(100, 20, SIZE).astype(np.float32)
+    if fits:
+        TemplateSearch.of(ref, template)
+    else:
+        with pytest.raises(InputError, match=r"at least 8 × 8 px inside the 800×640 reference"):
+            TemplateSearch.of(ref, template)
+    faint = np.full(SIZE, 100, np.float32)
+    faint[::2] += 1.0  # σ 0.5 DN
+    TemplateSearch.of(faint, (0, 0, 16, 16))
+
+
+def test_a_warp_of_a_coarse_level_is_carried_up_by_its_power_of_two():
+    """Level k's shift is 2**k of the full resolution's (k = 3: 8, not 6), its linear
+    part unchanged."""
+    from inspect_validate.roi.pose import _at_full
+
+    warp = np.array([[0.99, -0.1, 1.5], [0.1, 0.99, -2.25]], np.float32)
+    for level in (0, 1, 2, 3, 4):
+        got = _at_full(warp, level)
+        assert np.allclose(got[:, :2], warp[:, :2])
+        assert np.allclose(got[:, 2], warp[:, 2] * 2**level)
+
+
 def test_bad_input_is_refused_naming_what_to_give():
     ref = reference()
-    with pytest.raises(InputError, match="reference's size"):
+    with pytest.raises(InputError, match="the frame is 800×639, the reference 800×640"):
         locate_part(ref[:-1], ref, TEMPLATE)
+    with pytest.raises(InputError, match="the frame is 799×640, the reference 800×640"):
+        locate_part(ref[:, :-1], ref, TEMPLATE)
     with pytest.raises(InputError, match="monochrome"):
         locate_part(np.dstack([ref] * 3), ref, TEMPLATE)
     with pytest.raises(InputError, match="inside the"):
@@ -135,6 +178,19 @@ def test_regions_follow_the_part_and_count_what_leaves_the_frame():
     gone = moved_masks(masks, Pose(true_pose(0.0, -160.0, 0.0), 1.0))
     assert gone.outside["face"] == 40 * 60 and gone.masks["face"].sum() == 40 * 60
     assert gone.outside["coat"] == 0
+    # 400 px left: the face (columns 380–440) loses 20 columns past the left edge. A
+    # pixel counts by its centre: one landing on 0 is inside, one landing on the frame's
+    # width or height (800, 640) is not.
+    left = moved_masks(masks, Pose(true_pose(-400.0, 0.0, 0.0), 1.0))
+    assert left.outside["face"] == 20 * 80
+    edge = moved_masks(masks, Pose(true_pose(-380.5, 0.0, 0.0), 1.0))
+    assert edge.outside["face"] == 0
+    right = moved_masks(masks, Pose(true_pose(360.5, 0.0, 0.0), 1.0))  # last centre on 800
+    assert right.outside["face"] == 1 * 80
+    up = moved_masks(masks, Pose(true_pose(0.0, -120.5, 0.0), 1.0))
+    assert up.outside["face"] == 0
+    down = moved_masks(masks, Pose(true_pose(0.0, 440.5, 0.0), 1.0))  # last centre on 640
+    assert down.outside["face"] == 1 * 60
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
