@@ -123,6 +123,8 @@ def test_frames_landing_faster_than_measured_are_dropped_and_counted(tmp_path):
     taken, dropped = feed.take()
     assert dropped == 0 and [p.name for p in taken] == [f"f{k:03d}.npy" for k in range(25, 35)]
     assert feed.dropped == 15
+    feed.ready()
+    assert feed.ready() == []  # what was taken or dropped is never offered again
 
 
 def test_the_feed_takes_numbered_frames_by_number_and_forgets_files_gone(tmp_path):
