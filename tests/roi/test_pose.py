@@ -62,6 +62,26 @@ def test_the_pose_of_a_moved_and_rotated_photograph_is_recovered(dx, dy, degrees
     assert pose.score > 0.99
 
 
+@pytest.mark.parametrize(("dx", "dy"), [(200.0, 160.0), (0.0, 220.0), (-130.0, -90.0)])
+def test_a_part_cut_by_any_edge_of_the_frame_is_still_placed(dx, dy):
+    """A part pushed past the bottom-right corner (39 % and 31 % of the template beyond
+    the edges), the bottom edge (43 %) or the top-left corner: the coarse search runs on
+    the frame widened by a quarter of the template on every side, filled with its
+    median; the pose within 0.1 px (0.04–0.06 seen; not widened at the bottom, 400 px
+    off)."""
+    want = true_pose(dx, dy, 2.0)
+    pose = locate_part(moved_frame(want), reference(), TEMPLATE)
+    corners = np.array([[144, 64], [656, 64], [144, 576], [656, 576]], float)
+    assert np.max(np.abs(pose.apply(corners) - Pose(want, 1.0).apply(corners))) < 0.1
+
+
+def test_a_frame_ecc_cannot_refine_on_gives_a_pose_of_score_0():
+    """A flat frame: ECC finds no gradient and stops; the pose is where the coarse search
+    put the template (a finite matrix), its score 0."""
+    pose = locate_part(np.full(SIZE, 30, np.uint8), reference(), TEMPLATE)
+    assert pose.score == 0.0 and np.all(np.isfinite(pose.matrix)) and pose.matrix.shape == (2, 3)
+
+
 @pytest.mark.parametrize(("size", "degrees"), [(600, 10.0), (1280, 6.0), (2000, -5.0)])
 def test_a_large_part_turned_is_placed_to_five_hundredths_of_a_pixel(size, degrees):
     """Templates over :data:`~inspect_validate.roi.pose.FINE_SIZE` px are refined on a
@@ -153,8 +173,14 @@ def test_bad_input_is_refused_naming_what_to_give():
         locate_part(ref, ref, (700, 0, 200, 200))
     with pytest.raises(InputError, match="no contrast"):
         locate_part(ref, ref, (0, 0, 100, 60))
-    with pytest.raises(InputError, match="motion 'rigid'"):
+    with pytest.raises(InputError, match="motion 'rigid': one of translation, euclidean, affine"):
         locate_part(ref, ref, TEMPLATE, motion="rigid")
+    from inspect_validate.roi.pose import TemplateSearch
+
+    with pytest.raises(
+        InputError, match=r"^locating a part needs monochrome frames \(one channel\)$"
+    ):
+        TemplateSearch.of(np.dstack([ref] * 3), TEMPLATE)
 
 
 def test_regions_follow_the_part_and_count_what_leaves_the_frame():
