@@ -161,10 +161,17 @@ def _measure_edge(frames, dark, region, echo) -> dict:
         raise InputError(str(exc), source=f"--edge {x},{y},{w},{h}") from None
     half = found.at(0.25)
     along = "columns" if found.vertical else "rows"
+    mtf50 = (
+        f"{found.mtf50:.4g} cycles/px"
+        if np.isfinite(found.mtf50)
+        # Not NaN: what it means (a step drawn sharper than the pixels sample it).
+        else "above 1 cycle/px (the modulation stays above ½ that far: an edge sharper than "
+        "the pixels sample, or aliased)"
+    )
     echo(
         f"edge [{x}, {y}, {w}, {h}]: turned {found.angle_deg:+.2f}° from the {along}, "
         f"contrast {found.contrast:.4g} DN\n"
-        f"  MTF50 {found.mtf50:.4g} cycles/px, MTF at Nyquist/2 (0.25 cycles/px) {half:.3f}"
+        f"  MTF50 {mtf50}, MTF at Nyquist/2 (0.25 cycles/px) {half:.3f}"
     )
     return {
         "region": [x, y, w, h],
