@@ -245,3 +245,32 @@ def test_a_frame_with_a_blank_block_is_neither_trained_nor_verified(tmp_path, ca
     code = run_cli(["verify", station.path, "--production", "--frames", good, "--golden", golden])
     out = capsys.readouterr().out
     assert code == 0 and "7 of 8 frames hold a part; a blank block (1)" in out, out
+
+
+def test_training_on_fewer_than_two_parts_is_refused_saying_why(tmp_path, capsys):
+    """One good part and a frame of the empty belt: no spread to train (exit 2), the
+    message naming the folder, the count, and why the other frame held no part; with
+    two parts it trains. Through the API too (iv.train on a production station)."""
+    station = production_station(tmp_path, alone=True)
+    folder = parts(tmp_path / "one", 1, seed=3)
+    belt = np.clip(30 + np.random.default_rng(3).normal(0, 2, (640, 800)), 0, 255)
+    cv2.imwrite(str(folder / "belt.png"), belt.astype(np.uint8))
+    capsys.readouterr()
+    code = run_cli(["train", station.path, "--production", "--frames", folder,
+                    "--out", tmp_path / "g.json"])  # fmt: skip
+    err = capsys.readouterr().err
+    assert code == 2 and not (tmp_path / "g.json").exists(), err
+    assert re.search(
+        rf"{re.escape(str(folder))}: 1 part measured: golden statistics need the spread of two "
+        r"or more good parts \(no part found: match score [-0-9.]+ below production.min_score 0.8\)",
+        err,
+    ), err
+    from inspect_validate.errors import InputError
+    from inspect_validate.station.file import read_station
+    from inspect_validate.verification.parts_golden import train_production
+
+    with pytest.raises(InputError, match="1 part measured"):
+        train_production(read_station(station.path), folder)
+    parts(folder, 2, seed=4)  # part_000 replaced, part_001 added: two parts
+    golden = train_production(read_station(station.path), folder)
+    assert golden.repeats == 2 and golden.mode == "production"
