@@ -195,6 +195,8 @@ def verification_html(v: Verification, *, history: HistoryLog | None = None) -> 
         checks_table(v),
     ]
     parts += [f"<p>note: {e(n)}</p>" for n in v.notes]
+    if v.cause:
+        parts.append(f"<p><b>likely cause:</b> {e(v.cause)}</p>")
     if v.acquisition:
         parts += ["<h2>Frames</h2>", "<ul>"]
         parts += [f"<li>{e(describe_acquisition(a))}</li>" for a in v.acquisition]

@@ -142,6 +142,8 @@ def format_verdict(v: Verification) -> str:
     for n in v.notes:
         out.append(labelled("note", n, stream=sys.stdout))
     out += [f"frames: {describe_acquisition(a)}" for a in v.acquisition]
+    if v.cause:
+        out.append(labelled("likely cause", v.cause, stream=sys.stdout))
     out.append("")
     out.append(f"{'PASS' if v.passed else 'FAIL'}: {count_failed(v.checks)}")
     return "\n".join(out)
@@ -272,6 +274,7 @@ def verification_document(v: Verification) -> dict:
         "checks": verdict_documents(v.checks),
         "skipped": list(v.skipped),
         "notes": list(v.notes),
+        "cause": v.cause,
         "acquisition": list(v.acquisition),
         "measurements": {
             ill: measurement_document(m, limits=v.limits) for ill, m in v.measurements.items()

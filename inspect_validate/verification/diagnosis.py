@@ -1,22 +1,28 @@
-"""The likely cause of a batch of parts' change against the golden parts: one reading of
-the measured changes, for ``verify --production`` and ``watch --production`` alike.
+"""The likely cause of a change against a golden file: one reading of the measured
+changes, for ``verify`` and ``watch``, on the bench and on the line alike.
 
-Every class's μ (of the signal above the dark level), σ² and focus measure, and the parts'
-position, is a relative (or, for the position, absolute) change of the batch mean from
-the golden mean with its standard error, s·√(1/m + 1/n). Each candidate cause predicts a
+Every class's μ (of the signal above the dark level), σ² and focus measure under each
+illumination, and the parts' position, is a relative (or, for the position, absolute)
+change of the batch mean from the golden mean with its standard error, s·√(1/m + 1/n)
+(m parts a batch; a bench capture is a batch of one). Each candidate cause predicts a
 pattern of those changes from a few parameters of its own:
 
 ========================  ===========================================================
 cause                     what it moves (others stay)
 ========================  ===========================================================
 light level (a)           every μ by a − 1; σ² and focus as the EMVA model says a light
-                          does (texture by a², photon noise by a)
+                          does (texture by a², photon noise by a); with several
+                          illuminations, all of them: the exposure or the lens
 gain (a)                  every μ by a − 1, σ² and focus by a² − 1
 light or gain (a)         without a camera model: μ by a − 1, σ² and focus between
                           0 and a² − 1 (the noise that stays can be most of them)
-spectrum (a per class)    each class's μ by its own factor, σ² and focus with it
+one light (a)             one illumination's classes as a light level, the others steady
+lights (a per light)      each illumination's classes by a level of its own
+spectrum (a per class)    each class's μ by its own factor, σ² and focus with it (of one
+                          illumination, or of all)
 focus (f per class)       the focus measure, σ² towards it; μ steady
-parts (σ² per class)      σ², the focus measure towards it; μ steady
+parts (σ² per class)      σ², the focus measure towards it; μ steady (on the bench,
+                          where the samples stay: the optics, blur or haze)
 shade (a per class)       as spectrum, and the part-to-part spread of μ of the classes
                           whose μ follows where the part lies
 fixture (where parts lie) the parts' position (x, y, rotation); their statistics steady
@@ -33,13 +39,14 @@ size, and the runner-up with it where its score is within :data:`CLOSE` of the b
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 if TYPE_CHECKING:
+    from inspect_validate.measurement import Measurement
     from inspect_validate.station.file import Station
     from inspect_validate.verification.golden import Golden, GoldenIllumination, Spread
     from inspect_validate.verification.parts import Part
@@ -53,7 +60,10 @@ __all__ = [
     "Diagnosis",
     "Sensor",
     "batch_changes",
+    "capture_changes",
+    "capture_diagnosis",
     "diagnose",
+    "diagnose_changes",
     "diagnosis_of",
     "shaded_classes",
     "station_sensor",
@@ -74,8 +84,9 @@ of variance N adds 20 N to the focus measure."""
 @dataclass(frozen=True)
 class Change:
     """One quantity of the batch against the golden parts: ``quantity`` is ``mean``
-    (relative, of the signal above dark), ``variance``, ``focus`` (relative), or ``x``,
-    ``y``, ``angle`` (px, °; ``name`` None)."""
+    (relative, of the signal above dark), ``variance``, ``focus`` (relative), ``spread``
+    (of μ over the parts), or ``x``, ``y``, ``angle`` (px, °; ``name`` None), under
+    ``illumination``."""
 
     name: str | None
     quantity: str
@@ -85,6 +96,7 @@ class Change:
     signal: float = math.nan
     variance: float = math.nan
     focus: float = math.nan
+    illumination: str = ""
 
     @property
     def scale(self) -> float:
@@ -128,13 +140,24 @@ class Sensor:
     dark_noise: float
     dark_offset: float
 
+    @classmethod
+    def of(cls, sensor) -> Sensor:
+        """The values of a station model's sensor (its ``gain``, ``dark_noise``,
+        ``dark_offset``)."""
+        return cls(sensor.gain, sensor.dark_noise, sensor.dark_offset)
+
 
 def batch_changes(
-    parts: Sequence[Part], golden: GoldenIllumination, *, dark_offset: float = 0.0
+    parts: Sequence[Part],
+    golden: GoldenIllumination,
+    *,
+    dark_offset: float = 0.0,
+    illumination: str = "",
 ) -> tuple[Change, ...]:
     """The batch's changes against ``golden`` (a
-    :class:`~inspect_validate.verification.golden.GoldenIllumination`): per class μ
-    (its signal above ``dark_offset``, DN), σ², focus; the parts' x, y and rotation."""
+    :class:`~inspect_validate.verification.golden.GoldenIllumination`, of
+    ``illumination``): per class μ (its signal above ``dark_offset``, DN), σ², focus; the
+    parts' x, y and rotation."""
     m = len(parts)
     out = []
     for k, c in enumerate(parts[0].measurement.classes):
@@ -144,16 +167,7 @@ def batch_changes(
         mu = np.array([p.measurement.classes[k].mean for p in parts])
         var = np.array([p.measurement.classes[k].variance for p in parts])
         focus = np.array([p.focus.get(c.name, math.nan) for p in parts])
-        signal = g.mean.mean - dark_offset
-        golden_focus = g.focus.mean if g.focus is not None else math.nan
-        for quantity, values, spread, base in (
-            ("mean", mu - dark_offset, g.mean, signal),
-            ("variance", var, g.variance, g.variance.mean),
-            ("focus", focus, g.focus, golden_focus),
-        ):
-            change = _relative(values, spread, base, m)
-            if change is not None:
-                out.append(Change(c.name, quantity, *change, signal, g.variance.mean, golden_focus))
+        out += _class_changes(c.name, g, mu, var, focus, dark_offset, illumination)
         # How much more the parts' μ spreads than the golden parts' (s²/s₀² − 1, its
         # standard error from the two variances' χ² laws): a shade fixed in the frame
         # spreads it, as the parts pass under it; nothing else here does.
@@ -161,7 +175,7 @@ def batch_changes(
         if m > 2 and n > 2 and g.mean.std > 0:
             ratio = float(np.var(mu, ddof=1)) / g.mean.std**2
             se = ratio * math.sqrt(2.0 / (m - 1) + 2.0 / (n - 1))
-            out.append(Change(c.name, "spread", ratio - 1.0, se))
+            out.append(Change(c.name, "spread", ratio - 1.0, se, illumination=illumination))
     if golden.pose is not None:
         position = np.array([p.position for p in parts])
         for i, (quantity, spread) in enumerate(
@@ -170,16 +184,57 @@ def batch_changes(
             v = position[:, i][np.isfinite(position[:, i])]
             se = _standard_error(v, spread)
             if v.size and math.isfinite(se):
-                out.append(Change(None, quantity, float(v.mean()) - spread.mean, se))
+                out.append(
+                    Change(None, quantity, float(v.mean()) - spread.mean, se,
+                           illumination=illumination)
+                )  # fmt: skip
     return tuple(out)
 
 
+def capture_changes(
+    measurements: Mapping[str, Measurement], golden: Golden, *, dark_offset: float = 0.0
+) -> tuple[Change, ...]:
+    """A bench capture's changes against ``golden``: per illumination and class μ (its
+    signal above ``dark_offset``, DN) and σ², each a batch of one."""
+    out: list[Change] = []
+    for ill, m in measurements.items():
+        g = golden.illuminations.get(ill)
+        for c in m.classes if g is not None else ():
+            if (gc := g.classes.get(c.name)) is not None:
+                mu, var = np.array([c.mean]), np.array([c.variance])
+                out += _class_changes(c.name, gc, mu, var, None, dark_offset, ill)
+    return tuple(out)
+
+
+def _class_changes(name, g, mu, var, focus, dark_offset, illumination) -> list[Change]:
+    """A class's relative changes of μ (above ``dark_offset``), σ² and the focus measure
+    (None: not measured) from the batch's values."""
+    signal = g.mean.mean - dark_offset
+    golden_focus = g.focus.mean if g.focus is not None else math.nan
+    out = []
+    for quantity, values, spread, base in (
+        ("mean", mu - dark_offset, g.mean, signal),
+        ("variance", var, g.variance, g.variance.mean),
+        ("focus", focus, g.focus, golden_focus),
+    ):
+        change = None if values is None else _relative(values, spread, base, len(mu))
+        if change is not None:
+            out.append(
+                Change(name, quantity, *change, signal, g.variance.mean, golden_focus,
+                       illumination)
+            )  # fmt: skip
+    return out
+
+
 def _standard_error(values: np.ndarray, spread: Spread) -> float:
-    """s·√(1/m + 1/n) from the golden parts' s (the batch's own where larger)."""
+    """s·√(1/m + 1/n) from the golden parts' s (the batch's own, or the golden values'
+    own standard error, where larger)."""
     m, n = values.size, spread.n
     if m == 0 or n < 2 or not math.isfinite(spread.std):
         return math.nan
-    s = max(spread.std, float(values.std(ddof=1)) if m > 1 else 0.0)
+    # Repeats cannot vary less than their own noise (a few repeats can, by chance)
+    floor = spread.standard_error if math.isfinite(spread.standard_error) else 0.0
+    s = max(spread.std, floor, float(values.std(ddof=1)) if m > 1 else 0.0)
     return s * math.sqrt(1.0 / m + 1.0 / n)
 
 
@@ -219,11 +274,37 @@ def diagnose(
     if not parts:
         return Diagnosis((), ())
     dark = sensor.dark_offset if sensor is not None else 0.0
-    changes = batch_changes(parts, golden, dark_offset=dark)
+    return diagnose_changes(
+        batch_changes(parts, golden, dark_offset=dark), sensor=sensor, shaded=shaded
+    )
+
+
+def diagnose_changes(
+    changes: Sequence[Change],
+    *,
+    sensor: Sensor | None = None,
+    shaded: Sequence[str] = (),
+    bench: bool = False,
+) -> Diagnosis:
+    """The causes that explain ``changes`` (module description), best first.
+
+    Parameters
+    ----------
+    changes : sequence of Change
+        Of a batch (:func:`batch_changes`), a capture (:func:`capture_changes`), or a
+        watch's smoothed charts.
+    sensor : Sensor, keyword-only, optional
+        As :func:`diagnose`.
+    shaded : sequence of str, keyword-only
+        As :func:`diagnose`.
+    bench : bool, keyword-only
+        The same samples every time: a class's σ² that moved at steady μ is the optics,
+        not other parts.
+    """
+    changes = tuple(changes)
     total = sum((c.value / c.scale) ** 2 for c in changes if c.scale > 0)
-    classes = sorted({c.name for c in changes if c.name is not None})
     causes = []
-    for kind, params, fit in _candidates(changes, classes, sensor, shaded):
+    for kind, params, fit in _candidates(changes, sensor, shaded, bench):
         residual, text = fit()
         score = total - residual - PARAMETER_COST * params
         if score > 0:
@@ -290,8 +371,10 @@ def _level(changes: Sequence[Change], pattern: str, sensor: Sensor | None):
     return residual
 
 
-def _level_text(pattern: str, a: float) -> str:
+def _level_text(pattern: str, a: float, *, every: bool = False) -> str:
+    """The sentence of a level ``a`` of ``pattern``; ``every``: of several illuminations."""
     size = f"{100 * abs(a - 1):.1f} %"
+    dimmer = "dimmer" if a < 1 else "brighter"
     if pattern == "gain":
         return (
             f"the camera's gain is {'down' if a < 1 else 'up'} by about {size} (every "
@@ -299,112 +382,210 @@ def _level_text(pattern: str, a: float) -> str:
             "noise with it, where more or less light would move the noise as the EMVA model "
             "says): the gain or another camera setting changed"
         )
+    if pattern == "light" and every:
+        return (
+            f"every illumination {dimmer} by about {size} (every class's μ moved together, "
+            "σ² with the light's photons as the EMVA model says, not as a gain would): the "
+            "exposure time, or the lens's transmission (dust, the aperture)"
+        )
     if pattern == "light":
         return (
-            f"the light is {'dimmer' if a < 1 else 'brighter'} by about {size} (every "
-            "class's μ moved together, σ² with the light's photons as the EMVA model says, "
-            "not as a gain would): LED output, or the exposure time"
+            f"the light is {dimmer} by about {size} (every class's μ moved together, σ² "
+            "with the light's photons as the EMVA model says, not as a gain would): LED "
+            "output, or the exposure time"
+        )
+    if every:
+        return (
+            f"every illumination {dimmer} by about {size}, or the camera's gain "
+            f"{'lower' if a < 1 else 'higher'} (every class's μ moved together): exposure, "
+            "gain or the lens's transmission; this station has no camera model to tell "
+            "a light from a gain"
         )
     return (
-        f"the light is {'dimmer' if a < 1 else 'brighter'} by about {size}, or the camera's "
+        f"the light is {dimmer} by about {size}, or the camera's "
         f"gain {'lower' if a < 1 else 'higher'} (every class's μ moved together): LED "
         "output, exposure or gain; light or gain: this station has no camera model to tell "
         "them apart"
     )
 
 
-def _candidates(changes: tuple[Change, ...], classes: list[str], sensor, shaded):
+def _candidates(changes: tuple[Change, ...], sensor, shaded, bench: bool):
     """(kind, parameters, fit) of each cause that applies; ``fit()`` → (χ² left, text)."""
-    by = {(c.name, c.quantity): c for c in changes}
+    by = {(c.illumination, c.name, c.quantity): c for c in changes}
     pose = [c for c in changes if c.name is None]
     means = [c for c in changes if c.quantity == "mean"]
+    lights = sorted({c.illumination for c in means})
+    # (illumination, class) of every class measured: σ² and spectra are each their own
+    classes = sorted({(c.illumination, c.name) for c in changes if c.name is not None})
+    light = "light" if sensor else "either"
 
     def steady(keep: Callable[[Change], bool]) -> float:
         """χ² of the changes a cause leaves where they were."""
         return sum(_chi(c, 0.0) for c in changes if keep(c))
 
+    def level(pattern: str, among: Sequence[str]) -> tuple[float, float]:
+        """χ² left by one level of ``pattern`` over the illuminations ``among`` (the rest
+        steady), and the level from their means alone: what a reader checks its size
+        against (σ² and the focus measure follow a level only as closely as their models
+        do)."""
+        own = [c for c in changes if c.illumination in among]
+        _, left = _best_factor(_level(own, pattern, sensor))
+        a, _ = _best_factor(_level([c for c in own if c.quantity == "mean"], pattern, sensor))
+        return left + steady(lambda c: c.illumination not in among), a
+
     def named_level(pattern: str):
         def fit():
-            _, left = _best_factor(_level(changes, pattern, sensor))
-            # Its size from the means alone: what a reader checks it against, and σ² and
-            # the focus measure follow a level only as closely as their models do.
-            a, _ = _best_factor(_level(means, pattern, sensor))
-            return left, _level_text(pattern, a)
+            left, a = level(pattern, lights)
+            return left, _level_text(pattern, a, every=len(lights) > 1)
 
         return fit
 
     if means:
         for pattern in ("either",) if sensor is None else ("light", "gain"):
-            yield ("light or gain" if pattern == "either" else pattern), 1, named_level(pattern)
+            kind = "light or gain" if pattern == "either" else pattern
+            yield (kind if len(lights) == 1 else f"every {kind}"), 1, named_level(pattern)
 
-    def factors(free_spread: Sequence[str] = ()) -> tuple[float, dict[str, float]]:
-        """χ² left with each class's signal scaled by its own factor (its μ spread free in
-        ``free_spread``), and the factors − 1."""
-        left, moved = steady(lambda c: c.name is None), {}
-        for name in classes:
-            own = [c for c in changes if c.name == name]
-            if name in free_spread:
+    def one_light(ill: str):
+        def fit():
+            left, a = level(light, [ill])
+            what = "LED ageing or a failing channel" if a < 1 else "LED driven harder"
+            return left, (
+                f"illumination {ill} {'dimmer' if a < 1 else 'brighter'} by about "
+                f"{100 * abs(a - 1):.1f} %, the others steady: {what}"
+            )
+
+        return fit
+
+    def each_light():
+        left, moved = 0.0, []
+        for ill in lights:
+            own, a = level(light, [ill])
+            left += own - steady(lambda c, ill=ill: c.illumination not in (ill,))
+            moved.append(f"{ill} {100 * (a - 1):+.1f} %")
+        left += steady(lambda c: c.illumination not in lights)
+        return left, (
+            f"the illuminations changed by different factors ({', '.join(moved)}): their "
+            "LEDs changed one by one (ageing, drive currents)"
+        )
+
+    if len(lights) > 1:
+        for ill in lights:
+            yield f"light {ill}", 1, one_light(ill)
+        yield "lights", len(lights), each_light
+
+    def factors(among, free_spread: Sequence[str] = ()) -> tuple[float, dict]:
+        """χ² left with each class of ``among`` (illumination, class) scaled by its own
+        factor (its μ spread free in ``free_spread``), the rest steady; the factors − 1."""
+        chosen = set(among)
+        left = steady(lambda c: (c.illumination, c.name) not in chosen)
+        moved = {}
+        for key in among:
+            own = [c for c in changes if (c.illumination, c.name) == key]
+            if key[1] in free_spread:
                 own = [c for c in own if c.quantity != "spread"]
-            a, r = _best_factor(_level(own, "light" if sensor else "either", sensor))
+            a, r = _best_factor(_level(own, light, sensor))
             left += r
-            moved[name] = a - 1
+            moved[key] = a - 1
         return left, moved
 
-    def spectrum():
-        left, _ = factors()
-        named = ", ".join(
-            f"{c.name} {100 * c.value:+.1f} %" for c in sorted(means, key=lambda c: str(c.name))
-        )
-        return left, (
-            f"the classes' μ moved by different factors ({named}): the light's spectrum "
-            "changed, or the parts differ"
-        )
+    def spectrum(among: Sequence[str]):
+        def fit():
+            left, _ = factors([k for k in classes if k[0] in among])
+            named = "; ".join(
+                (f"{ill}: " if len(lights) > 1 else "")
+                + ", ".join(
+                    f"{c.name} {100 * c.value:+.1f} %"
+                    for c in sorted(means, key=lambda c: str(c.name))
+                    if c.illumination == ill
+                )
+                for ill in among
+            )
+            samples = "the samples" if bench else "the parts"
+            return left, (
+                f"the classes' μ moved by different factors ({named}): the light's spectrum "
+                f"changed (an LED's peak: its temperature, another bin), or {samples} differ"
+            )
 
-    if len(means) >= 2:
-        yield "spectrum", len(classes), spectrum
+        return fit
 
-    def free(quantity: str, towards: str) -> tuple[float, list[float]]:
+    for ill in lights:
+        if sum(c.illumination == ill for c in means) >= 2:
+            yield (
+                f"spectrum {ill}" if len(lights) > 1 else "spectrum",
+                sum(k[0] == ill for k in classes),
+                spectrum([ill]),
+            )
+    if len(lights) > 1 and len(means) > len(lights):
+        yield "spectra", len(classes), spectrum(lights)
+
+    def free(quantity: str, towards: str, level: bool) -> tuple[float, list[float], float]:
         """χ² left with ``quantity`` free in each class and ``towards`` anywhere between
-        0 and its change, μ and the position steady; the changes of ``quantity``."""
-        left = steady(lambda c: c.name is None or c.quantity in ("mean", "spread"))
+        0 and its change, the position steady, and μ steady or (``level``) moved by one
+        factor a; the changes of ``quantity``, and a − 1."""
+        left = steady(lambda c: c.name is None or c.quantity == "spread")
+        a = 1.0
+        if level:
+            a, r = _best_factor(_level(means, light, sensor))
+            left += r
+        else:
+            left += steady(lambda c: c.quantity == "mean")
         moved = []
-        for name in classes:
-            own, other = by.get((name, quantity)), by.get((name, towards))
+        for ill, name in classes:
+            own, other = by.get((ill, name, quantity)), by.get((ill, name, towards))
             if own is not None:
                 moved.append(own.value)
             if other is not None:
                 left += _chi(other, (0.0, own.value if own is not None else 0.0))
-        return left, moved
+        return left, moved, a - 1.0
 
-    def focus():
-        left, moved = free("focus", "variance")
-        f = float(np.median(moved)) if moved else 0.0
-        if f < 0:
+    def steady_mu(a: float) -> str:
+        # A blur mixes a region's border with its neighbours': μ moves a little too
+        if a == 0:
+            return "at steady μ"
+        if abs(a) < 5e-4:
+            return "with μ nearly steady (every class within 0.05 %)"
+        return f"with μ nearly steady (every class {100 * a:+.1f} %)"
+
+    def focus(level: bool):
+        def fit():
+            left, moved, a = free("focus", "variance", level)
+            f = float(np.median(moved)) if moved else 0.0
+            if f < 0:
+                return left, (
+                    f"the focus measure fell by {100 * abs(f):.0f} % {steady_mu(a)}: the lens "
+                    "lost focus (or a haze or dust on it)"
+                )
             return left, (
-                f"the focus measure fell by {100 * abs(f):.0f} % at steady μ: the lens lost "
-                "focus (or a haze or dust on it)"
+                f"the focus measure rose by {100 * f:.0f} % {steady_mu(a)}: sharper parts or edges"
             )
-        return (
-            left,
-            f"the focus measure rose by {100 * f:.0f} % at steady μ: sharper parts or edges",
-        )
 
-    def spread():
-        left, moved = free("variance", "focus")
-        v = float(np.median(moved)) if moved else 0.0
-        return left, (
-            f"the classes' spread (σ²) {'rose' if v > 0 else 'fell'} by {100 * abs(v):.0f} % "
-            "at steady μ and focus: the parts differ"
-        )
+        return fit
 
-    if any(c.quantity == "focus" for c in changes):
-        yield "focus", len(classes), focus
-    yield "parts", len(classes), spread
+    def spread(level: bool):
+        def fit():
+            left, moved, a = free("variance", "focus", level)
+            v = float(np.median(moved)) if moved else 0.0
+            if bench:  # the same samples: their texture and edges, seen through the lens
+                return left, (
+                    f"class noise (σ²) {'up' if v > 0 else 'down'} by {100 * abs(v):.0f} % "
+                    f"{steady_mu(a)}: defocus or a soiled lens (blur, haze), or other samples"
+                )
+            return left, (
+                f"the classes' spread (σ²) {'rose' if v > 0 else 'fell'} by "
+                f"{100 * abs(v):.0f} % {steady_mu(a)} and focus: the parts differ"
+            )
+
+        return fit
+
+    for level in (False, True) if means else (False,):
+        if any(c.quantity == "focus" for c in changes):
+            yield "focus", len(classes) + level, focus(level)
+        yield "parts", len(classes) + level, spread(level)
 
     if shaded:
 
         def shade():
-            left, _ = factors(shaded)
+            left, _ = factors(classes, shaded)
             return left, (
                 f"{', '.join(shaded)}: μ now depends on where the part lies, its spread over "
                 "the parts many times the golden parts': something fixed in the frame dims "
@@ -462,6 +643,16 @@ def diagnosis_of(station: Station, parts: Sequence[Part], golden: Golden) -> Dia
     return diagnose(parts, g, sensor=station_sensor(station), shaded=shaded_classes(parts, g))
 
 
+def capture_diagnosis(
+    measurements: Mapping[str, Measurement], golden: Golden, *, sensor: Sensor | None
+) -> Diagnosis:
+    """The :func:`diagnose_changes` of a bench capture's ``measurements`` (illumination →
+    measurement) against ``golden``, the same samples each time."""
+    dark = sensor.dark_offset if sensor is not None else 0.0
+    changes = capture_changes(measurements, golden, dark_offset=dark)
+    return diagnose_changes(changes, sensor=sensor, bench=True)
+
+
 def station_sensor(station: Station) -> Sensor | None:
     """The station camera's EMVA values (a
     :class:`~inspect_validate.verification.diagnosis.Sensor`) where the station has a
@@ -471,5 +662,4 @@ def station_sensor(station: Station) -> Sensor | None:
         return None
     from inspect_validate.station.model import station_model
 
-    s = station_model(station).sensor
-    return Sensor(s.gain, s.dark_noise, s.dark_offset)
+    return Sensor.of(station_model(station).sensor)

@@ -4,6 +4,7 @@ verdict (:class:`Verification`)."""
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
@@ -16,6 +17,8 @@ if TYPE_CHECKING:
     from inspect_validate.station.prediction import StationPrediction
     from inspect_validate.verification.calibration import Gain, IrradianceScale
     from inspect_validate.verification.checks import Check
+    from inspect_validate.verification.diagnosis import Diagnosis
+    from inspect_validate.verification.golden import Golden
 
 __all__ = [
     "ClassAgreement",
@@ -150,10 +153,31 @@ class Verification:
         dict, ...
     ] = ()  # per step: how its frames were taken (camera.storage.acquisition_record)
     false_alarm: float = 0.0027  # the family-wise rate the checks share (acceptance)
+    golden: Golden | None = None  # the golden file the drift checks were held to
 
     @property
     def passed(self) -> bool:
         return all(c.passed for c in self.checks)
+
+    @functools.cached_property
+    def diagnosis(self) -> Diagnosis | None:
+        """What the capture changed against the golden file and the causes that explain
+        it, best first (:mod:`~inspect_validate.verification.diagnosis`); None without a
+        golden file."""
+        from inspect_validate.verification.diagnosis import Sensor, capture_diagnosis
+
+        if self.golden is None:
+            return None
+        return capture_diagnosis(
+            self.measurements, self.golden, sensor=Sensor.of(self.model.sensor)
+        )
+
+    @property
+    def cause(self) -> str | None:
+        """The likely cause of failed drift checks (None where none failed, or nothing
+        explains them beyond their noise)."""
+        drifted = any(c.kind == "drift" and not c.passed for c in self.checks)
+        return self.diagnosis.text if drifted and self.diagnosis is not None else None
 
     def __repr__(self) -> str:
         failed = sum(not c.passed for c in self.checks)

@@ -382,6 +382,7 @@ def verify_capture(
         notes=tuple(notes),
         acquisition=acquisition,
         false_alarm=rate,
+        golden=golden,
     )
 
 

@@ -37,6 +37,7 @@ from numpy.typing import ArrayLike
 if TYPE_CHECKING:
     from collections.abc import Sequence
 
+    from inspect_validate.verification.diagnosis import Change, Sensor
     from inspect_validate.verification.golden import Golden
     from inspect_validate.verification.parts import Parts
     from inspect_validate.verification.results import Verification
@@ -326,6 +327,9 @@ class DriftMonitor:
         In-control cycles between false alarms of all charts together.
     batch : int, keyword-only
         Production: parts a cycle, whose means are charted against the golden parts'.
+    sensor : Sensor, keyword-only, optional
+        The camera's EMVA values, to tell a light from a gain in a drift's cause (None: a
+        station of frames alone, the two one cause).
     """
 
     def __init__(
@@ -336,11 +340,14 @@ class DriftMonitor:
         snr_floor_db: float = -20.0,
         family_arl: float = FAMILY_ARL,
         batch: int = 1,
+        sensor: Sensor | None = None,
     ) -> None:
         from inspect_validate.errors import InputError
         from inspect_validate.verification.golden_checks import GOOD_WIDENING, MAX_WIDENING
 
         self.targets = golden_targets(golden, snr_floor_db=snr_floor_db, batch=batch)
+        self.golden, self.sensor = golden, sensor
+        self.bench = golden.mode == "bench"  # the same samples each cycle, not other parts
         self.dark_offset = float(dark_offset)
         arl = family_arl * max(len(self.targets), 1)
         self.limit = design_limit(arl, golden.repeats, batch=batch)
@@ -374,152 +381,42 @@ class DriftMonitor:
                 alarms.append(key)
         return DriftState(points, tuple(alarms), self.cause(alarms) if alarms else None)
 
-    def relative_means(self) -> dict[str, dict[str, float]]:
-        """Per illumination and class, the smoothed signal (μ above the dark offset)
-        relative to golden, − 1; classes with less than a tenth of the illumination's
-        brightest signal are left out (their ratio is mostly noise)."""
-        signal: dict[str, dict[str, Chart]] = {}
-        for (ill, kind, name, q), chart in self.charts.items():
-            if kind == "class" and q == "mean" and chart.target > self.dark_offset:
-                signal.setdefault(ill, {})[name] = chart
-        out = {}
-        for ill, charts in signal.items():
-            top = max(c.target for c in charts.values()) - self.dark_offset
-            out[ill] = {
-                name: (c.ewma - self.dark_offset) / (c.target - self.dark_offset) - 1
-                for name, c in charts.items()
-                if c.target - self.dark_offset >= 0.1 * top
-            }
-        return out
+    def changes(self) -> tuple[Change, ...]:
+        """The smoothed charts as changes against golden (their standard errors the
+        EWMA's own spread): each class's μ (of the signal above the dark offset), σ² and
+        focus measure relative, the parts' position in px and °."""
+        from inspect_validate.verification.diagnosis import Change
 
-    def relative_signal(self) -> dict[str, float]:
-        """Per illumination, the median over its classes of :meth:`relative_means`."""
-        return _medians(self.relative_means())
+        out = []
+        for (ill, kind, name, q), chart in self.charts.items():
+            se = chart.half_width(limit=self.limit) / self.limit
+            if kind == "pose":
+                out.append(Change(None, q, chart.ewma - chart.target, se, illumination=ill))
+                continue
+            if kind != "class":
+                continue  # contrast follows from the classes' μ and σ²
+            base = chart.target - (self.dark_offset if q == "mean" else 0.0)
+            mean = self.charts.get((ill, kind, name, "mean"))
+            if base > 0 and mean is not None:
+                variance = self.charts.get((ill, kind, name, "variance"))
+                focus = self.charts.get((ill, kind, name, "focus"))
+                out.append(
+                    Change(name, q, (chart.ewma - chart.target) / base, se / base,
+                           mean.target - self.dark_offset,
+                           variance.target if variance else math.nan,
+                           focus.target if focus else math.nan, ill)
+                )  # fmt: skip
+        return tuple(out)
 
     def cause(self, alarms: Sequence[SeriesKey]) -> str:
-        """The likely cause of ``alarms`` from their pattern (see the manual's table, "Watch a running station").
+        """The likely cause of ``alarms``: the diagnosis
+        (:func:`~inspect_validate.verification.diagnosis.diagnose_changes`) of the smoothed
+        charts (:meth:`changes`), sized by the EWMA. ``watch`` names a cycle's own change
+        where the cycle shows one, read as ``verify`` reads it; this reading is for a
+        drift too slow for one cycle to show."""
+        from inspect_validate.verification.diagnosis import diagnose_changes
 
-        What moved most, in half-widths of the bands, leads: the class means (a light
-        level or the spectrum) or the classes' noise and contrast at steady means (focus,
-        haze); so does σ² where it moved over ten times as much as the means, relatively. A level change moves an illumination's classes by one factor; a spectral
-        change (an LED's peak) moves them by different factors, as their reflectances
-        differ.
-        """
-        moved = [k for k in alarms if k[1] == "pose"]
-        if moved and len(moved) == len(alarms):
-            return (
-                "the parts lie elsewhere in the frame than the golden parts did ("
-                + ", ".join(f"{k[3]} {self._off(k)}" for k in moved)
-                + "), their statistics steady: the camera or the fixture moved"
-            )
-        alarms = [k for k in alarms if k[1] != "pose"]
-        severity = {
-            k: self.charts[k].severity(limit=self.limit) for k in alarms if k in self.charts
-        }
-        level = max(
-            (v for k, v in severity.items() if k[1] == "class" and k[3] == "mean"), default=0
-        )
-        noise = max((v for k, v in severity.items() if k[3] != "mean"), default=0)
-        per_class = self.relative_means()
-        # In relative terms too: where the trained spread is the noise of the estimates
-        # alone, a mean that moved 0.1 % is as far out as a variance that moved 25 %, and
-        # the half-widths cannot tell a blur from a light.
-        moves = [abs(x) for c in per_class.values() for x in c.values()]
-        mean_move = float(np.median(moves)) if moves else 0.0
-        variance_moves = [
-            abs(self.charts[k].ewma / self.charts[k].target - 1)
-            for k in alarms
-            if k[3] == "variance" and self.charts[k].target > 0
-        ]
-        if noise > 3 * level or (
-            variance_moves and float(np.median(variance_moves)) > 10 * max(mean_move, 1e-9)
-        ):
-            return self._noise_cause(alarms)
-        r = _medians(per_class)
-        # An illumination counts as moved with its class means, by its median change (of
-        # the signal above dark: classes at the dark offset have none).
-        changes = {
-            ill: r[ill]
-            for ill, kind, _, q in alarms
-            if kind == "class" and q == "mean" and ill in r
-        }
-        if changes:
-            spectral = {
-                ill: per_class[ill]
-                for ill, v in changes.items()
-                if _range(per_class[ill].values()) > max(0.25 * abs(v), 0.005)
-            }
-            if spectral:
-                parts = [
-                    f"{ill} " + ", ".join(f"{n} {100 * x:+.1f} %" for n, x in sorted(c.items()))
-                    for ill, c in sorted(spectral.items())
-                ]
-                return (
-                    "; ".join(parts) + ": the classes changed by different factors, the light's "
-                    "spectrum changed (an LED's peak shifted: temperature, another bin)"
-                )
-            if len(r) >= 2 and len(changes) == len(r):
-                values = list(changes.values())
-                if all(v < 0 for v in values) or all(v > 0 for v in values):
-                    if _range(values) <= 0.25 * max(abs(v) for v in values):
-                        return (
-                            f"every illumination {_percent(float(np.mean(values)))}: exposure, "
-                            "gain or "
-                            "lens transmission changed"
-                        )
-            parts = [f"{ill} {_percent(v)}" for ill, v in sorted(changes.items())]
-            if len(r) == 1:
-                return f"{parts[0]}: LED output, or exposure/gain (one illumination cannot tell)"
-            if len(changes) == 1:
-                ill, v = next(iter(changes.items()))
-                what = "LED ageing or a failing channel" if v < 0 else "LED driven harder"
-                return f"illumination {ill} {_percent(v)}, the others steady: {what}"
-            return "; ".join(parts) + ": illuminations changed differently (LEDs, spectra)"
-        if any(k[1] == "comparison" or k[3] in ("variance", "focus") for k in alarms):
-            return self._noise_cause(alarms)
+        text = diagnose_changes(self.changes(), sensor=self.sensor, bench=self.bench).text
+        if text is not None:
+            return f"{text} (smoothed over the last cycles)"
         return "drift of " + ", ".join(" ".join(k[::2]) for k in alarms[:3])
-
-    def _off(self, key: SeriesKey) -> str:
-        chart = self.charts[key]
-        unit = "°" if key[3] == "angle" else " px"
-        return f"{chart.ewma - chart.target:+.2f}{unit}"
-
-    def _noise_cause(self, alarms) -> str:
-        """Noise or contrast moved at (nearly) steady means: the optics."""
-
-        def moved(quantity: str) -> list[float]:
-            return [
-                self.charts[k].ewma / self.charts[k].target - 1
-                for k in alarms
-                if k[3] == quantity and k in self.charts and self.charts[k].target > 0
-            ]
-
-        variance, focus = moved("variance"), moved("focus")
-        if focus:
-            f = float(np.median(focus))
-            return (
-                f"the focus measure {'down' if f < 0 else 'up'} by {100 * abs(f):.0f} % at "
-                "steady means: "
-                + ("defocus or a haze on the lens" if f < 0 else "sharper parts or edges")
-            )
-        if variance:
-            v = float(np.median(variance))
-            what = f"class noise (σ²) {'up' if v > 0 else 'down'} by {100 * abs(v):.0f} %"
-        else:
-            what = "contrast (SNR_dB, ε) changed"
-        return f"{what} at steady means: defocus or a soiled lens (blur, haze)"
-
-
-def _medians(per_class: dict[str, dict[str, float]]) -> dict[str, float]:
-    # never of an empty dict: an illumination's brightest class is always kept
-    return {ill: float(np.median(list(r.values()))) for ill, r in per_class.items()}
-
-
-def _range(values) -> float:
-    """max − min of ``values`` (a spread is a golden file's Spread)."""
-    values = list(values)
-    return max(values) - min(values)
-
-
-def _percent(v: float) -> str:
-    return f"{'dimmer' if v < 0 else 'brighter'} by {100 * abs(v):.1f} %"

@@ -84,6 +84,7 @@ def rig_watch(
         file, one that does not fit, or too few repeats for the charts.
     """
     from inspect_validate.acceptance import Drift
+    from inspect_validate.verification.diagnosis import Sensor
     from inspect_validate.verification.rig import of_camera, plan_rig
     from inspect_validate.watch.drift import FAMILY_ARL, DriftMonitor
 
@@ -130,6 +131,7 @@ def rig_watch(
                 dark_offset=plan.model.sensor.dark_offset,
                 snr_floor_db=drift.snr_floor_db,
                 family_arl=FAMILY_ARL * len(plans),
+                sensor=Sensor.of(plan.model.sensor),
             )
         except InputError as exc:  # too few repeats for the charts: said of the camera's file
             golden_file = next(c.golden for c in station.cameras if c.name == name)

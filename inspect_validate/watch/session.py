@@ -216,13 +216,17 @@ def _one_camera(
                 dark_offset=sensor.dark_offset if sensor is not None else 0.0,
                 snr_floor_db=drift.snr_floor_db,
                 batch=station.production.parts,
+                sensor=sensor,
             )
         else:
+            from inspect_validate.verification.diagnosis import Sensor
+
             assert plan is not None and plan.golden is not None  # it read the golden file
             monitor = DriftMonitor(
                 plan.golden,
                 dark_offset=plan.model.sensor.dark_offset,
                 snr_floor_db=drift.snr_floor_db,
+                sensor=Sensor.of(plan.model.sensor),
             )
     except InputError as exc:
         raise InputError(str(exc), source=str(golden_file)) from None

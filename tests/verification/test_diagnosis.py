@@ -56,7 +56,7 @@ def batch(
             SimpleNamespace(
                 measurement=SimpleNamespace(classes=measured),
                 focus={
-                    n: focus(n, f) + rng.normal(0, spread[2]) for n, (_, _, f) in CLASSES.items()
+                    n: focus(n, f) + rng.normal(0, spread[2]) for n, (_, _, f) in classes.items()
                 },
                 position=(400.0, 300.0, 0.0),
             )

@@ -71,9 +71,10 @@ def test_ewma_in_control_run_length_by_simulation():
 @pytest.mark.parametrize(
     ("change", "within", "cause"),
     [
-        ({"exposure": 0.95}, 1, "every illumination dimmer"),
-        ({"transmission": 0.93}, 1, "every illumination dimmer"),  # a dusty lens: less light
-        ({"irradiance": {2: 1.05}}, 1, "illumination red brighter"),
+        ({"exposure": 0.95}, 1, "every illumination dimmer by about 5.0 %"),
+        # a dusty lens: less light
+        ({"transmission": 0.93}, 1, "every illumination dimmer by about 7.0 %"),
+        ({"irradiance": {2: 1.05}}, 1, "illumination red brighter by about 5.0 %"),
         ({"peak_shift_nm": {1: 8.0}}, 1, "the light's spectrum changed"),
         ({"blur_px": 1.5}, 1, "class noise (σ²) up"),  # defocus: classes blur into each other
         ({"blur_px": 0.7}, 1, "class noise (σ²) down"),  # slight defocus: texture smoothed
@@ -81,8 +82,9 @@ def test_ewma_in_control_run_length_by_simulation():
     ],
 )
 def test_watch_attributes_each_change_to_its_cause(cli, tmp_path, golden, change, within, cause):
-    """A step at cycle 2 is flagged, and its cause named, at most ``within`` cycles
-    later; the cause holds for every later cycle."""
+    """A step at cycle 2 is flagged, and its cause named with the cycle's own size (not
+    the EWMA's smoothed step, a fifth of it at the first alarm), at most ``within``
+    cycles later; the cause holds for every later cycle."""
     code, out, err, db = _watch(cli, tmp_path, golden, [{"start": 2, **change}], "--cycles", 5)
     assert code == 1, out + err
     rows = _rows(db)
@@ -448,8 +450,35 @@ def test_cause_without_signal_above_dark(golden):
     from inspect_validate.watch.drift import DriftMonitor
 
     monitor = DriftMonitor(read_golden(golden), dark_offset=1e9)
-    assert monitor.relative_signal() == {}
+    assert not [c for c in monitor.changes() if c.quantity == "mean"]
     assert monitor.cause([("amber", "class", "A", "mean")]).startswith("drift of amber")
+
+
+def test_verify_and_watch_name_one_cause_with_one_size(cli, tmp_path, golden):
+    """The same world (exposure 3 % down) verified against the golden file and watched:
+    one diagnosis, one sentence, the capture's own size in both; and the smoothed charts
+    a watch falls back on name the same cause, at the EWMA's size, saying so."""
+    from inspect_validate.verification.golden import read_golden
+    from inspect_validate.watch.drift import DriftMonitor
+
+    path = copy_station(tmp_path, world={"exposure": 0.97})
+    db = tmp_path / "w" / "history.sqlite"
+    code, out, err = cli(["watch", path, "--golden", golden, "--db", db, "--cycles", 1])
+    assert code == 1, out + err
+    watched = _rows(db)[0][3]
+    code, out, err = cli(["verify", path, "--golden", golden, "--report", tmp_path / "r"])
+    assert code == 1, out + err
+    said = json.loads((tmp_path / "r" / "verification.json").read_text())["cause"]
+    assert said == watched and said.startswith("every illumination dimmer by about 3.0 %")
+    assert f"likely cause: {said[:40]}" in " ".join(out.split())
+
+    monitor = DriftMonitor(read_golden(golden), dark_offset=0.0)
+    for c in monitor.charts.values():
+        c.ewma = c.target * 0.994
+    smoothed = monitor.cause([])
+    assert "dimmer by about 0.6 %" in smoothed and smoothed.endswith(
+        "(smoothed over the last cycles)"
+    )
 
 
 @pytest.mark.slow
