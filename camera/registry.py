@@ -63,9 +63,11 @@ class Opening:
     controller : object, optional
         The light controller, opened first (a camera that replays frames per light
         setting reads what it applied).
-    target : {"scene", "uniform"}
-        What a camera that renders a scene shows (``uniform``: a white target filling the
-        frame, for ``characterize``).
+    target : {"scene", "flat", "edge"}
+        What a camera that renders a scene shows: the scene's objects, a white target
+        filling the frame (``characterize``'s series, ``capture --target flat``), or a dark
+        square on white whose edge crosses the frame's centre turned by a few degrees
+        (``capture --target edge``). A real camera sees what is in front of it.
     station : object, optional
         The whole station (simulators render its scene; device backends need not look).
     state : Path, optional

@@ -436,17 +436,18 @@ def audit_capture(folder: Path, manifest: dict, steps: Iterable[str]) -> dict[st
 
 
 def read_capture(
-    folder: Path, steps: Iterable[str]
+    folder: Path, steps: Iterable[str], *, target: str = "scene"
 ) -> tuple[dict[str, list[Path]], list[Path], dict, dict[str, str]]:
     """Frame files of each of ``steps`` (the illuminations' names) and of the darks in a
-    capture folder, its manifest, and each frame file's SHA-256 — after checking that the
-    frames are those the capture wrote (:func:`audit_capture`).
+    capture folder of ``target`` (what was in front of the camera: the objects, or a
+    ``flat`` or ``edge`` target), its manifest, and each frame file's SHA-256 — after
+    checking that the frames are those the capture wrote (:func:`audit_capture`).
 
     Raises
     ------
     InputError
-        No manifest, one of ``steps`` missing or incomplete, or frames changed since they
-        were written (each disagreement named).
+        No manifest, a capture of another target, one of ``steps`` missing or incomplete,
+        or frames changed since they were written (each disagreement named).
     """
     folder = Path(folder)
     wanted = list(steps)
@@ -458,6 +459,19 @@ def read_capture(
             source=str(folder),
         )
     manifest = read_manifest(manifest_path)
+    held = manifest.get("target", "scene")
+    if held != target:
+        what = {"scene": "the objects", "flat": "a flat target", "edge": "an edge target"}
+        use = {
+            "scene": "verify, measure or train it",
+            "flat": "give it to characterize --field",
+            "edge": "give it to characterize --sharpness",
+        }
+        raise InputError(
+            f"a capture of {what.get(held, repr(held))}, not of {what[target]}: "
+            f"{use.get(held, 'capture again')}",
+            source=str(folder),
+        )
     records = manifest["steps"]
     frames = {}
     for name in wanted:

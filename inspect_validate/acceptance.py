@@ -195,6 +195,10 @@ class Acceptance(StrictModel):
     cannot tell them apart (statistical)."""
     gain_relative: Relative | None = None
     """Largest relative deviation of the photon-transfer K from the camera's (tolerance)."""
+    sharpness: Annotated[float, Field(gt=0, le=1, allow_inf_nan=False)] | None = 0.7
+    """Least MTF50 of the station's ``sharpness:`` file, as a fraction of its lens's
+    in-focus MTF50 at its f-number and pixels (fixed; checked where the station names a
+    sharpness file; null: not checked)."""
     drift: Drift | None = None
     """Drift from the golden statistics of ``inspect-validate train``."""
     health: Health = Health()

@@ -218,6 +218,8 @@ _SCHEMAS = {
     "inspect-validate/characterization": "characterization document",
     "inspect-validate/watch-status": "watch status file",
     "inspect-validate/spectral-analysis": "spectral analysis",
+    "inspect-validate/field": "field file",
+    "inspect-validate/sharpness": "sharpness file",
 }
 
 
@@ -247,3 +249,36 @@ def _other_kind(doc: dict, model, what: str) -> str | None:
     if kind == "station file" and isinstance(doc.get("scene"), str):
         hint = f" (its scene file is {doc['scene']}, relative to it)"
     return f"this is a {kind} ({evidence}), where the command expects the {what}{hint}"
+
+
+def read_document(
+    path: str | Path, model: type[M], *, schema: str, what: str, todo: str, largest: int
+) -> M:
+    """A JSON document the tool wrote (its ``schema``), read from ``path`` (a regular file
+    of at most ``largest`` bytes) and validated against ``model``.
+
+    Raises
+    ------
+    InputError
+        Missing, not JSON, another of the tool's files (named) or none, or a field out of
+        its range (named): each naming the file, ``what`` it should be and ``todo``.
+    """
+    import json
+
+    from inspect_validate.files import input_file
+
+    path = input_file(path, what, todo=todo, largest=largest)
+    try:
+        doc = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, ValueError, RecursionError) as exc:
+        raise InputError(f"not a {what} in JSON ({exc}); {todo}", source=str(path)) from None
+    if not isinstance(doc, dict) or doc.get("schema") != schema:
+        known = file_kind(doc)
+        kind = f"this is a {known[0]} ({known[1]})" if known else f"not a {what}"
+        raise InputError(f"{kind}, where a {what} is expected: {todo}", source=str(path))
+    try:
+        return model.model_validate(doc)
+    except ValidationError as exc:
+        raise InputError(explain(exc), source=str(path)) from None
+    except ValueError as exc:  # a validator's own
+        raise InputError(str(exc), source=str(path)) from None

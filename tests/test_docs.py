@@ -278,6 +278,43 @@ def test_the_running_line_page_runs_as_written(tmp_path):
     assert "PASS" in run.stdout
 
 
+def test_the_field_page_runs_as_written(tmp_path):
+    """Every command of "The station's field", in order, on the shipped vignetted station:
+    the copy, the two targets, characterize, and a verify that passes; the same station
+    without its field fails its SNR_dB agreement, as the page says."""
+    import shlex
+    import shutil
+    import subprocess
+    import sys
+
+    page = (DOCS / "guide" / "field.md").read_text()
+    block = re.search(r"## From the targets to the checks.*?```console\n(.*?)```", page, re.S)
+    commands = [line[2:] for line in block[1].splitlines() if line.startswith("$ ")]
+    assert [c.split()[1] for c in commands] == [
+        "-r", "capture", "capture", "characterize", "verify"
+    ]  # fmt: skip
+    (tmp_path / "sample_images").symlink_to(ROOT / "sample_images")
+    for command in commands:
+        words = shlex.split(command)
+        if words[0] == "cp":  # the one shell command: the samples copied
+            shutil.copytree(tmp_path / words[2], tmp_path / words[3])
+            continue
+        run = subprocess.run(
+            [sys.executable, "-m", "inspect_validate", *words[1:]],
+            cwd=tmp_path, capture_output=True, text=True, timeout=600,
+        )  # fmt: skip
+        assert run.returncode == 0, f"{command}\n{run.stdout[-2000:]}\n{run.stderr[-2000:]}"
+    assert "PASS" in run.stdout and "amber: lens MTF50" in run.stdout
+    station = tmp_path / "work" / "field" / "station.yaml"
+    station.write_text(station.read_text().replace("field: cal/field.json", ""))
+    run = subprocess.run(
+        [sys.executable, "-m", "inspect_validate", "verify", str(station)],
+        cwd=tmp_path, capture_output=True, text=True, timeout=600,
+    )  # fmt: skip
+    assert run.returncode == 1, run.stdout[-2000:] + run.stderr[-2000:]
+    assert re.search(r"FAIL +amber: A vs B SNR_dB deviation", run.stdout)
+
+
 def test_the_several_cameras_page_runs_as_written(tmp_path):
     """Every command of "Several cameras", in order, on the shipped two-camera station:
     each camera's frames in its folder, and the station's one verdict passes; each camera

@@ -1253,3 +1253,120 @@ def test_several_cameras_are_validated_not_crashed_on(capsys, cameras, with_came
     code, made = _captured_cleanly(doc, capsys)
     if code == 0 and isinstance(cameras, list) and cameras:
         assert made == sorted(c["name"] for c in cameras)
+
+
+@pytest.fixture(scope="module")
+def measured_field(tmp_path_factory):
+    """The shipped station's targets captured and characterized once: its station file,
+    field.json and sharpness.json, for the hostile versions below to replace."""
+    from conftest import copy_station
+
+    folder = tmp_path_factory.mktemp("field")
+    station = copy_station(folder, world={"vignetting": 0.1})
+    for target in ("flat", "edge"):
+        assert main_code(["capture", station, "--target", target, "--out", folder / target]) == 0
+    args = ["characterize", station, "--field", folder / "flat", "--sharpness", folder / "edge"]
+    assert main_code([*args, "--out", folder / "cal"]) == 0
+    return station
+
+
+def main_code(args) -> int:
+    try:
+        main([str(a) for a in args])
+    except SystemExit as exc:
+        return int(exc.code or 0)
+    return 0
+
+
+def _hostile(doc, draw_keys, value):
+    """``doc`` with the values at each path of ``draw_keys`` replaced by ``value``."""
+    doc = json.loads(json.dumps(doc))
+    for path in draw_keys:
+        node = doc
+        for key in path[:-1]:
+            node = node[key] if isinstance(node, dict) else node[int(key)]
+        node[path[-1]] = json.loads(json.dumps(value))  # a copy: never itself inside itself
+    return doc
+
+
+FIELD_PATHS = [
+    ("width",), ("height",), ("schema",), ("schema_version",), ("illuminations",),
+    ("illuminations", "amber"), ("illuminations", "amber", "coefficients"),
+    ("illuminations", "amber", "coefficients", 0), ("illuminations", "amber", "coefficients", 3),
+    ("illuminations", "amber", "signal_dn"), ("illuminations", "amber", "residual"),
+]  # fmt: skip
+SHARPNESS_PATHS = [
+    ("illuminations",), ("illuminations", "red"), ("illuminations", "red", "mtf50"),
+    ("illuminations", "red", "mtf_half_nyquist"), ("illuminations", "red", "angle_deg"),
+    ("illuminations", "red", "mtf"), ("schema",),
+]  # fmt: skip
+
+
+@SETTINGS
+@given(
+    which=st.sampled_from(["field", "sharpness"]),
+    paths=st.lists(st.integers(0, 10), min_size=1, max_size=3),
+    value=st.one_of(junk, st.lists(numbers, max_size=20), st.floats(-2, 2)),
+)
+def test_field_and_sharpness_files_are_validated_not_crashed_on(
+    capsys, measured_field, which, paths, value
+):
+    """The station's field.json or sharpness.json with any of its values replaced by
+    junk, numbers at the extremes, lists of them: verify refuses it naming the file
+    (exit 2) or verifies (0, 1), never a traceback, a warning or a NaN in its report."""
+    station = measured_field
+    cal = station.parent / "cal"
+    keys = FIELD_PATHS if which == "field" else SHARPNESS_PATHS
+    doc = json.loads((cal / f"{which}.json").read_text())
+    try:
+        bad = _hostile(doc, [keys[i % len(keys)] for i in paths], value)
+    except (KeyError, IndexError, TypeError, ValueError):
+        event("a path through a value replaced before")
+        return
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        (tmp / f"{which}.json").write_text(json.dumps(bad, allow_nan=True))
+        doc = yaml.safe_load(station.read_text())
+        doc["scene"] = str(SCENE)
+        doc["rois"] = str(station.parent / "rois.yaml")
+        doc["field"] = str(tmp / "field.json") if which == "field" else str(cal / "field.json")
+        doc["sharpness"] = str(tmp / f"{which}.json") if which == "sharpness" else None
+        (tmp / "station.yaml").write_text(yaml.safe_dump(doc))
+        code, out, err = run(["verify", tmp / "station.yaml", "--report", tmp / "r"], capsys)
+        assert_clean(code, out, err, allowed=(0, 1, 2))
+        event(f"{which}: exit {code}")
+        if code == 2:
+            assert f"{which}.json" in err, err
+        else:
+            text = (tmp / "r" / "verification.json").read_text()
+            assert "NaN" not in text and "Infinity" not in text
+
+
+@SETTINGS
+@given(
+    frame=frames,
+    falloff=st.floats(-2, 2),
+    offset=st.floats(-1e4, 1e4),
+)
+def test_a_flat_targets_frames_are_fitted_or_refused(frame, falloff, offset):
+    """Any frame the measure fuzz makes, and ramps of any falloff and offset: a finite
+    field no brighter than 1 and above MIN_FIELD over the frame, or a refusal."""
+    import warnings
+
+    from inspect_validate.characterization.field import MIN_FIELD, fit_field, lowest
+    from inspect_validate.errors import InputError
+
+    images = [np.asarray(frame, float)]
+    x = np.arange(64) / 63.0
+    images.append(offset + 100.0 * (1.0 - falloff * x)[None, :] * np.ones((48, 1)))
+    for image in images:
+        if image.ndim != 2:
+            continue
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", RuntimeWarning)  # what a user would see
+            try:
+                f = fit_field(image)
+            except InputError:
+                continue
+        assert np.isfinite(f.coefficients).all()
+        assert lowest(f) > MIN_FIELD and f.map().max() == pytest.approx(1.0, abs=1e-3)

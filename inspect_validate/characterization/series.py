@@ -95,7 +95,7 @@ def capture_series(
     from inspect_validate.station.devices import open_devices
 
     def run(steps):
-        opened = open_devices(station, target="uniform")
+        opened = open_devices(station, target="flat")
         return capture(
             station,
             out,

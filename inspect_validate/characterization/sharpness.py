@@ -75,12 +75,9 @@ class EdgeMTF:
     def frequency_at(self, modulation: float) -> float:
         """The frequency where the MTF first falls to ``modulation``, cycles/px,
         interpolated linearly between samples; NaN where it stays above."""
-        below = np.flatnonzero(self.mtf < modulation)
-        if below.size == 0 or below[0] == 0:
-            return math.nan
-        k = below[0]
-        f0, f1, m0, m1 = self.frequencies[k - 1], self.frequencies[k], self.mtf[k - 1], self.mtf[k]
-        return float(f0 + (m0 - modulation) * (f1 - f0) / (m0 - m1))
+        from inspect_validate.model.mtf import falls_to
+
+        return falls_to(self.frequencies, self.mtf, modulation)
 
     def at(self, frequency: float) -> float:
         """The MTF at ``frequency`` cycles/px, interpolated linearly."""

@@ -38,8 +38,16 @@ from inspect_validate.text import labelled
     type=click.IntRange(2, 100_000),
     help="With --production: frames to take, each of another part [production.parts].",
 )
+@click.option(
+    "--target",
+    type=click.Choice(["flat", "edge"]),
+    help="A characterization target in front of the camera instead of the objects: flat "
+    "(a uniform white card filling the frame, for the light's field) or edge (a dark "
+    "square turned 2–10°, for the lens's sharpness); every illumination and dark, for "
+    "characterize --field / --sharpness. A simulated camera renders it.",
+)
 @camera_option
-def capture(station, out, resume, production, parts, camera_name) -> None:
+def capture(station, out, resume, production, parts, target, camera_name) -> None:
     """Capture every illumination of STATION (and dark frames), verified and saved as they come.
 
     Switches each illumination, waits for the controller, discards frames
@@ -51,18 +59,23 @@ def capture(station, out, resume, production, parts, camera_name) -> None:
     frames to OUT/<camera>/.
     With --production, frames of the running line's parts under its one light
     (their brightness differs part to part), for train and verify --production.
+    With --target, frames of a flat card or a slanted edge for characterize.
     """
     from inspect_validate.station.file import read_station
 
     if parts is not None and not production:
         raise click.UsageError("--parts is for --production")
+    if target and production:
+        raise click.UsageError("--target captures a target, not the running line's parts")
     st = with_camera(read_station(station), camera_name)
+    if target:
+        st = st.one_camera(f"capture --target {target}")
     steps = None
     if production:
         from inspect_validate.station.capture import production_steps
 
         steps = production_steps(st.one_camera("capture --production"), parts=parts)
-    result = capture_with_progress(st, out, resume=resume, steps=steps)
+    result = capture_with_progress(st, out, resume=resume, steps=steps, target=target or "scene")
     if result.not_applied:
         click.echo(
             f"warning: the camera has no {', '.join(result.not_applied)} setting; the station's value "

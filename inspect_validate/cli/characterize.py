@@ -6,6 +6,7 @@ import click
 
 from inspect_validate.cli.common import (
     PATH,
+    REGION,
     FrameProgress,
     camera_option,
     new_folder,
@@ -29,8 +30,29 @@ from inspect_validate.cli.common import (
     help="Write characterization.json and the EMVA 1288 plots to this folder.",
 )
 @click.option("--resume", is_flag=True, help="Continue an interrupted series in --out.")
+@click.option(
+    "--field",
+    "flat",
+    type=PATH,
+    help="A flat target's capture (capture --target flat): each illumination's light field "
+    "over the frame, written to OUT/field.json (name it in the station as field:).",
+)
+@click.option(
+    "--sharpness",
+    "edge",
+    type=PATH,
+    help="A slanted edge's capture (capture --target edge): each illumination's MTF, "
+    "written to OUT/sharpness.json (name it in the station as sharpness:).",
+)
+@click.option(
+    "--edge",
+    "edge_region",
+    type=REGION,
+    help="With --sharpness: the region X,Y,W,H (px) holding the edge [100 px about the "
+    "frame's centre].",
+)
 @camera_option
-def characterize(station, out, report_dir, resume, camera_name):
+def characterize(station, out, report_dir, resume, flat, edge, edge_region, camera_name):
     """Measure STATION's own camera as EMVA 1288 prescribes, through its camera and controller.
 
     Captures an exposure series from dark to past saturation (lit and dark pairs;
@@ -40,6 +62,11 @@ def characterize(station, out, report_dir, resume, camera_name):
     capacity, linearity, dark current, DSNU, PRNU and dynamic range with standard
     errors, and writes the measured camera file: name it in the station as
     camera.measured and every prediction uses it.
+
+    With --field and/or --sharpness, measures the station's targets instead: a flat
+    card's capture as each illumination's light field (corner falloff, uniformity over
+    the frame and each class's region), a slanted edge's as the lens's MTF (ISO 12233
+    e-SFR: MTF50, MTF at Nyquist/2), into OUT/field.json and OUT/sharpness.json.
     """
     from dataclasses import replace
 
@@ -58,6 +85,13 @@ def characterize(station, out, report_dir, resume, camera_name):
     from inspect_validate.station.file import station_hash
 
     st = one_station(station, camera_name, "characterize")
+    if edge_region is not None and edge is None:
+        raise click.UsageError("--edge is the region of --sharpness's edge")
+    if flat is not None or edge is not None:
+        if resume:
+            raise click.UsageError("--resume continues a camera series, not --field/--sharpness")
+        _targets(st, flat, edge, edge_region, out or new_folder("characterize", station))
+        return
     if resume and out is None:
         raise click.UsageError("--resume needs the --out folder of the interrupted series")
     out = out or new_folder("characterize", station)
@@ -99,3 +133,79 @@ def characterize(station, out, report_dir, resume, camera_name):
         f"camera file: {camera_file} (name it in the station as camera.measured to predict "
         "with the measured camera)"
     )
+
+
+def _targets(st, flat, edge, region, out) -> None:
+    """``characterize --field/--sharpness``: the targets' captures measured, printed and
+    written to ``out``."""
+    import math
+
+    from inspect_validate.files import write_json
+    from inspect_validate.station.file import station_hash
+
+    out.mkdir(parents=True, exist_ok=True)
+    inputs = {"station": str(st.path), "station_sha256": station_hash(st.path)}
+    if flat is not None:
+        from inspect_validate.characterization.field_file import field_document
+        from inspect_validate.characterization.targets import measure_field
+
+        fields = measure_field(st, flat)
+        document = field_document(
+            fields,
+            masks=_class_masks(st, next(iter(fields.values()))),
+            inputs={**inputs, "capture": str(flat)},
+        )
+        for name, f in document["illuminations"].items():
+            regions = ", ".join(
+                f"{c} {100 * r['mean']:.1f} % (uniformity {r['uniformity']:.3f})"
+                for c, r in f["regions"].items()
+            )
+            click.echo(
+                f"{name}: corners lose {100 * f['corner_falloff']:.1f} % of the brightest "
+                f"point's light, uniformity (min/max) {f['uniformity']:.3f} over the frame"
+                + (f"; regions: {regions}" if regions else "")
+                + f"; the surface leaves {100 * f['residual']:.2f} % rms"
+            )
+        click.echo(
+            f"field: {write_json(document, out / 'field.json')} (name it in the station as field:)"
+        )
+    if edge is not None:
+        from inspect_validate.characterization.sharpness_file import (
+            HALF_NYQUIST,
+            sharpness_document,
+        )
+        from inspect_validate.characterization.targets import edge_window, measure_sharpness
+
+        edges = measure_sharpness(st, edge, region=region)
+        used = region or edge_window(_frame_shape(edge))
+        document = sharpness_document(edges, region=used, inputs={**inputs, "capture": str(edge)})
+        for name, e in edges.items():
+            mtf50 = f"{e.mtf50:.4g}" if math.isfinite(e.mtf50) else "above 1"
+            click.echo(
+                f"{name}: MTF50 {mtf50} cycles/px, MTF at Nyquist/2 ({HALF_NYQUIST} cycles/px) "
+                f"{e.at(HALF_NYQUIST):.3f}; edge turned {e.angle_deg:+.2f}°, contrast "
+                f"{e.contrast:.4g} DN"
+            )
+        click.echo(
+            f"sharpness: {write_json(document, out / 'sharpness.json')} (name it in the "
+            "station as sharpness:)"
+        )
+
+
+def _class_masks(st, field) -> dict:
+    """The station's class regions as masks of the field's frame size (none without an
+    ROI file)."""
+    if st.rois is None:
+        return {}
+    from inspect_validate.roi.roiset import class_masks
+    from inspect_validate.verification.measured import station_regions
+
+    rois, _ = station_regions(st)
+    return class_masks(rois, (field.height, field.width))
+
+
+def _frame_shape(folder) -> tuple[int, int]:
+    from inspect_validate.images import read_frames
+
+    first = next(p for p in sorted(folder.glob("*/frame_*.tif")))
+    return read_frames([first]).shape[1:]

@@ -293,9 +293,10 @@ def simulated_light_notes(station) -> None:
             )
 
 
-def capture_with_progress(station, out, *, resume: bool = False, steps=None):
+def capture_with_progress(station, out, *, resume: bool = False, steps=None, target="scene"):
     """Capture ``station`` into ``out`` with a progress bar on stderr (``steps``: other
-    steps than the station's illuminations and darks)."""
+    steps than the station's illuminations and darks; ``target``, what is in front of the
+    camera)."""
     from inspect_validate.station.capture import capture
 
     simulated_light_notes(station)
@@ -306,6 +307,7 @@ def capture_with_progress(station, out, *, resume: bool = False, steps=None):
             resume=resume,
             progress=lambda step, done, total: advance(done, step, total),
             steps=steps,
+            target=target,
         )
 
 

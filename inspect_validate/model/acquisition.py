@@ -235,6 +235,9 @@ class Chain:
     per_class: np.ndarray  # (K,)
     sensor: dict[str, np.ndarray]  # gain, dark_noise, saturation, dark_offset, max_dn,
     # dark_current, dsnu, prnu: (C,)
+    # Each class's share of each light over its region (mean factor m, relative spread
+    # v: :mod:`~inspect_validate.characterization.field`), (L, K, 2); None: a point.
+    field: np.ndarray | None = None
     _rows: dict = dataclasses.field(default_factory=dict, repr=False)  # the last cameras'
 
     @property
@@ -517,6 +520,13 @@ def predict_block(
     mean_rows, centred_rows = chain.camera_rows(cs)
     class_rate = (lo_rows @ mean_rows.T).reshape(n_l, n_o, n_c, per_class.size)  # e⁻/s
     deviation = (lo_rows @ centred_rows.T).reshape(n_l, n_o, n_c, sample_class.size)
+    spread = None
+    if chain.field is not None:
+        # A region at m of the light sees every sample at m (on average over its pixels)
+        m = chain.field[ls][:, None, None, :, 0]
+        class_rate = class_rate * m
+        deviation = deviation * m[..., sample_class]
+        spread = chain.field[ls][:, None, None, :, 1]
 
     lights, optics, cameras, classes = (
         c[s] for c, s in zip(chain.components, (ls, os, cs, slice(None)), strict=True)
@@ -586,6 +596,11 @@ def predict_block(
         if above is not None:
             saturated[idx] = above @ onehot / per_class
 
+    if spread is not None:
+        # The field's spread over a region: a pixel at F of the light shows F·S, so the
+        # region's variance gains Var[F]·S² = v·(m S)² (the texture's and noise's own
+        # change with F is of the order of v itself: left out)
+        variance = variance + spread * (gain[..., None] * signal) ** 2
     sep = gaussian_separation(mean, variance, chain.comparisons, valid=valid, mixtures=mixtures)
 
     def blank(a):

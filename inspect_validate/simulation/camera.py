@@ -52,7 +52,21 @@ if TYPE_CHECKING:
     from inspect_validate.station.world import World
 from inspect_validate.model.render import class_bands, expected_grey, expose, sensor_pattern
 
-__all__ = ["SimulatedGrabber", "lit_by_simulator", "scene_grabber"]
+__all__ = [
+    "EDGE_ANGLE_DEG",
+    "EDGE_DARK",
+    "SimulatedGrabber",
+    "edge_target",
+    "lit_by_simulator",
+    "scene_grabber",
+]
+
+EDGE_ANGLE_DEG = 5.0
+"""The simulated edge target's turn from the frame's columns, degrees (ISO 12233 and MTF
+Mapper use 2–10°: every pixel column samples the edge at another phase)."""
+EDGE_DARK = 0.1
+"""The edge target's dark square's reflectance (the white's is 1)."""
+_SUPERSAMPLE = 8  # sub-pixels a side: the pixel's area as the sensor integrates it
 
 
 def world_components(
@@ -152,9 +166,11 @@ class SimulatedGrabber(Grabber):
         ``seed`` (parts re-placed on one camera: a new ``seed``, the same ``sensor_seed``).
     noise_seed : int, optional
         The sensor noise; default new entropy for every camera opened.
-    target : {"scene", "uniform"}
-        What is in front of the camera: the scene's objects, or a white diffuse target
-        filling the frame (``characterize``'s uniform field).
+    target : {"scene", "flat", "edge"}
+        What is in front of the camera: the scene's objects, a white diffuse target
+        filling the frame (a flat field), or a slanted edge (:data:`EDGE_ANGLE_DEG`): a
+        dark square (reflectance :data:`EDGE_DARK`) on white, its left edge through the
+        frame's centre, each pixel the share of its area on either side.
     """
 
     def __init__(
@@ -228,6 +244,7 @@ class SimulatedGrabber(Grabber):
         self.sample_class = p.sample_class[scene]
         self.classes = p.classes[:-1]
         self.target = target
+        self._edge: np.ndarray | None = None  # the edge target's reflectance, made once
         line = world.line
         # The part's box in the frame (its home on a line), or the whole frame.
         pw, ph = (round(width * line.part), round(height * line.part)) if line else (width, height)
@@ -486,22 +503,42 @@ class SimulatedGrabber(Grabber):
     def _electrons(self, state: dict[int, float]) -> np.ndarray:
         """Mean photo-electrons of each pixel (e⁻) under ``state``, world deviations included."""
         percent = np.array([100.0 if ch == 0 else state.get(ch, 0.0) for ch in self.channels])
-        if self.target == "uniform":
-            white = percent / 100.0 @ self.white_rate * (self.exposure_us * 1e-6)
-            electrons = np.full((self.height, self.width), white)
-        else:
-            rate = percent / 100.0 @ self.rates  # e⁻/s per reflectance sample
+        gradient = self.world.light_gradient
+        if not any(
+            gradient.get(ch, 0.0) and p for ch, p in zip(self.channels, percent, strict=True)
+        ):
+            electrons = self._lit(percent)
+        else:  # each light across the frame as it falls off: one image per light
+            x = np.arange(self.width) / max(self.width - 1, 1)
             electrons = np.zeros((self.height, self.width))
-            for where, pick in self._objects:
-                electrons[where] = rate[pick] * (self.exposure_us * 1e-6)
-            if self.world.line is not None:
-                belt = self.world.line.belt * (percent / 100.0 @ self.white_rate)
-                electrons = self._moved(electrons, belt * (self.exposure_us * 1e-6))
+            for k, ch in enumerate(self.channels):
+                if percent[k]:
+                    alone = np.where(np.arange(percent.size) == k, percent, 0.0)
+                    electrons += self._lit(alone) * (1.0 - gradient.get(ch, 0.0) * x)
         electrons *= self._falloff
-        if self.world.blur_px > 0:
+        if self.world.blur_px > 0 and self.target != "edge":  # the edge's is sub-pixel
             from scipy import ndimage
 
             electrons = ndimage.gaussian_filter(electrons, self.world.blur_px, mode="nearest")
+        return electrons
+
+    def _lit(self, percent: np.ndarray) -> np.ndarray:
+        """Mean photo-electrons of each pixel (e⁻) with the lights at ``percent``, before
+        the lens's falloff and blur: the target's or the scene's objects."""
+        t = self.exposure_us * 1e-6
+        if self.target == "flat":
+            return np.full((self.height, self.width), percent / 100.0 @ self.white_rate * t)
+        if self.target == "edge":
+            if self._edge is None:
+                self._edge = edge_target(self.height, self.width, blur_px=self.world.blur_px)
+            return self._edge * (percent / 100.0 @ self.white_rate * t)
+        rate = percent / 100.0 @ self.rates  # e⁻/s per reflectance sample
+        electrons = np.zeros((self.height, self.width))
+        for where, pick in self._objects:
+            electrons[where] = rate[pick] * t
+        if self.world.line is not None:
+            belt = self.world.line.belt * (percent / 100.0 @ self.white_rate)
+            electrons = self._moved(electrons, belt * t)
         return electrons
 
     def _moved(self, part: np.ndarray, belt: float) -> np.ndarray:
@@ -594,6 +631,29 @@ def lit_by_simulator(station: Station, state_path: Path | None) -> None:
             "controller (controller.backend: simulated)",
             source=str(station.path),
         )
+
+
+def edge_target(height: int, width: int, *, blur_px: float = 0.0) -> np.ndarray:
+    """The slanted-edge target's reflectance as each pixel sees it, (height, width): a
+    dark square (:data:`EDGE_DARK`, side 0.6 of the frame's smaller side) on white, its
+    left edge through the frame's centre, turned by :data:`EDGE_ANGLE_DEG` about it. Each
+    pixel is the mean of its area (8 × 8 sub-pixels, the pixel aperture a sensor
+    integrates) after a Gaussian blur of σ ``blur_px`` px: the truth's MTF is
+    |sinc(f)|·exp(−2π²σ²f²), f in cycles/pixel."""
+    from scipy import ndimage
+
+    n = _SUPERSAMPLE
+    y = (np.arange(height * n) + 0.5) / n - height / 2
+    x = (np.arange(width * n) + 0.5) / n - width / 2
+    a = np.deg2rad(EDGE_ANGLE_DEG)
+    u = x[None, :] * np.cos(a) + y[:, None] * np.sin(a)  # across the edge
+    v = -x[None, :] * np.sin(a) + y[:, None] * np.cos(a)  # along it
+    side = 0.6 * min(height, width)
+    inside = (u >= 0) & (u <= side) & (np.abs(v) <= side / 2)
+    fine = np.where(inside, EDGE_DARK, 1.0)
+    if blur_px > 0:
+        fine = ndimage.gaussian_filter(fine, blur_px * n, mode="nearest")
+    return fine.reshape(height, n, width, n).mean(axis=(1, 3))
 
 
 def scene_grabber(

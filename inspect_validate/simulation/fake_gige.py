@@ -115,7 +115,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument("--interface", default="lo")
     parser.add_argument("--station", type=Path, help="show this station's scene")
     parser.add_argument("--state", type=Path, help="the simulated controller's state file")
-    parser.add_argument("--target", choices=("scene", "uniform"), default="scene")
+    parser.add_argument("--target", choices=("scene", "flat", "edge"), default="scene")
     parser.add_argument("--world", help="the simulated world (JSON), instead of the file's")
     parser.add_argument(
         "--packet-loss",

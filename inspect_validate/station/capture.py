@@ -61,6 +61,7 @@ def capture(
     completed: Callable[[str], None] | None = None,
     devices: AbstractContextManager[tuple[LedController, Grabber]] | None = None,
     steps: list[Step] | None = None,
+    target: str = "scene",
 ) -> CaptureResult:
     """Run the station's capture sequence into ``out``.
 
@@ -71,7 +72,9 @@ def capture(
     manager yielding ``(controller, grabber)`` (other setups, tests). ``steps``
     replaces :func:`station_steps` (``characterize``'s exposure series). With
     ``precision:`` each illumination ends once its classes are known that well
-    (:class:`~inspect_validate.station.stopping.SequentialStop`).
+    (:class:`~inspect_validate.station.stopping.SequentialStop`). ``target``: what is in
+    front of the camera (``"flat"``, ``"edge"``: a characterization target, every frame
+    taken, recorded in the manifest; a simulated camera renders it).
 
     Raises
     ------
@@ -85,13 +88,16 @@ def capture(
 
     if station.cameras and devices is None:
         return _capture_rig(station, out, resume=resume, progress=progress, steps=steps)
-    stopping = _stopping(station)
+    # A target has no classes to stop on: the frames the station asks for
+    stopping = _stopping(station) if target == "scene" else None
     pulse = getattr(station.controller, "pulse", None)
     store = CaptureStore(
         out, station_path=station.file, station_sha256=station_hash(station.file), resume=resume
     )
     try:
-        with devices if devices is not None else open_devices(station) as (controller, grabber):
+        _record_target(store, target, out, station)
+        opened = devices if devices is not None else open_devices(station, target=target)
+        with opened as (controller, grabber):
             return capture_steps(
                 controller,
                 grabber,
@@ -108,6 +114,22 @@ def capture(
             )
     finally:
         store.release()
+
+
+def _record_target(store: CaptureStore, target: str, out: Path, station: Station) -> None:
+    """Write ``target`` into the manifest; a capture resumed with another target is refused
+    (its frames would be of two things)."""
+    from inspect_validate.errors import InputError
+
+    before = store.manifest.get("target", "scene")
+    if store.manifest.get("steps") and before != target:
+        raise InputError(
+            f"{out} holds frames of the {before} target, and this capture is of the {target} "
+            "one: give another --out (or the same --target) to resume",
+            source=str(station.path),
+        )
+    if target != "scene":
+        store.record("target", target)
 
 
 def _capture_rig(station, out, *, resume, progress, steps) -> CaptureResult:

@@ -20,7 +20,7 @@ __all__ = ["open_devices", "open_rig"]
 @contextlib.contextmanager
 def open_devices(station: Station, *, target: str = "scene") -> Iterator[tuple]:
     """Yield (controller, camera) for the station, closing both afterwards. ``target``:
-    what a camera that renders the scene shows (``"uniform"``: a white target filling
+    what a camera that renders the scene shows (``"flat"``: a white target filling
     the frame, as for ``characterize``; real cameras see what is there).
 
     A camera section with ``simulate: true`` is opened by its backend's simulator (the

@@ -279,6 +279,13 @@ class Station(StrictModel):
     rois: str | None = None
     """The ROI file of the classes in the camera's frames (a relative path is from this
     file's folder)."""
+    field: str | None = None
+    """The light's field over the frame (the ``field.json`` of ``characterize --field``;
+    a relative path is from this file's folder): each class is predicted at its region's
+    share of each illumination's light, and its spread over the region."""
+    sharpness: str | None = None
+    """The lens's measured MTF (the ``sharpness.json`` of ``characterize --sharpness``;
+    relative to this file's folder): ``verify`` holds it to the optics' prediction."""
     channels: dict[Channel, Annotated[ChannelLight, BeforeValidator(_channel_shorthand)]] = {}
     """Controller channel → the scene light it drives (a name, or ``{light, irradiance}``)."""
     optics: str | None = None

@@ -80,11 +80,18 @@ class StationModel:
         ]
 
     def predict(
-        self, station: Station, *, comparisons: Comparisons | None = None
+        self,
+        station: Station,
+        *,
+        comparisons: Comparisons | None = None,
+        field: np.ndarray | None = None,
     ) -> StationPrediction:
         """:func:`~inspect_validate.model.predict` of every illumination of ``station``
         at its stated irradiances (:meth:`StationPrediction.calibrated
-        <inspect_validate.station.prediction.StationPrediction.calibrated>` scales them)."""
+        <inspect_validate.station.prediction.StationPrediction.calibrated>` scales them);
+        ``field``, (illumination, class, 2), each class region's mean share of the light
+        and its relative spread (:func:`~inspect_validate.characterization.field.
+        field_factors`; None: every class at the stated irradiance)."""
         from inspect_validate.model import Exposure
         from inspect_validate.model.acquisition import predict_chain, prepare
         from inspect_validate.station.prediction import StationPrediction
@@ -103,7 +110,42 @@ class StationModel:
             grid=self.scene.grid,
             comparisons=comparisons or self.scene.comparisons,
         )
+        if field is not None:
+            chain = replace(chain, field=np.asarray(field, float))
         return StationPrediction.of(predict_chain(chain), chain=chain)
+
+    def focus_mtf50(self, station: Station) -> dict[str, float]:
+        """Per illumination of ``station``, the MTF50 (cycles/px) of its lens in focus at
+        its f-number and its pixels (:func:`~inspect_validate.model.mtf.focus_mtf`): the
+        diffraction averaged over the electrons each wavelength brings from a white
+        target (the light, the lens's transmission, the sensor's QE)."""
+        from inspect_validate.model import Exposure
+        from inspect_validate.model.acquisition import prepare
+        from inspect_validate.model.mtf import falls_to, focus_mtf
+
+        chain = prepare(
+            self.illumination_lights(station),
+            [self.optics],
+            [self.sensor],
+            list(self.scene.classes),
+            exposure=Exposure(),
+            grid=self.scene.grid,
+            comparisons=None,
+        )
+        f = np.linspace(0.0, 1.0, 4001)
+        return {
+            i.name: falls_to(
+                f,
+                focus_mtf(
+                    f,
+                    wavelengths=chain.grid,
+                    weights=e * chain.t[0] * chain.q[0],
+                    f_number=self.optics.f_number,
+                    pixel_pitch=self.sensor.pixel_pitch,
+                ),
+            )
+            for i, e in zip(station.illuminations, chain.e, strict=True)
+        }
 
 
 def _pick(items, name, *, what, field, source):

@@ -146,6 +146,12 @@ class World(StrictModel):
     """Factor on the lens transmission."""
     vignetting: Annotated[float, Field(ge=0, lt=1, allow_inf_nan=False)] = 0.0
     """Relative irradiance lost at the frame's corners (quadratic in the radius)."""
+    light_gradient: dict[
+        Channel, Annotated[float, Field(ge=-0.9, le=0.9, allow_inf_nan=False)]
+    ] = {}
+    """Per channel, the relative irradiance its light loses across the frame from the left
+    edge to the right (linear in x; negative: brighter to the right), as a bar light to one
+    side gives."""
     ambient: Annotated[float, Field(ge=0, le=1000, allow_inf_nan=False)] = 0.0
     """W/m² of equal-energy light over 380–780 nm at the object, always on (also in darks)."""
     gain_error: Annotated[float, Field(gt=-0.9, lt=10, allow_inf_nan=False)] = 0.0

@@ -46,6 +46,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
+    from inspect_validate.components.sensors import SensorModel
     from inspect_validate.measurement import Measurement
     from inspect_validate.station.file import Station
     from inspect_validate.verification.golden import Golden, GoldenIllumination, Spread
@@ -141,7 +142,7 @@ class Sensor:
     dark_offset: float
 
     @classmethod
-    def of(cls, sensor) -> Sensor:
+    def of(cls, sensor: SensorModel) -> Sensor:
         """The values of a station model's sensor (its ``gain``, ``dark_noise``,
         ``dark_offset``)."""
         return cls(sensor.gain, sensor.dark_noise, sensor.dark_offset)
@@ -199,7 +200,9 @@ def capture_changes(
     out: list[Change] = []
     for ill, m in measurements.items():
         g = golden.illuminations.get(ill)
-        for c in m.classes if g is not None else ():
+        if g is None:
+            continue
+        for c in m.classes:
             if (gc := g.classes.get(c.name)) is not None:
                 mu, var = np.array([c.mean]), np.array([c.variance])
                 out += _class_changes(c.name, gc, mu, var, None, dark_offset, ill)
@@ -577,10 +580,10 @@ def _candidates(changes: tuple[Change, ...], sensor, shaded, bench: bool):
 
         return fit
 
-    for level in (False, True) if means else (False,):
+    for with_level in (False, True) if means else (False,):
         if any(c.quantity == "focus" for c in changes):
-            yield "focus", len(classes) + level, focus(level)
-        yield "parts", len(classes) + level, spread(level)
+            yield "focus", len(classes) + with_level, focus(with_level)
+        yield "parts", len(classes) + with_level, spread(with_level)
 
     if shaded:
 

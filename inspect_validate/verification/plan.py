@@ -14,6 +14,7 @@ from inspect_validate.verification.measured import station_regions
 
 if TYPE_CHECKING:
     from inspect_validate.acceptance import Acceptance
+    from inspect_validate.characterization.sharpness_file import SharpnessFile
     from inspect_validate.comparisons import Comparisons
     from inspect_validate.roi import RoiSet
     from inspect_validate.station.file import Station
@@ -38,6 +39,8 @@ class Plan:
     """The station at its stated irradiances, every illumination: the one prediction of
     the spectra before calibration (a group of ``pixels`` weights is weighted equally
     until the regions are measured: :meth:`~StationPrediction.compared`)."""
+    sharpness: SharpnessFile | None = None
+    """The station's measured MTF (its ``sharpness:`` file), read before any frame."""
     dominated: dict[str, str] = field(default_factory=dict)
     """Illuminations left out of the capture as dominated (:func:`dominated_illuminations`):
     name → why, and how to add it; listed as skipped."""
@@ -167,8 +170,15 @@ def plan_verification(station: Station, *, drift_checks: bool = True) -> Plan:
     scene = replace(model.scene, classes=tuple(scene_classes[n] for n in names))
     model = replace(model, scene=scene)
     unweighted = replace(comparisons, weights="equal") if comparisons.weights == "pixels" else None
-    prediction = model.predict(station, comparisons=unweighted or comparisons)
-    plan = Plan(rois, comparisons, model, None, prediction)
+    prediction = model.predict(
+        station, comparisons=unweighted or comparisons, field=station_field(station, rois, names)
+    )
+    sharpness = None
+    if station.sharpness is not None:
+        from inspect_validate.characterization.sharpness_file import read_sharpness
+
+        sharpness = read_sharpness(station.resolve(station.sharpness))
+    plan = Plan(rois, comparisons, model, None, prediction, sharpness=sharpness)
     if acc.drift:
         from inspect_validate.verification.golden_checks import validate_golden
 
@@ -189,6 +199,39 @@ def plan_verification(station: Station, *, drift_checks: bool = True) -> Plan:
         )
         plan = replace(plan, golden=golden)
     return plan
+
+
+def station_field(station: Station, rois: RoiSet, classes: list[str]) -> np.ndarray | None:
+    """Each class region's share of each illumination's light and its spread, (illumination,
+    class, 2), from the station's ``field:`` file (None without one).
+
+    Raises
+    ------
+    InputError
+        An unreadable field file, one without an illumination of the station, or one
+        measured on frames of another size than the regions are drawn on.
+    """
+    if station.field is None:
+        return None
+    from inspect_validate.characterization.field import field_factors
+    from inspect_validate.characterization.field_file import read_field
+    from inspect_validate.roi.roiset import class_masks
+
+    path = station.resolve(station.field)
+    read = read_field(path)
+    missing = [i.name for i in station.illuminations if i.name not in read.illuminations]
+    if missing:
+        raise InputError(
+            f"no field of illumination {missing[0]!r} (it has {', '.join(read.illuminations)}): "
+            "capture the flat target under every illumination (capture --target flat) and "
+            "measure it again (characterize --field)",
+            source=str(path),
+        )
+    try:
+        masks = class_masks(rois, (read.height, read.width))
+        return field_factors(read.fields(), masks, [i.name for i in station.illuminations], classes)
+    except InputError as exc:
+        raise InputError(str(exc), source=str(path)) from None
 
 
 def planned_tests(

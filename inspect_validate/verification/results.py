@@ -174,10 +174,20 @@ class Verification:
 
     @property
     def cause(self) -> str | None:
-        """The likely cause of failed drift checks (None where none failed, or nothing
-        explains them beyond their noise)."""
-        drifted = any(c.kind == "drift" and not c.passed for c in self.checks)
-        return self.diagnosis.text if drifted and self.diagnosis is not None else None
+        """The likely cause of failed drift checks (the :attr:`diagnosis`) and of a lens
+        less sharp than its in-focus limit; None where neither failed (or nothing
+        explains the drift beyond its noise)."""
+        failed = [c for c in self.checks if not c.passed]
+        causes = []
+        if any(c.kind == "drift" for c in failed) and self.diagnosis is not None:
+            causes.append(self.diagnosis.text)
+        blunt = [c.name.split(":")[0] for c in failed if c.kind == "sharpness"]
+        if blunt:
+            causes.append(
+                f"the lens is out of focus or soiled ({', '.join(blunt)}: MTF50 below "
+                "acceptance.sharpness of its in-focus limit): focus it, clean it"
+            )
+        return "; ".join(c for c in causes if c) or None
 
     def __repr__(self) -> str:
         failed = sum(not c.passed for c in self.checks)

@@ -334,6 +334,12 @@ def verify_capture(
     unhealthy, unreported = health_checks(acc.health, manifest)
     checks += unhealthy
     skipped += unreported
+    if plan.sharpness is not None:
+        from inspect_validate.verification.sharpness_checks import sharpness_checks
+
+        sharp, said = sharpness_checks(station, plan.model, plan.sharpness)
+        checks += sharp
+        notes += said
     if golden is not None and measurements:
         k = normal_equivalent(acc.false_alarm_rate)
         checks += drift_checks(golden, measurements, acc.drift, errors, k=k)
