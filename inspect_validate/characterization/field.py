@@ -40,6 +40,7 @@ __all__ = [
     "field_factors",
     "fit_field",
     "lowest",
+    "part_slopes",
     "region_field",
 ]
 
@@ -256,3 +257,34 @@ def degree_of(n_coefficients: int) -> int:
     if len(_exponents(d)) != n_coefficients:
         raise ValueError(f"{n_coefficients} coefficients are no polynomial surface's")
     return d
+
+
+def part_slopes(means: ArrayLike, x: ArrayLike, y: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    """The field as parts that move show it: a class's μ (signal above dark) of each part
+    against where the part lies, fitted as a plane; its slopes along x and y relative to
+    its mean, per 100 px, and their standard errors (ordinary least squares). NaN where
+    fewer than 4 parts hold all three, or the parts do not move along an axis.
+
+    Parameters
+    ----------
+    means : array_like, (m,)
+        The class's μ of each part, DN above dark.
+    x, y : array_like, (m,)
+        Each part's position, px.
+    """
+    mu, xs, ys = (np.asarray(a, float) for a in (means, x, y))
+    keep = np.isfinite(mu) & np.isfinite(xs) & np.isfinite(ys)
+    mu, xs, ys = mu[keep], xs[keep], ys[keep]
+    nan = np.full(2, np.nan)
+    if mu.size < 4 or not mu.mean() > 0:
+        return nan, nan
+    design = np.column_stack([np.ones_like(xs), (xs - xs.mean()) / 100, (ys - ys.mean()) / 100])
+    gram = design.T @ design
+    if np.linalg.cond(gram) > 1e12:  # the parts lie along a line or in one place
+        return nan, nan
+    coef, *_ = np.linalg.lstsq(design, mu, rcond=None)
+    residual = mu - design @ coef
+    dof = mu.size - 3
+    s2 = float(residual @ residual) / dof if dof > 0 else np.nan
+    se = np.sqrt(np.diag(np.linalg.inv(gram)) * s2)
+    return coef[1:] / coef[0], se[1:] / coef[0]

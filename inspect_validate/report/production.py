@@ -42,6 +42,7 @@ def format_production(v: ProductionVerification) -> str:
             f" px, y {min(s[1] for s in shifts):+.1f} to {max(s[1] for s in shifts):+.1f} px, "
             f"rotation {min(angles):+.2f} to {max(angles):+.2f}°"
         )
+    out += _field_lines(v)
     if parts.measured:
         ms = [p.measurement for p in parts.measured]
         for j, comp in enumerate(ms[0].comparisons):
@@ -68,6 +69,24 @@ def format_production(v: ProductionVerification) -> str:
         out.append(labelled("likely cause", v.cause, stream=sys.stdout))
     out += ["", f"{'PASS' if v.passed else 'FAIL'}: {count_failed(v.checks)}"]
     return "\n".join(out)
+
+
+def _field_lines(v: ProductionVerification) -> list[str]:
+    """The light's field as the parts show it, per class (where they move enough)."""
+
+    def pair(s) -> str:
+        return f"x {100 * s[0]:+.2f} ± {100 * s[2]:.2f} %, y {100 * s[1]:+.2f} ± {100 * s[3]:.2f} %"
+
+    rows = []
+    for name, found in v.field.items():
+        batch, golden = found["batch"], found.get("golden")
+        if not np.isfinite(batch[:2]).all():
+            continue
+        was = f" (golden parts: {pair(golden)})" if golden and np.isfinite(golden[:2]).all() else ""
+        rows.append(f"  {name}: {pair(batch)}{was}")
+    if not rows:
+        return []
+    return ["the light's field as the parts show it (μ per 100 px of where a part lies):", *rows]
 
 
 def production_document(v: ProductionVerification) -> dict:
@@ -107,6 +126,13 @@ def production_document(v: ProductionVerification) -> dict:
             for p in v.parts.measured
         ],
         "not_measured": dict(v.parts.not_measured),
+        "field": {
+            name: {
+                which: dict(zip(("x", "y", "x_se", "y_se"), values, strict=True))
+                for which, values in found.items()
+            }
+            for name, found in v.field.items()
+        },
     }
 
 

@@ -180,3 +180,34 @@ def test_the_lines_frames_alone_name_a_dimmer_light_as_one_level(golden, tmp_pat
         r"the light is dimmer by about (4\.[5-9]|5\.0) %, or the camera's gain lower", cause
     )
     assert "no camera model to tell them apart" in cause and "nearly as well" not in cause
+
+
+def test_the_parts_show_the_lights_field_and_a_shade_that_moves(tmp_path):
+    """A lens darkening the corners by 20 %: the bands above and below the frame's centre
+    (A, C) brighten as a part moves towards it, B (across the centre) barely; the golden
+    parts show the same slopes. A speck of dust over the upper band (fixed in the frame,
+    trained without it) steepens A's slope past its standard errors, where a light 3 %
+    dimmer leaves the slopes as they were."""
+    good = line_station(tmp_path / "good", vignetting=0.2)
+    golden = tmp_path / "golden.json"
+    frames = line_frames(good, tmp_path / "g", parts=60)
+    assert run_cli(["train", good, "--production", "--frames", frames, "--out", golden]) == 0
+
+    def field(**world):
+        station = line_station(tmp_path / str(len(world)), parts=30, vignetting=0.2, **world)
+        batch = line_frames(station, tmp_path / f"b{len(world)}{sorted(world)}", parts=30)
+        report = tmp_path / f"r{len(world)}{sorted(world)}"
+        run_cli(["verify", station, "--production", "--frames", batch, "--golden", golden,
+                 "--report", report])  # fmt: skip
+        return json.loads((report / "production.json").read_text())["field"]
+
+    found = field()
+    a, b, c = (found[n]["batch"] for n in "ABC")
+    assert a["y"] > 0.02 and c["y"] < -0.02 and abs(b["y"]) < 0.01, found
+    for name in "AC":
+        batch, trained = found[name]["batch"], found[name]["golden"]
+        assert abs(batch["y"] - trained["y"]) < 4 * np.hypot(batch["y_se"], trained["y_se"])
+    dimmer = field(irradiance={1: 0.97})["A"]["batch"]
+    assert abs(dimmer["y"] - a["y"]) < 4 * np.hypot(dimmer["y_se"], a["y_se"])
+    shaded = field(dust=[{"x": 0.5, "y": 0.0, "radius_px": 150, "depth": 0.3}])["A"]["batch"]
+    assert abs(shaded["y"] - a["y"]) > 4 * np.hypot(shaded["y_se"], a["y_se"]), (shaded, a)
