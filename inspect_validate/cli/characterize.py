@@ -145,12 +145,13 @@ def _targets(st, flat, edge, region, out) -> None:
 
     out.mkdir(parents=True, exist_ok=True)
     inputs = {"station": str(st.path), "station_sha256": station_hash(st.path)}
+    fields = field_doc = edges = None
     if flat is not None:
         from inspect_validate.characterization.field_file import field_document
         from inspect_validate.characterization.targets import measure_field
 
         fields = measure_field(st, flat)
-        document = field_document(
+        document = field_doc = field_document(
             fields,
             masks=_class_masks(st, next(iter(fields.values()))),
             inputs={**inputs, "capture": str(flat)},
@@ -190,6 +191,32 @@ def _targets(st, flat, edge, region, out) -> None:
             f"sharpness: {write_json(document, out / 'sharpness.json')} (name it in the "
             "station as sharpness:)"
         )
+    _datasheet(st, out, field_doc, fields, edges, inputs)
+
+
+def _datasheet(st, out, field_doc, fields, edges, inputs) -> None:
+    """``targets.html``: the fields as pictures, the edges beside the lens in focus (where
+    the station has a scene to predict it from)."""
+    import numpy as np
+
+    from inspect_validate.report.targets import write_targets_page
+
+    focus = frequencies = None
+    if edges and st.scene is not None:
+        from inspect_validate.station.model import station_model
+
+        frequencies = np.linspace(0.0, 1.0, 201)
+        focus = station_model(st).focus_mtf(st, frequencies)
+    page = write_targets_page(
+        out / "targets.html",
+        field=field_doc["illuminations"] if field_doc else None,
+        fields=fields,
+        edges=edges,
+        focus=focus,
+        frequencies=frequencies,
+        inputs=inputs,
+    )
+    click.echo(f"datasheet: {page}")
 
 
 def _class_masks(st, field) -> dict:

@@ -28,6 +28,7 @@ if TYPE_CHECKING:
     from inspect_validate.acceptance import Agreement
     from inspect_validate.characterization.analysis import Characterization
     from inspect_validate.characterization.series import Plan
+    from inspect_validate.characterization.sharpness import EdgeMTF
     from inspect_validate.measurement import ClassMeasurement
     from inspect_validate.model.spectral_analysis import SpectralSeparation
     from inspect_validate.scene import Scene
@@ -41,6 +42,7 @@ __all__ = [
     "error_charts",
     "histogram_chart",
     "history_charts",
+    "mtf_chart",
     "runtime",
     "spectra_charts",
 ]
@@ -395,6 +397,31 @@ def characterization_charts(result: Characterization, plan: Plan) -> list[dict[s
             **size,
         },
     ]
+
+
+def mtf_chart(
+    name: str,
+    edge: EdgeMTF,
+    *,
+    focus: np.ndarray | None = None,
+    frequencies: np.ndarray | None = None,
+) -> dict[str, Any]:
+    """An edge's MTF to 1 cycle/px, beside the lens's in-focus MTF (``focus`` at
+    ``frequencies``) where given."""
+    keep = edge.frequencies <= 1.0
+    series = [_series("measured", edge.frequencies[keep], edge.mtf[keep], color=_colour(0))]
+    if focus is not None and frequencies is not None:
+        series.append(
+            _series("in focus (diffraction × pixel)", frequencies, focus, color=_colour(1))
+        )
+    return {
+        "title": f"{name}: MTF (MTF50 {edge.mtf50:.3g} cycles/px)",
+        "xlabel": "cycles/px",
+        "ylabel": "MTF",
+        "series": series,
+        "width": 520,
+        "height": 300,
+    }
 
 
 def history_charts(log: HistoryLog) -> list[tuple[str, list[dict[str, Any]]]]:

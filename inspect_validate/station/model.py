@@ -114,14 +114,14 @@ class StationModel:
             chain = replace(chain, field=np.asarray(field, float))
         return StationPrediction.of(predict_chain(chain), chain=chain)
 
-    def focus_mtf50(self, station: Station) -> dict[str, float]:
-        """Per illumination of ``station``, the MTF50 (cycles/px) of its lens in focus at
-        its f-number and its pixels (:func:`~inspect_validate.model.mtf.focus_mtf`): the
-        diffraction averaged over the electrons each wavelength brings from a white
-        target (the light, the lens's transmission, the sensor's QE)."""
+    def focus_mtf(self, station: Station, frequencies: np.ndarray) -> dict[str, np.ndarray]:
+        """Per illumination of ``station``, its lens's MTF in focus at its f-number times
+        its pixels' at ``frequencies`` (cycles/px; :func:`~inspect_validate.model.mtf.
+        focus_mtf`): the diffraction averaged over the electrons each wavelength brings
+        from a white target (the light, the lens's transmission, the sensor's QE)."""
         from inspect_validate.model import Exposure
         from inspect_validate.model.acquisition import prepare
-        from inspect_validate.model.mtf import falls_to, focus_mtf
+        from inspect_validate.model.mtf import focus_mtf
 
         chain = prepare(
             self.illumination_lights(station),
@@ -132,20 +132,23 @@ class StationModel:
             grid=self.scene.grid,
             comparisons=None,
         )
-        f = np.linspace(0.0, 1.0, 4001)
         return {
-            i.name: falls_to(
-                f,
-                focus_mtf(
-                    f,
-                    wavelengths=chain.grid,
-                    weights=e * chain.t[0] * chain.q[0],
-                    f_number=self.optics.f_number,
-                    pixel_pitch=self.sensor.pixel_pitch,
-                ),
+            i.name: focus_mtf(
+                frequencies,
+                wavelengths=chain.grid,
+                weights=e * chain.t[0] * chain.q[0],
+                f_number=self.optics.f_number,
+                pixel_pitch=self.sensor.pixel_pitch,
             )
             for i, e in zip(station.illuminations, chain.e, strict=True)
         }
+
+    def focus_mtf50(self, station: Station) -> dict[str, float]:
+        """Per illumination of ``station``, the MTF50 (cycles/px) of :meth:`focus_mtf`."""
+        from inspect_validate.model.mtf import falls_to
+
+        f = np.linspace(0.0, 1.0, 4001)
+        return {name: falls_to(f, mtf) for name, mtf in self.focus_mtf(station, f).items()}
 
 
 def _pick(items, name, *, what, field, source):

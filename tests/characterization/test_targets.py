@@ -53,6 +53,9 @@ def test_the_targets_measure_the_worlds_falloff_and_blur(vignetted):
     for name in ("amber", "red"):
         assert sharp[name]["mtf50"] == pytest.approx(truth, rel=0.02)
         assert abs(sharp[name]["angle_deg"]) == pytest.approx(5.0, abs=0.1)
+    page = (cal / "targets.html").read_text()
+    assert page.count("data:image/png;base64,") == 2  # each illumination's field
+    assert page.count("in focus (diffraction") == 2  # each edge beside the lens
 
 
 def test_verify_agrees_once_the_station_names_its_field(cli, vignetted, tmp_path):
