@@ -63,6 +63,7 @@ FAMILY_ARL = 1000.0  # in-control cycles between false alarms of the whole famil
 # for μ and σ², absolute for dB and decades of ε.
 _FLOOR = {"mean": 2e-3, "variance": 0.02, "snr_db": 0.05, "log_error": 0.05, "focus": 0.02}
 _FLOOR.update(x=0.05, y=0.05, angle=0.005)  # a part's position: px, px, degrees
+_FLOOR.update(slope_x=1e-4, slope_y=1e-4)  # the light's field over the parts: per 100 px
 _DESIGN_STATES = 81  # Markov-chain states of the ARLs the design averages (±1 % of 201's)
 _DESIGN_NODES = 12  # quadrature nodes per tail and dimension (target error, spread)
 
@@ -219,9 +220,13 @@ def series_of(verification: Verification) -> dict[SeriesKey, float]:
     return values
 
 
-def series_of_parts(parts: Parts, illumination: str) -> dict[SeriesKey, float]:
+def series_of_parts(
+    parts: Parts, illumination: str, *, dark_offset: float = 0.0
+) -> dict[SeriesKey, float]:
     """The monitored values of one cycle's batch of parts on the running line (under
-    ``illumination``): each quantity's mean over the parts measured (NaN for none)."""
+    ``illumination``): each quantity's mean over the parts measured (NaN for none), and
+    each class's field slopes (:func:`field_slopes`, of the signal above
+    ``dark_offset``)."""
     measured = parts.measured
     ms = [p.measurement for p in measured]
     values: dict[SeriesKey, float] = {}
@@ -244,7 +249,29 @@ def series_of_parts(parts: Parts, illumination: str) -> dict[SeriesKey, float]:
         )
     for i, q in enumerate(("x", "y", "angle")):
         values[illumination, "pose", "part", q] = mean([p.position[i] for p in measured])
+    for name, (sx, sy) in field_slopes(parts, dark_offset=dark_offset).items():
+        values[illumination, "field", name, "slope_x"] = sx
+        values[illumination, "field", name, "slope_y"] = sy
     return values
+
+
+def field_slopes(parts: Parts, *, dark_offset: float = 0.0) -> dict[str, tuple[float, float]]:
+    """Per class, the light's field as the batch's parts show it: μ's slopes along x and
+    y relative to its mean, per 100 px (:func:`~inspect_validate.characterization.field.
+    part_slopes`; NaN where the parts do not move enough)."""
+    from inspect_validate.characterization.field import part_slopes
+
+    measured = parts.measured
+    if not measured:
+        return {}
+    x = [p.position[0] for p in measured]
+    y = [p.position[1] for p in measured]
+    out = {}
+    for k, c in enumerate(measured[0].measurement.classes):
+        mu = [p.measurement.classes[k].mean - dark_offset for p in measured]
+        slope, _ = part_slopes(mu, x, y)
+        out[c.name] = (float(slope[0]), float(slope[1]))
+    return out
 
 
 def _log_error(error):
@@ -253,11 +280,12 @@ def _log_error(error):
 
 
 def golden_targets(
-    golden: Golden, *, snr_floor_db: float = -20.0, batch: int = 1
+    golden: Golden, *, snr_floor_db: float = -20.0, batch: int = 1, dark_offset: float = 0.0
 ) -> dict[SeriesKey, tuple[float, float]]:
     """(μ₀, σ₀) of every quantity the golden file holds worth charting (module
-    description); of a production golden file also each class's focus measure and the
-    parts' position, and with ``batch`` parts a cycle σ₀ of their mean (s/√batch).
+    description); of a production golden file also each class's focus measure, the
+    parts' position and the field's slopes (:func:`_field_targets`), and with ``batch``
+    parts a cycle σ₀ of their mean (s/√batch).
     Comparisons are charted where verify checks their drift (:func:`~inspect_validate.
     verification.golden_checks.above_floor`, at 3 spreads)."""
     from inspect_validate.verification.golden_checks import above_floor
@@ -291,12 +319,33 @@ def golden_targets(
         if g.pose is not None:
             for q, spread in (("x", g.pose.x), ("y", g.pose.y), ("angle", g.pose.angle)):
                 put((ill, "pose", "part", q), spread, q)
+            _field_targets(targets, ill, g, golden.repeats, batch, dark_offset)
         for label, comp in g.comparisons.items():
             if not above_floor(comp.snr_db, snr_floor_db):
                 continue
             put((ill, "comparison", label, "snr_db"), comp.snr_db, "snr_db")
             put((ill, "comparison", label, "log_error"), comp.error_gaussian, "log_error")
     return targets
+
+
+def _field_targets(targets, ill, g, n: int, batch: int, dark_offset: float) -> None:
+    """(μ₀, σ₀) of each class's field slopes: the golden parts' slopes, and a batch's
+    spread about them, the golden slopes' standard error times √(n/batch) (a slope's
+    standard error goes as 1/√parts)."""
+    from inspect_validate.characterization.field import part_slopes
+
+    assert g.pose is not None
+    x = [math.nan if v is None else v for v in g.pose.x.values]
+    y = [math.nan if v is None else v for v in g.pose.y.values]
+    for name, cls in g.classes.items():
+        mu = [math.nan if v is None else v - dark_offset for v in cls.mean.values]
+        if not len(mu) == len(x) == len(y):
+            continue
+        slope, se = part_slopes(mu, x, y)
+        for q, s0, e0 in zip(("slope_x", "slope_y"), slope, se, strict=True):
+            if math.isfinite(s0) and math.isfinite(e0):
+                sd = max(e0 * math.sqrt(n / max(batch, 1)), _FLOOR[q])
+                targets[ill, "field", name, q] = (float(s0), sd)
 
 
 @dataclass(frozen=True)
@@ -345,7 +394,9 @@ class DriftMonitor:
         from inspect_validate.errors import InputError
         from inspect_validate.verification.golden_checks import GOOD_WIDENING, MAX_WIDENING
 
-        self.targets = golden_targets(golden, snr_floor_db=snr_floor_db, batch=batch)
+        self.targets = golden_targets(
+            golden, snr_floor_db=snr_floor_db, batch=batch, dark_offset=dark_offset
+        )
         self.golden, self.sensor = golden, sensor
         self.bench = golden.mode == "bench"  # the same samples each cycle, not other parts
         self.dark_offset = float(dark_offset)

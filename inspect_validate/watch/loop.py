@@ -35,7 +35,7 @@ if TYPE_CHECKING:
     from inspect_validate.comparisons import Comparisons
     from inspect_validate.station.file import Station
     from inspect_validate.station.production import PartLocator
-    from inspect_validate.verification.diagnosis import Diagnosis
+    from inspect_validate.verification.diagnosis import Diagnosis, Sensor
     from inspect_validate.verification.golden import Golden
     from inspect_validate.verification.plan import Plan
     from inspect_validate.verification.production import ProductionVerification
@@ -124,6 +124,12 @@ class LineWatch:
     feed: FolderFeed | None = None
     locator: PartLocator | None = None  # built once for the watch, not once a cycle
     comparisons: Comparisons | None = None
+    sensor: Sensor | None = None  # the camera model's EMVA values (None: frames alone)
+
+    @property
+    def dark_offset(self) -> float:
+        """DN under the classes' signal: the camera model's, 0 without one."""
+        return self.sensor.dark_offset if self.sensor is not None else 0.0
 
 
 def watch(
@@ -391,7 +397,8 @@ def _line_batch(station, line, frames, n, hours):
         )
     if line.feed is not None and line.feed.passed_over:
         notes.append(f"{line.feed.passed_over} files passed over so far (not frames)")
-    return verification, series_of_parts(parts, name), "; ".join(notes) or None
+    values = series_of_parts(parts, name, dark_offset=line.dark_offset)
+    return verification, values, "; ".join(notes) or None
 
 
 def _readable(files, unreadable: dict[str, str]):

@@ -207,16 +207,13 @@ def _one_camera(
         plan = plan_verification(station, drift_checks=False)
     try:
         if line is not None:
-            from inspect_validate.verification.diagnosis import station_sensor
-
             assert station.production is not None  # _line_watch refused a station without
-            sensor = station_sensor(station)
             monitor = DriftMonitor(
                 line.golden,
-                dark_offset=sensor.dark_offset if sensor is not None else 0.0,
+                dark_offset=line.dark_offset,
                 snr_floor_db=drift.snr_floor_db,
                 batch=station.production.parts,
-                sensor=sensor,
+                sensor=line.sensor,
             )
         else:
             from inspect_validate.verification.diagnosis import Sensor
@@ -264,4 +261,6 @@ def _line_watch(station: Station, golden_file: Path, frames: Path | None) -> Lin
                 source=str(frames),
             )
         feed = FolderFeed(frames, station.production.parts)
-    return LineWatch(golden, feed, locator, comparisons)
+    from inspect_validate.verification.diagnosis import station_sensor
+
+    return LineWatch(golden, feed, locator, comparisons, station_sensor(station))

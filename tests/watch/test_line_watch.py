@@ -42,7 +42,8 @@ def test_the_cameras_batches_are_charted_with_focus_and_position(cli, tmp_path, 
                           "--cycles", 2, "--interval", 0])  # fmt: skip
     assert code == 0, out + err
     keys, cycles = _charts(db)
-    assert {("class", "focus"), ("pose", "x"), ("pose", "angle"), ("comparison", "snr_db")} <= keys
+    assert {("class", "focus"), ("pose", "x"), ("pose", "angle"), ("comparison", "snr_db"),
+            ("field", "slope_x"), ("field", "slope_y")} <= keys  # fmt: skip
     assert [c[1] for c in cycles] == ["pass", "pass"]
     status = json.loads((tmp_path / "w" / "status.json").read_text())
     assert any(v["kind"] == "pose" for v in status["values"])
@@ -56,6 +57,26 @@ def test_a_dimmer_light_drifts_with_its_cause(cli, tmp_path, line_golden):
     assert code == 1, out
     _, cycles = _charts(db)
     assert cycles[-1][1] == "drift" and "dimmer by" in cycles[-1][3], cycles
+
+
+def test_a_shade_on_the_lens_moves_the_fields_chart(cli, tmp_path, line_golden):
+    """A speck of dust over the frame's upper edge (σ 150 px, 30 % at its centre), which
+    the golden parts never had: the upper band's μ now falls as a part moves up, and its
+    field slope along y alarms; /metrics-ready values carry it under kind "field"."""
+    dust = [{"x": 0.5, "y": 0.0, "radius_px": 150, "depth": 0.3}]
+    station = line_station(tmp_path / "s", parts=PARTS, dust=dust)
+    db = tmp_path / "w" / "h.sqlite"
+    code, out, _ = cli(["watch", station, "--production", "--golden", line_golden, "--db", db,
+                        "--cycles", 2, "--interval", 0])  # fmt: skip
+    assert code == 1, out
+    with sqlite3.connect(db) as con:
+        alarmed = con.execute(
+            "SELECT name, quantity FROM points WHERE kind = 'field' AND (ewma < low OR ewma > high)"
+        ).fetchall()
+    assert ("A", "slope_y") in alarmed, alarmed
+    status = json.loads((tmp_path / "w" / "status.json").read_text())
+    field = {(v["name"], v["quantity"]): v for v in status["values"] if v["kind"] == "field"}
+    assert field["A", "slope_y"]["alarm"] and field["A", "slope_y"]["value"] > 0.02
 
 
 def _watched(cli, station, folder, golden, db, cycles, write):

@@ -277,8 +277,68 @@ def test_the_camera_rules_fire_on_a_lossy_deaf_flaky_camera_and_stay_silent_on_a
     assert result.returncode == 0, result.stdout + result.stderr
 
 
+@pytest.mark.skipif(not shutil.which("promtool"), reason="promtool is not installed")
+def test_the_light_field_rule_fires_on_a_field_chart_alone(tmp_path):
+    """promtool's unit test of the rule: a field chart's alarm fires it naming the class
+    and the slope; a class mean's alarm (a light that dims) does not."""
+    rule = next(
+        r for r in yaml.safe_load(RULES.read_text())["groups"][0]["rules"]
+        if r["alert"] == "InspectionLightField"
+    )  # fmt: skip
+    labels = 'job="inspect-validate",instance="line",illumination="amber",name="A"'
+    tests = {
+        "rule_files": [str(RULES)],
+        "evaluation_interval": "1m",
+        "tests": [
+            {
+                "interval": "1m",
+                "input_series": [
+                    {
+                        "series": f'inspect_validate_alarm{{{labels},kind="field",quantity="slope_y"}}',
+                        "values": "0 0 1 1 1",
+                    },
+                    {
+                        "series": f'inspect_validate_alarm{{{labels},kind="class",quantity="mean"}}',
+                        "values": "1 1 1 1 1",
+                    },
+                ],
+                "alert_rule_test": [
+                    {"eval_time": "1m", "alertname": "InspectionLightField", "exp_alerts": []},
+                    {
+                        "eval_time": "3m",
+                        "alertname": "InspectionLightField",
+                        "exp_alerts": [
+                            {
+                                "exp_labels": {
+                                    "severity": "warning",
+                                    "job": "inspect-validate",
+                                    "instance": "line",
+                                    "illumination": "amber",
+                                    "name": "A",
+                                    "kind": "field",
+                                    "quantity": "slope_y",
+                                },
+                                "exp_annotations": {
+                                    "summary": "line: the light's field over A changed (slope_y)",
+                                    "description": rule["annotations"]["description"],
+                                },
+                            }
+                        ],
+                    },
+                ],
+            }
+        ],
+    }
+    path = tmp_path / "rules_test.yml"
+    path.write_text(yaml.safe_dump(tests, sort_keys=False, allow_unicode=True))
+    result = subprocess.run(
+        ["promtool", "test", "rules", str(path)], capture_output=True, text=True
+    )
+    assert result.returncode == 0, result.stdout + result.stderr
+
+
 def test_the_rules_and_the_dashboard_are_valid(tmp_path):
-    """Nine rules load (promtool, where installed); the dashboard is Grafana JSON whose
+    """Ten rules load (promtool, where installed); the dashboard is Grafana JSON whose
     every panel queries a metric the watch exports."""
     from inspect_validate.watch.serve import prometheus_text
 
@@ -286,7 +346,7 @@ def test_the_rules_and_the_dashboard_are_valid(tmp_path):
         result = subprocess.run(
             ["promtool", "check", "rules", str(RULES)], capture_output=True, text=True
         )
-        assert result.returncode == 0 and "SUCCESS: 9 rules found" in result.stdout, result.stdout
+        assert result.returncode == 0 and "SUCCESS: 10 rules found" in result.stdout, result.stdout
     dashboard = json.loads((MONITORING / "grafana-dashboard.json").read_text())
     exported = set(
         re.findall(
