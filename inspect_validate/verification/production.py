@@ -34,7 +34,13 @@ if TYPE_CHECKING:
     from inspect_validate.verification.diagnosis import Diagnosis
     from inspect_validate.verification.golden import Golden, Spread
 
-__all__ = ["MIN_FOUND", "ProductionVerification", "verify_parts", "verify_production"]
+__all__ = [
+    "MIN_FOUND",
+    "ProductionVerification",
+    "counted_reasons",
+    "verify_parts",
+    "verify_production",
+]
 
 MIN_FOUND = 0.5
 """The fraction of a folder's frames that must hold a measured part."""
@@ -156,7 +162,7 @@ def verify_parts(
         100 * MIN_FOUND,
         "%",
         f"{len(parts.measured)} of {len(parts.measured) + len(parts.not_measured)} frames "
-        "hold a part" + (f"; {_reasons(parts.not_measured)}" if parts.not_measured else ""),
+        "hold a part" + (f"; {counted_reasons(parts.not_measured)}" if parts.not_measured else ""),
     )
     confidence = station.acceptance.confidence
     checks = [
@@ -186,7 +192,7 @@ def _cause(v: ProductionVerification) -> str | None:
             total = len(missing) + len(v.parts.measured)
             return (
                 f"{len(unusable)} of {total} frames cannot be used as this station's frames "
-                f"({_reasons(unusable)}): the line's program writes frames unlike the "
+                f"({counted_reasons(unusable)}): the line's program writes frames unlike the "
                 "reference (size, colour, pixel type) or cuts them short"
             )
         return (
@@ -196,8 +202,9 @@ def _cause(v: ProductionVerification) -> str | None:
     return v.diagnosis.text or (f"{listed(failed, 3)} failed, and no one cause explains what moved")
 
 
-def _reasons(missing: dict[str, str]) -> str:
-    """The commonest reasons frames held no measured part, counted."""
+def counted_reasons(missing: dict[str, str]) -> str:
+    """Why frames held no measured part (frame → why), each kind of reason counted, the
+    commonest first: "no part found (2); the same frame as another (1)"."""
     counts: dict[str, int] = {}
     for why in missing.values():
         key = why.split(" keeps")[0] if " keeps " in why else why.split(":")[0]
