@@ -162,8 +162,8 @@ class Verification:
     @functools.cached_property
     def diagnosis(self) -> Diagnosis | None:
         """What the capture changed against the golden file and the causes that explain
-        it, best first (:mod:`~inspect_validate.verification.diagnosis`); None without a
-        golden file."""
+        it, best first (the module ``inspect_validate.verification.diagnosis``); None
+        without a golden file."""
         from inspect_validate.verification.diagnosis import Sensor, capture_diagnosis
 
         if self.golden is None:
