@@ -17,7 +17,7 @@ from pydantic import Field as Of
 if TYPE_CHECKING:
     from collections.abc import Mapping
 
-    from inspect_validate.characterization.sharpness import EdgeMTF
+    from inspect_validate.characterization.targets import EdgeReading
 
 __all__ = [
     "HALF_NYQUIST",
@@ -40,6 +40,9 @@ class EdgeRecord(BaseModel):
     model_config = ConfigDict(extra="ignore", frozen=True)
     mtf50: Annotated[float, Of(gt=0, le=1, allow_inf_nan=False)] | None
     """cycles/px where the MTF falls to ½ (None: above 1 cycle/px)."""
+    mtf50_se: Annotated[float, Of(ge=0, le=1, allow_inf_nan=False)] | None = None
+    """Its standard error from the frames' own spread (None: one frame)."""
+    frames: Annotated[int, Of(ge=1, le=100_000)] | None = None
     mtf_half_nyquist: Annotated[float, Of(ge=-0.5, le=1.5, allow_inf_nan=False)]
     angle_deg: Annotated[float, Of(ge=-90, le=90, allow_inf_nan=False)]
     frequencies: list[Annotated[float, Of(ge=0, le=1, allow_inf_nan=False)]] = Of(
@@ -60,20 +63,23 @@ class SharpnessFile(BaseModel):
 
 
 def sharpness_document(
-    edges: Mapping[str, EdgeMTF],
+    edges: Mapping[str, EdgeReading],
     *,
     region: tuple[int, int, int, int],
     inputs: dict | None = None,
 ) -> dict:
-    """The ``sharpness.json`` document of ``edges`` (illumination → edge MTF), read in
+    """The ``sharpness.json`` document of ``edges`` (illumination → its reading), read in
     ``region`` (x, y, width, height), from ``inputs``."""
     from inspect_validate import __version__
 
     illuminations = {}
-    for name, e in edges.items():
+    for name, reading in edges.items():
+        e = reading.edge
         keep = e.frequencies <= 1.0
         illuminations[name] = {
             "mtf50": e.mtf50 if math.isfinite(e.mtf50) else None,
+            "mtf50_se": reading.mtf50_se if math.isfinite(reading.mtf50_se) else None,
+            "frames": reading.frames,
             "mtf_half_nyquist": e.at(HALF_NYQUIST),
             "angle_deg": e.angle_deg,
             "vertical": e.vertical,

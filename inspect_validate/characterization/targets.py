@@ -8,6 +8,8 @@ dark frame, per pixel.
 
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -20,7 +22,15 @@ if TYPE_CHECKING:
     from inspect_validate.characterization.sharpness import EdgeMTF
     from inspect_validate.station.file import Station
 
-__all__ = ["EDGE_WINDOW", "edge_window", "measure_field", "measure_sharpness", "target_images"]
+__all__ = [
+    "EDGE_WINDOW",
+    "EdgeReading",
+    "edge_window",
+    "measure_field",
+    "measure_sharpness",
+    "target_images",
+    "target_stacks",
+]
 
 EDGE_WINDOW = 100
 """Pixels a side of the window about the frame's centre an edge is read in, by default
@@ -37,6 +47,14 @@ def target_images(station: Station, folder: Path, target: str) -> dict[str, np.n
         Not a complete capture of that target, one without dark frames, frames that
         cannot be read.
     """
+    return {
+        name: stack.mean(axis=0) for name, stack in target_stacks(station, folder, target).items()
+    }
+
+
+def target_stacks(station: Station, folder: Path, target: str) -> dict[str, np.ndarray]:
+    """Each illumination's frames less the mean dark frame (DN), (frames, height, width),
+    of a capture of ``target`` (as :func:`target_images`)."""
     from inspect_validate.camera.storage import read_capture
     from inspect_validate.images import read_frames
 
@@ -50,14 +68,14 @@ def target_images(station: Station, folder: Path, target: str) -> dict[str, np.n
     below = read_frames(dark).mean(axis=0)
     out = {}
     for name, paths in files.items():
-        image = read_frames(paths).mean(axis=0) - below
-        if image.shape != below.shape:
+        stack = read_frames(paths).astype(np.float64)
+        if stack.shape[1:] != below.shape:
             raise InputError(
-                f"illumination {name!r}'s frames are {image.shape[1]}×{image.shape[0]} px and "
+                f"illumination {name!r}'s frames are {stack.shape[2]}×{stack.shape[1]} px and "
                 f"the darks {below.shape[1]}×{below.shape[0]}",
                 source=str(folder),
             )
-        out[name] = image
+        out[name] = stack - below
     return out
 
 
@@ -83,11 +101,21 @@ def edge_window(shape: tuple[int, int], size: int = EDGE_WINDOW) -> tuple[int, i
     return (w - sw) // 2, (h - sh) // 2, sw, sh
 
 
+@dataclass(frozen=True)
+class EdgeReading:
+    """An illumination's edge: the MTF of its frames' mean, and the standard error of its
+    MTF50 from the frames' own spread (each frame's MTF50; NaN from one frame)."""
+
+    edge: EdgeMTF
+    mtf50_se: float
+    frames: int
+
+
 def measure_sharpness(
     station: Station, folder: Path, *, region: tuple[int, int, int, int] | None = None
-) -> dict[str, EdgeMTF]:
+) -> dict[str, EdgeReading]:
     """Each illumination's edge MTF from an edge target's capture, read in ``region``
-    (x, y, width, height; default :func:`edge_window`).
+    (x, y, width, height; default :func:`edge_window`), with its MTF50's standard error.
 
     Raises
     ------
@@ -98,7 +126,8 @@ def measure_sharpness(
     from inspect_validate.characterization.sharpness import edge_mtf
 
     out = {}
-    for name, image in target_images(station, folder, "edge").items():
+    for name, stack in target_stacks(station, folder, "edge").items():
+        image = stack.mean(axis=0)
         x, y, w, h = region or edge_window(image.shape)
         if x < 0 or y < 0 or x + w > image.shape[1] or y + h > image.shape[0]:
             raise InputError(
@@ -107,9 +136,13 @@ def measure_sharpness(
                 source=str(folder),
             )
         try:
-            out[name] = edge_mtf(image[y : y + h, x : x + w])
+            edge = edge_mtf(image[y : y + h, x : x + w])
+            each = [edge_mtf(frame[y : y + h, x : x + w]).mtf50 for frame in stack]
         except InputError as exc:
             raise InputError(
-                f"illumination {name!r}, region {x},{y},{w},{h}: {exc!s}", source=str(folder)
+                f"illumination {name!r}, region {x},{y},{w},{h}: {exc}", source=str(folder)
             ) from None
+        each = np.array(each)
+        se = float(each.std(ddof=1) / np.sqrt(each.size)) if each.size > 1 else math.nan
+        out[name] = EdgeReading(edge, se if np.isfinite(each).all() else math.nan, each.size)
     return out

@@ -177,21 +177,99 @@ def _targets(st, flat, edge, region, out) -> None:
         )
         from inspect_validate.characterization.targets import edge_window, measure_sharpness
 
-        edges = measure_sharpness(st, edge, region=region)
+        readings = measure_sharpness(st, edge, region=region)
+        # what the station measured when it was set up, read before this one is written
+        # (an --out of the station's own calibration folder replaces it)
+        reference = _reference_sharpness(st)
         used = region or edge_window(_frame_shape(edge))
-        document = sharpness_document(edges, region=used, inputs={**inputs, "capture": str(edge)})
-        for name, e in edges.items():
+        document = sharpness_document(
+            readings, region=used, inputs={**inputs, "capture": str(edge)}
+        )
+        edges = {name: r.edge for name, r in readings.items()}
+        for name, r in readings.items():
+            e = r.edge
             mtf50 = f"{e.mtf50:.4g}" if math.isfinite(e.mtf50) else "above 1"
+            se = f" ± {r.mtf50_se:.2g}" if math.isfinite(r.mtf50_se) else ""
             click.echo(
-                f"{name}: MTF50 {mtf50} cycles/px, MTF at Nyquist/2 ({HALF_NYQUIST} cycles/px) "
-                f"{e.at(HALF_NYQUIST):.3f}; edge turned {e.angle_deg:+.2f}°, contrast "
-                f"{e.contrast:.4g} DN"
+                f"{name}: MTF50 {mtf50}{se} cycles/px, MTF at Nyquist/2 ({HALF_NYQUIST} "
+                f"cycles/px) {e.at(HALF_NYQUIST):.3f}; edge turned {e.angle_deg:+.2f}°, "
+                f"contrast {e.contrast:.4g} DN"
             )
         click.echo(
             f"sharpness: {write_json(document, out / 'sharpness.json')} (name it in the "
             "station as sharpness:)"
         )
     _datasheet(st, out, field_doc, fields, edges, inputs)
+    if edge is not None and reference is not None:
+        _focus_since(st, readings, reference)
+
+
+def _reference_sharpness(st):
+    """The station's ``sharpness:`` file, read (None where it names none)."""
+    if st.sharpness is None:
+        return None
+    from inspect_validate.characterization.sharpness_file import read_sharpness
+
+    return read_sharpness(st.resolve(st.sharpness))
+
+
+def _focus_since(st, readings, reference) -> None:
+    """The edge's MTF50 against the station's ``sharpness:`` file (what it measured when
+    it was set up): each illumination's loss checked at the station's false-alarm rate,
+    one-sided, in both measurements' standard errors; exit 1 where the lens lost focus."""
+    import math
+    import sys
+
+    from inspect_validate.errors import EXIT_CHECK_FAILED
+    from inspect_validate.report.verification import check_rows, count_failed, verdict_table
+    from inspect_validate.text import terminal_width
+    from inspect_validate.verification.checks import at_least, decide, not_run
+
+    path = st.resolve(st.sharpness)
+    checks = []
+    for name, r in readings.items():
+        then = reference.illuminations.get(name)
+        label = f"{name}: MTF50 since {path.name}"
+        if then is None or then.mtf50 is None or not math.isfinite(r.edge.mtf50):
+            checks.append(
+                not_run(label, "sharpness", 0.0, "%", "≥", "no MTF50 of this illumination in both")
+            )
+            continue
+        spread = math.hypot(then.mtf50_se or math.nan, r.mtf50_se)
+        if not math.isfinite(spread):
+            which = (
+                f"{path.name} records no standard error of its MTF50 (measure the station's "
+                "edge again with characterize --sharpness, and name that file)"
+                if then.mtf50_se is None
+                else "this edge is of one frame: its MTF50 has no standard error (capture "
+                "more frames)"
+            )
+            checks.append(not_run(label, "sharpness", 0.0, "%", "≥", which))
+            continue
+        frames = min(then.frames or 2, r.frames)
+        checks.append(
+            at_least(
+                label,
+                "sharpness",
+                100 * (r.edge.mtf50 / then.mtf50 - 1),
+                0.0,
+                "%",
+                f"{then.mtf50:.4g} then, {r.edge.mtf50:.4g} cycles/px now; below, the lens "
+                "lost focus (or a haze on it)",
+                basis="statistical",
+                standard_error=100 * spread / then.mtf50,
+                df=frames - 1,
+                sided=1,
+            )
+        )
+    decided = decide(checks, st.acceptance.false_alarm_rate)
+    rows = [cells for _, cells in check_rows(decided)]
+    click.echo(verdict_table(rows, terminal_width(sys.stdout)))
+    if any(not c.passed and math.isfinite(c.value) for c in decided):
+        click.echo("likely cause: the lens lost focus since the station's sharpness was measured")
+    click.echo(f"{'PASS' if all(c.passed for c in decided) else 'FAIL'}: {count_failed(decided)}")
+    if not all(c.passed for c in decided):
+        sys.exit(EXIT_CHECK_FAILED)
 
 
 def _datasheet(st, out, field_doc, fields, edges, inputs) -> None:

@@ -6,6 +6,7 @@ is known. Captures of a target are refused where the objects' are expected, and 
 other way round."""
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -159,3 +160,29 @@ def test_the_simulated_edges_mtf50_is_its_truths_at_34_db(sigma):
     ]
     assert np.mean(found) == pytest.approx(truth, rel=0.01)
     assert np.std(found, ddof=1) / truth < 0.03
+
+
+def test_an_edge_measured_again_fails_where_the_lens_lost_focus(cli, tmp_path):
+    """The station names its edge as measured at set-up (blur σ 0.5 px); measured again,
+    the same lens passes, and one defocused by 0.3 px more (MTF50 about 30 % lower, against
+    limits of 6–9 % from 4 frames' spread at t with 3 degrees of freedom) fails, exit 1,
+    naming the focus; the reference is read before an --out of its own folder replaces it."""
+    station = copy_station(tmp_path, world={"blur_px": 0.5})
+    assert cli(["capture", station, "--target", "edge", "--out", tmp_path / "e0"])[0] == 0
+    assert cli(["characterize", station, "--sharpness", tmp_path / "e0", "--out",
+                tmp_path / "cal"])[0] == 0  # fmt: skip
+    doc = yaml.safe_load(station.read_text())
+    doc["sharpness"] = "cal/sharpness.json"
+    station.write_text(yaml.safe_dump(doc, sort_keys=False))
+    assert cli(["capture", station, "--target", "edge", "--out", tmp_path / "e1"])[0] == 0
+    code, out, err = cli(["characterize", station, "--sharpness", tmp_path / "e1", "--out",
+                          tmp_path / "cal1"])  # fmt: skip
+    assert code == 0 and "PASS: all 2 checks passed" in out, out + err
+    doc["camera"]["world"]["blur_px"] = 0.8
+    station.write_text(yaml.safe_dump(doc, sort_keys=False))
+    assert cli(["capture", station, "--target", "edge", "--out", tmp_path / "e2"])[0] == 0
+    code, out, err = cli(["characterize", station, "--sharpness", tmp_path / "e2", "--out",
+                          tmp_path / "cal"])  # fmt: skip
+    assert code == 1 and "likely cause: the lens lost focus" in out, out + err
+    losses = [float(x) for x in re.findall(r"MTF50 since sharpness\.json +(-[\d.]+)", out)]
+    assert len(losses) == 2 and all(-40 < x < -20 for x in losses), out
