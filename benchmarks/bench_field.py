@@ -25,7 +25,6 @@ on 2 cores at the defaults).
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import time
 from pathlib import Path
@@ -50,22 +49,11 @@ def _station(world: dict):
 
 
 def _grabber(station, target: str, seed: int):
-    from inspect_validate.simulation.camera import SimulatedGrabber
-    from inspect_validate.station.model import station_model
+    from inspect_validate.simulation.trials import station_grabber
 
-    spec = station.camera
-    camera = SimulatedGrabber(
-        station_model(station),
-        Path(os.devnull),
-        world=spec.world,
-        width=spec.width,
-        height=spec.height,
-        seed=seed,
-        noise_seed=seed,
-        target=target,
+    return station_grabber(
+        station, world=station.camera.world, seed=seed, noise_seed=seed, target=target
     )
-    camera.configure(exposure_us=spec.exposure_us, gain_db=spec.gain_db)
-    return camera
 
 
 def _image(camera, state: dict, frames: int = 4) -> np.ndarray:

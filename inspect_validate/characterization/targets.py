@@ -137,12 +137,11 @@ def measure_sharpness(
             )
         try:
             edge = edge_mtf(image[y : y + h, x : x + w])
-            each = [edge_mtf(frame[y : y + h, x : x + w]).mtf50 for frame in stack]
+            each = np.array([edge_mtf(frame[y : y + h, x : x + w]).mtf50 for frame in stack])
         except InputError as exc:
             raise InputError(
                 f"illumination {name!r}, region {x},{y},{w},{h}: {exc}", source=str(folder)
             ) from None
-        each = np.array(each)
         se = float(each.std(ddof=1) / np.sqrt(each.size)) if each.size > 1 else math.nan
         out[name] = EdgeReading(edge, se if np.isfinite(each).all() else math.nan, each.size)
     return out

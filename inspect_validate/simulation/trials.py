@@ -29,13 +29,14 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 if TYPE_CHECKING:
+    from inspect_validate.simulation.camera import SimulatedGrabber
     from inspect_validate.station.file import Station
     from inspect_validate.station.model import StationModel
     from inspect_validate.station.world import World
     from inspect_validate.verification.measured import MeasuredCapture
     from inspect_validate.verification.plan import Plan
 
-__all__ = ["Trial", "WatchTrial", "render_capture", "run_trials", "watch_trials"]
+__all__ = ["Trial", "WatchTrial", "render_capture", "run_trials", "station_grabber", "watch_trials"]
 
 IN_PROCESS = "trained in process"  # the drift block's golden file: none is written
 
@@ -79,6 +80,38 @@ class WatchTrial:
     failures: int
 
 
+def station_grabber(
+    station: Station,
+    *,
+    world: World,
+    seed: int,
+    sensor_seed: int | None = None,
+    noise_seed: Any = None,
+    target: str = "scene",
+    renderer_model: StationModel | None = None,
+) -> SimulatedGrabber:
+    """``station``'s simulated camera in ``world``, configured at the station's exposure
+    and gain, showing ``target`` (the scene's objects, or a ``flat`` or ``edge`` target;
+    :class:`~inspect_validate.simulation.camera.SimulatedGrabber`)."""
+    from inspect_validate.simulation.camera import SimulatedGrabber
+    from inspect_validate.station.model import station_model
+
+    spec = station.camera
+    camera = SimulatedGrabber(
+        renderer_model or station_model(station),
+        Path(os.devnull),
+        world=world,
+        width=spec.width,
+        height=spec.height,
+        seed=seed,
+        sensor_seed=sensor_seed,
+        noise_seed=noise_seed,
+        target=target,
+    )
+    camera.configure(exposure_us=spec.exposure_us, gain_db=spec.gain_db)
+    return camera
+
+
 def render_capture(
     station: Station,
     plan: Plan,
@@ -109,23 +142,14 @@ def render_capture(
         captures makes it once).
     """
     from inspect_validate.measurement import measure_stack
-    from inspect_validate.simulation.camera import SimulatedGrabber
     from inspect_validate.station.model import station_model
     from inspect_validate.verification.measured import MeasuredCapture
 
     model = renderer_model or station_model(station)
-    spec = station.camera
-    camera = SimulatedGrabber(
-        model,
-        Path(os.devnull),
-        world=world,
-        width=spec.width,
-        height=spec.height,
-        seed=seed,
-        sensor_seed=sensor_seed,
-        noise_seed=noise_seed,
-    )
-    camera.configure(exposure_us=spec.exposure_us, gain_db=spec.gain_db)
+    camera = station_grabber(
+        station, world=world, seed=seed, sensor_seed=sensor_seed, noise_seed=noise_seed,
+        renderer_model=model,
+    )  # fmt: skip
     acc = station.acceptance
     level = float(2**model.sensor.bit_depth - 1)
     options: dict[str, Any] = {"comparisons": plan.comparisons, "saturation_level": level}
