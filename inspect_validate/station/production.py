@@ -114,8 +114,6 @@ class PartLocator:
             A frame of another size or pixel type than the reference, not monochrome, or
             a stack of frames (naming no file: the caller knows the frame's).
         """
-        from inspect_validate.roi.pose import moved_masks
-
         if frame.ndim == 3:
             raise InputError(
                 f"a stack of {frame.shape[0]} frames in one file (a multi-page TIFF or a 3-D "
@@ -128,7 +126,14 @@ class PartLocator:
                 f"the frame's pixels are {frame.dtype}, the reference's {self.reference.dtype}: "
                 "give the frames as the line's camera writes them (the reference one of them)"
             )
-        pose = self.search.locate(frame, motion=self.motion)
+        return self.place_at(frame, self.search.locate(frame, motion=self.motion))
+
+    def place_at(self, frame: np.ndarray, pose: Pose) -> Placement:
+        """The regions moved onto the part ``pose`` locates in ``frame`` (of the
+        reference's size and pixel type), and the part's checks: a match score that
+        counts as a part, every class's pixels kept, no blank block in a class."""
+        from inspect_validate.roi.pose import moved_masks
+
         if pose.score < self.min_score:
             return Placement(
                 pose, None, {}, f"no part found: match score {pose.score:.3f} below "
