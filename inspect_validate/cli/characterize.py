@@ -205,8 +205,9 @@ def _targets(st, flat, edge, region, out) -> None:
 
 
 def _reference_sharpness(st):
-    """The station's ``sharpness:`` file, read (None where it names none)."""
-    if st.sharpness is None:
+    """The station's ``sharpness:`` file, read (None where it names none, or names the
+    file this first measurement writes)."""
+    if st.sharpness is None or not st.resolve(st.sharpness).exists():
         return None
     from inspect_validate.characterization.sharpness_file import read_sharpness
 

@@ -49,7 +49,14 @@ __all__ = [
 
 STATUS_COLOURS = {"pass": "#2e8b57", "drift": "#e69500", "fail": "#c8102e", "error": "#777777"}
 """A watch cycle's status as a colour, in charts and pictures alike."""
-_UNITS = {"mean": "DN", "variance": "DN²", "snr_db": "dB", "log_error": "log₁₀ ε"}
+_UNITS = {
+    "mean": "DN",
+    "variance": "DN²",
+    "snr_db": "dB",
+    "log_error": "log₁₀ ε",
+    "slope_x": "per 100 px",
+    "slope_y": "per 100 px",
+}
 
 # matplotlib's default cycle (tab10), as the PNG figures have it.
 COLOURS = [

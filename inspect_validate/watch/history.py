@@ -378,6 +378,7 @@ CHARTED = {
     "class": ("mean", "variance", "focus"),
     "comparison": ("snr_db", "log_error"),
     "pose": ("x", "y", "angle"),
+    "field": ("slope_x", "slope_y"),  # the light's field over the parts (per 100 px)
 }
 
 

@@ -77,6 +77,9 @@ def test_a_shade_on_the_lens_moves_the_fields_chart(cli, tmp_path, line_golden):
     status = json.loads((tmp_path / "w" / "status.json").read_text())
     field = {(v["name"], v["quantity"]): v for v in status["values"] if v["kind"] == "field"}
     assert field["A", "slope_y"]["alarm"] and field["A", "slope_y"]["value"] > 0.02
+    # the history reads them back, and draws them
+    code, out, err = cli(["history", db, "--plot", tmp_path / "plot"])
+    assert code == 0 and "slope_y" in (tmp_path / "plot" / "history.html").read_text(), err
 
 
 def _watched(cli, station, folder, golden, db, cycles, write):
