@@ -103,12 +103,14 @@ def edge_window(shape: tuple[int, int], size: int = EDGE_WINDOW) -> tuple[int, i
 
 @dataclass(frozen=True)
 class EdgeReading:
-    """An illumination's edge: the MTF of its frames' mean, and the standard error of its
-    MTF50 from the frames' own spread (each frame's MTF50; NaN from one frame)."""
+    """An illumination's edge: the MTF of its frames' mean, the standard error of its
+    MTF50 from the frames' own spread (each frame's MTF50; NaN from one frame), and the
+    region (x, y, width, height) it was read in."""
 
     edge: EdgeMTF
     mtf50_se: float
     frames: int
+    region: tuple[int, int, int, int]
 
 
 def measure_sharpness(
@@ -143,5 +145,6 @@ def measure_sharpness(
                 f"illumination {name!r}, region {x},{y},{w},{h}: {exc}", source=str(folder)
             ) from None
         se = float(each.std(ddof=1) / np.sqrt(each.size)) if each.size > 1 else math.nan
-        out[name] = EdgeReading(edge, se if np.isfinite(each).all() else math.nan, each.size)
+        se = se if np.isfinite(each).all() else math.nan
+        out[name] = EdgeReading(edge, se, each.size, (x, y, w, h))
     return out

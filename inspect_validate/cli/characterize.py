@@ -175,13 +175,13 @@ def _targets(st, flat, edge, region, out) -> None:
             HALF_NYQUIST,
             sharpness_document,
         )
-        from inspect_validate.characterization.targets import edge_window, measure_sharpness
+        from inspect_validate.characterization.targets import measure_sharpness
 
         readings = measure_sharpness(st, edge, region=region)
         # what the station measured when it was set up, read before this one is written
         # (an --out of the station's own calibration folder replaces it)
         reference = _reference_sharpness(st)
-        used = region or edge_window(_frame_shape(edge))
+        used = next(iter(readings.values())).region
         document = sharpness_document(
             readings, region=used, inputs={**inputs, "capture": str(edge)}
         )
@@ -308,10 +308,3 @@ def _class_masks(st, field) -> dict:
 
     rois, _ = station_regions(st)
     return class_masks(rois, (field.height, field.width))
-
-
-def _frame_shape(folder) -> tuple[int, int]:
-    from inspect_validate.images import read_frames
-
-    first = next(p for p in sorted(folder.glob("*/frame_*.tif")))
-    return read_frames([first]).shape[1:]

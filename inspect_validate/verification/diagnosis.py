@@ -427,19 +427,23 @@ def _candidates(changes: tuple[Change, ...], sensor, shaded, bench: bool):
         return sum(_chi(c, 0.0) for c in changes if keep(c))
 
     def level(pattern: str, among: Sequence[str]) -> tuple[float, float]:
-        """χ² left by one level of ``pattern`` over the illuminations ``among`` (the rest
-        steady), and the level from their means alone: what a reader checks its size
-        against (σ² and the focus measure follow a level only as closely as their models
-        do)."""
+        """χ² left by one level of ``pattern`` over the illuminations ``among`` (their
+        changes only), and the level from their means alone: what a reader checks its
+        size against (σ² and the focus measure follow a level only as closely as their
+        models do)."""
         own = [c for c in changes if c.illumination in among]
         _, left = _best_factor(_level(own, pattern, sensor))
         a, _ = _best_factor(_level([c for c in own if c.quantity == "mean"], pattern, sensor))
-        return left + steady(lambda c: c.illumination not in among), a
+        return left, a
+
+    def others(among: Sequence[str]) -> float:
+        """χ² of the illuminations a cause leaves steady."""
+        return steady(lambda c: c.illumination not in among)
 
     def named_level(pattern: str):
         def fit():
             left, a = level(pattern, lights)
-            return left, _level_text(pattern, a, every=len(lights) > 1)
+            return left + others(lights), _level_text(pattern, a, every=len(lights) > 1)
 
         return fit
 
@@ -452,7 +456,7 @@ def _candidates(changes: tuple[Change, ...], sensor, shaded, bench: bool):
         def fit():
             left, a = level(light, [ill])
             what = "LED ageing or a failing channel" if a < 1 else "LED driven harder"
-            return left, (
+            return left + others([ill]), (
                 f"illumination {ill} {'dimmer' if a < 1 else 'brighter'} by about "
                 f"{100 * abs(a - 1):.1f} %, the others steady: {what}"
             )
@@ -460,12 +464,11 @@ def _candidates(changes: tuple[Change, ...], sensor, shaded, bench: bool):
         return fit
 
     def each_light():
-        left, moved = 0.0, []
+        left, moved = others(lights), []
         for ill in lights:
             own, a = level(light, [ill])
-            left += own - steady(lambda c, ill=ill: c.illumination not in (ill,))
+            left += own
             moved.append(f"{ill} {100 * (a - 1):+.1f} %")
-        left += steady(lambda c: c.illumination not in lights)
         return left, (
             f"the illuminations changed by different factors ({', '.join(moved)}): their "
             "LEDs changed one by one (ageing, drive currents)"

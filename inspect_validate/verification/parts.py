@@ -8,6 +8,7 @@ part, or one that cannot be this station's frame, is counted with why, never mea
 from __future__ import annotations
 
 import hashlib
+import math
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -24,13 +25,16 @@ if TYPE_CHECKING:
     from inspect_validate.roi.pose import Pose
     from inspect_validate.station.file import Station
     from inspect_validate.station.production import PartLocator
+    from inspect_validate.verification.golden import GoldenIllumination
 
 __all__ = [
     "Part",
     "Parts",
     "capture_of",
+    "golden_field",
     "measure_frames",
     "measure_parts",
+    "parts_field",
     "production_folder",
 ]
 
@@ -196,3 +200,43 @@ def capture_of(frames: Path, *, audit: bool = True) -> dict | None:
                 return manifest
             return {**manifest, "steps": {step: manifest["steps"][step]}}
     return None
+
+
+Slopes = dict[str, tuple[np.ndarray, np.ndarray]]
+"""Per class, the field's slopes (x, y) relative to μ per 100 px and their standard
+errors (:func:`~inspect_validate.characterization.field.part_slopes`)."""
+
+
+def parts_field(parts: Sequence[Part], *, dark_offset: float = 0.0) -> Slopes:
+    """The light's field as the ``parts`` show it: each class's μ (above
+    ``dark_offset``) against where the part lies."""
+    from inspect_validate.characterization.field import part_slopes
+
+    if not parts:
+        return {}
+    x = [p.position[0] for p in parts]
+    y = [p.position[1] for p in parts]
+    return {
+        c.name: part_slopes([p.measurement.classes[k].mean - dark_offset for p in parts], x, y)
+        for k, c in enumerate(parts[0].measurement.classes)
+    }
+
+
+def golden_field(golden: GoldenIllumination, *, dark_offset: float = 0.0) -> Slopes:
+    """:func:`parts_field` of the golden parts, from their recorded μ and positions (none
+    without positions, or where a class's values do not pair with them)."""
+    from inspect_validate.characterization.field import part_slopes
+
+    if golden.pose is None:
+        return {}
+
+    def values(spread, offset=0.0):
+        return [math.nan if v is None else v - offset for v in spread.values]
+
+    x, y = values(golden.pose.x), values(golden.pose.y)
+    out = {}
+    for name, cls in golden.classes.items():
+        mu = values(cls.mean, dark_offset)
+        if len(mu) == len(x) == len(y):
+            out[name] = part_slopes(mu, x, y)
+    return out

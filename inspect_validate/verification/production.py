@@ -74,32 +74,20 @@ class ProductionVerification:
     @functools.cached_property
     def field(self) -> dict[str, dict[str, tuple[float, float, float, float]]]:
         """Per class, the light's field as the parts show it (:func:`~inspect_validate.
-        characterization.field.part_slopes`): ``batch`` and ``golden``, each (slope x,
-        slope y, their standard errors), relative to the class's μ per 100 px."""
-        from inspect_validate.characterization.field import part_slopes
+        verification.parts.parts_field`): ``batch`` and ``golden``, each (slope x, slope
+        y, their standard errors), relative to the class's μ per 100 px."""
         from inspect_validate.verification.diagnosis import station_sensor
+        from inspect_validate.verification.parts import golden_field, parts_field
 
         sensor = station_sensor(self.station)
         dark = sensor.dark_offset if sensor is not None else 0.0
         g = next(iter(self.golden.illuminations.values()))
-        parts = self.parts.measured
+        trained = golden_field(g, dark_offset=dark)
         out: dict[str, dict[str, tuple[float, float, float, float]]] = {}
-        if not parts:
-            return out
-        x = [p.position[0] for p in parts]
-        y = [p.position[1] for p in parts]
-        for k, c in enumerate(parts[0].measurement.classes):
-            mu = [p.measurement.classes[k].mean - dark for p in parts]
-            slope, se = part_slopes(mu, x, y)
-            out[c.name] = {"batch": (*slope, *se)}
-            gc = g.classes.get(c.name)
-            if gc is not None and g.pose is not None:
-                values = [np.nan if v is None else v - dark for v in gc.mean.values]
-                gx = [np.nan if v is None else v for v in g.pose.x.values]
-                gy = [np.nan if v is None else v for v in g.pose.y.values]
-                if len(values) == len(gx) == len(gy):
-                    slope, se = part_slopes(values, gx, gy)
-                    out[c.name]["golden"] = (*slope, *se)
+        for name, (slope, se) in parts_field(self.parts.measured, dark_offset=dark).items():
+            out[name] = {"batch": (*slope, *se)}
+            if name in trained:
+                out[name]["golden"] = (*trained[name][0], *trained[name][1])
         return out
 
     @functools.cached_property

@@ -181,10 +181,10 @@ class Verification:
         causes = []
         if any(c.kind == "drift" for c in failed) and self.diagnosis is not None:
             causes.append(self.diagnosis.text)
-        blunt = [c.name.split(":")[0] for c in failed if c.kind == "sharpness"]
-        if blunt:
+        lenses = [c.name.split(":")[0] for c in failed if c.kind == "sharpness"]
+        if lenses:
             causes.append(
-                f"the lens is out of focus or soiled ({', '.join(blunt)}: MTF50 below "
+                f"the lens is out of focus or soiled ({', '.join(lenses)}: MTF50 below "
                 "acceptance.sharpness of its in-focus limit): focus it, clean it"
             )
         return "; ".join(c for c in causes if c) or None

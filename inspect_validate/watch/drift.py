@@ -225,8 +225,8 @@ def series_of_parts(
 ) -> dict[SeriesKey, float]:
     """The monitored values of one cycle's batch of parts on the running line (under
     ``illumination``): each quantity's mean over the parts measured (NaN for none), and
-    each class's field slopes (:func:`field_slopes`, of the signal above
-    ``dark_offset``)."""
+    each class's field slopes (:func:`~inspect_validate.verification.parts.parts_field`,
+    of the signal above ``dark_offset``)."""
     measured = parts.measured
     ms = [p.measurement for p in measured]
     values: dict[SeriesKey, float] = {}
@@ -249,29 +249,12 @@ def series_of_parts(
         )
     for i, q in enumerate(("x", "y", "angle")):
         values[illumination, "pose", "part", q] = mean([p.position[i] for p in measured])
-    for name, (sx, sy) in field_slopes(parts, dark_offset=dark_offset).items():
-        values[illumination, "field", name, "slope_x"] = sx
-        values[illumination, "field", name, "slope_y"] = sy
+    from inspect_validate.verification.parts import parts_field
+
+    for name, (slope, _) in parts_field(measured, dark_offset=dark_offset).items():
+        values[illumination, "field", name, "slope_x"] = float(slope[0])
+        values[illumination, "field", name, "slope_y"] = float(slope[1])
     return values
-
-
-def field_slopes(parts: Parts, *, dark_offset: float = 0.0) -> dict[str, tuple[float, float]]:
-    """Per class, the light's field as the batch's parts show it: μ's slopes along x and
-    y relative to its mean, per 100 px (:func:`~inspect_validate.characterization.field.
-    part_slopes`; NaN where the parts do not move enough)."""
-    from inspect_validate.characterization.field import part_slopes
-
-    measured = parts.measured
-    if not measured:
-        return {}
-    x = [p.position[0] for p in measured]
-    y = [p.position[1] for p in measured]
-    out = {}
-    for k, c in enumerate(measured[0].measurement.classes):
-        mu = [p.measurement.classes[k].mean - dark_offset for p in measured]
-        slope, _ = part_slopes(mu, x, y)
-        out[c.name] = (float(slope[0]), float(slope[1]))
-    return out
 
 
 def _log_error(error):
@@ -332,16 +315,9 @@ def _field_targets(targets, ill, g, n: int, batch: int, dark_offset: float) -> N
     """(μ₀, σ₀) of each class's field slopes: the golden parts' slopes, and a batch's
     spread about them, the golden slopes' standard error times √(n/batch) (a slope's
     standard error goes as 1/√parts)."""
-    from inspect_validate.characterization.field import part_slopes
+    from inspect_validate.verification.parts import golden_field
 
-    assert g.pose is not None
-    x = [math.nan if v is None else v for v in g.pose.x.values]
-    y = [math.nan if v is None else v for v in g.pose.y.values]
-    for name, cls in g.classes.items():
-        mu = [math.nan if v is None else v - dark_offset for v in cls.mean.values]
-        if not len(mu) == len(x) == len(y):
-            continue
-        slope, se = part_slopes(mu, x, y)
+    for name, (slope, se) in golden_field(g, dark_offset=dark_offset).items():
         for q, s0, e0 in zip(("slope_x", "slope_y"), slope, se, strict=True):
             if math.isfinite(s0) and math.isfinite(e0):
                 sd = max(e0 * math.sqrt(n / max(batch, 1)), _FLOOR[q])
@@ -397,7 +373,7 @@ class DriftMonitor:
         self.targets = golden_targets(
             golden, snr_floor_db=snr_floor_db, batch=batch, dark_offset=dark_offset
         )
-        self.golden, self.sensor = golden, sensor
+        self.sensor = sensor
         self.bench = golden.mode == "bench"  # the same samples each cycle, not other parts
         self.dark_offset = float(dark_offset)
         arl = family_arl * max(len(self.targets), 1)

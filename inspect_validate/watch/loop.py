@@ -35,7 +35,7 @@ if TYPE_CHECKING:
     from inspect_validate.comparisons import Comparisons
     from inspect_validate.station.file import Station
     from inspect_validate.station.production import PartLocator
-    from inspect_validate.verification.diagnosis import Diagnosis, Sensor
+    from inspect_validate.verification.diagnosis import Sensor
     from inspect_validate.verification.golden import Golden
     from inspect_validate.verification.plan import Plan
     from inspect_validate.verification.production import ProductionVerification
@@ -265,7 +265,8 @@ def _cycle(station, plan, history, monitor, folder, settings, failures, line=Non
         elif state.drifting and rig is None:
             # The cycle's own change, read as verify reads it: the charts' EWMA decides
             # that something drifts, and would name only its smoothed step.
-            cause = _cycle_diagnosis(verification, monitor, line).text or state.cause
+            diagnosis = verification.diagnosis  # bench and line: the verdict's own reading
+            cause = (diagnosis.text if diagnosis is not None else None) or state.cause
         else:
             cause = state.cause
     if rig is None:
@@ -294,16 +295,6 @@ def _cycle(station, plan, history, monitor, folder, settings, failures, line=Non
         if not keep:
             shutil.rmtree(frames, ignore_errors=True)
     return CycleOutcome(record, state, verification, failures, health, history.health_totals())
-
-
-def _cycle_diagnosis(verification, monitor: DriftMonitor, line: LineWatch | None) -> Diagnosis:
-    """What a cycle changed against the golden file, and its causes: of the batch's parts
-    on the line, of the capture on the bench (as ``verify`` reads them)."""
-    from inspect_validate.verification.diagnosis import capture_diagnosis
-
-    if line is not None:
-        return verification.diagnosis
-    return capture_diagnosis(verification.measurements, monitor.golden, sensor=monitor.sensor)
 
 
 def _keep_frames(parts, folder: Path) -> None:

@@ -62,7 +62,7 @@ def test_the_targets_measure_the_worlds_falloff_and_blur(vignetted):
 def test_verify_agrees_once_the_station_names_its_field(cli, vignetted, tmp_path):
     """Without its field, every amber SNR_dB's agreement fails (the model a point); with
     it, every μ and SNR_dB agreement check passes, and what fails is the separation the
-    station asks for: the falloff really costs amber A vs B,C about 4 dB."""
+    station asks for: the falloff really costs amber A vs B,C about 6 dB (−5.1 → −11.1)."""
     code, out, err = cli(["verify", vignetted, "--report", tmp_path / "point"])
     assert code == 1, out + err
     point = json.loads((tmp_path / "point" / "verification.json").read_text())["checks"]
