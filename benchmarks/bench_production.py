@@ -51,7 +51,8 @@ def frames(reference, n, seed=0):
 
 def main() -> None:
     from inspect_validate.comparisons import Comparisons
-    from inspect_validate.station.production import PartLocator, measure_part, part_focus
+    from inspect_validate.measurement import compare_many
+    from inspect_validate.station.production import PartLocator, part_classes, part_focus
 
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--parts", type=int, default=20)
@@ -60,6 +61,7 @@ def main() -> None:
     comparisons = Comparisons.of(list(masks))
     stages: dict[str, list[float]] = {k: [] for k in ("locate", "place", "statistics", "focus")}
     plain: list[float] = []
+    classes = []
     x, y, w, h = TEMPLATE
     patch = reference[y : y + h, x : x + w].astype(np.float32)
     # Prepared once, as a station's part locator is (the production default's rotation
@@ -75,7 +77,7 @@ def main() -> None:
         placement = locator.place_at(frame, pose)
         t2 = time.perf_counter()
         assert placement.regions is not None, placement.reason
-        measure_part(frame, placement, comparisons)
+        classes.append(part_classes(frame, placement))
         t3 = time.perf_counter()
         part_focus(frame, placement.regions)
         t4 = time.perf_counter()
@@ -91,11 +93,18 @@ def main() -> None:
         for name, seconds in zip(stages, (t1 - t0, t2 - t1, t3 - t2, t4 - t3), strict=True):
             stages[name].append(seconds)
         plain.append(t6 - t5)
+    # The comparisons of a batch are computed at once (as a verdict's batch is): their
+    # share of a part is the batch's time over its parts.
+    t0 = time.perf_counter()
+    compare_many(classes[1:], comparisons)
+    compared = (time.perf_counter() - t0) / args.parts
     medians = {k: statistics.median(v) for k, v in stages.items()}
+    medians["statistics"] += compared
     total = sum(medians.values())
     print(machine_line())
     print(f"median over {args.parts} parts, one thread, 2448 × 2048 8-bit, 3 classes\n")
-    print("| stage (place: the regions moved, the part's checks) | ms a part |")
+    print("| stage (place: the regions moved, the part's checks; statistics: the classes, "
+          "and the batch's comparisons over its parts) | ms a part |")  # fmt: skip
     print("|---|---|")
     for name, seconds in medians.items():
         print(f"| {name} | {1e3 * seconds:.1f} |")

@@ -17,7 +17,12 @@ import numpy as np
 
 from inspect_validate.comparisons import Comparisons, label
 from inspect_validate.errors import InputError, sourced
-from inspect_validate.separations import counted_separation, gaussian_separation, kde_separation
+from inspect_validate.separations import (
+    GaussianSeparation,
+    counted_separation,
+    gaussian_separation,
+    kde_separation,
+)
 from inspect_validate.stats import (
     LatticeSample,
     RegionStatistics,
@@ -39,6 +44,7 @@ __all__ = [
     "Limits",
     "Measurement",
     "compare",
+    "compare_many",
     "measure_classes",
     "measure_files",
     "measure_stack",
@@ -263,8 +269,13 @@ def measure_classes(
     *,
     dark: np.ndarray | None = None,
     saturation_level: float | None = None,
+    misfit: bool = True,
 ) -> tuple[ClassMeasurement, ...]:
     """Per-class statistics of a frame stack (N, H, W) under class masks.
+
+    ``misfit=False`` leaves each class's ``gaussian_misfit`` NaN (what only
+    :func:`compare`'s ``kde="auto"`` reads): a production part's, a fifth of its
+    statistics' time.
 
     With ``dark`` (M frames), each pixel's dark mean carries its own temporal noise,
     σ²_dark/M, the same in every frame: it would pass for spatial variance. The
@@ -296,7 +307,9 @@ def measure_classes(
                 temporal_variance=region.temporal_variance,
                 spatial_variance=region.spatial_variance,
                 region=region,
-                gaussian_misfit=gaussian_misfit(region.cdf, m.mean, m.variance),
+                gaussian_misfit=(
+                    gaussian_misfit(region.cdf, m.mean, m.variance) if misfit else math.nan
+                ),
             )
         )
     return tuple(out)
@@ -366,21 +379,61 @@ def compare(
             for i, c in enumerate(classes)
         )
     out = tuple(
-        Comparison(
-            first=first,
-            second=second,
-            snr_db=float(g.snr_db[p]),
-            cnr_db=float(g.cnr_db[p]),
-            fisher_db=float(g.fisher_db[p]),
-            error_gaussian=float(g.error_gaussian[p]),
-            log_error_gaussian=float(g.log_error_gaussian[p]),
+        replace(
+            c,
             error_kde=k.error[p] if k and p in wanted else None,
             error_counted=float(counted_.error[p]) if counted_ else math.nan,
             error_counted_se=float(counted_.standard_error[p]) if counted_ else math.nan,
         )
-        for p, (first, second) in enumerate(comparisons.named)
+        for p, c in enumerate(_gaussian_comparisons(g, comparisons))
     )
     return Measurement(classes, out, comparisons.weighting, skipped=skipped)
+
+
+def compare_many(
+    classes: Sequence[tuple[ClassMeasurement, ...]], comparisons: Comparisons
+) -> tuple[Measurement, ...]:
+    """:func:`compare` of many measurements of the same classes at once (a batch of
+    parts), Gaussian only: SNR_dB (36) and ε Gauss (37) of every comparison, the
+    ε of a group's mixture one root search for the whole batch rather than one a part
+    (a part's comparisons in a sixth of the time); no counted error, no KDE.
+    """
+    if not classes:
+        return ()
+    means = np.array([[c.mean for c in row] for row in classes], dtype=np.float64)
+    variances = np.array([[c.variance for c in row] for row in classes], dtype=np.float64)
+    pixels = np.array([[c.n_pixels for c in row] for row in classes], dtype=np.float64)
+    g = gaussian_separation(means, variances, comparisons, pixels=pixels)
+    skipped = _kde_skipped("never", comparisons, ())
+    return tuple(
+        Measurement(
+            row,
+            _gaussian_comparisons(g, comparisons, row=n),
+            comparisons.weighting,
+            skipped=skipped,
+        )
+        for n, row in enumerate(classes)
+    )
+
+
+def _gaussian_comparisons(
+    g: GaussianSeparation, comparisons: Comparisons, *, row: int | None = None
+) -> tuple[Comparison, ...]:
+    """The comparisons of ``g`` (of combination ``row``, where it has many)."""
+    at = () if row is None else (row,)
+    return tuple(
+        Comparison(
+            first=first,
+            second=second,
+            snr_db=float(g.snr_db[(*at, p)]),
+            cnr_db=float(g.cnr_db[(*at, p)]),
+            fisher_db=float(g.fisher_db[(*at, p)]),
+            error_gaussian=float(g.error_gaussian[(*at, p)]),
+            log_error_gaussian=float(g.log_error_gaussian[(*at, p)]),
+            error_kde=None,
+        )
+        for p, (first, second) in enumerate(comparisons.named)
+    )
 
 
 def _kde_skipped(kde: KdeMode, comparisons: Comparisons, wanted) -> tuple[str, ...]:

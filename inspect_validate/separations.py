@@ -46,14 +46,15 @@ def mixture_moments(
     ----------
     means, variances : ndarray, (..., K)
         Component means (DN) and variances (DN²).
-    weights : ndarray, (K,)
-        Non-negative; normalised here.
+    weights : ndarray, (K,) or (..., K)
+        Non-negative; normalised here (per row where they have leading axes).
     """
     w = np.asarray(weights, dtype=np.float64)
-    w = w / w.sum()
+    w = w / w.sum(axis=-1, keepdims=True)
     m = np.asarray(means, dtype=np.float64)
-    mean = m @ w
-    return mean, np.asarray(variances, dtype=np.float64) @ w + ((m - mean[..., None]) ** 2) @ w
+    mean = (m * w).sum(axis=-1)
+    spread = ((m - mean[..., None]) ** 2 * w).sum(axis=-1)
+    return mean, (np.asarray(variances, dtype=np.float64) * w).sum(axis=-1) + spread
 
 
 @dataclass(frozen=True, eq=False)
@@ -91,8 +92,9 @@ def gaussian_separation(
     means, variances : ndarray, (..., K)
         Per-class μ (DN) and σ² (DN²); leading axes are combinations.
     comparisons : Comparisons
-    pixels : array_like, keyword-only, optional
-        Per-class pixel counts (for ``pixels`` weighting).
+    pixels : array_like, (K,) or (..., K), keyword-only, optional
+        Per-class pixel counts (for ``pixels`` weighting), per combination where they
+        differ (a batch of parts, each region moved with its part).
     valid : ndarray of bool, (...), keyword-only, optional
         Where to compute the mixture errors (elsewhere they are NaN); all by default.
     mixtures : iterable of int, keyword-only, optional
@@ -108,7 +110,10 @@ def gaussian_separation(
     lead = means.shape[:-1]
     w = comparisons.class_weights(pixels)
     sides = [
-        [mixture_moments(means[..., list(g)], variances[..., list(g)], w[list(g)]) for g in pair]
+        [
+            mixture_moments(means[..., list(g)], variances[..., list(g)], w[..., list(g)])
+            for g in pair
+        ]
         for pair in comparisons.groups
     ]
     m1, v1, m2, v2 = (
@@ -142,7 +147,8 @@ def gaussian_separation(
         for p in asked:
             pair: list[tuple[np.ndarray, ...]] = []
             for g in map(list, comparisons.groups[p]):
-                share = np.broadcast_to(w[g] / w[g].sum(), (rows_mean.shape[0], len(g)))
+                share = w[..., g] / w[..., g].sum(axis=-1, keepdims=True)
+                share = np.broadcast_to(share, (*lead, len(g))).reshape(-1, len(g))[keep]
                 pair.append((rows_mean[:, g], share, rows_sd[:, g]))
             compared.append(pair)
         e = gaussian_mixture_errors(
@@ -209,8 +215,9 @@ def counted_separation(
     means, variances : sequence of float
         Per-class μ (38), DN, and σ² (39), DN².
     comparisons : Comparisons
-    pixels : array_like, keyword-only, optional
-        Per-class pixel counts (for ``pixels`` weighting).
+    pixels : array_like, (K,) or (..., K), keyword-only, optional
+        Per-class pixel counts (for ``pixels`` weighting), per combination where they
+        differ (a batch of parts, each region moved with its part).
     """
     from inspect_validate.stats.kde_error import misclassified_regions
     from inspect_validate.stats.mixture import Mixture
@@ -266,8 +273,9 @@ def kde_separation(
     samples : sequence of LatticeSample or array_like
         Grey values of each class, DN.
     comparisons : Comparisons
-    pixels : array_like, keyword-only, optional
-        Per-class pixel counts (for ``pixels`` weighting).
+    pixels : array_like, (K,) or (..., K), keyword-only, optional
+        Per-class pixel counts (for ``pixels`` weighting), per combination where they
+        differ (a batch of parts, each region moved with its part).
     quantum : float, keyword-only, optional
         Quantisation step, the bandwidth floor.
     only : iterable of int, keyword-only, optional

@@ -121,6 +121,46 @@ def test_mixture_moments_closed_form_and_vectorised():
     assert var.tolist() == pytest.approx([1 + 0.75, 0.25 * 4 + 0.75 * 9 + 0.25 * 0.75 * 100])
 
 
+def test_mixture_moments_with_weights_per_row_are_each_rows_own():
+    m = np.array([[1.0, 3.0], [10.0, 20.0]])
+    v = np.array([[1.0, 1.0], [4.0, 9.0]])
+    w = np.array([[1.0, 3.0], [2.0, 2.0]])
+    mean, var = mixture_moments(m, v, w)
+    for row in range(2):
+        want = mixture_moments(m[row], v[row], w[row])
+        assert (mean[row], var[row]) == pytest.approx(want, rel=1e-15)
+
+
+def test_a_batch_compared_at_once_is_each_part_compared_alone():
+    """compare_many (a batch of parts, one root search for every group's ε) gives each
+    row what compare gives it alone, to 1e-9, with pixel weights that differ per part."""
+    from inspect_validate.measurement import ClassMeasurement, compare, compare_many
+
+    rng = np.random.default_rng(4)
+    comparisons = Comparisons.of("ABC", weights="pixels")
+    rows = [
+        tuple(
+            ClassMeasurement(name, float(mu), float(var), int(n), 1, 0.0, 0.0, None, None, None)
+            for name, mu, var, n in zip(
+                "ABC", rng.uniform(80, 120, 3), rng.uniform(4, 40, 3),
+                rng.integers(500, 5000, 3), strict=True,
+            )  # fmt: skip
+        )
+        for _ in range(6)
+    ]
+    for alone, together in zip(
+        (compare(row, comparisons, kde="never", counted=False) for row in rows),
+        compare_many(rows, comparisons),
+        strict=True,
+    ):
+        assert together.classes == alone.classes
+        for a, t in zip(alone.comparisons, together.comparisons, strict=True):
+            assert t.label == a.label
+            for quantity in ("snr_db", "cnr_db", "fisher_db", "error_gaussian"):
+                assert getattr(t, quantity) == pytest.approx(getattr(a, quantity), rel=1e-9)
+    assert compare_many([], comparisons) == ()
+
+
 def test_single_class_groups_reduce_to_the_two_sample_kde_error():
     rng = np.random.default_rng(5)
     a, b = rng.integers(90, 110, 3000), rng.integers(100, 125, 2000)

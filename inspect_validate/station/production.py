@@ -24,7 +24,7 @@ from inspect_validate.errors import InputError
 
 if TYPE_CHECKING:
     from inspect_validate.comparisons import Comparisons
-    from inspect_validate.measurement import Measurement
+    from inspect_validate.measurement import ClassMeasurement, Measurement
     from inspect_validate.roi.pose import Motion, MovedRegions, Pose, TemplateSearch
     from inspect_validate.station.file import Station
 
@@ -34,6 +34,7 @@ __all__ = [
     "Placement",
     "focus_measure",
     "measure_part",
+    "part_classes",
     "part_focus",
     "part_locator",
 ]
@@ -238,14 +239,32 @@ def measure_part(
     *,
     saturation_level: float | None = None,
 ) -> Measurement:
-    """One placed part's classes (μ (38), σ² (39): spatial, within the part) and
-    comparisons (SNR_dB (36), ε Gauss (37)), as :func:`~inspect_validate.measurement.compare`
-    gives them; the frame's own pixels, never resampled, each counted by its share of the
-    moved region (:func:`~inspect_validate.stats.weighted_moments`); the saturated and
-    zero fractions are those of the pixels wholly inside."""
+    """One placed part's classes (:func:`part_classes`) and comparisons (SNR_dB (36),
+    ε Gauss (37)), as :func:`~inspect_validate.measurement.compare` gives them. A batch
+    of parts compares them all at once
+    (:func:`~inspect_validate.measurement.compare_many`)."""
+    from inspect_validate.measurement import compare_many
+
+    classes = part_classes(frame, placement, saturation_level=saturation_level)
+    return compare_many([classes], comparisons)[0]
+
+
+def part_classes(
+    frame: np.ndarray, placement: Placement, *, saturation_level: float | None = None
+) -> tuple[ClassMeasurement, ...]:
+    """One placed part's classes: μ (38), σ² (39) (spatial, within the part), DN and
+    DN²; the frame's own pixels, never resampled, each counted by its share of the moved
+    region (:func:`~inspect_validate.stats.weighted_moments`); the saturated and zero
+    fractions are those of the pixels wholly inside.
+
+    Raises
+    ------
+    ValueError
+        The part was not placed (``placement.reason``), or a class keeps too few pixels.
+    """
     from dataclasses import replace
 
-    from inspect_validate.measurement import compare, measure_classes
+    from inspect_validate.measurement import measure_classes
     from inspect_validate.stats.sample import Moments, weighted_moments
 
     regions = placement.regions
@@ -263,13 +282,13 @@ def measure_part(
         thin = np.count_nonzero(inside) < 2
         (c,) = measure_classes(
             values[None], {name: weights > 0 if thin else inside},
-            saturation_level=saturation_level,
+            saturation_level=saturation_level, misfit=False,
         )  # fmt: skip
         edge = weights > 0 if thin else (weights > 0) & ~inside
         whole = None if thin else Moments(c.n_pixels, c.mean, c.variance)
         m = weighted_moments(values[edge], weights[edge], whole=whole)
         classes.append(replace(c, mean=m.mean, variance=m.variance, n_pixels=m.n))
-    return compare(tuple(classes), comparisons, kde="never", counted=False)
+    return tuple(classes)
 
 
 def _blank(values: np.ndarray, share: float, place: str, reference: float) -> str:

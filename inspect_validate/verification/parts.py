@@ -126,7 +126,8 @@ def measure_frames(
     cannot be measured (a class left with too few pixels to have a spread) is a part not
     measured, named by its frame, either way. ``locator`` and ``comparisons``: the
     station's, built once by a caller that measures batch after batch (a watch)."""
-    from inspect_validate.station.production import measure_part, part_focus, part_locator
+    from inspect_validate.measurement import compare_many
+    from inspect_validate.station.production import part_classes, part_focus, part_locator
     from inspect_validate.verification.measured import station_regions
 
     locator = locator or part_locator(station)
@@ -160,20 +161,21 @@ def measure_frames(
             continue
         px, py = (float(v) for v in placement.pose.apply(centre)[0])
         try:
-            measurement = measure_part(frame, placement, comparisons)
+            classes = part_classes(frame, placement)
         except (InputError, ValueError) as exc:
             missing[name] = f"the part cannot be measured: {exc}"
             continue
-        measured.append(
-            Part(
-                frame=name,
-                pose=placement.pose,
-                measurement=measurement,
-                focus=part_focus(frame, placement.regions),
-                position=(px, py, placement.pose.angle_deg),
-            )
+        focus = part_focus(frame, placement.regions)
+        measured.append((name, placement.pose, classes, focus, (px, py, placement.pose.angle_deg)))
+    # The batch's comparisons at once: a group's ε is one root search for every part.
+    measurements = compare_many([m[2] for m in measured], comparisons)
+    parts = tuple(
+        Part(frame=name, pose=pose, measurement=measurement, focus=focus, position=position)
+        for (name, pose, _, focus, position), measurement in zip(
+            measured, measurements, strict=True
         )
-    return Parts(tuple(measured), missing, comparisons)
+    )
+    return Parts(parts, missing, comparisons)
 
 
 def capture_of(frames: Path, *, audit: bool = True) -> dict | None:
