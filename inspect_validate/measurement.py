@@ -26,6 +26,7 @@ from inspect_validate.separations import (
 from inspect_validate.stats import (
     LatticeSample,
     RegionStatistics,
+    Shading,
     region_statistics,
     sample_moments,
 )
@@ -270,12 +271,14 @@ def measure_classes(
     dark: np.ndarray | None = None,
     saturation_level: float | None = None,
     misfit: bool = True,
+    shading: Shading | None = None,
 ) -> tuple[ClassMeasurement, ...]:
     """Per-class statistics of a frame stack (N, H, W) under class masks.
 
     ``misfit=False`` leaves each class's ``gaussian_misfit`` NaN (what only
     :func:`compare`'s ``kde="auto"`` reads): a production part's, a fifth of its
-    statistics' time.
+    statistics' time. ``shading``: the frames' shading corrected first
+    (:class:`~inspect_validate.stats.Shading`).
 
     With ``dark`` (M frames), each pixel's dark mean carries its own temporal noise,
     σ²_dark/M, the same in every frame: it would pass for spatial variance. The
@@ -286,7 +289,9 @@ def measure_classes(
     out = []
     for name, mask in masks.items():
         try:
-            region = region_statistics(frames, mask, dark=dark, saturation_level=saturation_level)
+            region = region_statistics(
+                frames, mask, dark=dark, saturation_level=saturation_level, shading=shading
+            )
             if dark is not None and dark.shape[0] > 1 and region.spatial_variance is not None:
                 noise = region_statistics(dark, mask).temporal_variance
                 region = replace(
@@ -458,6 +463,7 @@ def measure_files(
     saturation_level: float | None = None,
     limits: Limits = Limits(),
     kde: KdeMode = "auto",
+    shading: Shading | None = None,
 ) -> Measurement:
     """Measure the classes of an ROI file in a stack of frame files.
 
@@ -481,6 +487,9 @@ def measure_files(
         Saturated and zero fractions; exceeded ones are listed in ``violations``.
     kde : {"auto", "always", "never"}, keyword-only
         The nonparametric ε: see :func:`compare`.
+    shading : Shading, keyword-only, optional
+        The frames' shading corrected before measuring
+        (:class:`~inspect_validate.stats.Shading`).
 
     Raises
     ------
@@ -518,6 +527,7 @@ def measure_files(
             saturation_level=saturation_level,
             limits=limits,
             kde=kde,
+            shading=shading,
         )
     inputs = {
         "frames": [str(p) for p in frames],
@@ -539,6 +549,7 @@ def measure_stack(
     saturation_level: float | None = None,
     limits: Limits = Limits(),
     kde: KdeMode = "auto",
+    shading: Shading | None = None,
 ) -> Measurement:
     """Measure the classes of a :class:`~inspect_validate.roi.RoiSet` in a frame stack
     already in memory, (N, H, W) DN: what :func:`measure_files` does once the files are
@@ -547,7 +558,9 @@ def measure_stack(
     from inspect_validate.roi import class_masks
 
     masks = class_masks(rois, stack.shape[1:])
-    classes = measure_classes(stack, masks, dark=dark, saturation_level=saturation_level)
+    classes = measure_classes(
+        stack, masks, dark=dark, saturation_level=saturation_level, shading=shading
+    )
     if not isinstance(comparisons, Comparisons):
         source = str(getattr(rois, "source", "the ROI file"))
         names = [c.name for c in classes]

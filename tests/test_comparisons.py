@@ -142,9 +142,12 @@ def test_a_batch_compared_at_once_is_each_part_compared_alone():
         tuple(
             ClassMeasurement(name, float(mu), float(var), int(n), 1, 0.0, 0.0, None, None, None)
             for name, mu, var, n in zip(
-                "ABC", rng.uniform(80, 120, 3), rng.uniform(4, 40, 3),
-                rng.integers(500, 5000, 3), strict=True,
-            )  # fmt: skip
+                "ABC",
+                rng.uniform(80, 120, 3),
+                rng.uniform(4, 40, 3),
+                rng.integers(500, 5000, 3),
+                strict=True,
+            )
         )
         for _ in range(6)
     ]

@@ -238,6 +238,13 @@ class Chain:
     # Each class's share of each light over its region (mean factor m, relative spread
     # v: :mod:`~inspect_validate.characterization.field`), (L, K, 2); None: a point.
     field: np.ndarray | None = None
+    # The frames' shading corrected by that field (each pixel's signal above dark divided
+    # by its F): each class at the light's maximum, its noise and texture divided alike.
+    field_corrected: bool = False
+    # The share of each class's texture (its spectral spread) each light's frames keep
+    # through the lens's blur (:func:`~inspect_validate.model.mtf.texture_share`), (L,);
+    # None: a sharp lens.
+    texture_share: np.ndarray | None = None
     _rows: dict = dataclasses.field(default_factory=dict, repr=False)  # the last cameras'
 
     @property
@@ -571,6 +578,8 @@ def predict_block(
         signal + dark_e[..., None], gain[..., None], dark[..., None], offset[..., None]
     )
     spectral = (gain[..., None] * t_exp[..., None]) ** 2 * squares / np.maximum(per_class - 1, 1)
+    blurred = 1.0 if chain.texture_share is None else chain.texture_share[ls][:, None, None, None]
+    spectral = spectral * blurred
     # The spectral spread and the sensor's own fixed pattern: both spatial, independent.
     variance += spectral + _fixed_pattern(
         signal, {f: v[None, None, :, None] for f, v in cam.items()}
@@ -591,11 +600,25 @@ def predict_block(
         m = sample_mean @ onehot / per_class
         dev2 = (sample_mean - m[:, sample_class]) ** 2
         sp = (dev2 @ onehot) / np.maximum(per_class - 1, 1)
+        if chain.texture_share is not None:
+            sp = sp * chain.texture_share[ls][idx[0]][:, None]
         mean[idx], spectral[idx] = m, sp
         variance[idx] = sample_var @ onehot / per_class + sp
         if above is not None:
             saturated[idx] = above @ onehot / per_class
 
+    if chain.field_corrected and chain.field is not None:
+        # A pixel at F corrected to d + (x − d)/F: the signal back at the maximum, every
+        # spatial and temporal deviation of it divided by F (shot noise's by √F of its
+        # F·S; E[1/F²] over a region is 1/m² to the order of its spread, which is gone).
+        m = chain.field[ls][:, None, None, :, 0]
+        dark_level = offset[..., None] + gain[..., None] * dark_e[..., None]
+        mean = dark_level + (mean - dark_level) / m
+        variance = variance / (m * m)
+        spectral = spectral / (m * m)
+        # The signal the corrected frames show (a calibration scales it): the maximum's.
+        signal = signal / m
+        spread = None
     if spread is not None:
         # The field's spread over a region: a pixel at F of the light shows F·S, so the
         # region's variance gains Var[F]·S² = v·(m S)² (the texture's and noise's own

@@ -19,7 +19,15 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-__all__ = ["DIFFRACTION_MTF50", "diffraction_mtf", "falls_to", "focus_mtf"]
+__all__ = [
+    "DIFFRACTION_MTF50",
+    "blur_sigma",
+    "diffraction_mtf",
+    "falls_to",
+    "focus_mtf",
+    "texture_kernel",
+    "texture_share",
+]
 
 DIFFRACTION_MTF50 = 0.40397
 """s = ν λ N where a circular pupil's diffraction MTF falls to ½."""
@@ -77,3 +85,40 @@ def falls_to(frequencies: ArrayLike, mtf: ArrayLike, modulation: float = 0.5) ->
         return float("nan")
     k = below[0]
     return float(f[k - 1] + (m[k - 1] - modulation) * (f[k] - f[k - 1]) / (m[k - 1] - m[k]))
+
+
+def blur_sigma(mtf50: float) -> float:
+    """The Gaussian blur σ (px) whose MTF times the pixel's aperture falls to ½ at
+    ``mtf50`` (cycles/px): |sinc ν|·exp(−2π²σ²ν²) = ½ (0 where the pixel alone is that
+    blurred; NaN for no MTF50). The lens's blur as one Gaussian, whatever made it."""
+    if not (np.isfinite(mtf50) and mtf50 > 0):
+        return float("nan")
+    left = 2.0 * abs(float(np.sinc(mtf50)))
+    return float(np.sqrt(np.log(left) / (2 * np.pi**2 * mtf50**2))) if left > 1 else 0.0
+
+
+def texture_kernel(sigma: float) -> np.ndarray:
+    """The share of a pixel-sized patch of the object that each pixel at offset −n…n
+    collects through a Gaussian blur of ``sigma`` px (1-D, summing to 1): the patch's
+    box, the blur and the pixel's box, (box ∗ box ∗ G)(d) = (triangle ∗ G)(d), in closed
+    form from the normal CDF."""
+    from scipy.special import ndtr
+
+    n = int(np.ceil(6 * sigma)) + 2
+    d = np.arange(-n, n + 1, dtype=float)
+    if not sigma > 0:
+        return (d == 0).astype(float)
+
+    def ramp(x):  # (G ∗ max(x, 0)): the triangle is the second difference of max(x, 0)
+        z = x / sigma
+        return x * ndtr(z) + sigma * np.exp(-0.5 * z * z) / np.sqrt(2 * np.pi)
+
+    return ramp(d + 1) - 2 * ramp(d) + ramp(d - 1)
+
+
+def texture_share(sigma: float) -> float:
+    """The share of a texture's variance that a Gaussian blur of ``sigma`` px leaves,
+    where each pixel shows an independent sample (the model's texture): Σ c(d)² in each
+    direction of :func:`texture_kernel`'s c, squared for the two (1 without blur)."""
+    c = texture_kernel(sigma)
+    return float(np.sum(c * c) ** 2)

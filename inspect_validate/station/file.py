@@ -157,6 +157,24 @@ def _channel_shorthand(v):
     return {"light": v} if isinstance(v, str) else v
 
 
+class StationField(StrictModel):
+    """The light's field over the frame, and whether the frames are corrected by it."""
+
+    file: str = Field(min_length=1)
+    """The ``field.json`` of ``characterize --field`` (a relative path is from the station
+    file's folder)."""
+    corrected: bool = False
+    """The line's program corrects the shading (each frame's signal above dark divided by
+    the field, as a camera's flat-field correction or HALCON's shading correction do):
+    ``verify`` measures the frames so corrected, and predicts them, each class at the
+    light's maximum with its noise divided alike. Without, each class is predicted at its
+    region's share of the light and its spread over the region."""
+
+
+def _field_shorthand(v):
+    return {"file": v} if isinstance(v, str) else v
+
+
 class Illumination(StrictModel):
     """One lighting state to capture: which channels are on, and at what drive level."""
 
@@ -279,10 +297,12 @@ class Station(StrictModel):
     rois: str | None = None
     """The ROI file of the classes in the camera's frames (a relative path is from this
     file's folder)."""
-    field: str | None = None
-    """The light's field over the frame (the ``field.json`` of ``characterize --field``;
-    a relative path is from this file's folder): each class is predicted at its region's
-    share of each illumination's light, and its spread over the region."""
+    field: Annotated[StationField, BeforeValidator(_field_shorthand)] | None = None
+    """The light's field over the frame (the ``field.json`` of ``characterize --field``,
+    or ``{file, corrected}``; a relative path is from this file's folder): each class is
+    predicted at its region's share of each illumination's light, and its spread over
+    the region, or, ``corrected: true``, measured and predicted on frames whose shading
+    is corrected."""
     sharpness: str | None = None
     """The lens's measured MTF (the ``sharpness.json`` of ``characterize --sharpness``;
     relative to this file's folder): ``verify`` holds it to the optics' prediction."""
@@ -662,17 +682,19 @@ def write_station(
 ) -> Station:
     """Write ``station`` as a station file at ``path`` and read it back from there.
 
-    The paths it names (scene, ROIs, GenTL producer, replay folder, golden
-    file) are written absolute, so the file means the same wherever it lies;
+    The paths it names (scene, ROIs, field, sharpness, GenTL producer, replay folder,
+    golden file) are written absolute, so the file means the same wherever it lies;
     ``comment`` heads the file (one ``#`` line per line). ``explained``: every key
     comes with a comment saying what it means (its model's field docstring).
     """
     import yaml
 
     doc = station.model_dump(mode="json", exclude={"path"}, exclude_unset=True)
-    for key in ("scene", "rois"):
+    for key in ("scene", "rois", "sharpness"):
         if doc.get(key):
             doc[key] = str(station.resolve(doc[key]).resolve())
+    if doc.get("field"):
+        doc["field"]["file"] = str(station.resolve(doc["field"]["file"]).resolve())
     for key in ("cti", "folder", "measured"):
         if doc["camera"].get(key):
             doc["camera"][key] = str(station.resolve(doc["camera"][key]).resolve())

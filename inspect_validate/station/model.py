@@ -85,13 +85,19 @@ class StationModel:
         *,
         comparisons: Comparisons | None = None,
         field: np.ndarray | None = None,
+        corrected: bool = False,
+        texture_share: np.ndarray | None = None,
     ) -> StationPrediction:
         """:func:`~inspect_validate.model.predict` of every illumination of ``station``
         at its stated irradiances (:meth:`StationPrediction.calibrated
         <inspect_validate.station.prediction.StationPrediction.calibrated>` scales them);
         ``field``, (illumination, class, 2), each class region's mean share of the light
         and its relative spread (:func:`~inspect_validate.characterization.field.
-        field_factors`; None: every class at the stated irradiance)."""
+        field_factors`; None: every class at the stated irradiance); ``corrected``: the
+        frames' shading corrected by that field (the station's ``field.corrected``);
+        ``texture_share``, (illumination,), the share of each class's texture the lens's
+        blur leaves under each (:func:`~inspect_validate.model.mtf.texture_share`; None:
+        a sharp lens)."""
         from inspect_validate.model import Exposure
         from inspect_validate.model.acquisition import predict_chain, prepare
         from inspect_validate.station.prediction import StationPrediction
@@ -111,7 +117,9 @@ class StationModel:
             comparisons=comparisons or self.scene.comparisons,
         )
         if field is not None:
-            chain = replace(chain, field=np.asarray(field, float))
+            chain = replace(chain, field=np.asarray(field, float), field_corrected=corrected)
+        if texture_share is not None:
+            chain = replace(chain, texture_share=np.asarray(texture_share, float))
         return StationPrediction.of(predict_chain(chain), chain=chain)
 
     def focus_mtf(self, station: Station, frequencies: np.ndarray) -> dict[str, np.ndarray]:

@@ -22,7 +22,7 @@ from inspect_validate.stats.gaussian_error import (
 )
 from inspect_validate.stats.kde_error import KdeError, kde_error
 from inspect_validate.stats.ranking import kendall_tau
-from inspect_validate.stats.region import RegionStatistics, region_statistics
+from inspect_validate.stats.region import RegionStatistics, Shading, region_statistics
 from inspect_validate.stats.sample import (
     LatticeSample,
     Moments,
@@ -39,6 +39,7 @@ __all__ = [
     "LatticeSample",
     "Moments",
     "RegionStatistics",
+    "Shading",
     "as_sample",
     "cnr_db",
     "fisher_db",

@@ -12,7 +12,9 @@ One pass over the frames under a mask gives everything the measurement needs:
 * the number of saturated and zero pixel values.
 
 Dark frames are subtracted as their per-pixel mean. For integer frames the
-result stays on the lattice ``1/n_dark`` DN, so every number remains exact.
+result stays on the lattice ``1/n_dark`` DN, so every number remains exact. A
+:class:`Shading` correction divides each pixel's signal by the light's field there
+before the statistics (the raw values still decide what is saturated or zero).
 """
 
 from __future__ import annotations
@@ -32,7 +34,26 @@ from inspect_validate.stats.sample import (
     empirical_cdf,
 )
 
-__all__ = ["RegionStatistics", "region_statistics"]
+__all__ = ["RegionStatistics", "Shading", "region_statistics"]
+
+
+@dataclass(frozen=True, eq=False)
+class Shading:
+    """A shading correction: each pixel's signal above ``dark_level`` (DN) divided by
+    ``field`` (H, W), the light's share at that pixel (1 at its maximum), as a camera's
+    flat-field correction or HALCON's ``shading_correction`` do: a uniform object then
+    shows one grey value over the frame, x ↦ d + (x − d)/F."""
+
+    field: np.ndarray
+    dark_level: float
+
+    def correct(self, values: np.ndarray, mask: np.ndarray, *, dark_subtracted: bool) -> np.ndarray:
+        """``values`` (N, n) of the pixels of ``mask``, corrected (float64, DN); values
+        already ``dark_subtracted`` are divided as they are."""
+        f = np.asarray(self.field, np.float64)[mask]
+        if dark_subtracted:
+            return values / f
+        return self.dark_level + (values - self.dark_level) / f
 
 
 @dataclass(frozen=True, eq=False)
@@ -90,6 +111,7 @@ def region_statistics(
     *,
     dark: np.ndarray | None = None,
     saturation_level: float | None = None,
+    shading: Shading | None = None,
 ) -> RegionStatistics:
     """Measure one region of a frame stack.
 
@@ -105,6 +127,9 @@ def region_statistics(
     saturation_level : float, keyword-only, optional
         Raw value counted as saturated; default the dtype's maximum for integer
         frames, none for float frames.
+    shading : Shading, keyword-only, optional
+        The frames' shading corrected before the statistics (the field of the frames'
+        size); saturated and zero values are counted on the raw ones.
 
     Returns
     -------
@@ -125,10 +150,15 @@ def region_statistics(
             )
     if saturation_level is None and frames.dtype.kind in "ui":
         saturation_level = np.iinfo(frames.dtype).max
+    if shading is not None and np.shape(shading.field) != frames.shape[1:]:
+        raise InputError(
+            f"the field is {np.shape(shading.field)[::-1]} px, the frames "
+            f"{frames.shape[1:][::-1]}: measure the field with this camera's frames"
+        )
     integer = frames.dtype.kind in "ui" and (dark is None or dark.dtype.kind in "ui")
-    if integer:
+    if integer and shading is None:
         return _integer_region(frames, mask, dark, saturation_level, n_pixels)
-    return _float_region(frames, mask, dark, saturation_level, n_pixels)
+    return _float_region(frames, mask, dark, saturation_level, n_pixels, shading)
 
 
 def _as_stack(frames) -> np.ndarray:
@@ -252,9 +282,9 @@ def _histogram_region(hist, lo, sat, n_pixels) -> RegionStatistics:
     return RegionStatistics(sample, n_pixels, 1, None, spatial, n_sat, n_zero)
 
 
-def _float_region(frames, mask, dark, saturation_level, n_pixels) -> RegionStatistics:
+def _float_region(frames, mask, dark, saturation_level, n_pixels, shading=None):
     raw = frames[:, mask]
-    if not np.all(np.isfinite(raw)):
+    if raw.dtype.kind == "f" and not np.all(np.isfinite(raw)):
         k, i = (int(v[0]) for v in np.nonzero(~np.isfinite(raw)))
         y, x = (int(v[i]) for v in np.nonzero(mask))
         raise InputError(
@@ -264,6 +294,8 @@ def _float_region(frames, mask, dark, saturation_level, n_pixels) -> RegionStati
     values = raw.astype(np.float64)
     if dark is not None:
         values -= dark[:, mask].astype(np.float64).mean(axis=0)
+    if shading is not None:
+        values = shading.correct(values, mask, dark_subtracted=dark is not None)
     n_frames = frames.shape[0]
     n_sat = int(np.count_nonzero(raw >= saturation_level)) if saturation_level is not None else 0
     n_zero = int(np.count_nonzero(raw <= 0))

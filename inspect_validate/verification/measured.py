@@ -7,6 +7,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+import numpy as np
+
 from inspect_validate.errors import InputError
 
 if TYPE_CHECKING:
@@ -17,6 +19,7 @@ if TYPE_CHECKING:
     from inspect_validate.measurement import KdeMode, Limits, Measurement
     from inspect_validate.roi.roiset import RoiSet
     from inspect_validate.station.file import Station
+    from inspect_validate.stats import Shading
 
 __all__ = [
     "MeasuredCapture",
@@ -24,6 +27,7 @@ __all__ = [
     "measure_capture",
     "saturation_level",
     "station_regions",
+    "station_shading",
 ]
 
 
@@ -124,8 +128,9 @@ class StepMeasurer:
 
 
 def _measure_step(
-    step: str, files: list[Path], level: float | None, *, rois, comparisons, limits, kde
-):
+    step: str, files: list[Path], level: float | None, *, rois, comparisons, limits, kde,
+    shading=None,
+):  # fmt: skip
     """A step's frames measured as :func:`measure_capture` measures them (the darks
     without ε KDE and limits)."""
     from inspect_validate.measurement import measure_files
@@ -135,8 +140,9 @@ def _measure_step(
             files, rois, comparisons=comparisons, kde="never", saturation_level=level
         )
     return measure_files(
-        files, rois, comparisons=comparisons, limits=limits, kde=kde, saturation_level=level
-    )
+        files, rois, comparisons=comparisons, limits=limits, kde=kde, saturation_level=level,
+        shading=shading,
+    )  # fmt: skip
 
 
 def measure_capture(
@@ -179,13 +185,44 @@ def measure_capture(
     level = saturation_level(next(iter(files.values()))[0], sensor)
     options = {"rois": rois, "comparisons": comparisons, "limits": limits, "kde": kde}
 
-    def measure(step: str, paths: list[Path]) -> Measurement:
+    def measure(step: str, paths: list[Path], shading: Shading | None = None) -> Measurement:
         early = measured.result(step, paths, level) if measured is not None else None
-        return early if early is not None else _measure_step(step, paths, level, **options)
+        if early is not None and shading is None:
+            return early
+        return _measure_step(step, paths, level, **options, shading=shading)
 
-    measurements = {name: measure(name, paths) for name, paths in files.items()}
     dark = measure("dark", dark_files) if dark_files else None
+    shadings = station_shading(station, dark, source=str(folder))
+    measurements = {name: measure(name, paths, shadings.get(name)) for name, paths in files.items()}
     return MeasuredCapture(files, dark_files, manifest, measurements, dark, level, hashes)
+
+
+def station_shading(
+    station: Station, dark: Measurement | None, *, source: str
+) -> dict[str, Shading]:
+    """Each illumination's shading correction where ``station``'s ``field`` is
+    ``corrected`` (none otherwise): its field over the frame, above the dark level the
+    capture's ``dark`` frames measured (their classes' mean).
+
+    Raises
+    ------
+    InputError
+        A corrected field and a capture without dark frames (naming ``source``).
+    """
+    if station.field is None or not station.field.corrected:
+        return {}
+    from inspect_validate.characterization.field_file import read_field
+    from inspect_validate.stats import Shading
+
+    if dark is None or not dark.classes:
+        raise InputError(
+            "field.corrected: correcting the shading needs the capture's dark frames (the "
+            "signal above dark is divided by the field); capture with dark_frames ≥ 1",
+            source=source,
+        )
+    dark_level = float(np.mean([c.mean for c in dark.classes]))
+    fields = read_field(station.resolve(station.field.file)).fields()
+    return {name: Shading(f.map(), dark_level) for name, f in fields.items()}
 
 
 def _settings_agree(station: Station, folder: Path, manifest: dict, files, dark_files) -> None:

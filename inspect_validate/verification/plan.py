@@ -22,7 +22,14 @@ if TYPE_CHECKING:
     from inspect_validate.station.prediction import StationPrediction
     from inspect_validate.verification.golden import Golden
 
-__all__ = ["Plan", "plan_verification", "planned_tests", "validate_trained"]
+__all__ = [
+    "Plan",
+    "plan_verification",
+    "planned_tests",
+    "station_field",
+    "station_texture",
+    "validate_trained",
+]
 
 
 @dataclass(frozen=True)
@@ -170,14 +177,18 @@ def plan_verification(station: Station, *, drift_checks: bool = True) -> Plan:
     scene = replace(model.scene, classes=tuple(scene_classes[n] for n in names))
     model = replace(model, scene=scene)
     unweighted = replace(comparisons, weights="equal") if comparisons.weights == "pixels" else None
-    prediction = model.predict(
-        station, comparisons=unweighted or comparisons, field=station_field(station, rois, names)
-    )
     sharpness = None
     if station.sharpness is not None:
         from inspect_validate.characterization.sharpness_file import read_sharpness
 
         sharpness = read_sharpness(station.resolve(station.sharpness))
+    prediction = model.predict(
+        station,
+        comparisons=unweighted or comparisons,
+        field=station_field(station, rois, names),
+        corrected=station.field is not None and station.field.corrected,
+        texture_share=station_texture(station, sharpness),
+    )
     plan = Plan(rois, comparisons, model, None, prediction, sharpness=sharpness)
     if acc.drift:
         from inspect_validate.verification.golden_checks import validate_golden
@@ -217,7 +228,7 @@ def station_field(station: Station, rois: RoiSet, classes: list[str]) -> np.ndar
     from inspect_validate.characterization.field_file import read_field
     from inspect_validate.roi.roiset import class_masks
 
-    path = station.resolve(station.field)
+    path = station.resolve(station.field.file)
     read = read_field(path)
     missing = [i.name for i in station.illuminations if i.name not in read.illuminations]
     if missing:
@@ -232,6 +243,24 @@ def station_field(station: Station, rois: RoiSet, classes: list[str]) -> np.ndar
         return field_factors(read.fields(), masks, [i.name for i in station.illuminations], classes)
     except InputError as exc:
         raise InputError(str(exc), source=str(path)) from None
+
+
+def station_texture(station: Station, sharpness: SharpnessFile | None) -> np.ndarray | None:
+    """The share of a class's texture each illumination's frames keep through the lens's
+    blur, (illumination,): the blur as one Gaussian of the measured MTF50
+    (:func:`~inspect_validate.model.mtf.blur_sigma`), the texture independent from pixel
+    to pixel as the model's is (:func:`~inspect_validate.model.mtf.texture_share`); 1
+    where the sharpness file has no edge of an illumination; None without one."""
+    if sharpness is None:
+        return None
+    from inspect_validate.model.mtf import blur_sigma, texture_share
+
+    out = np.ones(len(station.illuminations))
+    for i, ill in enumerate(station.illuminations):
+        edge = sharpness.illuminations.get(ill.name)
+        sigma = blur_sigma(edge.mtf50) if edge is not None and edge.mtf50 is not None else 0.0
+        out[i] = texture_share(sigma) if np.isfinite(sigma) else 1.0
+    return out
 
 
 def planned_tests(

@@ -15,14 +15,10 @@ from conftest import copy_station
 from scipy.optimize import brentq
 
 
-@pytest.fixture(scope="module")
-def vignetted(tmp_path_factory):
-    """The shipped station in a world whose corners lose 10 %, the amber LED 10 % more
-    across the frame, and the image blurred by σ 1 px; its targets captured and measured."""
+def _measured_targets(folder, world):
+    """The shipped station in ``world``, its targets captured and measured."""
     from conftest import run_cli
 
-    folder = tmp_path_factory.mktemp("vignetted")
-    world = {"vignetting": 0.1, "light_gradient": {1: 0.1}, "blur_px": 1.0}
     station = copy_station(folder, world=world)
     for target in ("flat", "edge"):
         out = folder / target
@@ -30,6 +26,23 @@ def vignetted(tmp_path_factory):
     args = ["characterize", station, "--field", folder / "flat", "--sharpness", folder / "edge"]
     assert run_cli([*args, "--out", folder / "cal"]) == 0
     return station
+
+
+@pytest.fixture(scope="module")
+def vignetted(tmp_path_factory):
+    """The shipped station in a world whose corners lose 10 %, the amber LED 10 % more
+    across the frame, and the image blurred by σ 1 px; its targets captured and measured."""
+    world = {"vignetting": 0.1, "light_gradient": {1: 0.1}, "blur_px": 1.0}
+    return _measured_targets(tmp_path_factory.mktemp("vignetted"), world)
+
+
+@pytest.fixture(scope="module")
+def focused(tmp_path_factory):
+    """The same falloff under a lens focused as most are (σ 0.5 px, 81 % of the sharpest
+    its f-number allows): at σ 1 px the class regions' borders, drawn to the bands'
+    edges, take in their neighbours' light and fail agreement, corrected or not."""
+    world = {"vignetting": 0.1, "light_gradient": {1: 0.1}, "blur_px": 0.5}
+    return _measured_targets(tmp_path_factory.mktemp("focused"), world)
 
 
 def _corners(vignetting, gradient, h=240, w=320):
@@ -80,6 +93,39 @@ def test_verify_agrees_once_the_station_names_its_field(cli, vignetted, tmp_path
     assert agreement and all(c["verdict"] == "pass" for c in agreement), agreement
     failed = {c["name"] for c in checks if c["verdict"] == "fail"}
     assert failed == {"amber: A vs B,C SNR_dB", "amber: A vs B,C ε Gauss"}, failed
+
+
+def test_verify_passes_once_the_shading_is_corrected(cli, focused, tmp_path):
+    """``field: {file, corrected: true}``: the frames' shading corrected by the field, the
+    separation the falloff cost is back and every check passes, the texture predicted
+    through the lens's measured blur (σ 0.5 px keeps 20 % of it); the classes' μ are those
+    at the light's maximum (above the uncorrected ones by the regions' falloff)."""
+    doc = yaml.safe_load(focused.read_text())
+    doc["field"] = {"file": "cal/field.json", "corrected": True}
+    doc["sharpness"] = "cal/sharpness.json"
+    focused.write_text(yaml.safe_dump(doc, sort_keys=False))
+    try:
+        code, out, err = cli(["verify", focused, "--report", tmp_path / "corrected"])
+        doc["field"] = "cal/field.json"
+        focused.write_text(yaml.safe_dump(doc, sort_keys=False))
+        cli(["verify", focused, "--report", tmp_path / "field"])
+    finally:
+        del doc["field"], doc["sharpness"]
+        focused.write_text(yaml.safe_dump(doc, sort_keys=False))
+    assert code == 0, out + err
+    corrected, plain = (
+        json.loads((tmp_path / name / "verification.json").read_text())
+        for name in ("corrected", "field")
+    )
+    shares = json.loads((focused.parent / "cal" / "field.json").read_text())["illuminations"]
+    for fixed, seen in zip(corrected["classes"], plain["classes"], strict=True):
+        share = shares[fixed["illumination"]]["regions"][fixed["class"]]["mean"]
+        dark = fixed["measured"]["dark_mean"]
+        # μ above dark divided by the region's mean share, to its spread's order (0.3 %)
+        above = (seen["measured"]["mean"] - dark) / share
+        assert fixed["measured"]["mean"] - dark == pytest.approx(above, rel=3e-3)
+    snr = {c["name"]: c["value"] for c in corrected["checks"]}
+    assert snr["amber: A vs B,C SNR_dB"] > -7
 
 
 def test_a_targets_capture_is_not_the_objects_and_a_resume_keeps_its_target(cli, vignetted):

@@ -63,3 +63,29 @@ def test_a_simulated_channel_without_irradiance_says_what_it_renders(cli, tmp_pa
     assert code == 0, err
     assert "note: channel 2 (red LED) has no irradiance" in err
     assert "at the nominal 1 W/m²" in err
+
+
+def test_a_field_is_a_path_or_a_file_with_its_correction_and_is_written_absolute(tmp_path):
+    """``field: cal/field.json`` is ``{file: cal/field.json, corrected: false}``; a mapping
+    without its file, or with another key, is refused naming ``field``; write_station
+    writes the field's and the sharpness's paths absolute, as the scene's."""
+    from inspect_validate.errors import InputError
+    from inspect_validate.station.file import read_station, write_station
+
+    station = copy_station(tmp_path)
+    doc = yaml.safe_load(station.read_text())
+    mapping = {"file": "cal/field.json", "corrected": True}
+    for given, corrected in (("cal/field.json", False), (mapping, True)):
+        station.write_text(yaml.safe_dump({**doc, "field": given, "sharpness": "cal/s.json"}))
+        read = read_station(station)
+        assert read.field is not None and read.field.file == "cal/field.json"
+        assert read.field.corrected is corrected
+    written = yaml.safe_load(
+        write_station(read, tmp_path / "elsewhere" / "s.yaml").file.read_text()
+    )
+    assert written["field"]["file"] == str((tmp_path / "cal" / "field.json").resolve())
+    assert written["sharpness"] == str((tmp_path / "cal" / "s.json").resolve())
+    for bad in ({"corrected": True}, {"file": "f.json", "correct": True}):
+        station.write_text(yaml.safe_dump({**doc, "field": bad}))
+        with pytest.raises(InputError, match="field"):
+            read_station(station)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from inspect_validate.errors import InputError
-from inspect_validate.stats import region_statistics, sample_moments
+from inspect_validate.stats import Shading, region_statistics, sample_moments
 
 
 def test_single_uint16_frame_matches_fraction():
@@ -164,3 +164,27 @@ def test_one_frame_histogram_over_any_mask_equals_bincount(seed):
         mask |= rng.random(frame.shape) < 0.01
     expected = np.bincount(frame[mask], minlength=256)
     np.testing.assert_array_equal(_masked_histogram(frame, mask, 256), expected)
+
+
+def test_a_shading_correction_divides_the_signal_above_dark_and_counts_the_raw():
+    """x ↦ d + (x − d)/F on each pixel, the statistics of the corrected values; the
+    saturated and zero counts are the raw values' (a pixel at 250 of 255 corrected to
+    above 255 is not saturated); with dark frames, the dark-subtracted values divided."""
+    rng = np.random.default_rng(2)
+    field = np.linspace(0.8, 1.0, 12).reshape(3, 4)
+    frames = np.clip(rng.normal(4 + 200 * field, 2, (5, 3, 4)), 0, 255).astype(np.uint8)
+    frames[0, 0, 0], frames[1, 2, 3] = 255, 250
+    mask = np.ones((3, 4), bool)
+    got = region_statistics(frames, mask, shading=Shading(field, 4.0))
+    want = (4.0 + (frames.astype(float) - 4.0) / field).ravel()
+    m = sample_moments(got.sample)
+    assert m.mean == pytest.approx(want.mean(), rel=1e-12)
+    assert m.variance == pytest.approx(want.var(ddof=1), rel=1e-12)
+    assert got.saturated == 1
+    dark = np.full((2, 3, 4), 4, np.uint8)
+    subtracted = region_statistics(frames, mask, dark=dark, shading=Shading(field, 99.0))
+    assert sample_moments(subtracted.sample).mean == pytest.approx(
+        ((frames.astype(float) - 4.0) / field).mean(), rel=1e-12
+    )
+    with pytest.raises(InputError, match="field"):
+        region_statistics(frames, mask, shading=Shading(field[:2], 4.0))
