@@ -143,7 +143,7 @@ def render_capture(
     """
     from inspect_validate.measurement import measure_stack
     from inspect_validate.station.model import station_model
-    from inspect_validate.verification.measured import MeasuredCapture
+    from inspect_validate.verification.measured import MeasuredCapture, station_shading
 
     model = renderer_model or station_model(station)
     camera = station_grabber(
@@ -157,21 +157,26 @@ def render_capture(
     def stack(state, n):
         return np.stack([camera.render(state) for _ in range(n)])
 
-    measurements = {
-        ill.name: measure_stack(
-            stack(dict(ill.channels), station.frames),
-            plan.rois,
-            limits=acc.limits(),
-            kde="always" if acc.needs_kde else "never",
-            **options,
-        )
-        for ill in station.illuminations
-    }
+    # Rendered as a capture takes them, the darks last; measured first: a corrected
+    # field needs their level, as measure_capture's does.
+    lit = {ill.name: stack(dict(ill.channels), station.frames) for ill in station.illuminations}
     dark = (
         measure_stack(stack({}, station.dark_frames), plan.rois, kde="never", **options)
         if station.dark_frames
         else None
     )
+    shadings = station_shading(station, dark, source=str(station.file))
+    measurements = {
+        name: measure_stack(
+            frames,
+            plan.rois,
+            limits=acc.limits(),
+            kde="always" if acc.needs_kde else "never",
+            shading=shadings.get(name),
+            **options,
+        )
+        for name, frames in lit.items()
+    }
     return MeasuredCapture({}, [], {}, measurements, dark, level, {})
 
 
