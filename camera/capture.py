@@ -59,7 +59,22 @@ if TYPE_CHECKING:
     from inspect_validate.camera.settings import CameraSettings, Pulse
     from inspect_validate.camera.storage import CaptureStore
 
-__all__ = ["CaptureResult", "Progress", "Step", "capture_steps", "verified_frames"]
+__all__ = [
+    "INCOMPLETE",
+    "CaptureResult",
+    "Progress",
+    "Round",
+    "Step",
+    "arm_camera",
+    "camera_step_health",
+    "capture_steps",
+    "configure_camera",
+    "record_camera",
+    "unlit_steps",
+    "unstable_warning",
+    "verified_frames",
+    "verified_rounds",
+]
 
 Progress = Callable[[str, int, int], None]
 """``progress(step, done, total)``: called after every verified frame of a capture."""
@@ -75,6 +90,25 @@ class CaptureResult:
     known: dict[str, Any] = field(default_factory=dict)  # step → the stopping rule's known()
 
 
+@dataclass(frozen=True)
+class Round:
+    """One trigger of every camera (or one free-running frame of one): their frames (a
+    camera's frame is None where it arrived incomplete), when each was triggered (host
+    ns; absent: free-running), why a camera has no frame, and the frames drained before
+    each camera's trigger."""
+
+    frames: dict[str, Frame | None]
+    sent: dict[str, int]
+    missed: dict[str, str] = field(default_factory=dict)
+    untriggered: dict[str, int] = field(default_factory=dict)
+
+    @property
+    def skew_us(self) -> float:
+        """The spread of the trigger times over the cameras, µs."""
+        times = list(self.sent.values())
+        return (max(times) - min(times)) / 1e3 if times else 0.0
+
+
 def verified_frames(
     grabber: Grabber,
     n: int,
@@ -84,93 +118,192 @@ def verified_frames(
     tolerance: float,
     timeout_s: float,
     flush: int = 4,
-    next_frame: Callable[[], tuple[Frame, int | None, bool]] | None = None,
+    next_frame: Callable[[], tuple[Frame, int | None, int]] | None = None,
     chunk: dict[str, tuple[float, float]] | None = None,
 ) -> Iterator[tuple[Frame, dict[str, int]]]:
-    """Yield ``n`` frames exposed after ``switched_ns`` with stable brightness, each once verified.
+    """Yield ``n`` frames of one camera exposed after ``switched_ns`` with stable
+    brightness, each once verified: :func:`verified_rounds` of rounds of one.
 
-    Frames whose timestamp is the exposure start on the host clock are kept
-    only if exposed after ``switched_ns``; frames on other clocks cannot prove
-    that, so the first ``flush`` frames after the switch are dropped.
-    Kept frames must agree with each other (mean within ``tolerance``, relative).
-    While only one frame is kept, a disagreeing frame means the light is still
-    settling: the kept frame is dropped. Once two frames agree the level is
-    locked — both are yielded — and every later frame is yielded as it agrees;
-    a disagreeing frame is then a jump: an error, never recorded.
-
-    ``next_frame()`` returns ``(frame, trigger_ns, untriggered)``: a triggered frame
-    must be exposed after its trigger and carry a frame id not seen before, and
-    ``untriggered`` counts frames drained before the trigger (default: the camera's
-    next free-running frame, no trigger). ``chunk`` maps chunk names
-    (``ExposureTime``, ``Gain``) to ``(requested, increment)``: a frame whose chunk
-    differs by more than the increment is dropped; so, with chunks, is a frame
-    whose brightness leaves the locked level though its chunk agrees (a chunk that
-    lags a frame must not pass a frame exposed otherwise).
-
-    Yields ``(frame, discarded)``: the frame and the frames dropped so far, by reason.
+    ``next_frame()`` returns ``(frame, trigger_ns, untriggered)``: the trigger's time
+    (host ns; None: free-running) and the frames drained before it (default: the camera's
+    next free-running frame). Yields ``(frame, discarded)``: the frame and the frames
+    dropped so far, by reason.
     """
     if next_frame is None:
 
         def next_frame():
             return grabber.grab(1, timeout_s=timeout_s)[0], None, 0
 
-    discarded: Counter = Counter()
-    kept: list = []
-    flushed = 0
-    done = 0
-    previous = None
-    seen_ids: set[int] = set()
-    off_level = False  # this frame was off the level though its chunk agreed
-    while done < n:
-        stop_if_requested()  # a stop whose exception something swallowed: at the next frame
+    name = grabber.name
+
+    def next_round() -> Round:
         try:
             frame, sent, untriggered = next_frame()
-        except IncompleteFrame:
-            # Lost packets: this frame is unusable, the next one (or the next trigger) is not.
-            discarded[INCOMPLETE] += 1
-            _give_up_after(grabber, discarded, discard_max)
-            continue
-        if sent is not None:  # recorded with the frame: when it was triggered (host ns)
-            frame.extra["trigger_ns"] = sent
-        if untriggered:
-            discarded["arrived untriggered (drained before the trigger)"] += untriggered
-        if _repeats(frame, previous):
-            raise _stale(grabber.name, frame)
-        previous = frame
-        was_off, off_level = off_level, False
-        wrong = _chunk_disagrees(frame, chunk)
-        if late := _early(frame, sent, seen_ids, switched_ns):
-            discarded[late] += 1
-        elif sent is None and frame.clock != "exposure" and flushed < flush:
-            flushed += 1
-            discarded["flushed after the switch"] += 1  # may predate the switch
-        elif wrong:
-            # A lagging chunk shows as a pair: a frame off the level with a chunk as
-            # requested, then a frame on the level carrying the first one's values.
-            lag = was_off and len(kept) >= 2 and _agrees(frame, kept, tolerance)
-            discarded[f"{wrong}{_LAG if lag else ''}"] += 1
-        elif not kept or _agrees(frame, kept, tolerance):
-            kept.append(frame)
-            # One frame alone is verified only when one is all that was asked for.
-            ready = kept[done:] if len(kept) >= 2 or n == 1 else []
-            for f in ready[: n - done]:
-                yield f, dict(discarded)
-                done += 1
-        elif len(kept) == 1:
-            discarded["settling (brightness changed)"] += 1  # start again from this frame
-            kept = [frame]
-        elif chunk:
-            discarded["brightness off the step's level, chunk as requested"] += 1
-            off_level = True
-        else:
-            means = [round(f.mean, 1) for f in (*kept[-3:], frame)]
-            raise DeviceError(
-                f"{grabber.name}: brightness jumps within a step (frame means {means}); "
-                "the light or exposure is unstable — check the controller and the ambient light"
-            )
-        # Ids seen, not the largest: a GigE Vision block id wraps at 16 bits.
-        seen_ids.add(frame.frame_id)
-        _give_up_after(grabber, discarded, discard_max)
+        except IncompleteFrame:  # lost packets: this frame is unusable, the next one not
+            return Round({name: None}, {})
+        return Round({name: frame}, {} if sent is None else {name: sent}, {}, {name: untriggered})
+
+    rounds = verified_rounds(
+        (name,),
+        n,
+        next_round=next_round,
+        switched_ns=switched_ns,
+        discard_max=discard_max,
+        tolerance=tolerance,
+        chunks={name: chunk},
+        flush=flush,
+        who=str,
+    )
+    for r, _, discarded in rounds:
+        frame = r.frames[name]
+        assert frame is not None  # a round is kept only whole
+        yield frame, discarded[name]
+
+
+def verified_rounds(
+    names: tuple[str, ...],
+    n: int,
+    *,
+    next_round: Callable[[], Round],
+    switched_ns: int,
+    discard_max: int,
+    tolerance: float,
+    chunks: dict[str, dict | None],
+    flush: int = 0,
+    who: Callable[[str], str] = lambda name: f"cameras {name!r}",
+) -> Iterator[tuple[Round, int, dict[str, dict[str, int]]]]:
+    """Yield ``n`` rounds whose every camera's frame is verified, each with its number
+    (from 1) and each camera's frames discarded so far, by reason: the one capture
+    sequence, for one camera (a round of one: :func:`verified_frames`) and several.
+
+    A frame is refused when it was exposed before its trigger or the switch (a frame
+    whose timestamp is the exposure start on the host clock), carries a frame id seen
+    before in the step (ids seen, not the largest: a GigE Vision block id wraps at 16
+    bits), arrived incomplete, or its chunk (``chunks``: camera → chunk name
+    (``ExposureTime``, ``Gain``) → ``(requested, increment)``) is off the request; a
+    free-running frame on another clock cannot prove it followed the switch, so the
+    first ``flush`` rounds are dropped. A round with any camera's frame refused is
+    retaken for all (each camera counts why), so the k-th frame of every camera comes
+    from the same trigger. A camera handing out the same structured pixels twice is an
+    error (a stale frame).
+
+    Kept frames must agree in brightness, each camera's with its own (mean within
+    ``tolerance``, relative). While one round is kept, a disagreeing one means the light
+    is still settling: the kept one is dropped. Once two agree the level is locked (both
+    are yielded) and every later round is yielded as it agrees; a disagreeing frame is
+    then a jump: an error, never recorded, except where the camera sends chunks: a frame
+    off the level whose chunk agrees is dropped (a chunk that lags a frame must not pass
+    a frame exposed otherwise). More than ``discard_max`` frames of a camera dropped
+    end the step. ``who(name)`` names a camera in errors.
+    """
+    discarded: dict[str, Counter] = {name: Counter() for name in names}
+    seen: dict[str, set[int]] = {name: set() for name in names}
+    previous: dict[str, Frame | None] = dict.fromkeys(names)
+    off_level = dict.fromkeys(names, False)  # off the level though its chunk agreed
+    kept: list[tuple[Round, int, dict[str, Frame]]] = []
+    done = number = flushed = 0
+    while done < n:
+        stop_if_requested()  # a stop whose exception something swallowed: at the next round
+        number += 1
+        r = next_round()
+        problems = dict(r.missed)
+        was_off, off_level = off_level, dict.fromkeys(names, False)
+        flushing = False
+        for name in names:
+            if r.untriggered.get(name):
+                discarded[name]["arrived untriggered (drained before the trigger)"] += (
+                    r.untriggered[name]
+                )
+            frame = r.frames.get(name)
+            if name in problems:
+                continue
+            if frame is None:
+                problems[name] = INCOMPLETE
+                continue
+            sent = r.sent.get(name)
+            if sent is not None:  # recorded with the frame: when it was triggered (host ns)
+                frame.extra["trigger_ns"] = sent
+            if _repeats(frame, previous[name]):
+                raise _stale(who(name), frame)
+            previous[name] = frame
+            wrong = _chunk_disagrees(frame, chunks.get(name))
+            if late := _early(frame, sent, seen[name], switched_ns):
+                problems[name] = late
+            elif sent is None and frame.clock != "exposure" and flushed < flush:
+                problems[name] = "flushed after the switch"  # may predate the switch
+                flushing = True
+            elif wrong:
+                # A lagging chunk shows as a pair: a frame off the level with a chunk as
+                # requested, then a frame on the level carrying the first one's values.
+                lag = (
+                    was_off[name] and len(kept) >= 2 and _agrees(frame, _of(kept, name), tolerance)
+                )
+                problems[name] = f"{wrong}{_LAG if lag else ''}"
+            seen[name].add(frame.frame_id)
+        flushed += flushing
+        if not problems:
+            whole = {name: f for name, f in r.frames.items() if f is not None}
+            off = [n_ for n_ in names if kept and not _agrees(whole[n_], _of(kept, n_), tolerance)]
+            if not off:
+                kept.append((r, number, whole))
+                # One round alone is verified only when one is all that was asked for.
+                ready = kept[done:] if len(kept) >= 2 or n == 1 else []
+                for k, at, _ in ready[: n - done]:
+                    yield k, at, {name: dict(c) for name, c in discarded.items()}
+                    done += 1
+            elif len(kept) == 1:
+                for name in names:  # start again from this round
+                    discarded[name]["settling (brightness changed)"] += 1
+                kept = [(r, number, whole)]
+            elif all(chunks.get(name) for name in off):
+                for name in off:
+                    problems[name] = "brightness off the step's level, chunk as requested"
+                    off_level[name] = True
+            else:
+                name = next(n_ for n_ in off if not chunks.get(n_))
+                means = [round(f.mean, 1) for f in (*_of(kept, name)[-3:], whole[name])]
+                raise DeviceError(
+                    f"{who(name)}: brightness jumps within a step (frame means {means}); "
+                    "the light or exposure is unstable — check the controller and the "
+                    "ambient light"
+                )
+        if problems:
+            told = "; ".join(f"{k} {v}" for k, v in problems.items())
+            for name in names:
+                discarded[name][problems.get(name) or f"{_RETAKEN} ({told})"] += 1
+        _give_up(discarded, discard_max, who)
+
+
+_RETAKEN = "round retaken"
+
+
+def _of(kept, name: str) -> list:
+    """Camera ``name``'s frames of the rounds ``kept``."""
+    return [k[2][name] for k in kept]
+
+
+def _give_up(discarded: dict[str, Counter], discard_max: int, who: Callable[[str], str]) -> None:
+    """The error ending a step whose camera had more than ``discard_max`` frames dropped."""
+    total = max(sum(c.values()) for c in discarded.values())
+    if total <= discard_max:
+        return
+    # The camera whose own frames were refused, not one retaken for another's.
+    worst = max(
+        discarded,
+        key=lambda name: sum(v for k, v in discarded[name].items() if not k.startswith(_RETAKEN)),
+    )
+    why = ", ".join(f"{k}: {v}" for k, v in discarded[worst].items())
+    if len(discarded) == 1:
+        raise DeviceError(
+            f"{who(worst)}: {total} frames were discarded ({why}); nothing stable arrived "
+            "— check that the controller really switches this light, the camera's frame "
+            "rate, its settings and (frames arriving incomplete) the network"
+        )
+    raise DeviceError(
+        f"{who(worst)}: {total} rounds were retaken ({why}); no round of every camera's "
+        "frames held — check the cameras' triggers, settings and (frames arriving "
+        "incomplete) the network"
+    )
 
 
 INCOMPLETE = "arrived incomplete (data lost on the way)"
@@ -195,17 +328,6 @@ def _early(frame, sent: int | None, seen_ids: set[int], switched_ns: int) -> str
     if frame.clock == "exposure" and frame.timestamp_ns < switched_ns:
         return "exposed before the switch"  # camera pipeline
     return None
-
-
-def _give_up_after(grabber, discarded: Counter, discard_max: int) -> None:
-    total = sum(discarded.values())
-    if total > discard_max:
-        why = ", ".join(f"{k}: {v}" for k, v in discarded.items())
-        raise DeviceError(
-            f"{grabber.name}: {total} frames were discarded ({why}); nothing stable arrived "
-            "— check that the controller really switches this light, the camera's frame "
-            "rate, its settings and (frames arriving incomplete) the network"
-        )
 
 
 _LAG = " (its brightness agrees, the frame before's did not: the camera's chunks lag a frame)"
@@ -304,13 +426,15 @@ def capture_steps(
     levels: dict[str, float] = {}  # mean grey value of each step captured in this run
     total = sum(s.frames for s in steps)
     done = 0
-    not_applied = _configure(grabber, settings)
-    mode, chunk = _arm(settings, grabber, source)  # refuses what the camera lacks, lights untouched
+    not_applied = configure_camera(grabber, settings)
+    mode, chunk = arm_camera(
+        settings, grabber, source
+    )  # refuses what the camera lacks, lights untouched
     if not (settings.strobe_line or mode == "hardware-trigger"):
         pulse = None
     # The manifest is written only now: a camera that fails to open leaves
     # nothing that would block a plain rerun.
-    unstable = _record_camera(store, grabber, settings, mode, chunk, not_applied)
+    unstable = record_camera(store, grabber, settings, mode, chunk, not_applied)
     triggers: Counter = Counter()  # this step's, for its health record
     next_frame = _frame_source(grabber, controller, mode, pulse, settings.timeout_s, triggers)
     counted = triggers if mode != "free-run" else None  # free-running: no triggers to count
@@ -432,7 +556,7 @@ def capture_steps(
                         break
                 store.note(name, "acquisition", mode)
                 store.note(name, "discarded", discarded)
-                store.note(name, "health", _step_health(grabber, before, counted))
+                store.note(name, "health", camera_step_health(grabber, before, counted))
                 if stop is not None:
                     known[name] = stop.known()
                     store.note(name, "precision", asdict(known[name]))
@@ -440,7 +564,7 @@ def capture_steps(
             except (DeviceError, InputError) as exc:
                 if before is not None:  # the step begun: what the transport saw while
                     # it failed is often why it failed
-                    store.note(name, "health", _step_health(grabber, before, counted))
+                    store.note(name, "health", camera_step_health(grabber, before, counted))
                 abort(name, exc)
                 raise
             pending = name
@@ -457,13 +581,13 @@ def capture_steps(
         # it; a step whose every frame was grabbed is then complete.
         if store.close() is None and pending is not None:
             store.finish(pending)
-    warnings = _unlit_steps(levels, brightness_tolerance) + _unstable_warning(grabber, unstable)
+    warnings = unlit_steps(levels, brightness_tolerance) + unstable_warning(grabber, unstable)
     if warnings:
         store.record("warnings", list(warnings))
     return CaptureResult(Path(store.folder), saved, tuple(skipped), not_applied, warnings, known)
 
 
-def _configure(grabber, settings: CameraSettings) -> tuple[str, ...]:
+def configure_camera(grabber, settings: CameraSettings) -> tuple[str, ...]:
     """Apply ``settings``' exposure, gain and pixel format; the ones asked for that the
     camera has no node for (recorded as not applied)."""
     grabber.configure(
@@ -479,7 +603,7 @@ def _configure(grabber, settings: CameraSettings) -> tuple[str, ...]:
     return tuple(sorted(m for m in grabber.missing if asked.get(m) is not None))
 
 
-def _record_camera(store, grabber, settings, mode, chunk, not_applied) -> tuple[str, ...]:
+def record_camera(store, grabber, settings, mode, chunk, not_applied) -> tuple[str, ...]:
     """The manifest's ``camera`` and ``settings`` records of an armed camera; the nodes
     that changed while its settings were read (left out of the snapshot)."""
     store.record(
@@ -509,7 +633,7 @@ def _record_camera(store, grabber, settings, mode, chunk, not_applied) -> tuple[
     return unstable
 
 
-def _unstable_warning(grabber, unstable) -> tuple[str, ...]:
+def unstable_warning(grabber, unstable) -> tuple[str, ...]:
     if not unstable:
         return ()
     return (
@@ -518,7 +642,7 @@ def _unstable_warning(grabber, unstable) -> tuple[str, ...]:
     )
 
 
-def _arm(settings: CameraSettings, grabber, source: str) -> tuple[str, dict | None]:
+def arm_camera(settings: CameraSettings, grabber, source: str) -> tuple[str, dict | None]:
     """Resolve the settings' acquisition mode on ``camera`` and arm it.
 
     Returns the mode and the chunk check (chunk name → (requested, increment)), or
@@ -614,7 +738,7 @@ def _frame_source(grabber, controller, mode: str, pulse, timeout_s: float, trigg
     return next_frame
 
 
-def _step_health(grabber, before: dict, triggers: Counter | None) -> dict:
+def camera_step_health(grabber, before: dict, triggers: Counter | None) -> dict:
     """A step's health (:mod:`~inspect_validate.camera.health`): what the camera reports
     now against ``before``, and the triggers the capture sent and missed (None: a
     free-running step, which sends none); a camera that no longer answers reports what
@@ -629,7 +753,7 @@ def _step_health(grabber, before: dict, triggers: Counter | None) -> dict:
     return {**step_health(before, now), **counts}
 
 
-def _unlit_steps(levels: dict[str, float], tolerance: float) -> tuple[str, ...]:
+def unlit_steps(levels: dict[str, float], tolerance: float) -> tuple[str, ...]:
     """Steps whose frames are no brighter than the dark frames: the light never showed.
 
     A warning, not an error: a light the lens or sensor cannot see (UV behind

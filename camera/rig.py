@@ -5,10 +5,11 @@ whole rounds.
 A round is triggered by software (``TriggerSoftware`` sent to each camera in turn; the
 spread of the send times is the round's *skew*, recorded) or by one pulse of the
 controller's trigger output wired to every camera's trigger line (no skew by wiring).
-Each camera's frame of a round is checked as one camera's are
-(:func:`~inspect_validate.camera.capture.verified_frames`): a frame exposed before its
-trigger or the switch, a frame id seen before, a chunk off the request, a stale frame, a
-frame arriving incomplete, a trigger that brought no frame. A round with any camera's
+Each camera's frame of a round is checked by the one capture sequence, which one camera
+runs as rounds of one (:func:`~inspect_validate.camera.capture.verified_rounds`): a
+frame exposed before its trigger or the switch, a frame id seen before, a chunk off the
+request, a stale frame, a frame arriving incomplete, a trigger that brought no frame. A
+round with any camera's
 frame refused is retaken for all (each camera counts why), so the k-th frame of every
 camera comes from the same trigger: frames are matched by round, never mixed. As for one
 camera, each camera's frames must agree in brightness (the first round is dropped while
@@ -27,29 +28,23 @@ import math
 import time
 import uuid
 from collections import Counter
-from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from inspect_validate.camera.capture import (
-    INCOMPLETE,
     CaptureResult,
+    Round,
     Step,
-    _agrees,
-    _arm,
-    _chunk_disagrees,
-    _configure,
-    _early,
-    _record_camera,
-    _repeats,
-    _stale,
-    _step_health,
-    _unlit_steps,
-    _unstable_warning,
+    arm_camera,
+    camera_step_health,
+    configure_camera,
+    record_camera,
+    unlit_steps,
+    unstable_warning,
+    verified_rounds,
 )
 from inspect_validate.errors import DeviceError, FrameTimeout, IncompleteFrame, InputError
-from inspect_validate.interruption import stop_if_requested
 
 if TYPE_CHECKING:
     from inspect_validate.camera.controllers.base import LedController
@@ -58,106 +53,7 @@ if TYPE_CHECKING:
     from inspect_validate.camera.settings import CameraSettings, Pulse
     from inspect_validate.camera.storage import CaptureStore
 
-__all__ = ["Round", "capture_rig", "verified_rounds"]
-
-
-@dataclass(frozen=True)
-class Round:
-    """One trigger of every camera: their frames (a camera's frame is None where it arrived
-    incomplete), when each was triggered (host ns), and why a camera has no frame."""
-
-    frames: dict[str, Frame | None]
-    sent: dict[str, int]
-    missed: dict[str, str]
-
-    @property
-    def skew_us(self) -> float:
-        """The spread of the trigger times over the cameras, µs."""
-        times = list(self.sent.values())
-        return (max(times) - min(times)) / 1e3 if times else 0.0
-
-
-def verified_rounds(
-    names: tuple[str, ...],
-    n: int,
-    *,
-    next_round: Callable[[], Round],
-    switched_ns: int,
-    discard_max: int,
-    tolerance: float,
-    chunks: dict[str, dict | None],
-) -> Iterator[tuple[Round, int, dict[str, dict[str, int]]]]:
-    """Yield ``n`` rounds whose every camera's frame is verified, each with its number
-    (from 1) and each camera's frames discarded so far, by reason (module text)."""
-    discarded: dict[str, Counter] = {name: Counter() for name in names}
-    seen: dict[str, set[int]] = {name: set() for name in names}
-    previous: dict[str, Frame | None] = dict.fromkeys(names)
-    kept: list[tuple[Round, int, dict[str, Frame]]] = []
-    done = number = 0
-    while done < n:
-        stop_if_requested()
-        number += 1
-        r = next_round()
-        problems = dict(r.missed)
-        for name in names:
-            frame = r.frames.get(name)
-            if name in problems:
-                continue
-            if frame is None:
-                problems[name] = INCOMPLETE
-                continue
-            if _repeats(frame, previous[name]):
-                raise _stale(f"cameras {name!r}", frame)
-            previous[name] = frame
-            why = _early(frame, r.sent.get(name), seen[name], switched_ns) or _chunk_disagrees(
-                frame, chunks.get(name)
-            )
-            seen[name].add(frame.frame_id)
-            if why:
-                problems[name] = why
-        if problems:
-            told = "; ".join(f"{k} {v}" for k, v in problems.items())
-            for name in names:
-                discarded[name][problems.get(name) or f"round retaken ({told})"] += 1
-            _give_up(discarded, discard_max)
-            continue
-        whole = {name: f for name, f in r.frames.items() if f is not None}  # every one here
-        off = [
-            name
-            for name in names
-            if kept and not _agrees(whole[name], [k[2][name] for k in kept], tolerance)
-        ]
-        if not off:
-            kept.append((r, number, whole))
-            ready = kept[done:] if len(kept) >= 2 or n == 1 else []
-            for k, at, _ in ready[: n - done]:
-                yield k, at, {name: dict(c) for name, c in discarded.items()}
-                done += 1
-        elif len(kept) == 1:
-            for name in names:
-                discarded[name]["settling (brightness changed)"] += 1
-            kept = [(r, number, whole)]
-            _give_up(discarded, discard_max)
-        else:
-            name = off[0]
-            means = [round(k[2][name].mean, 1) for k in kept[-3:]]
-            raise DeviceError(
-                f"cameras {name!r}: brightness jumps within a step (frame means {means} then "
-                f"{whole[name].mean:.1f}); the light or exposure is unstable — check the "
-                "controller and the ambient light"
-            )
-
-
-def _give_up(discarded: dict[str, Counter], discard_max: int) -> None:
-    rounds = max(sum(c.values()) for c in discarded.values())
-    if rounds > discard_max:
-        worst = max(discarded, key=lambda name: sum(discarded[name].values()))
-        why = ", ".join(f"{k}: {v}" for k, v in discarded[worst].items())
-        raise DeviceError(
-            f"cameras {worst!r}: {rounds} rounds were retaken ({why}); no round of every camera's "
-            "frames held — check the cameras' triggers, settings and (frames arriving "
-            "incomplete) the network"
-        )
+__all__ = ["capture_rig"]
 
 
 def _round_source(grabbers, controller, mode: str, pulse, timeout_s: float, triggers):
@@ -239,8 +135,8 @@ def capture_rig(
     names = tuple(grabbers)
     modes, chunks, not_applied, unstable = {}, {}, {}, {}
     for name, grabber in grabbers.items():
-        not_applied[name] = _configure(grabber, settings[name])
-        mode, chunk = _arm(settings[name], grabber, f"{source}: cameras {name!r}")
+        not_applied[name] = configure_camera(grabber, settings[name])
+        mode, chunk = arm_camera(settings[name], grabber, f"{source}: cameras {name!r}")
         if mode == "free-run":
             raise InputError(
                 f"cameras {name!r}: {grabber.name} has no trigger; several cameras are "
@@ -260,7 +156,7 @@ def capture_rig(
         uuid.uuid4().hex,
     )
     for name, grabber in grabbers.items():
-        unstable[name] = _record_camera(
+        unstable[name] = record_camera(
             stores[name], grabber, settings[name], modes[name], chunks[name], not_applied[name]
         )
         stores[name].record(
@@ -352,7 +248,7 @@ def capture_rig(
                     store.note(
                         step.name,
                         "health",
-                        _step_health(grabbers[name], before[name], triggers[name]),
+                        camera_step_health(grabbers[name], before[name], triggers[name]),
                     )
                     store.flush()
                     store.finish(step.name)
@@ -364,7 +260,7 @@ def capture_rig(
                         stores[name].note(
                             step.name,
                             "health",
-                            _step_health(grabbers[name], before[name], triggers[name]),
+                            camera_step_health(grabbers[name], before[name], triggers[name]),
                         )
                 _fail_all(stores, step.name, exc)
                 raise
@@ -377,7 +273,7 @@ def capture_rig(
             store.close()
     results = {}
     for name in names:
-        warnings = _unlit_steps(levels[name], brightness_tolerance) + _unstable_warning(
+        warnings = unlit_steps(levels[name], brightness_tolerance) + unstable_warning(
             grabbers[name], unstable[name]
         )
         if warnings:

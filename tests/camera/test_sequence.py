@@ -12,7 +12,14 @@ import numpy as np
 import pytest
 import tifffile
 
-from inspect_validate.camera.capture import Step, capture_steps, verified_frames
+from inspect_validate.camera.capture import (
+    INCOMPLETE,
+    Round,
+    Step,
+    capture_steps,
+    verified_frames,
+    verified_rounds,
+)
 from inspect_validate.camera.controllers.gardasoft import GardasoftController
 from inspect_validate.camera.frame import Frame
 from inspect_validate.camera.grabbers.replay import ReplayGrabber
@@ -206,6 +213,107 @@ def test_triggered_frames_are_the_ones_triggered_across_an_id_wrap():
     )
     assert [f.frame_id for f in frames] == [65534, 65535, 1, 2]
     assert discarded == {"not the triggered frame (frame id seen before)": 1}
+
+
+# The same rules over rounds of several cameras (verified_rounds, the one sequence).
+
+
+def _frame(mean, *, stamp=50, frame_id=0, chunk=None, textured=False):
+    data = np.full((4, 4), mean, np.uint16)
+    if textured:
+        data[0, 0] += 1  # structure: a repeat of it is a stale camera
+    frame = Frame(
+        data=data, frame_id=frame_id, timestamp_ns=stamp, exposure_us=None, gain_db=None,
+        pixel_format="Mono16", bit_depth=16, device="f", clock="exposure",
+    )  # fmt: skip
+    if chunk is not None:
+        frame.extra["chunk"] = chunk
+    return frame
+
+
+def _rounds(rounds, n, *, chunks=None, discard_max=5):
+    """``verified_rounds`` of cameras a and b over ``rounds``: (a's, b's) means, or a
+    Frame, None (arrived incomplete) or a str (missed)."""
+    it = iter(rounds)
+    ids = iter(range(1, 10_000))
+
+    def next_round():
+        frames, missed = {}, {}
+        for name, x in zip("ab", next(it), strict=True):
+            if isinstance(x, str):
+                missed[name] = x
+            else:
+                frames[name] = (
+                    x if x is None or isinstance(x, Frame) else _frame(x, frame_id=next(ids))
+                )
+        return Round(frames, dict.fromkeys(frames, 20), missed)
+
+    got = list(
+        verified_rounds(
+            ("a", "b"),
+            n,
+            next_round=next_round,
+            switched_ns=10,
+            discard_max=discard_max,
+            tolerance=0.02,
+            chunks=chunks or {},
+        )
+    )
+    return (
+        [(r.frames["a"].mean, r.frames["b"].mean) for r, _, _ in got],
+        [at for _, at, _ in got],
+        got[-1][2],
+    )
+
+
+def test_a_round_with_one_cameras_frame_refused_is_retaken_for_both():
+    """b's frame incomplete in round 2, a's exposed before its trigger in round 4: both
+    rounds are retaken for both cameras, each counting why; the rounds kept are 1, 3, 5."""
+    early = _frame(100, stamp=5, frame_id=900)
+    means, at, discarded = _rounds([(100, 80), (100, None), (100, 80), (early, 80), (100, 80)], 3)
+    assert means == [(100, 80)] * 3 and at == [1, 3, 5]
+    assert discarded["b"][INCOMPLETE] == 1
+    assert discarded["a"]["exposed before its trigger"] == 1
+    assert discarded["a"]["round retaken (b arrived incomplete (data lost on the way))"] == 1
+    assert discarded["b"]["round retaken (a exposed before its trigger)"] == 1
+
+
+def test_rounds_settle_then_lock_and_a_jump_is_an_error_naming_the_camera():
+    """The first round dropped while b's light settles; once two rounds agree, b jumping
+    is an error naming b, never a round kept."""
+    _, at, discarded = _rounds([(100, 50), (100, 80), (100, 80), (100, 80)], 3)
+    assert at == [2, 3, 4] and discarded["b"] == {"settling (brightness changed)": 1}
+    with pytest.raises(DeviceError, match=r"cameras 'b': brightness jumps within a step"):
+        _rounds([(100, 80), (100, 80), (100, 120), (100, 80)], 4)
+
+
+def test_with_chunks_a_frame_off_the_level_is_dropped_for_several_cameras_as_for_one():
+    """A camera with chunks whose frame leaves the level with its chunk as requested: the
+    round is retaken (as one camera's frame is dropped), not an error; b's next frame on
+    the level but with the first one's chunk is the lag, named so."""
+    chunk = {"b": {"ExposureTime": (1000.0, 1.0)}}
+    on = {"ExposureTime": 1000.0}
+    rounds = [
+        (100, _frame(80, frame_id=1, chunk=on)),
+        (100, _frame(80, frame_id=2, chunk=on)),
+        (100, _frame(60, frame_id=3, chunk=on)),
+        (100, _frame(80, frame_id=4, chunk={"ExposureTime": 750.0})),
+        (100, _frame(80, frame_id=5, chunk=on)),
+    ]
+    _, at, discarded = _rounds(rounds, 3, chunks=chunk)
+    assert at == [1, 2, 5]
+    assert discarded["b"]["brightness off the step's level, chunk as requested"] == 1
+    assert any("chunks lag a frame" in reason for reason in discarded["b"]), discarded["b"]
+
+
+def test_a_stale_camera_and_too_many_rounds_retaken_end_the_step_naming_it():
+    """b handing out its textured frame again is a stale camera, named; a trigger that
+    brought b no frame in round after round ends the step after discard_max, naming b."""
+    still = _frame(80, frame_id=7, textured=True)
+    with pytest.raises(DeviceError, match=r"cameras 'b': frame 7 is identical to the one before"):
+        _rounds([(100, still), (100, still)], 2)
+    with pytest.raises(DeviceError, match=r"cameras 'b': 3 rounds were retaken \(missed"):
+        _rounds([(100, "missed")] * 4, 2, discard_max=2)
 
 
 def test_settings_changing_while_read_are_named_in_the_capture(simulator, frames, tmp_path):
