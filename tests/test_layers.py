@@ -155,3 +155,33 @@ def test_the_layer_check_sees_a_forbidden_import(tmp_path, monkeypatch):
     monkeypatch.setitem(globals(), "ROOT", copy)
     with pytest.raises(AssertionError, match=r"inspect_validate\.model"):
         test_the_device_layer_imports_nothing_of_the_science()
+
+
+def _private_imports(mods: dict[str, Path]) -> list[str]:
+    """``from A import _name`` of a module's private name by another module (a private
+    submodule, ``from inspect_validate.stats import _region_kernels``, is the package's
+    own and allowed)."""
+    found = []
+    for name, path in mods.items():
+        for node in ast.walk(ast.parse(path.read_text())):
+            if not (isinstance(node, ast.ImportFrom) and node.module):
+                continue
+            if not node.module.startswith(("inspect_validate", "camera")):
+                continue
+            for alias in node.names:
+                private = alias.name.startswith("_") and not alias.name.startswith("__")
+                if private and f"{node.module}.{alias.name}" not in mods:
+                    found.append(f"{name}:{node.lineno} imports {node.module}.{alias.name}")
+    return found
+
+
+def test_no_module_imports_another_modules_private_name(tmp_path):
+    """A name one module keeps private is used by it alone: a helper two modules share is
+    public (or moved). The check sees one where it is planted."""
+    mods = _modules()
+    assert _private_imports(mods) == []
+    planted = tmp_path / "planted.py"
+    planted.write_text("from inspect_validate.camera.capture import _repeats\n")
+    assert _private_imports({"planted": planted}) == [
+        "planted:1 imports inspect_validate.camera.capture._repeats"
+    ]

@@ -103,7 +103,7 @@ def _line(x, y):
     return float(a), float(b), math.sqrt(s2 * cov[0, 0]), math.sqrt(s2 * cov[1, 1])
 
 
-def _saturation_index(variance: np.ndarray) -> int:
+def locate_saturation(variance: np.ndarray) -> int:
     """Where σ²_y peaks: walked from the bright end, past noise spikes, as emva1288 does."""
     peak, index = -math.inf, 0
     for i in range(len(variance) - 1, -1, -1):
@@ -232,7 +232,7 @@ def analyse(
     var_d = np.array([dark[i].variance for i in order])
     signal, noise = mu - mu_d, var - var_d
 
-    sat = _saturation_index(var)
+    sat = locate_saturation(var)
     reached = sat < len(t) - 1 or mu[sat] >= 0.95 * (2**bits - 1)
     top = 0.7 * signal[sat]
     use = np.flatnonzero((signal > 0) & (signal <= top) & (np.arange(len(t)) <= sat))

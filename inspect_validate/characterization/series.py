@@ -217,7 +217,7 @@ def _refine(station, out: Path, plan: Plan) -> Plan:
     spatial stacks at half the measured saturation signal."""
     from dataclasses import replace as replaced
 
-    from inspect_validate.characterization.analysis import _saturation_index, pair_statistics
+    from inspect_validate.characterization.analysis import locate_saturation, pair_statistics
     from inspect_validate.images import read_frames
 
     mask = region_mask(station, out / "b_000")
@@ -227,7 +227,7 @@ def _refine(station, out: Path, plan: Plan) -> Plan:
         pairs.append(pair_statistics(b[0], b[1]))
     x = plan.abscissa()
     variance = np.array([p.variance for p in pairs])
-    sat = _saturation_index(variance)
+    sat = locate_saturation(variance)
     grown = len(x) > station.characterize.points
     if plan.varies == "exposure" and sat == len(x) - 1 and not grown:
         # Not saturated yet (the camera's full well is above what its file declares):

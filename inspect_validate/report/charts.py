@@ -84,7 +84,7 @@ def _numbers(values) -> list[float | None]:
     ]
 
 
-def _series(label: str, x, y, **options) -> dict[str, Any]:
+def chart_series(label: str, x, y, **options) -> dict[str, Any]:
     return {"label": label, "x": _numbers(x), "y": _numbers(y), **options}
 
 
@@ -141,7 +141,7 @@ def histogram_chart(
                 density, edges = np.histogram(sample, bins=256, density=True)
         colour = _colour(k)
         series.append(
-            _series(
+            chart_series(
                 f"{c.name} histogram",
                 edges,
                 np.append(density, density[-1]),
@@ -155,11 +155,13 @@ def histogram_chart(
         x = np.linspace(min(edges[0], c.mean - 4 * sd), max(edges[-1], c.mean + 4 * sd), 200)
         if sd > 0:
             gauss = np.exp(-0.5 * ((x - c.mean) / sd) ** 2) / (sd * np.sqrt(2 * np.pi))
-            series.append(_series(f"{c.name} Gaussian", x, gauss, color=colour, dash=True))
+            series.append(chart_series(f"{c.name} Gaussian", x, gauss, color=colour, dash=True))
         h = (kde_bandwidths or {}).get(c.name, c.kde_bandwidth)
         if h is not None and h > 0:
             series.append(
-                _series(f"{c.name} KDE", x, kernel_density(sample, h, x), color=colour, width=2)
+                chart_series(
+                    f"{c.name} KDE", x, kernel_density(sample, h, x), color=colour, width=2
+                )
             )
     return {
         "title": title,
@@ -196,7 +198,7 @@ def spectra_charts(scene: Scene, *, marked: dict[str, str] | None = None) -> lis
             thin = normalise and bool(marked) and not bold
             leader = len(series)
             series.append(
-                _series(
+                chart_series(
                     label,
                     wl,
                     np.nanmean(v, axis=0),
@@ -246,7 +248,7 @@ def error_charts(
         if data is None:
             continue
         series = [
-            _series(
+            chart_series(
                 f"{','.join(a)} vs {','.join(b)}",
                 separation.wavelengths,
                 np.maximum(eps, floor),
@@ -294,7 +296,7 @@ def agreement_charts(
                 if sel:
                     label = ill if on else f"{ill} (below floor, not checked)"
                     series.append(
-                        _series(label, values[sel, 0], values[sel, 1], kind="points",
+                        chart_series(label, values[sel, 0], values[sel, 1], kind="points",
                                 color=_colour(i), hollow=not on)
                     )  # fmt: skip
         finite = values[np.isfinite(values[:, 1]), 1]
@@ -366,8 +368,8 @@ def characterization_charts(result: Characterization, plan: Plan) -> list[dict[s
             "xlabel": "μ_y − μ_y.dark [DN]",
             "ylabel": "σ²_y − σ²_y.dark [DN²]",
             "series": [
-                _series("measured", signal, noise, kind="points", color=_colour(0)),
-                _series("K · μ (fit)", fit, r.gain * fit, color=_colour(1)),
+                chart_series("measured", signal, noise, kind="points", color=_colour(0)),
+                chart_series("K · μ (fit)", fit, r.gain * fit, color=_colour(1)),
             ],
             "vlines": [{"x": 0.7 * top, "label": "70 % of saturation"}],
             **size,
@@ -379,10 +381,10 @@ def characterization_charts(result: Characterization, plan: Plan) -> list[dict[s
             "logx": True,
             "logy": True,
             "series": [
-                _series(
+                chart_series(
                     "measured", electrons, np.maximum(r.snr, 1e-3), kind="points", color=_colour(0)
                 ),
-                _series("EMVA 1288 linear model", electrons, model, color=_colour(1)),
+                chart_series("EMVA 1288 linear model", electrons, model, color=_colour(1)),
             ],
             **size,
         },
@@ -390,7 +392,7 @@ def characterization_charts(result: Characterization, plan: Plan) -> list[dict[s
             "title": f"Linearity (error {100 * r.linearity_error:.2g} %)",
             "xlabel": abscissa,
             "ylabel": "μ_y − μ_y.dark [DN]",
-            "series": [_series("signal", x, signal, kind="points", color=_colour(0))],
+            "series": [chart_series("signal", x, signal, kind="points", color=_colour(0))],
             **size,
         },
         {
@@ -398,8 +400,10 @@ def characterization_charts(result: Characterization, plan: Plan) -> list[dict[s
             "xlabel": abscissa,
             "ylabel": "μ_y.dark [DN], σ²_y.dark [DN²]",
             "series": [
-                _series("μ_y.dark [DN]", x, r.dark_mean, kind="points", color=_colour(0)),
-                _series("σ²_y.dark [DN²]", x, r.dark_variance, kind="points", color=_colour(1)),
+                chart_series("μ_y.dark [DN]", x, r.dark_mean, kind="points", color=_colour(0)),
+                chart_series(
+                    "σ²_y.dark [DN²]", x, r.dark_variance, kind="points", color=_colour(1)
+                ),
             ],
             **size,
         },
@@ -416,10 +420,10 @@ def mtf_chart(
     """An edge's MTF to 1 cycle/px, beside the lens's in-focus MTF (``focus`` at
     ``frequencies``) where given."""
     keep = edge.frequencies <= 1.0
-    series = [_series("measured", edge.frequencies[keep], edge.mtf[keep], color=_colour(0))]
+    series = [chart_series("measured", edge.frequencies[keep], edge.mtf[keep], color=_colour(0))]
     if focus is not None and frequencies is not None:
         series.append(
-            _series("in focus (diffraction × pixel)", frequencies, focus, color=_colour(1))
+            chart_series("in focus (diffraction × pixel)", frequencies, focus, color=_colour(1))
         )
     return {
         "title": f"{name}: MTF (MTF50 {edge.mtf50:.3g} cycles/px)",
@@ -447,7 +451,7 @@ def history_charts(log: HistoryLog) -> list[tuple[str, list[dict[str, Any]]]]:
         "yrange": [0, 2],
         "xinteger": True,
         "series": [
-            _series(
+            chart_series(
                 f"{name} ({n})",
                 cycles[at],
                 np.ones(int(n)),
@@ -468,7 +472,7 @@ def history_charts(log: HistoryLog) -> list[tuple[str, list[dict[str, Any]]]]:
                 continue
             alarmed = bool(c.alarm.any())
             series.append(
-                _series(
+                chart_series(
                     f"{key[2]} {key[3]}",
                     c.cycle,
                     c.deviation,
@@ -515,7 +519,7 @@ def history_charts(log: HistoryLog) -> list[tuple[str, list[dict[str, Any]]]]:
                     "width": 420,
                     "height": 220,
                     "series": [
-                        _series("band high", c.cycle, c.high, color=band, width=0.8),
+                        chart_series("band high", c.cycle, c.high, color=band, width=0.8),
                         *(
                             {"label": label, "xref": 0, "y": _numbers(y), **options}
                             for label, y, options in (

@@ -183,7 +183,7 @@ def production_html(v: ProductionVerification) -> str:
 def _part_charts(v: ProductionVerification) -> list[dict[str, Any]]:
     """Each class's μ and σ² and each comparison's SNR_dB per part against the golden
     parts', then the parts' positions, the golden parts' in grey."""
-    from inspect_validate.report.charts import COLOURS, _series
+    from inspect_validate.report.charts import COLOURS, chart_series
 
     golden = next(iter(v.golden.illuminations.values()))
     ms = [p.measurement for p in v.parts.measured]
@@ -205,19 +205,21 @@ def _part_charts(v: ProductionVerification) -> list[dict[str, Any]]:
             "xlabel": "part",
             "ylabel": f"{title} [{unit}]",
             "xinteger": True,
-            "series": [_series("this batch", index, values, kind="points", color=COLOURS[0])],
+            "series": [chart_series("this batch", index, values, kind="points", color=COLOURS[0])],
         }
         if np.isfinite(ref.std):
             spec["hband"] = [ref.mean - 3 * ref.std, ref.mean + 3 * ref.std]
         out.append(spec)
     positions = np.array([p.position for p in v.parts.measured])
     series = [
-        _series("this batch", positions[:, 0], positions[:, 1], kind="points", color=COLOURS[0])
+        chart_series(
+            "this batch", positions[:, 0], positions[:, 1], kind="points", color=COLOURS[0]
+        )
     ]
     if golden.pose is not None:
         series.insert(
             0,
-            _series(
+            chart_series(
                 "golden parts",
                 golden.pose.x.values,
                 golden.pose.y.values,

@@ -13,7 +13,8 @@ from inspect_validate.roi.shapes import MAX_CLASSES, MAX_VERTICES
 
 # The models keep their leading underscore: pydantic names a union's member in an error's
 # path by its class name, and config.explain leaves such names out (the user wrote none).
-__all__: list[str] = []
+# Other modules use them by the public names at the end.
+__all__ = ["ClassModel", "FileModel", "ShapeModel"]
 
 NonNegativeInt = Annotated[int, Field(ge=0)]
 Coordinate = Annotated[float, Field(allow_inf_nan=False, ge=-1e7, le=1e7)]
@@ -71,3 +72,11 @@ class _FileModel(StrictModel):
         _ClassModel | Annotated[list[dict[str, Any]], Field(min_length=1)],
     ] = Field(min_length=1, max_length=MAX_CLASSES)
     """Class name → its shapes (a list), or ``{shapes: [...], erode: n}``."""
+
+
+ShapeModel = _ShapeModel
+"""One shape of a class (the public name of ``_ShapeModel``)."""
+ClassModel = _ClassModel
+"""A class's shapes and erosion (the public name of ``_ClassModel``)."""
+FileModel = _FileModel
+"""An ROI file (the public name of ``_FileModel``)."""

@@ -134,9 +134,9 @@ def _plain_rois(doc: dict, source: str) -> RoiSet | None:
 def _modelled_rois(doc: dict, path: Path) -> RoiSet:
     """The ROI set of a file's mapping, validated by the file model (every form)."""
     from inspect_validate.config import validate
-    from inspect_validate.roi.file import _ClassModel, _FileModel
+    from inspect_validate.roi.file import ClassModel, FileModel
 
-    model = validate(doc, _FileModel, what="ROI file", source=str(path))
+    model = validate(doc, FileModel, what="ROI file", source=str(path))
     if model.version != 1:
         raise InputError(
             f"ROI file version {model.version} is not supported (1 is)", source=str(path)
@@ -144,7 +144,7 @@ def _modelled_rois(doc: dict, path: Path) -> RoiSet:
     classes = []
     names = {str(n) for n in model.classes}
     for name, spec in model.classes.items():
-        spec = spec if isinstance(spec, _ClassModel) else _ClassModel(shapes=spec)
+        spec = spec if isinstance(spec, ClassModel) else ClassModel(shapes=spec)
         shapes = []
         for i, raw in enumerate(spec.shapes):
             where = f"{path}: classes.{name}[{i}]"
@@ -209,11 +209,11 @@ def _parse_shape(
     from pydantic import ValidationError
 
     from inspect_validate.config import explain
-    from inspect_validate.roi.file import _ShapeModel
+    from inspect_validate.roi.file import ShapeModel
 
     kind = next(iter(raw))
     try:
-        m = _ShapeModel.model_validate(raw)
+        m = ShapeModel.model_validate(raw)
     except ValidationError as exc:
         raise InputError(f"{kind}: {explain(exc)}", source=where) from None
     where = f"{where} ({kind})"

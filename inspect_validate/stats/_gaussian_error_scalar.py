@@ -37,11 +37,11 @@ _ASYMPTOTIC_FROM = 12.0
 _ASYMPTOTIC_TERMS = 12
 
 
-# From here to _crossings, arithmetic and numpy's ufuncs only: numba compiles them on
+# From here to gaussian_crossings, arithmetic and numpy's ufuncs only: numba compiles them on
 # floats, and the numpy implementation uses them as they stand on arrays.
 
 
-def _two_sum(a, b):
+def two_sum(a, b):
     s = a + b
     bb = s - a
     return s, (a - (s - bb)) + (b - bb)
@@ -53,32 +53,32 @@ def _split(a):
     return hi, a - hi
 
 
-def _two_prod(a, b):
+def two_prod(a, b):
     p = a * b
     ah, al = _split(a)
     bh, bl = _split(b)
     return p, ((ah * bh - p) + ah * bl + al * bh) + al * bl
 
 
-def _two_square(a):
+def two_square(a):
     p = a * a
     ah, al = _split(a)
     return p, ((ah * ah - p) + 2.0 * ah * al) + al * al
 
 
-def _dd_sqrt(v):
+def dd_sqrt(v):
     hi = np.sqrt(v)
-    p, e = _two_square(hi)
+    p, e = two_square(hi)
     return hi, ((v - p) - e) / (2.0 * hi)
 
 
-def _dd_div(nh, nl, dh, dl):
+def dd_div(nh, nl, dh, dl):
     q = nh / dh
-    p, e = _two_prod(q, dh)
+    p, e = two_prod(q, dh)
     return q, (((nh - p) - e) + nl - q * dl) / dh
 
 
-def _crossings(d, vn, vw):
+def gaussian_crossings(d, vn, vw):
     """Where N(μ_n, σ_n²) and N(μ_w, σ_w²) cross, σ_n ≤ σ_w, along t = ±(x − μ_n)/σ_n
     pointing from μ_n to μ_w (μ_w at t = d ≥ 0): t_near towards μ_w, without
     cancellation, and t_far, −inf (or NaN) as the variances become equal (no
@@ -125,7 +125,7 @@ def _minimum(a, b):
 def erfcx(x):
     """exp(x²)·erfc(x) for x ≥ 0 (and +inf → 0)."""
     if x < _ASYMPTOTIC_FROM:
-        p, e = _two_square(x)
+        p, e = two_square(x)
         return math.exp(p) * (1.0 + e) * math.erfc(x)
     return erfcx_asymptotic(x)
 
@@ -149,11 +149,11 @@ def lower_tail(x):
     return 1.0 - tail, math.log1p(-tail)
 
 
-def _upper_tail(z, lo, logs):
+def upper_tail(z, lo, logs):
     """Q(z) = P(Z > z) and log Q(z) for z + lo (double-double); the log only where
     ``logs`` (else 0: ε's log is taken from ε itself unless ε underflows)."""
     if z > 0.0:
-        p, e = _two_square(z)
+        p, e = two_square(z)
         if not math.isfinite(e):
             e = 0.0
         scaled = 0.5 * erfcx(z / _SQRT2)
@@ -170,9 +170,9 @@ def _upper_tail(z, lo, logs):
 def _log_tail_ratio(ah, al, bh, bl):
     """log(Q(b)/Q(a)) for 0 ≤ a ≤ b."""
     ea_, eb_ = erfcx(ah / _SQRT2), erfcx(bh / _SQRT2)
-    pa, ea = _two_square(ah)
-    pb, eb = _two_square(bh)
-    sq, se = _two_sum(pb, -pa)
+    pa, ea = two_square(ah)
+    pb, eb = two_square(bh)
+    sq, se = two_sum(pb, -pa)
     diff_sq = sq + (se + (eb - ea))
     shift = (0.0 if bl == 0.0 else _LAMBDA / eb_ * bl) - (0.0 if al == 0.0 else _LAMBDA / ea_ * al)
     if not math.isfinite(bh):
@@ -180,7 +180,7 @@ def _log_tail_ratio(ah, al, bh, bl):
     return math.log(eb_ / ea_) - 0.5 * diff_sq - shift
 
 
-def _interval(ah, al, bh, bl, nodes, weights, logs):
+def error_interval(ah, al, bh, bl, nodes, weights, logs):
     """Φ(b) − Φ(a) and its log (where ``logs``, else 0) for a < b as double-doubles."""
     width = (bh - ah) + (bl - al)
     reach = _maximum(1.0, _maximum(abs(ah), abs(bh)))
@@ -191,27 +191,27 @@ def _interval(ah, al, bh, bl, nodes, weights, logs):
             s = 0.5 * width * (1.0 + nodes[i])
             j += weights[i] * math.exp(-ah * s - 0.5 * s * s)
         j *= 0.5 * width
-        p, e = _two_square(ah)
+        p, e = two_square(ah)
         low = 0.5 * e + ah * al
         value = math.exp(-0.5 * p) * math.exp(-low) * j / _SQRT_2PI
         return value, -0.5 * p - low - _LOG_SQRT_2PI + math.log(j) if logs else 0.0
     if ah < 0.0 and bh > 0.0:
-        middle = 1.0 - _upper_tail(bh, bl, False)[0] - _upper_tail(-ah, -al, False)[0]
+        middle = 1.0 - upper_tail(bh, bl, False)[0] - upper_tail(-ah, -al, False)[0]
         return middle, math.log(middle) if logs else 0.0
     if ah >= 0.0:
         near_h, near_l, far_h, far_l = ah, al, bh, bl
     else:
         near_h, near_l, far_h, far_l = -bh, -bl, -ah, -al
-    q_near, log_q_near = _upper_tail(near_h, near_l, logs)
+    q_near, log_q_near = upper_tail(near_h, near_l, logs)
     ratio = -math.expm1(_log_tail_ratio(near_h, near_l, far_h, far_l))
     return q_near * ratio, log_q_near + math.log(ratio) if logs else 0.0
 
 
 def _wide(t, snh, snl, dh, dl, swh, swl):
     """Class w's argument (t·σ_n − Δ)/σ_w as a double-double."""
-    ph, pl = _two_prod(t, snh)
-    sh, sl = _two_sum(ph, -dh)
-    uh, ul = _dd_div(sh, sl + (pl + t * snl) - dl, swh, swl)
+    ph, pl = two_prod(t, snh)
+    sh, sl = two_sum(ph, -dh)
+    uh, ul = dd_div(sh, sl + (pl + t * snl) - dl, swh, swl)
     if not math.isfinite(t):
         return t, 0.0
     return uh, ul if math.isfinite(ul) else 0.0
@@ -229,12 +229,12 @@ def _one(m1, v1, m2, v2, nodes, weights):
     if vn == 0.0 or identical:
         fixed = 0.5 if identical else 0.0
         return fixed, math.log(fixed) if fixed > 0 else -math.inf
-    dh, dl = _two_sum(mw, -mn)
+    dh, dl = two_sum(mw, -mn)
     if dh < 0.0:
         dh, dl = -dh, -dl
-    snh, snl = _dd_sqrt(vn)
-    swh, swl = _dd_sqrt(vw)
-    t_near, t_far = _crossings(dh / snh, vn, vw)
+    snh, snl = dd_sqrt(vn)
+    swh, swl = dd_sqrt(vw)
+    t_near, t_far = gaussian_crossings(dh / snh, vn, vw)
     if not math.isfinite(t_far):
         t_far = -math.inf
     fh, fl = _wide(t_far, snh, snl, dh, dl, swh, swl)
@@ -249,9 +249,9 @@ def _one(m1, v1, m2, v2, nodes, weights):
 def _parts(t_near, t_far, fh, fl, nh, nl, nodes, weights, logs):
     """ε from its three parts (class n beyond each crossing, class w between them), and
     where ``logs`` its log from theirs."""
-    above, log_above = _upper_tail(t_near, 0.0, logs)
-    below, log_below = _upper_tail(-t_far, 0.0, logs)
-    inside, log_inside = _interval(fh, fl, nh, nl, nodes, weights, logs)
+    above, log_above = upper_tail(t_near, 0.0, logs)
+    below, log_below = upper_tail(-t_far, 0.0, logs)
+    inside, log_inside = error_interval(fh, fl, nh, nl, nodes, weights, logs)
     # The three parts' rounding may pass ½ by an ulp where the classes all but coincide.
     eps = _minimum(0.5 * (below + above + inside), 0.5)
     if not logs:

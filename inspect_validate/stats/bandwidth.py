@@ -37,8 +37,8 @@ from inspect_validate.stats.roots import narrow_brackets
 from inspect_validate.stats.sample import (
     LatticeSample,
     Sample,
-    _converted_moments,
     as_sample,
+    converted_moments,
     quantisation_step,
 )
 
@@ -277,7 +277,7 @@ def lscv_bandwidth(
             found.at_floor,
             found.method,
         )
-    moments = _converted_moments(sample)
+    moments = converted_moments(sample)
     n = moments.n
     sigma = np.sqrt(moments.variance)
     if quantum is None:

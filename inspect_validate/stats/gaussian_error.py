@@ -53,12 +53,12 @@ from inspect_validate.stats import _gaussian_error_scalar as _scalar
 # The double-double helpers and the crossings are the scalar code's: arithmetic and
 # ufuncs only, they work on arrays as they stand.
 from inspect_validate.stats._gaussian_error_scalar import (
-    _crossings,
-    _dd_div,
-    _dd_sqrt,
-    _two_prod,
-    _two_square,
-    _two_sum,
+    dd_div,
+    dd_sqrt,
+    gaussian_crossings,
+    two_prod,
+    two_square,
+    two_sum,
 )
 
 __all__ = [
@@ -158,7 +158,7 @@ def gaussian_error_gradient(
     sn, sw = np.where(flat, 1.0, sn), np.where(flat, 2.0, sw)
     with np.errstate(all="ignore"):
         sign = np.where(mw < mn, -1.0, 1.0)
-        t_near, t_far = _crossings(np.abs(mw - mn) / sn, sn * sn, sw * sw)
+        t_near, t_far = gaussian_crossings(np.abs(mw - mn) / sn, sn * sn, sw * sw)
         x_near, x_far = mn + sign * t_near * sn, mn + sign * t_far * sn
         x_far = np.where(np.isfinite(t_far), x_far, -sign * np.inf)
         lo, hi = np.minimum(x_near, x_far), np.maximum(x_near, x_far)
@@ -235,7 +235,7 @@ def _lower_tail(x):
     """Φ(x) and log Φ(x) of an array of x ≥ 0: 1 − ½·erfc(x/√2), the subtracted tail
     at most ½ (no cancellation), erfc(x/√2) = erfcx(x/√2)·exp(−x²/2) with x² exact."""
     with np.errstate(all="ignore"):
-        p, e = _two_square(x)
+        p, e = two_square(x)
         e = np.where(np.isfinite(e), e, 0.0)
         tail = 0.5 * _erfcx(x / np.sqrt(2.0)) * np.exp(-0.5 * p) * (1.0 - 0.5 * e)
     return 1.0 - tail, np.log1p(-tail)
@@ -243,10 +243,10 @@ def _lower_tail(x):
 
 def normal_cdf_pair(z: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """Φ(z) and Φ(−z) of a 1-d array, each to full relative precision, without
-    scipy.special: Q(−z) and Q(z) by :func:`_upper_tail`."""
+    scipy.special: Q(−z) and Q(z) by :func:`upper_tail`."""
     z = np.asarray(z, dtype=float)
     zero = np.zeros_like(z)
-    return _upper_tail(-z, zero)[0], _upper_tail(z, zero)[0]
+    return upper_tail(-z, zero)[0], upper_tail(z, zero)[0]
 
 
 _ERFCX = np.frompyfunc(_scalar.erfcx, 1, 1)
@@ -266,7 +266,7 @@ def _branches(cases, *args):
     return value, log_value
 
 
-def _upper_tail(zh, zl):
+def upper_tail(zh, zl):
     """Q(z) = P(Z > z) and log Q(z) for z = zh + zl (1-d arrays).
 
     For z > 0, Q = ½·erfcx(z/√2)·exp(−z²/2) with z² formed exactly: scipy's
@@ -276,7 +276,7 @@ def _upper_tail(zh, zl):
     """
 
     def positive(z, lo):
-        p, e = _two_square(z)
+        p, e = two_square(z)
         e = np.where(np.isfinite(e), e, 0.0)
         scaled = 0.5 * _erfcx(z / np.sqrt(2.0))
         shift = np.where(lo == 0.0, 0.0, lo * 0.5 / (np.sqrt(2.0 * np.pi) * scaled))
@@ -302,9 +302,9 @@ def _log_tail_ratio(ah, al, bh, bl):
     """
     with np.errstate(all="ignore"):
         ea_, eb_ = _erfcx(ah / np.sqrt(2.0)), _erfcx(bh / np.sqrt(2.0))
-        pa, ea = _two_square(ah)
-        pb, eb = _two_square(bh)
-        sq, se = _two_sum(pb, -pa)
+        pa, ea = two_square(ah)
+        pb, eb = two_square(bh)
+        sq, se = two_sum(pb, -pa)
         diff_sq = sq + (se + (eb - ea))
         lam = np.sqrt(2.0 / np.pi)
         shift = np.where(bl == 0.0, 0.0, lam / eb_ * bl) - np.where(al == 0.0, 0.0, lam / ea_ * al)
@@ -312,7 +312,7 @@ def _log_tail_ratio(ah, al, bh, bl):
         return np.where(np.isfinite(bh), ratio, -np.inf)
 
 
-def _interval(ah, al, bh, bl):
+def error_interval(ah, al, bh, bl):
     """Φ(b) − Φ(a) and its log for a < b given as double-doubles (a may be −inf, b +inf)."""
 
     def narrow(ah, al, bh, bl):
@@ -320,7 +320,7 @@ def _interval(ah, al, bh, bl):
         w = ((bh - ah) + (bl - al))[:, np.newaxis]
         s = 0.5 * w * (1.0 + _GL_NODES)
         j = 0.5 * w[:, 0] * np.sum(_GL_WEIGHTS * np.exp(-ah[:, None] * s - 0.5 * s * s), axis=1)
-        p, e = _two_square(ah)
+        p, e = two_square(ah)
         low = 0.5 * e + ah * al
         value = np.exp(-0.5 * p) * np.exp(-low) * j / np.sqrt(2.0 * np.pi)
         return value, -0.5 * p - low - _LOG_SQRT_2PI + np.log(j)
@@ -330,13 +330,13 @@ def _interval(ah, al, bh, bl):
         upper = ah >= 0.0
         near_h, near_l = np.where(upper, ah, -bh), np.where(upper, al, -bl)
         far_h, far_l = np.where(upper, bh, -ah), np.where(upper, bl, -al)
-        q_near, log_q_near = _upper_tail(near_h, near_l)
+        q_near, log_q_near = upper_tail(near_h, near_l)
         ratio = -np.expm1(_log_tail_ratio(near_h, near_l, far_h, far_l))
         return q_near * ratio, log_q_near + np.log(ratio)
 
     def straddle(ah, al, bh, bl):
         # Across zero and not narrow: the mass is ≥ 0.19, no cancellation.
-        middle = 1.0 - _upper_tail(bh, bl)[0] - _upper_tail(-ah, -al)[0]
+        middle = 1.0 - upper_tail(bh, bl)[0] - upper_tail(-ah, -al)[0]
         return middle, np.log(middle)
 
     with np.errstate(all="ignore"):
@@ -386,7 +386,7 @@ def _numpy_error(m1, v1, m2, v2):
     with np.errstate(all="ignore"):
         # Work along the axis t = ±(x − μ_n)/σ_n that points from μ_n to μ_w;
         # μ_w sits at t = d ≥ 0, Δ = |μ_w − μ_n| as a double-double.
-        dh, dl = _two_sum(mw, -mn)
+        dh, dl = two_sum(mw, -mn)
         sign = np.where(dh < 0.0, -1.0, 1.0)
         dh, dl = sign * dh, sign * dl
         # ε depends on lengths in units of σ only: scaled by a power of two that brings
@@ -402,24 +402,24 @@ def _numpy_error(m1, v1, m2, v2):
     vn = np.where(degenerate, 1.0, vn)
     vw = np.where(degenerate, 2.0, vw)
     with np.errstate(all="ignore"):
-        snh, snl = _dd_sqrt(vn)
-        swh, swl = _dd_sqrt(vw)
-        t_near, t_far = _crossings(dh / snh, vn, vw)
+        snh, snl = dd_sqrt(vn)
+        swh, swl = dd_sqrt(vw)
+        t_near, t_far = gaussian_crossings(dh / snh, vn, vw)
         t_far = np.where(np.isfinite(t_far), t_far, -np.inf)
 
         # The crossings are *defined* as the exact points t·σ_n, so class n's
         # arguments are exact; class w's u = (t·σ_n − Δ)/σ_w in double-double.
         def wide(t):
-            ph, pl = _two_prod(t, snh)
-            sh, sl = _two_sum(ph, -dh)
-            uh, ul = _dd_div(sh, sl + (pl + t * snl) - dl, swh, swl)
+            ph, pl = two_prod(t, snh)
+            sh, sl = two_sum(ph, -dh)
+            uh, ul = dd_div(sh, sl + (pl + t * snl) - dl, swh, swl)
             finite = np.isfinite(t)
             return np.where(finite, uh, t), np.where(finite & np.isfinite(ul), ul, 0.0)
 
         zero = np.zeros_like(t_near)
-        above, log_above = _upper_tail(t_near, zero)
-        below, log_below = _upper_tail(-t_far, zero)
-        inside, log_inside = _interval(*wide(t_far), *wide(t_near))
+        above, log_above = upper_tail(t_near, zero)
+        below, log_below = upper_tail(-t_far, zero)
+        inside, log_inside = error_interval(*wide(t_far), *wide(t_near))
 
         # The three parts' rounding may pass ½ by an ulp where the classes all but coincide.
         eps = np.minimum(0.5 * (below + above + inside), 0.5)

@@ -27,7 +27,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from inspect_validate.stats.bandwidth import Bandwidth, lscv_bandwidth
-from inspect_validate.stats.gaussian_error import _interval
+from inspect_validate.stats.gaussian_error import error_interval
 from inspect_validate.stats.mixture import (
     TAIL_REACH,
     Mixture,
@@ -349,7 +349,7 @@ def _region_masses(regions, centres, sigmas, *, gradient: bool = False):
     mu, sg = centres[component], sigmas[component]
     za, zb = (a[region] - mu) / sg, (b[region] - mu) / sg
     zero = np.zeros(za.size)
-    value, _ = _interval(za, zero, zb, zero)
+    value, _ = error_interval(za, zero, zb, zero)
     mass = np.bincount(component, weights=value, minlength=n)
     if not gradient:
         return mass

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from inspect_validate.stats.gaussian_error import _interval
+from inspect_validate.stats.gaussian_error import error_interval
 from inspect_validate.stats.kde_error import GRID_STEP, mixture_error
 from inspect_validate.stats.mixture import TAIL_REACH, Mixture
 from inspect_validate.stats.roots import narrow_brackets
@@ -431,5 +431,5 @@ def _masses(a, b, row, u, v, w):
     """Σ w·(Φ((b − u)/v) − Φ((a − u)/v)) of the components of rows ``row``."""
     za, zb = (a[:, None] - u[row]) / v[row], (b[:, None] - u[row]) / v[row]
     zero = np.zeros(za.size)
-    value, _ = _interval(za.ravel(), zero, zb.ravel(), zero)
+    value, _ = error_interval(za.ravel(), zero, zb.ravel(), zero)
     return np.sum(w[row] * value.reshape(za.shape), axis=1)

@@ -30,7 +30,7 @@ from inspect_validate.errors import InputError
 from inspect_validate.stats.sample import (
     EmpiricalCdf,
     LatticeSample,
-    _converted_moments,
+    converted_moments,
     empirical_cdf,
 )
 
@@ -278,7 +278,7 @@ def _histogram_region(hist, lo, sat, n_pixels) -> RegionStatistics:
     nbins = hist.size
     n_sat = int(hist[max(0, int(sat) - lo) :].sum()) if sat - lo < nbins else 0
     n_zero = int(hist[: max(0, 1 - lo)].sum())
-    spatial = float(_converted_moments(sample).variance) if n_pixels > 1 else None
+    spatial = float(converted_moments(sample).variance) if n_pixels > 1 else None
     return RegionStatistics(sample, n_pixels, 1, None, spatial, n_sat, n_zero)
 
 

@@ -144,7 +144,7 @@ def gaussian_misfit(sample: Sample | EmpiricalCdf, mean: float, variance: float)
     lattice step. For a Gaussian sample of n values, on average 0.87/√n (the mean of
     Kolmogorov's distribution) or less; NaN for σ = 0.
     """
-    from inspect_validate.stats.gaussian_error import _upper_tail
+    from inspect_validate.stats.gaussian_error import upper_tail
 
     if not variance > 0:
         return math.nan
@@ -157,7 +157,7 @@ def gaussian_misfit(sample: Sample | EmpiricalCdf, mean: float, variance: float)
         origin = cdf.points[0]
         x = origin + (np.floor((x - origin) / cdf.step) + 0.5) * cdf.step
         z = (x - mean) / sd
-    model = _upper_tail(-z, np.zeros_like(z))[0]  # Φ(z) = Q(−z)
+    model = upper_tail(-z, np.zeros_like(z))[0]  # Φ(z) = Q(−z)
     return float(np.max(np.abs(cdf.fraction_between(-np.inf, x) - model)))
 
 
@@ -280,10 +280,10 @@ def sample_moments(sample: Sample) -> Moments:
     """
     if not isinstance(sample, LatticeSample):
         sample = as_sample(sample)
-    return _converted_moments(sample)
+    return converted_moments(sample)
 
 
-def _converted_moments(sample: LatticeSample | np.ndarray) -> Moments:
+def converted_moments(sample: LatticeSample | np.ndarray) -> Moments:
     """:func:`sample_moments` of a sample already made by :func:`as_sample`."""
     if isinstance(sample, LatticeSample):
         n, s1, s2 = lattice_power_sums(sample)

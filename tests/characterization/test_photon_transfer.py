@@ -23,7 +23,7 @@ def _region(name, mean, variance, *, saturated=0.0, zero=0.0, pixels=10_000, fra
     )
 
 
-def _series(signals, *, variance=lambda x: K * x):
+def chart_series(signals, *, variance=lambda x: K * x):
     """One measurement per signal level above dark (DN), one region each, with the dark
     stack measured in the same region."""
     lit = [
@@ -35,7 +35,7 @@ def _series(signals, *, variance=lambda x: K * x):
 
 
 def test_the_slope_through_the_origin_is_k():
-    lit, dark = _series([100.0, 400.0, 900.0, 1600.0])
+    lit, dark = chart_series([100.0, 400.0, 900.0, 1600.0])
     gain = photon_transfer_gain(lit, dark, declared=0.4)
     assert gain.value == pytest.approx(K, rel=1e-12)
     assert gain.relative_deviation == pytest.approx(0.25, rel=1e-12)
@@ -46,7 +46,7 @@ def test_points_above_70_percent_of_saturation_are_left_out():
     is already compressed; fitting it would pull K down."""
     signals = [500.0, 1000.0, 2000.0, 3400.0]
     compressed = {3400.0: 0.4 * K * 3400.0}
-    lit, dark = _series(signals, variance=lambda x: compressed.get(x, K * x))
+    lit, dark = chart_series(signals, variance=lambda x: compressed.get(x, K * x))
     gain, left_out = photon_transfer(lit, dark, declared=K, saturation_level=4095.0)
     assert gain.value == pytest.approx(K, rel=1e-12) and len(gain.points) == 3
     assert left_out == {"above 70 % of saturation": 1}
@@ -60,7 +60,7 @@ def test_points_above_70_percent_of_saturation_are_left_out():
 def test_a_variance_within_its_sampling_error_of_the_maximum_is_kept():
     """Sampling noise can make a brighter point's variance a little lower: that is no
     maximum, and the point stays in the fit."""
-    lit, dark = _series([1000.0, 1001.0], variance=lambda x: K * 1000.0 - (x - 1000.0) * 0.5)
+    lit, dark = chart_series([1000.0, 1001.0], variance=lambda x: K * 1000.0 - (x - 1000.0) * 0.5)
     gain, left_out = photon_transfer(lit, dark, declared=K)
     assert len(gain.points) == 2 and left_out == {}
 
@@ -84,7 +84,7 @@ def test_no_usable_point_says_why(region, dark_region, reason):
 
 
 def test_two_points_get_the_sampling_error_of_their_variances():
-    lit, dark = _series([200.0, 800.0])
+    lit, dark = chart_series([200.0, 800.0])
     gain = photon_transfer_gain(lit, dark, declared=K)
     x = np.array([200.0, 800.0])
     var_y = np.array(

@@ -63,7 +63,7 @@ def _watched_metrics(cli, tmp_path, name, golden, world, cycles, *, camera=None,
 CAMERA = "{{ with $labels.camera }} camera {{ . }}{{ end }}"
 
 
-def _series(texts, instance, *, clock=60.0):
+def chart_series(texts, instance, *, clock=60.0):
     """promtool input series of one instance: every sample line of each cycle's metrics,
     one value a minute; the cycle timestamps on the test's clock (cycle k at k minutes,
     the interval 60 s) instead of the wall clock."""
@@ -117,7 +117,11 @@ def test_the_alerting_rules_fire_on_a_drifted_world_and_stay_silent_on_a_good_on
     # A watch that stops cycling after its third cycle (its /metrics still answering),
     # and one that is gone (its scrapes fail).
     stopped = good[:3] + [good[2]] * 5
-    series = _series(good, "good") + _series(drifted, "drifted") + _series(stopped, "stopped")
+    series = (
+        chart_series(good, "good")
+        + chart_series(drifted, "drifted")
+        + chart_series(stopped, "stopped")
+    )
     for s in series:
         if (
             s["series"].startswith("inspect_validate_cycle_timestamp_seconds")
@@ -251,7 +255,7 @@ def test_the_camera_rules_fire_on_a_lossy_deaf_flaky_camera_and_stay_silent_on_a
         "tests": [
             {
                 "interval": "1m",
-                "input_series": _series(good, "good") + _series(bad, "bad"),
+                "input_series": chart_series(good, "good") + chart_series(bad, "bad"),
                 "alert_rule_test": [
                     {"eval_time": "5m", "alertname": name, "exp_alerts": [fired(name, "bad")]}
                     for name in (
