@@ -185,3 +185,34 @@ def test_no_module_imports_another_modules_private_name(tmp_path):
     assert _private_imports({"planted": planted}) == [
         "planted:1 imports inspect_validate.camera.capture._repeats"
     ]
+
+
+def test_a_package_docstring_that_lists_modules_lists_every_one_and_no_other():
+    """Where a package's docstring names its modules (``:mod:`.name```), the names are the
+    package's modules, all of them (a moved or added module fails here, not in a reader's
+    hands)."""
+    import re
+
+    for init in [*(ROOT / "inspect_validate").rglob("__init__.py"), *(ROOT / "camera").rglob("__init__.py")]:  # fmt: skip
+        named = set(
+            re.findall(r":mod:`\.(\w+)`", ast.get_docstring(ast.parse(init.read_text())) or "")
+        )
+        if not named:
+            continue
+        have = {
+            p.stem if p.suffix == ".py" else p.name
+            for p in init.parent.iterdir()
+            if (p.suffix == ".py" or (p / "__init__.py").exists()) and not p.name.startswith("_")
+        }
+        assert named == have, (
+            f"{init.parent.name}: lists {sorted(named - have)}, lacks {sorted(have - named)}"
+        )
+
+
+def test_every_test_file_the_code_cites_exists():
+    """A docstring or comment sending a reader to ``tests/…py`` sends them somewhere."""
+    import re
+
+    for path in [*(ROOT / "inspect_validate").rglob("*.py"), *(ROOT / "camera").rglob("*.py")]:
+        for cited in re.findall(r"tests/[\w/]+\.py", path.read_text()):
+            assert (ROOT / cited).is_file(), f"{path.relative_to(ROOT)} cites {cited}"

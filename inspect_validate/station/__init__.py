@@ -1,6 +1,18 @@
 """A station: its file (camera, controller, illuminations, scene, regions, acceptance),
 its simulated world, the model of the station as built, and its devices and capture.
 
+====================  ========================================================================
+:mod:`.file`          the station file (YAML), read and written
+:mod:`.world`         its simulated world: how the simulated camera differs from the scene
+:mod:`.model`         its illuminations as lights of its scene, and its prediction
+:mod:`.prediction`    the prediction of the station as built, a row an illumination
+:mod:`.devices`       its camera and light controller opened by their backends
+:mod:`.capture`       its capture: illuminations and darks into a capture folder
+:mod:`.stopping`      sequential stopping: frames only until the classes are known
+:mod:`.production`    a part located and measured on the running line
+:mod:`.draft`         a first station file, drafted from devices and a scene
+====================  ========================================================================
+
 The names below are read from :mod:`.file` on first use: a module of this package (the
 world's schema, which the simulated devices import while the station file's schema asks
 the registry for them) must not pull in the station file's."""

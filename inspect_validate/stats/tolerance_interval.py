@@ -18,7 +18,7 @@ share P: Φ(x + r) − Φ(x − r) = P. Here ``n`` need not be whole and ν need
 n − 1: a batch mean of m values checked against the mean of n has its centre known to
 n/m of its own spread. The integral is a 96-node Gauss–Legendre sum (u ≤ 10, where the
 weight is below 2·10⁻²²), agreeing with an adaptive quadrature to 1e-9
-(tests/stats/test_tolerance.py). Without scipy on the import path, as
+(tests/stats/test_tolerance_interval.py). Without scipy on the import path, as
 :mod:`.quantiles`: the χ² tail of whole ν ≤ 200 is its finite sum
 (Abramowitz & Stegun 26.4.4–5).
 """
@@ -172,7 +172,8 @@ def tolerance_factor(
     def excess(k: float) -> float:
         return tolerance_confidence(k, n=n, content=content, df=df) - confidence
 
-    # Howe's approximation to start; then bracket and narrow on log k.
+    # A start, not an approximation: the normal quantile times √(1 + 1/n) (Howe's without
+    # its χ² factor); then bracket and narrow on log k, where the answer comes from.
     lo = hi = normal_quantile((1.0 - content) / 2.0) * math.sqrt(1.0 + 1.0 / n)
     while excess(lo) > 0:
         lo /= 1.5
