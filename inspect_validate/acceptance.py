@@ -36,7 +36,7 @@ estimate to a given limit (agreement, separation, gain) shares ``false_alarm``
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Annotated, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 from pydantic import Field, model_validator
 
@@ -148,29 +148,50 @@ class Drift(StrictModel):
     prediction interval alone."""
 
 
-class Health(StrictModel):
-    """Limits on what the camera and its transport report of the verification's capture
-    (each step's ``health`` in the capture's manifest: :mod:`inspect_validate.camera.health`).
-    Fixed checks: a count over a limit fails, whatever the frames show. A limit left at
-    its default is checked where the camera offers the quantity and said to be not offered
-    where it does not; a limit given in the station file and not offered fails, as a check
-    asked for that could not run."""
-
-    incomplete_frames: Fraction | None = 0.01
-    """Largest share of the frames delivered that arrived incomplete (the capture discards
-    them; more than a few means a link losing data)."""
-    packets_lost: Annotated[int, Field(ge=0, le=10**12)] | None = 0
-    """Most packets still missing when their frame was closed (GigE Vision): any means the
-    network drops data that resends did not recover."""
-    missed_triggers: Annotated[int, Field(ge=0, le=10**9)] | None = 0
-    """Most triggers that brought no frame (each was sent again once; the frames are
-    whole, but a line that triggers once per part would have lost that part)."""
-    temperature_c: Annotated[float, Field(ge=-60, le=200, allow_inf_nan=False)] | None = None
-    """Highest temperature the camera may report, °C: its datasheet's rated maximum for
-    the place ``DeviceTemperature`` measures (default: reported, not limited)."""
+class _HealthBase(StrictModel):
     settings: bool = True
     """The camera's settings (its snapshot in the capture) must be those the golden file
     was trained at, node by node (with ``drift.golden``)."""
+
+
+def _health_model() -> type[_HealthBase]:
+    """``acceptance.health``: a limit for each health quantity that has one, made from
+    the quantities' table (:data:`~inspect_validate.camera.health.QUANTITIES`)."""
+    from pydantic import create_model
+
+    from inspect_validate.camera.health import QUANTITIES
+
+    fields: dict[str, Any] = {}
+    for q in QUANTITIES:
+        if q.limit is None:
+            continue
+        lo, hi = q.limit.bounds
+        kind = int if q.limit.kind == "count" else float
+        bounded = Field(ge=lo, le=hi) if kind is int else Field(ge=lo, le=hi, allow_inf_nan=False)
+        fields[q.limit.key] = (
+            Annotated[kind, bounded] | None,
+            Field(default=q.limit.default, description=q.limit.doc),
+        )
+    return create_model(
+        "Health",
+        __base__=_HealthBase,
+        __doc__=HEALTH_DOC,
+        __module__=__name__,
+        **fields,
+    )
+
+
+HEALTH_DOC = """Limits on what the camera and its transport report of the verification's capture
+(each step's ``health`` in the capture's manifest: :mod:`inspect_validate.camera.health`).
+Fixed checks: a value beyond its limit fails, whatever the frames show. A limit left at
+its default is checked where the camera offers the quantity and said to be not offered
+where it does not; a limit given in the station file and not offered fails, as a check
+asked for that could not run."""
+
+if TYPE_CHECKING:
+    Health = _HealthBase
+else:
+    Health = _health_model()
 
 
 class Acceptance(StrictModel):

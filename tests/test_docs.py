@@ -153,6 +153,9 @@ def test_format_pages_hold_their_models_tables_as_written(monkeypatch):
         blocks += text.count("<!-- /file-model -->")
         assert render_page(text) == text, f"{page.name}: run python docs/_ext/file_models.py"
     assert blocks == 6
+    capture = (DOCS / "guide" / "capture.md").read_text()
+    assert "<!-- /health-table -->" in capture
+    assert render_page(capture) == capture, "capture.md: run python docs/_ext/file_models.py"
     station = (DOCS / "formats" / "station.md").read_text()
     assert "| `frames` | integer (1 ≤ x ≤ 100 000) | `4` | Frames per illumination" in station
 

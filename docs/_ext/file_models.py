@@ -279,9 +279,11 @@ def _target(text: str) -> type[BaseModel]:
 
 
 def render_page(text: str) -> str:
-    """A format page with each generated block (between ``<!-- file-model TARGET
-    "TITLE" -->`` and ``<!-- /file-model -->``) made anew from its model."""
-    return _BLOCK.sub(
+    """A page with each generated block made anew: a file model's (between ``<!--
+    file-model TARGET "TITLE" -->`` and ``<!-- /file-model -->``) from its model, the
+    health quantities' (between ``<!-- health-table -->`` and ``<!-- /health-table
+    -->``) from their table."""
+    text = _BLOCK.sub(
         lambda m: (
             m.group(1)
             + "\n"
@@ -290,12 +292,37 @@ def render_page(text: str) -> str:
         ),
         text,
     )
+    return _HEALTH.sub(lambda m: m.group(1) + "\n" + health_markdown() + m.group(2), text)
+
+
+_HEALTH = re.compile(r"(<!-- health-table -->)\n.*?(<!-- /health-table -->)", re.S)
+
+
+def health_markdown() -> str:
+    """The health quantities as the manual's table: each quantity, where each backend
+    reads it, its limit in ``acceptance.health`` (or why it has none)."""
+    from inspect_validate.camera.health import BACKENDS, QUANTITIES
+
+    rows = [
+        "| quantity | " + " | ".join(BACKENDS) + " | limit (`acceptance.health`) |",
+        "|---" * (len(BACKENDS) + 2) + "|",
+    ]
+    for q in QUANTITIES:
+        limit = f"`{q.limit.key}`" if q.limit is not None else f"none: {q.unlimited}"
+        # A source as the backend before it's is "the same" (the old table's way).
+        cells = [
+            "the same" if k and src == q.sources[k - 1] and src != "—" else src
+            for k, src in enumerate(q.sources)
+        ]
+        rows.append(f"| `{q.name}` | " + " | ".join(cells) + f" | {limit} |")
+    return "\n".join(rows) + "\n"
 
 
 def main() -> None:
     """Write the format pages' generated tables from the models (run after changing a
     model; tests/test_docs.py fails while a page differs from its models)."""
-    for page in sorted((Path(__file__).parents[1] / "formats").glob("*.md")):
+    docs = Path(__file__).parents[1]
+    for page in [*sorted((docs / "formats").glob("*.md")), docs / "guide" / "capture.md"]:
         text = page.read_text()
         made = render_page(text)
         if made != text:

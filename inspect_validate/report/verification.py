@@ -406,7 +406,7 @@ def _xml_chars(text: str) -> str:
 def describe_acquisition(a: dict) -> str:
     """``amber: software-trigger, 4 frames at 8000 µs (chunk); discarded: none; camera: 4
     delivered, 0 incomplete, 4 triggers, 0 missed``."""
-    from inspect_validate.verification.health_checks import health_text
+    from inspect_validate.camera.health import health_text
 
     exposure = "/".join(f"{x:g}" for x in a["exposure_us"])
     at = f" at {exposure} µs ({a['exposure_source']})" if exposure else ""

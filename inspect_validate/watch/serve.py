@@ -104,15 +104,17 @@ def _health_lines(doc: dict) -> list[str]:
     (``inspect_validate_camera_temperature_celsius``, ``…_link_speed_mbps``). A quantity
     the camera does not offer is not exported: absent, never 0. On a station of several
     cameras each camera's carry its name as the label ``camera``."""
-    from inspect_validate.camera.health import COUNTERS, GAUGES
+    from inspect_validate.camera.health import QUANTITIES
     from inspect_validate.watch.history import RECONNECTS
 
     counters = [
-        (name, f"inspect_validate_camera_{name}_total", f"The camera's {name.replace('_', ' ')}")
-        for name in COUNTERS
+        (q.name, q.metric, f"The camera's {q.name.replace('_', ' ')}")
+        for q in QUANTITIES
+        if q.kind == "counter"
     ]
     counters.append((RECONNECTS, "inspect_validate_reconnects_total", "Reconnects"))
-    helps = {**COUNTERS, RECONNECTS: "cycles that reopened the devices after an error cycle"}
+    helps = {q.name: q.meaning for q in QUANTITIES}
+    helps[RECONNECTS] = "cycles that reopened the devices after an error cycle"
     from inspect_validate.watch.history import health_rows
 
     def samples(health: dict, name: str, metric: str) -> list[str]:
@@ -135,14 +137,12 @@ def _health_lines(doc: dict) -> list[str]:
                 *rows,
             ]
     health = doc.get("health") or {}
-    for name, metric in (
-        ("temperature_c", "inspect_validate_camera_temperature_celsius"),
-        ("link_speed_mbps", "inspect_validate_camera_link_speed_mbps"),
-    ):
-        rows = samples(health, name, metric)
+    for gauge in (q for q in QUANTITIES if q.kind == "gauge"):
+        metric = gauge.metric
+        rows = samples(health, gauge.name, metric)
         if rows:
             lines += [
-                f"# HELP {metric} The latest cycle's reading: {GAUGES[name]}.",
+                f"# HELP {metric} The latest cycle's reading: {gauge.meaning}.",
                 f"# TYPE {metric} gauge",
                 *rows,
             ]

@@ -266,7 +266,8 @@ def test_an_edited_health_record_is_an_edited_capture(
     into 'the camera does not report them' and a pass; and where the record is read
     without the audit (a production verdict), every health check could not run."""
     from inspect_validate.acceptance import Health
-    from inspect_validate.verification.health_checks import health_checks, health_text
+    from inspect_validate.camera.health import health_text
+    from inspect_validate.verification.health_checks import health_checks
 
     station, frames, manifest = _edited(
         healthy_capture, tmp_path, lambda step: step["health"].__setitem__(quantity, value)
@@ -322,3 +323,62 @@ def test_a_triggered_capture_without_a_trigger_count_is_not_called_free_running(
         checks, _ = health_checks(Health(missed_triggers=0), manifest)
         (missed,) = [c for c in checks if c.name == "camera: missed triggers"]
         assert not missed.passed and says in missed.detail, missed.detail
+
+
+def test_a_quantity_added_to_the_table_is_limited_checked_shown_exported_and_documented(
+    monkeypatch,
+):
+    """The quantities' table is the one definition: a fake gauge added to it is a limit in
+    ``acceptance.health`` (with its docstring), a check failing beyond it, a part of a
+    step's text, a Prometheus gauge and a row of the manual's table."""
+    import sys
+
+    from conftest import ROOT
+
+    from inspect_validate.acceptance import _health_model
+    from inspect_validate.camera import health
+    from inspect_validate.camera.health import BACKENDS, Limit, Quantity, health_sha256
+    from inspect_validate.verification.health_checks import health_checks
+    from inspect_validate.watch.serve import _health_lines
+
+    fake = Quantity(
+        "fan_rpm", "gauge", "the camera fan's speed, rpm", "fan {:g} rpm",
+        "inspect_validate_camera_fan_rpm", ("`FanSpeed`",) * len(BACKENDS),
+        limit=Limit(
+            "fan_rpm", None, "Slowest fan speed, rpm.", "camera: fan", "rpm", "at_least",
+            "number", (0, 1e5), "the camera has no fan", lambda t: (t["fan_rpm"], "the slowest"),
+        ),
+        over_capture="min",
+    )  # fmt: skip
+    monkeypatch.setattr(health, "QUANTITIES", (*health.QUANTITIES, fake))
+    model = _health_model()
+    assert model.model_fields["fan_rpm"].description == "Slowest fan speed, rpm."
+    record = {"frames_delivered": 4, "fan_rpm": 900.0}
+    step = {"complete": True, "health": record, "health_sha256": health_sha256(record)}
+    checks, _ = health_checks(model(fan_rpm=1000), {"steps": {"amber": step}})
+    (fan,) = [c for c in checks if c.name == "camera: fan"]
+    assert not fan.passed and fan.value == 900 and fan.relation == "≥"
+    assert "fan 900 rpm" in health.health_text(record)
+    assert "inspect_validate_camera_fan_rpm 900.0" in _health_lines(
+        {"health": {"fan_rpm": 900.0}, "health_totals": {}}
+    )
+    monkeypatch.syspath_prepend(str(ROOT / "docs" / "_ext"))
+    sys.modules.pop("file_models", None)
+    from file_models import health_markdown
+
+    assert "| `fan_rpm` | `FanSpeed` | the same |" in health_markdown()
+
+
+def test_a_link_below_its_limit_fails_and_every_quantity_has_a_limit_or_a_reason():
+    from inspect_validate.acceptance import Health
+    from inspect_validate.camera.health import QUANTITIES, health_sha256
+    from inspect_validate.verification.health_checks import health_checks
+
+    assert all((q.limit is None) != (q.unlimited == "") for q in QUANTITIES)
+    record = {"frames_delivered": 4, "link_speed_mbps": 100.0}
+    step = {"complete": True, "health": record, "health_sha256": health_sha256(record)}
+    checks, _ = health_checks(Health(link_speed_mbps=1000), {"steps": {"amber": step}})
+    (link,) = [c for c in checks if c.name == "camera: link speed"]
+    assert not link.passed and link.value == 100 and link.limit == 1000
+    checks, _ = health_checks(Health(link_speed_mbps=100), {"steps": {"amber": step}})
+    assert [c.passed for c in checks if c.name == "camera: link speed"] == [True]
