@@ -35,7 +35,7 @@ from collections.abc import Iterable, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, TextIO
+from typing import Any, NamedTuple, TextIO
 
 from inspect_validate import __version__
 from inspect_validate.camera.frame import Frame
@@ -52,6 +52,8 @@ from inspect_validate.files import (
 
 __all__ = [
     "QUEUED_FRAMES",
+    "Audited",
+    "CaptureFiles",
     "CaptureStore",
     "StepRecord",
     "audit_capture",
@@ -311,7 +313,17 @@ class CaptureStore:
         self._save_manifest()
 
 
-def audit_capture(folder: Path, manifest: dict, steps: Iterable[str]) -> dict[str, str]:
+class Audited(NamedTuple):
+    """What :func:`audit_capture` read of a capture's frames, for its readers to use
+    rather than read again: each frame file's SHA-256 (``"step/frame_0001.tif"`` → hex,
+    for comparing captures with each other) and each frame's sidecar (its path → the
+    record)."""
+
+    hashes: dict[str, str]
+    sidecars: dict[Path, dict]
+
+
+def audit_capture(folder: Path, manifest: dict, steps: Iterable[str]) -> Audited:
     """Check that the frames of ``steps`` in a capture ``folder`` are the ones written.
 
     Each step's frame files must be those its manifest record counts and hashes, each
@@ -322,9 +334,8 @@ def audit_capture(folder: Path, manifest: dict, steps: Iterable[str]) -> dict[st
 
     Returns
     -------
-    dict
-        Each frame file's SHA-256 (``"step/frame_0001.tif"`` → hex), for comparing
-        captures with each other.
+    Audited
+        Each frame file's SHA-256 and its sidecar as read.
 
     Raises
     ------
@@ -335,6 +346,7 @@ def audit_capture(folder: Path, manifest: dict, steps: Iterable[str]) -> dict[st
 
     problems: list[str] = []
     hashes: dict[str, str] = {}
+    sidecars: dict[Path, dict] = {}
     seen: dict[str, str] = {}
     stamps: dict[tuple, str] = {}
     snapshot = manifest.get("settings")
@@ -399,6 +411,7 @@ def audit_capture(folder: Path, manifest: dict, steps: Iterable[str]) -> dict[st
             if not isinstance(meta, dict):
                 problems.append(f"{where}: its sidecar is not a JSON object")
                 continue
+            sidecars[path] = meta
             if meta.get("step", step) != step or meta.get("file", path.name) != path.name:
                 problems.append(f"{where}: its sidecar is of {meta.get('step')}/{meta.get('file')}")
             try:
@@ -432,16 +445,25 @@ def audit_capture(folder: Path, manifest: dict, steps: Iterable[str]) -> dict[st
             "wrote: capture again (or restore the folder from its copy)",
             source=str(folder),
         )
-    return hashes
+    return Audited(hashes, sidecars)
 
 
-def read_capture(
-    folder: Path, steps: Iterable[str], *, target: str = "scene"
-) -> tuple[dict[str, list[Path]], list[Path], dict, dict[str, str]]:
+class CaptureFiles(NamedTuple):
+    """A capture folder as :func:`read_capture` read it: each step's frame files, the
+    darks', its manifest, and what the audit read (each frame's SHA-256 and sidecar)."""
+
+    frames: dict[str, list[Path]]
+    dark: list[Path]
+    manifest: dict
+    hashes: dict[str, str]
+    sidecars: dict[Path, dict]
+
+
+def read_capture(folder: Path, steps: Iterable[str], *, target: str = "scene") -> CaptureFiles:
     """Frame files of each of ``steps`` (the illuminations' names) and of the darks in a
     capture folder of ``target`` (what was in front of the camera: the objects, or a
-    ``flat`` or ``edge`` target), its manifest, and each frame file's SHA-256 — after
-    checking that the frames are those the capture wrote (:func:`audit_capture`).
+    ``flat`` or ``edge`` target), its manifest, each frame file's SHA-256 and sidecar —
+    after checking that the frames are those the capture wrote (:func:`audit_capture`).
 
     Raises
     ------
@@ -488,8 +510,8 @@ def read_capture(
         if records.get("dark", {}).get("complete")
         else []
     )
-    hashes = audit_capture(folder, manifest, [*frames, *(["dark"] if dark else [])])
-    return frames, dark, manifest, hashes
+    audited = audit_capture(folder, manifest, [*frames, *(["dark"] if dark else [])])
+    return CaptureFiles(frames, dark, manifest, audited.hashes, audited.sidecars)
 
 
 def audit_rig(folder: Path, names: Sequence[str]) -> None:
@@ -551,8 +573,11 @@ def audit_rig(folder: Path, names: Sequence[str]) -> None:
         )
 
 
-def acquisition_record(manifest: dict, files: dict[str, list[Path]]) -> tuple[dict, ...]:
-    """How each step's frames were taken, from the manifest and the frames' sidecars:
+def acquisition_record(
+    manifest: dict, files: dict[str, list[Path]], sidecars: dict[Path, dict] | None = None
+) -> tuple[dict, ...]:
+    """How each step's frames were taken, from the manifest and the frames' sidecars
+    (``sidecars`` as the audit read them; read here where not given):
     the acquisition mode, the exposure the frames verifiably had (their chunk values
     where the camera sent chunks, else the setting read back), and the frames discarded
     before them, by reason. Steps captured before modes were recorded say ``free-run``."""
@@ -563,8 +588,11 @@ def acquisition_record(manifest: dict, files: dict[str, list[Path]]) -> tuple[di
         entry = manifest.get("steps", {}).get(step, {})
         exposures, source = set(), "read back"
         for path in paths:
+            meta = (sidecars or {}).get(path)
             try:
-                meta = json.loads(path.with_suffix(".json").read_text())
+                meta = (
+                    meta if meta is not None else json.loads(path.with_suffix(".json").read_text())
+                )
             except (OSError, ValueError):
                 continue  # a frame without its sidecar: the exposure is not known for it
             chunk = (meta.get("extra") or {}).get("chunk") or {}
@@ -608,18 +636,24 @@ class StepRecord:
         return None
 
 
-def step_record(folder: Path, manifest: dict, step: str) -> StepRecord:
+def step_record(
+    folder: Path, manifest: dict, step: str, sidecars: dict[Path, dict] | None = None
+) -> StepRecord:
     """The settings ``folder``'s capture recorded for ``step`` (:class:`StepRecord`):
-    what a reader compares with the settings the frames are used as."""
+    what a reader compares with the settings the frames are used as (its first frame's
+    sidecar from ``sidecars``, as the audit read them, where given)."""
     record = manifest.get("steps", {}).get(step, {})
     channels = {}
     for ch, pct in (record.get("channels") or {}).items():
         with contextlib.suppress(TypeError, ValueError):
             if float(pct) > 0:
                 channels[int(ch)] = float(pct)
-    sidecar = Path(folder) / step / "frame_0001.json"
+    first = Path(folder) / step / "frame_0001.tif"
+    meta = (sidecars or {}).get(first)
+    sidecar = first.with_suffix(".json")
     try:
-        meta = json.loads(sidecar.read_text()) if sidecar.is_file() else {}
+        if meta is None:
+            meta = json.loads(sidecar.read_text()) if sidecar.is_file() else {}
     except (OSError, ValueError, RecursionError):
         meta = {}
     return StepRecord(channels, meta if isinstance(meta, dict) else {})

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import glob
 import json
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 
 import numpy as np
@@ -98,14 +98,16 @@ def read_image(path: str | Path, *, finite: bool = True) -> np.ndarray:
     return _monochrome(image, path, colour=colour)
 
 
-def recorded_bit_depth(path: str | Path) -> int | None:
+def recorded_bit_depth(path: str | Path, *, sidecar_record: dict | None = None) -> int | None:
     """The bit depth a captured frame was recorded with (Mono12 → 12, stored in uint16),
-    from its sidecar (``frame_0001.json``) or its TIFF description; None where the file
-    says nothing (a frame from elsewhere)."""
+    from its sidecar (``frame_0001.json``; ``sidecar_record``: as already read) or its
+    TIFF description; None where the file says nothing (a frame from elsewhere)."""
     path = Path(path)
     sidecar = path.with_suffix(".json")
     try:
-        if sidecar.is_file():
+        if sidecar_record is not None:
+            meta = sidecar_record
+        elif sidecar.is_file():
             meta = json.loads(sidecar.read_text())
         elif path.suffix.lower() in _TIFF:
             import tifffile
@@ -161,8 +163,11 @@ def _read_tiff(path: Path) -> tuple[np.ndarray, bool]:
 _SETTING = ("exposure_us", "gain_db", "pixel_format")
 
 
-def _capture_record(path: Path) -> dict | None:
-    """A captured frame's JSON sidecar (step and camera settings), if it has one."""
+def _capture_record(path: Path, sidecars: Mapping[Path, dict] | None = None) -> dict | None:
+    """A captured frame's JSON sidecar (step and camera settings), if it has one (from
+    ``sidecars`` where it was read already)."""
+    if sidecars is not None and path in sidecars:
+        return sidecars[path]
     sidecar = path.with_suffix(".json")
     if path.suffix.lower() not in _TIFF or not sidecar.is_file():
         return None
@@ -226,13 +231,18 @@ def expand_paths(paths: Iterable[str | Path]) -> list[Path]:
     return out
 
 
-def read_frames(paths: Iterable[str | Path], *, finite: bool = True) -> np.ndarray:
+def read_frames(
+    paths: Iterable[str | Path],
+    *,
+    finite: bool = True,
+    sidecars: Mapping[Path, dict] | None = None,
+) -> np.ndarray:
     """Read frames taken at one setting into one stack (N, H, W).
 
     Paths may be files (one frame or a stack each), folders or glob patterns
     (:func:`expand_paths`). All frames must have the same size and data type,
     and frames written by a capture must all come from the same step. ``finite`` as in
-    :func:`read_image`.
+    :func:`read_image`; ``sidecars``: the frames' sidecars as a capture's audit read them.
     """
     # Frames are copied into one preallocated stack as they are read: peak memory is the
     # stack plus one file, not twice the stack.
@@ -240,7 +250,7 @@ def read_frames(paths: Iterable[str | Path], *, finite: bool = True) -> np.ndarr
     recorded: tuple[Path, dict] | None = None  # the first frame with a capture sidecar
     paths = expand_paths(paths)
     for i, path in enumerate(paths):
-        meta = _capture_record(path)
+        meta = _capture_record(path, sidecars)
         if meta is not None:
             recorded = recorded or (path, meta)
             (pa, a), b = recorded, meta

@@ -8,7 +8,7 @@ and the classification error ε_tot (37), parametric and nonparametric.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal
@@ -464,6 +464,7 @@ def measure_files(
     limits: Limits = Limits(),
     kde: KdeMode = "auto",
     shading: Shading | None = None,
+    sidecars: Mapping[Path, dict] | None = None,
 ) -> Measurement:
     """Measure the classes of an ROI file in a stack of frame files.
 
@@ -490,6 +491,8 @@ def measure_files(
     shading : Shading, keyword-only, optional
         The frames' shading corrected before measuring
         (:class:`~inspect_validate.stats.Shading`).
+    sidecars : mapping, keyword-only, optional
+        The frames' sidecars as a capture's audit read them (not read again).
 
     Raises
     ------
@@ -504,7 +507,7 @@ def measure_files(
     frames = [frames] if isinstance(frames, (str, Path)) else list(frames)
     dark = [dark] if isinstance(dark, (str, Path)) else list(dark)
     # Only the regions' pixels must be numbers: NaN elsewhere (a masked border) is fine.
-    stack = read_frames(frames, finite=False)
+    stack = read_frames(frames, finite=False, sidecars=sidecars)
     if saturation_level is None and stack.dtype.kind in "ui":
         bits = recorded_bit_depth(expand_paths(frames)[0])
         if bits is not None and bits < 8 * stack.dtype.itemsize:

@@ -178,9 +178,19 @@ def _colonless_line(text: str, exc) -> int | None:
 def read_mapping(path: str | Path, *, what: str) -> dict:
     """The mapping a YAML file holds, read in the strict dialect; errors name ``path`` and
     say what a ``what`` (``"ROI file"``) must be."""
+    return read_mapping_and_hash(path, what=what)[0]
+
+
+def read_mapping_and_hash(path: str | Path, *, what: str) -> tuple[dict, str]:
+    """:func:`read_mapping`, and the SHA-256 of the file's bytes as read (which version of
+    the file it was), the file read once."""
+    import hashlib
+
     path = input_file(path, what, todo=f"give the path of a {what} (YAML)", largest=YAML_MAX_BYTES)
     try:
-        text = path.read_text()
+        data = path.read_bytes()
+        # As read_text reads: universal newlines (a file written on Windows parses alike).
+        text = data.decode().replace("\r\n", "\n").replace("\r", "\n")
     except UnicodeDecodeError:
         raise InputError(f"not a text file; a {what} is YAML", source=str(path)) from None
     except OSError as exc:
@@ -192,4 +202,4 @@ def read_mapping(path: str | Path, *, what: str) -> dict:
             f"the {what} is {found}; it must be a mapping of fields (see the manual's file formats)",
             source=str(path),
         )
-    return doc
+    return doc, hashlib.sha256(data).hexdigest()

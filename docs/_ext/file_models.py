@@ -202,7 +202,7 @@ def model_tables(
         rows = []
         docs = field_docs(current)
         for name, field in current.model_fields.items():
-            if name == "path" and field.exclude:
+            if field.exclude:  # set on reading (path, sha256), never written
                 continue
             key = field.alias or name
             path = key if where == title else f"{where}.{key}"

@@ -58,7 +58,7 @@ def target_stacks(station: Station, folder: Path, target: str) -> dict[str, np.n
     from inspect_validate.camera.storage import read_capture
     from inspect_validate.images import read_frames
 
-    files, dark, _, _ = read_capture(folder, [i.name for i in station.illuminations], target=target)
+    files, dark, *_ = read_capture(folder, [i.name for i in station.illuminations], target=target)
     if not dark:
         raise InputError(
             f"the {target} target's capture has no dark frames, and its field is the light "

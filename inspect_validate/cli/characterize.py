@@ -120,7 +120,7 @@ def characterize(station, out, report_dir, resume, flat, edge, edge_region, came
         gain_db=st.camera.gain_db or 0.0,
         provenance={
             "station": str(st.path),
-            "station_sha256": station_hash(st.path),
+            "station_sha256": station_hash(st),
             "capture": str(out),
         },
     )
@@ -144,7 +144,7 @@ def _targets(st, flat, edge, region, out) -> None:
     from inspect_validate.station.file import station_hash
 
     out.mkdir(parents=True, exist_ok=True)
-    inputs = {"station": str(st.path), "station_sha256": station_hash(st.path)}
+    inputs = {"station": str(st.path), "station_sha256": station_hash(st)}
     fields = field_doc = edges = None
     if flat is not None:
         from inspect_validate.characterization.field_file import field_document

@@ -92,7 +92,7 @@ def capture(
     stopping = _stopping(station) if target == "scene" else None
     pulse = getattr(station.controller, "pulse", None)
     store = CaptureStore(
-        out, station_path=station.file, station_sha256=station_hash(station.file), resume=resume
+        out, station_path=station.file, station_sha256=station_hash(station), resume=resume
     )
     try:
         _record_target(store, target, out, station)
@@ -149,7 +149,7 @@ def _capture_rig(station, out, *, resume, progress, steps) -> CaptureResult:
             source=str(station.path),
         )
     names = station.camera_names
-    digest = station_hash(station.file)
+    digest = station_hash(station)
     with contextlib.ExitStack() as stack:
         stores = {}
         for name in names:

@@ -41,7 +41,7 @@ from pydantic import (
 
 from inspect_validate.acceptance import Acceptance, Calibration
 from inspect_validate.camera.settings import Channel
-from inspect_validate.config import StrictModel, load_yaml, one_of
+from inspect_validate.config import StrictModel, one_of
 from inspect_validate.files import atomic_write
 from inspect_validate.scene_file import ComparisonsSpec, Irradiance
 from inspect_validate.station.world import Rendered
@@ -322,6 +322,8 @@ class Station(StrictModel):
     """How the station is verified on its running line (moving parts, one light on)."""
     path: Path | None = Field(default=None, exclude=True)
     """The file the station was read from (set on reading, never written)."""
+    sha256: str | None = Field(default=None, exclude=True)
+    """The SHA-256 of that file's bytes as they were read (set on reading, never written)."""
 
     @model_validator(mode="before")
     @classmethod
@@ -654,7 +656,12 @@ class Station(StrictModel):
 
 def read_station(path: str | Path) -> Station:
     """Read and validate a station file; errors name the file and field."""
-    station = load_yaml(path, Station, what="station file")
+    from inspect_validate.config import validate
+    from inspect_validate.strict_yaml import read_mapping_and_hash
+
+    # The file read once: its mapping, and its hash (which version a capture was of).
+    doc, sha256 = read_mapping_and_hash(path, what="station file")
+    station = validate(doc, Station, what="station file", source=str(path))
     names = [i.name for i in station.illuminations]
     if len(set(names)) != len(names) or {"dark", "manifest.json"} & set(names):
         from inspect_validate.errors import InputError
@@ -664,7 +671,7 @@ def read_station(path: str | Path) -> Station:
             "capture's dark frames and its manifest)",
             source=str(path),
         )
-    return station.model_copy(update={"path": Path(path)})
+    return station.model_copy(update={"path": Path(path), "sha256": sha256})
 
 
 RESERVED_NAMES = frozenset({"frames", "dark", "report.html", "verification.json", "junit.xml"})
@@ -672,9 +679,14 @@ RESERVED_NAMES = frozenset({"frames", "dark", "report.html", "verification.json"
 cameras' folders."""
 
 
-def station_hash(path: str | Path) -> str:
-    """SHA-256 of the station file's bytes: which configuration a capture belongs to."""
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+def station_hash(station: Station | str | Path) -> str:
+    """SHA-256 of the station file's bytes: which configuration a capture belongs to (a
+    station read from its file: the bytes it was read from, not read again)."""
+    if isinstance(station, Station):
+        if station.sha256 is not None:
+            return station.sha256
+        station = station.file
+    return hashlib.sha256(Path(station).read_bytes()).hexdigest()
 
 
 def write_station(

@@ -346,7 +346,7 @@ def train(
         comparisons,
         captures=[str(c) for c in captures],
         tool_version=__version__,
-        station_sha256=station_hash(station.file),
+        station_sha256=station_hash(station),
         settings=_shared_settings(captures, [r.manifest for r in runs]),
     )
 

@@ -42,6 +42,7 @@ class MeasuredCapture:
     dark: Measurement | None  # of the dark stack
     saturation_level: float | None = None  # DN, :func:`saturation_level`
     sha256: dict = field(default_factory=dict)  # "step/frame_0001.tif" → hex, as audited
+    sidecars: dict = field(default_factory=dict)  # frame path → its sidecar, as audited
 
 
 def station_regions(station: Station) -> tuple[RoiSet, Comparisons]:
@@ -129,19 +130,20 @@ class StepMeasurer:
 
 def _measure_step(
     step: str, files: list[Path], level: float | None, *, rois, comparisons, limits, kde,
-    shading=None,
+    shading=None, sidecars=None,
 ):  # fmt: skip
     """A step's frames measured as :func:`measure_capture` measures them (the darks
-    without ε KDE and limits)."""
+    without ε KDE and limits; ``sidecars`` as the audit read them)."""
     from inspect_validate.measurement import measure_files
 
     if step == "dark":
         return measure_files(
-            files, rois, comparisons=comparisons, kde="never", saturation_level=level
-        )
+            files, rois, comparisons=comparisons, kde="never", saturation_level=level,
+            sidecars=sidecars,
+        )  # fmt: skip
     return measure_files(
         files, rois, comparisons=comparisons, limits=limits, kde=kde, saturation_level=level,
-        shading=shading,
+        shading=shading, sidecars=sidecars,
     )  # fmt: skip
 
 
@@ -171,10 +173,10 @@ def measure_capture(
     """
     from inspect_validate.camera.storage import read_capture
 
-    files, dark_files, manifest, hashes = read_capture(
+    files, dark_files, manifest, hashes, sidecars = read_capture(
         folder, [i.name for i in station.illuminations]
     )
-    _settings_agree(station, folder, manifest, files, dark_files)
+    _settings_agree(station, folder, manifest, files, dark_files, sidecars)
     rig, camera = manifest.get("rig"), station.camera.name
     if camera is not None and isinstance(rig, dict) and rig.get("camera") not in (None, camera):
         raise InputError(
@@ -182,19 +184,20 @@ def measure_capture(
             f"give {Path(folder).parent / camera} (or --camera {rig.get('camera')})",
             source=str(folder),
         )
-    level = saturation_level(next(iter(files.values()))[0], sensor)
+    first = next(iter(files.values()))[0]
+    level = saturation_level(first, sensor, sidecar=sidecars.get(first))
     options = {"rois": rois, "comparisons": comparisons, "limits": limits, "kde": kde}
 
     def measure(step: str, paths: list[Path], shading: Shading | None = None) -> Measurement:
         early = measured.result(step, paths, level) if measured is not None else None
         if early is not None and shading is None:
             return early
-        return _measure_step(step, paths, level, **options, shading=shading)
+        return _measure_step(step, paths, level, **options, shading=shading, sidecars=sidecars)
 
     dark = measure("dark", dark_files) if dark_files else None
     shadings = station_shading(station, dark, source=str(folder))
     measurements = {name: measure(name, paths, shadings.get(name)) for name, paths in files.items()}
-    return MeasuredCapture(files, dark_files, manifest, measurements, dark, level, hashes)
+    return MeasuredCapture(files, dark_files, manifest, measurements, dark, level, hashes, sidecars)
 
 
 def station_shading(
@@ -225,7 +228,9 @@ def station_shading(
     return {name: Shading(f.map(), dark_level) for name, f in fields.items()}
 
 
-def _settings_agree(station: Station, folder: Path, manifest: dict, files, dark_files) -> None:
+def _settings_agree(
+    station: Station, folder: Path, manifest: dict, files, dark_files, sidecars=None
+) -> None:
     """Refuse frames whose recorded settings contradict the station they are verified as:
     each step's channel levels (the manifest), exposure and pixel format (the frames'
     sidecars). The prediction is made at the station's settings, so a measurement at
@@ -244,7 +249,7 @@ def _settings_agree(station: Station, folder: Path, manifest: dict, files, dark_
         for i in station.illuminations
     }
     for name, paths in [*files.items(), *([("dark", dark_files)] if dark_files else [])]:
-        record = step_record(folder, manifest, name)
+        record = step_record(folder, manifest, name, sidecars)
         want = wanted.get(name, {})
         if set(record.channels) != set(want) or any(
             abs(record.channels[c] - want[c]) > 1e-6 for c in want
@@ -295,13 +300,16 @@ def _stored_as(frame: Path, pixel_format: object) -> str:
     )
 
 
-def saturation_level(frame: Path, sensor: SensorModel | None = None) -> float | None:
+def saturation_level(
+    frame: Path, sensor: SensorModel | None = None, *, sidecar: dict | None = None
+) -> float | None:
     """The grey value of a saturated pixel, DN: 2^bits − 1 of the bit depth ``frame`` was
-    recorded with (a Mono12 frame in uint16: 4095), else of ``sensor`` (the scene's
-    ``bit_depth``); None where neither tells (the storage type's maximum then)."""
+    recorded with (a Mono12 frame in uint16: 4095; ``sidecar``: its sidecar as already
+    read), else of ``sensor`` (the scene's ``bit_depth``); None where neither tells (the
+    storage type's maximum then)."""
     from inspect_validate.images import recorded_bit_depth
 
-    bits = recorded_bit_depth(frame)
+    bits = recorded_bit_depth(frame, sidecar_record=sidecar)
     if bits is None and sensor is not None:
         bits = sensor.bit_depth
     return None if bits is None else float(2**bits - 1)

@@ -56,7 +56,7 @@ def golden_parts(station: Station, parts: Parts, *, source: str = "the frames") 
         parts.comparisons,
         captures=[p.frame for p in parts.measured],
         tool_version=__version__,
-        station_sha256=station_hash(station.file),
+        station_sha256=station_hash(station),
         focus=[p.focus for p in parts.measured],
         poses=[p.position for p in parts.measured],
     )

@@ -114,7 +114,7 @@ def verify_production(
     production_golden(golden, station, source=source)
     parts = measure_parts(station, frames)
     verified = verify_parts(station, parts, golden, manifest=parts.manifest)
-    if station.path is not None and golden.station_sha256 != station_hash(station.path):
+    if station.path is not None and golden.station_sha256 != station_hash(station):
         note = (
             "the golden file was trained with another version of the station file (its "
             "station_sha256 differs): its parts are the reference as they are; train it "

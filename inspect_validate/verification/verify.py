@@ -362,7 +362,7 @@ def verify_capture(
     notes += _uncertainty_notes(acc, decided, golden, comparisons, model_errors)
     notes += _fixed_drift_notes(acc, decided, golden, measurements, errors)
     inputs = _inputs(station, capture, rois, folder, golden)
-    acquisition = acquisition_record(manifest, {**files, "dark": dark_files})
+    acquisition = acquisition_record(manifest, {**files, "dark": dark_files}, capture.sidecars)
     if manifest.get("station_sha256") not in (None, inputs["station_sha256"]):
         notes.append(
             "the capture was made with another version of the station file "
@@ -412,7 +412,7 @@ def _inputs(station, capture, rois, folder, golden) -> dict:
     acc = station.acceptance
     return {
         "station": str(station.path),
-        "station_sha256": station_hash(station.file),
+        "station_sha256": station_hash(station),
         "capture": None if folder is None else str(folder),
         "capture_station_sha256": capture.manifest.get("station_sha256"),
         "frames": {k: [str(p) for p in v] for k, v in capture.files.items()},
