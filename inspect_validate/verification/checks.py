@@ -34,6 +34,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "DEFAULT_FALSE_ALARM",
+    "KINDS",
     "Basis",
     "Check",
     "Coverage",
@@ -99,6 +100,24 @@ class Coverage:
     confidence: float
 
 
+KINDS: dict[str, str] = {
+    "light": "the light reaches the camera (lit above dark)",
+    "separation": "a comparison separates as the station asks (SNR_dB, ε)",
+    "saturation": "a class's pixels saturated or at zero",
+    "agreement": "measured against predicted (μ, SNR_dB)",
+    "ranking": "the illuminations rank as predicted",
+    "gain": "the camera's measured gain against its model",
+    "drift": "drift from the golden statistics (bench or line)",
+    "settings": "the camera's settings since training",
+    "health": "what the camera and its transport reported",
+    "sharpness": "the lens's MTF50 against its f-number's, or since it was measured",
+    "production": "the running line's own checks (parts measured, located)",
+    "cameras": "several cameras' rounds (the trigger's skew)",
+}
+"""Every kind of check, and what it is about: the reports group by it, and a check of
+another kind is refused where it is made."""
+
+
 @dataclass(frozen=True)
 class Check:
     """A check of the ``acceptance:`` section.
@@ -108,9 +127,9 @@ class Check:
     name : str
         What is checked, e.g. ``"amber: A vs B,C SNR_dB"``.
     kind : str
-        ``light`` (the light reaches the camera), ``separation``, ``saturation``,
-        ``agreement``, ``ranking``, ``gain``, ``drift`` or ``settings`` (the camera's
-        settings since training).
+        One of :data:`KINDS` (``light``, ``separation``, ``saturation``, ``agreement``,
+        ``ranking``, ``gain``, ``drift``, ``settings``, ``health``, ``sharpness``,
+        ``production``, ``cameras``).
     value, limit : float
         The measured value and the limit it was held to (1.0/0.0 for yes/no checks), in
         ``unit``; for statistical and tolerance checks the limit includes the margin.
@@ -173,6 +192,10 @@ class Check:
     predicted_gap: float | None = None
     coverage: Coverage | None = None
     confidence: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.kind not in KINDS:
+            raise ValueError(f"check {self.name!r}: kind {self.kind!r} is none of KINDS")
 
     @property
     def ran(self) -> bool:

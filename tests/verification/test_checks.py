@@ -292,3 +292,14 @@ def test_drift_checks_leave_out_comparisons_by_the_rates_k_not_a_class_index():
 
     assert kept(1.5) == ["amber: A vs B SNR_dB drift"]  # −18 − 1.5 ≥ −20
     assert kept(3.0) == []  # −18 − 3 < −20, whatever the classes' count
+
+
+def test_a_check_of_an_undocumented_kind_is_refused_where_it_is_made():
+    """The kinds the reports group by are one table (KINDS): a check of another kind (a
+    typo, a kind added without its meaning) is an error where it is made."""
+    from inspect_validate.verification.checks import KINDS, Check, at_most
+
+    assert {"health", "sharpness", "production", "cameras"} <= set(KINDS)
+    assert at_most("camera: fan", "health", 1.0, 2.0, "").passed
+    with pytest.raises(ValueError, match="kind 'helth'"):
+        Check("camera: fan", "helth", 1.0, 2.0, "", "≤", True)
