@@ -67,7 +67,7 @@ class Quantity:
     """One health quantity: its record key, a counter (a step's increase, summed over a
     capture) or a gauge (read at a step's end, the capture's ``over_capture`` of its
     steps), what it means, how a line of text shows it (``text`` formatted with the
-    value), its Prometheus metric, where each backend of :data:`BACKENDS` reads it, and
+    value), its Prometheus metric, where each backend of ``BACKENDS`` reads it, and
     its limit, or why it has none."""
 
     name: str

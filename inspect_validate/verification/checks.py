@@ -127,9 +127,9 @@ class Check:
     name : str
         What is checked, e.g. ``"amber: A vs B,C SNR_dB"``.
     kind : str
-        One of :data:`KINDS` (``light``, ``separation``, ``saturation``, ``agreement``,
-        ``ranking``, ``gain``, ``drift``, ``settings``, ``health``, ``sharpness``,
-        ``production``, ``cameras``).
+        One of :data:`~inspect_validate.verification.checks.KINDS` (``light``,
+        ``separation``, ``saturation``, ``agreement``, ``ranking``, ``gain``, ``drift``,
+        ``settings``, ``health``, ``sharpness``, ``production``, ``cameras``).
     value, limit : float
         The measured value and the limit it was held to (1.0/0.0 for yes/no checks), in
         ``unit``; for statistical and tolerance checks the limit includes the margin.
