@@ -40,7 +40,7 @@ from __future__ import annotations
 import math
 import time
 from collections import Counter
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -587,7 +587,7 @@ def capture_steps(
     return CaptureResult(Path(store.folder), saved, tuple(skipped), not_applied, warnings, known)
 
 
-def configure_camera(grabber, settings: CameraSettings) -> tuple[str, ...]:
+def configure_camera(grabber: Grabber, settings: CameraSettings) -> tuple[str, ...]:
     """Apply ``settings``' exposure, gain and pixel format; the ones asked for that the
     camera has no node for (recorded as not applied)."""
     grabber.configure(
@@ -603,7 +603,14 @@ def configure_camera(grabber, settings: CameraSettings) -> tuple[str, ...]:
     return tuple(sorted(m for m in grabber.missing if asked.get(m) is not None))
 
 
-def record_camera(store, grabber, settings, mode, chunk, not_applied) -> tuple[str, ...]:
+def record_camera(
+    store: CaptureStore,
+    grabber: Grabber,
+    settings: CameraSettings,
+    mode: str,
+    chunk: dict | None,
+    not_applied: tuple[str, ...],
+) -> tuple[str, ...]:
     """The manifest's ``camera`` and ``settings`` records of an armed camera; the nodes
     that changed while its settings were read (left out of the snapshot)."""
     store.record(
@@ -633,7 +640,7 @@ def record_camera(store, grabber, settings, mode, chunk, not_applied) -> tuple[s
     return unstable
 
 
-def unstable_warning(grabber, unstable) -> tuple[str, ...]:
+def unstable_warning(grabber: Grabber, unstable: Iterable[str]) -> tuple[str, ...]:
     if not unstable:
         return ()
     return (
@@ -642,7 +649,7 @@ def unstable_warning(grabber, unstable) -> tuple[str, ...]:
     )
 
 
-def arm_camera(settings: CameraSettings, grabber, source: str) -> tuple[str, dict | None]:
+def arm_camera(settings: CameraSettings, grabber: Grabber, source: str) -> tuple[str, dict | None]:
     """Resolve the settings' acquisition mode on ``camera`` and arm it.
 
     Returns the mode and the chunk check (chunk name → (requested, increment)), or
@@ -738,7 +745,7 @@ def _frame_source(grabber, controller, mode: str, pulse, timeout_s: float, trigg
     return next_frame
 
 
-def camera_step_health(grabber, before: dict, triggers: Counter | None) -> dict:
+def camera_step_health(grabber: Grabber, before: dict, triggers: Counter | None) -> dict:
     """A step's health (:mod:`~inspect_validate.camera.health`): what the camera reports
     now against ``before``, and the triggers the capture sent and missed (None: a
     free-running step, which sends none); a camera that no longer answers reports what

@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 if TYPE_CHECKING:
-    from collections.abc import Mapping, Sequence
+    from collections.abc import Iterable, Mapping, Sequence
 
     from inspect_validate.acceptance import Agreement
     from inspect_validate.characterization.analysis import Characterization
@@ -84,7 +84,8 @@ def _numbers(values) -> list[float | None]:
     ]
 
 
-def chart_series(label: str, x, y, **options) -> dict[str, Any]:
+def chart_series(label: str, x: Iterable, y: Iterable, **options: Any) -> dict[str, Any]:
+    """One series of a chart: its label, x and y as JSON numbers, and its drawing options."""
     return {"label": label, "x": _numbers(x), "y": _numbers(y), **options}
 
 

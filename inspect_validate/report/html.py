@@ -28,7 +28,7 @@ if TYPE_CHECKING:
 
     from inspect_validate.model.spectral_analysis import SpectralSeparation
     from inspect_validate.scene import Scene
-    from inspect_validate.verification.production import ProductionVerification
+    from inspect_validate.verification.checks import Check
     from inspect_validate.verification.results import Verification
     from inspect_validate.verification.rig import RigVerification
     from inspect_validate.watch.history import HistoryLog
@@ -96,7 +96,7 @@ def write_rig_html(v: RigVerification, path: str | Path) -> Path:
         f'<p class="meta">{e(rig_rate_line(v))}. Each camera\'s irradiance scale of a light '
         "against the first camera's: the same light, so a gain, exposure or lens changed "
         "on one camera alone where they differ.</p>",
-        checks_table(v),
+        checks_table(v.across, v.skipped),
     ]
     text = page(f"verify {v.station.name}: {verdict.upper()}", parts)
     return atomic_write(path, text.encode())
@@ -192,7 +192,7 @@ def verification_html(v: Verification, *, history: HistoryLog | None = None) -> 
         f'<p class="meta">{e(false_alarm_line(v))}: statistical limits come from the '
         "rate and what was measured, tolerance limits are widened by the value's own "
         "uncertainty, fixed limits are held as given.</p>",
-        checks_table(v),
+        checks_table(v.checks, v.skipped),
     ]
     parts += [f"<p>note: {e(n)}</p>" for n in v.notes]
     if v.cause:
@@ -262,17 +262,17 @@ def _g(x, digits: int = 4) -> str:
     return "—" if x is None or not np.isfinite(x) else f"{x:.{digits}g}"
 
 
-def checks_table(v: Verification | RigVerification | ProductionVerification) -> str:
-    """The checks of a verification (anything with ``checks`` and ``skipped``), failures
-    marked, and what was not checked as rows of their own."""
+def checks_table(checks: Sequence[Check], skipped_items: Sequence[str]) -> str:
+    """``checks`` (a verdict's, :class:`~inspect_validate.verification.verdict.Verdict`),
+    failures marked, and what was not checked as rows of their own."""
     from inspect_validate.report.verification import CHECK_COLUMNS, check_rows
 
-    rows = check_rows(v.checks)
-    if not rows and not v.skipped:
+    rows = check_rows(checks)
+    if not rows and not skipped_items:
         return "<p>The station's acceptance section asks for no check.</p>"
     # What was not computed, and why, is read where the checks are: rows of their own,
     # whole (a "what: why" split at a colon would cut "amber: C vs A,B" apart).
-    skipped = [["skipped", item, "", "", "", "", ""] for item in v.skipped]
+    skipped = [["skipped", item, "", "", "", "", ""] for item in skipped_items]
     return table(
         CHECK_COLUMNS,
         [cells for _, cells in rows] + skipped,

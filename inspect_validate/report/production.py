@@ -168,7 +168,7 @@ def production_html(v: ProductionVerification) -> str:
         f'<p class="meta">{e(false_alarm_line(v))}: each statistical limit holds a batch '
         "mean of good parts within the golden parts' spread at the check's share of the rate."
         "</p>",
-        checks_table(v),
+        checks_table(v.checks, v.skipped),
     ]
     if parts.not_measured:
         body += [

@@ -28,9 +28,9 @@ if TYPE_CHECKING:
     from collections.abc import Iterable, Sequence
 
     from inspect_validate.verification.checks import Check
-    from inspect_validate.verification.production import ProductionVerification
     from inspect_validate.verification.results import Verification
     from inspect_validate.verification.rig import RigVerification
+    from inspect_validate.verification.verdict import Verdict
 
 __all__ = [
     "CHECK_COLUMNS",
@@ -64,7 +64,7 @@ def check_rows(checks: Iterable[Check]) -> list[tuple[Check, list[str]]]:
     ]
 
 
-def false_alarm_line(v: Verification | ProductionVerification) -> str:
+def false_alarm_line(v: Verdict) -> str:
     """How often these checks fail a station that has not changed, and how the rate is
     shared: ``false-alarm rate 0.27 % (3σ) shared by 24 checks, 0.011 % each; 12 fixed``."""
     from inspect_validate.verification.checks import (
@@ -190,7 +190,7 @@ def format_rig_verdict(v: RigVerification) -> str:
     for name, result in v.cameras.items():
         out += [f"== camera {name} ==", format_verdict(result), ""]
     out.append("== across cameras ==")
-    rows = [cells for _, cells in check_rows(v.checks)]
+    rows = [cells for _, cells in check_rows(v.across)]
     if rows:
         out.append(verdict_table(rows, terminal_width(sys.stdout)))
     for item in v.skipped:
@@ -202,11 +202,11 @@ def format_rig_verdict(v: RigVerification) -> str:
 def rig_summary(v: RigVerification) -> str:
     """``2 cameras, every camera passed; 0 of 2 checks across cameras failed``."""
     failed = [name for name, r in v.cameras.items() if not r.passed]
-    across = sum(not c.passed for c in v.checks)
+    across = sum(not c.passed for c in v.across)
     return (
         f"{len(v.cameras)} cameras, "
         + (f"{', '.join(failed)} failed" if failed else "every camera passed")
-        + f"; {across} of {len(v.checks)} checks across cameras failed"
+        + f"; {across} of {len(v.across)} checks across cameras failed"
     )
 
 
@@ -235,7 +235,7 @@ def rig_document(v: RigVerification) -> dict:
             name: {"verdict": "pass" if r.passed else "fail", "report": name}
             for name, r in v.cameras.items()
         },
-        "checks": verdict_documents(v.checks),
+        "checks": verdict_documents(v.across),
         "skipped": list(v.skipped),
     }
 
@@ -305,7 +305,7 @@ def verdict_documents(checks: Iterable[Check]) -> list[dict]:
     ]
 
 
-def false_alarm_document(v: Verification | ProductionVerification) -> dict:
+def false_alarm_document(v: Verdict) -> dict:
     """The false-alarm rate and how it is shared, as the JSON documents have it."""
     from inspect_validate.verification.checks import count_tests, normal_equivalent
 
@@ -318,9 +318,7 @@ def false_alarm_document(v: Verification | ProductionVerification) -> dict:
     }
 
 
-def write_junit(
-    v: Verification | ProductionVerification | RigVerification, path: str | Path
-) -> Path:
+def write_junit(v: Verdict, path: str | Path) -> Path:
     """One ``<testcase>`` per check in one ``<testsuite>``; failures carry value and limit.
     A station of several cameras: a suite per camera (its checks' class names carry the
     camera) and one of the checks across them."""
@@ -346,7 +344,7 @@ def write_junit(
             _junit_suite(
                 f"inspect-validate verify {station} · across cameras",
                 f"{station}.cameras",
-                v.checks,
+                v.across,
                 v.skipped,
             )
         )

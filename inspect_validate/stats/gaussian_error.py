@@ -266,7 +266,7 @@ def _branches(cases, *args):
     return value, log_value
 
 
-def upper_tail(zh, zl):
+def upper_tail(zh: np.ndarray, zl: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Q(z) = P(Z > z) and log Q(z) for z = zh + zl (1-d arrays).
 
     For z > 0, Q = ½·erfcx(z/√2)·exp(−z²/2) with z² formed exactly: scipy's
@@ -312,7 +312,9 @@ def _log_tail_ratio(ah, al, bh, bl):
         return np.where(np.isfinite(bh), ratio, -np.inf)
 
 
-def error_interval(ah, al, bh, bl):
+def error_interval(
+    ah: np.ndarray, al: np.ndarray, bh: np.ndarray, bl: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Φ(b) − Φ(a) and its log for a < b given as double-doubles (a may be −inf, b +inf)."""
 
     def narrow(ah, al, bh, bl):

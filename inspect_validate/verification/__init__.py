@@ -17,6 +17,7 @@ on the bench and on the running line.
 :mod:`.sharpness_checks`    the lens's MTF50 against its f-number's
 :mod:`.diagnosis`           the likely cause of a change, bench and line alike
 :mod:`.results`             what a verification found, and its verdict
+:mod:`.verdict`             the one shape of a verdict, bench, rig and line
 :mod:`.verify`              capture or read, measure, predict, compare, check
 :mod:`.rig`                 a station of several cameras, each verified as its own
 :mod:`.parts`               a running line's parts located and measured

@@ -52,17 +52,19 @@ class RigVerification:
 
     station: Station
     cameras: dict[str, Verification]
-    checks: tuple[Check, ...]
+    across: tuple[Check, ...]  # the checks across the cameras
     skipped: tuple[str, ...]
     false_alarm: float
+    notes: tuple[str, ...] = ()
 
     @property
     def passed(self) -> bool:
-        return all(v.passed for v in self.cameras.values()) and all(c.passed for c in self.checks)
+        return all(c.passed for c in self.checks)
 
     @property
-    def all_checks(self) -> tuple[Check, ...]:
-        """Every camera's checks, each named ``camera: check``, then the checks across them."""
+    def checks(self) -> tuple[Check, ...]:
+        """Every camera's checks, each named ``camera: check``, then the checks across them
+        (the verdict's, :class:`~.verdict.Verdict`)."""
         from dataclasses import replace
 
         named = (
@@ -70,7 +72,13 @@ class RigVerification:
             for camera, v in self.cameras.items()
             for c in v.checks
         )
-        return (*named, *self.checks)
+        return (*named, *self.across)
+
+    @property
+    def cause(self) -> str | None:
+        """Each camera's likely cause, named by the camera (None where none has one)."""
+        causes = [f"{name}: {v.cause}" for name, v in self.cameras.items() if v.cause]
+        return "; ".join(causes) or None
 
     @property
     def share(self) -> float:

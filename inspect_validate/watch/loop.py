@@ -251,7 +251,7 @@ def _cycle(station, plan, history, monitor, folder, settings, failures, line=Non
         state = monitor.update(values)
         passed = verification.passed
         status = "fail" if not passed else ("drift" if state.drifting else "pass")
-        checks = verification.all_checks if rig is not None else verification.checks
+        checks = verification.checks
         failed = [c for c in checks if not c.passed]
         reason = "; ".join([*(c.name for c in failed[:3]), *filter(None, [note])]) or None
         saturated = [c.name for c in failed if c.kind == "saturation"]
