@@ -327,6 +327,20 @@ class Station(StrictModel):
 
     @model_validator(mode="before")
     @classmethod
+    def _set_on_reading(cls, data):
+        """``path`` and ``sha256`` are the reading's, never the file's: a file that gives
+        them is refused rather than silently overridden."""
+        if isinstance(data, dict):
+            given = [k for k in ("path", "sha256") if k in data]
+            if given:
+                raise ValueError(
+                    f"{given[0]!r} is not a key of a station file (it is set when the file is "
+                    "read): remove it"
+                )
+        return data
+
+    @model_validator(mode="before")
+    @classmethod
     def _frames_alone(cls, data):
         """A station with ``production:`` needs no camera, controller or illumination: its
         frames may come from the line's own program (``--frames``). What is left out is

@@ -89,3 +89,18 @@ def test_a_field_is_a_path_or_a_file_with_its_correction_and_is_written_absolute
         station.write_text(yaml.safe_dump({**doc, "field": bad}))
         with pytest.raises(InputError, match="field"):
             read_station(station)
+
+
+@pytest.mark.parametrize("key", ["path", "sha256"])
+def test_what_reading_sets_is_refused_in_the_file(tmp_path, key):
+    """``path`` and ``sha256`` are set when a station file is read; a file giving them
+    (it was silently overridden) is refused, naming the key."""
+    from inspect_validate.errors import InputError
+    from inspect_validate.station.file import read_station, station_hash
+
+    station = copy_station(tmp_path)
+    read = read_station(station)
+    assert read.sha256 == station_hash(station) and read.path == station
+    station.write_text(station.read_text() + f"{key}: /etc/passwd\n")
+    with pytest.raises(InputError, match=f"'{key}' is not a key of a station file"):
+        read_station(station)
