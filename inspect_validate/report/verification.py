@@ -288,6 +288,9 @@ def verdict_documents(checks: Iterable[Check]) -> list[dict]:
         {
             "name": c.name,
             "kind": c.kind,
+            "illumination": c.illumination,
+            "subject": c.subject,
+            "quantity": c.quantity,
             "value": c.value,
             "limit": c.limit,
             "relation": c.relation,

@@ -64,6 +64,8 @@ def _ranking_check(ranking: RankingAgreement, errors, j: int) -> Check:
         basis="statistical",
         standard_error=float(np.hypot(se[best_p], se[other])),
         predicted_gap=bad_p[other] - bad_p[best_p],
+        subject=ranking.comparison,
+        quantity=ranking.by,
     )
 
 
@@ -115,12 +117,15 @@ def acceptance_checks(
                         unit,
                         rel,
                         f"no light reaches the camera ({unlit[ill]})",
+                        illumination=ill,
+                        subject=sep.comparison,
+                        quantity=quantity,
                     )
-                    for what, limit, unit, rel in (
-                        ("SNR_dB", sep.min_snr_db, "dB", "≥"),
-                        ("CNR_dB", sep.min_cnr_db, "dB", "≥"),
-                        ("ε Gauss", sep.max_error, "", "≤"),
-                        ("ε KDE", sep.max_error_kde, "", "≤"),
+                    for what, quantity, limit, unit, rel in (
+                        ("SNR_dB", "snr_db", sep.min_snr_db, "dB", "≥"),
+                        ("CNR_dB", "cnr_db", sep.min_cnr_db, "dB", "≥"),
+                        ("ε Gauss", "error_gaussian", sep.max_error, "", "≤"),
+                        ("ε KDE", "error_kde", sep.max_error_kde, "", "≤"),
                     )
                     if limit is not None
                 ]
@@ -129,7 +134,7 @@ def acceptance_checks(
             j = m.comparisons.index(m.comparison(sep.comparison))
             comp, se = m.comparisons[j], errors[ill]
             where = f"{ill}: {comp.label}"
-            tolerance = {"basis": "tolerance"}
+            tolerance: dict = {"basis": "tolerance", "illumination": ill, "subject": comp.label}
             if sep.min_snr_db is not None:
                 checks.append(
                     at_least(
@@ -139,6 +144,7 @@ def acceptance_checks(
                         sep.min_snr_db,
                         "dB",
                         standard_error=se.snr_db[j],
+                        quantity="snr_db",
                         **tolerance,
                     )
                 )
@@ -151,6 +157,7 @@ def acceptance_checks(
                         sep.min_cnr_db,
                         "dB",
                         standard_error=se.cnr_db[j],
+                        quantity="cnr_db",
                         **tolerance,
                     )
                 )
@@ -163,6 +170,7 @@ def acceptance_checks(
                         comp.error_gaussian,
                         sep.max_error,
                         standard_error=comp.error_gaussian * np.log(10.0) * se.log_error[j],
+                        quantity="error_gaussian",
                         **tolerance,
                     )
                 )
@@ -174,6 +182,9 @@ def acceptance_checks(
                         comp.error_kde,
                         sep.max_error_kde,
                         detail="fixed limit: ε KDE has no standard error here",
+                        illumination=ill,
+                        subject=comp.label,
+                        quantity="error_kde",
                     )
                 )
     for ill, m in measurements.items():
@@ -185,7 +196,14 @@ def acceptance_checks(
                 if limit is not None:
                     checks.append(
                         at_most(
-                            f"{ill}: {c.name} {what}", "saturation", 100 * frac, 100 * limit, "%"
+                            f"{ill}: {c.name} {what}",
+                            "saturation",
+                            100 * frac,
+                            100 * limit,
+                            "%",
+                            illumination=ill,
+                            subject=c.name,
+                            quantity=f"{what}_fraction",
                         )
                     )
     agree = acc.agreement
@@ -215,6 +233,9 @@ def acceptance_checks(
                         f"predicted {pred.mean:.4g} DN, measured {class_row.measured.mean:.4g} DN",
                         basis="tolerance",
                         standard_error=100 * se.mean[k] / signal if signal > 0 else np.nan,
+                        illumination=class_row.illumination,
+                        subject=class_row.class_name,
+                        quantity="mean",
                     )
                 )
             if agree.variance_relative is not None:
@@ -231,6 +252,9 @@ def acceptance_checks(
                         standard_error=100 * se.variance[k] / pred.variance
                         if pred.variance > 0
                         else np.nan,
+                        illumination=class_row.illumination,
+                        subject=class_row.class_name,
+                        quantity="variance",
                     )
                 )
         if agree.snr_db is not None:
@@ -285,6 +309,9 @@ def acceptance_checks(
                         f"measured {row.measured.snr_db:.2f} dB",
                         basis="tolerance",
                         standard_error=agreeing[row.illumination].snr_db[j],
+                        illumination=row.illumination,
+                        subject=row.comparison,
+                        quantity="snr_db",
                     )
                 )
     if acc.ranking:
@@ -293,7 +320,15 @@ def acceptance_checks(
             if unlit:
                 why = f"no light reaches the camera under {', '.join(unlit)}: nothing to rank"
             checks.append(
-                not_run("ranking: measured best is predicted best", "ranking", 0.0, "", "≤", why)
+                not_run(
+                    "ranking: measured best is predicted best",
+                    "ranking",
+                    0.0,
+                    "",
+                    "≤",
+                    why,
+                    quantity="ranking",
+                )
             )
         else:
             labels = [c.label for c in next(iter(measurements.values())).comparisons]
@@ -308,6 +343,7 @@ def acceptance_checks(
                     "%",
                     "≤",
                     gain_missing or "no photon-transfer estimate of K",
+                    quantity="gain",
                 )
             )
         else:
@@ -326,6 +362,7 @@ def acceptance_checks(
                     basis="tolerance",
                     standard_error=100 * gain.standard_error / gain.declared,
                     df=points - 1 if points >= 3 else np.inf,
+                    quantity="gain",
                 )
             )
     return checks, skipped

@@ -172,6 +172,11 @@ class Check:
         Set by ``decide`` for a check with ``coverage``: the probability over the
         training that the limit set fails an unchanged station at most the check's share
         (at least ``coverage.confidence``; more where the prediction interval is wider).
+    illumination, subject, quantity : str or None
+        The check's identity, what its name says for a reader: the illumination (None
+        for a check of the whole capture), what is checked under it (a class, a
+        comparison's label, a camera, the lens) and the quantity (``mean``, ``variance``,
+        ``snr_db``, ``mtf50``, a health quantity…). Code reads these, never the name.
     """
 
     name: str
@@ -192,6 +197,9 @@ class Check:
     predicted_gap: float | None = None
     coverage: Coverage | None = None
     confidence: float | None = None
+    illumination: str | None = None
+    subject: str | None = None
+    quantity: str | None = None
 
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
@@ -235,6 +243,9 @@ def _check(
     sided: int = 1,
     predicted_gap: float | None = None,
     coverage: Coverage | None = None,
+    illumination: str | None = None,
+    subject: str | None = None,
+    quantity: str | None = None,
 ):
     value = math.nan if value is None else float(value)  # not computed: said so below
     if not math.isfinite(value) and not detail:
@@ -256,13 +267,31 @@ def _check(
         sided=sided,
         predicted_gap=predicted_gap,
         coverage=coverage,
+        illumination=illumination,
+        subject=subject,
+        quantity=quantity,
     )
 
 
-def not_run(name: str, kind: str, limit: float, unit: str, relation: str, why: str) -> Check:
+def not_run(
+    name: str,
+    kind: str,
+    limit: float,
+    unit: str,
+    relation: str,
+    why: str,
+    *,
+    illumination: str | None = None,
+    subject: str | None = None,
+    quantity: str | None = None,
+) -> Check:
     """A check the acceptance section asks for that these frames cannot evaluate: it
-    fails, saying why (a check asked for is never passed by not being done)."""
-    return Check(name, kind, math.nan, float(limit), unit, relation, False, f"could not run: {why}")
+    fails, saying why (a check asked for is never passed by not being done); its identity
+    as :class:`Check`'s."""
+    return Check(
+        name, kind, math.nan, float(limit), unit, relation, False, f"could not run: {why}",
+        illumination=illumination, subject=subject, quantity=quantity,
+    )  # fmt: skip
 
 
 def at_least(
@@ -276,7 +305,8 @@ def at_least(
 ) -> Check:
     """Passes when ``value ≥ limit`` (less the margin :func:`decide` sets; a NaN value
     fails). ``options``: ``basis`` (default ``"fixed"``), ``standard_error``, ``df``,
-    ``sided``, ``predicted_gap`` and ``coverage`` (:class:`Check`)."""
+    ``sided``, ``predicted_gap``, ``coverage`` and the identity ``illumination``,
+    ``subject``, ``quantity`` (:class:`Check`)."""
     return _check(name, kind, value, limit, unit, "≥", detail, **options)
 
 

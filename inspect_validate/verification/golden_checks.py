@@ -203,6 +203,7 @@ def drift_checks(
                     drift.confidence,
                     "DN",
                     f"golden {ref.summary()} DN over {ref.n} repeats, now {c.mean:.4g} DN",
+                    (ill, c.name, "mean"),
                 )
             )
         for j, comp in enumerate(m.comparisons):
@@ -219,17 +220,22 @@ def drift_checks(
                     drift.confidence,
                     "dB",
                     f"golden {ref.summary(3)} dB over {ref.n} repeats, now {comp.snr_db:.2f} dB",
+                    (ill, comp.label, "snr_db"),
                 )
             )
     return checks
 
 
 def _drift_check(
-    name, value, ref: Spread, tolerance, standard_error, confidence, unit, detail
+    name, value, ref: Spread, tolerance, standard_error, confidence, unit, detail, identity
 ) -> Check:
+    ill, subject, quantity = identity
+    who = {"illumination": ill, "subject": subject, "quantity": quantity}
     deviation = abs(value - ref.mean)
     if tolerance is not None:
-        return at_most(name, "drift", deviation, tolerance, unit, f"{detail}; fixed tolerance")
+        return at_most(
+            name, "drift", deviation, tolerance, unit, f"{detail}; fixed tolerance", **who
+        )
     sd = prediction_sd(ref, standard_error)
     return at_most(
         name,
@@ -243,6 +249,7 @@ def _drift_check(
         df=ref.n - 1,
         sided=2,
         coverage=drift_coverage(ref, standard_error, confidence),
+        **who,
     )
 
 
@@ -275,6 +282,8 @@ def settings_checks(golden: Golden, manifest: dict) -> tuple[list[Check], list[s
             f"{detail} (the camera's own values: another program, or the camera, changed them)"
             if changed
             else detail,
+            subject="camera",
+            quantity="settings",
         )
     ], []
 

@@ -72,14 +72,45 @@ def health_checks(health: Health, manifest: dict) -> tuple[list[Check], list[str
             )
             if unread:
                 checks.append(
-                    not_run(rule.check, "health", shown, rule.unit, relation, listed(unread, 2))
+                    not_run(
+                        rule.check,
+                        "health",
+                        shown,
+                        rule.unit,
+                        relation,
+                        listed(unread, 2),
+                        subject="camera",
+                        quantity=q.name,
+                    )
                 )
             elif rule.key in asked:
-                checks.append(not_run(rule.check, "health", shown, rule.unit, relation, said))
+                checks.append(
+                    not_run(
+                        rule.check,
+                        "health",
+                        shown,
+                        rule.unit,
+                        relation,
+                        said,
+                        subject="camera",
+                        quantity=q.name,
+                    )
+                )
             else:
                 skipped.append(f"{rule.check}: {said}")
             continue
         value, detail = rule.value(total)
         bound = at_most if rule.bound == "at_most" else at_least
-        checks.append(bound(rule.check, "health", value, shown, rule.unit, detail))
+        checks.append(
+            bound(
+                rule.check,
+                "health",
+                value,
+                shown,
+                rule.unit,
+                detail,
+                subject="camera",
+                quantity=q.name,
+            )
+        )
     return checks, skipped

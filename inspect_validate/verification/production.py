@@ -151,6 +151,9 @@ def verify_parts(
         "%",
         f"{len(parts.measured)} of {len(parts.measured) + len(parts.not_measured)} frames "
         "hold a part" + (f"; {counted_reasons(parts.not_measured)}" if parts.not_measured else ""),
+        illumination=name,
+        subject="parts",
+        quantity="found",
     )
     confidence = station.acceptance.confidence
     checks = [
@@ -216,11 +219,18 @@ def _drift_checks(parts: Parts, golden, confidence: float | None) -> list[Check]
         if g.focus is not None:
             quantities.append(("focus", g.focus, [p.focus[c.name] for p in parts.measured], "DN²"))
         for what, ref, values, unit in quantities:
-            checks.append(_batch_check(f"{c.name} {what} drift", values, ref, unit, confidence))
+            who = (c.name, {"μ": "mean", "σ²": "variance"}.get(what, what))
+            checks.append(
+                _batch_check(f"{c.name} {what} drift", values, ref, unit, confidence, who)
+            )
     for j, comp in enumerate(ms[0].comparisons):
         ref = golden.comparisons[comp.label].snr_db
         values = [m.comparisons[j].snr_db for m in ms]
-        checks.append(_batch_check(f"{comp.label} SNR_dB drift", values, ref, "dB", confidence))
+        checks.append(
+            _batch_check(
+                f"{comp.label} SNR_dB drift", values, ref, "dB", confidence, (comp.label, "snr_db")
+            )
+        )
     if golden.pose is not None:
         poses = [p.position for p in parts.measured]
         for i, (what, ref, unit) in enumerate(
@@ -231,23 +241,32 @@ def _drift_checks(parts: Parts, golden, confidence: float | None) -> list[Check]
             )
         ):
             name = f"pose {what} drift"
-            checks.append(_batch_check(name, [p[i] for p in poses], ref, unit, confidence))
+            checks.append(
+                _batch_check(name, [p[i] for p in poses], ref, unit, confidence, ("pose", what))
+            )
     return checks
 
 
 def _batch_check(
-    name: str, values: list[float], ref: Spread, unit: str, confidence: float | None
+    name: str,
+    values: list[float],
+    ref: Spread,
+    unit: str,
+    confidence: float | None,
+    identity: tuple[str, str],
 ) -> Check:
     """|batch mean − golden mean| against t_{n−1} · s · √(1/m + 1/n), or the tolerance
     interval of a mean of m around the mean of n (its spread s/√m, its centre n/m such
     means) at ``confidence`` where that is wider."""
     from inspect_validate.verification.checks import Coverage, at_most, not_run
 
+    who = {"subject": identity[0], "quantity": identity[1]}
     v = np.asarray(values, dtype=float)
     v = v[np.isfinite(v)]
     m, n, s = v.size, ref.n, ref.std
     if m == 0 or n < 2 or not math.isfinite(s):
-        return not_run(name, "drift", 0.0, unit, "<=", "no spread of good parts to set its limit")
+        why = "no spread of good parts to set its limit"
+        return not_run(name, "drift", 0.0, unit, "<=", why, **who)
     mean = float(v.mean())
     sd = s * math.sqrt(1.0 / m + 1.0 / n)
     return at_most(

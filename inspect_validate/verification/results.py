@@ -181,7 +181,7 @@ class Verification:
         causes = []
         if any(c.kind == "drift" for c in failed) and self.diagnosis is not None:
             causes.append(self.diagnosis.text)
-        lenses = [c.name.split(":")[0] for c in failed if c.kind == "sharpness"]
+        lenses = [str(c.illumination) for c in failed if c.kind == "sharpness"]
         if lenses:
             causes.append(
                 f"the lens is out of focus or soiled ({', '.join(lenses)}: MTF50 below "

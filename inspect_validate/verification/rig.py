@@ -250,6 +250,9 @@ def across_cameras(
                     "is one camera's gain, exposure or lens",
                     basis="tolerance",
                     standard_error=100 * se,
+                    illumination=ill,
+                    subject=name,
+                    quantity="irradiance_scale",
                 )
             )
     return checks, skipped

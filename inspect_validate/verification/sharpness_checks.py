@@ -55,6 +55,9 @@ def sharpness_checks(
                 f"measured {value:.3f} cycles/px on the edge, in focus at {optics} "
                 f"{limit:.3f}: {100 * share:.0f} % of it (acceptance.sharpness "
                 f"{100 * ratio:g} %); below, the lens is out of focus or soiled",
+                illumination=name,
+                subject="lens",
+                quantity="mtf50",
             )
         )
         if share > SHARPER_THAN_FOCUS:

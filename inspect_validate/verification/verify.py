@@ -401,8 +401,9 @@ def _light_check(level: LightLevel) -> Check:
     if not level.reaches:
         detail = f"no light reaches the camera ({level.text}); {NO_LIGHT_REMEDY}"
     return at_least(
-        f"{level.illumination}: light above dark", "light", level.signal, level.noise, "DN", detail
-    )
+        f"{level.illumination}: light above dark", "light", level.signal, level.noise, "DN",
+        detail, illumination=level.illumination, quantity="signal",
+    )  # fmt: skip
 
 
 def _inputs(station, capture, rois, folder, golden) -> dict:

@@ -303,3 +303,23 @@ def test_a_check_of_an_undocumented_kind_is_refused_where_it_is_made():
     assert at_most("camera: fan", "health", 1.0, 2.0, "").passed
     with pytest.raises(ValueError, match="kind 'helth'"):
         Check("camera: fan", "helth", 1.0, 2.0, "", "≤", True)
+
+
+def test_a_checks_identity_is_structured_and_agrees_with_its_name(tmp_path):
+    """Every check of a bench verification carries its identity; a check under an
+    illumination names it first, and one of a class or comparison names that next: the
+    name is for a reader, the identity for code (the JSON carries both)."""
+    import json
+
+    from conftest import copy_station, run_cli
+
+    station = copy_station(tmp_path)
+    assert run_cli(["verify", station, "--report", tmp_path / "r"]) == 0
+    checks = json.loads((tmp_path / "r" / "verification.json").read_text())["checks"]
+    assert checks
+    for c in checks:
+        assert c["quantity"], c["name"]
+        if c["kind"] in ("separation", "saturation", "agreement", "light"):
+            assert c["name"].startswith(f"{c['illumination']}: "), c
+        if c["kind"] in ("separation", "saturation", "agreement"):
+            assert c["name"].startswith(f"{c['illumination']}: {c['subject']} "), c
