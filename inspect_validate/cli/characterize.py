@@ -231,20 +231,10 @@ def _focus_since(st, readings, reference) -> None:
     for name, r in readings.items():
         then = reference.illuminations.get(name)
         label = f"{name}: MTF50 since {path.name}"
+        lens = {"illumination": name, "subject": "lens", "quantity": "mtf50"}
         if then is None or then.mtf50 is None or not math.isfinite(r.edge.mtf50):
-            checks.append(
-                not_run(
-                    label,
-                    "sharpness",
-                    0.0,
-                    "%",
-                    "≥",
-                    "no MTF50 of this illumination in both",
-                    illumination=name,
-                    subject="lens",
-                    quantity="mtf50",
-                )
-            )
+            why = "no MTF50 of this illumination in both"
+            checks.append(not_run(label, "sharpness", 0.0, "%", "≥", why, **lens))
             continue
         spread = math.hypot(then.mtf50_se or math.nan, r.mtf50_se)
         if not math.isfinite(spread):
@@ -255,19 +245,7 @@ def _focus_since(st, readings, reference) -> None:
                 else "this edge is of one frame: its MTF50 has no standard error (capture "
                 "more frames)"
             )
-            checks.append(
-                not_run(
-                    label,
-                    "sharpness",
-                    0.0,
-                    "%",
-                    "≥",
-                    which,
-                    illumination=name,
-                    subject="lens",
-                    quantity="mtf50",
-                )
-            )
+            checks.append(not_run(label, "sharpness", 0.0, "%", "≥", which, **lens))
             continue
         frames = min(then.frames or 2, r.frames)
         checks.append(
@@ -283,9 +261,7 @@ def _focus_since(st, readings, reference) -> None:
                 standard_error=100 * spread / then.mtf50,
                 df=frames - 1,
                 sided=1,
-                illumination=name,
-                subject="lens",
-                quantity="mtf50",
+                **lens,
             )
         )
     decided = decide(checks, st.acceptance.false_alarm_rate)

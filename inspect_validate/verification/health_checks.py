@@ -63,6 +63,7 @@ def health_checks(health: Health, manifest: dict) -> tuple[list[Check], list[str
             continue
         shown = 100 * limit if rule.kind == "fraction" else limit
         relation = "≤" if rule.bound == "at_most" else "≥"
+        who = {"subject": "camera", "quantity": q.name}
         if q.name not in total:
             absent = rule.absent
             said = (
@@ -70,47 +71,13 @@ def health_checks(health: Health, manifest: dict) -> tuple[list[Check], list[str
                 if isinstance(absent, str)
                 else absent["triggered" if triggered else "free-running"]
             )
-            if unread:
-                checks.append(
-                    not_run(
-                        rule.check,
-                        "health",
-                        shown,
-                        rule.unit,
-                        relation,
-                        listed(unread, 2),
-                        subject="camera",
-                        quantity=q.name,
-                    )
-                )
-            elif rule.key in asked:
-                checks.append(
-                    not_run(
-                        rule.check,
-                        "health",
-                        shown,
-                        rule.unit,
-                        relation,
-                        said,
-                        subject="camera",
-                        quantity=q.name,
-                    )
-                )
+            if unread or rule.key in asked:
+                why = listed(unread, 2) if unread else said
+                checks.append(not_run(rule.check, "health", shown, rule.unit, relation, why, **who))
             else:
                 skipped.append(f"{rule.check}: {said}")
             continue
         value, detail = rule.value(total)
         bound = at_most if rule.bound == "at_most" else at_least
-        checks.append(
-            bound(
-                rule.check,
-                "health",
-                value,
-                shown,
-                rule.unit,
-                detail,
-                subject="camera",
-                quantity=q.name,
-            )
-        )
+        checks.append(bound(rule.check, "health", value, shown, rule.unit, detail, **who))
     return checks, skipped
