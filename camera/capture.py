@@ -427,9 +427,8 @@ def capture_steps(
     total = sum(s.frames for s in steps)
     done = 0
     not_applied = configure_camera(grabber, settings)
-    mode, chunk = arm_camera(
-        settings, grabber, source
-    )  # refuses what the camera lacks, lights untouched
+    # Refuses what the camera lacks, the lights untouched.
+    mode, chunk = arm_camera(settings, grabber, source)
     if not (settings.strobe_line or mode == "hardware-trigger"):
         pulse = None
     # The manifest is written only now: a camera that fails to open leaves

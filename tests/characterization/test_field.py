@@ -175,3 +175,15 @@ def test_the_parts_show_the_fields_slopes_with_statsmodels_standard_errors():
     assert slope == pytest.approx([0.01, -0.02], abs=3e-4)
     assert np.isnan(part_slopes(mu[:3], x[:3], y[:3])[0]).all()
     assert np.isnan(part_slopes(mu, np.full(30, 200.0), y)[0]).all()
+
+
+@pytest.mark.parametrize("degree", [2, 4])
+def test_the_map_is_the_surface_at_every_pixel(degree):
+    """Field.map (an outer product a power of x) against Field.at of every pixel, to
+    1e-12, for random coefficients of a surface of degree 2 and 4 on a 37 × 23 frame."""
+    from inspect_validate.characterization.field import Field, _exponents
+
+    coefficients = np.random.default_rng(degree).normal(size=len(_exponents(degree)))
+    field = Field(37, 23, tuple(coefficients), 0.0, 1.0)
+    y, x = np.mgrid[0:23, 0:37]
+    assert np.abs(field.map() - field.at(x, y)).max() < 1e-12
